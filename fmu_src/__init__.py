@@ -1,0 +1,31 @@
+"""grubler: planar four-link Grübler mechanisms by the imaginary-joints method.
+
+The model (:class:`Mechanism`) is immutable data; a :class:`Simulator` holds one
+run's state over it; :func:`simulate` runs a scene and returns a :class:`Result`.
+
+Examples
+--------
+>>> import grubler
+>>> res = grubler.simulate("thesis-fourbar", t_end=0.2, dt_out=0.1)
+>>> res.columns[:7]
+['t', 'B1', 'theta2', 'B2', 'theta3', 'B3', 'theta4']
+>>> bool(res["closure_error"].max() < 1e-12)
+True
+"""
+
+from .analysis import Grashof, classify, grashof, kutzbach_mobility
+from .assembly import assemble
+from .dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
+from .errors import AssemblyError, GrublerError, IntegrationError, SceneError
+from .model import Closure, Link, Mechanism
+from .scene import Scene, load_scene, preset_names, scene_from_dict
+from .simulate import Result, Simulator, evaluate, output_columns, simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
+    "Mechanism", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
+    "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility",
+    "load_scene", "output_columns", "preset_names", "scene_from_dict", "simulate",
+]

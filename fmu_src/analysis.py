@@ -1,0 +1,195 @@
+"""Type synthesis facts a user can ask for: mobility, Grashof class, chain type.
+
+Examples
+--------
+>>> kutzbach_mobility(n_bodies=4, n_lower_pairs=4)
+1
+>>> grashof(ground=1.0, crank=0.3, coupler=0.8, rocker=0.6).kind
+'crank-rocker'
+>>> grashof(ground=0.3, crank=1.0, coupler=0.8, rocker=0.6).kind
+'double-crank'
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model import Mechanism
+
+
+def kutzbach_mobility(n_bodies: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
+    """Planar Grübler/Kutzbach mobility, M = 3 (n - 1) - 2 j1 - j2.
+
+    Parameters
+    ----------
+    n_bodies : int
+        Links, the ground included.
+    n_lower_pairs : int
+        One-freedom joints (revolute, prismatic).
+    n_higher_pairs : int
+        Two-freedom joints (cam, rolling with slip).
+    """
+    return 3 * (n_bodies - 1) - 2 * n_lower_pairs - n_higher_pairs
+
+
+@dataclass(frozen=True)
+class Grashof:
+    """Grashof classification of a four-bar linkage.
+
+    Attributes
+    ----------
+    kind : str
+        'crank-rocker', 'double-crank', 'double-rocker', 'change-point',
+        'parallelogram', 'deltoid' or 'triple-rocker' (non-Grashof).
+    grashof : bool
+        Whether s + l <= p + q (some link turns fully).
+    s_plus_l, p_plus_q : float
+        The two sides of the condition, m.
+    detail : str
+        One line for people.
+    """
+
+    kind: str
+    grashof: bool
+    s_plus_l: float
+    p_plus_q: float
+    detail: str
+
+
+def grashof(ground: float, crank: float, coupler: float, rocker: float, rtol: float = 1e-9) -> Grashof:
+    """Grashof class of a four-bar from its pin-to-pin lengths.
+
+    Parameters
+    ----------
+    ground, crank, coupler, rocker : float
+        Ground (pivot to pivot), input link at the first pivot, coupler, output link.
+
+    Returns
+    -------
+    Grashof
+
+    Examples
+    --------
+    >>> grashof(1.0, 1.0, 1.0, 1.0).kind
+    'parallelogram'
+    >>> grashof(1.0, 0.9, 0.9, 0.9).grashof
+    False
+    """
+    lengths = {"ground": ground, "crank": crank, "coupler": coupler, "rocker": rocker}
+    for name, v in lengths.items():
+        if not (v > 0 and math.isfinite(v)):
+            raise ValueError(f"{name}: length must be positive and finite, got {v}")
+    ordered = sorted(lengths.values())
+    s, l = ordered[0], ordered[-1]
+    pq = ordered[1] + ordered[2]
+    sl = s + l
+    tol = rtol * (sl + pq)
+    shortest = min(lengths, key=lambda k: lengths[k])
+    if abs(sl - pq) <= tol:
+        close = lambda x, y: abs(x - y) <= tol  # noqa: E731
+        if close(ground, coupler) and close(crank, rocker):
+            kind, detail = "parallelogram", "change-point with opposite links equal: parallelogram or antiparallelogram"
+        elif (close(ground, crank) and close(coupler, rocker)) or (close(ground, rocker) and close(crank, coupler)):
+            kind, detail = "deltoid", "change-point with adjacent links equal (kite)"
+        else:
+            kind, detail = "change-point", "s + l = p + q: all links can align; it may flip branch there"
+        return Grashof(kind, True, sl, pq, detail)
+    if sl > pq:
+        return Grashof("triple-rocker", False, sl, pq,
+                       "s + l > p + q (non-Grashof): no link turns fully, every moving link rocks")
+    if shortest == "ground":
+        kind, detail = "double-crank", "shortest link is the ground: both crank and rocker turn fully (drag link)"
+    elif shortest == "coupler":
+        kind, detail = "double-rocker", "shortest link is the coupler: it turns fully, crank and rocker rock"
+    elif shortest == "crank":
+        kind, detail = "crank-rocker", "shortest link is the crank: it turns fully, the rocker rocks"
+    else:
+        kind, detail = "crank-rocker", "shortest link is the output: it turns fully, the input rocks (rocker-crank)"
+    return Grashof(kind, True, sl, pq, detail)
+
+
+@dataclass(frozen=True)
+class Classification:
+    """What a mechanism is, read off its topology and dimensions."""
+
+    chain: str  # 'RRRR', 'RRRP', 'RRPP', 'RPRP', or 'open' / 'N-link'
+    name: str  # inversion, e.g. 'slider-crank', or the declared kind
+    mobility: int
+    grashof: Grashof | None
+    fourbar_lengths: tuple[float, float, float, float] | None
+
+
+def _pin_lengths(model: "Mechanism") -> tuple[float, float, float, float]:
+    """Ground, crank, coupler, rocker pin-to-pin lengths of an RRRR chain."""
+    q = model.q_ref
+    th1 = model.theta1
+    o2 = np.array([model.a1 * math.cos(th1) - q[0] * math.sin(th1), model.a1 * math.sin(th1) + q[0] * math.cos(th1)])
+    cl = model.closures[0]
+    ground = float(np.linalg.norm(np.asarray(cl.to_point) - o2))
+    crank = math.hypot(model.links[0].a, q[2])
+    coupler = math.hypot(model.links[1].a, q[4])
+    rocker = math.hypot(*cl.point)
+    return ground, crank, coupler, rocker
+
+
+def classify(model: "Mechanism") -> Classification:
+    """Chain type and inversion of a mechanism (MODEL.md section 1)."""
+    mob = model.mobility
+    if not model.closures:
+        return Classification("open", model.kind or f"open chain of {model.n_links} links", mob, None, None)
+    cl = model.closures[0]
+    if model.n_links != 3 or len(model.closures) != 1 or cl.to_link != 1 or cl.link != 4:
+        return Classification(f"{model.n_links + 1}-link", model.kind or "closed chain", mob, None, None)
+    loop = [l.joint for l in model.links] + ["R" if cl.kind == "revolute" else "P"]
+    n_p = loop.count("P")
+    ground_joints = {loop[0], loop[3]}
+    g = lengths = None
+    if n_p == 0:
+        chain = "RRRR"
+        lengths = _pin_lengths(model)
+        g = grashof(*lengths) if all(v > 0 for v in lengths) else None
+        name = f"four-bar ({g.kind})" if g else "four-bar"
+    elif n_p == 1:
+        chain = "RRRP"
+        name = ("slider-crank" if "P" in ground_joints
+                else "quick-return or swinging block (slider-crank chain, a two-revolute link fixed)")
+    elif any(loop[i] == loop[(i + 1) % 4] == "P" for i in range(4)):
+        chain = "RRPP"
+        if ground_joints == {"P"}:
+            axis1 = model.theta1 + math.pi / 2
+            perpendicular = abs(math.cos(axis1 - cl.angle)) < 1e-9
+            name = "double slider (elliptic trammel)" if perpendicular else "double slider"
+        elif ground_joints == {"R"}:
+            name = "Oldham coupling"
+        else:
+            name = "Scotch yoke"
+    else:
+        chain = "RPRP"
+        name = "conchoidal-motion mechanism"
+    return Classification(chain, model.kind or name, mob, g, lengths)
+
+
+def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
+    """Why a four-bar cannot close, in Grashof / triangle terms ('' if not a four-bar)."""
+    c = classify(model)
+    if c.chain != "RRRR" or c.fourbar_lengths is None:
+        return ""
+    ground, crank, coupler, rocker = c.fourbar_lengths
+    ordered = sorted(c.fourbar_lengths)
+    if ordered[-1] >= sum(ordered[:-1]):
+        return (f"the longest link ({ordered[-1]:.6g} m) is not shorter than the other three together "
+                f"({sum(ordered[:-1]):.6g} m), so no position closes")
+    if model.free_names and held and model.free_names[held[0]] == "theta2" and model.links[0].joint == "R":
+        from .kinematics import chain_kinematics
+
+        pin = chain_kinematics(model, np.asarray(z0, float), np.zeros(model.n_links)).origin[1]
+        diag = float(np.linalg.norm(np.asarray(model.closures[0].to_point) - pin))
+        lo, hi = abs(coupler - rocker), coupler + rocker
+        return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
+                f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle inequality)")
+    return ""

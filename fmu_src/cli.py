@@ -1,0 +1,152 @@
+"""Command line: ``grubler presets | info | simulate``.
+
+A bad scene or option exits with status 2 and one line naming the field and the
+reason; ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Sequence
+
+import numpy as np
+
+from .analysis import classify
+from .assembly import assemble
+from .errors import GrublerError
+from .scene import load_scene, preset_names
+from .simulate import output_columns, simulate
+
+
+def _positive(name: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: not a number: {text!r}") from None
+        if not (v > 0 and math.isfinite(v)):
+            raise argparse.ArgumentTypeError(f"{name}: must be positive and finite, got {text}")
+        return v
+    return parse
+
+
+def _finite(name: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: not a number: {text!r}") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{name}: must be finite, got {text}")
+        return v
+    return parse
+
+
+def cmd_presets(args) -> int:
+    width = max(len(n) for n in preset_names())
+    for name in preset_names():
+        scene = load_scene(name)
+        c = classify(scene.mechanism)
+        print(f"{name:<{width}}  {c.chain:<8} {c.name}")
+    return 0
+
+
+def cmd_info(args) -> int:
+    scene = load_scene(args.scene)
+    m = scene.mechanism
+    c = classify(m)
+    print(f"scene      {scene.name}")
+    if m.description:
+        print(f"           {m.description}")
+    print(f"type       {c.name} ({c.chain} chain)")
+    print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
+          f"j = {m.n_links + len(m.closures)})")
+    joints = ", ".join(f"link{k + 2}: {'R' if l.joint == 'R' else 'P'}" for k, l in enumerate(m.links))
+    print(f"joints     {joints}; real coordinates {', '.join(m.free_names)}")
+    if c.grashof:
+        g = c.grashof
+        lengths = ", ".join(f"{n} {v:.6g} m" for n, v in zip(("ground", "crank", "coupler", "rocker"),
+                                                            c.fourbar_lengths))
+        print(f"grashof    {g.kind}: s + l = {g.s_plus_l:.6g} m, p + q = {g.p_plus_q:.6g} m ({g.detail})")
+        print(f"lengths    {lengths}")
+    print(f"drive      {m.drive or '-'}  torque {scene.torque:g}")
+    if m.load:
+        print(f"load       {m.load}  torque {scene.load_torque:g}")
+    z0 = m.z_from_q(m.q_ref)
+    z, zd = assemble(m, z0, scene.initial_rates)
+    q = m.q_from_z(z)
+    print("assembled  " + ", ".join(f"{n} = {v:.9g}" for n, v in zip(m.coordinate_names, q)))
+    moved = [(n, a, b) for n, a, b in zip(m.coordinate_names, m.q_ref, q) if abs(a - b) > 1e-9]
+    if moved:
+        print("           (closed from the scene's start: "
+              + ", ".join(f"{n} {a:.6g} -> {b:.6g}" for n, a, b in moved) + ")")
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    scene = load_scene(args.scene)
+    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else [])
+    res = simulate(scene, t_end=args.t_end, dt_out=args.dt_out, method=args.method, rtol=args.rtol,
+                   atol=args.atol if args.atol else args.rtol, integrator=args.integrator, step=args.step,
+                   torque=args.torque)
+    if args.csv:
+        res.to_csv(args.csv, groups)
+    if args.plot:
+        from .plotting import plot_result
+
+        plot_result(res, args.plot)
+    e = res["E"]
+    print(f"{scene.name}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
+          f"{res.stats['steps']} steps, {res.stats['rhs_evals']} RHS evaluations")
+    print(f"max closure error {np.max(res['closure_error']):.3g}; energy {e[0]:.9g} J -> {e[-1]:.9g} J")
+    if not args.csv and not args.plot:
+        cols = output_columns(res.model, ["state"])[: 1 + 2 * res.model.n_links]
+        print("  ".join(f"{c:>12}" for c in cols))
+        for i in np.linspace(0, len(res.t) - 1, min(len(res.t), 11)).astype(int):
+            print("  ".join(f"{res[c][i]:12.6g}" for c in cols))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="grubler", description="Planar four-link mechanisms by imaginary joints.")
+    p.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("presets", help="list the shipped scenes").set_defaults(func=cmd_presets)
+    info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
+    info.add_argument("scene", help="preset name or TOML file")
+    info.set_defaults(func=cmd_info)
+    s = sub.add_parser("simulate", help="simulate a scene")
+    s.add_argument("scene", help="preset name or TOML file")
+    s.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the scene's)")
+    s.add_argument("--dt-out", type=_positive("--dt-out"), help="output interval, s")
+    s.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
+    s.add_argument("--rtol", type=_positive("--rtol"), default=1e-9, help="relative tolerance")
+    s.add_argument("--atol", type=_positive("--atol"), help="absolute tolerance (default: rtol)")
+    s.add_argument("--integrator", choices=["dop853", "rk45", "rk4", "radau", "bdf"],
+                   help="default: dop853 (exact), radau (penalty)")
+    s.add_argument("--step", type=_positive("--step"), default=1e-3, help="fixed step for rk4, s")
+    s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
+    s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
+    s.add_argument("--csv", help="write the trajectory to this CSV file")
+    s.add_argument("--plot", help="write a plot to this PNG file")
+    s.set_defaults(func=cmd_simulate)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (GrublerError, OSError) as exc:
+        if args.debug:
+            raise
+        print(f"grubler: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
+

@@ -1,0 +1,441 @@
+"""The mechanism model: geometry, inertia, joints and closures, immutable.
+
+A generalised planar open chain (MODEL.md section 2): ground (link 1) and moving
+links 2 .. N+1 in series.  Between a link and its predecessor sit two joints in
+series, a slide ``B`` along an axis fixed in the predecessor (perpendicular to its
+vector) and a revolute ``theta``; the existence factors say which one is real.  The
+fictitious one is locked: a locked slide keeps its value, a locked revolute keeps
+its angle relative to the predecessor.  Closures tie a point of one link to a point
+(revolute) or a line (prismatic) of another, usually the chain's tip to the ground.
+
+The model never changes during a run; everything that does lives in the state
+(:mod:`grubler.state`).  The integrated coordinates ``z`` are the joint variables of
+the real joints only: a slide's ``B`` or a revolute's angle relative to its
+predecessor.  The thesis's absolute coordinates ``q`` (B1, theta2, B2, theta3, ...)
+are the affine image ``q = q_locked + S z``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .analysis import kutzbach_mobility
+from .errors import SceneError
+
+G_STANDARD = 9.81
+
+REVOLUTE = "R"
+PRISMATIC = "P"
+
+
+@dataclass(frozen=True)
+class Link:
+    """One moving link and the joint pair that attaches it to its predecessor.
+
+    Parameters
+    ----------
+    joint : {'R', 'P'}
+        Which joint of the pair is real: ``'R'`` (existence factors 0, 1) or
+        ``'P'`` (1, 0).
+    a : float
+        Length of the link vector A_k, m (>= 0; 0 for a block).
+    p, q : float
+        Mass centre along and perpendicular to A_k, m.
+    m : float
+        Mass, kg (> 0).
+    I : float
+        Centroidal moment of inertia, kg m^2 (>= 0).
+    damping : float
+        Viscous damping of the real joint, N m s/rad or N s/m (>= 0).
+    """
+
+    joint: str
+    a: float
+    p: float = 0.0
+    q: float = 0.0
+    m: float = 1.0
+    I: float = 0.0
+    damping: float = 0.0
+
+    @property
+    def existence(self) -> tuple[int, int]:
+        """Existence factors (slide, revolute) of the joint pair."""
+        return (1, 0) if self.joint == PRISMATIC else (0, 1)
+
+
+@dataclass(frozen=True)
+class Closure:
+    """A joint that closes a loop between two links of the chain.
+
+    Parameters
+    ----------
+    kind : {'revolute', 'prismatic'}
+    link : int
+        Link carrying the closing point (thesis numbering, 2 .. N+1).
+    point : (float, float)
+        That point in the link's frame (along A, perpendicular to A), m.
+    to_link : int
+        Link carrying the target point or line; 1 is the ground.
+    to_point : (float, float)
+        Target point, or a point of the line, in ``to_link``'s frame (the ground's
+        frame is the world frame), m.
+    angle : float
+        Prismatic only: direction of the line in ``to_link``'s frame, rad.
+    psi : float
+        Prismatic only: held orientation of ``link`` relative to ``to_link``, rad.
+    gain, damping : float
+        Penalty closure only (the thesis's imaginary joint): stiffness G
+        (N/m and N m/rad) and damping C (N s/m and N m s/rad).
+    """
+
+    kind: str
+    link: int
+    point: tuple[float, float]
+    to_link: int = 1
+    to_point: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+    psi: float = 0.0
+    gain: float = 1.0e4
+    damping: float = 100.0
+
+    @property
+    def dim(self) -> int:
+        return 2
+
+
+@dataclass(frozen=True)
+class ModelArrays:
+    """The model's numbers as arrays, built once: what the hot loop reads."""
+
+    m: np.ndarray
+    I: np.ndarray
+    p: np.ndarray
+    q: np.ndarray
+    a: np.ndarray
+    damping: np.ndarray
+    revolute: np.ndarray  # bool per pair: the revolute is the real joint
+    lower: np.ndarray  # (N, N) 1 where joint b moves link k (b <= k)
+    Jw: np.ndarray  # (N, N) d(theta_k)/dz: the real revolutes up to link k
+    gain: np.ndarray  # penalty stiffness per constraint row
+    closure_damping: np.ndarray
+    drive: int  # index in z, -1 for none
+    load: int
+
+    @staticmethod
+    def of(model: "Mechanism") -> "ModelArrays":
+        links = model.links
+        n = len(links)
+        rev = np.array([l.joint == REVOLUTE for l in links])
+        lower = np.tril(np.ones((n, n)))
+        return ModelArrays(
+            m=np.array([l.m for l in links], float),
+            I=np.array([l.I for l in links], float),
+            p=np.array([l.p for l in links], float),
+            q=np.array([l.q for l in links], float),
+            a=np.array([l.a for l in links], float),
+            damping=np.array([l.damping for l in links], float),
+            revolute=rev,
+            lower=lower,
+            Jw=lower * rev[None, :],
+            gain=np.repeat([float(c.gain) for c in model.closures], 2),
+            closure_damping=np.repeat([float(c.damping) for c in model.closures], 2),
+            drive=-1 if model.drive is None else model.free_index(model.drive),
+            load=-1 if model.load is None else model.free_index(model.load),
+        )
+
+
+def coordinate_names(n_links: int) -> list[str]:
+    """Names of the absolute coordinates in thesis order: B1, theta2, B2, ..."""
+    names = []
+    for k in range(1, n_links + 1):
+        names += [f"B{k}", f"theta{k + 1}"]
+    return names
+
+
+def _finite(fieldname: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(fieldname, f"must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise SceneError(fieldname, f"must be finite, got {v}")
+    return v
+
+
+def _parallel(angle1: float, angle2: float) -> bool:
+    return abs(math.sin(angle1 - angle2)) < 1e-9
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """An N-link generalised chain with its closures: the whole model.
+
+    Parameters
+    ----------
+    links : sequence of Link
+        Moving links 2 .. N+1 in chain order.
+    closures : sequence of Closure
+        Loop closures; empty for an open chain (a pendulum or arm).
+    q_ref : sequence of float
+        Absolute coordinates (B1, theta2, ..., B_N, theta_{N+1}) that define the
+        locked values of the fictitious joints (and the initial guess).
+    a1, theta1 : float
+        Ground vector: length (m) and angle (rad).
+    gravity : float
+        g, m/s^2, acting along -y.
+    drive, load : str or None
+        Coordinate names (e.g. ``'theta2'``) of the real joints a motor and a
+        load act on.
+    name, kind, description : str
+        Labels: preset name, mechanism type, free text.
+    """
+
+    links: tuple[Link, ...]
+    closures: tuple[Closure, ...] = ()
+    q_ref: tuple[float, ...] = ()
+    a1: float = 0.0
+    theta1: float = 0.0
+    gravity: float = G_STANDARD
+    drive: str | None = None
+    load: str | None = None
+    name: str = ""
+    kind: str = ""
+    description: str = ""
+    # derived structure, filled in __post_init__
+    _S: np.ndarray = field(init=False, repr=False, compare=False)
+    _q_locked: np.ndarray = field(init=False, repr=False, compare=False)
+    _free: tuple[int, ...] = field(init=False, repr=False, compare=False)
+    arrays: "ModelArrays" = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "links", tuple(self.links))
+        object.__setattr__(self, "closures", tuple(self.closures))
+        n = len(self.links)
+        if n < 1:
+            raise SceneError("links", "a chain needs at least one moving link")
+        q_ref = tuple(self.q_ref) if len(self.q_ref) else (0.0,) * (2 * n)
+        if len(q_ref) != 2 * n:
+            raise SceneError("initial", f"needs {2 * n} coordinates for {n} links, got {len(q_ref)}")
+        names = coordinate_names(n)
+        q_ref = tuple(_finite(f"initial.{nm}", v) for nm, v in zip(names, q_ref))
+        object.__setattr__(self, "q_ref", q_ref)
+        object.__setattr__(self, "a1", _finite("ground.a1", self.a1))
+        object.__setattr__(self, "theta1", _finite("ground.theta1", self.theta1))
+        if self.a1 < 0:
+            raise SceneError("ground.a1", f"length must be >= 0, got {self.a1}")
+        g = _finite("gravity", self.gravity)
+        if g < 0:
+            raise SceneError("gravity", f"must be >= 0 (it acts along -y), got {g}")
+        self._validate_links()
+        self._validate_closures()
+        self._build_structure()
+        self._validate_topology()
+        for role in ("drive", "load"):
+            joint = getattr(self, role)
+            if joint is not None:
+                self.free_index(joint, field_name=f"{role}.joint")
+        object.__setattr__(self, "arrays", ModelArrays.of(self))
+
+    # -- validation ---------------------------------------------------------
+    def _validate_links(self):
+        for i, link in enumerate(self.links):
+            f = f"link{i + 2}"
+            if link.joint not in (REVOLUTE, PRISMATIC):
+                raise SceneError(f"{f}.joint", f"must be 'R' or 'P', got {link.joint!r}")
+            a = _finite(f"{f}.a", link.a)
+            _finite(f"{f}.p", link.p)
+            _finite(f"{f}.q", link.q)
+            m = _finite(f"{f}.m", link.m)
+            inertia = _finite(f"{f}.I", link.I)
+            c = _finite(f"{f}.damping", link.damping)
+            if a < 0:
+                raise SceneError(f"{f}.a", f"length must be >= 0, got {a}")
+            if m <= 0:
+                raise SceneError(f"{f}.m", f"mass must be positive, got {m}")
+            if inertia < 0:
+                raise SceneError(f"{f}.I", f"moment of inertia must be >= 0, got {inertia}")
+            if c < 0:
+                raise SceneError(f"{f}.damping", f"damping must be >= 0, got {c}")
+
+    def _validate_closures(self):
+        n = len(self.links)
+        for j, cl in enumerate(self.closures):
+            f = "closure" if len(self.closures) == 1 else f"closure[{j}]"
+            if cl.kind not in ("revolute", "prismatic"):
+                raise SceneError(f"{f}.type", f"must be 'revolute' or 'prismatic', got {cl.kind!r}")
+            if not (2 <= cl.link <= n + 1):
+                raise SceneError(f"{f}.link", f"must be a moving link 2..{n + 1}, got {cl.link}")
+            if not (1 <= cl.to_link <= n + 1) or cl.to_link == cl.link:
+                raise SceneError(f"{f}.to_link", f"must be another link 1..{n + 1}, got {cl.to_link}")
+            for name in ("point", "to_point"):
+                v = getattr(cl, name)
+                if len(v) != 2:
+                    raise SceneError(f"{f}.{name}", f"must be [x, y], got {v!r}")
+                for x in v:
+                    _finite(f"{f}.{name}", x)
+            for name in ("angle", "psi"):
+                _finite(f"{f}.{name}", getattr(cl, name))
+            if _finite(f"{f}.gain", cl.gain) <= 0:
+                raise SceneError(f"{f}.gain", f"penalty gain must be positive, got {cl.gain}")
+            if _finite(f"{f}.damping", cl.damping) < 0:
+                raise SceneError(f"{f}.damping", f"penalty damping must be >= 0, got {cl.damping}")
+
+    def _validate_topology(self):
+        # A loop needs two revolutes to move; two prismatic pairs on one link
+        # with parallel axes add a redundant freedom (MODEL.md section 1).
+        n = len(self.links)
+        rel = self.relative_from_absolute(self.q_ref)
+        # axis directions measured in the frame of the link that carries them:
+        # across a prismatic pair the relative angle is locked, so these are fixed
+        axes: dict[int, list[tuple[float, str]]] = {k: [] for k in range(1, n + 2)}
+        ground_angle = self.theta1
+        for i, link in enumerate(self.links):
+            if link.joint == PRISMATIC:
+                pred = ground_angle if i == 0 else 0.0
+                axes[i + 1].append((pred + math.pi / 2, f"link{i + 2}.joint"))
+                axes[i + 2].append((math.pi / 2 - rel[2 * i + 1], f"link{i + 2}.joint"))
+        for j, cl in enumerate(self.closures):
+            f = "closure" if len(self.closures) == 1 else f"closure[{j}]"
+            lo, hi = sorted((cl.link, cl.to_link))
+            n_revolute = sum(self.links[k - 2].joint == REVOLUTE for k in range(lo + 1, hi + 1))
+            n_revolute += cl.kind == "revolute"
+            if n_revolute < 2:
+                raise SceneError(
+                    f"{f}.type",
+                    f"the loop from link {lo} to link {hi} has {n_revolute} revolute joint(s); "
+                    "a loop needs at least two revolutes to move",
+                )
+            if cl.kind == "prismatic":
+                # the closure holds link's orientation at psi relative to to_link
+                axes[cl.to_link].append((cl.angle, f"{f}.angle"))
+                axes[cl.link].append((cl.angle - cl.psi, f"{f}.angle"))
+        for k, lst in axes.items():
+            for x in range(len(lst)):
+                for y in range(x + 1, len(lst)):
+                    if _parallel(lst[x][0], lst[y][0]):
+                        raise SceneError(
+                            lst[y][1],
+                            f"link {k} has two prismatic joints with parallel axes "
+                            f"({lst[x][1]} and {lst[y][1]}): that adds a redundant freedom",
+                        )
+        if self.mobility < 0:
+            raise SceneError("closure", f"the closures over-constrain the chain (mobility {self.mobility})")
+
+    # -- structure ----------------------------------------------------------
+    def _build_structure(self):
+        n = len(self.links)
+        free = tuple(2 * i + (1 if link.joint == REVOLUTE else 0) for i, link in enumerate(self.links))
+        S = np.zeros((2 * n, n))
+        q_locked = np.zeros(2 * n)
+        # theta_{k+1} = theta_k + phi_{k+1}: a relative angle moves every later angle
+        rel = self.relative_from_absolute(self.q_ref)
+        for i, link in enumerate(self.links):
+            if link.joint == PRISMATIC:
+                S[2 * i, i] = 1.0
+            else:
+                S[2 * i + 1 :: 2, i] = 1.0
+        # locked part: slides keep value, revolutes keep relative angle
+        locked_rel = np.array(rel, dtype=float)
+        for i, link in enumerate(self.links):
+            locked_rel[free[i]] = 0.0
+        q_locked[0::2] = locked_rel[0::2]
+        q_locked[1::2] = self.theta1 + np.cumsum(locked_rel[1::2])
+        object.__setattr__(self, "_S", S)
+        object.__setattr__(self, "_q_locked", q_locked)
+        object.__setattr__(self, "_free", free)
+
+    def relative_from_absolute(self, q) -> list[float]:
+        """Joint variables (slides and relative angles) from absolute coordinates."""
+        q = list(q)
+        rel = list(q)
+        prev = self.theta1
+        for i in range(len(self.links)):
+            rel[2 * i + 1] = q[2 * i + 1] - prev
+            prev = q[2 * i + 1]
+        return rel
+
+    def absolute_angles(self, q) -> list[float]:
+        """Absolute angles theta2 .. theta_{N+1} from absolute coordinates."""
+        return [q[2 * i + 1] for i in range(len(self.links))]
+
+    @property
+    def n_links(self) -> int:
+        """Number of moving links N."""
+        return len(self.links)
+
+    @property
+    def n_free(self) -> int:
+        """Number of integrated joint coordinates (one real joint per pair)."""
+        return len(self.links)
+
+    @property
+    def n_constraints(self) -> int:
+        return sum(cl.dim for cl in self.closures)
+
+    @property
+    def mobility(self) -> int:
+        """Grübler/Kutzbach mobility 3(n-1) - 2 j1 with one-DOF joints only."""
+        return kutzbach_mobility(self.n_links + 1, self.n_links + len(self.closures))
+
+    @property
+    def coordinate_names(self) -> list[str]:
+        return coordinate_names(self.n_links)
+
+    @property
+    def free_names(self) -> list[str]:
+        """Names of the real joints' coordinates, in integration order."""
+        names = self.coordinate_names
+        return [names[i] for i in self._free]
+
+    def free_index(self, name: str, field_name: str = "joint") -> int:
+        """Index in ``z`` of the real joint called ``name`` (e.g. 'theta2')."""
+        names = self.coordinate_names
+        if name not in names:
+            raise SceneError(field_name, f"unknown coordinate {name!r}; expected one of {', '.join(names)}")
+        idx = names.index(name)
+        pair = idx // 2
+        if idx != self._free[pair]:
+            real = names[self._free[pair]]
+            raise SceneError(
+                field_name,
+                f"{name} is a locked (fictitious) coordinate: link{pair + 2}'s real joint is {real}",
+            )
+        return pair
+
+    @property
+    def S(self) -> np.ndarray:
+        """Constant map from joint rates to absolute coordinate rates (2N x N)."""
+        return self._S
+
+    def q_from_z(self, z) -> np.ndarray:
+        """Absolute coordinates (thesis order) from joint coordinates."""
+        return self._q_locked + self._S @ np.asarray(z, dtype=float)
+
+    def z_from_q(self, q) -> np.ndarray:
+        """Joint coordinates of the real joints from absolute coordinates."""
+        rel = self.relative_from_absolute(q)
+        return np.array([rel[i] for i in self._free])
+
+    def zd_from_qd(self, qd) -> np.ndarray:
+        """Real joint rates from absolute coordinate rates (ground fixed)."""
+        qd = list(qd)
+        rel = list(qd)
+        prev = 0.0
+        for i in range(len(self.links)):
+            rel[2 * i + 1] = qd[2 * i + 1] - prev
+            prev = qd[2 * i + 1]
+        return np.array([rel[i] for i in self._free])
+
+    def joint_is_revolute(self) -> np.ndarray:
+        return self.arrays.revolute
+
+    def replace(self, **changes) -> "Mechanism":
+        """A copy with some fields changed (re-validated)."""
+        kw = {f: getattr(self, f) for f in (
+            "links", "closures", "q_ref", "a1", "theta1", "gravity", "drive", "load",
+            "name", "kind", "description")}
+        kw.update(changes)
+        return Mechanism(**kw)

@@ -1,0 +1,292 @@
+"""Scenes: a mechanism, its loads and its initial state, from TOML or a preset.
+
+The schema is documented in ``docs/scenes.md``; every preset in ``presets/`` is an
+example.  Angles are radians when given as numbers; strings such as ``"60 deg"``,
+``"pi/3"`` or ``"-2*pi/3"`` are accepted too.
+
+Examples
+--------
+>>> scene = load_scene("thesis-fourbar")
+>>> scene.mechanism.free_names
+['theta2', 'theta3', 'theta4']
+>>> parse_angle_or_number("-pi/3", "initial.theta4")
+-1.0471975511965976
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, replace
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .builders import BUILDERS
+from .dynamics import METHODS
+from .errors import SceneError
+from .model import Closure, Link, Mechanism, coordinate_names
+
+_ANGLE = re.compile(
+    r"^\s*(?P<num>[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?)\s*(?P<unit>deg|degrees?|rad|°)?\s*$"
+)
+_PI = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<k>(\d+(\.\d*)?|\.\d+))?\s*\*?\s*pi\s*(/\s*(?P<d>\d+(\.\d*)?))?\s*$")
+
+
+def parse_angle_or_number(value, field: str) -> float:
+    """A number, or a string such as '60 deg', '1.2 rad', 'pi/3', '-2*pi/3'."""
+    if isinstance(value, bool):
+        raise SceneError(field, f"must be a number, got {value!r}")
+    if isinstance(value, (int, float)):
+        v = float(value)
+    elif isinstance(value, str):
+        m = _ANGLE.match(value)
+        p = _PI.match(value)
+        if m:
+            v = float(m["num"])
+            if m["unit"] in ("deg", "degree", "degrees", "°"):
+                v = math.radians(v)
+        elif p:
+            v = math.pi * float(p["k"] or 1.0) / float(p["d"] or 1.0)
+            v = -v if p["sign"] == "-" else v
+        else:
+            raise SceneError(field, f"cannot read {value!r} as a number or an angle ('60 deg', 'pi/3')")
+    else:
+        raise SceneError(field, f"must be a number, got {value!r}")
+    if not math.isfinite(v):
+        raise SceneError(field, f"must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A mechanism with its loads, initial rates and run settings.
+
+    Attributes
+    ----------
+    mechanism : Mechanism
+        Its ``q_ref`` holds the initial coordinates (locked values and guesses).
+    initial_rates : ndarray
+        Real joint rates at t = 0 (held one kept, others made consistent).
+    torque, load_torque : float
+        Constant efforts on the drive and load joints.
+    method : str
+        Closure method, 'exact' or 'penalty'.
+    t_end, dt_out : float
+        Default run length and output interval, s.
+    """
+
+    mechanism: Mechanism
+    initial_rates: np.ndarray
+    torque: float = 0.0
+    load_torque: float = 0.0
+    method: str = "exact"
+    t_end: float = 10.0
+    dt_out: float = 0.01
+
+    @property
+    def name(self) -> str:
+        return self.mechanism.name
+
+
+_TOP = {"name", "description", "kind", "gravity", "mechanism", "ground", "closure", "drive", "load",
+        "initial", "simulate"}
+_LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping"}
+_CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain", "damping"}
+
+
+def _check_keys(table: dict, allowed: set, prefix: str):
+    for key in table:
+        if key not in allowed:
+            where = f"{prefix}.{key}" if prefix else key
+            raise SceneError(where, f"unknown key; expected one of {', '.join(sorted(allowed))}")
+
+
+def _table(data: dict, key: str, prefix: str = "") -> dict:
+    v = data.get(key, {})
+    if not isinstance(v, dict):
+        raise SceneError(prefix + key, f"must be a table, got {type(v).__name__}")
+    return v
+
+
+def _joint(d: dict, field: str) -> str:
+    if "existence" in d:
+        ef = d["existence"]
+        if not (isinstance(ef, list) and len(ef) == 2 and all(x in (0, 1) for x in ef)):
+            raise SceneError(f"{field}.existence", f"must be a pair of 0/1 factors, got {ef!r}")
+        if sum(ef) != 1:
+            raise SceneError(
+                f"{field}.existence",
+                f"{ef} makes {'both' if sum(ef) == 2 else 'neither'} joint of the pair real; "
+                "exactly one must be (prismatic [1, 0] or revolute [0, 1])")
+        j = "P" if ef == [1, 0] else "R"
+        if "joint" in d and d["joint"] != j:
+            raise SceneError(f"{field}.joint", f"{d['joint']!r} contradicts existence {ef}")
+        return j
+    j = d.get("joint")
+    if j not in ("R", "P"):
+        raise SceneError(f"{field}.joint", f"must be 'R' (revolute) or 'P' (prismatic), got {j!r}")
+    return j
+
+
+def scene_from_dict(data: dict, name: str = "") -> Scene:
+    """Build a Scene from parsed TOML (see docs/scenes.md)."""
+    data = dict(data)
+    link_keys = sorted((k for k in data if re.fullmatch(r"link\d+", k)), key=lambda k: int(k[4:]))
+    _check_keys({k: v for k, v in data.items() if k not in link_keys}, _TOP, "")
+    built: dict = {}
+    if "mechanism" in data:
+        mech = _table(data, "mechanism")
+        kind = mech.get("type")
+        if kind not in BUILDERS:
+            raise SceneError("mechanism.type", f"unknown builder {kind!r}; choose one of {', '.join(BUILDERS)}")
+        built = BUILDERS[kind](mech, "mechanism")
+    # links: the builder's, each overridable field by field
+    links_data = [dict(d) for d in built.get("links", [])]
+    for key in link_keys:
+        idx = int(key[4:]) - 2
+        if idx < 0:
+            raise SceneError(key, "moving links are numbered from 2 (link 1 is the ground)")
+        table = _table(data, key)
+        _check_keys(table, _LINK_KEYS, key)
+        while len(links_data) <= idx:
+            links_data.append({})
+        if "existence" in table:
+            links_data[idx].pop("joint", None)
+        links_data[idx].update(table)
+    if not links_data:
+        raise SceneError("link2", "a scene needs links ([link2], [link3], ...) or a [mechanism] builder")
+    links = []
+    for i, d in enumerate(links_data):
+        f = f"link{i + 2}"
+        if not d:
+            raise SceneError(f, f"missing: links must be numbered without gaps (link2 .. link{len(links_data) + 1})")
+        if "a" not in d:
+            raise SceneError(f"{f}.a", "is required (the link length, m)")
+        num = {k: parse_angle_or_number(d[k], f"{f}.{k}") for k in ("a", "p", "q", "m", "I", "damping") if k in d}
+        links.append(Link(joint=_joint(d, f), **num))
+    n = len(links)
+    ground = dict(built.get("ground", {}))
+    ground.update(_table(data, "ground"))
+    _check_keys(ground, {"a1", "theta1"}, "ground")
+    # closure
+    closure_data = dict(built.get("closure", {}))
+    closure_data.update(_table(data, "closure"))
+    _check_keys(closure_data, _CLOSURE_KEYS, "closure")
+    closures = []
+    ctype = closure_data.get("type", "none")
+    if ctype not in ("none", "revolute", "prismatic"):
+        raise SceneError("closure.type", f"must be 'none', 'revolute' or 'prismatic', got {ctype!r}")
+    if ctype != "none":
+        cl_link = int(closure_data.get("link", n + 1))
+        if not 2 <= cl_link <= n + 1:
+            raise SceneError("closure.link", f"must be a moving link 2..{n + 1}, got {cl_link}")
+        at = closure_data.get("at", [links[cl_link - 2].a, 0.0])
+        if "point" not in closure_data:
+            raise SceneError("closure.point", "is required: [x, y] of the ground pivot, or a point of the line")
+        closures.append(Closure(
+            kind=ctype,
+            link=cl_link,
+            point=_pair(at, "closure.at"),
+            to_link=int(closure_data.get("to_link", 1)),
+            to_point=_pair(closure_data["point"], "closure.point"),
+            angle=parse_angle_or_number(closure_data.get("angle", 0.0), "closure.angle"),
+            psi=parse_angle_or_number(closure_data.get("psi", 0.0), "closure.psi"),
+            gain=parse_angle_or_number(closure_data.get("gain", 1.0e4), "closure.gain"),
+            damping=parse_angle_or_number(closure_data.get("damping", 100.0), "closure.damping"),
+        ))
+    # initial coordinates and rates
+    names = coordinate_names(n)
+    initial = dict(built.get("initial", {}))
+    initial.update(_table(data, "initial"))
+    _check_keys(initial, set(names) | {f"{x}_d" for x in names}, "initial")
+    q0 = [parse_angle_or_number(initial.get(x, 0.0), f"initial.{x}") for x in names]
+    qd0 = [parse_angle_or_number(initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
+    drive = _table(data, "drive")
+    load = _table(data, "load")
+    _check_keys(drive, {"joint", "torque"}, "drive")
+    _check_keys(load, {"joint", "torque"}, "load")
+    drive_joint = drive.get("joint", built.get("drive"))
+    mechanism = Mechanism(
+        links=tuple(links),
+        closures=tuple(closures),
+        q_ref=tuple(q0),
+        a1=parse_angle_or_number(ground.get("a1", 0.0), "ground.a1"),
+        theta1=parse_angle_or_number(ground.get("theta1", 0.0), "ground.theta1"),
+        gravity=parse_angle_or_number(data.get("gravity", 9.81), "gravity"),
+        drive=drive_joint,
+        load=load.get("joint"),
+        name=str(data.get("name", name)),
+        kind=str(data.get("kind", "")),
+        description=str(data.get("description", "")),
+    )
+    for x, v in zip(names, qd0):
+        if v != 0.0 and x not in mechanism.free_names:
+            raise SceneError(f"initial.{x}_d", f"{x} is a locked (fictitious) coordinate; it cannot move")
+    sim = _table(data, "simulate")
+    _check_keys(sim, {"t_end", "dt_out", "method"}, "simulate")
+    method = sim.get("method", "exact")
+    if method not in METHODS:
+        raise SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    t_end = parse_angle_or_number(sim.get("t_end", 10.0), "simulate.t_end")
+    dt_out = parse_angle_or_number(sim.get("dt_out", 0.01), "simulate.dt_out")
+    if t_end <= 0:
+        raise SceneError("simulate.t_end", f"must be positive, got {t_end}")
+    if dt_out <= 0:
+        raise SceneError("simulate.dt_out", f"must be positive, got {dt_out}")
+    torque = parse_angle_or_number(drive.get("torque", 0.0), "drive.torque")
+    load_torque = parse_angle_or_number(load.get("torque", 0.0), "load.torque")
+    if torque != 0.0 and mechanism.drive is None:
+        raise SceneError("drive.joint", "a drive torque needs the joint it acts on")
+    if load_torque != 0.0 and mechanism.load is None:
+        raise SceneError("load.joint", "a load torque needs the joint it acts on")
+    return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
+
+
+def _pair(v, field: str) -> tuple[float, float]:
+    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+        raise SceneError(field, f"must be [x, y], got {v!r}")
+    return (parse_angle_or_number(v[0], field), parse_angle_or_number(v[1], field))
+
+
+def preset_names() -> list[str]:
+    """Names of the presets shipped with the package."""
+    folder = resources.files("grubler") / "presets"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def preset_text(name: str) -> str:
+    return (resources.files("grubler") / "presets" / f"{name}.toml").read_text()
+
+
+def load_scene(source: str | Path) -> Scene:
+    """A scene from a preset name, a TOML file path, or TOML text.
+
+    Raises
+    ------
+    SceneError
+        Naming the field at fault.
+    """
+    src = str(source)
+    if src in preset_names():
+        text, name = preset_text(src), src
+    elif "\n" in src or "=" in src:
+        text, name = src, ""
+    else:
+        path = Path(src)
+        if not path.is_file():
+            raise SceneError("scene", f"{src!r} is neither a preset ({', '.join(preset_names()[:4])}, ...; "
+                                      "see `grubler presets`) nor a TOML file")
+        text, name = path.read_text(), path.stem
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError("scene", f"not valid TOML: {exc}") from None
+    return scene_from_dict(data, name)
+
+
+def with_overrides(scene: Scene, **changes) -> Scene:
+    """A copy of a scene with some run settings changed."""
+    return replace(scene, **changes)

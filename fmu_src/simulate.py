@@ -1,0 +1,384 @@
+"""Running a mechanism: the simulator (state + integrator) and its results.
+
+:class:`Simulator` is what the CLI, the FMU slave and the benchmarks drive: it
+holds the state of one run (joint coordinates and rates, the integrator, the
+current inputs) over an immutable :class:`~grubler.model.Mechanism`, advances to any
+time, and evaluates only the output groups that are asked for.
+
+Examples
+--------
+>>> res = simulate("thesis-fourbar", t_end=0.5, dt_out=0.1)
+>>> res.columns[:4]
+['t', 'B1', 'theta2', 'B2']
+>>> bool(abs(res["closure_error"]).max() < 1e-9)
+True
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import numpy as np
+
+from .assembly import POSITION_TOL, assemble, project
+from .dynamics import (
+    EXACT,
+    METHODS,
+    PENALTY,
+    Inputs,
+    closure_forces,
+    forward_dynamics,
+    joint_reactions,
+    kinetic_energy,
+    potential_energy,
+)
+from .errors import SceneError
+from .integrators import Integrator
+from .kinematics import chain_kinematics, closure_kinematics, point_on_link
+from .model import Mechanism
+from .scene import Scene, load_scene
+
+# Output groups, cheapest first.  'state' needs kinematics only; 'dynamics' one
+# forward-dynamics solve; 'energy' the mass matrix; 'reactions' a Newton-Euler pass.
+GROUPS = ("state", "dynamics", "energy", "reactions")
+DEFAULT_GROUPS = ("state", "dynamics", "energy")
+
+DEFAULT_RTOL = 1e-9
+DEFAULT_ATOL = 1e-9
+
+
+def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> list[str]:
+    """Column names, in CSV order, for the chosen output groups."""
+    groups = set(groups)
+    names = model.coordinate_names
+    cols = ["t"]
+    if "state" in groups:
+        cols += names + [f"{x}_d" for x in names]
+    if "dynamics" in groups:
+        cols += [f"{x}_dd" for x in names]
+    if "state" in groups:
+        cols += ["tip_x", "tip_y", "closure_error"]
+    if "dynamics" in groups:
+        cols += ["Fx", "Fy", "Mz"]
+    if "energy" in groups:
+        cols += ["KE", "PE", "E"]
+    if "dynamics" in groups:
+        cols += ["P_drive"]
+    if "reactions" in groups:
+        for k in range(1, model.n_links + 1):
+            cols += [f"R{k}_Fx", f"R{k}_Fy", f"R{k}_Mz"]
+    return cols
+
+
+UNITS = {"t": "s", "tip_x": "m", "tip_y": "m", "closure_error": "m or rad", "Fx": "N", "Fy": "N",
+         "Mz": "N m", "KE": "J", "PE": "J", "E": "J", "P_drive": "W"}
+
+
+def unit_of(column: str) -> str:
+    """Unit of an output column, for labels."""
+    if column in UNITS:
+        return UNITS[column]
+    base, _, suffix = column.partition("_")
+    if base.startswith("R") and suffix:
+        return "N m" if suffix == "Mz" else "N"
+    per = {"": "", "d": "/s", "dd": "/s^2"}[suffix]
+    return ("m" if base.startswith("B") else "rad") + per
+
+
+def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndarray, inputs: Inputs,
+             groups: Iterable[str] = DEFAULT_GROUPS) -> dict[str, float]:
+    """Outputs at one state; only the requested groups are computed."""
+    groups = set(groups)
+    out: dict[str, float] = {"t": t}
+    names = model.coordinate_names
+    need_dyn = groups & {"dynamics", "energy", "reactions"}
+    if need_dyn:
+        dyn = forward_dynamics(model, z, zd, inputs, method)
+        kin, ck = dyn.kin, dyn.ck
+    else:
+        kin = chain_kinematics(model, z, zd)
+        ck = closure_kinematics(model, kin)
+    if "state" in groups:
+        q = model.q_from_z(z)
+        qd = model.S @ zd
+        out.update(zip(names, q))
+        out.update(zip((f"{x}_d" for x in names), qd))
+        k = model.n_links - 1
+        tip, _, _ = point_on_link(kin, k, (model.links[k].a, 0.0))
+        out["tip_x"], out["tip_y"] = tip
+        out["closure_error"] = float(np.linalg.norm(ck.phi)) if len(ck.phi) else 0.0
+    if "dynamics" in groups:
+        out.update(zip((f"{x}_dd" for x in names), model.S @ dyn.zdd))
+        if model.closures:
+            (fx, fy), mz = closure_forces(model, dyn)[0]
+        else:
+            fx = fy = mz = 0.0
+        out["Fx"], out["Fy"], out["Mz"] = fx, fy, mz
+        out["P_drive"] = inputs.drive * zd[model.free_index(model.drive)] if model.drive else 0.0
+    if "energy" in groups:
+        ke = kinetic_energy(dyn.M, zd)
+        pe = potential_energy(model, dyn.mp, ck, method)
+        out["KE"], out["PE"], out["E"] = ke, pe, ke + pe
+    if "reactions" in groups:
+        for k, (fx, fy, mz) in enumerate(joint_reactions(model, dyn, inputs), start=1):
+            out[f"R{k}_Fx"], out[f"R{k}_Fy"], out[f"R{k}_Mz"] = fx, fy, mz
+    return out
+
+
+TorqueLike = float | Callable[[float], float]
+
+
+def _check_penalty_inertia(model: Mechanism, z: np.ndarray) -> None:
+    """The penalty springs act through inertia: every real coordinate needs some."""
+    dyn = forward_dynamics(model, z, np.zeros(model.n_free), Inputs(), EXACT)
+    w, V = np.linalg.eigh(dyn.M)
+    if w[0] <= 1e-12 * w[-1]:
+        i = int(np.argmax(np.abs(V[:, 0])))
+        name = model.free_names[i]
+        link = f"link{i + 2}"
+        raise SceneError(
+            "method",
+            f"the penalty closure cannot move {name}: it carries no inertia ({link} has I = 0 and its "
+            f"mass centre on its joint), so the imaginary joint's spring would accelerate it without "
+            f"bound; give {link}.I a positive value or use the exact closure")
+
+
+@dataclass
+class Simulator:
+    """One run of a mechanism: state, inputs and integrator over a fixed model.
+
+    Parameters
+    ----------
+    model : Mechanism
+    method : {'exact', 'penalty'}
+    rtol, atol : float
+        Integration tolerances (adaptive integrators).
+    integrator : {'dop853', 'rk45', 'rk4'}
+    step : float
+        Fixed step for 'rk4', s.
+    z0, zd0 : ndarray, optional
+        Initial joint coordinates and rates; default from the model's q_ref.
+        The exact method assembles them (holding the drive coordinate).
+    """
+
+    model: Mechanism
+    method: str = EXACT
+    rtol: float = DEFAULT_RTOL
+    atol: float = DEFAULT_ATOL
+    integrator: str | None = None
+    step: float = 1e-3
+    z0: np.ndarray | None = None
+    zd0: np.ndarray | None = None
+    t0: float = 0.0
+    inputs: Inputs = field(default_factory=Inputs)
+    drive_function: Callable[[float], float] | None = None
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise SceneError("method", f"must be one of {', '.join(METHODS)}, got {self.method!r}")
+        if self.integrator is None:
+            # the penalty springs make the equations stiff: an implicit method
+            self.integrator = "radau" if self.method == PENALTY else "dop853"
+        m = self.model
+        z = m.z_from_q(m.q_ref) if self.z0 is None else np.asarray(self.z0, float)
+        zd = np.zeros(m.n_free) if self.zd0 is None else np.asarray(self.zd0, float)
+        if self.method == EXACT:
+            z, zd = assemble(m, z, zd)
+        elif m.n_constraints:
+            _check_penalty_inertia(m, z)
+        self._scale = max([1.0] + [abs(l.a) for l in m.links])
+        n = m.n_free
+        project_fn = None
+        if self.method == EXACT and m.n_constraints:
+            def project_fn(y):
+                zp, zdp = project(m, y[:n], y[n:], self._scale)
+                return np.concatenate([zp, zdp])
+        self._n = n
+        self._integ = Integrator(self._rhs, self.t0, np.concatenate([z, zd]), method=self.integrator,
+                                 rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
+                                 project=project_fn)
+
+    # -- the ODE -------------------------------------------------------------
+    def _inputs_at(self, t: float) -> Inputs:
+        if self.drive_function is None:
+            return self.inputs
+        return Inputs(float(self.drive_function(t)), self.inputs.load)
+
+    def _rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        n = self._n
+        dyn = forward_dynamics(self.model, y[:n], y[n:], self._inputs_at(t), self.method)
+        return np.concatenate([y[n:], dyn.zdd])
+
+    # -- state ---------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return self._integ.t
+
+    @property
+    def z(self) -> np.ndarray:
+        return self._integ.y[: self._n]
+
+    @property
+    def zd(self) -> np.ndarray:
+        return self._integ.y[self._n :]
+
+    def set_inputs(self, drive: float | None = None, load: float | None = None) -> None:
+        """Change the efforts; they hold until changed again."""
+        new = Inputs(self.inputs.drive if drive is None else float(drive),
+                     self.inputs.load if load is None else float(load))
+        if new != self.inputs:
+            self.inputs = new
+            self._integ.reset_derivative()
+
+    def advance_to(self, t: float) -> None:
+        """Integrate to time ``t`` (it sub-steps to its own tolerance)."""
+        self._integ.advance_to(t)
+
+    def outputs(self, groups: Iterable[str] = DEFAULT_GROUPS) -> dict[str, float]:
+        return evaluate(self.model, self.method, self.t, self.z.copy(), self.zd.copy(),
+                        self._inputs_at(self.t), groups)
+
+    def snapshot(self) -> dict:
+        """The whole run state, for rollback."""
+        return {"integ": self._integ.snapshot(), "inputs": (self.inputs.drive, self.inputs.load)}
+
+    def restore(self, snap: dict) -> None:
+        self._integ.restore(snap["integ"])
+        self.inputs = Inputs(*snap["inputs"])
+
+    @property
+    def stats(self) -> dict[str, int]:
+        i = self._integ
+        return {"steps": i.n_steps, "rejected": i.n_rejected, "rhs_evals": i.n_evals}
+
+
+@dataclass
+class Result:
+    """A trajectory: joint states at output times, outputs computed on demand.
+
+    Index it by column name (``res['theta2']``) to get an array.  Columns of the
+    'dynamics', 'energy' and 'reactions' groups are computed on first use.
+    """
+
+    model: Mechanism
+    method: str
+    t: np.ndarray
+    z: np.ndarray
+    zd: np.ndarray
+    inputs_at: Callable[[float], Inputs]
+    stats: dict
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def columns(self) -> list[str]:
+        return output_columns(self.model, DEFAULT_GROUPS)
+
+    def _group_of(self, column: str) -> str:
+        for g in GROUPS:
+            if column in output_columns(self.model, (g,)):
+                return g
+        raise KeyError(f"{column!r}: no such output; columns are {', '.join(output_columns(self.model, GROUPS))}")
+
+    def compute(self, groups: Iterable[str]) -> None:
+        """Evaluate output groups at every output time (cached)."""
+        todo = [g for g in groups if g not in self._cache]
+        if not todo:
+            return
+        rows = [evaluate(self.model, self.method, t, z, zd, self.inputs_at(t), todo)
+                for t, z, zd in zip(self.t, self.z, self.zd)]
+        for g in todo:
+            cols = [c for c in output_columns(self.model, (g,)) if c != "t"]
+            self._cache[g] = {c: np.array([r[c] for r in rows]) for c in cols}
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        if column == "t":
+            return self.t
+        g = self._group_of(column)
+        self.compute([g])
+        return self._cache[g][column]
+
+    def table(self, groups: Iterable[str] = DEFAULT_GROUPS) -> tuple[list[str], np.ndarray]:
+        groups = list(groups)
+        self.compute(groups)
+        cols = output_columns(self.model, groups)
+        return cols, np.column_stack([self[c] for c in cols])
+
+    def to_csv(self, path, groups: Iterable[str] = DEFAULT_GROUPS) -> None:
+        cols, data = self.table(groups)
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(cols)
+            for row in data:
+                w.writerow([repr(float(x)) for x in row])
+
+
+def simulate(
+    scene: Scene | str,
+    t_end: float | None = None,
+    dt_out: float | None = None,
+    method: str | None = None,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    integrator: str | None = None,
+    step: float = 1e-3,
+    torque: TorqueLike | None = None,
+    load_torque: float | None = None,
+) -> Result:
+    """Simulate a scene and return its trajectory.
+
+    Parameters
+    ----------
+    scene : Scene or str
+        A scene, or a preset name / TOML file path.
+    t_end, dt_out : float, optional
+        Run length and output interval, s (default: the scene's).
+    method : {'exact', 'penalty'}, optional
+        Closure method (default: the scene's).
+    rtol, atol : float
+        Integration tolerances.
+    integrator : {'dop853', 'rk45', 'rk4', 'radau', 'bdf'}, optional
+        Default: 'dop853' for the exact closure, 'radau' for the stiff penalty one.
+    step : float
+        Fixed step for 'rk4', s.
+    torque : float or callable, optional
+        Drive effort (N m, or N on a slide), constant or a function of time.
+    load_torque : float, optional
+
+    Returns
+    -------
+    Result
+    """
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    t_end = scene.t_end if t_end is None else float(t_end)
+    dt_out = scene.dt_out if dt_out is None else float(dt_out)
+    if not (t_end > 0 and math.isfinite(t_end)):
+        raise SceneError("t_end", f"must be positive and finite, got {t_end}")
+    if not (dt_out > 0 and math.isfinite(dt_out)):
+        raise SceneError("dt_out", f"must be positive and finite, got {dt_out}")
+    method = scene.method if method is None else method
+    torque = scene.torque if torque is None else torque
+    load = scene.load_torque if load_torque is None else float(load_torque)
+    if scene.mechanism.drive is None and (callable(torque) or torque != 0.0):
+        raise SceneError("torque", f"{scene.name or 'this scene'} has no drive joint to apply it to")
+    sim = Simulator(scene.mechanism, method=method, rtol=rtol, atol=atol, integrator=integrator, step=step,
+                    zd0=scene.initial_rates,
+                    inputs=Inputs(0.0 if callable(torque) else float(torque), load),
+                    drive_function=torque if callable(torque) else None)
+    n_out = int(math.floor(t_end / dt_out + 1e-9)) + 1
+    times = np.arange(n_out) * dt_out
+    if times[-1] < t_end - 1e-12:
+        times = np.append(times, t_end)
+    zs = np.empty((len(times), sim.model.n_free))
+    zds = np.empty_like(zs)
+    for i, t in enumerate(times):
+        sim.advance_to(float(t))
+        zs[i], zds[i] = sim.z, sim.zd
+    return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats)
+
+
+__all__ = ["Simulator", "Result", "simulate", "evaluate", "output_columns", "unit_of", "GROUPS",
+           "POSITION_TOL", "PENALTY", "EXACT"]

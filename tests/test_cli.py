@@ -1,0 +1,72 @@
+"""The command line, used as a person would."""
+
+import csv
+import subprocess
+import sys
+
+import pytest
+
+from grubler.cli import main
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_presets_lists_every_name(capsys):
+    code, out, _ = run(capsys, "presets")
+    assert code == 0
+    for name in ("thesis-fourbar", "thesis-conchoidal", "triple-pendulum", "elliptic-trammel"):
+        assert name in out
+
+
+def test_info_shows_type_mobility_grashof_and_assembly(capsys):
+    code, out, _ = run(capsys, "info", "thesis-fourbar")
+    assert code == 0
+    assert "crank-rocker" in out and "mobility   1" in out and "s + l = 1.2" in out
+    code, out, _ = run(capsys, "info", "thesis-slider-crank")
+    assert "theta3 0 -> 0.201358" in out
+
+
+def test_simulate_writes_the_documented_csv_and_a_plot(capsys, tmp_path):
+    csv_path, png = tmp_path / "out.csv", tmp_path / "out.png"
+    code, out, _ = run(capsys, "simulate", "thesis-fourbar", "--t-end", "0.5", "--dt-out", "0.1", "--torque", "3",
+                       "--csv", str(csv_path), "--plot", str(png), "--reactions")
+    assert code == 0
+    rows = list(csv.reader(open(csv_path)))
+    header = rows[0]
+    expected = ["t", "B1", "theta2", "B2", "theta3", "B3", "theta4",
+                "B1_d", "theta2_d", "B2_d", "theta3_d", "B3_d", "theta4_d",
+                "B1_dd", "theta2_dd", "B2_dd", "theta3_dd", "B3_dd", "theta4_dd",
+                "tip_x", "tip_y", "closure_error", "Fx", "Fy", "Mz", "KE", "PE"]
+    assert header[: len(expected)] == expected
+    assert "R1_Fx" in header and "P_drive" in header
+    assert len(rows) == 7
+    assert png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("args, field", [
+    (["simulate", "no-such-scene"], "scene"),
+    (["simulate", "thesis-fourbar", "--t-end", "-1"], "--t-end"),
+    (["simulate", "thesis-fourbar", "--torque", "inf"], "--torque"),
+])
+def test_bad_input_exits_non_zero_with_one_line(args, field):
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", *args], capture_output=True, text=True)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert field in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert len([l for l in lines if "error" in l]) == 1
+
+
+def test_bad_scene_file_names_the_field(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[mechanism]\ntype = "four-bar"\nground = 1\ncrank = 3\ncoupler = 0.8\nrocker = 0.6\n')
+    code, _, err = run(capsys, "simulate", str(bad))
+    assert code == 2
+    assert err.startswith("grubler: error: initial: the loop cannot be closed")
+    assert "longest link" in err
+    with pytest.raises(Exception):
+        main(["--debug", "simulate", str(bad)])
