@@ -1,0 +1,286 @@
+"""FMI 2.0 co-simulation slave of a grubler mechanism (pythonfmu).
+
+Thin by design: it maps FMI variables to :class:`grubler.Simulator` and back and has
+no physics of its own.  Parameters default to the chosen scene's values; those the
+importer sets override them.  Outputs are computed when read, by group, so a step
+whose forces nobody reads costs no force computation.  Errors (bad parameters,
+non-finite inputs, integration failure) are logged and reported as a failed step
+or initialisation, never raised into the importer.
+
+The script's file name is unique among the project's FMUs: two pythonfmu slaves
+whose scripts share a name cannot be loaded in one process.
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+# inside the FMU the package sits beside this script, in resources/
+_here = Path(__file__).resolve().parent
+if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
+    sys.path.insert(0, str(_here))
+
+from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real, String  # noqa: E402
+from pythonfmu.enums import Fmi2Status  # noqa: E402
+
+import grubler  # noqa: E402
+from grubler.errors import GrublerError  # noqa: E402
+from grubler.model import coordinate_names  # noqa: E402
+from grubler.scene import load_scene  # noqa: E402
+from grubler.simulate import GROUPS, Simulator, output_columns, unit_of  # noqa: E402
+
+N_LINKS = 3  # the FMU's variables are those of a four-link mechanism
+LINK_FIELDS = {"a": "link vector length [m]", "p": "mass centre along the link [m]",
+               "q": "mass centre across the link [m]", "m": "mass [kg]",
+               "I": "centroidal moment of inertia [kg m2]",
+               "damping": "viscous damping of its real joint [N m s/rad or N s/m]"}
+DEFAULT_SCENE = "thesis-fourbar"
+
+
+class Mechanism(Fmi2Slave):
+    """A planar four-link Grübler mechanism (imaginary-joints method)."""
+
+    author = "grubler"
+    description = ("Planar four-link mechanism by the imaginary-joints method; inputs are joint efforts, "
+                   "outputs the joint states and the closing joint's constraint force")
+    version = grubler.__version__
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.mechanism = DEFAULT_SCENE
+        self.method = "exact"
+        self.integrator = "auto"
+        self.rtol = 1e-9
+        self.atol = 1e-9
+        self.max_step = 0.0
+        self.motor_torque = 0.0
+        self.load_torque = 0.0
+        self._overrides: dict[str, float | str] = {}
+        self._scene = load_scene(DEFAULT_SCENE)
+        self._error: str | None = None
+        self._sim: Simulator | None = None
+        self._outputs: dict[str, float] = {}
+        self._groups_done: set[str] = set()
+        self._inputs_seen = (0.0, 0.0)
+        self._register()
+
+    # -- variables -----------------------------------------------------------
+    def _register(self):
+        par, fixed = Fmi2Causality.parameter, Fmi2Variability.fixed
+        self.register_variable(String("mechanism", causality=par, variability=fixed,
+                                      description="preset name, or the content of a scene file (TOML)"))
+        self.register_variable(String("method", causality=par, variability=fixed,
+                                      description="closure method: exact | penalty"))
+        self.register_variable(String("integrator", causality=par, variability=fixed,
+                                      description="auto | dop853 | rk45 | radau | bdf (auto: dop853 for exact, "
+                                                  "radau for penalty)"))
+        self.register_variable(Real("rtol", causality=par, variability=fixed,
+                                    description="relative tolerance of the internal integration [-]"))
+        self.register_variable(Real("atol", causality=par, variability=fixed,
+                                    description="absolute tolerance of the internal integration [rad, m]"))
+        self.register_variable(Real("max_step", causality=par, variability=fixed,
+                                    description="largest internal step [s] (0: no limit)"))
+        self._param_real("gravity", "gravity g, acting along -y [m/s2]")
+        for k in range(2, N_LINKS + 2):
+            for f, text in LINK_FIELDS.items():
+                self._param_real(f"link{k}.{f}", f"link {k}: {text}")
+        self._param_real("closure.gain", "penalty closure stiffness G [N/m, N m/rad]")
+        self._param_real("closure.damping", "penalty closure damping C [N s/m, N m s/rad]")
+        self._param_string("drive_joint", "real joint the motor acts on (e.g. theta2)")
+        self._param_string("load_joint", "real joint the load acts on ('' for none)")
+        for name in coordinate_names(N_LINKS):
+            unit = unit_of(name)
+            self._param_real(f"initial.{name}", f"initial {name} [{unit}] (a guess for the dependent ones)")
+            self._param_real(f"initial.{name}_d", f"initial {name}_d [{unit}/s]")
+        for name, text in (("motor_torque", "drive effort at drive_joint [N m, or N on a slide]"),
+                           ("load_torque", "load effort at load_joint [N m, or N on a slide]")):
+            self.register_variable(Real(name, causality=Fmi2Causality.input,
+                                        variability=Fmi2Variability.continuous, description=text))
+        self._output_group: dict[str, str] = {}
+        model = self._scene.mechanism
+        for group in GROUPS:
+            for col in output_columns(model, [group]):
+                if col in ("t", "E", "P_drive"):
+                    continue
+                self._add_output(col, group, f"{col} [{unit_of(col)}]")
+        self._add_output("drive_angle", "state", "coordinate of the drive joint (relative) [rad or m]")
+        self._add_output("drive_speed", "state", "rate of the drive joint [rad/s or m/s]")
+
+    def _add_output(self, name, group, text):
+        self._output_group[name] = group
+        self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                    initial=Fmi2Initial.exact, description=text,
+                                    getter=lambda n=name: self._read(n)))
+
+    def _param_real(self, name, text):
+        self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                                    description=text, getter=lambda n=name: float(self._param(n)),
+                                    setter=lambda v, n=name: self._overrides.__setitem__(n, float(v))))
+
+    def _param_string(self, name, text):
+        self.register_variable(String(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                                      description=text, getter=lambda n=name: str(self._param(n) or ""),
+                                      setter=lambda v, n=name: self._overrides.__setitem__(n, str(v))))
+
+    def _param(self, name: str):
+        if name in self._overrides:
+            return self._overrides[name]
+        m = self._scene.mechanism
+        if name == "gravity":
+            return m.gravity
+        if name.startswith("link"):
+            k, f = name[4:].split(".")
+            return getattr(m.links[int(k) - 2], f)
+        if name.startswith("closure."):
+            return getattr(m.closures[0], name.split(".")[1]) if m.closures else math.nan
+        if name == "drive_joint":
+            return m.drive
+        if name == "load_joint":
+            return m.load
+        if name.startswith("initial."):
+            coord = name.split(".")[1]
+            names = m.coordinate_names
+            if coord.endswith("_d"):
+                qd = m.S @ self._scene.initial_rates
+                return float(qd[names.index(coord[:-2])])
+            return m.q_ref[names.index(coord)]
+        raise KeyError(name)
+
+    # -- set-up ----------------------------------------------------------------
+    def _build(self) -> Simulator:
+        scene = load_scene(self.mechanism)
+        if scene.mechanism.n_links != N_LINKS:
+            raise grubler.SceneError("mechanism", f"this FMU is built for {N_LINKS} moving links, "
+                                                  f"the scene has {scene.mechanism.n_links}")
+        self._scene = scene
+        m = scene.mechanism
+        ov = self._overrides
+        links = tuple(replace(l, **{f: ov[f"link{i + 2}.{f}"] for f in LINK_FIELDS if f"link{i + 2}.{f}" in ov})
+                      for i, l in enumerate(m.links))
+        closures = m.closures
+        if closures and ("closure.gain" in ov or "closure.damping" in ov):
+            closures = (replace(closures[0], gain=ov.get("closure.gain", closures[0].gain),
+                                damping=ov.get("closure.damping", closures[0].damping)),) + closures[1:]
+        names = m.coordinate_names
+        q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
+        qd = m.S @ scene.initial_rates
+        qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, qd)]
+        model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
+                          drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None)
+        for name in ("rtol", "atol"):
+            v = getattr(self, name)
+            if not (v > 0 and math.isfinite(v)):
+                raise grubler.SceneError(name, f"must be positive and finite, got {v}")
+        if not (self.max_step >= 0 and math.isfinite(self.max_step)):
+            raise grubler.SceneError("max_step", f"must be >= 0 and finite, got {self.max_step}")
+        integrator = None if self.integrator in ("", "auto") else self.integrator
+        sim = Simulator(model, method=self.method, rtol=self.rtol, atol=self.atol, integrator=integrator,
+                        zd0=model.zd_from_qd(qd))
+        if self.max_step > 0:
+            sim._integ.h_max = self.max_step
+        return sim
+
+    def _fail(self, msg: str) -> None:
+        self._error = msg
+        self.log(msg, Fmi2Status.error)
+
+    def exit_initialization_mode(self):
+        try:
+            self._sim = self._build()
+            self._error = None
+        except (GrublerError, ValueError) as exc:
+            self._sim = None
+            # logged as an error; raising here would reach the importer as
+            # fmi2Fatal, so the instance stays alive and every doStep is refused
+            # (fmi2Discard) with the same message
+            self._fail(f"initialisation failed: {exc}")
+        self._invalidate()
+
+    # -- stepping ----------------------------------------------------------------
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if self._error is not None:
+            self.log(f"cannot step: {self._error}", Fmi2Status.error)
+            return False
+        for name in ("motor_torque", "load_torque"):
+            v = getattr(self, name)
+            if not math.isfinite(v):
+                self.log(f"{name} is {v} at t = {current_time:g} s: inputs must be finite", Fmi2Status.error)
+                return False
+        if not (step_size > 0 and math.isfinite(step_size)):
+            self.log(f"step size must be positive and finite, got {step_size}", Fmi2Status.error)
+            return False
+        sim = self._sim
+        if abs(current_time - sim.t) > 1e-9 * max(1.0, abs(sim.t)):
+            self.log(f"doStep at t = {current_time:.12g} s, but the mechanism is at t = {sim.t:.12g} s "
+                     "(restore a saved FMU state to roll back)", Fmi2Status.error)
+            return False
+        before = sim.snapshot()
+        try:
+            sim.set_inputs(self.motor_torque, self.load_torque)
+            sim.advance_to(current_time + step_size)
+        except (GrublerError, ValueError, FloatingPointError, ArithmeticError) as exc:
+            sim.restore(before)
+            self.log(f"step from t = {current_time:g} s failed: {exc}", Fmi2Status.error)
+            return False
+        self._invalidate()
+        return True
+
+    # -- outputs ---------------------------------------------------------------
+    def _invalidate(self):
+        self._outputs = {}
+        self._groups_done = set()
+        self._inputs_seen = (self.motor_torque, self.load_torque)
+
+    def _read(self, name: str) -> float:
+        # efforts set since the last read change accelerations and forces
+        if (self.motor_torque, self.load_torque) != self._inputs_seen:
+            self._invalidate()
+        group = self._output_group[name]
+        if group not in self._groups_done:
+            self._compute(group)
+        return self._outputs.get(name, math.nan)
+
+    def _compute(self, group: str) -> None:
+        sim = self._sim
+        if sim is None:
+            if self._error is not None:
+                return
+            try:  # before initialisation: the default scene's start, for start values
+                self._sim = sim = self._build()
+            except (GrublerError, ValueError) as exc:
+                self._fail(str(exc))
+                return
+        if all(math.isfinite(v) for v in self._inputs_seen):
+            sim.set_inputs(*self._inputs_seen)
+        # a costlier group includes the work of the cheaper ones: do them in one pass
+        groups = [g for g in GROUPS[: GROUPS.index(group) + 1] if g not in self._groups_done]
+        self._outputs.update(sim.outputs(groups))
+        if "state" in groups:
+            i = sim.model.arrays.drive
+            self._outputs["drive_angle"] = float(sim.z[i]) if i >= 0 else 0.0
+            self._outputs["drive_speed"] = float(sim.zd[i]) if i >= 0 else 0.0
+        self._groups_done.update(groups)
+
+    # -- state -------------------------------------------------------------------
+    def _get_fmu_state(self):
+        return {"sim": None if self._sim is None else self._sim.snapshot(),
+                "inputs": (self.motor_torque, self.load_torque), "error": self._error}
+
+    def _set_fmu_state(self, state):
+        if state["sim"] is not None and self._sim is not None:
+            self._sim.restore(state["sim"])
+        self.motor_torque, self.load_torque = state["inputs"]
+        self._error = state["error"]
+        self._invalidate()
+
+    @staticmethod
+    def _fmu_state_to_bytes(state) -> bytes:
+        return pickle.dumps(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes):
+        return pickle.loads(state)

@@ -1,0 +1,132 @@
+"""The mechanism FMU, driven through fmpy (and a second master) in child processes.
+
+Each scenario (tests/fmu_scenarios.py) writes its measurements to JSON; the tests
+judge that file, so a crash at interpreter exit (upstream PythonFMU issue 228)
+can neither hide nor fake a result.
+"""
+
+import json
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import grubler
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+
+
+@pytest.fixture(scope="session")
+def fmu(tmp_path_factory):
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    return path
+
+
+def run_scenario(script: str, name: str, fmu: Path, tmp_path: Path) -> dict:
+    out = tmp_path / f"{name}.json"
+    args = [sys.executable, str(HERE / script)] + ([name] if script == "fmu_scenarios.py" else []) + [str(fmu), str(out)]
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=600)
+    assert out.exists(), f"scenario {name} wrote nothing (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
+    data = json.loads(out.read_text())
+    assert data["done"]
+    return data["result"]
+
+
+def library(t_end, torque=3.0, dt_out=0.01, scene="thesis-fourbar", **link2):
+    sc = grubler.load_scene(scene)
+    if link2:
+        m = sc.mechanism
+        sc = grubler.scene.with_overrides(sc, mechanism=m.replace(links=(replace(m.links[0], **link2),) + m.links[1:]))
+    return grubler.simulate(sc, t_end=t_end, dt_out=dt_out, torque=torque)
+
+
+def test_fmpy_validate_passes(fmu):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(fmu)) == []
+
+
+def test_model_description_declares_the_interface(fmu):
+    from fmpy import read_model_description
+
+    md = read_model_description(str(fmu))
+    by_name = {v.name: v for v in md.modelVariables}
+    for name in ("motor_torque", "load_torque"):
+        assert by_name[name].causality == "input"
+    outputs = ["B1", "theta2", "theta4_d", "theta3_dd", "drive_angle", "drive_speed", "tip_x", "tip_y",
+               "closure_error", "Fx", "Fy", "Mz", "R1_Fx", "R3_Mz", "KE", "PE"]
+    for name in outputs:
+        assert by_name[name].causality == "output", name
+        assert by_name[name].description
+    for name in ("mechanism", "method", "rtol", "link3.m", "link2.damping", "closure.gain", "drive_joint",
+                 "load_joint", "initial.theta3", "gravity"):
+        assert by_name[name].causality == "parameter", name
+    assert by_name["mechanism"].start == "thesis-fourbar"
+    assert float(by_name["link4.m"].start) == 3.0
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+
+
+def test_simulate_fmu_with_a_torque_input_matches_the_library(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "simulate", fmu, tmp_path)
+    lib = library(2.0)
+    assert np.allclose(res["time"], lib.t)
+    for name in ("theta2", "theta4", "Fx", "Fy", "KE"):
+        assert np.max(np.abs(np.array(res[name]) - lib[name])) < 1e-9, name
+    assert np.allclose(res["drive_angle"], lib["theta2"], atol=1e-12)
+    assert np.allclose(res["drive_speed"], lib["theta2_d"], atol=1e-12)
+
+
+def test_communication_step_does_not_change_the_trajectory(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "steps", fmu, tmp_path)
+    lib = library(1.0)
+    for h, rows in res.items():
+        a = np.array(rows)
+        assert np.allclose(a[:, 0], lib.t[1:]), h
+        assert np.max(np.abs(a[:, 1] - lib["theta2"][1:])) < 1e-9, h
+        assert np.max(np.abs(a[:, 3] - lib["Fx"][1:])) < 1e-7, h
+
+
+def test_two_instances_with_different_parameters_side_by_side(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "two_instances", fmu, tmp_path)
+    a, b = np.array(res["a"]), np.array(res["b"])
+    assert np.max(np.abs(a[:, 1] - library(1.0)["theta2"][1:])) < 1e-9
+    assert np.max(np.abs(b[:, 1] - library(1.0, m=2.5)["theta2"][1:])) < 1e-9
+    assert np.max(np.abs(a[:, 1] - b[:, 1])) > 0.1  # they really differ
+
+
+def test_saved_state_replays_the_same_trajectory(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "rollback", fmu, tmp_path)
+    first = np.array(res["first"])
+    assert first.shape == (100, 4)
+    assert np.array_equal(first, np.array(res["replay"]))
+    assert np.array_equal(first, np.array(res["replay_serialized"]))
+    assert np.allclose(first, np.array(res["after_reset"]), rtol=0, atol=1e-10)
+
+
+def test_bad_inputs_give_a_status_and_a_logged_message(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "bad_inputs", fmu, tmp_path)
+    assert "status 2 (discard)" in res["nan_step"]
+    assert any("motor_torque is nan" in m for m in res["messages_nan"])
+    assert res["after_nan"] == "ok"
+    assert "status 2 (discard)" in res["bad_param"]
+    assert any("link2.m: mass must be positive" in m for m in res["messages_param"])
+    assert "status 2 (discard)" in res["bad_scene"]
+    assert any("no-such-mechanism" in m for m in res["messages_scene"])
+
+
+def test_a_second_master_libcosim_agrees_with_fmpy(fmu, tmp_path):
+    pytest.importorskip("libcosimpy")
+    res = run_scenario("libcosim_scenario.py", "libcosim", fmu, tmp_path)
+    rows = np.array(res["rows"])
+    fmpy_run = run_scenario("fmu_scenarios.py", "simulate", fmu, tmp_path)
+    assert rows.shape == (200, 3)
+    assert np.allclose(rows[:, 0], fmpy_run["time"][1:], atol=1e-12)
+    assert np.max(np.abs(rows[:, 1] - np.array(fmpy_run["theta2"][1:]))) < 1e-9
+    assert np.max(np.abs(rows[:, 2] - np.array(fmpy_run["Fx"][1:]))) < 1e-7
