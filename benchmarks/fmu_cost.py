@@ -68,6 +68,41 @@ def time_library(t_end: float, h: float) -> float:
     return time.perf_counter() - t0
 
 
+def time_slave_bookkeeping(t_end: float, h: float, read: list[str], null: bool = False) -> float:
+    """The slave's own Python work per step, with the physics stubbed out.
+
+    The end-to-end difference FMU - library is a small number between two large,
+    noisy ones; this isolates what the slave adds around the library calls.  With
+    ``null`` it times the do-nothing slave the same way, whose Python calls the
+    null FMU's floor already contains.
+    """
+    sys.path.insert(0, str(HERE.parent / "fmu_src" / "slaves"))
+    sys.path.insert(0, str(HERE))
+    if null:
+        from grubler_null import NullSlave
+
+        slave = NullSlave(instance_name="bookkeeping")
+        read = ["theta2"]
+    else:
+        from grubler_mechanism import Mechanism
+
+        slave = Mechanism(instance_name="bookkeeping")
+        slave.exit_initialization_mode()
+        sim = slave._sim
+        canned = sim.outputs(["state", "dynamics"])
+        sim.advance_to = lambda t: setattr(sim._integ, "t", t)
+        sim.outputs = lambda groups: canned
+    vr = {v.name: v.value_reference for v in slave.vars.values()}
+    refs = [vr[name] for name in read]
+    n = int(round(t_end / h))
+    t0 = time.perf_counter()
+    for i in range(n):
+        slave.set_real([vr["motor_torque"]], [3.0])
+        slave.do_step(i * h, h)
+        slave.get_real(refs)
+    return time.perf_counter() - t0
+
+
 def time_simulate_fmu(path: Path, t_end: float, h: float) -> float:
     import numpy as np
 
@@ -93,6 +128,8 @@ def main() -> None:
         for label, fn in (("library", lambda: time_library(args.t_end, h)),
                           ("fmu", lambda: time_fmu(mech, args.t_end, h, READ)),
                           ("null", lambda: time_fmu(null, args.t_end, h, ["theta2"])),
+                          ("bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ)),
+                          ("null_bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ, null=True)),
                           ("simulate_fmu", lambda: time_simulate_fmu(mech, args.t_end, h))):
             runs = [fn() for _ in range(args.repeat if label != "simulate_fmu" else max(1, args.repeat // 2))]
             med[label] = statistics.median(runs)
@@ -110,14 +147,21 @@ def main() -> None:
         "communication point, reading state and dynamics outputs. `fmu`: Mechanism.fmu through fmpy's",
         "FMU2Slave, setting motor_torque and reading theta2, theta2_d, Fx, Fy each step. `null`: an FMU whose",
         "doStep does nothing (the pythonfmu + fmpy floor). `simulate_fmu`: fmpy.simulate_fmu recording every",
-        "output (all output groups computed each step).",
+        "output (all output groups computed each step). `slave` is what the slave's own Python adds per",
+        "step over the do-nothing slave (its setReal/doStep/getReal path timed in-process with the library",
+        "calls stubbed out, minus the same for the null slave), so the FMU's cost over the library is",
+        "null + slave per step. The end-to-end difference FMU - library is shown too, but it is a small",
+        "number between two large ones and moves with the machine's noise (several percent).",
         "",
-        "| step (s) | steps | library (s) | FMU (s) | null FMU (s) | simulate_fmu (s) | FMU - library per step (us) | null per step (us) |",
-        "|---|---|---|---|---|---|---|---|",
+        "| step (s) | steps | library (s) | FMU (s) | simulate_fmu (s) | FMU - library (us/step) "
+        "| null FMU (us/step) | slave (us/step) | null + slave (us/step) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for h, n, med, overhead in rows:
-        lines.append(f"| {h:g} | {n} | {med['library']:.3f} | {med['fmu']:.3f} | {med['null']:.3f} | "
-                     f"{med['simulate_fmu']:.3f} | {overhead:.1f} | {med['null'] / n * 1e6:.1f} |")
+        null_us = med["null"] / n * 1e6
+        slave_us = (med["bookkeeping"] - med["null_bookkeeping"]) / n * 1e6
+        lines.append(f"| {h:g} | {n} | {med['library']:.3f} | {med['fmu']:.3f} | {med['simulate_fmu']:.3f} | "
+                     f"{overhead:.1f} | {null_us:.1f} | {slave_us:.1f} | {null_us + slave_us:.1f} |")
     Path(args.out).write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     sys.stdout.flush()

@@ -136,9 +136,12 @@ class Integrator:
 
     # -- state ----------------------------------------------------------------
     def snapshot(self) -> dict:
-        """Everything that determines the rest of the run (for rollback)."""
-        return {"t": self.t, "y": self.y.copy(), "h": self.h,
-                "f": None if self.f is None else self.f.copy(),
+        """Everything that determines the rest of the run (for rollback).
+
+        The arrays are shared, not copied: the integrator never writes into ``y``
+        or ``f`` in place, it rebinds them to new arrays at every step.
+        """
+        return {"t": self.t, "y": self.y, "h": self.h, "f": self.f,
                 "counts": (self.n_steps, self.n_rejected, self.n_evals)}
 
     def restore(self, snap: dict) -> None:

@@ -227,10 +227,10 @@ class Simulator:
 
     def set_inputs(self, drive: float | None = None, load: float | None = None) -> None:
         """Change the efforts; they hold until changed again."""
-        new = Inputs(self.inputs.drive if drive is None else float(drive),
-                     self.inputs.load if load is None else float(load))
-        if new != self.inputs:
-            self.inputs = new
+        drive = self.inputs.drive if drive is None else float(drive)
+        load = self.inputs.load if load is None else float(load)
+        if drive != self.inputs.drive or load != self.inputs.load:
+            self.inputs = Inputs(drive, load)
             self._integ.reset_derivative()
 
     def advance_to(self, t: float) -> None:
