@@ -109,6 +109,38 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def _read_run_csv(path: str, model):
+    """Times and joint coordinates from a CSV written by `grubler simulate`."""
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    names = model.coordinate_names
+    missing = [n for n in ["t"] + names if n not in (data.dtype.names or ())]
+    if missing:
+        raise GrublerError(f"{path}: missing columns {', '.join(missing)} (is it a `grubler simulate` CSV "
+                           "of this scene?)")
+    q = np.column_stack([data[n] for n in names])
+    return np.atleast_1d(data["t"]), np.array([model.z_from_q(row) for row in q])
+
+
+def cmd_animate(args) -> int:
+    from .animation import animate
+
+    if args.source.endswith(".csv"):
+        if not args.scene:
+            raise GrublerError("--scene: a CSV holds coordinates only; name the scene it came from "
+                               "(a preset or TOML file) to draw it")
+        scene = load_scene(args.scene)
+        t, zs = _read_run_csv(args.source, scene.mechanism)
+    else:
+        scene = load_scene(args.source)
+        res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
+        t, zs = res.t, res.z
+    out = args.out or f"{scene.name or 'mechanism'}.gif"
+    n = animate(scene.mechanism, t, zs, out, fps=args.fps, speed=args.speed, trace=args.trace,
+                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "))
+    print(f"wrote {out}: {n} frames, {t[-1] - t[0]:g} s of motion")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="grubler", description="Planar four-link mechanisms by imaginary joints.")
     p.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -132,6 +164,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--csv", help="write the trajectory to this CSV file")
     s.add_argument("--plot", help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
+    a = sub.add_parser("animate", help="draw a scene's motion (or a simulate CSV) to a GIF or MP4")
+    a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate`")
+    a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
+    a.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
+    a.add_argument("--fps", type=_positive("--fps"), default=25.0, help="frames per second of film")
+    a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
+    a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0)")
+    a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")
+    a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
+    a.set_defaults(func=cmd_animate)
     return p
 
 

@@ -1,0 +1,124 @@
+"""The picture is right: joint centres where independent kinematics puts them,
+the whole motion in view, and the trammel's classic traces."""
+
+import shutil
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import scipy.ndimage  # noqa: E402
+
+import grubler  # noqa: E402
+from grubler.animation import JOINT_COLOUR, Drawer, fit_view, frame_geometry, trace_path  # noqa: E402
+from grubler.cli import main  # noqa: E402
+from reference import RefChain  # noqa: E402
+
+
+def render(model, z, xlim, ylim):
+    fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=100)
+    drawer = Drawer(ax, model, xlim, ylim)
+    drawer.draw(frame_geometry(model, z))
+    fig.canvas.draw()
+    img = np.asarray(fig.canvas.buffer_rgba())[:, :, :3].astype(int)
+    return fig, ax, img
+
+
+def joint_centroids(img):
+    target = np.array(matplotlib.colors.to_rgb(JOINT_COLOUR)) * 255
+    mask = np.all(np.abs(img - target) < 40, axis=2)
+    labels, n = scipy.ndimage.label(mask)
+    centres = scipy.ndimage.center_of_mass(mask, labels, range(1, n + 1))
+    # pixel (row, col) covers [col, col + 1) x [row, row + 1): its centre is at +0.5
+    return np.array([(c[1] + 0.5, c[0] + 0.5) for c in centres])  # (x, y) in image pixels, y down
+
+
+def expected_joints(model, z):
+    """Revolute centres from the independent complex-number kinematics."""
+    ref = RefChain.of(model)
+    q = model.q_from_z(z)
+    origins = ref.origins(q)
+    pts = [origins[k] for k, l in enumerate(model.links) if l.joint == "R"]
+    for cl in model.closures:
+        if cl.kind == "revolute":
+            pts.append(ref.point(q, cl.link - 2, *cl.point))
+    return np.array([(p.real, p.imag) for p in pts])
+
+
+@pytest.mark.parametrize("preset, torque", [("thesis-fourbar", 3.0), ("fourbar-double-crank", None),
+                                            ("thesis-quick-return", None)])
+def test_drawn_joint_centres_sit_on_the_kinematics_to_a_pixel(preset, torque):
+    res = grubler.simulate(preset, t_end=2.0, dt_out=0.05, torque=torque)
+    m = res.model
+    xlim, ylim = fit_view(m, res.z)
+    for i in (0, 13, 27, 40):
+        fig, ax, img = render(m, res.z[i], xlim, ylim)
+        expected = ax.transData.transform(expected_joints(m, res.z[i]))
+        expected[:, 1] = img.shape[0] - expected[:, 1]
+        found = joint_centroids(img)
+        assert len(found) == len(expected)
+        for e in expected:
+            assert np.min(np.hypot(*(found - e).T)) < 1.0
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("preset, t_end", [("fourbar-double-crank", 5.0), ("slider-crank", 5.0),
+                                           ("thesis-trammel-driven", 5.0)])
+def test_the_view_holds_every_point_of_the_motion(preset, t_end):
+    res = grubler.simulate(preset, t_end=t_end, dt_out=0.02)
+    m = res.model
+    (x0, x1), (y0, y1) = fit_view(m, res.z)
+    ref = RefChain.of(m)
+    pts = []
+    for z in res.z:
+        q = m.q_from_z(z)
+        pts += ref.origins(q) + [ref.tip(q)]
+    pts = np.array(pts)
+    assert np.all((pts.real > x0) & (pts.real < x1) & (pts.imag > y0) & (pts.imag < y1))
+    if preset == "thesis-trammel-driven":  # it really visits all four quadrants
+        mid = np.array([ref.point(m.q_from_z(z), 1, 0.4, 0.0) for z in res.z])
+        assert {(np.sign(p.real), np.sign(p.imag)) for p in mid} >= {(1, 1), (-1, 1), (-1, -1), (1, -1)}
+    if preset == "fourbar-double-crank":  # both cranks turn fully
+        assert np.ptp(res["theta2"]) > 2 * np.pi and np.ptp(res["theta4"]) > 2 * np.pi
+
+
+def test_trammel_traces_a_circle_and_an_ellipse():
+    res = grubler.simulate("thesis-trammel-driven", t_end=5.0, dt_out=0.02)
+    m = res.model
+    L = m.links[1].a
+    mid = trace_path(m, res.z, (1, (L / 2, 0.0)))
+    assert np.allclose(np.hypot(mid[:, 0], mid[:, 1]), L / 2, atol=1e-9)
+    d = 0.2
+    p = trace_path(m, res.z, (1, (d, 0.0)))
+    # block 1 on x, block 2 on y: the point at d from block 1 has semi-axes L - d (x) and d (y)
+    assert np.allclose((p[:, 0] / (L - d)) ** 2 + (p[:, 1] / d) ** 2, 1.0, atol=1e-9)
+    assert np.max(np.abs(p[:, 0])) == pytest.approx(L - d, rel=1e-2)
+    assert np.max(np.abs(p[:, 1])) == pytest.approx(d, rel=1e-2)
+
+
+def test_animate_cli_from_a_scene_and_from_a_csv(tmp_path, capsys):
+    gif = tmp_path / "fb.gif"
+    assert main(["animate", "thesis-fourbar", "--t-end", "0.4", "--fps", "10", "--out", str(gif),
+                 "--trace", "tip"]) == 0
+    from PIL import Image
+
+    im = Image.open(gif)
+    assert im.n_frames == 5
+    csv = tmp_path / "run.csv"
+    assert main(["simulate", "thesis-trammel-driven", "--t-end", "0.4", "--csv", str(csv)]) == 0
+    assert main(["animate", str(csv), "--scene", "thesis-trammel-driven", "--fps", "10",
+                 "--out", str(tmp_path / "tram.gif"), "--trace", "link3:0.4,0"]) == 0
+    capsys.readouterr()
+    assert main(["animate", str(csv), "--out", str(tmp_path / "x.gif")]) == 2
+    assert "--scene" in capsys.readouterr().err
+    assert main(["animate", "thesis-fourbar", "--t-end", "0.2", "--trace", "link9:1,0",
+                 "--out", str(tmp_path / "y.gif")]) == 2
+    assert "--trace" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is not None, reason="ffmpeg present: MP4 works")
+def test_mp4_without_ffmpeg_says_so(tmp_path, capsys):
+    assert main(["animate", "thesis-fourbar", "--t-end", "0.2", "--out", str(tmp_path / "a.mp4")]) == 2
+    assert "ffmpeg" in capsys.readouterr().err
