@@ -39,7 +39,8 @@ def main() -> None:
     # piecewise-constant input: fmpy interpolates between rows, so each jump is two rows
     times = [0.0, 3.0, 3.0, args.t_end]
     values = [3.0, 3.0, 0.0, 0.0]
-    signal = np.array(list(zip(times, values)), dtype=[("time", float), ("motor_torque", float)])
+    signal = np.array([(t, v, 0.0) for t, v in zip(times, values)],
+                      dtype=[("time", float), ("motor_torque", float), ("load_torque", float)])
     names = ["theta2", "theta3", "theta4", "theta2_d", "Fx", "Fy", "closure_error", "KE", "PE"]
     res = fmpy.simulate_fmu(args.fmu, stop_time=args.t_end, step_size=1e-3, output_interval=1e-3,
                             input=signal, output=names)

@@ -141,6 +141,20 @@ def cmd_animate(args) -> int:
     return 0
 
 
+def cmd_report(args) -> int:
+    from .report import write_report
+
+    data = np.genfromtxt(args.csv, delimiter=",", names=True)
+    if data.dtype.names is None or "t" not in data.dtype.names:
+        raise GrublerError(f"{args.csv}: not a run CSV (no 't' column)")
+    columns = {n: np.atleast_1d(data[n]) for n in data.dtype.names}
+    model = load_scene(args.scene).mechanism if args.scene else None
+    title = f"{args.scene or args.csv}: run report"
+    write_report(columns, args.out, title, model)
+    print(f"wrote {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="grubler", description="Planar four-link mechanisms by imaginary joints.")
     p.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -174,6 +188,11 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
+    r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
+    r.add_argument("csv", help="a CSV written by `grubler simulate`")
+    r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
+    r.add_argument("--out", default="report.png", help="report.png or report.pdf")
+    r.set_defaults(func=cmd_report)
     return p
 
 

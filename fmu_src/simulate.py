@@ -66,7 +66,7 @@ def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> 
     if "energy" in groups:
         cols += ["KE", "PE", "E"]
     if "dynamics" in groups:
-        cols += ["P_drive"]
+        cols += ["tau_drive", "P_drive"]
     if "reactions" in groups:
         for k in range(1, model.n_links + 1):
             cols += [f"R{k}_Fx", f"R{k}_Fy", f"R{k}_Mz"]
@@ -74,7 +74,7 @@ def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> 
 
 
 UNITS = {"t": "s", "tip_x": "m", "tip_y": "m", "closure_error": "m or rad", "Fx": "N", "Fy": "N",
-         "Mz": "N m", "KE": "J", "PE": "J", "E": "J", "P_drive": "W"}
+         "Mz": "N m", "KE": "J", "PE": "J", "E": "J", "P_drive": "W", "tau_drive": "N m or N"}
 
 
 def unit_of(column: str) -> str:
@@ -117,7 +117,8 @@ def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndar
         else:
             fx = fy = mz = 0.0
         out["Fx"], out["Fy"], out["Mz"] = fx, fy, mz
-        out["P_drive"] = inputs.drive * zd[model.free_index(model.drive)] if model.drive else 0.0
+        out["tau_drive"] = inputs.drive if model.drive else 0.0
+        out["P_drive"] = inputs.drive * zd[model.arrays.drive] if model.drive else 0.0
     if "energy" in groups:
         ke = kinetic_energy(dyn.M, zd)
         pe = potential_energy(model, dyn.mp, ck, method)

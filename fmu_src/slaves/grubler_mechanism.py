@@ -107,7 +107,7 @@ class Mechanism(Fmi2Slave):
         model = self._scene.mechanism
         for group in GROUPS:
             for col in output_columns(model, [group]):
-                if col in ("t", "E", "P_drive"):
+                if col in ("t", "E", "P_drive", "tau_drive"):
                     continue
                 self._add_output(col, group, f"{col} [{unit_of(col)}]")
         self._add_output("drive_angle", "state", "coordinate of the drive joint (relative) [rad or m]")
