@@ -167,6 +167,13 @@ SINGULAR_RCOND = 1e-10
 
 
 def _closure_multipliers(S: np.ndarray, b: np.ndarray) -> np.ndarray:
+    if S.shape == (2, 2):
+        # one closure: the 2 x 2 case in closed form; det / trace^2 is the
+        # eigenvalue ratio the cut-off below tests, to first order
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        tr = S[0, 0] + S[1, 1]
+        if det > SINGULAR_RCOND * tr * tr:
+            return np.array([S[1, 1] * b[0] - S[0, 1] * b[1], S[0, 0] * b[1] - S[1, 0] * b[0]]) / det
     w, V = np.linalg.eigh(S)
     keep = w > SINGULAR_RCOND * w[-1]
     return V[:, keep] @ ((V[:, keep].T @ b) / w[keep])

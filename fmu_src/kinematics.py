@@ -43,32 +43,24 @@ class ChainKinematics:
 
 def chain_kinematics(model: Mechanism, z: np.ndarray, zd: np.ndarray) -> ChainKinematics:
     """Recursive pass from ground to tip (MODEL.md section 2)."""
-    n = model.n_links
     q = model.q_from_z(z)
     qd = model.S @ zd
     theta = q[1::2]
     omega = qd[1::2]
     slide = q[0::2]
     slide_rate = qd[0::2]
-    origin = np.empty((n, 2))
-    origin_bias = np.empty((n, 2))
-    axis = np.empty((n, 2))
-    # predecessor of link 2 is the ground vector a1 at theta1, fixed in space
-    prev_angle, prev_omega, prev_a = model.theta1, 0.0, model.a1
-    prev_origin = np.zeros(2)
-    prev_bias = np.zeros(2)
-    for k in range(n):
-        c, s = np.cos(prev_angle), np.sin(prev_angle)
-        e = np.array([c, s])
-        e_perp = np.array([-s, c])
-        d = prev_a * e + slide[k] * e_perp
-        origin[k] = prev_origin + d
-        # d'' at zero joint acceleration: centripetal of the predecessor's turn plus
-        # the Coriolis term of a slide on a turning axis
-        origin_bias[k] = prev_bias - prev_omega**2 * d - 2.0 * prev_omega * slide_rate[k] * e
-        axis[k] = e_perp
-        prev_angle, prev_omega, prev_a = theta[k], omega[k], model.links[k].a
-        prev_origin, prev_bias = origin[k], origin_bias[k]
+    # each link hangs off its predecessor's vector end, moved along the slide axis
+    # e_perp(predecessor); link 2's predecessor is the ground vector (a1, theta1)
+    pred_angle = np.concatenate(([model.theta1], theta[:-1]))
+    pred_omega = np.concatenate(([0.0], omega[:-1]))
+    c, s = np.cos(pred_angle), np.sin(pred_angle)
+    e = np.column_stack([c, s])
+    axis = np.column_stack([-s, c])
+    d = model.arrays.a_pred[:, None] * e + slide[:, None] * axis
+    origin = np.cumsum(d, axis=0)
+    # d'' at zero joint acceleration: centripetal of the predecessor's turn plus
+    # the Coriolis term of a slide on a turning axis
+    origin_bias = np.cumsum(-(pred_omega**2)[:, None] * d - (2.0 * pred_omega * slide_rate)[:, None] * e, axis=0)
     return ChainKinematics(theta, omega, origin, origin_bias, axis, model.joint_is_revolute(), zd)
 
 

@@ -115,6 +115,7 @@ class ModelArrays:
     p: np.ndarray
     q: np.ndarray
     a: np.ndarray
+    a_pred: np.ndarray  # length of each link's predecessor vector (a1 for link 2)
     damping: np.ndarray
     revolute: np.ndarray  # bool per pair: the revolute is the real joint
     lower: np.ndarray  # (N, N) 1 where joint b moves link k (b <= k)
@@ -136,6 +137,7 @@ class ModelArrays:
             p=np.array([l.p for l in links], float),
             q=np.array([l.q for l in links], float),
             a=np.array([l.a for l in links], float),
+            a_pred=np.array([model.a1] + [l.a for l in links[:-1]], float),
             damping=np.array([l.damping for l in links], float),
             revolute=rev,
             lower=lower,
