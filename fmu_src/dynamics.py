@@ -24,10 +24,8 @@ import numpy as np
 from .kinematics import (
     ChainKinematics,
     ClosureKinematics,
-    angular_jacobian,
     chain_kinematics,
     closure_kinematics,
-    point_on_link,
     rot90,
 )
 from .model import Mechanism

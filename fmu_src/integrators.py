@@ -10,7 +10,6 @@ scipy's own table; the 5(4) pair and classic RK4 are the published tableaux.
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -148,9 +147,6 @@ class Integrator:
         self.t, self.y, self.h = snap["t"], snap["y"].copy(), snap["h"]
         self.f = None if snap["f"] is None else snap["f"].copy()
         self.n_steps, self.n_rejected, self.n_evals = snap["counts"]
-
-    def copy(self) -> "Integrator":
-        return copy.copy(self)
 
     def reset_derivative(self) -> None:
         """Forget the cached derivative (after an input changed)."""

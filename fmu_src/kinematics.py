@@ -98,14 +98,6 @@ def point_on_link(kin: ChainKinematics, k: int, local) -> tuple[np.ndarray, np.n
     return r, J, bias
 
 
-def angular_jacobian(kin: ChainKinematics, k: int) -> np.ndarray:
-    """d(theta_k)/dz: one for every real revolute from the ground up to link k."""
-    Jw = np.zeros(kin.theta.shape[0])
-    Jw[: k + 1] = kin.revolute[: k + 1]
-    return Jw
-
-
-
 def _point(model: Mechanism, kin: ChainKinematics, link: int, local):
     """Point of link ``link`` (thesis numbering; 1 is the ground, world frame)."""
     n = model.n_links
@@ -113,7 +105,7 @@ def _point(model: Mechanism, kin: ChainKinematics, link: int, local):
         return np.asarray(local, dtype=float), np.zeros((2, n)), np.zeros(2), 0.0, np.zeros(n), 0.0
     k = link - 2
     r, J, bias = point_on_link(kin, k, local)
-    return r, J, bias, kin.theta[k], angular_jacobian(kin, k), kin.omega[k]
+    return r, J, bias, kin.theta[k], model.arrays.Jw[k], kin.omega[k]
 
 
 @dataclass
@@ -165,7 +157,7 @@ def closure_kinematics(model: Mechanism, kin: ChainKinematics) -> ClosureKinemat
             else:
                 kb = cl.to_link - 2
                 p0, Jp, bp = point_on_link(kin, kb, cl.to_point)
-                thb, Jwb, wb = kin.theta[kb], angular_jacobian(kin, kb), kin.omega[kb]
+                thb, Jwb, wb = kin.theta[kb], model.arrays.Jw[kb], kin.omega[kb]
             beta = thb + cl.angle
             along = np.array([np.cos(beta), np.sin(beta)])
             normal = np.array([-along[1], along[0]])

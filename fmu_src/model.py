@@ -359,10 +359,6 @@ class Mechanism:
             prev = q[2 * i + 1]
         return rel
 
-    def absolute_angles(self, q) -> list[float]:
-        """Absolute angles theta2 .. theta_{N+1} from absolute coordinates."""
-        return [q[2 * i + 1] for i in range(len(self.links))]
-
     @property
     def n_links(self) -> int:
         """Number of moving links N."""

@@ -191,22 +191,22 @@ class Simulator:
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
         self._scale = max([1.0] + [abs(l.a) for l in m.links])
-        n = m.n_free
-        project_fn = None
-        if self.method == EXACT and m.n_constraints:
-            def project_fn(y):
-                zp, zdp = project(m, y[:n], y[n:], self._scale)
-                return np.concatenate([zp, zdp])
-        self._n = n
+        self._n = m.n_free
+        closed_exactly = self.method == EXACT and m.n_constraints > 0
         self._integ = Integrator(self._rhs, self.t0, np.concatenate([z, zd]), method=self.integrator,
                                  rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
-                                 project=project_fn)
+                                 project=self._project if closed_exactly else None)
 
     # -- the ODE -------------------------------------------------------------
     def _inputs_at(self, t: float) -> Inputs:
         if self.drive_function is None:
             return self.inputs
         return Inputs(float(self.drive_function(t)), self.inputs.load)
+
+    def _project(self, y: np.ndarray) -> np.ndarray:
+        n = self._n
+        z, zd = project(self.model, y[:n], y[n:], self._scale)
+        return np.concatenate([z, zd])
 
     def _rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         n = self._n

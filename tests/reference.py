@@ -7,7 +7,6 @@ Jacobian recursion, mass matrix or closure rows.
 from __future__ import annotations
 
 import cmath
-import math
 
 import numpy as np
 
