@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
 from typing import Sequence
 
@@ -25,9 +26,9 @@ def _positive(name: str):
         try:
             v = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: not a number: {text!r}") from None
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
         if not (v > 0 and math.isfinite(v)):
-            raise argparse.ArgumentTypeError(f"{name}: must be positive and finite, got {text}")
+            raise argparse.ArgumentTypeError(f"must be positive and finite, got {text}")
         return v
     return parse
 
@@ -37,9 +38,9 @@ def _finite(name: str):
         try:
             v = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: not a number: {text!r}") from None
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
         if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{name}: must be finite, got {text}")
+            raise argparse.ArgumentTypeError(f"must be finite, got {text}")
         return v
     return parse
 
@@ -155,10 +156,17 @@ def cmd_report(args) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad option is one line on stderr, like every other error."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="grubler", description="Planar four-link mechanisms by imaginary joints.")
+    p = _Parser(prog="grubler", description="Planar four-link mechanisms by imaginary joints.")
     p.add_argument("--debug", action="store_true", help="show tracebacks")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("presets", help="list the shipped scenes").set_defaults(func=cmd_presets)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
@@ -197,6 +205,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    if hasattr(signal, "SIGPIPE"):  # `grubler ... | head` ends quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
