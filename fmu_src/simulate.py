@@ -163,6 +163,10 @@ class Simulator:
     z0, zd0 : ndarray, optional
         Initial joint coordinates and rates; default from the model's q_ref.
         The exact method assembles them (holding the drive coordinate).
+    t0 : float
+        Start time, s.
+    max_step : float
+        Largest internal step, s.
     """
 
     model: Mechanism
@@ -174,6 +178,7 @@ class Simulator:
     z0: np.ndarray | None = None
     zd0: np.ndarray | None = None
     t0: float = 0.0
+    max_step: float = math.inf
     inputs: Inputs = field(default_factory=Inputs)
     drive_function: Callable[[float], float] | None = None
 
@@ -195,7 +200,7 @@ class Simulator:
         closed_exactly = self.method == EXACT and m.n_constraints > 0
         self._integ = Integrator(self._rhs, self.t0, np.concatenate([z, zd]), method=self.integrator,
                                  rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
-                                 project=self._project if closed_exactly else None)
+                                 project=self._project if closed_exactly else None, h_max=self.max_step)
 
     # -- the ODE -------------------------------------------------------------
     def _inputs_at(self, t: float) -> Inputs:

@@ -132,6 +132,13 @@ def scenario_bad_inputs(r: Runner) -> dict:
     return out
 
 
+def scenario_start_time(r: Runner) -> dict:
+    # a master that starts the clock at 5 s: the FMU's time follows it
+    s = r.instance("late", {"max_step": 1e-3}, start=5.0)
+    rows = r.run(s, 5.0, 6.0, 1e-2, torque=3.0, names=("theta2",))
+    return {"rows": rows}
+
+
 def scenario_simulate(r: Runner, fmu: str) -> dict:
     import fmpy
 

@@ -130,3 +130,11 @@ def test_a_second_master_libcosim_agrees_with_fmpy(fmu, tmp_path):
     assert np.allclose(rows[:, 0], fmpy_run["time"][1:], atol=1e-12)
     assert np.max(np.abs(rows[:, 1] - np.array(fmpy_run["theta2"][1:]))) < 1e-9
     assert np.max(np.abs(rows[:, 2] - np.array(fmpy_run["Fx"][1:]))) < 1e-7
+
+
+def test_start_time_other_than_zero_and_a_step_limit(fmu, tmp_path):
+    res = run_scenario("fmu_scenarios.py", "start_time", fmu, tmp_path)
+    rows = np.array(res["rows"])
+    assert np.allclose(rows[:, 0], 5.0 + library(1.0).t[1:])
+    # a time-invariant scene: the motion from 5 s equals the motion from 0 s
+    assert np.max(np.abs(rows[:, 1] - library(1.0)["theta2"][1:])) < 1e-9

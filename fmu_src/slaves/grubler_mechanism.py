@@ -66,6 +66,7 @@ class Mechanism(Fmi2Slave):
         self._outputs: dict[str, float] = {}
         self._groups_done: set[str] = set()
         self._inputs_seen = (0.0, 0.0)
+        self._start_time = 0.0
         self._register()
 
     # -- variables -----------------------------------------------------------
@@ -183,15 +184,16 @@ class Mechanism(Fmi2Slave):
         if not (self.max_step >= 0 and math.isfinite(self.max_step)):
             raise grubler.SceneError("max_step", f"must be >= 0 and finite, got {self.max_step}")
         integrator = None if self.integrator in ("", "auto") else self.integrator
-        sim = Simulator(model, method=self.method, rtol=self.rtol, atol=self.atol, integrator=integrator,
-                        zd0=model.zd_from_qd(qd))
-        if self.max_step > 0:
-            sim._integ.h_max = self.max_step
-        return sim
+        return Simulator(model, method=self.method, rtol=self.rtol, atol=self.atol, integrator=integrator,
+                         zd0=model.zd_from_qd(qd), t0=self._start_time,
+                         max_step=self.max_step if self.max_step > 0 else math.inf)
 
     def _fail(self, msg: str) -> None:
         self._error = msg
         self.log(msg, Fmi2Status.error)
+
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._start_time = float(start_time or 0.0)
 
     def exit_initialization_mode(self):
         try:
@@ -219,6 +221,9 @@ class Mechanism(Fmi2Slave):
             self.log(f"step size must be positive and finite, got {step_size}", Fmi2Status.error)
             return False
         sim = self._sim
+        if sim is None:
+            self.log("doStep before initialisation (call exitInitializationMode first)", Fmi2Status.error)
+            return False
         if abs(current_time - sim.t) > 1e-9 * max(1.0, abs(sim.t)):
             self.log(f"doStep at t = {current_time:.12g} s, but the mechanism is at t = {sim.t:.12g} s "
                      "(restore a saved FMU state to roll back)", Fmi2Status.error)
