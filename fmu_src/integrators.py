@@ -276,15 +276,24 @@ class Integrator:
         self.t, self.y, self.h, self.f = t_target, y, solver.step_size or self.h, None
 
     def advance_to(self, t_target: float, max_steps: int = 10_000_000) -> None:
-        """Step until ``t`` reaches ``t_target`` exactly."""
-        if self._tab is None:
-            if t_target > self.t:
-                self._advance_implicit(t_target)
-            return
-        steps = 0
-        while t_target - self.t > 1e-12 * max(1.0, abs(t_target)):
-            self.step(t_target)
-            steps += 1
-            if steps > max_steps:
-                raise IntegrationError(f"more than {max_steps} steps before t = {t_target:.6g} s")
-        self.t = t_target
+        """Step until ``t`` reaches ``t_target`` exactly.
+
+        All or nothing: if it fails, the integrator is left where it started, so a
+        caller (an FMU asked to retry with a shorter step) can go on from there.
+        """
+        start = self.snapshot()
+        try:
+            if self._tab is None:
+                if t_target > self.t:
+                    self._advance_implicit(t_target)
+                return
+            steps = 0
+            while t_target - self.t > 1e-12 * max(1.0, abs(t_target)):
+                self.step(t_target)
+                steps += 1
+                if steps > max_steps:
+                    raise IntegrationError(f"more than {max_steps} steps before t = {t_target:.6g} s")
+            self.t = t_target
+        except BaseException:
+            self.restore(start)
+            raise

@@ -188,3 +188,17 @@ def test_change_point_linkage_passes_its_aligned_position():
     res = grubler.simulate("fourbar-change-point", t_end=5.0, dt_out=0.01)
     assert np.max(res["closure_error"]) < 1e-10
     assert np.all(np.isfinite(res["Fx"]))
+
+
+def test_a_failed_advance_leaves_the_simulator_where_it_was():
+    # a step limit so small that 10 steps cannot reach the target: the advance
+    # fails, and the state is the one before it
+    scene = grubler.load_scene("thesis-fourbar")
+    sim = Simulator(scene.mechanism, max_step=1e-4)
+    sim.advance_to(0.01)
+    before = (sim.t, sim.z.copy(), sim.zd.copy())
+    with pytest.raises(grubler.IntegrationError, match="more than 10 steps"):
+        sim._integ.advance_to(0.1, max_steps=10)
+    assert (sim.t, list(sim.z), list(sim.zd)) == (before[0], list(before[1]), list(before[2]))
+    sim.advance_to(0.02)  # and it goes on from there
+    assert sim.t == 0.02
