@@ -125,6 +125,9 @@ def scenario_bad_inputs(r: Runner) -> dict:
     s.setReal([r.vr["motor_torque"]], [1.0])
     out["after_nan"] = _status(lambda: s.doStep(0.1, 0.01))
     out["messages_nan"] = list(r.messages)
+    r.messages.clear()
+    out["zero_step"] = _status(lambda: s.doStep(0.11, 0.0))
+    out["messages_zero_step"] = list(r.messages)
     for key, params in (("param", {"link2.m": -1.0}), ("scene", {"mechanism": "no-such-mechanism"})):
         r.messages.clear()
         out[f"bad_{key}"] = _status(lambda: r.instance(f"bad{key}", params).doStep(0.0, 0.01))

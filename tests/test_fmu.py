@@ -115,6 +115,8 @@ def test_bad_inputs_give_a_status_and_a_logged_message(fmu, tmp_path):
     assert "status 2 (discard)" in res["nan_step"]
     assert any("motor_torque is nan" in m for m in res["messages_nan"])
     assert res["after_nan"] == "ok"
+    assert "status 2 (discard)" in res["zero_step"]
+    assert any("step size must be positive" in m for m in res["messages_zero_step"])
     assert "status 2 (discard)" in res["bad_param"]
     assert any("link2.m: mass must be positive" in m for m in res["messages_param"])
     assert "status 2 (discard)" in res["bad_scene"]
