@@ -26,7 +26,11 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
     built = []
     with tempfile.TemporaryDirectory(prefix="grubler_fmu_") as tmp:
         package = Path(tmp) / "grubler"
-        shutil.copytree(HERE / "fmu_src", package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        skip = shutil.ignore_patterns("__pycache__", "*.pyc")
+        shutil.copytree(HERE / "fmu_src", package, ignore=skip)
+        # the same mapping as pyproject's package-dir: grubler.motors, grubler.controllers
+        for sub in ("motors", "controllers"):
+            shutil.copytree(HERE / sub, package / sub, ignore=skip)
         for name, script in SLAVES.items():
             if names and name not in names:
                 continue

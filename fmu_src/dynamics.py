@@ -80,7 +80,10 @@ def _masses(model: Mechanism) -> tuple[np.ndarray, np.ndarray]:
 
 def mass_matrix(model: Mechanism, mp: MassProperties) -> np.ndarray:
     m, inertia = _masses(model)
-    return np.einsum("k,kai,kaj->ij", m, mp.Jc, mp.Jc) + np.einsum("k,ki,kj->ij", inertia, mp.Jw, mp.Jw)
+    M = np.einsum("k,kai,kaj->ij", m, mp.Jc, mp.Jc) + np.einsum("k,ki,kj->ij", inertia, mp.Jw, mp.Jw)
+    if model.arrays.drive_inertia:
+        M[model.arrays.drive, model.arrays.drive] += model.arrays.drive_inertia
+    return M
 
 
 def bias_force(model: Mechanism, mp: MassProperties) -> np.ndarray:

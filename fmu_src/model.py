@@ -124,6 +124,7 @@ class ModelArrays:
     closure_damping: np.ndarray
     drive: int  # index in z, -1 for none
     load: int
+    drive_inertia: float  # reflected rotor inertia on z[drive]
 
     @staticmethod
     def of(model: "Mechanism") -> "ModelArrays":
@@ -146,6 +147,7 @@ class ModelArrays:
             closure_damping=np.repeat([float(c.damping) for c in model.closures], 2),
             drive=-1 if model.drive is None else model.free_index(model.drive),
             load=-1 if model.load is None else model.free_index(model.load),
+            drive_inertia=float(model.drive_inertia),
         )
 
 
@@ -191,6 +193,11 @@ class Mechanism:
     drive, load : str or None
         Coordinate names (e.g. ``'theta2'``) of the real joints a motor and a
         load act on.
+    drive_inertia : float
+        Inertia a motor adds to the drive joint (kg m^2, or kg on a slide): the
+        rotor's inertia times the gear ratio squared.  It belongs in the
+        mechanism's mass matrix, not in a motor model one communication step
+        away, because the rotor often outweighs the linkage.
     name, kind, description : str
         Labels: preset name, mechanism type, free text.
     """
@@ -203,6 +210,7 @@ class Mechanism:
     gravity: float = G_STANDARD
     drive: str | None = None
     load: str | None = None
+    drive_inertia: float = 0.0
     name: str = ""
     kind: str = ""
     description: str = ""
@@ -235,6 +243,12 @@ class Mechanism:
         self._validate_closures()
         self._build_structure()
         self._validate_topology()
+        j = _finite("drive.inertia", self.drive_inertia)
+        if j < 0:
+            raise SceneError("drive.inertia", f"must be >= 0, got {j}")
+        if j > 0 and self.drive is None:
+            raise SceneError("drive.inertia", "a drive inertia needs the joint it acts on")
+        object.__setattr__(self, "drive_inertia", j)
         for role in ("drive", "load"):
             joint = getattr(self, role)
             if joint is not None:
@@ -433,7 +447,7 @@ class Mechanism:
     def replace(self, **changes) -> "Mechanism":
         """A copy with some fields changed (re-validated)."""
         kw = {f: getattr(self, f) for f in (
-            "links", "closures", "q_ref", "a1", "theta1", "gravity", "drive", "load",
+            "links", "closures", "q_ref", "a1", "theta1", "gravity", "drive", "load", "drive_inertia",
             "name", "kind", "description")}
         kw.update(changes)
         return Mechanism(**kw)

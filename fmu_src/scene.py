@@ -206,7 +206,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     qd0 = [parse_angle_or_number(initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
     drive = _table(data, "drive")
     load = _table(data, "load")
-    _check_keys(drive, {"joint", "torque"}, "drive")
+    _check_keys(drive, {"joint", "torque", "inertia"}, "drive")
     _check_keys(load, {"joint", "torque"}, "load")
     drive_joint = drive.get("joint", built.get("drive"))
     mechanism = Mechanism(
@@ -217,6 +217,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         theta1=parse_angle_or_number(ground.get("theta1", 0.0), "ground.theta1"),
         gravity=parse_angle_or_number(data.get("gravity", 9.81), "gravity"),
         drive=drive_joint,
+        drive_inertia=parse_angle_or_number(drive.get("inertia", 0.0), "drive.inertia"),
         load=load.get("joint"),
         name=str(data.get("name", name)),
         kind=str(data.get("kind", "")),

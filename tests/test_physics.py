@@ -3,6 +3,7 @@ conservation laws, closed-form solutions, an independent Newton-Euler
 free-body solve (tests/reference.py) and a separate static analysis."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -202,3 +203,27 @@ def test_a_failed_advance_leaves_the_simulator_where_it_was():
     assert (sim.t, list(sim.z), list(sim.zd)) == (before[0], list(before[1]), list(before[2]))
     sim.advance_to(0.02)  # and it goes on from there
     assert sim.t == 0.02
+
+
+def test_drive_inertia_is_a_flywheel_on_a_ground_pivoted_crank():
+    # the crank turns about the ground pivot, so a rotor inertia J reflected onto its
+    # joint must act exactly as J added to the crank's own centroidal inertia
+    base = grubler.load_scene("thesis-fourbar")
+    J = 0.05
+    m = base.mechanism
+    with_rotor = m.replace(drive_inertia=J)
+    heavier_crank = m.replace(links=(replace(m.links[0], I=m.links[0].I + J),) + m.links[1:])
+    runs = []
+    for model in (with_rotor, heavier_crank):
+        sim = Simulator(model, inputs=grubler.Inputs(3.0, 0.0))
+        runs.append([sim.advance_to(t) or sim.z.copy() for t in (0.5, 1.0, 2.0)])
+    np.testing.assert_allclose(runs[0], runs[1], atol=1e-8)
+    # and it really changes the motion
+    free = Simulator(m, inputs=grubler.Inputs(3.0, 0.0))
+    free.advance_to(1.0)
+    assert abs(free.z[0] - runs[0][1][0]) > 1e-2
+
+
+def test_negative_drive_inertia_is_refused_by_name():
+    with pytest.raises(grubler.SceneError, match="drive.inertia"):
+        grubler.load_scene("thesis-fourbar").mechanism.replace(drive_inertia=-1.0)

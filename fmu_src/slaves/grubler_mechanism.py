@@ -93,6 +93,8 @@ class Mechanism(Fmi2Slave):
         self._param_real("closure.damping", "penalty closure damping C [N s/m, N m s/rad]")
         self._param_string("drive_joint", "real joint the motor acts on (e.g. theta2)")
         self._param_string("load_joint", "real joint the load acts on ('' for none)")
+        self._param_real("drive.inertia", "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2 "
+                                          "[kg m2, or kg on a slide]")
         for name in coordinate_names(N_LINKS):
             unit = unit_of(name)
             self._param_real(f"initial.{name}", f"initial {name} [{unit}] (a guess for the dependent ones)")
@@ -147,6 +149,8 @@ class Mechanism(Fmi2Slave):
             return m.drive
         if name == "load_joint":
             return m.load
+        if name == "drive.inertia":
+            return m.drive_inertia
         if name.startswith("initial."):
             coord = name.split(".")[1]
             names = m.coordinate_names
@@ -176,7 +180,8 @@ class Mechanism(Fmi2Slave):
         qd = m.S @ scene.initial_rates
         qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, qd)]
         model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
-                          drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None)
+                          drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
+                          drive_inertia=ov.get("drive.inertia", m.drive_inertia))
         for name in ("rtol", "atol"):
             v = getattr(self, name)
             if not (v > 0 and math.isfinite(v)):

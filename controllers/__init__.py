@@ -1,0 +1,1 @@
+"""Controllers and transducers for a grubler mechanism (``grubler.controllers``)."""

@@ -1,0 +1,1 @@
+"""Motor models that drive a grubler mechanism (``grubler.motors``)."""
