@@ -116,6 +116,16 @@ class Mechanism(Fmi2Slave):
         self._add_output("drive_angle", "state", "coordinate of the drive joint (relative) [rad or m]")
         self._add_output("drive_speed", "state", "rate of the drive joint [rad/s or m/s]")
 
+    def feedthrough(self) -> dict[str, list[str]]:
+        """Outputs that depend on this instant's inputs; the rest are states.
+
+        build_fmu.py writes this into the model description's dependencies, so a
+        master can order a loop through the mechanism (angles and rates do not
+        depend on the torque applied now; accelerations and forces do).
+        """
+        inputs = ["motor_torque", "load_torque"]
+        return {n: inputs for n, g in self._output_group.items() if g in ("dynamics", "reactions")}
+
     def _add_output(self, name, group, text):
         self._output_group[name] = group
         var = Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
