@@ -18,6 +18,7 @@ import numpy as np
 from .analysis import classify
 from .assembly import assemble
 from .errors import GrublerError
+from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
 from .simulate import output_columns, simulate
 
@@ -111,18 +112,6 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _read_run_csv(path: str, model):
-    """Times and joint coordinates from a CSV written by `grubler simulate`."""
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    names = model.coordinate_names
-    missing = [n for n in ["t"] + names if n not in (data.dtype.names or ())]
-    if missing:
-        raise GrublerError(f"{path}: missing columns {', '.join(missing)} (is it a `grubler simulate` CSV "
-                           "of this scene?)")
-    q = np.column_stack([data[n] for n in names])
-    return np.atleast_1d(data["t"]), np.array([model.z_from_q(row) for row in q])
-
-
 def cmd_animate(args) -> int:
     from .animation import animate
 
@@ -131,7 +120,8 @@ def cmd_animate(args) -> int:
             raise GrublerError("--scene: a CSV holds coordinates only; name the scene it came from "
                                "(a preset or TOML file) to draw it")
         scene = load_scene(args.scene)
-        t, zs = _read_run_csv(args.source, scene.mechanism)
+        cols = read_run_csv(args.source, scene.mechanism)
+        t, zs = cols["t"], coordinates(cols, scene.mechanism)
     else:
         scene = load_scene(args.source)
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
@@ -146,11 +136,8 @@ def cmd_animate(args) -> int:
 def cmd_report(args) -> int:
     from .report import write_report
 
-    data = np.genfromtxt(args.csv, delimiter=",", names=True)
-    if data.dtype.names is None or "t" not in data.dtype.names:
-        raise GrublerError(f"{args.csv}: not a run CSV (no 't' column)")
-    columns = {n: np.atleast_1d(data[n]) for n in data.dtype.names}
     model = load_scene(args.scene).mechanism if args.scene else None
+    columns = read_run_csv(args.csv, model)
     title = f"{args.scene or args.csv}: run report"
     write_report(columns, args.out, title, model)
     print(f"wrote {args.out}")
@@ -205,7 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plot", help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
     a = sub.add_parser("animate", help="draw a scene's motion (or a simulate CSV) to a GIF or MP4")
-    a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate`")
+    a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate` or `cosim`")
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
     a.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
     a.add_argument("--fps", type=_positive("--fps"), default=25.0, help="frames per second of film")
@@ -215,7 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
-    r.add_argument("csv", help="a CSV written by `grubler simulate`")
+    r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
     r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
     r.add_argument("--out", default="report.png", help="report.png or report.pdf")
     r.set_defaults(func=cmd_report)

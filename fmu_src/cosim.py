@@ -494,6 +494,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         for inst in insts.values():
             _call(inst, "exit initialisation mode", inst.fmu.exitInitializationMode, t0)
 
+        # connected inputs are recorded too: their value is the output feeding them
+        for c in system.connections:
+            if c.end not in units:
+                columns.append(c.end)
+                col_src.append(("", slot[c.start]))
+                units[c.end] = units.get(c.start, "")
         n_steps = int(math.floor((t_end - t0) / step + 1e-9))
         if t0 + n_steps * step < t_end - 1e-9 * step:
             n_steps += 1  # a last, shorter step lands on t_end
@@ -501,6 +507,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         times = np.empty(n_rec)
         data = np.empty((n_rec, len(columns)))
         col_index = {n: [(j, i) for j, (c, i) in enumerate(col_src) if c == n] for n in seq}
+        input_cols = [(j, i) for j, (c, i) in enumerate(col_src) if c == ""]
         k = 0
 
         def record_row(t):
@@ -511,6 +518,8 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
                 buf = insts[name].pull(True)
                 for j, i in col_index[name]:
                     row[j] = buf[i]
+            for j, i in input_cols:
+                row[j] = values[i]
             k += 1
 
         for name in seq:  # outputs after initialisation, with inputs consistent

@@ -159,3 +159,23 @@ def test_the_cli_names_the_problem_and_exits_2(mechanism_fmu, tmp_path):
     assert proc.returncode == 2
     assert "unit mismatch a.drive_speed -> a.motor_torque" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
+    from grubler.runs import coordinates, read_run_csv
+
+    s = ssp.System("alone", stop_time=0.5, step=0.01)
+    s.add("arm", mechanism_fmu)
+    proc = run_cli(s.write(tmp_path / "alone.ssd"), "--csv", tmp_path / "run.csv")
+    assert proc.returncode == 0, proc.stderr
+    scene = grubler.load_scene("thesis-fourbar")
+    cols = read_run_csv(str(tmp_path / "run.csv"), scene.mechanism)
+    lib = grubler.simulate(scene, t_end=0.5, dt_out=0.01)
+    assert np.max(np.abs(coordinates(cols, scene.mechanism) - lib.z)) < 1e-9
+    assert np.max(np.abs(cols["E"] - lib["E"])) < 1e-8
+    for cmd in (["report", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "r.png"],
+                ["animate", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "a.gif",
+                 "--fps", "10"]):
+        p = subprocess.run([sys.executable, "-m", "grubler.cli", *map(str, cmd)], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "r.png").stat().st_size > 10_000 and (tmp_path / "a.gif").stat().st_size > 10_000
