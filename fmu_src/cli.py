@@ -161,6 +161,32 @@ def cmd_cosim(args) -> int:
     return 0
 
 
+def cmd_sweep(args) -> int:
+    import functools
+
+    from .scene import override
+    from .sweep import grid, parse_axis, run_sweep, scene_point
+
+    axes = dict(parse_axis(a) for a in args.set)
+    scene = load_scene(args.scene)
+    override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
+    func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
+    table = run_sweep(func, grid(**axes), out=args.out, workers=args.workers, scheduler=args.scheduler,
+                      resume=not args.no_resume, retry_failed=args.retry_failed)
+    n = len(table.rows)
+    print(f"{n} points ({table.resumed} from the journal, {len(table.failed)} failed) on {table.workers} "
+          f"in {table.wall_time:.2f} s" + (f"; wrote {args.out}" if args.out else ""))
+    shown = table.inputs + [c for c in ("final_drive_angle", "peak_drive_speed", "peak_closure_force")
+                            if c in table.metrics] + ["status"]
+    print("  ".join(f"{c[:18]:>18}" for c in shown))
+    for r in table.rows[:20]:
+        print("  ".join(f"{r.get(c):>18.6g}" if isinstance(r.get(c), float) else f"{str(r.get(c))[:18]:>18}"
+                        for c in shown))
+    for r in table.failed[:5]:
+        print(f"failed {', '.join(f'{k}={r[k]}' for k in table.inputs)}: {r['error']}")
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, but a bad option is one line on stderr, like every other error."""
 
@@ -206,6 +232,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
     r.add_argument("--out", default="report.png", help="report.png or report.pdf")
     r.set_defaults(func=cmd_report)
+    w = sub.add_parser("sweep", help="run a scene over a grid of parameters, in parallel or on Dask")
+    w.add_argument("scene", help="preset name or TOML file")
+    w.add_argument("--set", action="append", required=True, metavar="NAME=VALUES",
+                   help="an axis: NAME=V1,V2,... or NAME=START:STOP:N (e.g. link2.a=0.15:0.25:5); repeat")
+    w.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="simulated time per point, s")
+    w.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
+    w.add_argument("--out", help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
+    w.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    w.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    w.add_argument("--no-resume", action="store_true", help="ignore the journal of an earlier run")
+    w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
+    w.set_defaults(func=cmd_sweep)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
     c.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the system's)")

@@ -72,3 +72,16 @@ def test_bad_scene_file_names_the_field(tmp_path, capsys):
     assert "longest link" in err
     with pytest.raises(Exception):
         main(["--debug", "simulate", str(bad)])
+
+
+def test_sweep_runs_a_grid_writes_a_table_and_names_bad_axes(capsys, tmp_path):
+    out = tmp_path / "sweep.csv"
+    code, text, _ = run(capsys, "sweep", "thesis-fourbar", "--set", "link2.a=0.15:0.25:3", "--set",
+                        "drive.torque=0,3", "--t-end", "0.2", "--workers", "1", "--out", str(out))
+    assert code == 0
+    assert "6 points (0 from the journal, 0 failed) on 1 process" in text
+    rows = list(csv.DictReader(open(out)))
+    assert [(r["link2.a"], r["drive.torque"]) for r in rows][:2] == [("0.15", "0.0"), ("0.15", "3.0")]
+    assert all(r["status"] == "ok" for r in rows)
+    code, _, err = run(capsys, "sweep", "thesis-fourbar", "--set", "link2.mass=1,2")
+    assert code == 2 and "link2.mass: no such parameter of this scene" in err
