@@ -17,7 +17,8 @@ from pathlib import Path
 from pythonfmu.builder import FmuBuilder
 
 HERE = Path(__file__).resolve().parent
-SLAVES = {"Mechanism": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py"}
+SLAVES = {"Mechanism": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
+          "DCMotor": HERE / "motors" / "grubler_dc_motor.py"}
 
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:

@@ -46,7 +46,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from grubler.errors import SceneError
-from grubler.motors.motor_data import MotorData, _check
+from grubler.motors.motor_data import MotorData, check_number
 
 _LIMIT_TOL = 1e-12  # relative: a current this close to I_max is at the limit
 
@@ -67,10 +67,10 @@ class Gearbox:
     efficiency: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "ratio", _check("gear_ratio", self.ratio))
+        object.__setattr__(self, "ratio", check_number("gear_ratio", self.ratio))
         if self.ratio < 1.0:
             raise SceneError("gear_ratio", f"must be >= 1 (a reduction), got {self.ratio}")
-        object.__setattr__(self, "efficiency", _check("gear_efficiency", self.efficiency))
+        object.__setattr__(self, "efficiency", check_number("gear_efficiency", self.efficiency))
         if self.efficiency > 1.0:
             raise SceneError("gear_efficiency", f"must be in (0, 1], got {self.efficiency}")
 
@@ -91,8 +91,8 @@ class Drive:
     current_limit: float = math.inf
 
     def __post_init__(self):
-        object.__setattr__(self, "supply_voltage", _check("supply_voltage", self.supply_voltage))
-        object.__setattr__(self, "current_limit", _check("current_limit", self.current_limit, allow_inf=True))
+        object.__setattr__(self, "supply_voltage", check_number("supply_voltage", self.supply_voltage))
+        object.__setattr__(self, "current_limit", check_number("current_limit", self.current_limit, allow_inf=True))
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ class DCMotor:
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
             raise SceneError("ambient_temperature", f"must be a finite number, got {t!r}")
         object.__setattr__(self, "ambient_temperature", float(t))
-        object.__setattr__(self, "max_substep", _check("max_substep", self.max_substep))
+        object.__setattr__(self, "max_substep", check_number("max_substep", self.max_substep))
         _check_temperature("ambient_temperature", self.data, self.ambient_temperature)
 
     @property

@@ -49,7 +49,7 @@ NO_LOAD_TOLERANCE = 0.03
 RPM = math.pi / 30.0  # rad/s per rpm
 
 
-def _check(field: str, value, *, positive: bool = True, allow_inf: bool = False,
+def check_number(field: str, value, *, positive: bool = True, allow_inf: bool = False,
            optional: bool = False) -> float | None:
     """A finite float (positive, or >= 0), or SceneError naming `field`."""
     if value is None:
@@ -156,9 +156,9 @@ max_speed, max_winding_temperature : float or None
             raise SceneError("source", "must name where the figures come from")
         for f in ("resistance", "inductance", "torque_constant", "back_emf_constant", "rotor_inertia",
                   "thermal_resistance", "thermal_time_constant", "smoothing_speed"):
-            object.__setattr__(self, f, _check(f, getattr(self, f)))
+            object.__setattr__(self, f, check_number(f, getattr(self, f)))
         for f in ("viscous_friction", "coulomb_friction", "temperature_coefficient"):
-            object.__setattr__(self, f, _check(f, getattr(self, f), positive=False))
+            object.__setattr__(self, f, check_number(f, getattr(self, f), positive=False))
         for f in ("reference_temperature", "max_winding_temperature"):  # degC: any sign
             t = getattr(self, f)
             if t is None and f == "max_winding_temperature":
@@ -168,7 +168,7 @@ max_speed, max_winding_temperature : float or None
             object.__setattr__(self, f, float(t))
         for f in ("nominal_voltage", "nominal_torque", "nominal_speed", "no_load_speed", "stall_torque",
                   "max_speed"):
-            object.__setattr__(self, f, _check(f, getattr(self, f), optional=True))
+            object.__setattr__(self, f, check_number(f, getattr(self, f), optional=True))
         mismatch = self.back_emf_constant / self.torque_constant - 1.0
         if abs(mismatch) > KE_KT_TOLERANCE:
             raise SceneError("back_emf_constant",
@@ -296,13 +296,13 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
         >>> round(m.back_emf_constant, 5)        # 1 / (191 rpm/V in rad/s/V)
         0.05
         """
-        R = _check("terminal_resistance_ohm", terminal_resistance_ohm)
-        L = _check("terminal_inductance_mH", terminal_inductance_mH) * 1e-3
-        kt = _check("torque_constant_mNm_per_A", torque_constant_mNm_per_A) * 1e-3
-        J = _check("rotor_inertia_gcm2", rotor_inertia_gcm2) * 1e-7
-        U = _check("nominal_voltage_V", nominal_voltage_V, optional=True)
+        R = check_number("terminal_resistance_ohm", terminal_resistance_ohm)
+        L = check_number("terminal_inductance_mH", terminal_inductance_mH) * 1e-3
+        kt = check_number("torque_constant_mNm_per_A", torque_constant_mNm_per_A) * 1e-3
+        J = check_number("rotor_inertia_gcm2", rotor_inertia_gcm2) * 1e-7
+        U = check_number("nominal_voltage_V", nominal_voltage_V, optional=True)
         derived = []
-        kn = _check("speed_constant_rpm_per_V", speed_constant_rpm_per_V, optional=True)
+        kn = check_number("speed_constant_rpm_per_V", speed_constant_rpm_per_V, optional=True)
         if kn is None:
             ke = kt
             derived.append("k_e = k_t (no speed constant given)")
@@ -318,15 +318,15 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
         if no_load_current_mA is not None and friction_torque_mNm is not None:
             raise SceneError("friction_torque_mNm", "give the friction torque or the no-load current, not both")
         if friction_torque_mNm is not None:
-            tau_c = _check("friction_torque_mNm", friction_torque_mNm, positive=False) * 1e-3
+            tau_c = check_number("friction_torque_mNm", friction_torque_mNm, positive=False) * 1e-3
             i0 = tau_c / kt
         elif no_load_current_mA is not None:
-            i0 = _check("no_load_current_mA", no_load_current_mA, positive=False) * 1e-3
+            i0 = check_number("no_load_current_mA", no_load_current_mA, positive=False) * 1e-3
             tau_c = kt * i0
             derived.append("Coulomb friction = k_t x no-load current")
         else:
             tau_c = i0 = 0.0
-        b = _check("viscous_damping_uNm_per_rpm", viscous_damping_uNm_per_rpm, positive=False) * 1e-6 / RPM
+        b = check_number("viscous_damping_uNm_per_rpm", viscous_damping_uNm_per_rpm, positive=False) * 1e-6 / RPM
 
         one = (thermal_resistance_K_per_W, thermal_time_constant_s)
         two = (thermal_resistance_winding_housing_K_per_W, thermal_resistance_housing_ambient_K_per_W,
@@ -335,23 +335,23 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
             raise SceneError("thermal_resistance_K_per_W",
                              "give the one-node (R_th, tau_th) or the two-node datasheet constants, not both")
         if any(v is not None for v in two):
-            r1 = _check("thermal_resistance_winding_housing_K_per_W", two[0])
-            r2 = _check("thermal_resistance_housing_ambient_K_per_W", two[1])
-            tw = _check("thermal_time_constant_winding_s", two[2])
-            tm = _check("thermal_time_constant_motor_s", two[3])
+            r1 = check_number("thermal_resistance_winding_housing_K_per_W", two[0])
+            r2 = check_number("thermal_resistance_housing_ambient_K_per_W", two[1])
+            tw = check_number("thermal_time_constant_winding_s", two[2])
+            tm = check_number("thermal_time_constant_motor_s", two[3])
             r_th, tau_th = r1 + r2, two_node_slow_time_constant(r1, r2, tw, tm)
             derived.append(f"R_th = R_th1 + R_th2; tau_th = {tau_th:.4g} s, the slow mode of the two-node "
                            "network (R_th1, R_th2, tau_w, tau_m)")
         else:
-            r_th = _check("thermal_resistance_K_per_W", one[0])
-            tau_th = _check("thermal_time_constant_s", one[1])
+            r_th = check_number("thermal_resistance_K_per_W", one[0])
+            tau_th = check_number("thermal_time_constant_s", one[1])
 
         def speed(field, v):
-            v = _check(field, v, optional=True)
+            v = check_number(field, v, optional=True)
             return None if v is None else v * RPM
 
         def torque(field, v):
-            v = _check(field, v, optional=True)
+            v = check_number(field, v, optional=True)
             return None if v is None else v * 1e-3
 
         n0, n_nom, n_max = (speed("no_load_speed_rpm", no_load_speed_rpm),
@@ -371,11 +371,17 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
                                  f"(more than {100 * NO_LOAD_TOLERANCE:g} % apart: a mistyped figure?)")
         if m_nom is not None and m_stall is not None and m_nom > m_stall:
             raise SceneError("nominal_torque_mNm", f"{nominal_torque_mNm:g} mNm exceeds the stall torque")
+        smoothing = check_number("smoothing_speed_rad_per_s", smoothing_speed_rad_per_s)
+        alpha = check_number("temperature_coefficient_per_K", temperature_coefficient_per_K, positive=False)
+        for field, t in (("reference_temperature_degC", reference_temperature_degC),
+                         ("max_winding_temperature_degC", max_winding_temperature_degC)):
+            if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t)):
+                raise SceneError(field, f"must be a finite number, got {t!r}")
         all_notes = "; ".join([s for s in (notes.strip(),) if s] + derived)
         return cls(name=name, source=source, resistance=R, inductance=L, torque_constant=kt, back_emf_constant=ke,
                    rotor_inertia=J, viscous_friction=b, coulomb_friction=tau_c,
-                   smoothing_speed=smoothing_speed_rad_per_s, thermal_resistance=r_th,
-                   thermal_time_constant=tau_th, temperature_coefficient=temperature_coefficient_per_K,
+                   smoothing_speed=smoothing, thermal_resistance=r_th,
+                   thermal_time_constant=tau_th, temperature_coefficient=alpha,
                    reference_temperature=reference_temperature_degC, notes=all_notes, nominal_voltage=U,
                    nominal_torque=m_nom, nominal_speed=n_nom, no_load_speed=n0, stall_torque=m_stall,
                    max_speed=n_max, max_winding_temperature=max_winding_temperature_degC)
