@@ -28,6 +28,7 @@ from pythonfmu.builder import FmuBuilder
 HERE = Path(__file__).resolve().parent
 SLAVES = {
     "Mechanism": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
+    "DCMotor": HERE / "motors" / "grubler_dc_motor.py",
 }
 
 
