@@ -339,6 +339,30 @@ def shaft_torque(motor: DCMotor, current: float, motor_speed: float) -> float:
     return g.ratio * tau_m * g.efficiency ** direction
 
 
+def current_for_torque(motor: DCMotor, torque, motor_speed):
+    """Winding current [A] that gives gearbox output `torque` [N m] at `motor_speed` [rad/s].
+
+    The inverse of :func:`shaft_torque`, elementwise over arrays: the gearbox
+    factor keeps the sign of the motor torque, so the direction of power flow
+    is known from the output torque and the speed.
+
+    Examples
+    --------
+    >>> from grubler.motors import load_motor
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(ratio=10.0, efficiency=0.8))
+    >>> i = current_for_torque(m, 2.0, 500.0)
+    >>> round(float(shaft_torque(m, float(i), 500.0)), 12)
+    2.0
+    """
+    import numpy as np
+
+    d, g = motor.data, motor.gear
+    torque, w = np.asarray(torque, float), np.asarray(motor_speed, float)
+    direction = np.tanh(np.sign(torque) * w / d.smoothing_speed)
+    tau_m = torque / (g.ratio * g.efficiency ** direction)
+    return (tau_m + d.viscous_friction * w + d.coulomb_friction * np.tanh(w / d.smoothing_speed)) / d.torque_constant
+
+
 def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
          dt: float) -> tuple[MotorState, MotorOutputs]:
     """Advance the motor by `dt` [s] holding `voltage` [V] and `shaft_speed` [rad/s].
