@@ -187,6 +187,55 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def cmd_size(args) -> int:
+    from .motors import list_motors, load_motor
+    from .sizing import DutyCycle, size
+    from .sweep import parse_axis
+
+    scene = load_scene(args.scene)
+    model = scene.mechanism
+    if args.load_torque and model.load is None:
+        model = model.replace(load=model.drive)  # a load on the drive joint itself
+    start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
+    if args.move:
+        from .controllers.trajectory import Trajectory
+
+        traj = Trajectory(args.move, distance=args.distance, v_max=args.v_max, a_max=args.a_max, j_max=args.j_max,
+                          dwell=args.dwell, repeat=2 if args.reverse else 1, reverse=args.reverse)
+        period = (traj.move_time + args.dwell) * (2 if args.reverse else 1)
+        cycle = DutyCycle.from_trajectory(traj, period, load=args.load_torque, start=start,
+                                          name=f"{args.move} move of {args.distance:g} rad"
+                                               + (" and back" if args.reverse else ""))
+    else:
+        cycle = DutyCycle.constant_speed(args.speed, load=args.load_torque, start=start)
+    names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
+    _, ratios = parse_axis(f"ratios={args.ratios}")
+    study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
+                 supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient)
+    d = study.demand
+    print(f"{scene.name}, {cycle.name}: drive joint torque {d.torque.min():.4g} to {d.torque.max():.4g} N m, "
+          f"speed up to {abs(d.velocity).max():.4g} rad/s (period {cycle.period:.4g} s)")
+    print(f"{len(study.ranked)} of {len(study.assessments)} motor x ratio combinations fit; best first:")
+    for k, a in enumerate(study.ranked[:10]):
+        r = a.summary()
+        print(f"  {k + 1:2d}. {a.candidate.label:<26} margin {a.min_margin:5.2f} ({a.binding}); peak "
+              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, {r['peak_motor_speed'] * 30 / math.pi:.0f} rpm, "
+              f"winding +{r['temperature_rise']:.3g} K")
+    rejected = [a for a in study.assessments if not a.feasible]
+    for a in rejected[: 10 if args.verbose else 5]:
+        print(f"  x  {a.candidate.label:<26} {a.failures[0]}" + (f" (+{len(a.failures) - 1} more)"
+                                                               if len(a.failures) > 1 else ""))
+    if len(rejected) > 5 and not args.verbose:
+        print(f"  ... {len(rejected) - 5} more rejected (the table has every reason)")
+    if args.out:
+        study.write_csv(args.out)
+        print(f"wrote {args.out}")
+    if args.plot:
+        study.plot(args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, but a bad option is one line on stderr, like every other error."""
 
@@ -244,6 +293,30 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--no-resume", action="store_true", help="ignore the journal of an earlier run")
     w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
     w.set_defaults(func=cmd_sweep)
+    z = sub.add_parser("size", help="size a motor and gear ratio for a drive duty cycle")
+    z.add_argument("scene", help="preset name or TOML file (its drive joint is the one sized)")
+    z.add_argument("--speed", type=_finite("--speed"), default=2 * math.pi,
+                   help="constant drive speed, rad/s (default one turn per second)")
+    z.add_argument("--move", choices=["trapezoid", "scurve"], help="a rest-to-rest move instead of a constant speed")
+    z.add_argument("--distance", type=_finite("--distance"), default=math.pi, help="move length, rad")
+    z.add_argument("--v-max", type=_positive("--v-max"), default=2 * math.pi, help="move speed limit, rad/s")
+    z.add_argument("--a-max", type=_positive("--a-max"), default=20.0, help="move acceleration limit, rad/s2")
+    z.add_argument("--j-max", type=_positive("--j-max"), default=400.0, help="scurve jerk limit, rad/s3")
+    z.add_argument("--dwell", type=_finite("--dwell"), default=0.5, help="rest after each move, s")
+    z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
+    z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
+                   help="load on the load joint (the drive joint if the scene has none), N m")
+    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see grubler.motors)")
+    z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
+    z.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
+    z.add_argument("--supply", type=_positive("--supply"), help="supply voltage, V (default: each motor's nominal)")
+    z.add_argument("--current-limit", type=_positive("--current-limit"), default=math.inf,
+                   help="the drive's current limit, A")
+    z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
+    z.add_argument("--out", help="write every combination's numbers and reasons to this CSV")
+    z.add_argument("--plot", help="write envelopes and margin against ratio to this PNG")
+    z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
+    z.set_defaults(func=cmd_size)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
     c.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the system's)")
