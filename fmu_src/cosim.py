@@ -190,75 +190,30 @@ def _depends_now(interfaces: dict[str, FmuInterface], elem: str, output: str) ->
 def order(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
     """Gauss-Seidel order: a component after those whose outputs it reads.
 
-    Within a feedback loop the edge leaving a state output (one that does not
-    depend on its component's inputs now) is cut.  A loop left after that is
-    algebraic: every output on it depends on an input now.
+    Where a feedback loop leaves no component ready, the first one (in the
+    system's own order) whose pending inputs all come from outputs that do not
+    depend on an input at the same instant (states: the mechanism's angle, a
+    sampled controller's held output) goes next, reading those outputs from the
+    last communication point.  A loop with no such component is algebraic: every
+    output on it depends on an input now, and it is reported by name.
     """
     names = list(system.components)
-    edges = {(c.start_element, c.end_element, c.start, c.end) for c in system.connections
-             if c.start_element != c.end_element}
-    # strongly connected components (Tarjan) find the loops
-    sccs = _sccs(names, {(a, b) for a, b, *_ in edges})
-    scc_of = {n: i for i, comp in enumerate(sccs) for n in comp}
-    kept = set()
-    for a, b, start, end in edges:
-        in_loop = scc_of[a] == scc_of[b]
-        if in_loop and not _depends_now(interfaces, a, start.split(".", 1)[1]):
-            continue
-        kept.add((a, b))
-    sccs2 = _sccs(names, kept)
-    for comp in sccs2:
-        if len(comp) > 1:
+    edges = [(c.start_element, c.end_element, c.start_connector) for c in system.connections
+             if c.start_element != c.end_element]
+    placed: list[str] = []
+    while len(placed) < len(names):
+        left = [n for n in names if n not in placed]
+        pending = {n: [(a, o) for a, b, o in edges if b == n and a not in placed] for n in left}
+        ready = [n for n in left if not pending[n]]
+        if not ready:
+            ready = [n for n in left if all(not _depends_now(interfaces, a, o) for a, o in pending[n])]
+        if not ready:
             loop = [f"{c.start} -> {c.end}" for c in system.connections
-                    if c.start_element in comp and c.end_element in comp]
+                    if c.start_element in left and c.end_element in left]
             raise SystemDescriptionError("algebraic loop: every output on it depends on an input at the same "
                                          "instant, so no order can break it: " + "; ".join(loop))
-    # Kahn, stable in the system's own order
-    indeg = {n: 0 for n in names}
-    for a, b in kept:
-        indeg[b] += 1
-    out, ready = [], [n for n in names if indeg[n] == 0]
-    while ready:
-        n = ready.pop(0)
-        out.append(n)
-        for a, b in sorted(kept, key=lambda e: names.index(e[1])):
-            if a == n:
-                indeg[b] -= 1
-                if indeg[b] == 0:
-                    ready.append(b)
-                    ready.sort(key=names.index)
-    return out
-
-
-def _sccs(nodes: list[str], edges: set[tuple[str, str]]) -> list[list[str]]:
-    succ = {n: [b for a, b in edges if a == n] for n in nodes}
-    index, low, stack, on, result, counter = {}, {}, [], set(), [], [0]
-
-    def visit(v):
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on.add(v)
-        for w in succ[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            result.append(comp)
-
-    for n in nodes:
-        if n not in index:
-            visit(n)
-    return result
+        placed.append(ready[0])
+    return placed
 
 
 # -- running -------------------------------------------------------------------------
