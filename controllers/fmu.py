@@ -196,6 +196,10 @@ if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
 from grubler.controllers.fmu import LawSlave  # noqa: E402
 from {module} import {name} as _Law  # noqa: E402
 
+# pythonfmu 0.7's loader executes this file again at every instantiation and then
+# releases a reference to this namespace it never took: take one per execution.
+globals().setdefault("_loader_references", []).append(globals())
+
 
 class {name}(LawSlave):
     law = _Law

@@ -123,8 +123,9 @@ class LinearController(Law):
                 data = tomllib.loads(state_space)
             except tomllib.TOMLDecodeError as exc:
                 raise SceneError("state_space", f"not valid TOML: {exc}") from None
+            matrices = [_matrix(data, k) for k in "ABCD"]
             try:
-                system = control.ss(*(_matrix(data, k) for k in "ABCD"), dt)
+                system = control.ss(*matrices, dt)
             except ValueError as exc:
                 raise SceneError("state_space", f"inconsistent matrices: {exc}") from None
         else:
