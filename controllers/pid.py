@@ -32,7 +32,9 @@ In z, with b = c = 1 and no limits, this is the transfer function from e to u
   limited and the increment would push it further into the limit;
 - ``'none'``.
 
-Ti = 0 and Td = 0 switch the integral and derivative actions off.
+Ti = 0 and Td = 0 switch the integral and derivative actions off.  In
+co-simulation the PID samples at its own Ts, several times per communication
+step or holding its output between samples (:mod:`grubler.controllers.law`).
 
 Examples
 --------
