@@ -1,4 +1,4 @@
-"""Command line: ``grubler presets | info | simulate``.
+"""Command line: ``grubler presets | info | simulate | animate | report | cosim``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import signal
 import sys
 from typing import Sequence
@@ -17,6 +18,7 @@ import numpy as np
 from .analysis import classify
 from .assembly import assemble
 from .errors import GrublerError
+from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
 from .simulate import output_columns, simulate
 
@@ -110,18 +112,6 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _read_run_csv(path: str, model):
-    """Times and joint coordinates from a CSV written by `grubler simulate`."""
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    names = model.coordinate_names
-    missing = [n for n in ["t"] + names if n not in (data.dtype.names or ())]
-    if missing:
-        raise GrublerError(f"{path}: missing columns {', '.join(missing)} (is it a `grubler simulate` CSV "
-                           "of this scene?)")
-    q = np.column_stack([data[n] for n in names])
-    return np.atleast_1d(data["t"]), np.array([model.z_from_q(row) for row in q])
-
-
 def cmd_animate(args) -> int:
     from .animation import animate
 
@@ -130,7 +120,8 @@ def cmd_animate(args) -> int:
             raise GrublerError("--scene: a CSV holds coordinates only; name the scene it came from "
                                "(a preset or TOML file) to draw it")
         scene = load_scene(args.scene)
-        t, zs = _read_run_csv(args.source, scene.mechanism)
+        cols = read_run_csv(args.source, scene.mechanism)
+        t, zs = cols["t"], coordinates(cols, scene.mechanism)
     else:
         scene = load_scene(args.source)
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
@@ -145,14 +136,103 @@ def cmd_animate(args) -> int:
 def cmd_report(args) -> int:
     from .report import write_report
 
-    data = np.genfromtxt(args.csv, delimiter=",", names=True)
-    if data.dtype.names is None or "t" not in data.dtype.names:
-        raise GrublerError(f"{args.csv}: not a run CSV (no 't' column)")
-    columns = {n: np.atleast_1d(data[n]) for n in data.dtype.names}
     model = load_scene(args.scene).mechanism if args.scene else None
+    columns = read_run_csv(args.csv, model)
     title = f"{args.scene or args.csv}: run report"
     write_report(columns, args.out, title, model)
     print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_cosim(args) -> int:
+    from .cosim import run
+
+    record = args.record.split(",") if args.record else None
+    res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record)
+    steps = len(res.t) - 1
+    print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({res.master}, "
+          f"order {' -> '.join(res.order)}): {res.wall_time:.3f} s wall")
+    if args.csv:
+        res.to_csv(args.csv)
+        print(f"wrote {args.csv}: {len(res.columns)} signals, {steps + 1} rows")
+    if args.plot:
+        res.plot(args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def cmd_sweep(args) -> int:
+    import functools
+
+    from .scene import override
+    from .sweep import grid, parse_axis, run_sweep, scene_point
+
+    axes = dict(parse_axis(a) for a in args.set)
+    scene = load_scene(args.scene)
+    override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
+    func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
+    table = run_sweep(func, grid(**axes), out=args.out, workers=args.workers, scheduler=args.scheduler,
+                      resume=not args.no_resume, retry_failed=args.retry_failed)
+    n = len(table.rows)
+    print(f"{n} points ({table.resumed} from the journal, {len(table.failed)} failed) on {table.workers} "
+          f"in {table.wall_time:.2f} s" + (f"; wrote {args.out}" if args.out else ""))
+    shown = table.inputs + [c for c in ("final_drive_angle", "peak_drive_speed", "peak_closure_force")
+                            if c in table.metrics] + ["status"]
+    print("  ".join(f"{c[:18]:>18}" for c in shown))
+    for r in table.rows[:20]:
+        print("  ".join(f"{r.get(c):>18.6g}" if isinstance(r.get(c), float) else f"{str(r.get(c))[:18]:>18}"
+                        for c in shown))
+    for r in table.failed[:5]:
+        print(f"failed {', '.join(f'{k}={r[k]}' for k in table.inputs)}: {r['error']}")
+    return 0
+
+
+def cmd_size(args) -> int:
+    from .motors import list_motors, load_motor
+    from .sizing import DutyCycle, size
+    from .sweep import parse_axis
+
+    scene = load_scene(args.scene)
+    model = scene.mechanism
+    if args.load_torque and model.load is None:
+        model = model.replace(load=model.drive)  # a load on the drive joint itself
+    start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
+    if args.move:
+        from .controllers.trajectory import Trajectory
+
+        traj = Trajectory(args.move, distance=args.distance, v_max=args.v_max, a_max=args.a_max, j_max=args.j_max,
+                          dwell=args.dwell, repeat=2 if args.reverse else 1, reverse=args.reverse)
+        period = (traj.move_time + args.dwell) * (2 if args.reverse else 1)
+        cycle = DutyCycle.from_trajectory(traj, period, load=args.load_torque, start=start,
+                                          name=f"{args.move} move of {args.distance:g} rad"
+                                               + (" and back" if args.reverse else ""))
+    else:
+        cycle = DutyCycle.constant_speed(args.speed, load=args.load_torque, start=start)
+    names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
+    _, ratios = parse_axis(f"ratios={args.ratios}")
+    study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
+                 supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient)
+    d = study.demand
+    print(f"{scene.name}, {cycle.name}: drive joint torque {d.torque.min():.4g} to {d.torque.max():.4g} N m, "
+          f"speed up to {abs(d.velocity).max():.4g} rad/s (period {cycle.period:.4g} s)")
+    print(f"{len(study.ranked)} of {len(study.assessments)} motor x ratio combinations fit; best first:")
+    for k, a in enumerate(study.ranked[:10]):
+        r = a.summary()
+        print(f"  {k + 1:2d}. {a.candidate.label:<26} margin {a.min_margin:5.2f} ({a.binding}); peak "
+              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, {r['peak_motor_speed'] * 30 / math.pi:.0f} rpm, "
+              f"winding +{r['temperature_rise']:.3g} K")
+    rejected = [a for a in study.assessments if not a.feasible]
+    for a in rejected[: 10 if args.verbose else 5]:
+        print(f"  x  {a.candidate.label:<26} {a.failures[0]}" + (f" (+{len(a.failures) - 1} more)"
+                                                               if len(a.failures) > 1 else ""))
+    if len(rejected) > 5 and not args.verbose:
+        print(f"  ... {len(rejected) - 5} more rejected (the table has every reason)")
+    if args.out:
+        study.write_csv(args.out)
+        print(f"wrote {args.out}")
+    if args.plot:
+        study.plot(args.plot)
+        print(f"wrote {args.plot}")
     return 0
 
 
@@ -187,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plot", help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
     a = sub.add_parser("animate", help="draw a scene's motion (or a simulate CSV) to a GIF or MP4")
-    a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate`")
+    a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate` or `cosim`")
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
     a.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
     a.add_argument("--fps", type=_positive("--fps"), default=25.0, help="frames per second of film")
@@ -197,10 +277,56 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
-    r.add_argument("csv", help="a CSV written by `grubler simulate`")
+    r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
     r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
     r.add_argument("--out", default="report.png", help="report.png or report.pdf")
     r.set_defaults(func=cmd_report)
+    w = sub.add_parser("sweep", help="run a scene over a grid of parameters, in parallel or on Dask")
+    w.add_argument("scene", help="preset name or TOML file")
+    w.add_argument("--set", action="append", required=True, metavar="NAME=VALUES",
+                   help="an axis: NAME=V1,V2,... or NAME=START:STOP:N (e.g. link2.a=0.15:0.25:5); repeat")
+    w.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="simulated time per point, s")
+    w.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
+    w.add_argument("--out", help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
+    w.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    w.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    w.add_argument("--no-resume", action="store_true", help="ignore the journal of an earlier run")
+    w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
+    w.set_defaults(func=cmd_sweep)
+    z = sub.add_parser("size", help="size a motor and gear ratio for a drive duty cycle")
+    z.add_argument("scene", help="preset name or TOML file (its drive joint is the one sized)")
+    z.add_argument("--speed", type=_finite("--speed"), default=2 * math.pi,
+                   help="constant drive speed, rad/s (default one turn per second)")
+    z.add_argument("--move", choices=["trapezoid", "scurve"], help="a rest-to-rest move instead of a constant speed")
+    z.add_argument("--distance", type=_finite("--distance"), default=math.pi, help="move length, rad")
+    z.add_argument("--v-max", type=_positive("--v-max"), default=2 * math.pi, help="move speed limit, rad/s")
+    z.add_argument("--a-max", type=_positive("--a-max"), default=20.0, help="move acceleration limit, rad/s2")
+    z.add_argument("--j-max", type=_positive("--j-max"), default=400.0, help="scurve jerk limit, rad/s3")
+    z.add_argument("--dwell", type=_finite("--dwell"), default=0.5, help="rest after each move, s")
+    z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
+    z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
+                   help="load on the load joint (the drive joint if the scene has none), N m")
+    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see grubler.motors)")
+    z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
+    z.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
+    z.add_argument("--supply", type=_positive("--supply"), help="supply voltage, V (default: each motor's nominal)")
+    z.add_argument("--current-limit", type=_positive("--current-limit"), default=math.inf,
+                   help="the drive's current limit, A")
+    z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
+    z.add_argument("--out", help="write every combination's numbers and reasons to this CSV")
+    z.add_argument("--plot", help="write envelopes and margin against ratio to this PNG")
+    z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
+    z.set_defaults(func=cmd_size)
+    c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
+    c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
+    c.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the system's)")
+    c.add_argument("--step", type=_positive("--step"), help="communication step, s (default: the system's)")
+    c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
+                   help="stepping order (default gauss-seidel)")
+    c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
+    c.add_argument("--csv", help="write every recorded output to this CSV file")
+    c.add_argument("--plot", help="write the system's plot to this PNG file")
+    c.set_defaults(func=cmd_cosim)
     return p
 
 
@@ -210,12 +336,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        code = args.func(args)
     except (GrublerError, OSError) as exc:
         if args.debug:
             raise
         print(f"grubler: error: {exc}", file=sys.stderr)
-        return 2
+        code = 2
+    if args.command == "cosim":
+        # pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit
+        # (upstream PythonFMU issue 228) after correct results: leave without
+        # the interpreter's teardown so that the exit status is the run's
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

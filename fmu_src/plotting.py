@@ -45,3 +45,31 @@ def plot_result(res: Result, path: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_panels(t, panels, path: str, title: str = "") -> None:
+    """Stacked time plots sharing the time axis.
+
+    Parameters
+    ----------
+    t : array
+    panels : list of (title, [(label, values, unit), ...])
+    path : str
+        PNG (or any format matplotlib writes) to save.
+    """
+    n = max(len(panels), 1)
+    fig, axes = plt.subplots(n, 1, figsize=(10, 2.3 * n + 0.8), sharex=True, squeeze=False)
+    for ax, (name, lines) in zip(axes[:, 0], panels):
+        units = sorted({u for _, _, u in lines if u})
+        for label, values, unit in lines:
+            ax.plot(t, values, label=label, lw=1.2)
+        ax.set_ylabel(f"{name}" + (f" [{', '.join(units)}]" if units and f"[{units[0]}]" not in name else ""))
+        if lines:
+            ax.legend(fontsize=8, loc="best")
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -40,6 +40,8 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None,
         out.append(("peak |drive speed|", f"{np.max(np.abs(columns[f'{drive}_d'])):.4g} /s"))
     if "current" in columns:
         out.append(("peak |motor current|", f"{np.max(np.abs(columns['current'])):.4g} A"))
+    if "voltage" in columns:
+        out.append(("peak |motor voltage|", f"{np.max(np.abs(columns['voltage'])):.4g} V"))
     if "Fx" in columns and "Fy" in columns:
         out.append(("peak closing-joint force", f"{np.max(np.hypot(columns['Fx'], columns['Fy'])):.4g} N"))
     if "E" in columns:
@@ -60,7 +62,8 @@ def write_report(columns: dict[str, np.ndarray], out: str, title: str = "",
     Parameters
     ----------
     columns : dict of str to ndarray
-        A run's columns, as a `grubler simulate` CSV holds them (``t`` required).
+        A run's columns in simulate vocabulary (``t`` required; see
+        :func:`grubler.runs.read_run_csv`, which also reads cosim CSVs).
     out : str
         Output file; ``.pdf`` writes a PDF, anything else a PNG.
     model : Mechanism, optional
@@ -89,8 +92,9 @@ def write_report(columns: dict[str, np.ndarray], out: str, title: str = "",
     if drive:
         panel(gs[0, 0], [drive], f"drive {drive} [{unit_of(drive)}]")
         panel(gs[0, 1], [f"{drive}_d"], f"drive speed [{unit_of(drive + '_d')}]")
-    panel(gs[0, 2], ["tau_drive", "current"] if "current" in columns else ["tau_drive"],
-          "drive torque [N m]" + (" / current [A]" if "current" in columns else ""))
+    motor = [c for c in ("current", "voltage") if c in columns]
+    panel(gs[0, 2], ["tau_drive"] + motor,
+          "drive torque [N m]" + "".join(f" / {c} [{'A' if c == 'current' else 'V'}]" for c in motor))
     panel(gs[1, 0], ["Fx", "Fy", "Mz"], "closing-joint force [N, N m]")
     panel(gs[1, 1], ["KE", "PE", "E"], "energy [J]")
     ax = panel(gs[1, 2], [], "closure violation [m or rad]")

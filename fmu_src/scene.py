@@ -291,3 +291,111 @@ def load_scene(source: str | Path) -> Scene:
 def with_overrides(scene: Scene, **changes) -> Scene:
     """A copy of a scene with some run settings changed."""
     return replace(scene, **changes)
+
+
+_LINK_PARAMS = ("a", "p", "q", "m", "I", "damping")
+
+
+def parameter_names(scene: Scene) -> list[str]:
+    """The dotted names :func:`override` and :func:`parameter` accept for a scene.
+
+    Examples
+    --------
+    >>> names = parameter_names(load_scene("thesis-fourbar"))
+    >>> [n for n in names if n.startswith("link2.")]
+    ['link2.a', 'link2.p', 'link2.q', 'link2.m', 'link2.I', 'link2.damping']
+    """
+    m = scene.mechanism
+    names = ["gravity"]
+    for k in range(2, m.n_links + 2):
+        names += [f"link{k}.{f}" for f in _LINK_PARAMS]
+    if m.closures:
+        names += ["closure.gain", "closure.damping"]
+    names += ["drive_joint", "load_joint", "drive.inertia", "drive.torque", "load.torque"]
+    for x in m.coordinate_names:
+        names += [f"initial.{x}", f"initial.{x}_d"]
+    return names
+
+
+def parameter(scene: Scene, name: str):
+    """A scene's value of one dotted parameter (see :func:`parameter_names`)."""
+    m = scene.mechanism
+    if name == "gravity":
+        return m.gravity
+    if name in ("drive_joint", "load_joint"):
+        return getattr(m, name.split("_")[0])
+    if name == "drive.inertia":
+        return m.drive_inertia
+    if name == "drive.torque":
+        return scene.torque
+    if name == "load.torque":
+        return scene.load_torque
+    head, _, field_ = name.partition(".")
+    if head.startswith("link") and head[4:].isdigit() and field_ in _LINK_PARAMS:
+        k = int(head[4:]) - 2
+        if 0 <= k < m.n_links:
+            return getattr(m.links[k], field_)
+    if head == "closure" and field_ in ("gain", "damping") and m.closures:
+        return getattr(m.closures[0], field_)
+    if head == "initial":
+        names = m.coordinate_names
+        if field_ in names:
+            return m.q_ref[names.index(field_)]
+        if field_.endswith("_d") and field_[:-2] in names:
+            return float((m.S @ scene.initial_rates)[names.index(field_[:-2])])
+    raise SceneError(name, f"no such parameter of this scene (it has: {', '.join(parameter_names(scene))})")
+
+
+def override(scene: Scene, values: dict) -> Scene:
+    """A copy of a scene with dotted parameters changed, re-validated.
+
+    Parameters
+    ----------
+    scene : Scene
+    values : dict
+        ``{'link2.a': 0.25, 'initial.theta2_d': 3.0, 'drive_joint': 'theta2', ...}``;
+        an empty string for ``drive_joint`` / ``load_joint`` means none.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    SceneError
+        Naming the parameter, for an unknown name or a value the model refuses.
+
+    Examples
+    --------
+    >>> s = override(load_scene("thesis-fourbar"), {"link2.m": 1.5, "drive.torque": 2.0})
+    >>> s.mechanism.links[0].m, s.torque
+    (1.5, 2.0)
+    """
+    known = set(parameter_names(scene))
+    for name in values:
+        if name not in known:
+            parameter(scene, name)  # raises with the list of known names
+    m = scene.mechanism
+    ov = dict(values)
+    links = tuple(replace(link, **{f: ov[f"link{i + 2}.{f}"] for f in _LINK_PARAMS if f"link{i + 2}.{f}" in ov})
+                  for i, link in enumerate(m.links))
+    closures = m.closures
+    if closures and ("closure.gain" in ov or "closure.damping" in ov):
+        first = replace(closures[0], gain=ov.get("closure.gain", closures[0].gain),
+                        damping=ov.get("closure.damping", closures[0].damping))
+        closures = (first,) + closures[1:]
+    names = m.coordinate_names
+    q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
+    qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, m.S @ scene.initial_rates)]
+    model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
+                      drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
+                      drive_inertia=ov.get("drive.inertia", m.drive_inertia))
+    out = replace(scene, mechanism=model, initial_rates=model.zd_from_qd(qd),
+                  torque=parse_angle_or_number(ov.get("drive.torque", scene.torque), "drive.torque"),
+                  load_torque=parse_angle_or_number(ov.get("load.torque", scene.load_torque), "load.torque"))
+    if out.torque != 0.0 and model.drive is None:
+        raise SceneError("drive.torque", "a drive torque needs the joint it acts on")
+    if out.load_torque != 0.0 and model.load is None:
+        raise SceneError("load.torque", "a load torque needs the joint it acts on")
+    return out
+

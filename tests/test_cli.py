@@ -72,3 +72,29 @@ def test_bad_scene_file_names_the_field(tmp_path, capsys):
     assert "longest link" in err
     with pytest.raises(Exception):
         main(["--debug", "simulate", str(bad)])
+
+
+def test_sweep_runs_a_grid_writes_a_table_and_names_bad_axes(capsys, tmp_path):
+    out = tmp_path / "sweep.csv"
+    code, text, _ = run(capsys, "sweep", "thesis-fourbar", "--set", "link2.a=0.15:0.25:3", "--set",
+                        "drive.torque=0,3", "--t-end", "0.2", "--workers", "1", "--out", str(out))
+    assert code == 0
+    assert "6 points (0 from the journal, 0 failed) on 1 process" in text
+    rows = list(csv.DictReader(open(out)))
+    assert [(r["link2.a"], r["drive.torque"]) for r in rows][:2] == [("0.15", "0.0"), ("0.15", "3.0")]
+    assert all(r["status"] == "ok" for r in rows)
+    code, _, err = run(capsys, "sweep", "thesis-fourbar", "--set", "link2.mass=1,2")
+    assert code == 2 and "link2.mass: no such parameter of this scene" in err
+
+
+def test_size_ranks_motors_and_says_why_others_fail(capsys, tmp_path):
+    code, text, _ = run(capsys, "size", "thesis-fourbar", "--motors", "maxon-re40-148877", "--ratios", "10,50",
+                        "--supply", "48", "--current-limit", "10", "--out", str(tmp_path / "s.csv"))
+    assert code == 0
+    assert "1 of 2 motor x ratio combinations fit" in text
+    assert "1. maxon-re40-148877 x 50" in text
+    assert "x  maxon-re40-148877 x 10     peak current: needs 13.47 A, limit 10 A" in text
+    rows = list(csv.DictReader(open(tmp_path / "s.csv")))
+    assert [r["feasible"] for r in rows] == ["False", "True"]
+    code, _, err = run(capsys, "size", "thesis-fourbar", "--motors", "no-such-motor")
+    assert code == 2 and "no-such-motor" in err

@@ -190,3 +190,18 @@ def test_docs_example_is_valid():
     assert blocks
     for block in blocks:
         load_scene(textwrap.dedent(block))
+
+
+def test_dotted_overrides_name_what_is_wrong():
+    from grubler.scene import override
+
+    scene = grubler.load_scene("thesis-fourbar")
+    with pytest.raises(grubler.SceneError, match=r"link7\.m: no such parameter of this scene \(it has: gravity"):
+        override(scene, {"link7.m": 1.0})
+    with pytest.raises(grubler.SceneError, match=r"link2\.m: mass must be positive"):
+        override(scene, {"link2.m": -1.0})
+    with pytest.raises(grubler.SceneError, match=r"drive\.torque: a drive torque needs the joint"):
+        override(scene, {"drive_joint": "", "drive.torque": 1.0})
+    s = override(scene, {"initial.theta2_d": 2.0, "link3.a": 0.9, "gravity": 0.0})
+    assert s.mechanism.links[1].a == 0.9 and s.mechanism.gravity == 0.0
+    assert s.initial_rates[s.mechanism.free_index("theta2")] == 2.0

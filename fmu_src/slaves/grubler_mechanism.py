@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 import pickle
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 # inside the FMU the package sits beside this script, in resources/
@@ -30,7 +29,7 @@ from pythonfmu.enums import Fmi2Status  # noqa: E402
 import grubler  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.model import coordinate_names  # noqa: E402
-from grubler.scene import load_scene  # noqa: E402
+from grubler.scene import load_scene, override, parameter  # noqa: E402
 from grubler.simulate import GROUPS, Simulator, output_columns, unit_of  # noqa: E402
 
 N_LINKS = 3  # the FMU's variables are those of a four-link mechanism
@@ -116,6 +115,16 @@ class Mechanism(Fmi2Slave):
         self._add_output("drive_angle", "state", "coordinate of the drive joint (relative) [rad or m]")
         self._add_output("drive_speed", "state", "rate of the drive joint [rad/s or m/s]")
 
+    def feedthrough(self) -> dict[str, list[str]]:
+        """Outputs that depend on this instant's inputs; the rest are states.
+
+        build_fmu.py writes this into the model description's dependencies, so a
+        master can order a loop through the mechanism (angles and rates do not
+        depend on the torque applied now; accelerations and forces do).
+        """
+        inputs = ["motor_torque", "load_torque"]
+        return {n: inputs for n, g in self._output_group.items() if g in ("dynamics", "reactions")}
+
     def _add_output(self, name, group, text):
         self._output_group[name] = group
         var = Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
@@ -137,28 +146,9 @@ class Mechanism(Fmi2Slave):
     def _param(self, name: str):
         if name in self._overrides:
             return self._overrides[name]
-        m = self._scene.mechanism
-        if name == "gravity":
-            return m.gravity
-        if name.startswith("link"):
-            k, f = name[4:].split(".")
-            return getattr(m.links[int(k) - 2], f)
-        if name.startswith("closure."):
-            return getattr(m.closures[0], name.split(".")[1]) if m.closures else math.nan
-        if name == "drive_joint":
-            return m.drive
-        if name == "load_joint":
-            return m.load
-        if name == "drive.inertia":
-            return m.drive_inertia
-        if name.startswith("initial."):
-            coord = name.split(".")[1]
-            names = m.coordinate_names
-            if coord.endswith("_d"):
-                qd = m.S @ self._scene.initial_rates
-                return float(qd[names.index(coord[:-2])])
-            return m.q_ref[names.index(coord)]
-        raise KeyError(name)
+        if name.startswith("closure.") and not self._scene.mechanism.closures:
+            return math.nan
+        return parameter(self._scene, name)
 
     # -- set-up ----------------------------------------------------------------
     def _build(self) -> Simulator:
@@ -167,21 +157,8 @@ class Mechanism(Fmi2Slave):
             raise grubler.SceneError("mechanism", f"this FMU is built for {N_LINKS} moving links, "
                                                   f"the scene has {scene.mechanism.n_links}")
         self._scene = scene
-        m = scene.mechanism
-        ov = self._overrides
-        links = tuple(replace(l, **{f: ov[f"link{i + 2}.{f}"] for f in LINK_FIELDS if f"link{i + 2}.{f}" in ov})
-                      for i, l in enumerate(m.links))
-        closures = m.closures
-        if closures and ("closure.gain" in ov or "closure.damping" in ov):
-            closures = (replace(closures[0], gain=ov.get("closure.gain", closures[0].gain),
-                                damping=ov.get("closure.damping", closures[0].damping)),) + closures[1:]
-        names = m.coordinate_names
-        q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
-        qd = m.S @ scene.initial_rates
-        qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, qd)]
-        model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
-                          drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
-                          drive_inertia=ov.get("drive.inertia", m.drive_inertia))
+        configured = override(scene, self._overrides)
+        model = configured.mechanism
         for name in ("rtol", "atol"):
             v = getattr(self, name)
             if not (v > 0 and math.isfinite(v)):
@@ -190,7 +167,7 @@ class Mechanism(Fmi2Slave):
             raise grubler.SceneError("max_step", f"must be >= 0 and finite, got {self.max_step}")
         integrator = None if self.integrator in ("", "auto") else self.integrator
         return Simulator(model, method=self.method, rtol=self.rtol, atol=self.atol, integrator=integrator,
-                         zd0=model.zd_from_qd(qd), t0=self._start_time,
+                         zd0=configured.initial_rates, t0=self._start_time,
                          max_step=self.max_step if self.max_step > 0 else math.inf)
 
     def _fail(self, msg: str) -> None:

@@ -1,0 +1,390 @@
+"""Motor sizing: which motor and gear ratio a linkage's duty cycle needs, with what margin.
+
+The drive joint's duty cycle (a move profile repeated, a constant speed, or a
+recorded trajectory) and the loads give, by :func:`grubler.inverse.drive_demand`,
+the torque and speed the drive joint needs over the cycle.  For each candidate
+motor and gear ratio the motor side follows without another simulation, because
+the rotor inertia enters the drive joint's equation linearly (``J N² a``) and the
+gearbox and winding are algebraic:
+
+- motor speed ``N w``, current from :func:`grubler.motors.current_for_torque`
+  (gearbox efficiency in the direction of power flow, motor friction);
+- terminal voltage ``R(T) i + k_e N w + L di/dt`` with the winding at its hottest;
+- winding temperature: the periodic steady state of the one-node thermal model
+  over endlessly repeated cycles (with R(T)), solved exactly cycle by cycle;
+- margins, each a limit over what the cycle needs (1 is exactly enough): peak
+  current (the drive's current limit, or the stall current), RMS torque against
+  the continuous (nominal) torque, peak speed, peak voltage against the supply,
+  peak winding temperature rise against the allowed one.  A speed or
+  temperature limit the motor's data set does not give cannot be checked, and
+  the candidate is not called feasible on it (without a nominal torque, the
+  thermal check stands for the continuous one).
+
+Feasible combinations are ranked by their smallest margin (most headroom
+first); the others say which limit they break and by how much.
+
+Examples
+--------
+>>> import numpy as np
+>>> from grubler import load_scene
+>>> from grubler.motors import load_motor
+>>> m = load_scene("thesis-fourbar").mechanism
+>>> cycle = DutyCycle.constant_speed(2 * np.pi, n=200)
+>>> study = size(m, cycle, [load_motor("maxon-re40-148877")], ratios=[20, 50], supply_voltage=48.0)
+>>> [(a.candidate.ratio, a.feasible) for a in study.assessments]
+[(20, False), (50, True)]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SceneError
+from .inverse import DriveDemand, drive_demand
+from .model import Mechanism
+
+
+@dataclass
+class DutyCycle:
+    """One period of the drive joint's motion, repeated endlessly, and its load.
+
+    Attributes
+    ----------
+    t, position, velocity, acceleration, load : ndarray
+        Samples over one period (``t`` from 0 to the period, both ends).
+    name : str
+    """
+
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    load: np.ndarray
+    name: str = ""
+
+    @property
+    def period(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @staticmethod
+    def from_trajectory(trajectory, period: float, n: int = 1001, load=0.0, start: float | None = None,
+                        name: str = "") -> "DutyCycle":
+        """Sample anything with ``evaluate(t) -> (position, velocity, acceleration)``.
+
+        E.g. a :class:`grubler.controllers.Trajectory` move with its dwell,
+        ``period`` = move time + dwell (twice that for a back-and-forth move).
+        ``start`` is the position offset added (default: none).
+        """
+        if not (period > 0 and math.isfinite(period)):
+            raise SceneError("duty_cycle.period", f"must be positive and finite, got {period}")
+        t = np.linspace(0.0, period, int(n))
+        pva = np.array([trajectory.evaluate(float(tk)) for tk in t])
+        load = np.broadcast_to(np.asarray(load, float), t.shape).copy()
+        return DutyCycle(t, pva[:, 0] + (start or 0.0), pva[:, 1], pva[:, 2], load, name)
+
+    @staticmethod
+    def constant_speed(speed: float, n: int = 721, load=0.0, start: float = 0.0) -> "DutyCycle":
+        """One turn (2 pi) of the drive joint at constant ``speed`` (rad/s)."""
+        if not (speed != 0 and math.isfinite(speed)):
+            raise SceneError("duty_cycle.speed", f"must be non-zero and finite, got {speed}")
+        t = np.linspace(0.0, 2 * math.pi / abs(speed), int(n))
+        load = np.broadcast_to(np.asarray(load, float), t.shape).copy()
+        return DutyCycle(t, start + speed * t, np.full_like(t, speed), np.zeros_like(t), load,
+                         f"constant {speed:g} rad/s")
+
+    @staticmethod
+    def recorded(t, position, load=0.0, name: str = "recorded") -> "DutyCycle":
+        """A recorded trajectory, differentiated through a periodic-free cubic spline."""
+        from scipy.interpolate import CubicSpline
+
+        t, position = np.asarray(t, float), np.asarray(position, float)
+        if len(t) < 4 or len(t) != len(position) or np.any(np.diff(t) <= 0):
+            raise SceneError("duty_cycle.t", "needs at least 4 samples at increasing times, one position each")
+        spline = CubicSpline(t, position)
+        load = np.broadcast_to(np.asarray(load, float), t.shape).copy()
+        return DutyCycle(t - t[0], position, spline(t, 1), spline(t, 2), load, name)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A motor, a gear ratio and the power stage it would run on."""
+
+    motor: object  # grubler.motors.MotorData
+    ratio: float
+    efficiency: float = 0.9
+    supply_voltage: float = 48.0
+    current_limit: float = math.inf
+
+    @property
+    def label(self) -> str:
+        return f"{self.motor.name} x {self.ratio:g}"
+
+
+@dataclass
+class Assessment:
+    """What one candidate needs over the cycle and its margins."""
+
+    candidate: Candidate
+    motor_torque: np.ndarray  # at the motor shaft, N m
+    motor_speed: np.ndarray  # rad/s
+    current: np.ndarray  # A
+    voltage: np.ndarray  # V
+    temperature: np.ndarray  # winding, periodic steady state, degC
+    margins: dict[str, float]
+    needs: dict[str, tuple[float, float, str]]  # name -> (needed, limit, unit)
+    ambient: float
+
+    @property
+    def feasible(self) -> bool:
+        return all(v >= 1.0 for v in self.margins.values())
+
+    @property
+    def binding(self) -> str:
+        return min(self.margins, key=self.margins.get)
+
+    @property
+    def min_margin(self) -> float:
+        return min(self.margins.values())
+
+    @property
+    def failures(self) -> list[str]:
+        out = []
+        for k, v in self.margins.items():
+            if v < 1.0:
+                need, limit, unit = self.needs[k]
+                out.append(f"{k}: needs {need:.4g} {unit}, " + (
+                    "the data set gives no limit to check it against" if math.isnan(limit)
+                    else f"limit {limit:.4g} {unit}"))
+        return out
+
+    def summary(self) -> dict[str, float | str]:
+        """The study table's row for this candidate."""
+        tq, w = self.motor_torque, self.motor_speed
+        row = {"motor": self.candidate.motor.name, "ratio": self.candidate.ratio,
+               "peak_motor_torque": float(np.max(np.abs(tq))), "rms_motor_torque": _rms(tq),
+               "peak_motor_speed": float(np.max(np.abs(w))), "mean_motor_speed": float(np.mean(np.abs(w))),
+               "peak_current": float(np.max(np.abs(self.current))), "rms_current": _rms(self.current),
+               "peak_voltage": float(np.max(np.abs(self.voltage))),
+               "winding_temperature_max": float(np.max(self.temperature)),
+               "temperature_rise": float(np.max(self.temperature) - self.ambient)}
+        row.update({f"margin_{k.replace(' ', '_')}": v for k, v in self.margins.items()})
+        row["feasible"] = self.feasible
+        row["binding"] = self.binding
+        row["why_not"] = "; ".join(self.failures)
+        return row
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.asarray(x) ** 2)))
+
+
+def required_drive(model: Mechanism, cycle: DutyCycle) -> DriveDemand:
+    """The drive joint's torque over the cycle, without any motor's rotor inertia."""
+    return drive_demand(model.replace(drive_inertia=0.0), cycle.position, cycle.velocity, cycle.acceleration,
+                        cycle.load)
+
+
+def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: float) -> np.ndarray:
+    """Winding temperature over a cycle repeated forever (one node, R(T) included).
+
+    ``C dT/dt = i² R_ref (1 + alpha (T - T_ref)) - (T - T_amb) / R_th`` is linear
+    in T, so each sample interval maps T affinely and the whole cycle too:
+    ``T_end = A T_0 + B``; the periodic state is ``T_0 = B / (1 - A)``.
+    """
+    R_th, C = data.thermal_resistance, data.thermal_capacity
+    alpha, R_ref, T_ref = data.temperature_coefficient, data.resistance, data.reference_temperature
+    i2 = current**2
+    i2_mid = 0.5 * (i2[1:] + i2[:-1])
+    a = i2_mid * R_ref * alpha / C - 1.0 / (R_th * C)
+    b = i2_mid * R_ref * (1.0 - alpha * T_ref) / C + ambient / (R_th * C)
+    h = np.diff(t)
+    e = np.exp(a * h)
+    gain = np.where(np.abs(a * h) > 1e-12, (e - 1.0) / np.where(a == 0, 1.0, a), h)
+    A, B = 1.0, 0.0
+    for ek, gk, bk in zip(e, gain, b):  # compose the affine maps
+        A, B = ek * A, ek * B + gk * bk
+    if A >= 1.0:
+        return np.full_like(t, np.inf)  # the copper heats faster than it cools: runaway
+    temps = np.empty_like(t)
+    temps[0] = B / (1.0 - A)
+    for k in range(len(h)):
+        temps[k + 1] = e[k] * temps[k] + gain[k] * b[k]
+    return temps
+
+
+def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient: float = 25.0) -> Assessment:
+    """Motor-side needs and margins of one candidate (see the module's notes)."""
+    from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
+
+    data = candidate.motor
+    motor = DCMotor(data, Gearbox(candidate.ratio, candidate.efficiency),
+                    Drive(candidate.supply_voltage, candidate.current_limit), ambient_temperature=ambient)
+    N = candidate.ratio
+    torque = demand.torque + motor.reflected_inertia * cycle.acceleration
+    w = N * cycle.velocity
+    i = current_for_torque(motor, torque, w)
+    temps = periodic_temperature(cycle.t, i, data, ambient)
+    hot = float(np.max(temps))
+    # the voltage at the hottest winding the motor may reach (a runaway is the
+    # temperature's failure, not the voltage's)
+    hottest = min(hot, data.max_winding_temperature if data.max_winding_temperature is not None else hot)
+    R_hot = data.resistance_at(hottest if math.isfinite(hottest) else data.reference_temperature)
+    didt = np.gradient(i, cycle.t)
+    v = R_hot * i + data.back_emf_constant * w + data.inductance * didt
+    tau_m = data.torque_constant * i  # electromagnetic torque: what the winding must make
+    needs: dict[str, tuple[float, float, str]] = {}
+    stall_current = candidate.supply_voltage / data.resistance
+    i_limit = min(candidate.current_limit, stall_current)
+    # a limit the datasheet does not give cannot be checked: its margin is 0
+    # (not feasible) and the reason says so, rather than passing unchecked
+    unknown = math.nan
+    needs["peak current"] = (float(np.max(np.abs(i))), i_limit, "A")
+    if data.nominal_torque:  # without it, the thermal check below is the continuous one
+        needs["continuous torque"] = (_rms(tau_m), data.nominal_torque, "N m")
+    needs["speed"] = (float(np.max(np.abs(w))), data.max_speed or data.no_load_speed or unknown, "rad/s")
+    needs["voltage"] = (float(np.max(np.abs(v))), candidate.supply_voltage, "V")
+    t_max = data.max_winding_temperature
+    needs["temperature rise"] = (hot - ambient, unknown if t_max is None else t_max - ambient, "K")
+    margins = {k: (0.0 if math.isnan(lim) else lim / need if need > 0 else math.inf)
+               for k, (need, lim, _) in needs.items()}
+    return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient)
+
+
+@dataclass
+class SizingStudy:
+    """Every candidate's assessment; ``ranked`` holds the feasible ones, best first."""
+
+    demand: DriveDemand
+    cycle: DutyCycle
+    assessments: list[Assessment]
+    ranked: list[Assessment] = field(default_factory=list)
+
+    @property
+    def best(self) -> Assessment | None:
+        return self.ranked[0] if self.ranked else None
+
+    def table(self) -> list[dict]:
+        rank = {id(a): k + 1 for k, a in enumerate(self.ranked)}
+        return [{"rank": rank.get(id(a), ""), **a.summary()} for a in self.assessments]
+
+    def write_csv(self, path) -> None:
+        import csv
+
+        rows = self.table()
+        cols = list(dict.fromkeys(c for r in rows for c in r))
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, cols)
+            w.writeheader()
+            for r in rows:
+                w.writerow({k: repr(v) if isinstance(v, float) else v for k, v in r.items()})
+
+    def plot(self, path) -> None:
+        """Duty-cycle points over each motor's envelopes, and margin against gear ratio."""
+        from .plotting import plt
+
+        motors = list(dict.fromkeys(a.candidate.motor.name for a in self.assessments))
+        n = len(motors) + 1
+        cols = min(n, 3)
+        rows = (n + cols - 1) // cols
+        fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.2 * rows), squeeze=False)
+        for ax in axes.flat[n:]:
+            ax.axis("off")
+
+        def known_margin(a):  # the ratio worth drawing: best on the limits the data set gives
+            return min((v for k, v in a.margins.items() if not math.isnan(a.needs[k][1])), default=0.0)
+
+        for ax, name in zip(axes.flat, motors):
+            mine = [a for a in self.assessments if a.candidate.motor.name == name]
+            pick = max(mine, key=known_margin)
+            c, d = pick.candidate, pick.candidate.motor
+            w = np.abs(pick.motor_speed)
+            ax.plot(pick.motor_speed * 30 / math.pi, pick.motor_torque * 1e3, ".", ms=2,
+                    label=f"cycle at {c.ratio:g}:1")
+            w_top = (d.max_speed or d.no_load_speed or float(np.max(w)) * 1.2)
+            ws = np.linspace(-w_top, w_top, 200)
+            # what the supply and the current limit allow: back-EMF eats the voltage
+            # while the motor drives, and adds to it while it brakes
+            i_max = min(c.current_limit, c.supply_voltage / d.resistance)
+            kt, ke, R, V = d.torque_constant, d.back_emf_constant, d.resistance, c.supply_voltage
+            upper = np.clip(kt * (V - ke * ws) / R, -kt * i_max, kt * i_max)
+            lower = np.clip(-kt * (V + ke * ws) / R, -kt * i_max, kt * i_max)
+            ax.fill_between(ws * 30 / math.pi, lower * 1e3, upper * 1e3, color="tab:orange", alpha=0.15,
+                            label=f"peak envelope ({c.supply_voltage:g} V"
+                                  + (f", {c.current_limit:g} A)" if math.isfinite(c.current_limit) else ")"))
+            if d.nominal_torque:
+                ax.fill_between(ws * 30 / math.pi, -d.nominal_torque * 1e3, d.nominal_torque * 1e3,
+                                color="tab:green", alpha=0.2, label="continuous (nominal torque)")
+            ax.set_xlabel("motor speed [rpm]")
+            ax.set_ylabel("motor torque [mN m]")
+            ax.set_title(f"{name}: {'fits' if pick.feasible else 'fails: ' + pick.binding}", fontsize=9)
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=7, loc="upper right")
+        ax = axes.flat[n - 1]
+        for name in motors:
+            mine = sorted((a for a in self.assessments if a.candidate.motor.name == name),
+                          key=lambda a: a.candidate.ratio)
+            ax.plot([a.candidate.ratio for a in mine], [min(a.min_margin, 10) for a in mine], "o-", ms=3,
+                    label=name)
+        ax.axhline(1.0, color="k", lw=0.8, ls="--")
+        ax.set_xlabel("gear ratio")
+        ax.set_ylabel("smallest margin (limit / need), capped at 10")
+        ax.set_title("margin against gear ratio", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.suptitle(f"sizing: {self.cycle.name}")
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+
+def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float = 0.9,
+         supply_voltage: float | None = None, current_limit: float = math.inf,
+         ambient: float = 25.0) -> SizingStudy:
+    """Assess every motor at every gear ratio and rank the feasible ones.
+
+    Parameters
+    ----------
+    model : Mechanism
+        One degree of freedom, with a drive joint (and a load joint if the
+        cycle has a load).
+    cycle : DutyCycle
+    motors : list of MotorData
+    ratios : sequence of float
+        Gear ratios (motor turns per drive-joint turn), >= 1.
+    efficiency : float
+        Gearbox efficiency.
+    supply_voltage : float, optional
+        Drive supply (default: each motor's nominal voltage).
+    current_limit : float
+        The drive's current limit, A.
+    ambient : float
+        Ambient temperature, degC.
+
+    Returns
+    -------
+    SizingStudy
+    """
+    from grubler.motors import Drive, Gearbox
+
+    if not motors:
+        raise SceneError("motors", "name at least one motor")
+    demand = required_drive(model, cycle)
+    assessments = []
+    for data in motors:
+        supply = supply_voltage if supply_voltage is not None else data.nominal_voltage
+        if supply is None:
+            raise SceneError("supply_voltage", f"{data.name} has no nominal voltage: give the supply voltage")
+        Drive(supply, current_limit)  # validates
+        for ratio in ratios:
+            Gearbox(float(ratio), efficiency)  # validates, naming the field
+            assessments.append(assess(demand, cycle, Candidate(data, ratio, efficiency, supply, current_limit),
+                                      ambient))
+    ranked = sorted((a for a in assessments if a.feasible), key=lambda a: -a.min_margin)
+    return SizingStudy(demand, cycle, assessments, ranked)
+
+
+__all__ = ["DutyCycle", "Candidate", "Assessment", "SizingStudy", "required_drive", "assess", "size",
+           "periodic_temperature"]

@@ -1,0 +1,407 @@
+"""Systems of FMUs in the ecosystem's own format: SSP 1.0 (SystemStructure.ssd).
+
+A :class:`System` is components (an FMU each, with parameter values), their
+connections, and optionally a default experiment and the plots to draw.  It is
+written as a ``.ssd`` file (FMU sources relative to the file) or as a ``.ssp``
+archive carrying the FMUs, and read back from either, so the same system opens in
+fmpy's SSP reader and other SSP tools.  What SSP has no element for (the
+communication step, the plots) goes in a ``grubler`` annotation other tools ignore.
+
+Units are checked where a connection is made: a connector's unit comes from the
+SSD when it declares one, else from the FMU (its declared unit, or the unit in
+square brackets that ends the variable's description, the project's convention
+for pythonfmu FMUs, which cannot declare units).
+
+Examples
+--------
+>>> s = System("demo")
+>>> s.plots.append(Plot("angle", ["a.y"]))
+>>> s.components["a"] = Component("a", "A.fmu", {"gain": 2.0})
+>>> s.connections.append(Connection("a", "y", "a", "u"))
+>>> s.connections[0]
+Connection(start_element='a', start_connector='y', end_element='a', end_connector='u')
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+from .errors import GrublerError
+
+NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+}
+ANNOTATION_TYPE = "org.grubler.cosim"
+FMU_TYPE = "application/x-fmu-sharedlibrary"
+for _prefix, _uri in NS.items():
+    ET.register_namespace(_prefix, _uri)
+
+# SI base-unit exponents (kg, m, s, A, K, rad) of the units the project's FMUs use,
+# written into the SSD's Units so that other tools can convert.
+_BASE_UNITS = {
+    "1": {}, "rad": {"rad": 1}, "rad/s": {"rad": 1, "s": -1}, "rad/s2": {"rad": 1, "s": -2},
+    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2}, "s": {"s": 1},
+    "N": {"kg": 1, "m": 1, "s": -2}, "N m": {"kg": 1, "m": 2, "s": -2},
+    "A": {"A": 1}, "V": {"kg": 1, "m": 2, "s": -3, "A": -1}, "W": {"kg": 1, "m": 2, "s": -3},
+    "J": {"kg": 1, "m": 2, "s": -2}, "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
+    "H": {"kg": 1, "m": 2, "s": -2, "A": -2}, "degC": {"K": 1}, "K": {"K": 1},
+    "kg m2": {"kg": 1, "m": 2}, "kg": {"kg": 1},
+}
+
+
+class SystemDescriptionError(GrublerError):
+    """A system description that cannot be run: names the element and the reason."""
+
+
+@dataclass
+class Component:
+    """One FMU in a system.
+
+    Parameters
+    ----------
+    name : str
+        Instance name, unique in the system.
+    source : str
+        The FMU: a path relative to the ``.ssd`` file (or inside the ``.ssp``).
+    parameters : dict
+        Start values of parameters, by variable name (float, int, bool or str).
+    units : dict
+        Units the SSD declares for connectors, by name (override the FMU's).
+    """
+
+    name: str
+    source: str
+    parameters: dict[str, float | int | bool | str] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass
+class Connection:
+    """An output of one component feeding an input of another."""
+
+    start_element: str
+    start_connector: str
+    end_element: str
+    end_connector: str
+
+    @property
+    def start(self) -> str:
+        return f"{self.start_element}.{self.start_connector}"
+
+    @property
+    def end(self) -> str:
+        return f"{self.end_element}.{self.end_connector}"
+
+
+@dataclass
+class Plot:
+    """One panel of the run's plot: a title and the signals it shows."""
+
+    title: str
+    signals: list[str]
+
+
+@dataclass
+class System:
+    """Components, connections, a default experiment and plots.
+
+    Parameters
+    ----------
+    name : str
+    components : dict of Component, by name
+    connections : list of Connection
+    start_time, stop_time, step : float or None
+        The default experiment (``step`` is the communication step).
+    plots : list of Plot
+    description : str
+    base : Path or None
+        Folder the components' sources are relative to (set by :func:`read`).
+    """
+
+    name: str
+    components: dict[str, Component] = field(default_factory=dict)
+    connections: list[Connection] = field(default_factory=list)
+    start_time: float | None = None
+    stop_time: float | None = None
+    step: float | None = None
+    plots: list[Plot] = field(default_factory=list)
+    description: str = ""
+    base: Path | None = None
+
+    # -- building ------------------------------------------------------------
+    def add(self, name: str, source: str | Path, **parameters) -> Component:
+        """Add a component; parameters as keywords (dotted names via ``**{...}``)."""
+        if name in self.components:
+            raise SystemDescriptionError(f"component {name!r}: the name is used twice")
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise SystemDescriptionError(f"component {name!r}: a name is a letter then letters, digits, _")
+        comp = Component(name, str(source), dict(parameters))
+        self.components[name] = comp
+        return comp
+
+    def connect(self, start: str, end: str) -> Connection:
+        """Connect ``'component.output'`` to ``'component.input'``."""
+        conn = Connection(*_split(start, "start"), *_split(end, "end"))
+        self.connections.append(conn)
+        return conn
+
+    def source_path(self, comp: Component) -> Path:
+        """Where a component's FMU is on this machine."""
+        path = Path(comp.source)
+        if not path.is_absolute() and self.base is not None:
+            path = self.base / path
+        return path
+
+    # -- writing -------------------------------------------------------------
+    def to_xml(self, connectors: dict[str, list[tuple[str, str, str]]] | None = None,
+               sources: dict[str, str] | None = None) -> bytes:
+        """The SystemStructure.ssd text.
+
+        ``connectors`` lists, per component, ``(name, kind, unit)`` of the
+        connectors to declare (default: those the connections use, kinds guessed
+        from the direction); ``sources`` overrides the components' sources.
+        """
+        ssd, ssc, ssv = (f"{{{NS[k]}}}" for k in ("ssd", "ssc", "ssv"))
+        root = ET.Element(f"{ssd}SystemStructureDescription", {"version": "1.0", "name": self.name})
+        sys_attrs = {"name": self.name}
+        if self.description:
+            sys_attrs["description"] = self.description
+        system = ET.SubElement(root, f"{ssd}System", sys_attrs)
+        elements = ET.SubElement(system, f"{ssd}Elements")
+        if connectors is None:
+            connectors = self.connectors()
+        used_units: set[str] = set()
+        for comp in self.components.values():
+            src = (sources or {}).get(comp.name, comp.source)
+            el = ET.SubElement(elements, f"{ssd}Component", {"name": comp.name, "type": FMU_TYPE, "source": src})
+            seen = set()
+            conns = ET.SubElement(el, f"{ssd}Connectors")
+            for name, kind, unit in connectors.get(comp.name, []):
+                if name in seen:
+                    continue
+                seen.add(name)
+                cn = ET.SubElement(conns, f"{ssd}Connector", {"name": name, "kind": kind})
+                # an FMU's "rad or m" is no SSP unit: declare only real ones, or the SSD's own
+                unit = comp.units.get(name, unit if unit in _BASE_UNITS else "")
+                attrs = {"unit": unit} if unit else {}
+                if unit:
+                    used_units.add(unit)
+                ET.SubElement(cn, f"{ssc}Real", attrs)
+            if not len(conns):
+                el.remove(conns)
+            if comp.parameters:
+                binding = ET.SubElement(ET.SubElement(el, f"{ssd}ParameterBindings"), f"{ssd}ParameterBinding")
+                values = ET.SubElement(binding, f"{ssd}ParameterValues")
+                pset = ET.SubElement(values, f"{ssv}ParameterSet", {"version": "1.0", "name": comp.name})
+                params = ET.SubElement(pset, f"{ssv}Parameters")
+                for pname, value in comp.parameters.items():
+                    p = ET.SubElement(params, f"{ssv}Parameter", {"name": pname})
+                    ET.SubElement(p, *_ssv_value(ssv, pname, value))
+        if self.connections:
+            cons = ET.SubElement(system, f"{ssd}Connections")
+            for c in self.connections:
+                ET.SubElement(cons, f"{ssd}Connection", {
+                    "startElement": c.start_element, "startConnector": c.start_connector,
+                    "endElement": c.end_element, "endConnector": c.end_connector})
+        if used_units:
+            units = ET.SubElement(root, f"{ssd}Units")
+            for u in sorted(used_units):
+                unit = ET.SubElement(units, f"{ssc}Unit", {"name": u})
+                ET.SubElement(unit, f"{ssc}BaseUnit", {k: str(v) for k, v in _BASE_UNITS.get(u, {}).items()})
+        if self.start_time is not None or self.stop_time is not None:
+            exp = {}
+            if self.start_time is not None:
+                exp["startTime"] = repr(float(self.start_time))
+            if self.stop_time is not None:
+                exp["stopTime"] = repr(float(self.stop_time))
+            ET.SubElement(root, f"{ssd}DefaultExperiment", exp)
+        if self.step is not None or self.plots:
+            ann = ET.SubElement(ET.SubElement(root, f"{ssd}Annotations"), f"{ssc}Annotation",
+                                {"type": ANNOTATION_TYPE})
+            cosim = ET.SubElement(ann, "Cosim", {"step": repr(float(self.step))} if self.step is not None else {})
+            for p in self.plots:
+                ET.SubElement(cosim, "Plot", {"title": p.title, "signals": " ".join(p.signals)})
+        ET.indent(root)
+        return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+    def connectors(self) -> dict[str, list[tuple[str, str, str]]]:
+        """The connectors the connections use, ``(name, kind, unit)`` per component.
+
+        Units come from the FMUs where they can be read (see the module's notes).
+        """
+        from .cosim import FmuInterface
+
+        ports = {}
+        for n, c in self.components.items():
+            try:
+                ports[n] = FmuInterface.of(self.source_path(c)).ports
+            except Exception:  # noqa: BLE001 - an FMU not built yet: no units to declare
+                ports[n] = {}
+        out: dict[str, list] = {n: [] for n in self.components}
+        for c in self.connections:
+            for elem, name, kind in ((c.start_element, c.start_connector, "output"),
+                                     (c.end_element, c.end_connector, "input")):
+                if elem in out:
+                    port = ports[elem].get(name)
+                    out[elem].append((name, kind, port.unit if port else ""))
+        return out
+
+    def write(self, path: str | Path, connectors: dict | None = None) -> Path:
+        """Write a ``.ssd`` (sources relative to it) or a ``.ssp`` archive (FMUs inside)."""
+        path = Path(path)
+        if path.suffix == ".ssp":
+            files: dict[Path, str] = {}  # one copy of each FMU, however many instances
+            for c in self.components.values():
+                src = self.source_path(c).resolve()
+                if src not in files:
+                    stem = src.stem if src.stem not in {Path(f).stem for f in files.values()} else \
+                        f"{src.stem}_{len(files)}"
+                    files[src] = f"resources/{stem}.fmu"
+            sources = {n: files[self.source_path(c).resolve()] for n, c in self.components.items()}
+            connectors = connectors if connectors is not None else self.connectors()
+            with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+                zf.writestr("SystemStructure.ssd", self.to_xml(connectors, sources))
+                for src, arc in files.items():
+                    zf.write(src, arc)
+            return path
+        if path.suffix != ".ssd":
+            raise SystemDescriptionError(f"{path}: write a .ssd file or a .ssp archive")
+        sources = {}
+        for n, c in self.components.items():
+            src = self.source_path(c).resolve()
+            try:
+                sources[n] = Path(os.path.relpath(src, path.parent.resolve())).as_posix()
+            except ValueError:  # another drive on Windows
+                sources[n] = src.as_posix()
+        path.write_bytes(self.to_xml(connectors, sources))
+        return path
+
+
+def _split(ref: str, end: str) -> tuple[str, str]:
+    element, dot, connector = str(ref).partition(".")
+    if not dot or not element or not connector:
+        raise SystemDescriptionError(f"connection {end} {ref!r}: write it as 'component.variable'")
+    return element, connector
+
+
+def _ssv_value(ssv: str, name: str, value) -> tuple[str, dict]:
+    if isinstance(value, bool):
+        return f"{ssv}Boolean", {"value": "true" if value else "false"}
+    if isinstance(value, int):
+        return f"{ssv}Integer", {"value": str(value)}
+    if isinstance(value, float):
+        return f"{ssv}Real", {"value": repr(value)}
+    if isinstance(value, str):
+        return f"{ssv}String", {"value": value}
+    raise SystemDescriptionError(f"parameter {name!r}: {type(value).__name__} is not a Real, Integer, "
+                                 "Boolean or String")
+
+
+# -- reading ------------------------------------------------------------------
+def read(path: str | Path) -> System:
+    """Read a ``.ssd`` file or a ``.ssp`` archive.
+
+    A ``.ssp`` is extracted to a temporary folder that lives as long as the
+    process, so the components' sources resolve to real files.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SystemDescriptionError(f"{path}: no such file")
+    if path.suffix == ".ssp" or zipfile.is_zipfile(path):
+        import tempfile
+        tmp = Path(tempfile.mkdtemp(prefix="grubler_ssp_"))
+        with zipfile.ZipFile(path) as zf:
+            zf.extractall(tmp)
+        ssd = tmp / "SystemStructure.ssd"
+        if not ssd.is_file():
+            raise SystemDescriptionError(f"{path}: the archive has no SystemStructure.ssd")
+        return from_xml(ssd.read_bytes(), base=tmp, where=str(path))
+    return from_xml(path.read_bytes(), base=path.parent, where=str(path))
+
+
+def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") -> System:
+    """Parse SystemStructure.ssd text."""
+    try:
+        root = ET.parse(io.BytesIO(text.encode() if isinstance(text, str) else text)).getroot()
+    except ET.ParseError as exc:
+        raise SystemDescriptionError(f"{where}: not valid XML ({exc})") from None
+    if root.tag != f"{{{NS['ssd']}}}SystemStructureDescription":
+        raise SystemDescriptionError(f"{where}: the root element is {root.tag}, not ssd:SystemStructureDescription")
+    sys_el = root.find("ssd:System", NS)
+    if sys_el is None:
+        raise SystemDescriptionError(f"{where}: no ssd:System element")
+    if sys_el.find("ssd:Elements/ssd:System", NS) is not None:
+        raise SystemDescriptionError(f"{where}: nested systems are not supported; flatten the system")
+    system = System(name=root.get("name") or sys_el.get("name") or "system",
+                    description=sys_el.get("description", ""), base=base)
+    for el in sys_el.findall("ssd:Elements/ssd:Component", NS):
+        name, source = el.get("name"), el.get("source")
+        if not name or not source:
+            raise SystemDescriptionError(f"{where}: a component needs a name and a source")
+        comp = system.add(name, source)
+        for cn in el.findall("ssd:Connectors/ssd:Connector", NS):
+            real = cn.find("ssc:Real", NS)
+            if real is not None and real.get("unit"):
+                comp.units[cn.get("name")] = real.get("unit")
+        for binding in el.findall("ssd:ParameterBindings/ssd:ParameterBinding", NS):
+            if binding.get("source"):
+                raise SystemDescriptionError(f"component {name!r}: parameter files (source=) are not supported; "
+                                             "put the values inline")
+            prefix = binding.get("prefix", "")
+            for p in binding.findall("ssd:ParameterValues/ssv:ParameterSet/ssv:Parameters/ssv:Parameter", NS):
+                comp.parameters[_strip(p.get("name"), prefix, name)] = _parameter_value(p, name)
+    for c in sys_el.findall("ssd:Connections/ssd:Connection", NS):
+        if c.get("startElement") is None or c.get("endElement") is None:
+            raise SystemDescriptionError(
+                f"connection {c.get('startConnector')} -> {c.get('endConnector')}: connections to the system's "
+                "own connectors are not supported; connect components directly")
+        system.connections.append(Connection(c.get("startElement"), c.get("startConnector"),
+                                             c.get("endElement"), c.get("endConnector")))
+    exp = root.find("ssd:DefaultExperiment", NS)
+    if exp is not None:
+        system.start_time = float(exp.get("startTime")) if exp.get("startTime") else None
+        system.stop_time = float(exp.get("stopTime")) if exp.get("stopTime") else None
+    for ann in root.findall("ssd:Annotations/ssc:Annotation", NS):
+        if ann.get("type") != ANNOTATION_TYPE:
+            continue
+        cosim = ann.find("Cosim")
+        if cosim is not None:
+            if cosim.get("step"):
+                system.step = float(cosim.get("step"))
+            for p in cosim.findall("Plot"):
+                system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split()))
+    return system
+
+
+def _strip(pname: str, prefix: str, component: str) -> str:
+    # fmpy's convention names a component's parameters "component.variable"
+    for head in (prefix, component + "."):
+        if head and pname.startswith(head):
+            return pname[len(head):]
+    return pname
+
+
+def _parameter_value(p: ET.Element, component: str):
+    for tag, conv in (("Real", float), ("Integer", int), ("String", str)):
+        v = p.find(f"ssv:{tag}", NS)
+        if v is not None:
+            try:
+                return conv(v.get("value"))
+            except (TypeError, ValueError):
+                raise SystemDescriptionError(f"parameter {component}.{p.get('name')}: "
+                                             f"{v.get('value')!r} is not a valid {tag}") from None
+    v = p.find("ssv:Boolean", NS)
+    if v is not None:
+        return v.get("value") in ("true", "1")
+    raise SystemDescriptionError(f"parameter {component}.{p.get('name')}: no Real, Integer, Boolean or String value")
+
+
+__all__ = ["System", "Component", "Connection", "Plot", "SystemDescriptionError", "read", "from_xml"]

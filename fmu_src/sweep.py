@@ -1,0 +1,397 @@
+"""Parameter sweeps: one function over many points, on this machine or a Dask cluster.
+
+The same call runs points in local processes (all cores by default) or on a
+``dask.distributed`` cluster when given a scheduler address or client.  Every
+finished point is appended to a journal beside the output table as it arrives,
+so an interrupted sweep resumes where it stopped; a point that raises is a row
+with its error, not the end of the sweep.
+
+The function a sweep runs takes a point's values as keywords and returns a dict
+of metrics.  It must be importable by the workers (a module-level function), as
+with any process pool.
+
+Examples
+--------
+>>> grid(a=[1, 2], b=[10.0])
+[{'a': 1, 'b': 10.0}, {'a': 2, 'b': 10.0}]
+>>> table = run_sweep(_square, grid(x=[1.0, 2.0, -1.0]), workers=1, progress=False)
+>>> [(r["x"], r.get("y"), r["status"]) for r in table.rows]
+[(1.0, 1.0, 'ok'), (2.0, 4.0, 'ok'), (-1.0, None, 'failed')]
+>>> table.rows[2]["error"]
+'ValueError: x must be >= 0, got -1.0'
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import itertools
+import json
+import math
+import os
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+from .errors import GrublerError
+
+STATUS_OK = "ok"
+STATUS_FAILED = "failed"
+META = ("status", "error", "seconds", "key")
+
+
+def grid(**axes: Iterable) -> list[dict]:
+    """Every combination of the axes' values, the first axis varying slowest."""
+    names = list(axes)
+    return [dict(zip(names, combo)) for combo in itertools.product(*(list(v) for v in axes.values()))]
+
+
+def point_key(values: dict) -> str:
+    """A stable identity of a point's values (what resuming matches on).
+
+    Examples
+    --------
+    >>> point_key({"b": 2, "a": 1.0}) == point_key({"a": 1.0, "b": 2})
+    True
+    """
+    text = json.dumps({k: values[k] for k in sorted(values)}, sort_keys=True, default=repr)
+    return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+def evaluate_point(func: Callable[..., dict], values: dict) -> dict:
+    """Run one point; any exception becomes a failed row with its message."""
+    t0 = time.perf_counter()
+    row = dict(values)
+    try:
+        metrics = func(**values)
+        if not isinstance(metrics, dict):
+            raise TypeError(f"the sweep function must return a dict of metrics, got {type(metrics).__name__}")
+        clash = set(metrics) & (set(values) | set(META))
+        if clash:
+            raise ValueError(f"metric names clash with inputs or bookkeeping: {', '.join(sorted(clash))}")
+        row.update(metrics)
+        row["status"], row["error"] = STATUS_OK, ""
+    except Exception as exc:  # noqa: BLE001 - a failed point is data, not the end of the sweep
+        row["status"] = STATUS_FAILED
+        row["error"] = f"{type(exc).__name__}: {exc}" if str(exc) else traceback.format_exc(limit=1).strip()
+    row["seconds"] = time.perf_counter() - t0
+    row["key"] = point_key(values)
+    return row
+
+
+@dataclass
+class SweepTable:
+    """The sweep's rows (inputs, metrics, status, error, seconds, key) in point order."""
+
+    rows: list[dict]
+    inputs: list[str]
+    wall_time: float = 0.0
+    resumed: int = 0
+    workers: str = ""
+    metrics: list[str] = field(default_factory=list)
+
+    @property
+    def columns(self) -> list[str]:
+        return self.inputs + self.metrics + list(META)
+
+    @property
+    def failed(self) -> list[dict]:
+        return [r for r in self.rows if r["status"] == STATUS_FAILED]
+
+    def column(self, name: str) -> list:
+        return [r.get(name) for r in self.rows]
+
+    def write(self, path: str | Path) -> Path:
+        """CSV, or Parquet for a ``.parquet`` path (needs pyarrow)."""
+        path = Path(path)
+        if path.suffix == ".parquet":
+            try:
+                import pyarrow as pa
+                import pyarrow.parquet as pq
+            except ImportError:
+                raise GrublerError(f"{path}: writing Parquet needs pyarrow (pip install pyarrow), "
+                                   "or write a .csv") from None
+            pq.write_table(pa.table({c: [r.get(c) for r in self.rows] for c in self.columns}), path)
+            return path
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, self.columns, extrasaction="ignore")
+            w.writeheader()
+            for r in self.rows:
+                w.writerow({c: _plain(r.get(c)) for c in self.columns})
+        return path
+
+
+def _plain(v):
+    return repr(v) if isinstance(v, float) and math.isfinite(v) else v
+
+
+def _journal(out: Path) -> Path:
+    return out.with_name(out.name + ".journal.jsonl")
+
+
+def signature(func: Callable) -> str:
+    """What a journal is of: the function and the constants bound to it.
+
+    Examples
+    --------
+    >>> import functools
+    >>> signature(functools.partial(scene_point, "thesis-fourbar", t_end=1.0)).split("sweep.")[-1]
+    "scene_point('thesis-fourbar',) {'t_end': 1.0}"
+    """
+    import functools
+
+    args = ""
+    while isinstance(func, functools.partial):
+        args = f"{func.args!r} {dict(sorted(func.keywords.items()))!r}" + args
+        func = func.func
+    return f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', repr(func))}{args}"
+
+
+def _read_done(out: Path | None, sig: str, retry_failed: bool) -> dict[str, dict]:
+    """Rows finished by an earlier run of the same sweep: its journal."""
+    if out is None:
+        return {}
+    done = {}
+    journal = _journal(out)
+    if journal.is_file():
+        lines = journal.read_text().splitlines()
+        head = json.loads(lines[0]) if lines else {}
+        if lines and head.get("sweep") != sig:
+            raise GrublerError(f"{out}: its journal is of another sweep ({head.get('sweep')}), not {sig}; "
+                               "start afresh (resume=False, --no-resume) or write elsewhere")
+        for line in lines[1:]:
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:  # a line cut by the interruption
+                continue
+            if retry_failed and row.get("status") == STATUS_FAILED:
+                continue
+            done[row["key"]] = row
+    return done
+
+
+class _Progress:
+    def __init__(self, total: int, enabled: bool):
+        self.total, self.enabled = total, enabled
+        self.done = self.failed = 0
+        self.t0 = time.perf_counter()
+        self.tty = sys.stderr.isatty()
+        self.last = -1.0
+
+    def update(self, row: dict) -> None:
+        self.done += 1
+        self.failed += row["status"] == STATUS_FAILED
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        frac = self.done / max(self.total, 1)
+        if not self.tty and frac < 1.0 and frac - self.last < 0.1:
+            return
+        self.last = frac
+        left = el / self.done * (self.total - self.done)
+        bar = "#" * int(30 * frac)
+        msg = (f"sweep [{bar:<30}] {self.done}/{self.total}"
+               f"{f' ({self.failed} failed)' if self.failed else ''} {el:.1f} s, ~{left:.0f} s left")
+        print(("\r" if self.tty else "") + msg, end="" if self.tty and frac < 1.0 else "\n",
+              file=sys.stderr, flush=True)
+
+
+def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | None = None,
+              workers: int | None = None, scheduler=None, resume: bool = True, retry_failed: bool = False,
+              progress: bool = True) -> SweepTable:
+    """Run ``func(**point)`` for every point and gather a table.
+
+    Parameters
+    ----------
+    func : callable
+        Module-level function of the point's values returning a dict of metrics.
+    points : list of dict
+        The points (see :func:`grid`); every point has the same keys.
+    out : path, optional
+        Table to write (``.csv`` or ``.parquet``); its journal
+        ``OUT.journal.jsonl`` records each finished point as it arrives.
+    workers : int, optional
+        Local processes (default: every core; 1 runs in this process).
+    scheduler : str or distributed.Client, optional
+        A Dask scheduler address (``'tcp://host:8786'``) or client: run there.
+    resume : bool
+        Skip points the journal already holds (finished or failed).
+    retry_failed : bool
+        When resuming, run the failed points again.
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    SweepTable
+    """
+    points = [dict(p) for p in points]
+    if not points:
+        raise GrublerError("sweep: no points")
+    inputs = list(points[0])
+    for i, p in enumerate(points):
+        if list(p) != inputs:
+            raise GrublerError(f"sweep: point {i} has keys {list(p)}, the first has {inputs}")
+    out = Path(out) if out is not None else None
+    sig = signature(func)
+    if out is not None and not resume and _journal(out).exists():
+        _journal(out).unlink()
+    done = _read_done(out, sig, retry_failed) if resume else {}
+    keys = [point_key(p) for p in points]
+    todo = [(k, p) for k, p in zip(keys, points) if k not in done]
+    resumed = len(points) - len(todo)
+    bar = _Progress(len(todo), progress)
+    rows: dict[str, dict] = {k: done[k] for k in keys if k in done}
+    journal = None
+    if out is not None:
+        fresh = not _journal(out).exists()
+        journal = open(_journal(out), "a")
+        if fresh:
+            journal.write(json.dumps({"sweep": sig}) + "\n")
+    t0 = time.perf_counter()
+
+    def finished(row: dict) -> None:
+        rows[row["key"]] = row
+        if journal is not None:
+            journal.write(json.dumps(row, default=repr) + "\n")
+            journal.flush()
+        bar.update(row)
+
+    try:
+        if scheduler is not None:
+            where = _run_dask(func, todo, scheduler, finished)
+        elif workers == 1 or len(todo) <= 1:
+            for _, p in todo:
+                finished(evaluate_point(func, p))
+            where = "1 process"
+        else:
+            n = workers or os.cpu_count() or 1
+            if n < 1:
+                raise GrublerError(f"sweep: workers must be >= 1, got {n}")
+            with ProcessPoolExecutor(max_workers=n) as pool:
+                futures = [pool.submit(evaluate_point, func, p) for _, p in todo]
+                for fut in as_completed(futures):
+                    finished(fut.result())
+            where = f"{n} processes"
+    finally:
+        if journal is not None:
+            journal.close()
+    metrics = []
+    for k in keys:
+        for name in rows[k]:
+            if name not in inputs and name not in META and name not in metrics:
+                metrics.append(name)
+    table = SweepTable([rows[k] for k in keys], inputs, time.perf_counter() - t0, resumed, where, metrics)
+    if out is not None:
+        table.write(out)
+    return table
+
+
+def _run_dask(func, todo, scheduler, finished) -> str:
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError:
+        raise GrublerError("sweep: a Dask scheduler needs dask.distributed "
+                           "(pip install 'dask[distributed]')") from None
+    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+    try:
+        futures = client.map(evaluate_point, [func] * len(todo), [p for _, p in todo], pure=False)
+        for fut in dask_completed(futures):
+            finished(fut.result())
+        n = len(client.scheduler_info().get("workers", {}))
+        return f"Dask cluster at {client.scheduler.address} ({n} workers)"
+    finally:
+        if client is not scheduler:
+            client.close()
+
+
+def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol: float = 1e-9,
+                **params) -> dict:
+    """Simulate a scene with dotted parameters overridden; the numbers a sweep compares.
+
+    Parameters
+    ----------
+    scene : str
+        Preset name, TOML file or TOML text.
+    t_end : float
+        Simulated time, s.
+    method : {'exact', 'penalty'}, optional
+    rtol : float
+    **params
+        Dotted parameters (see :func:`grubler.scene.parameter_names`).
+
+    Returns
+    -------
+    dict
+        ``final_drive_angle``, ``peak_drive_speed``, ``peak_closure_force`` (N),
+        ``max_closure_error``, ``energy_balance`` (J: energy change not
+        explained by the drive's work and the dampers; mostly the trapezoid
+        rule's error on the work over the output grid),
+        ``run_seconds``.
+    """
+    from .report import energy_balance
+    from .scene import load_scene, override
+    from .simulate import simulate
+
+    sc = override(load_scene(scene), params)
+    t0 = time.perf_counter()
+    res = simulate(sc, t_end=t_end, dt_out=min(0.01, t_end / 10), method=method, rtol=rtol, atol=rtol)
+    wall = time.perf_counter() - t0
+    m = sc.mechanism
+    cols = {c: res[c] for c in ["t", "E", "P_drive"] + [f"{n}_d" for n in m.coordinate_names]}
+    out = {"final_drive_angle": math.nan, "peak_drive_speed": math.nan}
+    if m.drive is not None:
+        out["final_drive_angle"] = float(res[m.drive][-1])
+        out["peak_drive_speed"] = float(max(abs(res[m.drive + "_d"])))
+    out["peak_closure_force"] = float(max(abs(res["Fx"] + 1j * res["Fy"]))) if m.closures else 0.0
+    out["max_closure_error"] = float(max(res["closure_error"]))
+    out["energy_balance"] = float(max(abs(energy_balance(cols, m))))
+    out["run_seconds"] = wall
+    return out
+
+
+def parse_axis(text: str) -> tuple[str, list]:
+    """``NAME=V1,V2,...`` or ``NAME=START:STOP:N`` (N points, ends included).
+
+    Examples
+    --------
+    >>> parse_axis("link2.a=0.1:0.3:3")
+    ('link2.a', [0.1, 0.2, 0.3])
+    >>> parse_axis("drive_joint=theta2,theta3")
+    ('drive_joint', ['theta2', 'theta3'])
+    """
+    name, eq, spec = text.partition("=")
+    name = name.strip()
+    if not eq or not name or not spec.strip():
+        raise GrublerError(f"--set {text!r}: write NAME=V1,V2,... or NAME=START:STOP:N")
+    parts = spec.split(":")
+    if len(parts) == 3:
+        try:
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+        except ValueError:
+            raise GrublerError(f"--set {text!r}: START:STOP:N needs two numbers and a count") from None
+        if n < 1:
+            raise GrublerError(f"--set {text!r}: N must be >= 1")
+        return name, [a + (b - a) * i / (n - 1) if n > 1 else a for i in range(n)]
+    values = []
+    for v in spec.split(","):
+        v = v.strip()
+        try:
+            values.append(float(v))
+        except ValueError:
+            values.append(v)
+    return name, values
+
+
+def _square(x: float) -> dict:
+    # the doctest's sweep function (module level, so worker processes can import it)
+    if x < 0:
+        raise ValueError(f"x must be >= 0, got {x}")
+    return {"y": x * x}
+
+
+__all__ = ["grid", "run_sweep", "evaluate_point", "point_key", "signature", "scene_point", "SweepTable"]

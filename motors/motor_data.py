@@ -1,0 +1,524 @@
+"""Permanent-magnet DC motor data sets: the constants of one motor, in SI units.
+
+A data set is a :class:`MotorData`.  Datasheets state their figures in their own
+units (mNm/A, rpm/V, g cm², mH, K/W ...): :meth:`MotorData.from_datasheet` takes
+them in those units, converts them, derives what the model needs and checks the
+figures against each other.  The data sets shipped with grubler live in
+``motors/data/*.toml``, one motor a file, written in the datasheet's units; a file
+names its source and says which fields were derived.  :func:`load_motor` reads one
+by name, from a path or from TOML text; :func:`list_motors` names the shipped ones.
+
+What is derived, and how
+------------------------
+* back-EMF constant: k_e = 1 / k_n in V s/rad from the speed constant k_n, and
+  checked against the torque constant (in SI units k_e = k_t for an ideal machine,
+  which is what conserves energy).  A mismatch beyond ``KE_KT_TOLERANCE`` (2 %)
+  is an error, not a warning: it means a mistyped figure (datasheet rounding is
+  below 0.5 %), and a model with k_e != k_t creates or destroys power.
+* Coulomb friction: k_t times the no-load current (all of the no-load loss read
+  as dry friction), or the datasheet's friction torque where it gives one.
+* thermal model: one node, winding to ambient.  From a two-node datasheet
+  (R_th1 winding-housing, R_th2 housing-ambient, tau_w winding, tau_m motor):
+  R_th = R_th1 + R_th2 keeps the steady state exact, and tau_th is the slow time
+  constant of the two-node network those four constants define, which governs
+  continuous operation.  The fast winding mode (tens of seconds) is lost: during the
+  first minute of an overload the single node heats more slowly than the winding
+  does, by up to R_th1 / (R_th1 + R_th2) of the rise.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, fields
+from importlib import resources
+from pathlib import Path
+
+from grubler.errors import SceneError
+
+KE_KT_TOLERANCE = 0.02
+"""Largest accepted relative mismatch between k_e and k_t (SI units)."""
+
+STALL_TOLERANCE = 0.05
+"""Largest accepted relative mismatch between a stated stall torque and k_t U / R - friction."""
+
+NO_LOAD_TOLERANCE = 0.03
+"""Largest accepted relative mismatch between a stated no-load speed and k_n (U - R I_0)."""
+
+RPM = math.pi / 30.0  # rad/s per rpm
+
+
+def check_number(field: str, value, *, positive: bool = True, allow_inf: bool = False,
+           optional: bool = False) -> float | None:
+    """A finite float (positive, or >= 0), or SceneError naming `field`."""
+    if value is None:
+        if optional:
+            return None
+        raise SceneError(field, "is missing")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(field, f"must be a number, got {value!r}")
+    v = float(value)
+    if math.isnan(v) or (math.isinf(v) and not allow_inf):
+        raise SceneError(field, f"must be finite, got {v}")
+    if positive and not v > 0:
+        raise SceneError(field, f"must be positive, got {v}")
+    if not positive and v < 0:
+        raise SceneError(field, f"must be >= 0, got {v}")
+    return v
+
+
+@dataclass(frozen=True)
+class MotorData:
+    """Constants of a permanent-magnet DC motor, SI units, at the motor shaft.
+
+    Parameters
+    ----------
+    name : str
+        Short identifier (e.g. ``maxon-re40-148877``).
+    source : str
+        Where the figures come from: manufacturer, series, part number, document.
+    resistance : float
+        Terminal (armature) resistance R_ref [Ohm] at `reference_temperature`.
+    inductance : float
+        Terminal inductance L [H].
+    torque_constant : float
+        k_t [N m/A].
+    back_emf_constant : float
+        k_e [V s/rad]; within 2 % of k_t.
+    rotor_inertia : float
+        J_rotor [kg m2].  It belongs in the mechanism's mass matrix (times N²).
+    viscous_friction : float
+        b [N m s/rad] at the motor shaft.
+    coulomb_friction : float
+        tau_c [N m] at the motor shaft.
+    smoothing_speed : float
+        omega_s [rad/s]: the dry friction is ``tau_c tanh(omega / omega_s)`` and the
+        gearbox's efficiency changes direction over the same motor-speed scale.
+        A master holding the speed over a step h is free of friction chatter when
+        ``h tau_c / (omega_s J_rotor) < 2`` (worst case: nothing but the rotor on
+        the shaft).
+    thermal_resistance : float
+        R_th winding to ambient [K/W].
+    thermal_time_constant : float
+        tau_th [s] of the one-node winding model (heat capacity tau_th / R_th).
+    temperature_coefficient : float
+        alpha [1/K] of the winding's resistance: R(T) = R_ref (1 + alpha (T - T_ref));
+        0.0039 /K for copper.
+    reference_temperature : float
+        T_ref [degC] at which `resistance` is stated.
+    notes : str
+        Which fields were derived, and how.
+    nominal_voltage, nominal_torque, nominal_speed, no_load_speed, stall_torque, \
+max_speed, max_winding_temperature : float or None
+        Datasheet figures for sizing [V, N m, rad/s, rad/s, N m, rad/s, degC];
+        None where the datasheet gives none.  ``nominal_torque`` is the maximum
+        continuous torque.
+
+    Examples
+    --------
+    >>> m = MotorData(name="toy", source="made up", resistance=1.0, inductance=1e-3,
+    ...               torque_constant=0.05, back_emf_constant=0.05, rotor_inertia=1e-5,
+    ...               thermal_resistance=5.0, thermal_time_constant=600.0)
+    >>> m.electrical_time_constant
+    0.001
+    >>> round(m.mechanical_time_constant, 6)  # J R / (k_t k_e)
+    0.004
+    """
+
+    name: str
+    source: str
+    resistance: float
+    inductance: float
+    torque_constant: float
+    back_emf_constant: float
+    rotor_inertia: float
+    thermal_resistance: float
+    thermal_time_constant: float
+    viscous_friction: float = 0.0
+    coulomb_friction: float = 0.0
+    smoothing_speed: float = 10.0
+    temperature_coefficient: float = 0.0039
+    reference_temperature: float = 25.0
+    notes: str = ""
+    nominal_voltage: float | None = None
+    nominal_torque: float | None = None
+    nominal_speed: float | None = None
+    no_load_speed: float | None = None
+    stall_torque: float | None = None
+    max_speed: float | None = None
+    max_winding_temperature: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise SceneError("name", f"must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.source, str) or not self.source.strip():
+            raise SceneError("source", "must name where the figures come from")
+        for f in ("resistance", "inductance", "torque_constant", "back_emf_constant", "rotor_inertia",
+                  "thermal_resistance", "thermal_time_constant", "smoothing_speed"):
+            object.__setattr__(self, f, check_number(f, getattr(self, f)))
+        for f in ("viscous_friction", "coulomb_friction", "temperature_coefficient"):
+            object.__setattr__(self, f, check_number(f, getattr(self, f), positive=False))
+        for f in ("reference_temperature", "max_winding_temperature"):  # degC: any sign
+            t = getattr(self, f)
+            if t is None and f == "max_winding_temperature":
+                continue
+            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+                raise SceneError(f, f"must be a finite number, got {t!r}")
+            object.__setattr__(self, f, float(t))
+        for f in ("nominal_voltage", "nominal_torque", "nominal_speed", "no_load_speed", "stall_torque",
+                  "max_speed"):
+            object.__setattr__(self, f, check_number(f, getattr(self, f), optional=True))
+        mismatch = self.back_emf_constant / self.torque_constant - 1.0
+        if abs(mismatch) > KE_KT_TOLERANCE:
+            raise SceneError("back_emf_constant",
+                             f"{self.back_emf_constant:.6g} V s/rad differs from torque_constant "
+                             f"{self.torque_constant:.6g} N m/A by {100 * mismatch:+.1f} % (at most "
+                             f"{100 * KE_KT_TOLERANCE:g} %: in SI units they are the same constant)")
+
+    # -- derived quantities -----------------------------------------------------
+    @property
+    def electrical_time_constant(self) -> float:
+        """L / R_ref [s]."""
+        return self.inductance / self.resistance
+
+    @property
+    def mechanical_time_constant(self) -> float:
+        """J_rotor R_ref / (k_t k_e) [s]: the unloaded motor's speed time constant."""
+        return self.rotor_inertia * self.resistance / (self.torque_constant * self.back_emf_constant)
+
+    @property
+    def thermal_capacity(self) -> float:
+        """tau_th / R_th [J/K]."""
+        return self.thermal_time_constant / self.thermal_resistance
+
+    def resistance_at(self, temperature: float) -> float:
+        """Winding resistance [Ohm] at `temperature` [degC].
+
+        Examples
+        --------
+        >>> m = load_motor("maxon-re40-148877")
+        >>> round(m.resistance_at(125.0) / m.resistance, 2)   # copper, 100 K warmer
+        1.39
+        """
+        return self.resistance * (1.0 + self.temperature_coefficient * (temperature - self.reference_temperature))
+
+    def replace(self, **changes) -> "MotorData":
+        """A copy with `changes` applied (and checked)."""
+        known = {f.name for f in fields(self)}
+        for k in changes:
+            if k not in known:
+                raise SceneError(k, f"is not a field of MotorData (fields: {', '.join(sorted(known))})")
+        return MotorData(**{**{f.name: getattr(self, f.name) for f in fields(self)}, **changes})
+
+    # -- from a datasheet ---------------------------------------------------------
+    @classmethod
+    def from_datasheet(
+        cls, *, name: str, source: str,
+        terminal_resistance_ohm: float, terminal_inductance_mH: float,
+        torque_constant_mNm_per_A: float, rotor_inertia_gcm2: float,
+        speed_constant_rpm_per_V: float | None = None,
+        nominal_voltage_V: float | None = None,
+        no_load_current_mA: float | None = None, friction_torque_mNm: float | None = None,
+        viscous_damping_uNm_per_rpm: float = 0.0,
+        thermal_resistance_K_per_W: float | None = None, thermal_time_constant_s: float | None = None,
+        thermal_resistance_winding_housing_K_per_W: float | None = None,
+        thermal_resistance_housing_ambient_K_per_W: float | None = None,
+        thermal_time_constant_winding_s: float | None = None,
+        thermal_time_constant_motor_s: float | None = None,
+        no_load_speed_rpm: float | None = None, nominal_speed_rpm: float | None = None,
+        nominal_torque_mNm: float | None = None, stall_torque_mNm: float | None = None,
+        max_speed_rpm: float | None = None, max_winding_temperature_degC: float | None = None,
+        temperature_coefficient_per_K: float = 0.0039, reference_temperature_degC: float = 25.0,
+        smoothing_speed_rad_per_s: float = 10.0, notes: str = "",
+    ) -> "MotorData":
+        """A data set from a datasheet's figures, in the datasheet's units.
+
+        Parameters
+        ----------
+        name, source : str
+            Identifier, and the document the figures come from.
+        terminal_resistance_ohm : float
+            Terminal resistance [Ohm] at `reference_temperature_degC`.
+        terminal_inductance_mH : float
+            Terminal inductance [mH].
+        torque_constant_mNm_per_A : float
+            Torque constant [mNm/A].
+        rotor_inertia_gcm2 : float
+            Rotor inertia [g cm²].
+        speed_constant_rpm_per_V : float, optional
+            Speed constant [rpm/V]; gives k_e (checked against k_t).  Without it
+            k_e = k_t.
+        nominal_voltage_V : float, optional
+            Nominal voltage [V]; needed to check the stall torque and no-load speed.
+        no_load_current_mA, friction_torque_mNm : float, optional
+            Coulomb friction = friction torque, or k_t x no-load current; not both.
+        viscous_damping_uNm_per_rpm : float
+            Viscous damping [µNm/rpm] (Faulhaber states it; maxon does not).
+        thermal_resistance_K_per_W, thermal_time_constant_s : float, optional
+            A one-node thermal model, winding to ambient.  Or instead:
+        thermal_resistance_winding_housing_K_per_W, thermal_resistance_housing_ambient_K_per_W, \
+thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
+            The two-node datasheet constants (R_th1, R_th2, tau_w, tau_m), reduced to
+            one node (see the module's notes).
+        no_load_speed_rpm, nominal_speed_rpm, max_speed_rpm : float, optional
+            Speeds [rpm]; the no-load speed is checked against k_n (U - R I_0).
+        nominal_torque_mNm, stall_torque_mNm : float, optional
+            Max. continuous and stall torque [mNm]; the stall torque is checked
+            against k_t U / R - friction.
+        max_winding_temperature_degC : float, optional
+        temperature_coefficient_per_K, reference_temperature_degC : float
+            Copper's 0.0039 /K, and the datasheet's 25 degC.
+        smoothing_speed_rad_per_s : float
+            Speed scale of the friction and gearbox-direction smoothing [rad/s].
+        notes : str
+            Anything the data file says about the figures; the derivations are added.
+
+        Returns
+        -------
+        MotorData
+
+        Raises
+        ------
+        SceneError
+            Naming the (datasheet) field that is missing, not positive, or
+            inconsistent with the others.
+
+        Examples
+        --------
+        >>> m = MotorData.from_datasheet(name="example", source="hand arithmetic",
+        ...     terminal_resistance_ohm=2.0, terminal_inductance_mH=0.5,
+        ...     torque_constant_mNm_per_A=50.0, speed_constant_rpm_per_V=191.0,
+        ...     rotor_inertia_gcm2=20.0, no_load_current_mA=40.0,
+        ...     thermal_resistance_K_per_W=10.0, thermal_time_constant_s=300.0)
+        >>> m.torque_constant, m.inductance, m.rotor_inertia, round(m.coulomb_friction, 9)
+        (0.05, 0.0005, 2e-06, 0.002)
+        >>> round(m.back_emf_constant, 5)        # 1 / (191 rpm/V in rad/s/V)
+        0.05
+        """
+        R = check_number("terminal_resistance_ohm", terminal_resistance_ohm)
+        L = check_number("terminal_inductance_mH", terminal_inductance_mH) * 1e-3
+        kt = check_number("torque_constant_mNm_per_A", torque_constant_mNm_per_A) * 1e-3
+        J = check_number("rotor_inertia_gcm2", rotor_inertia_gcm2) * 1e-7
+        U = check_number("nominal_voltage_V", nominal_voltage_V, optional=True)
+        derived = []
+        kn = check_number("speed_constant_rpm_per_V", speed_constant_rpm_per_V, optional=True)
+        if kn is None:
+            ke = kt
+            derived.append("k_e = k_t (no speed constant given)")
+        else:
+            ke = 1.0 / (kn * RPM)
+            mismatch = ke / kt - 1.0
+            if abs(mismatch) > KE_KT_TOLERANCE:
+                raise SceneError("speed_constant_rpm_per_V",
+                                 f"{kn:g} rpm/V gives k_e = {ke:.5g} V s/rad, {100 * mismatch:+.1f} % off the "
+                                 f"torque constant {kt:.5g} N m/A (at most {100 * KE_KT_TOLERANCE:g} %; "
+                                 "k_n [rpm/V] x k_t [mNm/A] should be 30000/pi = 9549)")
+            derived.append("k_e = 1/k_n in V s/rad")
+        if no_load_current_mA is not None and friction_torque_mNm is not None:
+            raise SceneError("friction_torque_mNm", "give the friction torque or the no-load current, not both")
+        if friction_torque_mNm is not None:
+            tau_c = check_number("friction_torque_mNm", friction_torque_mNm, positive=False) * 1e-3
+            i0 = tau_c / kt
+        elif no_load_current_mA is not None:
+            i0 = check_number("no_load_current_mA", no_load_current_mA, positive=False) * 1e-3
+            tau_c = kt * i0
+            derived.append("Coulomb friction = k_t x no-load current")
+        else:
+            tau_c = i0 = 0.0
+        b = check_number("viscous_damping_uNm_per_rpm", viscous_damping_uNm_per_rpm, positive=False) * 1e-6 / RPM
+
+        one = (thermal_resistance_K_per_W, thermal_time_constant_s)
+        two = (thermal_resistance_winding_housing_K_per_W, thermal_resistance_housing_ambient_K_per_W,
+               thermal_time_constant_winding_s, thermal_time_constant_motor_s)
+        if any(v is not None for v in one) and any(v is not None for v in two):
+            raise SceneError("thermal_resistance_K_per_W",
+                             "give the one-node (R_th, tau_th) or the two-node datasheet constants, not both")
+        if any(v is not None for v in two):
+            r1 = check_number("thermal_resistance_winding_housing_K_per_W", two[0])
+            r2 = check_number("thermal_resistance_housing_ambient_K_per_W", two[1])
+            tw = check_number("thermal_time_constant_winding_s", two[2])
+            tm = check_number("thermal_time_constant_motor_s", two[3])
+            r_th, tau_th = r1 + r2, two_node_slow_time_constant(r1, r2, tw, tm)
+            derived.append(f"R_th = R_th1 + R_th2; tau_th = {tau_th:.4g} s, the slow mode of the two-node "
+                           "network (R_th1, R_th2, tau_w, tau_m)")
+        else:
+            r_th = check_number("thermal_resistance_K_per_W", one[0])
+            tau_th = check_number("thermal_time_constant_s", one[1])
+
+        def speed(field, v):
+            v = check_number(field, v, optional=True)
+            return None if v is None else v * RPM
+
+        def torque(field, v):
+            v = check_number(field, v, optional=True)
+            return None if v is None else v * 1e-3
+
+        n0, n_nom, n_max = (speed("no_load_speed_rpm", no_load_speed_rpm),
+                            speed("nominal_speed_rpm", nominal_speed_rpm), speed("max_speed_rpm", max_speed_rpm))
+        m_nom, m_stall = torque("nominal_torque_mNm", nominal_torque_mNm), torque("stall_torque_mNm", stall_torque_mNm)
+        if m_stall is not None and U is not None:
+            expected = kt * U / R - tau_c
+            if abs(m_stall / expected - 1.0) > STALL_TOLERANCE:
+                raise SceneError("stall_torque_mNm",
+                                 f"{m_stall * 1e3:g} mNm, but k_t U / R - friction = {expected * 1e3:.4g} mNm "
+                                 f"(more than {100 * STALL_TOLERANCE:g} % apart: a mistyped figure?)")
+        if n0 is not None and U is not None:
+            expected = (U - R * i0) / ke
+            if abs(n0 / expected - 1.0) > NO_LOAD_TOLERANCE:
+                raise SceneError("no_load_speed_rpm",
+                                 f"{no_load_speed_rpm:g} rpm, but k_n (U - R I_0) = {expected / RPM:.5g} rpm "
+                                 f"(more than {100 * NO_LOAD_TOLERANCE:g} % apart: a mistyped figure?)")
+        if m_nom is not None and m_stall is not None and m_nom > m_stall:
+            raise SceneError("nominal_torque_mNm", f"{nominal_torque_mNm:g} mNm exceeds the stall torque")
+        smoothing = check_number("smoothing_speed_rad_per_s", smoothing_speed_rad_per_s)
+        alpha = check_number("temperature_coefficient_per_K", temperature_coefficient_per_K, positive=False)
+        for field, t in (("reference_temperature_degC", reference_temperature_degC),
+                         ("max_winding_temperature_degC", max_winding_temperature_degC)):
+            if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t)):
+                raise SceneError(field, f"must be a finite number, got {t!r}")
+        all_notes = "; ".join([s for s in (notes.strip(),) if s] + derived)
+        return cls(name=name, source=source, resistance=R, inductance=L, torque_constant=kt, back_emf_constant=ke,
+                   rotor_inertia=J, viscous_friction=b, coulomb_friction=tau_c,
+                   smoothing_speed=smoothing, thermal_resistance=r_th,
+                   thermal_time_constant=tau_th, temperature_coefficient=alpha,
+                   reference_temperature=reference_temperature_degC, notes=all_notes, nominal_voltage=U,
+                   nominal_torque=m_nom, nominal_speed=n_nom, no_load_speed=n0, stall_torque=m_stall,
+                   max_speed=n_max, max_winding_temperature=max_winding_temperature_degC)
+
+
+def two_node_slow_time_constant(r1: float, r2: float, tau_w: float, tau_m: float) -> float:
+    """Slow time constant [s] of a two-node winding/housing thermal network.
+
+    The winding (capacity C_w = tau_w / R_th1) couples through R_th1 to the
+    housing (C_h = tau_m / R_th2), which couples through R_th2 to ambient, as in
+    maxon's datasheets.  The network's two modes are the eigenvalues of
+    ``[[-a, a], [b, -(b + c)]]`` with a = 1/tau_w, b = R_th2 / (R_th1 tau_m),
+    c = 1/tau_m; the slow one is returned.
+
+    Examples
+    --------
+    >>> round(two_node_slow_time_constant(1.93, 4.65, 41.6, 1120.0), 1)  # maxon RE 40
+    1223.8
+    >>> round(two_node_slow_time_constant(1.0, 1.0, 1e-6, 100.0), 3)  # a massless winding: tau_m
+    100.0
+    """
+    a, b, c = 1.0 / tau_w, r2 / (r1 * tau_m), 1.0 / tau_m
+    trace, det = -(a + b + c), a * c
+    fast = (trace - math.sqrt(trace * trace - 4.0 * det)) / 2.0
+    return -fast / det  # 1 / |slow eigenvalue|, with slow = det / fast (no cancellation)
+
+
+# -- data files ------------------------------------------------------------------
+_DATASHEET_KEYS = {
+    "terminal_resistance_ohm", "terminal_inductance_mH", "torque_constant_mNm_per_A", "rotor_inertia_gcm2",
+    "speed_constant_rpm_per_V", "nominal_voltage_V", "no_load_current_mA", "friction_torque_mNm",
+    "viscous_damping_uNm_per_rpm", "thermal_resistance_K_per_W", "thermal_time_constant_s",
+    "thermal_resistance_winding_housing_K_per_W", "thermal_resistance_housing_ambient_K_per_W",
+    "thermal_time_constant_winding_s", "thermal_time_constant_motor_s", "no_load_speed_rpm",
+    "nominal_speed_rpm", "nominal_torque_mNm", "stall_torque_mNm", "max_speed_rpm",
+    "max_winding_temperature_degC",
+}
+_MODEL_KEYS = {"temperature_coefficient_per_K", "reference_temperature_degC", "smoothing_speed_rad_per_s"}
+_SOURCE_KEYS = {"manufacturer", "series", "part_number", "document", "notes"}
+
+
+def _data_dir():
+    return resources.files("grubler.motors").joinpath("data")
+
+
+def list_motors() -> list[str]:
+    """Names of the shipped motor data sets.
+
+    Examples
+    --------
+    >>> "maxon-re40-148877" in list_motors()
+    True
+    """
+    return sorted(p.name[:-5] for p in _data_dir().iterdir() if p.name.endswith(".toml"))
+
+
+def load_motor(spec: str | Path) -> MotorData:
+    """A motor data set: a shipped name, a path to a TOML file, or TOML text.
+
+    A file has a top-level ``name``, a ``[source]`` table (manufacturer, series,
+    part_number, document, notes) and a ``[datasheet]`` table whose keys are
+    :meth:`MotorData.from_datasheet`'s datasheet-unit arguments; an optional
+    ``[model]`` table sets the modelling choices (temperature_coefficient_per_K,
+    reference_temperature_degC, smoothing_speed_rad_per_s).
+
+    Raises
+    ------
+    SceneError
+        Field ``motor`` for an unknown name or unreadable TOML; ``datasheet.<key>``
+        (etc.) for a missing, unknown, non-positive or inconsistent figure.
+
+    Examples
+    --------
+    >>> m = load_motor("maxon-re40-148877")
+    >>> m.torque_constant, m.resistance
+    (0.0603, 1.16)
+    >>> text = '''name = "bad"
+    ... [source]
+    ... document = "none"
+    ... [datasheet]
+    ... terminal_resistance_ohm = 1.0
+    ... terminal_inductance_mH = 0.1
+    ... torque_constant_mNm_per_A = 20.0
+    ... rotor_inertia_gcm2 = -3.0
+    ... '''
+    >>> load_motor(text)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: datasheet.rotor_inertia_gcm2: must be positive, got -3.0 (motor 'bad')
+    """
+    text, where = _read_spec(spec)
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError("motor", f"{where} is not valid TOML: {exc}") from None
+    name = doc.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise SceneError("name", f"{where} needs a top-level name = \"...\"")
+    for key in doc:
+        if key not in ("name", "source", "datasheet", "model"):
+            raise SceneError(key, f"unknown table or key in {where} (expected name, [source], [datasheet], [model])")
+    src, sheet, model = doc.get("source", {}), doc.get("datasheet"), doc.get("model", {})
+    if sheet is None:
+        raise SceneError("datasheet", f"{where} has no [datasheet] table")
+    for table, allowed, tname in ((src, _SOURCE_KEYS, "source"), (sheet, _DATASHEET_KEYS, "datasheet"),
+                                  (model, _MODEL_KEYS, "model")):
+        if not isinstance(table, dict):
+            raise SceneError(tname, "must be a table")
+        for key in table:
+            if key not in allowed:
+                raise SceneError(f"{tname}.{key}", f"unknown key (known: {', '.join(sorted(allowed))})")
+    if not src.get("document"):
+        raise SceneError("source.document", f"{where} must name the document its figures come from")
+    source = ", ".join(str(src[k]) for k in ("manufacturer", "series", "part_number", "document") if src.get(k))
+    try:
+        return MotorData.from_datasheet(name=name, source=source, notes=str(src.get("notes", "")),
+                                        **sheet, **model)
+    except SceneError as exc:
+        table = "model" if exc.field in _MODEL_KEYS else "datasheet"
+        raise SceneError(f"{table}.{exc.field}", f"{exc.reason} (motor {name!r})") from None
+    except TypeError as exc:  # a required datasheet figure is absent
+        found = re.search(r"'(\w+)'", str(exc))
+        missing = found.group(1) if found else "?"
+        raise SceneError(f"datasheet.{missing}", f"is missing (motor {name!r})") from None
+
+
+def _read_spec(spec: str | Path) -> tuple[str, str]:
+    if isinstance(spec, Path):
+        return spec.read_text(), str(spec)
+    if not isinstance(spec, str) or not spec.strip():
+        raise SceneError("motor", f"must be a data set name, a path or TOML text, got {spec!r}")
+    if "\n" in spec or "=" in spec:
+        return spec, "the TOML text"
+    path = Path(spec)
+    if spec.endswith(".toml") and path.is_file():
+        return path.read_text(), spec
+    entry = _data_dir().joinpath(f"{spec}.toml")
+    if entry.is_file():
+        return entry.read_text(), f"data set {spec!r}"
+    raise SceneError("motor", f"no data set named {spec!r} (known: {', '.join(list_motors())}) and no such file")

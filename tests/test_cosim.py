@@ -1,0 +1,181 @@
+"""The co-simulation runner and SSP files: checks, ordering, initialisation, runs.
+
+Runs that load FMUs happen in a child process (``grubler cosim``), judged by the
+CSV it wrote, so a crash at interpreter exit (PythonFMU issue 228) cannot hide or
+fake a result.  Checking and ordering read model descriptions only.
+"""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import grubler
+from grubler import cosim, ssp
+from grubler.dynamics import Inputs, forward_dynamics
+
+ROOT = Path(__file__).parent.parent
+
+
+@pytest.fixture(scope="module")
+def mechanism_fmu(tmp_path_factory):
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    return path
+
+
+def run_cli(*args, timeout=600):
+    return subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def read_csv(path):
+    data = np.genfromtxt(path, delimiter=",", names=True, deletechars="")
+    return {n: data[n] for n in data.dtype.names}
+
+
+def test_an_ssd_round_trips_and_fmpy_reads_it(mechanism_fmu, tmp_path):
+    from fmpy.ssp.ssd import read_ssd
+
+    s = ssp.System("pair", description="two four-bars", start_time=0.0, stop_time=2.5, step=2e-3)
+    s.add("a", mechanism_fmu, **{"link2.m": 2.0, "mechanism": "thesis-fourbar", "rtol": 1e-8})
+    s.add("b", mechanism_fmu)
+    s.connect("a.drive_angle", "b.load_torque")
+    s.components["b"].units["load_torque"] = "any"
+    s.plots.append(ssp.Plot("angles", ["a.theta2", "b.theta2"]))
+    back = ssp.read(s.write(tmp_path / "pair.ssd"))
+    assert back.components["a"].parameters == {"link2.m": 2.0, "mechanism": "thesis-fourbar", "rtol": 1e-8}
+    assert back.connections == s.connections
+    assert (back.start_time, back.stop_time, back.step) == (0.0, 2.5, 2e-3)
+    assert back.plots == s.plots
+    assert back.source_path(back.components["a"]).resolve() == Path(mechanism_fmu).resolve()
+    # the archive carries one copy of the FMU, and fmpy's reader (schema-validated) opens it
+    archive = s.write(tmp_path / "pair.ssp")
+    ssd = read_ssd(str(archive), validate=True)
+    names = [e.name for e in ssd.system.elements]
+    assert names == ["a", "b"]
+    assert {e.source for e in ssd.system.elements} == {"resources/Mechanism.fmu"}
+    assert len(ssd.system.connections) == 1
+    params = ssd.system.elements[0].parameterBindings[0].parameterValues[0].parameters
+    assert float({p.name: p.value for p in params}["link2.m"]) == 2.0
+    again = ssp.read(archive)
+    assert again.source_path(again.components["b"]).is_file()
+
+
+def test_bad_systems_are_reported_by_name_before_anything_runs(mechanism_fmu):
+    s = ssp.System("bad")
+    s.add("a", mechanism_fmu, **{"link9.m": 1.0, "theta2": 0.3})
+    s.add("b", mechanism_fmu)
+    s.connect("a.theta2", "ghost.motor_torque")  # no such component
+    s.connect("a.no_such_output", "b.motor_torque")  # no such variable
+    s.connect("a.theta2", "b.theta3")  # output to output
+    s.connect("a.drive_speed", "b.load_torque")  # rad/s to N m
+    s.connect("a.Fx", "b.load_torque")  # fed twice
+    with pytest.raises(ssp.SystemDescriptionError) as err:
+        cosim.run(s, t_end=0.1)
+    msg = str(err.value)
+    for expected in ("dangling connection a.theta2 -> ghost.motor_torque: no component 'ghost'",
+                     "has no variable 'no_such_output'",
+                     "b.theta3 is a output, the end of a connection must be an input",
+                     "unit mismatch a.drive_speed -> b.load_torque: [rad/s or m/s] to [N m, or N on a slide]",
+                     "input b.load_torque is fed twice",
+                     "parameter a.link9.m: Mechanism.fmu has no variable 'link9.m'",
+                     "parameter a.theta2: it is an output, not a parameter"):
+        assert expected in msg, expected
+    missing = ssp.System("missing")
+    missing.add("m", "/nonexistent/Mechanism.fmu")
+    with pytest.raises(ssp.SystemDescriptionError, match="component m: FMU /nonexistent/Mechanism.fmu not found"):
+        cosim.run(missing)
+
+
+def test_a_loop_is_cut_at_a_state_and_an_algebraic_loop_is_named(mechanism_fmu):
+    s = ssp.System("loop")
+    s.add("a", mechanism_fmu)
+    s.add("b", mechanism_fmu)
+    s.connect("b.theta2_dd", "a.motor_torque")  # depends on b's torque now
+    s.connect("a.drive_angle", "b.motor_torque")  # a state: the loop is cut here
+    s.components["a"].units["motor_torque"] = "any"
+    s.components["b"].units["motor_torque"] = "any"
+    itf = {n: cosim.FmuInterface.of(Path(mechanism_fmu)) for n in "ab"}
+    # the edge out of a's state is the one cut; b's acceleration is fed forward to a
+    assert cosim.order(s, itf) == ["b", "a"]
+    s.connections[1] = ssp.Connection("a", "theta3_dd", "b", "motor_torque")
+    with pytest.raises(ssp.SystemDescriptionError, match="algebraic loop") as err:
+        cosim.order(s, itf)
+    assert "b.theta2_dd -> a.motor_torque" in str(err.value) and "a.theta3_dd -> b.motor_torque" in str(err.value)
+
+
+def test_one_mechanism_co_simulated_is_the_library_run(mechanism_fmu, tmp_path):
+    s = ssp.System("alone", stop_time=1.0, step=0.01)
+    s.add("m", mechanism_fmu, **{"link2.m": 1.5})
+    path = s.write(tmp_path / "alone.ssd")
+    proc = run_cli(path, "--csv", tmp_path / "alone.csv", "--record", "m.theta2,m.Fx")
+    assert proc.returncode == 0, proc.stderr
+    assert "alone: 1 s at step 0.01 s (gauss-seidel, order m)" in proc.stdout
+    got = read_csv(tmp_path / "alone.csv")
+    assert list(got) == ["t", "m.theta2", "m.Fx"]
+    scene = grubler.load_scene("thesis-fourbar")
+    m = scene.mechanism
+    from dataclasses import replace
+    scene = grubler.scene.with_overrides(scene, mechanism=m.replace(
+        links=(replace(m.links[0], m=1.5),) + m.links[1:]))
+    lib = grubler.simulate(scene, t_end=1.0, dt_out=0.01)
+    assert np.allclose(got["t"], lib.t, atol=1e-12)
+    assert np.max(np.abs(got["m.theta2"] - lib["theta2"])) < 1e-9
+    assert np.max(np.abs(got["m.Fx"] - lib["Fx"])) < 1e-6
+
+
+def test_coupled_inputs_start_consistent_not_at_zero(mechanism_fmu, tmp_path):
+    # b's load torque is a's initial crank rate (given as a parameter): b's first
+    # accelerations must already feel it
+    s = ssp.System("init", stop_time=0.01, step=0.01)
+    s.add("a", mechanism_fmu, **{"initial.theta2_d": 2.0})
+    s.add("b", mechanism_fmu, load_joint="theta2")
+    s.connect("a.drive_speed", "b.load_torque")
+    s.components["b"].units["load_torque"] = "any"
+    proc = run_cli(s.write(tmp_path / "init.ssd"), "--csv", tmp_path / "init.csv")
+    assert proc.returncode == 0, proc.stderr
+    got = read_csv(tmp_path / "init.csv")
+    sc = grubler.load_scene("thesis-fourbar")
+    model = sc.mechanism.replace(load="theta2")
+    z0, _ = grubler.assemble(model, model.z_from_q(model.q_ref))
+    dyn = forward_dynamics(model, z0, np.zeros(len(z0)), Inputs(0.0, 2.0))
+    qdd = model.S @ dyn.zdd
+    names = model.coordinate_names
+    assert got["b.theta4_dd"][0] == pytest.approx(qdd[names.index("theta4")], rel=1e-6)
+    zero = forward_dynamics(model, z0, np.zeros(len(z0)), Inputs(0.0, 0.0))
+    assert abs((model.S @ zero.zdd)[names.index("theta4")] - got["b.theta4_dd"][0]) > 1e-3
+
+
+def test_the_cli_names_the_problem_and_exits_2(mechanism_fmu, tmp_path):
+    s = ssp.System("bad")
+    s.add("a", mechanism_fmu)
+    s.connect("a.drive_speed", "a.motor_torque")
+    proc = run_cli(s.write(tmp_path / "bad.ssd"))
+    assert proc.returncode == 2
+    assert "unit mismatch a.drive_speed -> a.motor_torque" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
+    from grubler.runs import coordinates, read_run_csv
+
+    s = ssp.System("alone", stop_time=0.5, step=0.01)
+    s.add("arm", mechanism_fmu)
+    proc = run_cli(s.write(tmp_path / "alone.ssd"), "--csv", tmp_path / "run.csv")
+    assert proc.returncode == 0, proc.stderr
+    scene = grubler.load_scene("thesis-fourbar")
+    cols = read_run_csv(str(tmp_path / "run.csv"), scene.mechanism)
+    lib = grubler.simulate(scene, t_end=0.5, dt_out=0.01)
+    assert np.max(np.abs(coordinates(cols, scene.mechanism) - lib.z)) < 1e-9
+    assert np.max(np.abs(cols["E"] - lib["E"])) < 1e-8
+    for cmd in (["report", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "r.png"],
+                ["animate", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "a.gif",
+                 "--fps", "10"]):
+        p = subprocess.run([sys.executable, "-m", "grubler.cli", *map(str, cmd)], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "r.png").stat().st_size > 10_000 and (tmp_path / "a.gif").stat().st_size > 10_000

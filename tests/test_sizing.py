@@ -1,0 +1,110 @@
+"""Motor sizing: hand arithmetic where it can be done, the thermal steady state against
+a brute-force integration, and rejections for the right reason."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.integrate
+
+import grubler
+from grubler.inverse import drive_demand
+from grubler.motors import MotorData, load_motor
+from grubler.sizing import DutyCycle, assess, periodic_temperature, required_drive, size
+
+
+def toy_motor(**kw):
+    # a sharp friction/efficiency switch (smoothing_speed) so that hand arithmetic holds exactly
+    base = dict(name="toy", source="test", resistance=2.0, inductance=1e-3, torque_constant=0.2,
+                back_emf_constant=0.2, rotor_inertia=2e-5, thermal_resistance=4.0, thermal_time_constant=30.0,
+                temperature_coefficient=0.0, smoothing_speed=1e-3, max_speed=600.0,
+                max_winding_temperature=125.0, nominal_torque=0.5)
+    base.update(kw)
+    return MotorData(**base)
+
+
+def balanced_crank():
+    # mass centre on the axis: no gravity torque; the joint's damping and the load remain
+    link = grubler.Link("R", a=0.3, p=0.0, q=0.0, m=2.0, I=0.05, damping=0.4)
+    return grubler.Mechanism(links=(link,), drive="theta2", load="theta2")
+
+
+def test_a_balanced_crank_at_constant_speed_by_hand():
+    cycle = DutyCycle.constant_speed(5.0, n=50, load=-1.5)
+    study = size(balanced_crank(), cycle, [toy_motor()], ratios=[10.0], efficiency=0.8, supply_voltage=24.0,
+                 current_limit=5.0)
+    (a,) = study.assessments
+    joint = 0.4 * 5.0 + 1.5  # damping x speed, and the load to overcome: 3.5 N m
+    motor_torque = joint / (10 * 0.8)  # driving: through the gearbox's efficiency
+    i = motor_torque / 0.2
+    assert np.allclose(study.demand.torque, joint, atol=1e-12)
+    assert np.allclose(a.current, i) and np.allclose(a.motor_speed, 50.0)
+    assert np.allclose(a.voltage, 2.0 * i + 0.2 * 50.0)
+    rise = 4.0 * i**2 * 2.0  # R_th x copper loss, alpha = 0
+    assert np.allclose(a.temperature, 25.0 + rise)
+    row = a.summary()
+    assert row["rms_motor_torque"] == pytest.approx(0.2 * i) and row["peak_current"] == pytest.approx(i)
+    assert a.margins["peak current"] == pytest.approx(5.0 / i)
+    assert a.margins["voltage"] == pytest.approx(24.0 / (2.0 * i + 10.0))
+    assert a.margins["temperature rise"] == pytest.approx(100.0 / rise)
+    assert a.margins["continuous torque"] == pytest.approx(0.5 / (0.2 * i))
+    assert a.feasible and study.best is a
+
+
+def test_too_small_a_motor_is_rejected_for_the_reason_it_fails():
+    cycle = DutyCycle.constant_speed(5.0, n=50, load=-1.5)
+    study = size(balanced_crank(), cycle, [toy_motor(), toy_motor(name="hot", thermal_resistance=40.0)],
+                 ratios=[2.0, 10.0, 200.0], efficiency=0.8, supply_voltage=24.0, current_limit=5.0)
+    by = {(a.candidate.motor.name, a.candidate.ratio): a for a in study.assessments}
+    low = by[("toy", 2.0)]  # 2.1875 N m at the motor: 10.9 A, more than the drive gives, and hot
+    assert not low.feasible and low.binding == "temperature rise"
+    assert any(f.startswith("peak current: needs 10.94 A, limit 5 A") for f in low.failures)
+    high = by[("toy", 200.0)]  # the motor would spin at 1000 rad/s
+    assert [f.split(":")[0] for f in high.failures] == ["speed", "voltage"]
+    assert by[("hot", 10.0)].failures == ["temperature rise: needs 382.8 K, limit 100 K"]
+    assert [(a.candidate.motor.name, a.candidate.ratio) for a in study.ranked] == [("toy", 10.0)]
+
+
+def test_the_rotor_inertia_enters_as_a_drive_inertia():
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    t = np.linspace(0, 1, 41)
+    cycle = DutyCycle(t, 0.5 * np.sin(2 * np.pi * t), np.pi * np.cos(2 * np.pi * t),
+                      -2 * np.pi**2 * np.sin(2 * np.pi * t), np.zeros_like(t))
+    motor = load_motor("maxon-re40-148877")
+    a = size(m, cycle, [motor], ratios=[30.0], efficiency=1.0, supply_voltage=48.0).assessments[0]
+    J = motor.rotor_inertia * 30.0**2
+    direct = drive_demand(m.replace(drive_inertia=J), cycle.position, cycle.velocity, cycle.acceleration)
+    shaft = a.motor_torque * 30.0  # efficiency 1, no friction beyond the motor's own
+    w = a.motor_speed
+    friction = 30.0 * motor.coulomb_friction * np.tanh(w / motor.smoothing_speed)
+    assert np.allclose(shaft - friction, direct.torque, atol=1e-9)
+    assert np.allclose(required_drive(m, cycle).torque + J * cycle.acceleration, direct.torque, atol=1e-9)
+
+
+def test_periodic_temperature_is_where_repeated_cycles_settle():
+    motor = toy_motor(temperature_coefficient=0.0039, thermal_time_constant=2.0)
+    t = np.linspace(0.0, 1.0, 2001)
+    current = 3.0 + 2.0 * np.sin(2 * np.pi * t)
+    temps = periodic_temperature(t, current, motor, 25.0)
+    C = motor.thermal_capacity
+
+    def rhs(tt, T):
+        i = 3.0 + 2.0 * np.sin(2 * np.pi * tt)
+        return [(i**2 * motor.resistance_at(T[0]) - (T[0] - 25.0) / motor.thermal_resistance) / C]
+
+    sol = scipy.integrate.solve_ivp(rhs, (0, 100.0), [25.0], rtol=1e-10, atol=1e-10, dense_output=True)
+    last = sol.sol(99.0 + t)[0]  # 30 time constants (with R(T): about 3 s) on: settled
+    assert np.max(np.abs(last - temps)) < 5e-5  # of a 123 K rise: the samples hold i² piecewise
+    # a winding whose resistance grows faster than it sheds heat runs away
+    runaway = periodic_temperature(t, np.full_like(t, 60.0), toy_motor(temperature_coefficient=0.0039), 25.0)
+    assert np.all(np.isinf(runaway))
+
+
+def test_bad_sizing_input_names_the_field():
+    cycle = DutyCycle.constant_speed(5.0, n=20)
+    with pytest.raises(grubler.SceneError, match="ratio"):
+        size(balanced_crank(), cycle, [toy_motor()], ratios=[0.5], supply_voltage=24.0)
+    with pytest.raises(grubler.SceneError, match="motors"):
+        size(balanced_crank(), cycle, [], ratios=[2.0])
+    with pytest.raises(grubler.SceneError, match="duty_cycle.speed"):
+        DutyCycle.constant_speed(0.0)
