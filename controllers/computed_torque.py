@@ -1,18 +1,11 @@
 """Computed-torque feedforward: the drive torque a one-DOF mechanism needs to follow a trajectory.
 
 Given the drive joint's position, velocity and acceleration from a trajectory,
-the mechanism's inverse dynamics gives the torque at the drive joint:
-
-1. positions: :func:`grubler.assemble` closes the loop with the drive coordinate
-   held at the trajectory's position, starting from the last solution (so the
-   branch stays the one the scene sketches);
-2. velocities: the same call makes the dependent rates consistent with the drive
-   rate (``J zd = 0``);
-3. accelerations: the dependent ones from the closures' acceleration equation
-   ``J zdd = gamma`` (:func:`grubler.kinematics.closure_kinematics`) with the
-   drive acceleration given;
-4. :func:`grubler.inverse_dynamics` gives the drive torque (gravity, damping,
-   the drive inertia and the closure forces included).
+:func:`grubler.inverse.drive_demand` closes the loop at that drive position
+(starting from the last sample's configuration, so the branch stays the one the
+scene sketches), makes the dependent rates and accelerations consistent with
+the closures, and gives the drive torque by :func:`grubler.inverse_dynamics`
+(gravity, damping, the drive inertia and the closure forces included).
 
 Optionally, through a gearbox of ratio ``gear_ratio`` (motor turns per drive
 joint turn) and efficiency ``efficiency``, the motor torque is
@@ -36,9 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-import grubler
 from grubler.errors import SceneError
-from grubler.kinematics import chain_kinematics, closure_kinematics
+from grubler.inverse import DriveDemand, drive_demand
 from grubler.model import Mechanism
 from grubler.scene import Scene, load_scene
 
@@ -96,11 +88,6 @@ class ComputedTorque(Law):
     def __init__(self, mechanism="thesis-fourbar", drive_inertia: float | None = None, gear_ratio: float = 1.0,
                  efficiency: float = 1.0, R: float = 0.0, k_t: float = 0.0, k_e: float = 0.0, Ts: float = 0.0):
         model = _mechanism(mechanism)
-        if model.drive is None:
-            raise SceneError("mechanism", f"{model.name or 'the scene'} has no drive joint")
-        if model.mobility != 1:
-            raise SceneError("mechanism", f"computed torque needs a one-DOF mechanism; "
-                                          f"{model.name or 'the scene'} has mobility {model.mobility}")
         if drive_inertia is not None:
             model = model.replace(drive_inertia=check_number(drive_inertia, "drive_inertia", low=0.0))
         self.model = model
@@ -112,43 +99,31 @@ class ComputedTorque(Law):
         self.k_t = check_number(k_t, "k_t", low=0.0)
         self.k_e = check_number(k_e, "k_e", low=0.0)
         self.Ts = check_sample_time(Ts, allow_zero=True)
-        self._drive = model.free_index(model.drive)
-        self._dependent = [i for i in range(model.n_free) if i != self._drive]
+        self.reset()
+        # a mechanism without a drive joint, with mobility other than one, or that
+        # does not close at its sketched start is refused here, at initialisation
+        self.demand(float(self.z[model.free_index(model.drive)]) if model.drive else 0.0, 0.0, 0.0)
         self.reset()
 
     def reset(self) -> None:
         """Forget the last configuration: the next one starts from the scene's."""
         self.z = self.model.z_from_q(self.model.q_ref)
 
-    def motion(self, position: float, velocity: float, acceleration: float
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Coordinates, rates and accelerations of every real joint, the drive's given.
+    def demand(self, position: float, velocity: float, acceleration: float) -> DriveDemand:
+        """The whole inverse-dynamics sample (every joint's motion, the drive torque) at one drive state.
 
         Raises
         ------
         AssemblyError
             When the loop cannot close at that drive position.
         """
-        model, i = self.model, self._drive
-        z0 = self.z.copy()
-        z0[i] = position
-        zd0 = np.zeros(model.n_free)
-        zd0[i] = velocity
-        z, zd = grubler.assemble(model, z0, zd0, field="position")
-        zdd = np.zeros(model.n_free)
-        zdd[i] = acceleration
-        if model.n_constraints:
-            ck = closure_kinematics(model, chain_kinematics(model, z, zd))
-            dep = self._dependent
-            zdd[dep] = np.linalg.lstsq(ck.J[:, dep], ck.gamma - ck.J[:, i] * acceleration, rcond=None)[0]
-        self.z = z
-        return z, zd, zdd
+        d = drive_demand(self.model, [position], [velocity], [acceleration], z_guess=self.z)
+        self.z = d.z[0]
+        return d
 
     def drive_torque(self, position: float, velocity: float, acceleration: float) -> float:
         """Torque at the drive joint for that motion, N m (N on a slide)."""
-        z, zd, zdd = self.motion(position, velocity, acceleration)
-        tau, _ = grubler.inverse_dynamics(self.model, z, zd, zdd)
-        return tau
+        return float(self.demand(position, velocity, acceleration).torque[0])
 
     def motor(self, tau: float, velocity: float) -> tuple[float, float]:
         """Motor torque and voltage feedforward for a drive torque and drive velocity."""

@@ -107,6 +107,27 @@ class LawSlave(Fmi2Slave):
                                         initial=Fmi2Initial.exact, description=text,
                                         getter=lambda n=name: self._output(n)))
 
+    def feedthrough(self) -> dict[str, list[str]]:
+        """Inputs each output depends on at the same instant: none.
+
+        An output read at ``t + h`` comes from samples taken before ``t + h`` on
+        the inputs held since ``t`` (see :class:`~grubler.controllers.law.Sampler`),
+        so to a master every output is a state, and a feedback loop through a
+        controller is never algebraic.  build_fmu.py reads this; :meth:`to_xml`
+        writes it into the model description of every FMU built from a law.
+        """
+        return {name: [] for name in type(self).law.outputs}
+
+    def to_xml(self, model_options=None):
+        root = super().to_xml(model_options if model_options is not None else {})
+        variables = root.findall("ModelVariables/ScalarVariable")
+        index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
+        feed = self.feedthrough()
+        for unknown in root.findall("ModelStructure/Outputs/Unknown"):
+            name = variables[int(unknown.get("index")) - 1].get("name")
+            unknown.set("dependencies", " ".join(index[i] for i in feed.get(name, [])))
+        return root
+
     def _parameter(self, name: str):
         if name in self._overrides:
             return self._overrides[name]
