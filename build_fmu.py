@@ -29,6 +29,13 @@ HERE = Path(__file__).resolve().parent
 SLAVES = {
     "Mechanism": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
     "DCMotor": HERE / "motors" / "grubler_dc_motor.py",
+    # grubler.controllers: each a thin LawSlave over its Python law
+    "PID": HERE / "controllers" / "grubler_pid.py",
+    "CascadeController": HERE / "controllers" / "grubler_cascade.py",
+    "LinearController": HERE / "controllers" / "grubler_linear_controller.py",
+    "ComputedTorque": HERE / "controllers" / "grubler_computed_torque.py",
+    "Trajectory": HERE / "controllers" / "grubler_trajectory.py",
+    "Encoder": HERE / "controllers" / "grubler_encoder.py",
 }
 
 

@@ -1,1 +1,32 @@
-"""Controllers and transducers for a grubler mechanism (``grubler.controllers``)."""
+"""Controllers and transducers for a grubler mechanism (``grubler.controllers``).
+
+Each block is a sampled :class:`Law` usable directly from Python and, through
+the same declaration, as its own FMU (``python build_fmu.py``; your own law:
+:func:`grubler.controllers.fmu.build_controller_fmu`).  The sample-and-hold
+semantics in co-simulation are documented in :mod:`grubler.controllers.law`.
+
+- :class:`PID`: discrete PID, setpoint weights, filtered derivative, anti-windup, limits;
+- :class:`CascadeController`: position (P/PI) and speed (PI) loops with speed feedforward;
+- :class:`LinearController`: any python-control TF or state space, discretised;
+- :class:`ComputedTorque`: inverse-dynamics feedforward of a one-DOF mechanism;
+- :class:`Trajectory`: constant speed, trapezoid, S-curve, sine and table setpoints;
+- :class:`Encoder`: seeded noise, quantisation, delay and a speed estimate.
+
+Examples
+--------
+>>> from grubler.controllers import PID, Sampler
+>>> s = Sampler(PID(K=2.0, Ts=0.01))
+>>> s.step(0.0, 0.05, {"setpoint": 1.0, "measurement": 0.25, "feedforward": 0.0})   # 5 samples
+{'u': 1.5}
+"""
+
+from .cascade import CascadeController
+from .computed_torque import ComputedTorque
+from .encoder import Encoder
+from .law import Law, Parameter, Sampler
+from .linear import LinearController
+from .pid import PID
+from .trajectory import Trajectory
+
+__all__ = ["CascadeController", "ComputedTorque", "Encoder", "Law", "LinearController", "PID", "Parameter",
+           "Sampler", "Trajectory"]

@@ -1,0 +1,305 @@
+"""FMUs from control laws: the shared pythonfmu slave, and a builder for your own law.
+
+Every controller FMU of the project is a thin :class:`LawSlave` subclass naming
+its :class:`~grubler.controllers.law.Law`; the slave declares the law's inputs,
+outputs and parameters as FMI variables and runs it with the
+:class:`~grubler.controllers.law.Sampler` (the sample-and-hold semantics are
+documented there).  It logs every error and reports it as a failed call instead
+of raising into the importer, and its FMU state holds the law's whole state
+(a noise generator's included), so a master can roll back.
+
+Writing your own controller
+---------------------------
+Put a :class:`~grubler.controllers.law.Law` subclass in a module file (not in
+``__main__``)::
+
+    # mylaw.py
+    from grubler.controllers import Law, Parameter
+
+    class BangBang(Law):
+        \"\"\"Two-level output with hysteresis.\"\"\"
+        inputs = {"error": "control error [rad]"}
+        outputs = {"u": "output [V]"}
+        parameters = {"level": Parameter(12.0, "output level [V]"),
+                      "band": Parameter(0.01, "hysteresis half-band [rad]"),
+                      "Ts": Parameter(1e-3, "sample time [s]")}
+
+        def __init__(self, level=12.0, band=0.01, Ts=1e-3):
+            self.level, self.band, self.Ts = level, band, Ts
+            self.on = False                      # state: saved and restored by the FMU
+
+        def update(self, t, inputs):
+            e = inputs["error"]
+            if abs(e) > self.band:
+                self.on = e > 0
+            return {"u": self.level if self.on else -self.level}
+
+then ``build_controller_fmu(BangBang, "dist")`` writes ``dist/BangBang.fmu``.
+Descriptions end with the unit in square brackets; parameter types follow their
+defaults (float: Real, int: Integer, bool: Boolean, str: String).  Errors in the
+constructor (say a :class:`grubler.SceneError` naming the parameter) are
+reported at initialisation; exceptions in ``update`` fail that step.  The
+default ``get_state``/``set_state`` deep-copy the instance's attributes; override
+them if some attribute cannot be copied.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import pickle
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
+from pythonfmu.enums import Fmi2Status
+
+import grubler
+from grubler.errors import SceneError
+
+from .law import Law, Sampler
+
+_TYPES = ((bool, Boolean), (int, Integer), (float, Real), (str, String))
+
+
+def _variable_type(value):
+    for py, fmi in _TYPES:
+        if isinstance(value, py):
+            return fmi
+    raise TypeError(f"parameter default {value!r}: an FMU parameter is a float, int, bool or str")
+
+
+class LawSlave(Fmi2Slave):
+    """FMI 2.0 co-simulation slave running a :class:`Law` (subclass it and set ``law``)."""
+
+    law: type[Law] = Law
+    author = "grubler"
+    version = grubler.__version__
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        law = type(self).law
+        self.description = (law.__doc__ or law.__name__).strip().splitlines()[0]
+        self._inputs = {name: 0.0 for name in law.inputs}
+        self._overrides: dict[str, object] = {}
+        self._error: str | None = None
+        self._sampler: Sampler | None = None
+        self._t0 = 0.0
+        self._time = 0.0
+        try:  # the defaults' initial outputs are the outputs' start values
+            self._initial = Sampler(law.from_parameters(), 0.0).outputs
+        except Exception:  # a law without defaults for every parameter
+            self._initial = {name: 0.0 for name in law.outputs}
+        par, fixed = Fmi2Causality.parameter, Fmi2Variability.fixed
+        for name, p in law.parameters.items():
+            kind = _variable_type(p.fmu_start)
+            self.register_variable(kind(name, causality=par, variability=fixed, description=p.description,
+                                        getter=lambda n=name: self._parameter(n),
+                                        setter=lambda v, n=name: self._overrides.__setitem__(n, v)))
+        for name, text in law.inputs.items():
+            self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                                        description=text, getter=lambda n=name: self._inputs[n],
+                                        setter=lambda v, n=name: self._inputs.__setitem__(n, float(v))))
+        for name, text in law.outputs.items():
+            self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                        initial=Fmi2Initial.exact, description=text,
+                                        getter=lambda n=name: self._output(n)))
+
+    def feedthrough(self) -> dict[str, list[str]]:
+        """Inputs each output depends on at the same instant: none.
+
+        An output read at ``t + h`` comes from samples taken before ``t + h`` on
+        the inputs held since ``t`` (see :class:`~grubler.controllers.law.Sampler`),
+        so to a master every output is a state, and a feedback loop through a
+        controller is never algebraic.  build_fmu.py reads this; :meth:`to_xml`
+        writes it into the model description of every FMU built from a law.
+        """
+        return {name: [] for name in type(self).law.outputs}
+
+    def to_xml(self, model_options=None):
+        root = super().to_xml(model_options if model_options is not None else {})
+        variables = root.findall("ModelVariables/ScalarVariable")
+        index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
+        feed = self.feedthrough()
+        for unknown in root.findall("ModelStructure/Outputs/Unknown"):
+            name = variables[int(unknown.get("index")) - 1].get("name")
+            unknown.set("dependencies", " ".join(index[i] for i in feed.get(name, [])))
+        return root
+
+    def _parameter(self, name: str):
+        if name in self._overrides:
+            return self._overrides[name]
+        return type(self).law.parameters[name].fmu_start
+
+    def _output(self, name: str) -> float:
+        outputs = self._sampler.outputs if self._sampler is not None else self._initial
+        return float(outputs.get(name, math.nan))
+
+    def _fail(self, msg: str) -> None:
+        self._error = msg
+        self.log(msg, Fmi2Status.error)
+
+    # -- set-up ----------------------------------------------------------------
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._t0 = float(start_time or 0.0)
+
+    def exit_initialization_mode(self):
+        try:
+            law = type(self).law.from_parameters(**self._overrides)
+            self._sampler = Sampler(law, self._t0)
+            self._time = self._t0
+            self._error = None
+        except Exception as exc:  # noqa: BLE001 - a user's law may raise anything; the importer must not see it
+            self._sampler = None
+            # the instance stays alive and refuses every step with this message
+            self._fail(f"initialisation failed: {_describe(exc)}")
+
+    # -- stepping ----------------------------------------------------------------
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if self._error is not None:
+            self.log(f"cannot step: {self._error}", Fmi2Status.error)
+            return False
+        sampler = self._sampler
+        if sampler is None:
+            self.log("doStep before initialisation (call exitInitializationMode first)", Fmi2Status.error)
+            return False
+        if abs(current_time - self._time) > 1e-9 * max(1.0, abs(self._time)):
+            self.log(f"doStep at t = {current_time:.12g} s, but the controller is at t = {self._time:.12g} s "
+                     "(restore a saved FMU state to roll back)", Fmi2Status.error)
+            return False
+        try:
+            sampler.step(current_time, step_size, self._inputs)
+        except Exception as exc:  # noqa: BLE001 - logged and reported as fmi2Discard, never raised
+            self.log(f"step from t = {current_time:g} s failed: {_describe(exc)}", Fmi2Status.error)
+            return False
+        self._time = current_time + step_size
+        return True
+
+    # -- state -------------------------------------------------------------------
+    def _get_fmu_state(self):
+        return {"sampler": None if self._sampler is None else self._sampler.get_state(),
+                "inputs": dict(self._inputs), "time": self._time, "error": self._error}
+
+    def _set_fmu_state(self, state):
+        if state["sampler"] is not None and self._sampler is not None:
+            self._sampler.set_state(state["sampler"])
+        self._inputs.update(state["inputs"])
+        self._time = state["time"]
+        self._error = state["error"]
+
+    @staticmethod
+    def _fmu_state_to_bytes(state) -> bytes:
+        return pickle.dumps(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes):
+        return pickle.loads(state)
+
+
+def _describe(exc: Exception) -> str:
+    return str(exc) if isinstance(exc, (SceneError, ValueError)) else f"{type(exc).__name__}: {exc}"
+
+
+# -- building -------------------------------------------------------------------
+SLAVE_TEMPLATE = '''\
+"""FMU slave of {module}.{name}, generated by grubler.controllers.fmu.build_controller_fmu."""
+
+import sys
+from pathlib import Path
+
+# inside the FMU the grubler package and the law's module sit beside this script, in resources/
+_here = Path(__file__).resolve().parent
+if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
+    sys.path.insert(0, str(_here))
+
+from grubler.controllers.fmu import LawSlave  # noqa: E402
+from {module} import {name} as _Law  # noqa: E402
+
+# pythonfmu 0.7's loader executes this file again at every instantiation and then
+# releases a reference to this namespace it never took: take one per execution.
+globals().setdefault("_loader_references", []).append(globals())
+
+
+class {name}(LawSlave):
+    law = _Law
+'''
+
+
+def stage_package(folder: Path) -> Path:
+    """Copy the grubler package (with its motors and controllers) into ``folder``; return its path.
+
+    Works from a source checkout (where ``grubler.motors`` and
+    ``grubler.controllers`` live in folders of their own) and from an installed
+    package alike.
+    """
+    import grubler.controllers
+    import grubler.motors
+
+    skip = shutil.ignore_patterns("__pycache__", "*.pyc")
+    package = Path(folder) / "grubler"
+    shutil.copytree(Path(grubler.__file__).parent, package, ignore=skip)
+    for sub in (grubler.motors, grubler.controllers):
+        shutil.copytree(Path(sub.__file__).parent, package / sub.__name__.split(".")[-1], ignore=skip,
+                        dirs_exist_ok=True)
+    return package
+
+
+def build_controller_fmu(law: type[Law], dest: str | Path = "dist") -> Path:
+    """Build an FMU (FMI 2.0 co-simulation) from a control law class.
+
+    Parameters
+    ----------
+    law : type
+        A :class:`~grubler.controllers.law.Law` subclass defined in an
+        importable module file (its module is bundled into the FMU; a module
+        inside a package brings its whole top-level package).
+    dest : str or Path
+        Folder for the FMU, or a path ending in ``.fmu``.
+
+    Returns
+    -------
+    Path
+        The FMU, named after the class (``dest/<ClassName>.fmu``); its slave
+        script is ``law_<module>_<ClassName>.py``, unique per law, so FMUs of
+        different laws load side by side in one process.
+
+    Raises
+    ------
+    SceneError
+        A class that is not a Law, or one that cannot be imported by name.
+    """
+    from pythonfmu.builder import FmuBuilder
+
+    if not (isinstance(law, type) and issubclass(law, Law)):
+        raise SceneError("law", f"must be a subclass of grubler.controllers.Law, got {law!r}")
+    module_name = law.__module__
+    if module_name == "__main__":
+        raise SceneError("law", f"{law.__name__} is defined in __main__; put it in a module file the FMU can import")
+    module = sys.modules.get(module_name) or importlib.import_module(module_name)
+    source = getattr(module, "__file__", None)
+    if source is None:
+        raise SceneError("law", f"module {module_name} has no file to bundle")
+    top = module_name.split(".")[0]
+    if "." in module_name:
+        bundle = Path(sys.modules[top].__file__).parent  # the whole top-level package
+    else:
+        bundle = Path(source)
+    dest = Path(dest)
+    target = dest if dest.suffix == ".fmu" else dest / f"{law.__name__}.fmu"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    script_name = f"law_{module_name.replace('.', '_')}_{law.__name__}.py"
+    with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
+        tmp = Path(tmp)
+        files = [] if top == "grubler" else [bundle]
+        files.append(stage_package(tmp / "pkg"))
+        script = tmp / script_name
+        script.write_text(SLAVE_TEMPLATE.format(module=module_name, name=law.__name__))
+        path = FmuBuilder.build_FMU(script, dest=target, project_files=files,
+                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+        sys.modules.pop(script.stem, None)
+    return Path(path)
+
+
+__all__ = ["LawSlave", "build_controller_fmu", "stage_package", "SLAVE_TEMPLATE"]

@@ -1,0 +1,30 @@
+"""FMI 2.0 co-simulation slave (pythonfmu): computed-torque feedforward from the mechanism's inverse dynamics.
+
+Thin by design: the variables, sample-and-hold and state handling are
+:class:`grubler.controllers.fmu.LawSlave`'s, the law is
+:class:`grubler.controllers.computed_torque.ComputedTorque`.  The script's file name is unique among
+the project's FMUs, since two pythonfmu slaves whose scripts share a name cannot
+be loaded in one process.
+"""
+
+import sys
+from pathlib import Path
+
+# inside the FMU the package sits beside this script, in resources/
+_here = Path(__file__).resolve().parent
+if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
+    sys.path.insert(0, str(_here))
+
+from grubler.controllers import computed_torque as _law  # noqa: E402
+from grubler.controllers.fmu import LawSlave  # noqa: E402
+
+# pythonfmu 0.7's loader executes this file again at every instantiation, in this
+# module's namespace, and then releases a reference to that namespace it never took;
+# a script whose namespace holds few references (a thin one like this) is freed
+# under the loader by the second instance.  Taking one reference per execution
+# keeps the count balanced.
+globals().setdefault("_loader_references", []).append(globals())
+
+
+class ComputedTorque(LawSlave):
+    law = _law.ComputedTorque

@@ -1,0 +1,235 @@
+"""A sampled control law, and the sample-and-hold clock that runs it in co-simulation.
+
+Every block of :mod:`grubler.controllers` (PID, cascade, linear controller,
+computed torque, trajectory, encoder) and every user-written controller is a
+:class:`Law`: it declares its inputs, outputs and parameters (each description
+ending with its unit in square brackets) and implements ``update(t, inputs) ->
+outputs``, called once per sample.  The same declaration makes its FMU
+(:mod:`grubler.controllers.fmu`), so the Python model and the FMU cannot disagree.
+
+Sample-time semantics (:class:`Sampler`, shared by Python and the FMUs)
+-------------------------------------------------------------------------
+A law with sample time ``Ts > 0`` samples at ``t0 + k Ts`` (``t0`` the start
+time).  A communication step from ``t`` to ``t + h`` runs every sample instant
+in ``[t, t + h)``, each with the inputs as set before the step (held over the
+step), and its outputs afterwards are those of the last sample run: a
+zero-order hold.  So
+
+- ``h = n Ts``: ``n`` samples per step, on inputs held over the step;
+- ``h < Ts``: a sample only in the steps that contain a sample instant; in the
+  others the output holds;
+- ``h`` not a multiple of ``Ts``: samples stay on their own grid, not the
+  communication grid.
+
+A sample at ``t + h`` itself belongs to the next step, since it needs the inputs
+at ``t + h``.  ``Ts = 0`` samples once per communication step, at its start.
+Before the first sample the outputs are :meth:`Law.initial_outputs`.
+A law with ``continuous = True`` (the trajectory generator, a function of time
+only) instead evaluates at the end of each step, ``t + h``, as a plant does.
+
+Examples
+--------
+>>> class Gain(Law):
+...     inputs = {"x": "input signal [any]"}
+...     outputs = {"y": "amplified signal [any]"}
+...     parameters = {"k": Parameter(2.0, "gain [1]"), "Ts": Parameter(0.1, "sample time [s]")}
+...     def __init__(self, k=2.0, Ts=0.1):
+...         self.k = k
+...         self.Ts = Ts
+...     def update(self, t, inputs):
+...         return {"y": self.k * inputs["x"]}
+>>> s = Sampler(Gain(k=3.0), t0=0.0)
+>>> s.step(0.0, 0.25, {"x": 1.0})    # samples at 0, 0.1, 0.2
+{'y': 3.0}
+>>> s.samples
+3
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from grubler.errors import SceneError
+
+# A sample instant within this fraction of Ts of a step's end belongs to the
+# next step: communication points accumulated in floating point (0.1 + 0.2)
+# miss the sample grid by a few ulps.
+GRID_TOL = 1e-7
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A law's parameter, as the FMU shows it.
+
+    Parameters
+    ----------
+    default : float, int, str or bool, or None
+        Value the law takes when the parameter is not given; its type is the
+        FMU variable's type.  ``None`` means "the law decides" (e.g. from a scene);
+        the FMU then shows ``start`` and passes nothing unless the importer sets it.
+    description : str
+        What it is, ending with its unit in square brackets, e.g. ``"gain [1]"``.
+    start : float, int, str or bool, optional
+        The FMU's start value when ``default`` is None.
+    """
+
+    default: Any
+    description: str
+    start: Any = None
+
+    @property
+    def fmu_start(self) -> Any:
+        return self.start if self.default is None else self.default
+
+
+class Law:
+    """Base class of a sampled control law.
+
+    Subclasses declare the class attributes below and implement :meth:`update`.
+
+    Attributes
+    ----------
+    inputs, outputs : dict of str to str
+        Variable name to description; the description ends with the unit in
+        square brackets (``"[rad]"``, ``"[N m]"``, ``"[1]"``, or ``"[any]"`` for
+        a signal whose unit is that of what it is connected to).
+    parameters : dict of str to Parameter
+        Keyword arguments of the constructor that the FMU exposes.
+    Ts : float
+        Sample time, s (an instance attribute, usually a parameter); 0 samples
+        once per communication step.
+    continuous : bool
+        True for a law of time alone, evaluated at the end of each step.
+    """
+
+    inputs: ClassVar[dict[str, str]] = {}
+    outputs: ClassVar[dict[str, str]] = {}
+    parameters: ClassVar[dict[str, Parameter]] = {}
+    continuous: ClassVar[bool] = False
+    Ts: float = 0.0
+
+    @classmethod
+    def from_parameters(cls, **values) -> "Law":
+        """The law from FMU parameter values (those the importer did not set are absent)."""
+        return cls(**values)
+
+    def initial_outputs(self, t0: float) -> dict[str, float]:
+        """Outputs before the first sample (default: zeros)."""
+        return {name: 0.0 for name in self.outputs}
+
+    def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
+        """One sample: read the inputs at time ``t``, advance the state, return the outputs."""
+        raise NotImplementedError
+
+    def get_state(self) -> Any:
+        """Everything :meth:`set_state` needs to resume from here (picklable).
+
+        The default copies the instance's attributes, a random generator's state
+        included; override it when some attribute cannot be deep-copied.
+        """
+        return copy.deepcopy(self.__dict__)
+
+    def set_state(self, state: Any) -> None:
+        self.__dict__.update(copy.deepcopy(state))
+
+
+def check_sample_time(Ts: float, field: str = "Ts", allow_zero: bool = False) -> float:
+    """A sample time as a float, or SceneError naming the field."""
+    try:
+        Ts = float(Ts)
+    except (TypeError, ValueError):
+        raise SceneError(field, f"must be a number, got {Ts!r}") from None
+    if not math.isfinite(Ts) or Ts < 0 or (Ts == 0 and not allow_zero):
+        need = ">= 0" if allow_zero else "> 0"
+        raise SceneError(field, f"sample time must be finite and {need}, got {Ts}")
+    return Ts
+
+
+def check_number(value, field: str, low: float = -math.inf, high: float = math.inf,
+                 low_open: bool = False) -> float:
+    """A finite float in [low, high] (or (low, high]), or SceneError naming the field."""
+    if isinstance(value, bool):
+        raise SceneError(field, f"must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(field, f"must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise SceneError(field, f"must be finite, got {v}")
+    if v < low or (low_open and v == low):
+        raise SceneError(field, f"must be {'>' if low_open else '>='} {low:g}, got {v:g}")
+    if v > high:
+        raise SceneError(field, f"must be <= {high:g}, got {v:g}")
+    return v
+
+
+class Sampler:
+    """Runs a :class:`Law` over communication steps with sample-and-hold.
+
+    Parameters
+    ----------
+    law : Law
+    t0 : float
+        Start time, s: the first sample instant.
+
+    Attributes
+    ----------
+    outputs : dict
+        The held outputs (those of the last sample).
+    samples : int
+        Number of samples run so far.
+    """
+
+    def __init__(self, law: Law, t0: float = 0.0):
+        self.law = law
+        self.t0 = float(t0)
+        self.samples = 0
+        self.outputs = dict(law.initial_outputs(self.t0))
+
+    def step(self, t: float, h: float, inputs: dict[str, float]) -> dict[str, float]:
+        """Advance from ``t`` to ``t + h`` with ``inputs`` held; return the outputs at ``t + h``.
+
+        Raises
+        ------
+        ValueError
+            A step that is not positive and finite, or a non-finite input.
+        """
+        if not (h > 0 and math.isfinite(h)):
+            raise ValueError(f"step size must be positive and finite, got {h}")
+        for name in self.law.inputs:
+            v = inputs[name]
+            if not math.isfinite(v):
+                raise ValueError(f"{name} is {v} at t = {t:g} s: inputs must be finite")
+        law = self.law
+        if law.continuous:
+            self._sample(t + h, inputs)
+        elif law.Ts == 0:
+            self._sample(t, inputs)
+        else:
+            Ts = law.Ts
+            end = t + h - GRID_TOL * Ts
+            while self.t0 + self.samples * Ts < end:
+                self._sample(self.t0 + self.samples * Ts, inputs)
+        return self.outputs
+
+    def _sample(self, t: float, inputs: dict[str, float]) -> None:
+        out = self.law.update(t, inputs)
+        missing = [name for name in self.law.outputs if name not in out]
+        if missing:
+            raise ValueError(f"{type(self.law).__name__}.update returned no {', '.join(missing)}")
+        self.outputs = out
+        self.samples += 1
+
+    def get_state(self) -> dict:
+        return {"law": self.law.get_state(), "samples": self.samples, "outputs": dict(self.outputs)}
+
+    def set_state(self, state: dict) -> None:
+        self.law.set_state(state["law"])
+        self.samples = state["samples"]
+        self.outputs = dict(state["outputs"])
+
+
+__all__ = ["Law", "Parameter", "Sampler", "check_number", "check_sample_time", "GRID_TOL"]

@@ -1,0 +1,156 @@
+"""Any linear SISO controller, discretised at its sample time, as a state-space update.
+
+The controller C acts on the error ``e = r - y``: given as a python-control
+``TransferFunction`` or ``StateSpace`` (continuous, or already discrete at the
+sample time), it is discretised with :func:`control.sample_system` ('zoh',
+'foh', 'tustin' / 'bilinear', 'euler', 'backward_diff', 'matched', ...) and
+realised as
+
+    u_k = C x_k + D e_k + u_ff,k,        x_{k+1} = A x_k + B e_k.
+
+The FMU takes the controller as parameters: ``num`` and ``den`` (coefficient
+strings, highest power first) or ``state_space`` (TOML text with matrices
+``A``, ``B``, ``C``, ``D``), with ``method`` and ``Ts``; ``method = 'none'`` says
+the coefficients are already those of a discrete system in z at ``Ts``.
+
+Examples
+--------
+>>> import control
+>>> ctl = LinearController(control.tf([2.0, 1.0], [1.0, 0.0]), Ts=0.1, method="tustin")  # PI: 2 + 1/s
+>>> [round(ctl.update(0.1 * k, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})["u"], 12)
+...  for k in range(3)]
+[2.05, 2.15, 2.25]
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+
+import control
+import numpy as np
+
+from grubler.errors import SceneError
+
+from .law import Law, Parameter, check_sample_time
+
+DISCRETE = "none"
+
+
+def _coefficients(text: str, field: str) -> list[float]:
+    parts = [p for p in re.split(r"[\s,;]+", text.strip().strip("[]")) if p]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise SceneError(field, f"must be numbers separated by spaces or commas, got {text!r}") from None
+    if not values or not np.all(np.isfinite(values)):
+        raise SceneError(field, f"needs at least one finite coefficient, got {text!r}")
+    return values
+
+
+def _matrix(data: dict, key: str) -> np.ndarray:
+    if key not in data:
+        raise SceneError(f"state_space.{key}", "missing (A, B, C and D are all needed)")
+    try:
+        m = np.atleast_2d(np.array(data[key], dtype=float))
+    except (TypeError, ValueError):
+        raise SceneError(f"state_space.{key}", f"must be a matrix of numbers, got {data[key]!r}") from None
+    if m.ndim != 2 or not np.all(np.isfinite(m)):
+        raise SceneError(f"state_space.{key}", "must be a finite matrix (a list of rows)")
+    return m
+
+
+class LinearController(Law):
+    """A linear SISO controller on the error, as a discrete state-space update.
+
+    Parameters
+    ----------
+    system : control.TransferFunction or control.StateSpace
+        The controller, from the error ``e = r - y`` to ``u``; continuous, or
+        discrete with sample time ``Ts``.
+    Ts : float
+        Sample time, s.
+    method : str
+        Discretisation method of :func:`control.sample_system`; ignored for a
+        discrete system.
+    """
+
+    inputs = {"setpoint": "setpoint r [any]", "measurement": "measured process value y [any]",
+              "feedforward": "feedforward added to the output [any]"}
+    outputs = {"u": "controller output [any]"}
+    parameters = {
+        "num": Parameter("1", "numerator coefficients, highest power first (ignored with state_space) [1]"),
+        "den": Parameter("1", "denominator coefficients, highest power first [1]"),
+        "state_space": Parameter("", "TOML text with matrices A, B, C, D (overrides num/den) [1]"),
+        "method": Parameter("tustin", "zoh | foh | tustin | euler | backward_diff | matched | "
+                                      "none (already discrete in z) [1]"),
+        "Ts": Parameter(1e-3, "sample time [s]"),
+    }
+
+    def __init__(self, system, Ts: float, method: str = "tustin"):
+        self.Ts = check_sample_time(Ts)
+        if not isinstance(system, (control.TransferFunction, control.StateSpace)):
+            raise SceneError("system", f"must be a control.TransferFunction or StateSpace, got {type(system).__name__}")
+        if system.ninputs != 1 or system.noutputs != 1:
+            raise SceneError("system", f"must have one input and one output, got {system.ninputs} and "
+                                       f"{system.noutputs}")
+        if system.isdtime(strict=True):
+            if system.dt is not True and abs(system.dt - self.Ts) > 1e-12 * self.Ts:
+                raise SceneError("Ts", f"the discrete system's sample time is {system.dt}, not {self.Ts}")
+            sysd = system
+        else:
+            try:
+                sysd = control.sample_system(system, self.Ts, method=method)
+            except (ValueError, NotImplementedError, TypeError) as exc:
+                raise SceneError("method", f"cannot discretise with {method!r}: {exc}") from None
+        try:
+            ss = control.ss(sysd)
+        except ValueError as exc:  # an improper transfer function
+            raise SceneError("system", f"has no state-space realisation: {exc}") from None
+        self.method = method
+        self.A, self.B, self.C, self.D = (np.asarray(m, dtype=float) for m in (ss.A, ss.B, ss.C, ss.D))
+        self.system = sysd
+        self.reset()
+
+    @classmethod
+    def from_parameters(cls, num: str = "1", den: str = "1", state_space: str = "", method: str = "tustin",
+                        Ts: float = 1e-3) -> "LinearController":
+        """The controller from its FMU parameters (coefficient strings or TOML matrices)."""
+        Ts = check_sample_time(Ts)
+        dt = Ts if method == DISCRETE else 0
+        if state_space.strip():
+            try:
+                data = tomllib.loads(state_space)
+            except tomllib.TOMLDecodeError as exc:
+                raise SceneError("state_space", f"not valid TOML: {exc}") from None
+            matrices = [_matrix(data, k) for k in "ABCD"]
+            try:
+                system = control.ss(*matrices, dt)
+            except ValueError as exc:
+                raise SceneError("state_space", f"inconsistent matrices: {exc}") from None
+        else:
+            n, d = _coefficients(num, "num"), _coefficients(den, "den")
+            if d[0] == 0:
+                raise SceneError("den", "the leading coefficient must not be zero")
+            if len(n) > len(d):
+                raise SceneError("num", f"an improper controller: degree {len(n) - 1} over {len(d) - 1}")
+            system = control.tf(n, d, dt)
+        return cls(system, Ts, method)
+
+    def reset(self) -> None:
+        self.x = np.zeros(self.A.shape[0])
+
+    def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
+        e = np.array([inputs["setpoint"] - inputs["measurement"]])
+        u = self.C @ self.x + self.D @ e
+        self.x = self.A @ self.x + self.B @ e
+        return {"u": float(u[0]) + inputs.get("feedforward", 0.0)}
+
+    def get_state(self):
+        return self.x.copy()
+
+    def set_state(self, state) -> None:
+        self.x = np.array(state, dtype=float)
+
+
+__all__ = ["LinearController"]

@@ -1,0 +1,159 @@
+"""Discrete PID controller in the practitioner's form (Åström and Hägglund).
+
+    u = sat( K (b r - y) + I + D + u_ff ,  u_min, u_max )
+
+with setpoint weights ``b`` (proportional) and ``c`` (derivative), the integral
+on the error ``e = r - y`` and the derivative on ``e_d = c r - y`` filtered by a
+first-order lag of time constant ``Tf = Td / N``.  At sample ``k`` (period Ts):
+
+- proportional: ``P_k = K (b r_k - y_k)``;
+- derivative, backward difference of the filtered derivative
+  ``Tf dD/dt + D = K Td de_d/dt``::
+
+      D_k = Tf / (Tf + Ts) D_{k-1} + K Td / (Tf + Ts) (e_d,k - e_d,k-1)
+
+  (stable for any Tf >= 0; ``Tf = 0`` is the plain backward difference); the
+  first sample takes ``e_d,-1 = e_d,0``, so starting on a non-zero error gives no
+  derivative kick;
+- integral, forward Euler: ``I_{k+1} = I_k + K Ts / Ti e_k + (anti-windup)``, so
+  ``I_k`` uses errors up to ``k - 1`` and u_k is available at once;
+- ``v_k = P_k + I_k + D_k + u_ff,k`` (feedforward before the limits),
+  ``u_k = min(max(v_k, u_min), u_max)``.
+
+In z, with b = c = 1 and no limits, this is the transfer function from e to u
+
+    C(z) = K [ 1 + (Ts/Ti) / (z - 1) + Td (z - 1) / ((Tf + Ts) z - Tf) ]
+
+(the tests check it against python-control).  Anti-windup:
+
+- ``'back-calculation'`` (default): ``I_{k+1} += Ts / Tt (u_k - v_k)``, tracking
+  time ``Tt`` (default ``sqrt(Ti Td)``, or ``Ti`` without derivative action);
+- ``'conditional'``: the integral does not move in a sample where the output is
+  limited and the increment would push it further into the limit;
+- ``'none'``.
+
+Ti = 0 and Td = 0 switch the integral and derivative actions off.  In
+co-simulation the PID samples at its own Ts, several times per communication
+step or holding its output between samples (:mod:`grubler.controllers.law`).
+
+Examples
+--------
+>>> pid = PID(K=2.0, Ti=0.5, Ts=0.01)
+>>> pid.update(0.0, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})
+{'u': 2.0}
+>>> pid.update(0.01, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})["u"]  # + K Ts/Ti e
+2.04
+"""
+
+from __future__ import annotations
+
+import math
+
+from grubler.errors import SceneError
+
+from .law import Law, Parameter, check_number, check_sample_time
+
+ANTI_WINDUP = ("back-calculation", "conditional", "none")
+
+
+class PID(Law):
+    """Discrete PID with setpoint weights, filtered derivative, anti-windup and limits.
+
+    Parameters
+    ----------
+    K : float
+        Proportional gain (unit of u per unit of the error).
+    Ti, Td : float
+        Integral and derivative times, s; 0 switches the action off.
+    N : float
+        Derivative filter: ``Tf = Td / N`` (> 0; typically 5 to 20).
+    b, c : float
+        Setpoint weights of the proportional and derivative actions.
+    Ts : float
+        Sample time, s (> 0).
+    u_min, u_max : float
+        Output limits (``u_min < u_max``; ``±1e300`` for none).
+    anti_windup : {'back-calculation', 'conditional', 'none'}
+    Tt : float
+        Tracking time of the back-calculation, s; 0 takes ``sqrt(Ti Td)``
+        (``Ti`` when Td = 0).
+    """
+
+    inputs = {"setpoint": "setpoint r [any]", "measurement": "measured process value y [any]",
+              "feedforward": "feedforward added before the limits [any]"}
+    outputs = {"u": "controller output [any]"}
+    parameters = {
+        "K": Parameter(1.0, "proportional gain [any]"),
+        "Ti": Parameter(0.0, "integral time, 0 for no integral action [s]"),
+        "Td": Parameter(0.0, "derivative time, 0 for no derivative action [s]"),
+        "N": Parameter(10.0, "derivative filter Tf = Td/N [1]"),
+        "b": Parameter(1.0, "setpoint weight of the proportional action [1]"),
+        "c": Parameter(1.0, "setpoint weight of the derivative action [1]"),
+        "Ts": Parameter(1e-3, "sample time [s]"),
+        "u_min": Parameter(-1e300, "lower output limit [any]"),
+        "u_max": Parameter(1e300, "upper output limit [any]"),
+        "anti_windup": Parameter("back-calculation", "back-calculation | conditional | none [1]"),
+        "Tt": Parameter(0.0, "tracking time of the back-calculation, 0 for sqrt(Ti Td) [s]"),
+    }
+
+    def __init__(self, K: float = 1.0, Ti: float = 0.0, Td: float = 0.0, N: float = 10.0, b: float = 1.0,
+                 c: float = 1.0, Ts: float = 1e-3, u_min: float = -1e300, u_max: float = 1e300,
+                 anti_windup: str = "back-calculation", Tt: float = 0.0):
+        self.K = check_number(K, "K")
+        self.Ti = check_number(Ti, "Ti", low=0.0)
+        self.Td = check_number(Td, "Td", low=0.0)
+        self.N = check_number(N, "N", low=0.0, low_open=True)
+        self.b = check_number(b, "b")
+        self.c = check_number(c, "c")
+        self.Ts = check_sample_time(Ts, "Ts")
+        self.u_min = check_number(u_min, "u_min")
+        self.u_max = check_number(u_max, "u_max")
+        if not self.u_min < self.u_max:
+            raise SceneError("u_max", f"must exceed u_min = {self.u_min:g}, got {self.u_max:g}")
+        if anti_windup not in ANTI_WINDUP:
+            raise SceneError("anti_windup", f"must be one of {', '.join(ANTI_WINDUP)}, got {anti_windup!r}")
+        self.anti_windup = anti_windup
+        Tt = check_number(Tt, "Tt", low=0.0)
+        if Tt == 0.0:
+            Tt = math.sqrt(self.Ti * self.Td) if self.Td > 0 else self.Ti
+        self.Tt = Tt
+        # coefficients of the difference equations (Åström and Murray, Feedback Systems, 10.5)
+        Tf = self.Td / self.N
+        self._bi = self.K * self.Ts / self.Ti if self.Ti > 0 else 0.0
+        self._ad = Tf / (Tf + self.Ts)
+        self._bd = self.K * self.Td / (Tf + self.Ts)
+        self._br = self.Ts / self.Tt if (self.Ti > 0 and self.Tt > 0) else 0.0
+        self.reset()
+
+    def reset(self, integral: float = 0.0) -> None:
+        """Back to the start: integral ``integral``, derivative at rest, no history."""
+        self.I = float(integral)
+        self.D = 0.0
+        self.ed_prev: float | None = None
+
+    def compute(self, r: float, y: float, u_ff: float = 0.0) -> float:
+        """One sample on plain floats: the output u, and the state advanced."""
+        e = r - y
+        ed = self.c * r - y
+        if self.ed_prev is None:
+            self.ed_prev = ed
+        self.D = self._ad * self.D + self._bd * (ed - self.ed_prev)
+        self.ed_prev = ed
+        v = self.K * (self.b * r - y) + self.I + self.D + u_ff
+        u = min(max(v, self.u_min), self.u_max)
+        di = self._bi * e
+        if self.anti_windup == "back-calculation":
+            di += self._br * (u - v)
+        elif self.anti_windup == "conditional" and ((v > self.u_max and di > 0) or (v < self.u_min and di < 0)):
+            di = 0.0
+        self.I += di
+        return u
+
+    def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
+        return {"u": self.compute(inputs["setpoint"], inputs["measurement"], inputs.get("feedforward", 0.0))}
+
+    def initial_outputs(self, t0: float) -> dict[str, float]:
+        return {"u": min(max(0.0, self.u_min), self.u_max)}
+
+
+__all__ = ["PID", "ANTI_WINDUP"]
