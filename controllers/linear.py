@@ -27,7 +27,6 @@ from __future__ import annotations
 import re
 import tomllib
 
-import control
 import numpy as np
 
 from grubler.errors import SceneError
@@ -88,6 +87,8 @@ class LinearController(Law):
     }
 
     def __init__(self, system, Ts: float, method: str = "tustin"):
+        import control  # here, not at module level: it takes seconds to import, and most runs never need it
+
         self.Ts = check_sample_time(Ts)
         if not isinstance(system, (control.TransferFunction, control.StateSpace)):
             raise SceneError("system", f"must be a control.TransferFunction or StateSpace, got {type(system).__name__}")
@@ -116,6 +117,8 @@ class LinearController(Law):
     def from_parameters(cls, num: str = "1", den: str = "1", state_space: str = "", method: str = "tustin",
                         Ts: float = 1e-3) -> "LinearController":
         """The controller from its FMU parameters (coefficient strings or TOML matrices)."""
+        import control
+
         Ts = check_sample_time(Ts)
         dt = Ts if method == DISCRETE else 0
         if state_space.strip():
