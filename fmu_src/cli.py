@@ -148,7 +148,9 @@ def cmd_cosim(args) -> int:
     from .cosim import run
 
     record = args.record.split(",") if args.record else None
-    res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record)
+    step_order = args.order.split(",") if args.order else None
+    res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
+              step_order=step_order)
     steps = len(res.t) - 1
     print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({res.master}, "
           f"order {' -> '.join(res.order)}): {res.wall_time:.3f} s wall")
@@ -324,6 +326,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
                    help="stepping order (default gauss-seidel)")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
+    c.add_argument("--order", help="comma-separated stepping order of the components (default: the system's)")
     c.add_argument("--csv", help="write every recorded output to this CSV file")
     c.add_argument("--plot", help="write the system's plot to this PNG file")
     c.set_defaults(func=cmd_cosim)

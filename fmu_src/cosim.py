@@ -343,7 +343,7 @@ class _Instance:
 
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
         start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
-        record_every: int = 1) -> CosimResult:
+        record_every: int = 1, step_order: list[str] | None = None) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -361,6 +361,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         compute outputs only when read.
     record_every : int
         Record every n-th communication point (the first and last always).
+    step_order : list of str, optional
+        Stepping order of the components (default: the system's own, else
+        :func:`order`'s).  A sampled controller reads its inputs at the start of
+        a step, so it is best stepped before the components that feed it
+        continuous values (the mechanism, a trajectory), and after a sampled
+        component that feeds it (an encoder).
 
     Returns
     -------
@@ -401,7 +407,14 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     problems += check(system, interfaces)
     if problems:
         raise SystemDescriptionError("the system cannot run:\n  " + "\n  ".join(problems))
-    seq = order(system, interfaces)
+    seq = order(system, interfaces)  # also what finds an algebraic loop
+    chosen = step_order if step_order is not None else system.order
+    if chosen:
+        chosen = list(chosen)
+        if sorted(chosen) != sorted(system.components):
+            raise SystemDescriptionError(f"order {' '.join(chosen)}: must name every component once "
+                                         f"({' '.join(system.components)})")
+        seq = chosen
     record_set = None if record is None else list(record)
     if record_set is not None:
         for r in record_set:

@@ -130,6 +130,11 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
         for sig in ("position", "velocity", "acceleration"):
             s.connect(f"trajectory.{sig}", f"feedforward.{sig}")
         s.connect("feedforward.voltage", "controller.feedforward")
+    # the encoder and PID sample at the start of a step: they go before the
+    # mechanism and the trajectory, whose outputs are end-of-step values, so
+    # that they read the crank and the setpoint at the sample instant itself
+    s.order = ["encoder"] + (["feedforward"] if design.feedforward else []) + [
+        "controller", "motor", "mechanism", "trajectory"]
     s.plots += [
         Plot("crank angle [rad]", ["trajectory.position", "mechanism.drive_angle", "encoder.measured_position"]),
         Plot("motor current [A]", ["motor.current"]),

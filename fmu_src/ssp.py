@@ -120,6 +120,9 @@ class System:
     connections : list of Connection
     start_time, stop_time, step : float or None
         The default experiment (``step`` is the communication step).
+    order : list of str, optional
+        The components' stepping order, when the system's author knows better
+        than the runner's default (see :func:`grubler.cosim.order`).
     plots : list of Plot
     description : str
     base : Path or None
@@ -135,6 +138,7 @@ class System:
     plots: list[Plot] = field(default_factory=list)
     description: str = ""
     base: Path | None = None
+    order: list[str] | None = None
 
     # -- building ------------------------------------------------------------
     def add(self, name: str, source: str | Path, **parameters) -> Component:
@@ -223,10 +227,13 @@ class System:
             if self.stop_time is not None:
                 exp["stopTime"] = repr(float(self.stop_time))
             ET.SubElement(root, f"{ssd}DefaultExperiment", exp)
-        if self.step is not None or self.plots:
+        if self.step is not None or self.plots or self.order:
             ann = ET.SubElement(ET.SubElement(root, f"{ssd}Annotations"), f"{ssc}Annotation",
                                 {"type": ANNOTATION_TYPE})
-            cosim = ET.SubElement(ann, "Cosim", {"step": repr(float(self.step))} if self.step is not None else {})
+            attrs = {"step": repr(float(self.step))} if self.step is not None else {}
+            if self.order:
+                attrs["order"] = " ".join(self.order)
+            cosim = ET.SubElement(ann, "Cosim", attrs)
             for p in self.plots:
                 ET.SubElement(cosim, "Plot", {"title": p.title, "signals": " ".join(p.signals)})
         ET.indent(root)
@@ -376,6 +383,8 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
         if cosim is not None:
             if cosim.get("step"):
                 system.step = float(cosim.get("step"))
+            if cosim.get("order"):
+                system.order = cosim.get("order").split()
             for p in cosim.findall("Plot"):
                 system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split()))
     return system
