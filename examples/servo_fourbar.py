@@ -28,8 +28,8 @@ DESIGN = ServoDesign(
     # half a turn of the crank and back, 0.5 s rest at each end, endlessly
     trajectory={"kind": "trapezoid", "distance": 3.141592653589793, "v_max": 6.283185307179586, "a_max": 20.0,
                 "dwell": 0.5, "repeat": 0, "reverse": True},
-    pid={"K": 100.0, "Ti": 0.2, "Td": 0.03, "N": 10.0, "Ts": 1e-3, "u_min": -48.0, "u_max": 48.0},
-    encoder={"counts_per_rev": 4096, "Ts": 1e-3},
+    pid={"K": 300.0, "Ti": 0.2, "Td": 0.02, "N": 10.0, "Ts": 1e-3, "u_min": -48.0, "u_max": 48.0},
+    encoder={"counts_per_rev": 16384, "Ts": 1e-3},  # 14 bits on the crank
     t_end=10.0,
     step=1e-3,
 )

@@ -41,9 +41,10 @@ def _default_trajectory() -> dict:
 
 
 def _default_pid() -> dict:
-    # K from the loop's stiffness (about 2.3 N m/V at the crank through 50:1), Td to
-    # add damping beyond the back-EMF's, Ti slow enough not to overshoot
-    return {"K": 100.0, "Ti": 0.2, "Td": 0.03, "N": 10.0, "Ts": 1e-3, "u_min": -48.0, "u_max": 48.0}
+    # tuned on the thesis four-bar through 50:1 (about 2.3 N m/V at the crank):
+    # K for stiffness against gravity and the coupler's inertia, Td for damping
+    # beyond the back-EMF's, Ti slow enough not to overshoot
+    return {"K": 300.0, "Ti": 0.2, "Td": 0.02, "N": 10.0, "Ts": 1e-3, "u_min": -48.0, "u_max": 48.0}
 
 
 @dataclass
@@ -75,7 +76,7 @@ class ServoDesign:
     current_limit: float = 10.0
     trajectory: dict = field(default_factory=_default_trajectory)
     pid: dict = field(default_factory=_default_pid)
-    encoder: dict = field(default_factory=lambda: {"counts_per_rev": 4096, "Ts": 1e-3})
+    encoder: dict = field(default_factory=lambda: {"counts_per_rev": 16384, "Ts": 1e-3})
     feedforward: bool = False
     t_end: float = 10.0
     step: float = 1e-3
