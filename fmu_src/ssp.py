@@ -240,7 +240,7 @@ class System:
         return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
     def connectors(self) -> dict[str, list[tuple[str, str, str]]]:
-        """The connectors the connections use, ``(name, kind, unit)`` per component.
+        """The connectors the connections and plots use, ``(name, kind, unit)`` per component.
 
         Units come from the FMUs where they can be read (see the module's notes).
         """
@@ -253,12 +253,16 @@ class System:
             except Exception:  # noqa: BLE001 - an FMU not built yet: no units to declare
                 ports[n] = {}
         out: dict[str, list] = {n: [] for n in self.components}
-        for c in self.connections:
-            for elem, name, kind in ((c.start_element, c.start_connector, "output"),
-                                     (c.end_element, c.end_connector, "input")):
-                if elem in out:
-                    port = ports[elem].get(name)
-                    out[elem].append((name, kind, port.unit if port else ""))
+        ends = [(c.start_element, c.start_connector, "output") for c in self.connections]
+        ends += [(c.end_element, c.end_connector, "input") for c in self.connections]
+        # the plotted outputs too, so that a tool recording connectors records them
+        ends += [(*sig.split(".", 1), "output") for p in self.plots for sig in p.signals if "." in sig]
+        for elem, name, kind in ends:
+            if elem in out:
+                port = ports[elem].get(name)
+                if port is not None and port.causality != kind:
+                    continue  # a plotted input is declared by its connection
+                out[elem].append((name, kind, port.unit if port else ""))
         return out
 
     def write(self, path: str | Path, connectors: dict | None = None) -> Path:
