@@ -64,6 +64,8 @@ class ServoDesign:
         Parameters of the Trajectory, PID and Encoder FMUs.
     feedforward : bool
         Add the computed-torque feedforward (a ComputedTorque FMU) to the PID.
+    load_joint, load_torque : str, float
+        A constant load (N m, or N on a slide) on a joint of the mechanism.
     t_end, step : float
         The default experiment: run length and communication step, s.
     """
@@ -78,6 +80,8 @@ class ServoDesign:
     pid: dict = field(default_factory=_default_pid)
     encoder: dict = field(default_factory=lambda: {"counts_per_rev": 16384, "Ts": 1e-3})
     feedforward: bool = False
+    load_joint: str | None = None
+    load_torque: float = 0.0
     t_end: float = 10.0
     step: float = 1e-3
 
@@ -115,8 +119,9 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     s.add("motor", d / "DCMotor.fmu", motor=design.motor, gear_ratio=float(design.gear_ratio),
           gear_efficiency=float(design.gear_efficiency), supply_voltage=float(design.supply_voltage),
           current_limit=float(design.current_limit) if math.isfinite(design.current_limit) else 0.0)
+    loads = {"load_joint": design.load_joint, "load_torque": float(design.load_torque)} if design.load_joint else {}
     s.add("mechanism", d / "Mechanism.fmu", mechanism=design.scene,
-          **{"drive.inertia": motor.reflected_inertia})
+          **{"drive.inertia": motor.reflected_inertia}, **loads)
     s.connect("trajectory.position", "controller.setpoint")
     s.connect("mechanism.drive_angle", "encoder.position")
     s.connect("encoder.measured_position", "controller.measurement")
