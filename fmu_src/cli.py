@@ -208,8 +208,11 @@ def cmd_size(args) -> int:
         cycle = DutyCycle.from_trajectory(traj, period, load=args.load_torque, start=start,
                                           name=f"{args.move} move of {args.distance:g} rad"
                                                + (" and back" if args.reverse else ""))
+        trajectory = {"kind": args.move, "distance": args.distance, "v_max": args.v_max, "a_max": args.a_max,
+                      "j_max": args.j_max, "dwell": args.dwell, "repeat": 0, "reverse": args.reverse}
     else:
         cycle = DutyCycle.constant_speed(args.speed, load=args.load_torque, start=start)
+        trajectory = {"kind": "constant", "speed": args.speed}
     names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
     _, ratios = parse_axis(f"ratios={args.ratios}")
     study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
@@ -235,6 +238,16 @@ def cmd_size(args) -> int:
     if args.plot:
         study.plot(args.plot)
         print(f"wrote {args.plot}")
+    if args.check and study.best is not None:
+        from .sizing import closed_loop_check
+
+        chk = closed_loop_check(study.best, cycle, args.scene, trajectory, args.check,
+                                load_joint=model.load if args.load_torque else None, load_torque=args.load_torque)
+        print(f"closed-loop check of {study.best.candidate.label} (co-simulated with feedforward, "
+              f"after the first period): peak current {chk['cosim_peak_current']:.3g} A "
+              f"(predicted {chk['predicted_peak_current']:.3g}), RMS {chk['cosim_rms_current']:.3g} A "
+              f"(predicted {chk['predicted_rms_current']:.3g}), tracking within "
+              f"{chk['max_tracking_error']:.2g} rad")
     return 0
 
 
@@ -318,6 +331,8 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--out", help="write every combination's numbers and reasons to this CSV")
     z.add_argument("--plot", help="write envelopes and margin against ratio to this PNG")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
+    z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
+                                                     "(FMUs from FMU_DIR, e.g. dist) and compare")
     z.set_defaults(func=cmd_size)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
@@ -345,7 +360,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"grubler: error: {exc}", file=sys.stderr)
         code = 2
-    if args.command == "cosim":
+    if args.command == "cosim" or getattr(args, "check", None):
         # pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit
         # (upstream PythonFMU issue 228) after correct results: leave without
         # the interpreter's teardown so that the exit status is the run's

@@ -386,5 +386,41 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
     return SizingStudy(demand, cycle, assessments, ranked)
 
 
+def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, trajectory: dict, fmu_dir,
+                      periods: int = 3, load_joint: str | None = None, load_torque: float = 0.0,
+                      step: float = 1e-3) -> dict[str, float]:
+    """Run a candidate in the servo co-simulation and compare it with its prediction.
+
+    The servo (:mod:`grubler.servo`) follows ``trajectory`` (Trajectory FMU
+    parameters describing the same duty cycle) with computed-torque
+    feedforward, so that the PID only trims; the first period is the start-up
+    and is left out.
+
+    Returns
+    -------
+    dict
+        ``peak_current`` and ``rms_current`` predicted and co-simulated (A), and
+        ``max_tracking_error`` (rad) of the co-simulation.
+    """
+    from .cosim import run
+    from .servo import ServoDesign, servo_system
+
+    c = assessment.candidate
+    design = ServoDesign(scene=scene, motor=c.motor.name, gear_ratio=c.ratio, gear_efficiency=c.efficiency,
+                         supply_voltage=c.supply_voltage,
+                         current_limit=c.current_limit if math.isfinite(c.current_limit) else 0.0,
+                         trajectory=dict(trajectory), feedforward=True, load_joint=load_joint,
+                         load_torque=load_torque, t_end=periods * cycle.period, step=step)
+    res = run(servo_system(design, fmu_dir, name="sizing_check"),
+              record=["motor.current", "mechanism.drive_angle", "trajectory.position"])
+    late = res.t >= res.t[0] + cycle.period
+    i = res["motor.current"][late]
+    err = res["mechanism.drive_angle"][late] - res["trajectory.position"][late]
+    return {"predicted_peak_current": float(np.max(np.abs(assessment.current))),
+            "cosim_peak_current": float(np.max(np.abs(i))),
+            "predicted_rms_current": _rms(assessment.current), "cosim_rms_current": _rms(i),
+            "max_tracking_error": float(np.max(np.abs(err)))}
+
+
 __all__ = ["DutyCycle", "Candidate", "Assessment", "SizingStudy", "required_drive", "assess", "size",
-           "periodic_temperature"]
+           "periodic_temperature", "closed_loop_check"]

@@ -3,6 +3,7 @@ equations (tests/servo_reference.py): the co-simulation's error shrinks with the
 communication step, and at 1 ms it is below one encoder count."""
 
 import dataclasses
+import re
 import json
 import subprocess
 import sys
@@ -67,3 +68,18 @@ def test_cosimulation_error_is_below_what_the_encoder_costs(fmu_dir, tmp_path):
     encoder_cost = float(np.max(np.abs(with_encoder["drive_angle"] - exact["drive_angle"])))
     run = cosimulate(fmu_dir, tmp_path, design.encoder["counts_per_rev"], ["0.001"])["0.001"]
     assert error_against(with_encoder, run) < encoder_cost, (error_against(with_encoder, run), encoder_cost)
+
+
+def test_sizing_closed_loop_check_confirms_the_prediction(fmu_dir):
+    build = sys.modules["build_fmu"]
+    build.build(fmu_dir, ["ComputedTorque"])
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "size", "slider-crank", "--speed", "12.566",
+                           "--load-torque", "-0.5", "--supply", "48", "--current-limit", "10", "--ratios", "20",
+                           "--motors", "maxon-re40-148877", "--check", str(fmu_dir)],
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("closed-loop check"))
+    nums = [float(x) for x in re.findall(r"([\d.]+) A", line)]
+    rms, rms_pred = nums[1], float(re.search(r"predicted ([\d.]+)\), tracking", line).group(1))
+    assert abs(rms - rms_pred) < 0.05 * rms_pred, line  # the RMS current, what heats the motor
+    assert float(re.search(r"within ([\d.e-]+) rad", line).group(1)) < 5e-3, line
