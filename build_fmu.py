@@ -6,22 +6,16 @@ Each FMU carries a copy of the grubler package in its resources/, so it runs the
 same code the library runs; numpy and scipy must be installed in the Python that
 runs it (see the README's FMU section).
 
-pythonfmu leaves every output depending on every input, which would make any
-feedback loop look algebraic to a master.  A slave that knows better says so in a
-``feedthrough()`` method (output -> the inputs it depends on at the same instant;
-an output it leaves out is a state), and the build writes that into the model
-description's ModelStructure.
+Every slave declares which outputs depend on an input at the same instant
+(grubler.fmi_slave), so a master can tell a state from an algebraic output.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import shutil
 import tempfile
-import zipfile
 from pathlib import Path
-from xml.etree import ElementTree as ET
 
 from pythonfmu.builder import FmuBuilder
 
@@ -37,34 +31,6 @@ SLAVES = {
     "Trajectory": HERE / "controllers" / "grubler_trajectory.py",
     "Encoder": HERE / "controllers" / "grubler_encoder.py",
 }
-
-
-def _feedthrough(script: Path, name: str) -> dict[str, list[str]] | None:
-    spec = importlib.util.spec_from_file_location(f"_grubler_build_{script.stem}", script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    slave = getattr(module, name)(instance_name="build", resources=str(script.parent))
-    return slave.feedthrough() if hasattr(slave, "feedthrough") else None
-
-
-def write_dependencies(fmu: Path, feedthrough: dict[str, list[str]]) -> None:
-    """Declare in ``fmu``'s ModelStructure which inputs each output depends on."""
-    with zipfile.ZipFile(fmu) as zf:
-        entries = {i: zf.read(i) for i in zf.infolist()}
-    md_info = next(i for i in entries if i.filename == "modelDescription.xml")
-    root = ET.fromstring(entries[md_info])
-    variables = root.findall("ModelVariables/ScalarVariable")
-    index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
-    for unknown in root.findall("ModelStructure/Outputs/Unknown"):
-        name = variables[int(unknown.get("index")) - 1].get("name")
-        deps = [index[i] for i in feedthrough.get(name, [])]
-        unknown.set("dependencies", " ".join(deps))
-        if deps:
-            unknown.set("dependenciesKind", " ".join(["dependent"] * len(deps)))
-    entries[md_info] = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zf:
-        for info, data in entries.items():
-            zf.writestr(info, data)
 
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:
@@ -84,12 +50,9 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
         for name, script in SLAVES.items():
             if names and name not in names:
                 continue
-            path = Path(FmuBuilder.build_FMU(script, dest=dest / f"{name}.fmu", project_files=[package],
-                                             canGetAndSetFMUstate=True, canSerializeFMUstate=True))
-            feedthrough = _feedthrough(script, name)
-            if feedthrough is not None:
-                write_dependencies(path, feedthrough)
-            built.append(path)
+            path = FmuBuilder.build_FMU(script, dest=dest / f"{name}.fmu", project_files=[package],
+                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            built.append(Path(path))
     return built
 
 

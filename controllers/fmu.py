@@ -53,8 +53,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
+
+from grubler.fmi_slave import DeclaredDependencies
 
 import grubler
 from grubler.errors import SceneError
@@ -71,7 +73,7 @@ def _variable_type(value):
     raise TypeError(f"parameter default {value!r}: an FMU parameter is a float, int, bool or str")
 
 
-class LawSlave(Fmi2Slave):
+class LawSlave(DeclaredDependencies):
     """FMI 2.0 co-simulation slave running a :class:`Law` (subclass it and set ``law``)."""
 
     law: type[Law] = Law
@@ -113,20 +115,10 @@ class LawSlave(Fmi2Slave):
         An output read at ``t + h`` comes from samples taken before ``t + h`` on
         the inputs held since ``t`` (see :class:`~grubler.controllers.law.Sampler`),
         so to a master every output is a state, and a feedback loop through a
-        controller is never algebraic.  build_fmu.py reads this; :meth:`to_xml`
-        writes it into the model description of every FMU built from a law.
+        controller is never algebraic; the model description of every FMU
+        built from a law says so (:class:`grubler.fmi_slave.DeclaredDependencies`).
         """
         return {name: [] for name in type(self).law.outputs}
-
-    def to_xml(self, model_options=None):
-        root = super().to_xml(model_options if model_options is not None else {})
-        variables = root.findall("ModelVariables/ScalarVariable")
-        index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
-        feed = self.feedthrough()
-        for unknown in root.findall("ModelStructure/Outputs/Unknown"):
-            name = variables[int(unknown.get("index")) - 1].get("name")
-            unknown.set("dependencies", " ".join(index[i] for i in feed.get(name, [])))
-        return root
 
     def _parameter(self, name: str):
         if name in self._overrides:

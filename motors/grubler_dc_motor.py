@@ -28,10 +28,11 @@ _here = Path(__file__).resolve().parent
 if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
     sys.path.insert(0, str(_here))
 
-from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real, String  # noqa: E402
+from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String  # noqa: E402
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
+from grubler.fmi_slave import DeclaredDependencies  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.motors import dc_motor as dcm  # noqa: E402
 from grubler.motors.motor_data import MotorData, load_motor  # noqa: E402
@@ -80,7 +81,7 @@ OUTPUTS = {
 }
 
 
-class DCMotor(Fmi2Slave):
+class DCMotor(DeclaredDependencies):
     """A permanent-magnet DC motor with gearbox, current-limited drive and winding temperature."""
 
     author = "grubler"
@@ -126,7 +127,7 @@ class DCMotor(Fmi2Slave):
                                         description=text, getter=lambda n=name: self._read(n)))
 
     def feedthrough(self) -> dict[str, list[str]]:
-        """Outputs that depend on this instant's inputs (build_fmu.py declares them).
+        """Outputs that depend on this instant's inputs (the model description declares them).
 
         Current and winding temperature are states; the torque and speeds follow
         the shaft speed now, the terminal quantities the commanded voltage too.

@@ -23,10 +23,11 @@ _here = Path(__file__).resolve().parent
 if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
     sys.path.insert(0, str(_here))
 
-from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real, String  # noqa: E402
+from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String  # noqa: E402
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
+from grubler.fmi_slave import DeclaredDependencies  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.model import coordinate_names  # noqa: E402
 from grubler.scene import load_scene, override, parameter  # noqa: E402
@@ -40,7 +41,7 @@ LINK_FIELDS = {"a": "link vector length [m]", "p": "mass centre along the link [
 DEFAULT_SCENE = "thesis-fourbar"
 
 
-class Mechanism(Fmi2Slave):
+class Mechanism(DeclaredDependencies):
     """A planar four-link Grübler mechanism (imaginary-joints method)."""
 
     author = "grubler"
@@ -118,8 +119,8 @@ class Mechanism(Fmi2Slave):
     def feedthrough(self) -> dict[str, list[str]]:
         """Outputs that depend on this instant's inputs; the rest are states.
 
-        build_fmu.py writes this into the model description's dependencies, so a
-        master can order a loop through the mechanism (angles and rates do not
+        The model description declares it (grubler.fmi_slave), so a master can
+        order a loop through the mechanism (angles and rates do not
         depend on the torque applied now; accelerations and forces do).
         """
         inputs = ["motor_torque", "load_torque"]

@@ -1,0 +1,35 @@
+"""What every pythonfmu slave of the project shares: declared output dependencies.
+
+pythonfmu writes every output as depending on every input, which makes any
+feedback loop through the FMU look algebraic to a master.  A slave that knows
+better says so in :meth:`DeclaredDependencies.feedthrough` (output -> the inputs
+it depends on at the same instant; an output it leaves out is a state), and its
+model description's ModelStructure carries it.
+"""
+
+from __future__ import annotations
+
+from pythonfmu import Fmi2Slave
+
+
+class DeclaredDependencies(Fmi2Slave):
+    """A pythonfmu slave whose model description declares its outputs' dependencies."""
+
+    def feedthrough(self) -> dict[str, list[str]]:
+        """Output -> inputs it depends on at the same instant (default: none)."""
+        return {}
+
+    def to_xml(self, model_options=None):
+        root = super().to_xml(model_options if model_options is not None else {})
+        variables = root.findall("ModelVariables/ScalarVariable")
+        index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
+        feed = self.feedthrough()
+        for unknown in root.findall("ModelStructure/Outputs/Unknown"):
+            deps = [index[i] for i in feed.get(variables[int(unknown.get("index")) - 1].get("name"), [])]
+            unknown.set("dependencies", " ".join(deps))
+            if deps:
+                unknown.set("dependenciesKind", " ".join(["dependent"] * len(deps)))
+        return root
+
+
+__all__ = ["DeclaredDependencies"]
