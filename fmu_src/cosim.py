@@ -273,6 +273,9 @@ def _default_panels(res: CosimResult):
     return [Plot(f"[{u}]", s) for u, s in by_unit.items()]
 
 
+_STATUS = {2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+
+
 class _Instance:
     """One instantiated FMU with the master's preallocated buffers."""
 
@@ -291,6 +294,7 @@ class _Instance:
         self._logger = fmi2CallbackLoggerTYPE(logger)  # keep a reference: C holds the pointer
         self.fmu.callbacks.logger = self._logger
         self.fmu.setupExperiment(startTime=start_time)
+        self.bind_calls()
 
     def set_parameters(self, params: dict):
         f, ports = self.fmu, self.itf.ports
@@ -319,19 +323,36 @@ class _Instance:
         self.n_conn = len(outputs)
         self.conn_vr = (ctypes.c_uint * len(outputs))(*outputs)
 
+    def bind_calls(self) -> None:
+        """The FMU's C functions themselves: fmpy's wrappers cost more than a step here."""
+        f = self.fmu._functions
+        self._c = self.fmu.component
+        self._set, self._get, self._step = f["fmi2SetReal"], f["fmi2GetReal"], f["fmi2DoStep"]
+
     def push(self, values: list[float]) -> None:
         if self.n_in:
             buf = self.in_buf
             for i, s in enumerate(self.in_slot):
                 buf[i] = values[s]
-            self.fmu.fmi2SetReal(self.fmu.component, self.in_vr, self.n_in, buf)
+            self._check(self._set(self._c, self.in_vr, self.n_in, buf), "fmi2SetReal")
 
     def pull(self, everything: bool) -> ctypes.Array:
         n = self.n_read if everything else self.n_conn
         if n:
-            self.fmu.fmi2GetReal(self.fmu.component, self.read_vr if everything else self.conn_vr, n,
-                                 self.read_buf)
+            self._check(self._get(self._c, self.read_vr if everything else self.conn_vr, n, self.read_buf),
+                        "fmi2GetReal")
         return self.read_buf
+
+    def do_step(self, t: float, h: float) -> None:
+        status = self._step(self._c, t, h, 1)
+        if status > 1:  # discard, error or fatal
+            raise CosimError(f"{self.name}: doStep from t = {t:.6g} s failed (status {_STATUS.get(status, status)})"
+                             + _last_message(self))
+
+    def _check(self, status: int, what: str) -> None:
+        if status > 1:
+            raise CosimError(f"{self.name}: {what} failed (status {_STATUS.get(status, status)})"
+                             + _last_message(self))
 
     def free(self):
         for call in (self.fmu.terminate, self.fmu.freeInstance):
@@ -503,7 +524,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
             if master == GAUSS_SEIDEL:
                 for inst in seq_insts:
                     inst.push(values)
-                    _do_step(inst, t, h)
+                    inst.do_step(t, h)
                     buf = inst.pull(False)
                     for i, s in enumerate(inst.out_slots):
                         values[s] = buf[i]
@@ -511,7 +532,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
                 for inst in seq_insts:
                     inst.push(values)
                 for inst in seq_insts:
-                    _do_step(inst, t, h)
+                    inst.do_step(t, h)
                 for inst in seq_insts:
                     buf = inst.pull(False)
                     for i, s in enumerate(inst.out_slots):
@@ -548,13 +569,6 @@ def _initialise(insts: dict[str, _Instance], seq: list[str], values: list[float]
             return
     raise CosimError("initial values of the coupled inputs did not settle after "
                      f"{len(seq) + 2} sweeps: an algebraic loop the FMUs do not declare?")
-
-
-def _do_step(inst: _Instance, t: float, h: float) -> None:
-    try:
-        inst.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
-    except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException with the status
-        raise CosimError(f"{inst.name}: doStep from t = {t:.6g} s failed ({exc})" + _last_message(inst)) from None
 
 
 def _call(inst: _Instance, what: str, fn, t: float):

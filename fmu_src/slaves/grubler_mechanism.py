@@ -113,8 +113,14 @@ class Mechanism(DeclaredDependencies):
                 if col in ("t", "E", "P_drive", "tau_drive"):
                     continue
                 self._add_output(col, group, f"{col} [{unit_of(col)}]")
-        self._add_output("drive_angle", "state", "coordinate of the drive joint (relative) [rad or m]")
-        self._add_output("drive_speed", "state", "rate of the drive joint [rad/s or m/s]")
+        # what a motor and an encoder read every step: straight from the state,
+        # without evaluating any output group
+        for name, text in (("drive_angle", "coordinate of the drive joint (relative) [rad or m]"),
+                           ("drive_speed", "rate of the drive joint [rad/s or m/s]")):
+            self._output_group[name] = "state"
+            self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                        initial=Fmi2Initial.exact, description=text,
+                                        getter=lambda n=name: self._drive(n)))
 
     def feedthrough(self) -> dict[str, list[str]]:
         """Outputs that depend on this instant's inputs; the rest are states.
@@ -240,7 +246,16 @@ class Mechanism(DeclaredDependencies):
         if GROUPS[top] not in self._groups_done:
             self._compute(GROUPS[top])
         out, names, vars_ = self._outputs, self._vr_name, self.vars
-        return [out[names[vr]] if vr in names else float(vars_[vr].getter()) for vr in vrs]
+        return [out.get(names[vr], math.nan) if vr in names else float(vars_[vr].getter()) for vr in vrs]
+
+    def _drive(self, name: str) -> float:
+        sim = self._sim
+        if sim is None:
+            return self._read(name)
+        i = sim.model.arrays.drive
+        if i < 0:
+            return 0.0
+        return float(sim.z[i] if name == "drive_angle" else sim.zd[i])
 
     def _read(self, name: str) -> float:
         # efforts set since the last read change accelerations and forces
