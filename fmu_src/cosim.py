@@ -499,12 +499,16 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         input_cols = [(j, i) for j, (c, i) in enumerate(col_src) if c == ""]
         k = 0
 
-        def record_row(t):
+        def record_row(t, pulled):
+            # `pulled`: the components whose every recorded output was read this step
             nonlocal k
             times[k] = t
             row = data[k]
             for name in seq:
-                buf = insts[name].pull(True)
+                if not col_index[name]:
+                    continue
+                inst = insts[name]
+                buf = inst.read_buf if name in pulled else inst.pull(True)
                 for j, i in col_index[name]:
                     row[j] = buf[i]
             for j, i in input_cols:
@@ -516,16 +520,20 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
             buf = inst.pull(False)
             for i, s in enumerate(inst.out_slots):
                 values[s] = buf[i]
-        record_row(t0)
+        record_row(t0, ())
         seq_insts = [insts[n] for n in seq]
+        everyone = set(seq)
         t = t0
         for n in range(n_steps):
             h = min(step, t_end - t) if n == n_steps - 1 else step
+            recording = (n + 1) % record_every == 0 or n == n_steps - 1
+            # on a recorded step one read per component serves both the
+            # connections and the record (the connected outputs come first)
             if master == GAUSS_SEIDEL:
                 for inst in seq_insts:
                     inst.push(values)
                     inst.do_step(t, h)
-                    buf = inst.pull(False)
+                    buf = inst.pull(recording)
                     for i, s in enumerate(inst.out_slots):
                         values[s] = buf[i]
             else:
@@ -534,12 +542,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
                 for inst in seq_insts:
                     inst.do_step(t, h)
                 for inst in seq_insts:
-                    buf = inst.pull(False)
+                    buf = inst.pull(recording)
                     for i, s in enumerate(inst.out_slots):
                         values[s] = buf[i]
             t = t0 + (n + 1) * step if n < n_steps - 1 else t_end
-            if (n + 1) % record_every == 0 or n == n_steps - 1:
-                record_row(t)
+            if recording:
+                record_row(t, everyone)
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
         return CosimResult(times[:k].copy(), columns, data[:k].copy(), system, seq, master, step, wall, units,
