@@ -436,13 +436,16 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
             raise SystemDescriptionError(f"order {' '.join(chosen)}: must name every component once "
                                          f"({' '.join(system.components)})")
         seq = chosen
-    record_set = None if record is None else list(record)
-    if record_set is not None:
-        for r in record_set:
-            el, _, var = r.partition(".")
-            port = interfaces.get(el).ports.get(var) if el in interfaces else None
-            if port is None or port.causality != "output":
-                raise SystemDescriptionError(f"record {r!r}: not an output of a component")
+    record_set = None if record is None else []
+    connected_inputs = {c.end for c in system.connections}
+    for r in record or ():
+        el, _, var = r.partition(".")
+        port = interfaces.get(el).ports.get(var) if el in interfaces else None
+        if r in connected_inputs:
+            continue  # recorded anyway, from the output that feeds it
+        if port is None or port.causality != "output":
+            raise SystemDescriptionError(f"record {r!r}: not an output of a component, nor a connected input")
+        record_set.append(r)
 
     # value slots: one per connected output
     slot: dict[str, int] = {}
