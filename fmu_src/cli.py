@@ -149,8 +149,18 @@ def cmd_cosim(args) -> int:
 
     record = args.record.split(",") if args.record else None
     step_order = args.order.split(",") if args.order else None
+    every = 1
+    if args.dt_out:
+        from .ssp import read
+
+        system = read(args.system)
+        h = args.step or system.step or 1e-3
+        every = max(1, int(round(args.dt_out / h)))
+        if abs(every * h - args.dt_out) > 1e-9 * args.dt_out:
+            raise GrublerError(f"--dt-out {args.dt_out:g} s must be a multiple of the step {h:g} s")
+        args.system = system
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
-              step_order=step_order)
+              step_order=step_order, record_every=every)
     steps = len(res.t) - 1
     print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({res.master}, "
           f"order {' -> '.join(res.order)}): {res.wall_time:.3f} s wall")
@@ -341,6 +351,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
                    help="stepping order (default gauss-seidel)")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
+    c.add_argument("--dt-out", type=_positive("--dt-out"),
+                   help="record every this many seconds (a multiple of the step; default every step)")
     c.add_argument("--order", help="comma-separated stepping order of the components (default: the system's)")
     c.add_argument("--csv", help="write every recorded output to this CSV file")
     c.add_argument("--plot", help="write the system's plot to this PNG file")
