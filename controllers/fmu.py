@@ -207,11 +207,10 @@ if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
     sys.path.insert(0, str(_here))
 
 from grubler.controllers.fmu import LawSlave  # noqa: E402
+from grubler.fmi_slave import balance_loader_reference  # noqa: E402
 from {module} import {name} as _Law  # noqa: E402
 
-# pythonfmu 0.7's loader executes this file again at every instantiation and then
-# releases a reference to this namespace it never took: take one per execution.
-globals().setdefault("_loader_references", []).append(globals())
+balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
 
 class {name}(LawSlave):

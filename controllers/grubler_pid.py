@@ -17,13 +17,9 @@ if (_here / "grubler" / "__init__.py").is_file() and str(_here) not in sys.path:
 
 from grubler.controllers import pid as _law  # noqa: E402
 from grubler.controllers.fmu import LawSlave  # noqa: E402
+from grubler.fmi_slave import balance_loader_reference  # noqa: E402
 
-# pythonfmu 0.7's loader executes this file again at every instantiation, in this
-# module's namespace, and then releases a reference to that namespace it never took;
-# a script whose namespace holds few references (a thin one like this) is freed
-# under the loader by the second instance.  Taking one reference per execution
-# keeps the count balanced.
-globals().setdefault("_loader_references", []).append(globals())
+balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
 
 class PID(LawSlave):

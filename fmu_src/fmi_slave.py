@@ -1,4 +1,5 @@
-"""What every pythonfmu slave of the project shares: declared output dependencies.
+"""What every pythonfmu slave of the project shares: declared output dependencies,
+and a balanced reference count on the slave script's namespace.
 
 pythonfmu writes every output as depending on every input, which makes any
 feedback loop through the FMU look algebraic to a master.  A slave that knows
@@ -32,4 +33,18 @@ class DeclaredDependencies(Fmi2Slave):
         return root
 
 
-__all__ = ["DeclaredDependencies"]
+def balance_loader_reference(namespace: dict) -> None:
+    """Take the reference to a slave script's namespace that pythonfmu 0.7 gives back.
+
+    pythonfmu 0.7's loader executes the slave script at every instantiation in
+    the module's namespace and then releases a reference to that namespace it
+    never took.  A script whose namespace few objects refer to (a thin slave) is
+    freed under the loader by the second instance (a segfault in
+    fmi2Instantiate); a larger one is merely left with a count that is too low.
+    Every slave script calls this once per execution: one reference taken for
+    the one released.
+    """
+    namespace.setdefault("_loader_references", []).append(namespace)
+
+
+__all__ = ["DeclaredDependencies", "balance_loader_reference"]

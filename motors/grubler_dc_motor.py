@@ -32,7 +32,7 @@ from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String 
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.fmi_slave import DeclaredDependencies  # noqa: E402
+from grubler.fmi_slave import DeclaredDependencies, balance_loader_reference  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.motors import dc_motor as dcm  # noqa: E402
 from grubler.motors.motor_data import MotorData, load_motor  # noqa: E402
@@ -80,6 +80,8 @@ OUTPUTS = {
                          "drive.inertia to it [kg m2]",
 }
 
+
+balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
 class DCMotor(DeclaredDependencies):
     """A permanent-magnet DC motor with gearbox, current-limited drive and winding temperature."""

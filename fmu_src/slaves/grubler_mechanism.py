@@ -27,7 +27,7 @@ from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String 
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.fmi_slave import DeclaredDependencies  # noqa: E402
+from grubler.fmi_slave import DeclaredDependencies, balance_loader_reference  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.model import coordinate_names  # noqa: E402
 from grubler.scene import load_scene, override, parameter  # noqa: E402
@@ -40,6 +40,8 @@ LINK_FIELDS = {"a": "link vector length [m]", "p": "mass centre along the link [
                "damping": "viscous damping of its real joint [N m s/rad or N s/m]"}
 DEFAULT_SCENE = "thesis-fourbar"
 
+
+balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
 class Mechanism(DeclaredDependencies):
     """A planar four-link Grübler mechanism (imaginary-joints method)."""
