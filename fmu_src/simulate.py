@@ -23,7 +23,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .assembly import POSITION_TOL, assemble, project
+from .assembly import POSITION_TOL, assemble
 from .dynamics import (
     EXACT,
     METHODS,
@@ -31,12 +31,13 @@ from .dynamics import (
     Inputs,
     closure_forces,
     forward_dynamics,
+    register_drive,
     joint_reactions,
     kinetic_energy,
     potential_energy,
 )
 from .errors import SceneError
-from .integrators import Integrator
+from .integrators import Integrator, StateEquation
 from .kinematics import chain_kinematics, closure_kinematics, point_on_link
 from .model import Mechanism
 from .scene import Scene, load_scene
@@ -195,12 +196,14 @@ class Simulator:
             z, zd = assemble(m, z, zd)
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
-        self._scale = max([1.0] + [abs(l.a) for l in m.links])
         self._n = m.n_free
-        closed_exactly = self.method == EXACT and m.n_constraints > 0
-        self._integ = Integrator(self._rhs, self.t0, np.concatenate([z, zd]), method=self.integrator,
+        key = -1 if self.drive_function is None else register_drive(self, self.drive_function)
+        ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_key=key,
+                            project_state=self.method == EXACT and m.n_constraints > 0,
+                            scale=max([1.0] + [abs(l.a) for l in m.links]))
+        self._integ = Integrator(ode, self.t0, np.concatenate([z, zd]), method=self.integrator,
                                  rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
-                                 project=self._project if closed_exactly else None, h_max=self.max_step)
+                                 h_max=self.max_step)
 
     # -- the ODE -------------------------------------------------------------
     def _inputs_at(self, t: float) -> Inputs:
@@ -208,15 +211,9 @@ class Simulator:
             return self.inputs
         return Inputs(float(self.drive_function(t)), self.inputs.load)
 
-    def _project(self, y: np.ndarray) -> np.ndarray:
-        n = self._n
-        z, zd = project(self.model, y[:n], y[n:], self._scale)
-        return np.concatenate([z, zd])
-
     def _rhs(self, t: float, y: np.ndarray) -> np.ndarray:
-        n = self._n
-        dyn = forward_dynamics(self.model, y[:n], y[n:], self._inputs_at(t), self.method)
-        return np.concatenate([y[n:], dyn.zdd])
+        """The state equation at (t, y): ``(zd, zdd)``."""
+        return self._integ.ode(t, y)
 
     # -- state ---------------------------------------------------------------
     @property
@@ -237,11 +234,30 @@ class Simulator:
         load = self.inputs.load if load is None else float(load)
         if drive != self.inputs.drive or load != self.inputs.load:
             self.inputs = Inputs(drive, load)
+            self._integ.ode.drive, self._integ.ode.load = drive, load
             self._integ.reset_derivative()
 
     def advance_to(self, t: float) -> None:
         """Integrate to time ``t`` (it sub-steps to its own tolerance)."""
+        ode = self._integ.ode
+        ode.drive, ode.load = self.inputs.drive, self.inputs.load
         self._integ.advance_to(t)
+
+    def advance_through(self, times: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate through increasing ``times``; the joint coordinates and rates at each.
+
+        One call into the compiled integrator for the whole grid (``simulate`` uses
+        it); the same steps as :meth:`advance_to` at each time in turn.
+
+        Returns
+        -------
+        z, zd : ndarray, shape (len(times), N)
+        """
+        ode = self._integ.ode
+        ode.drive, ode.load = self.inputs.drive, self.inputs.load
+        states = self._integ.advance_through(np.asarray(list(times) if not isinstance(times, np.ndarray) else times,
+                                                        dtype=float))
+        return states[:, : self._n].copy(), states[:, self._n :].copy()
 
     def outputs(self, groups: Iterable[str] = DEFAULT_GROUPS) -> dict[str, float]:
         return evaluate(self.model, self.method, self.t, self.z.copy(), self.zd.copy(),
@@ -378,11 +394,7 @@ def simulate(
     times = np.arange(n_out) * dt_out
     if times[-1] < t_end - 1e-12:
         times = np.append(times, t_end)
-    zs = np.empty((len(times), sim.model.n_free))
-    zds = np.empty_like(zs)
-    for i, t in enumerate(times):
-        sim.advance_to(float(t))
-        zs[i], zds[i] = sim.z, sim.zd
+    zs, zds = sim.advance_through(times)
     return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats)
 
 
