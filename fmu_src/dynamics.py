@@ -49,11 +49,19 @@ from .kinematics import (
     K_COLUMNS,
     K_CX,
     K_CY,
+    K_OM,
+    K_OX,
+    K_OY,
+    K_RATE,
+    K_SLIDE,
+    K_TH,
     R_B,
     R_COLUMNS,
     R_GAMMA,
     R_LAM,
+    R_NORMAL,
     R_PHI,
+    R_POINT,
     ChainKinematics,
     ClosureKinematics,
     chain_into,
@@ -63,7 +71,23 @@ from .kinematics import (
     point_into,
 )
 from .linalg import lu_solve, sym_eig
-from .model import CL_DAMP, CL_GAIN, L_DAMP, L_I, L_M, L_P, L_Q, L_REV, Mechanism
+from .model import (
+    CL_DAMP,
+    CL_GAIN,
+    CL_KIND,
+    CL_LINK,
+    CL_TO,
+    L_A,
+    L_DAMP,
+    L_I,
+    L_M,
+    L_P,
+    L_Q,
+    L_REV,
+    PRISMATIC_CLOSURE,
+    Mechanism,
+    coordinate_names,
+)
 
 EXACT = "exact"
 PENALTY = "penalty"
@@ -117,7 +141,7 @@ def drive_at(key, t, tau):
 
 
 # -- compiled kernels -----------------------------------------------------------
-# The workspace: K (N, 15) link table, Jc (N, 2, N) mass-centre Jacobians, J (m + 3, N)
+# The workspace: K (N, K_COLUMNS) link table, Jc (N, 2, N) mass-centre Jacobians, J (m + 3, N)
 # closure Jacobian (+ 3 scratch rows), R (m, 6) constraint-row table, T the
 # N-row solver table and Q the m-row one.  T's columns: M, then the matrix the
 # solve destroys, the right-hand sides (forces, then J^T), zdd, a scratch vector,
@@ -316,6 +340,118 @@ def rhs_into(P, method, t, y, drive_key, tau_drive, tau_load, W, out):
     return ok
 
 
+@jit
+def reactions_into(P, W, out, o):
+    """Force and moment each link's predecessor exerts on it, after :func:`accelerations`.
+
+    Newton-Euler from the tip back to the ground; ``out[o + 3k : o + 3k + 3]`` is
+    (Fx, Fy, Mz) for the joint pair of link k+2, acting at its revolute point O_{k+2}.
+    """
+    L, CL, gravity = P[0], P[1], P[3]
+    K, Jc, R, T = W[0], W[1], W[3], W[4]
+    n = L.shape[0]
+    dd = t_columns(n, 2 * CL.shape[0])[2]
+    for i in range(3 * n):
+        out[o + i] = 0.0
+    # first the closures' forces on the links they join, about each link's origin
+    for j in range(CL.shape[0]):
+        r = 2 * j
+        if CL[j, CL_KIND] == PRISMATIC_CLOSURE:
+            fx, fy, mz = R[r, R_NORMAL] * R[r, R_LAM], R[r + 1, R_NORMAL] * R[r, R_LAM], R[r + 1, R_LAM]
+        else:
+            fx, fy, mz = R[r, R_LAM], R[r + 1, R_LAM], 0.0
+        px, py = R[r, R_POINT], R[r + 1, R_POINT]
+        for side in range(2):
+            k = int(CL[j, CL_LINK]) if side == 0 else int(CL[j, CL_TO])
+            if k < 0:  # the ground
+                continue
+            sign = 1.0 if side == 0 else -1.0
+            out[o + 3 * k] += sign * fx
+            out[o + 3 * k + 1] += sign * fy
+            out[o + 3 * k + 2] += sign * (mz + (px - K[k, K_OX]) * fy - (py - K[k, K_OY]) * fx)
+    fnx = fny = nn = 0.0
+    for k in range(n - 1, -1, -1):
+        ax, ay, alpha = K[k, K_CBX], K[k, K_CBY], 0.0
+        for i in range(k + 1):
+            ax += Jc[k, 0, i] * T[i, dd]
+            ay += Jc[k, 1, i] * T[i, dd]
+            alpha += L[i, L_REV] * T[i, dd]
+        ix, iy = L[k, L_M] * ax, L[k, L_M] * (ay + gravity)  # m (a - g)
+        fx = ix - out[o + 3 * k] + fnx
+        fy = iy - out[o + 3 * k + 1] + fny
+        cx, cy = K[k, K_CX] - K[k, K_OX], K[k, K_CY] - K[k, K_OY]
+        nx, ny = (K[k + 1, K_OX] - K[k, K_OX], K[k + 1, K_OY] - K[k, K_OY]) if k + 1 < n else (0.0, 0.0)
+        mz = L[k, L_I] * alpha + (cx * iy - cy * ix) + nn + (nx * fny - ny * fnx) - out[o + 3 * k + 2]
+        out[o + 3 * k] = fx
+        out[o + 3 * k + 1] = fy
+        out[o + 3 * k + 2] = mz
+        fnx, fny, nn = fx, fy, mz
+
+
+def observation_names(n: int) -> list[str]:
+    """Names of :func:`observe_into`'s entries, in order, for N links."""
+    names = coordinate_names(n)
+    return (names + [f"{x}_d" for x in names] + [f"{x}_dd" for x in names]
+            + ["tip_x", "tip_y", "closure_error", "Fx", "Fy", "Mz", "KE", "PE", "E", "tau_drive", "P_drive"]
+            + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
+
+
+@jit
+def observe_into(P, method, zd, tau_drive, want_reactions, W, out):
+    """Every output of one state (names: :func:`observation_names`), after :func:`accelerations`.
+
+    Coordinates and rates in thesis order, their accelerations, the tip, the
+    closure error, the first closure's force, the energies (kinetic, potential
+    with the penalty springs' share, total), the drive's effort and power, and -
+    only when ``want_reactions`` - the joint reactions.
+    """
+    L, CL, gravity, drive = P[0], P[1], P[3], P[4]
+    K, J, R, T = W[0], W[2], W[3], W[4]
+    n = L.shape[0]
+    m = 2 * CL.shape[0]
+    dd = t_columns(n, m)[2]
+    acc = 0.0
+    for k in range(n):
+        revolute = L[k, L_REV] != 0.0
+        out[2 * k] = K[k, K_SLIDE]
+        out[2 * k + 1] = K[k, K_TH]
+        out[2 * n + 2 * k] = K[k, K_RATE]
+        out[2 * n + 2 * k + 1] = K[k, K_OM]
+        if revolute:
+            acc += T[k, dd]
+        out[4 * n + 2 * k] = 0.0 if revolute else T[k, dd]
+        out[4 * n + 2 * k + 1] = acc
+    o = 6 * n
+    out[o], out[o + 1], _, _ = point_into(L, K, n - 1, L[n - 1, L_A], 0.0, J[m:m + 2])
+    err = 0.0
+    for r in range(m):
+        err += R[r, R_PHI] ** 2
+    out[o + 2] = math.sqrt(err)
+    fx = fy = mz = 0.0
+    if m > 0:
+        if CL[0, CL_KIND] == PRISMATIC_CLOSURE:
+            fx, fy, mz = R[0, R_NORMAL] * R[0, R_LAM], R[1, R_NORMAL] * R[0, R_LAM], R[1, R_LAM]
+        else:
+            fx, fy = R[0, R_LAM], R[1, R_LAM]
+    out[o + 3], out[o + 4], out[o + 5] = fx, fy, mz
+    ke = 0.0
+    for i in range(n):
+        for j in range(n):
+            ke += zd[i] * T[i, j] * zd[j]
+    pe = 0.0
+    for k in range(n):
+        pe += L[k, L_M] * K[k, K_CY]
+    pe *= gravity
+    if method == 1:  # the penalty springs store energy too
+        for r in range(m):
+            pe += 0.5 * CL[r // 2, CL_GAIN] * R[r, R_PHI] ** 2
+    out[o + 6], out[o + 7], out[o + 8] = 0.5 * ke, pe, 0.5 * ke + pe
+    out[o + 9] = tau_drive if drive >= 0 else 0.0
+    out[o + 10] = tau_drive * zd[drive] if drive >= 0 else 0.0
+    if want_reactions:
+        reactions_into(P, W, out, o + 11)
+
+
 # -- Python interface -------------------------------------------------------------
 @dataclass
 class MassProperties:
@@ -376,12 +512,6 @@ def applied_force(model: Mechanism, mp: MassProperties, zd: np.ndarray, inputs: 
     return _force(model, mp, zd, inputs, float(model.gravity), bias=False)
 
 
-def penalty_multipliers(model: Mechanism, ck: ClosureKinematics, zd: np.ndarray) -> np.ndarray:
-    """The thesis's imaginary joint: spring G and damper C on each violation."""
-    phidot = ck.J @ zd
-    return -model.arrays.gain * ck.phi - model.arrays.closure_damping * phidot
-
-
 @dataclass
 class Dynamics:
     """Everything the equations of motion give at one state."""
@@ -392,6 +522,7 @@ class Dynamics:
     M: np.ndarray
     zdd: np.ndarray
     lam: np.ndarray  # closure multipliers, force on the closing link
+    work: tuple = ()  # the kernels' tables these fields are views of
 
 
 def forward_dynamics(
@@ -428,7 +559,7 @@ def forward_dynamics(
     zd = y[n:]
     zdd_column = t_columns(n, model.n_constraints)[2]
     return Dynamics(ChainKinematics.of(model, K, zd), _mass_properties(model, K, Jc),
-                    ClosureKinematics.of(model, J, R), T[:, :n], T[:, zdd_column], R[:, R_LAM])
+                    ClosureKinematics.of(model, J, R), T[:, :n], T[:, zdd_column], R[:, R_LAM], W)
 
 
 def closure_forces(model: Mechanism, dyn: Dynamics) -> list[tuple[np.ndarray, float]]:
@@ -451,37 +582,9 @@ def joint_reactions(model: Mechanism, dyn: Dynamics, inputs: Inputs) -> np.ndarr
     -------
     ndarray, shape (N, 3)
     """
-    n = model.n_links
-    kin, mp = dyn.kin, dyn.mp
-    acc = np.einsum("kai,i->ka", mp.Jc, dyn.zdd) + mp.centre_bias
-    alpha = mp.Jw @ dyn.zdd
-    g = np.array([0.0, -model.gravity])
-    ext_f = np.zeros((n, 2))
-    ext_m = np.zeros(n)  # moment about each link's origin
-    for cl, (force, moment), r in zip(model.closures, closure_forces(model, dyn), dyn.ck.application):
-        for link, sign in ((cl.link, 1.0), (cl.to_link, -1.0)):
-            if link == 1:
-                continue
-            k = link - 2
-            ext_f[k] += sign * force
-            ext_m[k] += sign * (moment + _cross(r - kin.origin[k], force))
-    out = np.zeros((n, 3))
-    f_next = np.zeros(2)
-    n_next = 0.0
-    for k in range(n - 1, -1, -1):
-        link = model.links[k]
-        inertial = link.m * (acc[k] - g)
-        f = inertial - ext_f[k] + f_next
-        arm_c = mp.centre[k] - kin.origin[k]
-        arm_next = kin.origin[k + 1] - kin.origin[k] if k + 1 < n else np.zeros(2)
-        mz = link.I * alpha[k] + _cross(arm_c, inertial) + n_next + _cross(arm_next, f_next) - ext_m[k]
-        out[k] = (f[0], f[1], mz)
-        f_next, n_next = f, mz
-    return out
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> float:
-    return float(a[0] * b[1] - a[1] * b[0])
+    out = np.empty(3 * model.n_links)
+    reactions_into(model.arrays.packed, dyn.work, out, 0)
+    return out.reshape(model.n_links, 3)
 
 
 def kinetic_energy(M: np.ndarray, zd: np.ndarray) -> float:

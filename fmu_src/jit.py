@@ -8,8 +8,8 @@ Numba's own cache is keyed by the source file's directory and checks only the
 file that holds the function, so it misses twice here: an FMU's copy of this
 package is extracted to a new temporary directory for every instance (a cold
 compile each time), and a kernel that calls a kernel of another module would not
-notice when that module changes.  The cache is therefore keyed by a hash of every
-module of this package instead of by its path:
+notice when that module changes.  The cache is therefore keyed by a hash of the
+package's kernel modules (:data:`KERNEL_MODULES`) instead of by its path:
 
 1. ``$NUMBA_CACHE_DIR/grubler-<hash>`` when the user set ``NUMBA_CACHE_DIR``;
 2. otherwise numba's user-wide cache directory (``~/.cache/numba/grubler-<hash>``
@@ -36,12 +36,21 @@ import numba
 PACKAGE_DIR = Path(__file__).resolve().parent
 
 
-def _source_hash() -> str:
+# the modules whose compiled kernels call one another (and model.py, whose column
+# constants they read): a change to any of them invalidates every kernel
+KERNEL_MODULES = ("jit", "linalg", "model", "kinematics", "dynamics", "assembly", "integrators")
+
+
+def _file_hash(paths) -> str:
     h = hashlib.sha256()
-    for path in sorted(PACKAGE_DIR.glob("*.py")):
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
+    for path in paths:
+        h.update(Path(path).name.encode())
+        h.update(Path(path).read_bytes())
     return h.hexdigest()[:20]
+
+
+def _source_hash() -> str:
+    return _file_hash(PACKAGE_DIR / f"{name}.py" for name in KERNEL_MODULES)
 
 
 SOURCE_HASH = _source_hash()
@@ -74,7 +83,8 @@ def _function_cache_class():
             return self._path
 
         def get_source_stamp(self):
-            return SOURCE_HASH
+            # a kernel outside KERNEL_MODULES is still checked against its own file
+            return SOURCE_HASH, _file_hash([self._py_file])
 
         def get_disambiguator(self):
             return str(self._lineno)

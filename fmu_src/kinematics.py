@@ -25,9 +25,9 @@ Examples
 >>> kin = chain_kinematics(m, m.z_from_q(m.q_ref), np.zeros(3))
 >>> kin.origin.shape
 (3, 2)
->>> r, J, bias = point_on_link(kin, 0, (0.2, 0.0))  # the crank's tip
+>>> r, J, bias = point_on_link(kin, 0, (0.2, 0.0))  # the crank's tip, crank along x
 >>> np.round(r, 6).tolist()
-[0.0, 0.2]
+[0.2, 0.0]
 """
 
 from __future__ import annotations
@@ -57,10 +57,11 @@ from .model import (
 )
 
 # columns of the link table K, one row per moving link: angle, rate, cos, sin,
-# joint point O_k, its bias acceleration, slide axis, slide rate; then the mass
-# centre and its bias acceleration (filled by grubler.dynamics.mass_into)
-K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_RATE, K_CX, K_CY, K_CBX, K_CBY = range(15)
-K_COLUMNS = 15
+# joint point O_k, its bias acceleration, slide axis, slide and its rate; then the
+# mass centre and its bias acceleration (filled by grubler.dynamics.mass_into)
+(K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX,
+ K_CBY) = range(16)
+K_COLUMNS = 16
 # columns of the constraint-row table R, one row per closure equation: violation,
 # acceleration right side, two columns for the solver, and the components along
 # this row's axis (x for a closure's first row, y for its second) of the line's
@@ -108,6 +109,7 @@ def chain_into(L, theta1, z, zd, K):
         K[k, K_BY] = by
         K[k, K_AX] = ax
         K[k, K_AY] = ay
+        K[k, K_SLIDE] = slide
         K[k, K_RATE] = rate
         cp, sp, wp = c, s, w_sum
 
@@ -210,7 +212,7 @@ def closure_into(L, CL, K, zd, J, R):
 class ChainKinematics:
     """Positions and rates of the chain at one state (data, not model).
 
-    The fields are views of ``table``, the kernels' (N, 11) kinematics table.
+    The fields are views of ``table``, the kernels' link table (columns ``K_*``).
     """
 
     theta: np.ndarray  # (N,) absolute angles of links 2..N+1
@@ -220,7 +222,7 @@ class ChainKinematics:
     axis: np.ndarray  # (N, 2) slide axis of each pair (unit), world frame
     revolute: np.ndarray  # (N,) bool, which joint of each pair is real
     zd: np.ndarray  # (N,) joint rates
-    table: np.ndarray  # (N, 11) the kernels' kinematics table
+    table: np.ndarray  # (N, K_COLUMNS) the kernels' link table
     links: np.ndarray  # the model's link table (ModelArrays.links)
 
     @staticmethod
