@@ -2,7 +2,7 @@
 co-simulation advance, a 10 s run of the thesis four-bar, and a fresh process's
 first simulation.
 
-    python benchmarks/rhs_cost.py [--repeat 5] [--cosim-steps 10000] [--json out.json]
+    python benchmarks/rhs_cost.py [--repeat 5] [--cosim-steps 10000] [--parts ...] [--json out.json]
 
 Every number is the median of --repeat runs in this one process (the machine is
 shared and noisy: compare ratios measured in the same run).  It uses only the
@@ -36,6 +36,7 @@ from grubler.dynamics import Inputs, forward_dynamics
 from grubler.simulate import Simulator
 
 SCENE = "thesis-fourbar"
+PARTS = ("first_call", "rhs", "cosim", "outputs", "accuracy")
 TARGET_ERROR = 1e-8  # rad, max crank-angle error
 
 
@@ -88,6 +89,21 @@ def cosim(steps: int, repeat: int) -> dict:
     run_short.advance_to(1e-3)  # warm
     wall = median_time(run, repeat)
     return {"steps": steps, "wall": wall, "per_step": wall / steps}
+
+
+def outputs_cost(repeat: int) -> dict:
+    """Simulator.outputs for growing sets of output groups (what an FMU pays per read), s."""
+    from grubler.simulate import GROUPS
+
+    sim = Simulator(grubler.load_scene(SCENE).mechanism)
+    sim.advance_to(0.1)
+    n = 2000
+    out = {}
+    for k in range(1, len(GROUPS) + 1):
+        groups = list(GROUPS[:k])
+        sim.outputs(groups)
+        out["+".join(groups)] = median_time(lambda: [sim.outputs(groups) for _ in range(n)], repeat) / n
+    return out
 
 
 def crank_error(res, ref) -> float:
@@ -158,35 +174,49 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cosim-steps", type=int, default=10000)
+    ap.add_argument("--parts", nargs="+", default=list(PARTS), choices=PARTS)
     ap.add_argument("--json", default=None, help="also write the numbers here")
     args = ap.parse_args()
     r = {"package": grubler.__file__, "machine": machine()}
-    r["first_call"] = first_call(3)
-    r["rhs_call"] = rhs_call(args.repeat)
-    r["free_run"] = free_run(args.repeat)
-    r["cosim"] = cosim(args.cosim_steps, args.repeat)
-    r["accuracy"] = [accuracy(args.repeat, dt) for dt in (0.01, 0.1)]
-    r["machine"]["load_after"] = os.getloadavg()[0]
+    parts = set(args.parts)
     us = 1e6
-    fr, cs, acc = r["free_run"], r["cosim"], r["accuracy"]
     print(f"package {r['package']}; {r['machine']}")
-    print(f"forward_dynamics call        {r['rhs_call'] * us:9.2f} us")
-    print(f"RHS eval inside integrator   {fr['per_eval'] * us:9.2f} us  ({fr['rhs_evals']} evals, 10 s in one advance)")
-    print(f"DOP853 step                  {fr['per_step'] * us:9.2f} us  ({fr['steps']} steps, {fr['rejected']} rejected)")
-    print(f"advance_to(t + 1 ms)         {cs['per_step'] * us:9.2f} us  ({cs['steps']} steps: {cs['wall']:.3f} s)")
-    for a in acc:
-        d = a["default"]
-        print(f"simulate 10 s, dt_out {a['dt_out']:g} s, default tol: {d['wall']:.4f} s "
-              f"(max crank error {d['error']:.2e} rad, {d['steps']} steps)")
-        for s in a["sweep"]:
-            print(f"  rtol=atol={s['tol']:.0e}: error {s['error']:.2e} rad, {s['wall']:.4f} s, {s['steps']} steps")
-        best = a["loosest_within_target"]
-        if best:
-            print(f"  loosest tolerance with error <= {TARGET_ERROR:g}: {best['tol']:.0e} ({best['wall']:.4f} s)")
-    fc = r["first_call"]
-    print(f"fresh process, warm cache: import {fc['warm_import']:.2f} s, first simulate {fc['warm_first']:.2f} s")
-    if "cold_first" in fc:
-        print(f"fresh process, cold cache: import {fc['cold_import']:.2f} s, first simulate {fc['cold_first']:.2f} s")
+    if "first_call" in parts:
+        r["first_call"] = fc = first_call(3)
+        print(f"fresh process, warm cache: import {fc['warm_import']:.2f} s, first simulate {fc['warm_first']:.2f} s")
+        if "cold_first" in fc:
+            print(f"fresh process, cold cache: import {fc['cold_import']:.2f} s, "
+                  f"first simulate {fc['cold_first']:.2f} s")
+    if "rhs" in parts:
+        r["rhs_call"] = rhs_call(args.repeat)
+        r["free_run"] = fr = free_run(args.repeat)
+        print(f"forward_dynamics call        {r['rhs_call'] * us:9.2f} us")
+        print(f"RHS eval inside integrator   {fr['per_eval'] * us:9.2f} us  ({fr['rhs_evals']} evals, "
+              "10 s in one advance)")
+        print(f"DOP853 step                  {fr['per_step'] * us:9.2f} us  ({fr['steps']} steps, "
+              f"{fr['rejected']} rejected)")
+    if "cosim" in parts:
+        r["cosim"] = cs = cosim(args.cosim_steps, args.repeat)
+        print(f"advance_to(t + 1 ms)         {cs['per_step'] * us:9.2f} us  ({cs['steps']} steps: {cs['wall']:.3f} s)")
+    if "outputs" in parts:
+        r["outputs"] = oc = outputs_cost(args.repeat)
+        for groups, t in oc.items():
+            print(f"outputs({groups}) {t * us:9.2f} us")
+    if "accuracy" in parts:
+        r["accuracy"] = acc = [accuracy(args.repeat, dt) for dt in (0.01, 0.1)]
+        for a in acc:
+            d = a["default"]
+            print(f"simulate 10 s, dt_out {a['dt_out']:g} s, default tol: {d['wall']:.4f} s "
+                  f"(max crank error {d['error']:.2e} rad, {d['steps']} steps)")
+            for s in a["sweep"]:
+                print(f"  rtol=atol={s['tol']:.0e}: error {s['error']:.2e} rad, {s['wall']:.4f} s, "
+                      f"{s['steps']} steps")
+            best = a["loosest_within_target"]
+            if best:
+                print(f"  loosest tolerance with error <= {TARGET_ERROR:g}: {best['tol']:.0e} "
+                      f"({best['wall']:.4f} s)")
+    r["machine"]["load_after"] = os.getloadavg()[0]
+    print(f"load average before / after: {r['machine']['load']:.1f} / {r['machine']['load_after']:.1f}")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(r, fh, indent=1)
