@@ -14,11 +14,16 @@ import numpy as np
 import scipy.linalg
 
 from .analysis import explain_unclosable
+from .dynamics import t_columns, workspace
 from .errors import AssemblyError
-from .kinematics import chain_kinematics, closure_kinematics
+from .jit import jit
+from .linalg import lstsq_min_norm
+from .kinematics import R_B, R_PHI, chain_into, chain_kinematics, closure_into, closure_kinematics
 from .model import Mechanism
 
 POSITION_TOL = 1e-12  # m (or rad): loop closure reached by assembly and projection
+LSTSQ_RCOND = 1e-8  # relative singular value below which a projection direction is dropped
+PROJECTION_ITERATIONS = 4  # Gauss-Newton steps at most (one or two suffice after a step)
 
 
 def constraint(model: Mechanism, z: np.ndarray, zd: np.ndarray | None = None):
@@ -105,17 +110,53 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
     return z, zd
 
 
-def project(model: Mechanism, z: np.ndarray, zd: np.ndarray, scale: float = 1.0,
-            max_iter: int = 4) -> tuple[np.ndarray, np.ndarray]:
+@jit
+def project_into(P, scale, y, W):
+    """Minimum-norm projection of ``y = (z, zd)`` onto the closures, in place.
+
+    Gauss-Newton on ``phi(z) = 0`` (a step or two from an integrator step that is
+    already near the manifold), then the rates onto the null space of ``J``.
+    ``W`` is a :func:`grubler.dynamics.workspace`.
+    """
+    L, CL, theta1 = P[0], P[1], P[2]
+    K, _, J, R, T, Q = W
+    n = y.shape[0] // 2
+    m = 2 * CL.shape[0]
+    _, _, _, vec, block = t_columns(n, m)
+    z = y[:n]
+    zd = y[n:]
+    rest = J[m + 2]
+    rest[:] = 0.0  # the rates do not enter phi or J
+    Jm = J[:m]
+    V = Q[:, 2 * m:3 * m]
+    for _ in range(PROJECTION_ITERATIONS):
+        chain_into(L, theta1, z, rest, K)
+        closure_into(L, CL, K, rest, J, R)
+        worst = 0.0
+        for r in range(m):
+            worst = max(worst, abs(R[r, R_PHI]))
+        if worst <= POSITION_TOL * scale:
+            break
+        lstsq_min_norm(Jm, R, R_PHI, LSTSQ_RCOND, T, vec, block, V)
+        for i in range(n):
+            z[i] -= T[i, vec]
+    for r in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[r, i] * zd[i]
+        R[r, R_B] = s
+    lstsq_min_norm(Jm, R, R_B, LSTSQ_RCOND, T, vec, block, V)
+    for i in range(n):
+        zd[i] -= T[i, vec]
+
+
+def project(model: Mechanism, z: np.ndarray, zd: np.ndarray, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Minimum-norm projection onto the position and velocity constraints.
 
     Gauss-Newton on ``phi(z) = 0`` (a step or two from an integrator step that is
     already near the manifold), then the rates onto the null space of ``J``.
     """
-    for _ in range(max_iter):
-        phi, J = constraint(model, z)
-        if np.max(np.abs(phi)) <= POSITION_TOL * scale:
-            break
-        z = z - np.linalg.lstsq(J, phi, rcond=1e-8)[0]
-    zd = zd - np.linalg.lstsq(J, J @ zd, rcond=1e-8)[0]
-    return z, zd
+    y = np.concatenate([np.asarray(z, dtype=float), np.asarray(zd, dtype=float)])
+    project_into(model.arrays.packed, float(scale), y, workspace(model.n_links, len(model.closures)))
+    n = model.n_links
+    return y[:n], y[n:]

@@ -6,6 +6,24 @@ closure after every accepted step (the exact method's drift control), and an
 integrator state (time, state, step size) that can be saved and restored whole, as
 an FMU's rollback requires.  The Dormand-Prince 8(5,3) coefficients are read from
 scipy's own table; the 5(4) pair and classic RK4 are the published tableaux.
+
+The stepping loop (stages, error control, step-size control, projection) is one
+compiled kernel, :func:`advance`, that calls the compiled state equation
+(:func:`grubler.dynamics.rhs_into`) directly: an :meth:`Integrator.advance_to` is
+one call into compiled code however many steps it takes.  The implicit methods
+(stiff penalty closures) are scipy's, calling the same state equation.
+
+Examples
+--------
+>>> from grubler import Link, Mechanism
+>>> pendulum = Mechanism(links=(Link("R", a=1.0, p=1.0, m=1.0),), q_ref=(0.0, -1.5))
+>>> integ = Integrator(StateEquation(pendulum), 0.0, [-1.5, 0.0], rtol=1e-10, atol=1e-10)
+>>> integ.advance_to(2.0)
+>>> import numpy as np, scipy.integrate  # the same pendulum as a plain ODE
+>>> ref = scipy.integrate.solve_ivp(lambda t, y: [y[1], -9.81 * np.cos(y[0])], (0.0, 2.0), [-1.5, 0.0],
+...                                 rtol=1e-12, atol=1e-12)
+>>> integ.t, bool(abs(integ.y[0] - ref.y[0, -1]) < 1e-8)
+(2.0, True)
 """
 
 from __future__ import annotations
@@ -16,7 +34,11 @@ from typing import Callable
 
 import numpy as np
 
+from .assembly import project_into
+from .dynamics import EXACT, METHOD_CODE, rhs_into, workspace
 from .errors import IntegrationError
+from .jit import jit
+from .model import Mechanism
 
 
 @dataclass(frozen=True)
@@ -30,6 +52,23 @@ class Tableau:
     adaptive: bool = True
     e: np.ndarray | None = None  # weights of the error estimate (incl. the FSAL stage)
     e3: np.ndarray | None = None  # DOP853's second, 3rd-order estimate
+
+    @property
+    def packed(self) -> tuple:
+        """The tableau as :func:`advance` takes it: one (s + 4, s + 1) table and flags.
+
+        Rows 0..s-1 hold A, then b, c, e and e3 (zeros where absent).
+        """
+        s = len(self.c)
+        table = np.zeros((s + 4, s + 1))
+        table[:s, :s] = self.A
+        table[s, :s] = self.b
+        table[s + 1, :s] = self.c
+        if self.e is not None:
+            table[s + 2, :len(self.e)] = self.e
+        if self.e3 is not None:
+            table[s + 3, :len(self.e3)] = self.e3
+        return table, bool(self.adaptive), int(self.error_order), self.e3 is not None
 
 
 def _dopri5() -> Tableau:
@@ -83,39 +122,317 @@ def tableau(name: str) -> Tableau | None:
     return _cache[name]
 
 
+@dataclass
+class StateEquation:
+    """A mechanism's state equation ``ydot = (zd, zdd(z, zd, efforts))``, ``y = (z, zd)``.
+
+    What the integrator integrates: the model, the closure method, the efforts
+    (set between advances) and whether each step is projected onto the closures.
+    Calling it evaluates the compiled right-hand side once, as scipy's implicit
+    methods do.
+
+    Parameters
+    ----------
+    model : Mechanism
+    method : {'exact', 'penalty'}
+    drive, load : float
+        Efforts on the drive and load joints (N m, or N on a slide).
+    drive_key : int
+        Key of a drive effort given as a function of time
+        (:func:`grubler.dynamics.register_drive`); -1 for the constant ``drive``.
+    project_state : bool
+        Project onto the closures after every step (the exact method).
+    scale : float
+        Length scale of the projection's position tolerance, m.
+    """
+
+    model: Mechanism
+    method: str = EXACT
+    drive: float = 0.0
+    load: float = 0.0
+    drive_key: int = -1
+    project_state: bool = False
+    scale: float = 1.0
+
+    def __post_init__(self):
+        self.method_code = METHOD_CODE[self.method]
+        self.work = workspace(self.model.n_links, len(self.model.closures))
+
+    def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        out = np.empty_like(y)
+        rhs_into(self.model.arrays.packed, self.method_code, float(t), y, self.drive_key, float(self.drive),
+                 float(self.load), self.work, out)
+        return out
+
+    def project(self, y: np.ndarray) -> np.ndarray:
+        """``y`` put back onto the closures (a new array)."""
+        y = np.array(y, dtype=float)
+        project_into(self.model.arrays.packed, float(self.scale), y, self.work)
+        return y
+
+
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+# what advance() reports
+OK, NONFINITE_DERIVATIVE, STEP_UNDERFLOW, TOO_MANY_STEPS, NONFINITE_FIXED_STEP = range(5)
+
+
+# rows of the integrator's state table Y, after the s + 1 stage derivatives
+# (the last one is f at the step's end): stage state, proposed state, projected
+# state, current state, current derivative
+@jit(inline=True)
+def _y_rows(s):
+    return s + 1, s + 2, s + 3, s + 4, s + 5
+
+
+@jit(inline=True)
+def _all_finite(x):
+    for v in x:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@jit(inline=True)
+def _error_norm(tab, h, Y, rtol, atol):
+    """Scaled error estimate of the step in ``Y``; <= 1 accepts it."""
+    E, _, _, has_e3 = tab
+    s = E.shape[1] - 1
+    _, new, _, cur, _ = _y_rows(s)
+    N = Y.shape[1]
+    e5_sum = 0.0
+    e3_sum = 0.0
+    for r in range(N):
+        scale = atol + rtol * max(abs(Y[cur, r]), abs(Y[new, r]))
+        acc5 = 0.0
+        acc3 = 0.0
+        for j in range(s + 1):
+            acc5 += E[s + 2, j] * Y[j, r]
+            acc3 += E[s + 3, j] * Y[j, r]
+        e5_sum += (acc5 / scale) ** 2
+        e3_sum += (acc3 / scale) ** 2
+    if not has_e3:
+        return abs(h) * math.sqrt(e5_sum / N)
+    # Hairer's DOP853 estimate, mixing the 5th- and 3rd-order errors
+    if e5_sum == 0.0 and e3_sum == 0.0:
+        return 0.0
+    return abs(h) * e5_sum / math.sqrt((e5_sum + 0.01 * e3_sum) * N)
+
+
+@jit(inline=True)
+def _try_step(tab, P, method, inputs, W, t, h, Y, rtol, atol):
+    """One Runge-Kutta step of size h from the current state, f(t, y) in ``Y[0]``.
+
+    Fills the proposed state and, for an adaptive tableau, ``Y[s]`` = its
+    derivative.  Returns the scaled error (0 for a fixed-step tableau, inf when the
+    step made a non-finite number) and the number of evaluations.
+    """
+    E, adaptive, _, _ = tab
+    drive_key, tau_drive, tau_load = inputs
+    s = E.shape[1] - 1
+    stage, new, _, cur, _ = _y_rows(s)
+    N = Y.shape[1]
+    for i in range(1, s):
+        for r in range(N):
+            acc = 0.0
+            for j in range(i):
+                acc += E[i, j] * Y[j, r]
+            Y[stage, r] = Y[cur, r] + h * acc
+        rhs_into(P, method, t + E[s + 1, i] * h, Y[stage], drive_key, tau_drive, tau_load, W, Y[i])
+    for r in range(N):
+        acc = 0.0
+        for j in range(s):
+            acc += E[s, j] * Y[j, r]
+        Y[new, r] = Y[cur, r] + h * acc
+    if not adaptive:
+        return 0.0, s - 1
+    rhs_into(P, method, t + h, Y[new], drive_key, tau_drive, tau_load, W, Y[s])
+    if not (_all_finite(Y[new]) and _all_finite(Y[s])):
+        return math.inf, s
+    return _error_norm(tab, h, Y, rtol, atol), s
+
+
+@jit(inline=True)
+def _initial_step(tab, P, method, inputs, W, t, Y, h_max, rtol, atol):
+    # Hairer, Norsett & Wanner, Solving ODEs I, II.4
+    E, _, error_order, _ = tab
+    drive_key, tau_drive, tau_load = inputs
+    s = E.shape[1] - 1
+    stage, _, _, cur, der = _y_rows(s)
+    N = Y.shape[1]
+    d0 = 0.0
+    d1 = 0.0
+    for r in range(N):
+        scale = atol + rtol * abs(Y[cur, r])
+        d0 += (Y[cur, r] / scale) ** 2
+        d1 += (Y[der, r] / scale) ** 2
+    d0 = math.sqrt(d0 / N)
+    d1 = math.sqrt(d1 / N)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    for r in range(N):
+        Y[stage, r] = Y[cur, r] + h0 * Y[der, r]
+    rhs_into(P, method, t + h0, Y[stage], drive_key, tau_drive, tau_load, W, Y[s])
+    d2 = 0.0
+    for r in range(N):
+        d2 += ((Y[s, r] - Y[der, r]) / (atol + rtol * abs(Y[cur, r]))) ** 2
+    d2 = math.sqrt(d2 / N) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (error_order + 1))
+    return min(100.0 * h0, h1, h_max)
+
+
+@jit(nrt=True)
+def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out, h_max, rtol, atol,
+            max_steps):
+    """Step the mechanism's state equation from ``t`` through the times ``t_out``.
+
+    Each time in ``t_out`` (increasing) is reached exactly and the state there
+    recorded: one call integrates a whole output grid.
+
+    Parameters
+    ----------
+    tab : tuple
+        ``Tableau.packed``.
+    P, method : tuple, int
+        ``Mechanism.arrays.packed`` and the closure method code (0 exact, 1 penalty).
+    project : bool
+        Project onto the closures after every accepted step (``scale`` sets the
+        position tolerance).
+    inputs : (int, float, float)
+        Drive-function key (-1: none), drive and load efforts.
+    t, y0, f0, have_f, h : float, ndarray, ndarray, bool, float
+        The integrator's state; ``f0`` is used only when ``have_f``.
+    t_out : ndarray
+        Times to stop at.
+    max_steps : int
+        Steps allowed in this call.
+
+    Returns
+    -------
+    status, t, Y, out, have_f, h, steps, rejected, evals, where, limit
+        ``status`` is OK or the failure; ``Y``'s last two rows the new state and
+        derivative, ``out`` the state at each time of ``t_out``; ``where`` and
+        ``limit`` the time and the step (or step limit) a failure names.  On
+        failure the returned state is not to be used.
+    """
+    E, adaptive, error_order, _ = tab
+    drive_key, tau_drive, tau_load = inputs
+    s = E.shape[1] - 1
+    _, new, proj, cur, der = _y_rows(s)
+    N = y0.shape[0]
+    W = workspace(N // 2, P[1].shape[0])
+    Y = np.empty((s + 6, N))
+    out = np.empty((t_out.shape[0], N))
+    Y[cur] = y0
+    Y[der] = f0
+    steps = 0
+    rejected_total = 0
+    evals = 0
+    exponent = -1.0 / (error_order + 1)
+    for o in range(t_out.shape[0]):
+        t_target = t_out[o]
+        while t_target - t > 1e-12 * max(1.0, abs(t_target)):
+            if not have_f:
+                rhs_into(P, method, t, Y[cur], drive_key, tau_drive, tau_load, W, Y[der])
+                evals += 1
+                if not _all_finite(Y[der]):
+                    return NONFINITE_DERIVATIVE, t, Y, out, have_f, h, steps, rejected_total, evals, t, 0.0
+                have_f = True
+            Y[0] = Y[der]
+            if not adaptive:
+                step = min(h, t_target - t)
+                _, k = _try_step(tab, P, method, inputs, W, t, step, Y, rtol, atol)
+                evals += k
+                if not _all_finite(Y[new]):
+                    return (NONFINITE_FIXED_STEP, t, Y, out, have_f, h, steps, rejected_total, evals, t + step,
+                            step)
+                have_new_f = False
+            else:
+                if h <= 0.0:
+                    h = _initial_step(tab, P, method, inputs, W, t, Y, h_max, rtol, atol)
+                    evals += 1
+                proposed = min(h, h_max)
+                step = min(proposed, t_target - t)
+                clipped = step < proposed
+                h_min = 1e-13 * max(1.0, abs(t))
+                rejected = False
+                while True:
+                    if step < h_min:
+                        return STEP_UNDERFLOW, t, Y, out, have_f, h, steps, rejected_total, evals, t, h_min
+                    err, k = _try_step(tab, P, method, inputs, W, t, step, Y, rtol, atol)
+                    evals += k
+                    if err <= 1.0:
+                        break
+                    rejected_total += 1
+                    rejected = True
+                    if math.isfinite(err):
+                        step *= max(MIN_FACTOR, SAFETY * err ** exponent)
+                    else:
+                        step *= MIN_FACTOR
+                    clipped = False
+                if err == 0.0:
+                    factor = MAX_FACTOR
+                else:
+                    factor = min(MAX_FACTOR, SAFETY * err ** exponent)
+                if rejected:
+                    factor = min(1.0, factor)
+                # a step shortened only to land on t_target keeps the controller's proposal
+                h = max(proposed, step * factor) if clipped else step * factor
+                have_new_f = True
+            if project:
+                Y[proj] = Y[new]
+                project_into(P, scale, Y[proj], W)
+                # a correction far below the tolerance leaves the derivative valid
+                if have_new_f:
+                    d = 0.0
+                    for r in range(N):
+                        d += ((Y[proj, r] - Y[new, r]) / (atol + rtol * abs(Y[proj, r]))) ** 2
+                    if math.sqrt(d / N) > 1e-3:
+                        have_new_f = False
+                Y[new] = Y[proj]
+            t += step
+            Y[cur] = Y[new]
+            if have_new_f:
+                Y[der] = Y[s]
+            have_f = have_new_f
+            steps += 1
+            if steps > max_steps:
+                return (TOO_MANY_STEPS, t, Y, out, have_f, h, steps, rejected_total, evals, t_target,
+                        float(max_steps))
+        t = t_target
+        out[o] = Y[cur]
+    return OK, t, Y, out, have_f, h, steps, rejected_total, evals, t, 0.0
 
 
 @dataclass
 class Integrator:
-    """One integration in progress: everything needed to continue it, or replay it.
+    """One integration of a mechanism's state equation: everything needed to continue it, or replay it.
 
     Parameters
     ----------
-    fun : callable ``fun(t, y) -> ydot``
+    ode : StateEquation
+        The mechanism, closure method, efforts and whether to project.
     t, y : float, ndarray
-        Initial time and state.
+        Initial time and state ``(z, zd)``.
     method : str
-        Tableau name.
+        Tableau name, or 'radau' / 'bdf' (scipy).
     rtol, atol : float
-        Error tolerances (adaptive methods).
+        Error tolerances (adaptive integrators).
     h : float
         Fixed step (rk4) or first step (adaptive; 0 picks one).
-    project : callable ``project(y) -> y``, optional
-        Called after each accepted step; returns the state put back on the
-        constraint manifold.
     h_max : float
         Largest step.
     """
 
-    fun: Callable
+    ode: StateEquation
     t: float
     y: np.ndarray
     method: str = "dop853"
     rtol: float = 1e-8
     atol: float = 1e-10
     h: float = 0.0
-    project: Callable | None = None
     h_max: float = math.inf
     f: np.ndarray | None = None
     n_steps: int = 0
@@ -125,6 +442,7 @@ class Integrator:
 
     def __post_init__(self):
         self._tab = tableau(self.method)
+        self._packed = None if self._tab is None else self._tab.packed
         self.y = np.array(self.y, dtype=float)
         for name in ("rtol", "atol"):
             v = getattr(self, name)
@@ -138,7 +456,7 @@ class Integrator:
         """Everything that determines the rest of the run (for rollback).
 
         The arrays are shared, not copied: the integrator never writes into ``y``
-        or ``f`` in place, it rebinds them to new arrays at every step.
+        or ``f`` in place, it rebinds them to new arrays at every advance.
         """
         return {"t": self.t, "y": self.y, "h": self.h, "f": self.f,
                 "counts": (self.n_steps, self.n_rejected, self.n_evals)}
@@ -153,125 +471,22 @@ class Integrator:
         self.f = None
 
     # -- stepping -------------------------------------------------------------
-    def _eval(self, t, y):
-        self.n_evals += 1
-        return self.fun(t, y)
-
-    def _scale(self, y, y_new):
-        return self.atol + self.rtol * np.maximum(np.abs(y), np.abs(y_new))
-
-    def _initial_step(self) -> float:
-        # Hairer, Norsett & Wanner, Solving ODEs I, II.4
-        f0 = self.f
-        scale = self.atol + self.rtol * np.abs(self.y)
-        d0 = np.sqrt(np.mean((self.y / scale) ** 2))
-        d1 = np.sqrt(np.mean((f0 / scale) ** 2))
-        h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-        f1 = self._eval(self.t + h0, self.y + h0 * f0)
-        d2 = np.sqrt(np.mean(((f1 - f0) / scale) ** 2)) / h0
-        if d1 <= 1e-15 and d2 <= 1e-15:
-            h1 = max(1e-6, h0 * 1e-3)
-        else:
-            h1 = (0.01 / max(d1, d2)) ** (1 / (self._tab.error_order + 1))
-        return min(100 * h0, h1, self.h_max)
-
-    def _try_step(self, h: float):
-        tab = self._tab
-        s = len(tab.c)
-        K = np.empty((s + 1, self.y.size))
-        K[0] = self.f
-        for i in range(1, s):
-            K[i] = self._eval(self.t + tab.c[i] * h, self.y + h * (tab.A[i, :i] @ K[:i]))
-        y_new = self.y + h * (tab.b @ K[:s])
-        if not tab.adaptive:
-            return y_new, None, 0.0
-        f_new = self._eval(self.t + h, y_new)
-        K[s] = f_new
-        if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(f_new))):
-            return y_new, f_new, math.inf
-        scale = self._scale(self.y, y_new)
-        if tab.e3 is None:
-            err = np.sqrt(np.mean((h * (tab.e @ K) / scale) ** 2))
-        else:
-            # Hairer's DOP853 estimate, mixing the 5th- and 3rd-order errors
-            e5 = np.sum(((tab.e @ K) / scale) ** 2)
-            e3 = np.sum(((tab.e3 @ K) / scale) ** 2)
-            err = 0.0 if e5 == 0 and e3 == 0 else abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * y_new.size)
-        return y_new, f_new, err
-
-    def step(self, t_limit: float = math.inf) -> None:
-        """Take one accepted step, not past ``t_limit``."""
-        if self.f is None:
-            self.f = self._eval(self.t, self.y)
-            if not np.all(np.isfinite(self.f)):
-                raise IntegrationError(f"non-finite derivative at t = {self.t:.6g} s")
-        tab = self._tab
-        if not tab.adaptive:
-            h = min(self.h, t_limit - self.t)
-            y_new, _, _ = self._try_step(h)
-            if not np.all(np.isfinite(y_new)):
-                raise IntegrationError(f"non-finite state at t = {self.t + h:.6g} s with fixed step {h:.3g} s")
-            self._accept(h, y_new, None)
-            return
-        if self.h <= 0:
-            self.h = self._initial_step()
-        proposed = min(self.h, self.h_max)
-        h = min(proposed, t_limit - self.t)
-        clipped = h < proposed
-        h_min = 1e-13 * max(1.0, abs(self.t))
-        rejected = False
-        while True:
-            if h < h_min:
-                raise IntegrationError(
-                    f"step size fell below {h_min:.3g} s at t = {self.t:.6g} s: the motion is too fast or "
-                    "the mechanism is at a singular (locked) position")
-            y_new, f_new, err = self._try_step(h)
-            if err <= 1.0:
-                break
-            self.n_rejected += 1
-            rejected = True
-            factor = MIN_FACTOR if not math.isfinite(err) else max(MIN_FACTOR, SAFETY * err ** (-1 / (tab.error_order + 1)))
-            h *= factor
-            clipped = False
-        if err == 0:
-            factor = MAX_FACTOR
-        else:
-            factor = min(MAX_FACTOR, SAFETY * err ** (-1 / (tab.error_order + 1)))
-        if rejected:
-            factor = min(1.0, factor)
-        # a step shortened only to land on t_limit keeps the controller's proposal
-        self.h = max(proposed, h * factor) if clipped else h * factor
-        self._accept(h, y_new, f_new)
-
-    def _accept(self, h, y_new, f_new):
-        if self.project is not None:
-            y_proj = self.project(y_new)
-            scale = self.atol + self.rtol * np.abs(y_proj)
-            # a correction far below the tolerance leaves the derivative valid
-            if f_new is not None and np.sqrt(np.mean(((y_proj - y_new) / scale) ** 2)) > 1e-3:
-                f_new = None
-            y_new = y_proj
-        self.t += h
-        self.y = y_new
-        self.f = f_new
-        self.n_steps += 1
-
     def _advance_implicit(self, t_target: float) -> None:
         # a fresh scipy solver per call: inputs may have changed at self.t
         import scipy.integrate
 
         cls = {"radau": scipy.integrate.Radau, "bdf": scipy.integrate.BDF}[self.method]
         first = min(self.h, t_target - self.t) if self.h > 0 else None
-        solver = cls(self.fun, self.t, self.y, t_target, rtol=self.rtol, atol=self.atol,
+        solver = cls(self.ode, self.t, self.y, t_target, rtol=self.rtol, atol=self.atol,
                      first_step=first, max_step=self.h_max)
+        steps = 0
         while solver.status == "running":
             msg = solver.step()
             if solver.status == "failed":
                 raise IntegrationError(f"{self.method} failed at t = {solver.t:.6g} s: {msg}")
-            self.n_steps += 1
-        y = solver.y
-        if self.project is not None:
-            y = self.project(y)
+            steps += 1
+        y = self.ode.project(solver.y) if self.ode.project_state else solver.y
+        self.n_steps += steps
         self.n_evals += solver.nfev
         self.t, self.y, self.h, self.f = t_target, y, solver.step_size or self.h, None
 
@@ -281,19 +496,54 @@ class Integrator:
         All or nothing: if it fails, the integrator is left where it started, so a
         caller (an FMU asked to retry with a shorter step) can go on from there.
         """
-        start = self.snapshot()
-        try:
-            if self._tab is None:
-                if t_target > self.t:
-                    self._advance_implicit(t_target)
-                return
-            steps = 0
-            while t_target - self.t > 1e-12 * max(1.0, abs(t_target)):
-                self.step(t_target)
-                steps += 1
-                if steps > max_steps:
-                    raise IntegrationError(f"more than {max_steps} steps before t = {t_target:.6g} s")
-            self.t = t_target
-        except BaseException:
-            self.restore(start)
-            raise
+        if self._tab is None:
+            if t_target > self.t:
+                self._advance_implicit(t_target)
+            return
+        self._advance(np.array([float(t_target)]), max_steps)
+
+    def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
+        """Step through increasing ``times``, returning the state at each (one row per time).
+
+        All or nothing, like :meth:`advance_to`.
+        """
+        times = np.ascontiguousarray(times, dtype=float)
+        if self._tab is None:
+            out = np.empty((len(times), self.y.size))
+            start = self.snapshot()
+            try:
+                for i, t in enumerate(times):
+                    self.advance_to(float(t))
+                    out[i] = self.y
+            except BaseException:
+                self.restore(start)
+                raise
+            return out
+        return self._advance(times, max_steps)
+
+    def _advance(self, times: np.ndarray, max_steps: int) -> np.ndarray:
+        ode = self.ode
+        have_f = self.f is not None
+        status, t, Y, out, have_f, h, steps, rejected, evals, where, limit = advance(
+            self._packed, ode.model.arrays.packed, ode.method_code, ode.project_state, ode.scale,
+            (ode.drive_key, float(ode.drive), float(ode.load)), float(self.t), self.y,
+            self.f if have_f else self.y, have_f, float(self.h), times, float(self.h_max),
+            float(self.rtol), float(self.atol), int(max_steps))
+        if status != OK:
+            raise IntegrationError(_failure(status, where, limit))
+        self.t, self.y, self.f, self.h = t, Y[-2], (Y[-1] if have_f else None), h
+        self.n_steps += steps
+        self.n_rejected += rejected
+        self.n_evals += evals
+        return out
+
+
+def _failure(status: int, where: float, limit: float) -> str:
+    if status == NONFINITE_DERIVATIVE:
+        return f"non-finite derivative at t = {where:.6g} s"
+    if status == STEP_UNDERFLOW:
+        return (f"step size fell below {limit:.3g} s at t = {where:.6g} s: the motion is too fast or "
+                "the mechanism is at a singular (locked) position")
+    if status == TOO_MANY_STEPS:
+        return f"more than {int(limit)} steps before t = {where:.6g} s"
+    return f"non-finite state at t = {where:.6g} s with fixed step {limit:.3g} s"

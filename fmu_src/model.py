@@ -106,10 +106,29 @@ class Closure:
         return 2
 
 
+# columns of the link table (ModelArrays.links), one row per moving link
+L_M, L_I, L_P, L_Q, L_A, L_APRED, L_DAMP, L_REV, L_SLIDE0, L_THETA0 = range(10)
+# columns of the closure table (ModelArrays.closures), one row per closure
+(CL_KIND, CL_LINK, CL_TO, CL_PX, CL_PY, CL_TX, CL_TY, CL_ANGLE, CL_PSI, CL_GAIN,
+ CL_DAMP) = range(11)
+REVOLUTE_CLOSURE, PRISMATIC_CLOSURE = 0.0, 1.0
+
+
 @dataclass(frozen=True)
 class ModelArrays:
-    """The model's numbers as arrays, built once: what the hot loop reads."""
+    """The model's numbers as two tables, built once: what the compiled kernels read.
 
+    ``links`` has one row per moving link: m, I, p, q, a, the predecessor's vector
+    length (a1 for link 2), damping, 1.0 if the revolute is the real joint, and the
+    locked slide and absolute angle (``q_locked``) the real joints add to.
+    ``closures`` has one row per closure: kind (0 revolute, 1 prismatic), the
+    closing link and the target link as 0-based moving-link indices (-1 for the
+    ground), point, to_point, angle, psi, penalty gain and damping.  The other
+    fields are views of these columns.
+    """
+
+    links: np.ndarray  # (N, 10) float
+    closures: np.ndarray  # (C, 11) float
     m: np.ndarray
     I: np.ndarray
     p: np.ndarray
@@ -118,36 +137,43 @@ class ModelArrays:
     a_pred: np.ndarray  # length of each link's predecessor vector (a1 for link 2)
     damping: np.ndarray
     revolute: np.ndarray  # bool per pair: the revolute is the real joint
-    lower: np.ndarray  # (N, N) 1 where joint b moves link k (b <= k)
-    Jw: np.ndarray  # (N, N) d(theta_k)/dz: the real revolutes up to link k
     gain: np.ndarray  # penalty stiffness per constraint row
     closure_damping: np.ndarray
     drive: int  # index in z, -1 for none
     load: int
     drive_inertia: float  # reflected rotor inertia on z[drive]
+    packed: tuple  # what every kernel takes: (links, closures, theta1, gravity, drive, load, drive_inertia)
 
     @staticmethod
     def of(model: "Mechanism") -> "ModelArrays":
         links = model.links
         n = len(links)
-        rev = np.array([l.joint == REVOLUTE for l in links])
-        lower = np.tril(np.ones((n, n)))
+        L = np.zeros((n, 10))
+        L[:, L_M] = [l.m for l in links]
+        L[:, L_I] = [l.I for l in links]
+        L[:, L_P] = [l.p for l in links]
+        L[:, L_Q] = [l.q for l in links]
+        L[:, L_A] = [l.a for l in links]
+        L[:, L_APRED] = [model.a1] + [l.a for l in links[:-1]]
+        L[:, L_DAMP] = [l.damping for l in links]
+        L[:, L_REV] = [l.joint == REVOLUTE for l in links]
+        L[:, L_SLIDE0] = model._q_locked[0::2]
+        L[:, L_THETA0] = model._q_locked[1::2]
+        C = np.zeros((len(model.closures), 11))
+        for j, c in enumerate(model.closures):
+            C[j] = (PRISMATIC_CLOSURE if c.kind == "prismatic" else REVOLUTE_CLOSURE, c.link - 2, c.to_link - 2,
+                    *c.point, *c.to_point, c.angle, c.psi, c.gain, c.damping)
+        L.setflags(write=False)
+        C.setflags(write=False)
+        drive = -1 if model.drive is None else model.free_index(model.drive)
+        load = -1 if model.load is None else model.free_index(model.load)
         return ModelArrays(
-            m=np.array([l.m for l in links], float),
-            I=np.array([l.I for l in links], float),
-            p=np.array([l.p for l in links], float),
-            q=np.array([l.q for l in links], float),
-            a=np.array([l.a for l in links], float),
-            a_pred=np.array([model.a1] + [l.a for l in links[:-1]], float),
-            damping=np.array([l.damping for l in links], float),
-            revolute=rev,
-            lower=lower,
-            Jw=lower * rev[None, :],
-            gain=np.repeat([float(c.gain) for c in model.closures], 2),
-            closure_damping=np.repeat([float(c.damping) for c in model.closures], 2),
-            drive=-1 if model.drive is None else model.free_index(model.drive),
-            load=-1 if model.load is None else model.free_index(model.load),
-            drive_inertia=float(model.drive_inertia),
+            links=L, closures=C,
+            m=L[:, L_M], I=L[:, L_I], p=L[:, L_P], q=L[:, L_Q], a=L[:, L_A], a_pred=L[:, L_APRED],
+            damping=L[:, L_DAMP], revolute=L[:, L_REV] != 0.0,
+            gain=np.repeat(C[:, CL_GAIN], 2), closure_damping=np.repeat(C[:, CL_DAMP], 2),
+            drive=drive, load=load, drive_inertia=float(model.drive_inertia),
+            packed=(L, C, float(model.theta1), float(model.gravity), drive, load, float(model.drive_inertia)),
         )
 
 

@@ -17,32 +17,35 @@ True
 from __future__ import annotations
 
 import csv
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 import numpy as np
 
-from .assembly import POSITION_TOL, assemble, project
+from .assembly import POSITION_TOL, assemble
 from .dynamics import (
     EXACT,
+    METHOD_CODE,
     METHODS,
     PENALTY,
     Inputs,
-    closure_forces,
     forward_dynamics,
-    joint_reactions,
-    kinetic_energy,
-    potential_energy,
+    observation_names,
+    observe_into,
+    register_drive,
+    rhs_into,
+    workspace,
 )
 from .errors import SceneError
-from .integrators import Integrator
-from .kinematics import chain_kinematics, closure_kinematics, point_on_link
-from .model import Mechanism
+from .integrators import Integrator, StateEquation
+from .model import Mechanism, coordinate_names
 from .scene import Scene, load_scene
 
-# Output groups, cheapest first.  'state' needs kinematics only; 'dynamics' one
-# forward-dynamics solve; 'energy' the mass matrix; 'reactions' a Newton-Euler pass.
+# Output groups.  One compiled forward-dynamics evaluation (about a microsecond)
+# serves 'state', 'dynamics' and 'energy' alike; only 'reactions' adds work, a
+# Newton-Euler pass, and only when asked for.
 GROUPS = ("state", "dynamics", "energy", "reactions")
 DEFAULT_GROUPS = ("state", "dynamics", "energy")
 
@@ -52,8 +55,12 @@ DEFAULT_ATOL = 1e-9
 
 def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> list[str]:
     """Column names, in CSV order, for the chosen output groups."""
-    groups = set(groups)
-    names = model.coordinate_names
+    return list(_columns(model.n_links, frozenset(groups)))
+
+
+@functools.lru_cache(maxsize=64)
+def _columns(n_links: int, groups: frozenset) -> tuple[str, ...]:
+    names = coordinate_names(n_links)
     cols = ["t"]
     if "state" in groups:
         cols += names + [f"{x}_d" for x in names]
@@ -68,9 +75,9 @@ def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> 
     if "dynamics" in groups:
         cols += ["tau_drive", "P_drive"]
     if "reactions" in groups:
-        for k in range(1, model.n_links + 1):
+        for k in range(1, n_links + 1):
             cols += [f"R{k}_Fx", f"R{k}_Fy", f"R{k}_Mz"]
-    return cols
+    return tuple(cols)
 
 
 UNITS = {"t": "s", "tip_x": "m", "tip_y": "m", "closure_error": "m or rad", "Fx": "N", "Fy": "N",
@@ -88,44 +95,38 @@ def unit_of(column: str) -> str:
     return ("m" if base.startswith("B") else "rad") + per
 
 
+@functools.lru_cache(maxsize=64)
+def _observed(n_links: int, groups: frozenset) -> tuple[tuple[str, int], ...]:
+    """(column, index in the observation vector) of the groups' columns, in CSV order."""
+    index = {name: i for i, name in enumerate(observation_names(n_links))}
+    return tuple((c, index[c]) for c in _columns(n_links, groups) if c != "t")
+
+
 def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndarray, inputs: Inputs,
-             groups: Iterable[str] = DEFAULT_GROUPS) -> dict[str, float]:
-    """Outputs at one state; only the requested groups are computed."""
-    groups = set(groups)
+             groups: Iterable[str] = DEFAULT_GROUPS, work: tuple | None = None) -> dict[str, float]:
+    """Outputs at one state; only the requested groups are computed.
+
+    One compiled evaluation of the equations of motion and one of the outputs;
+    the joint reactions (a Newton-Euler pass) only when 'reactions' is asked for.
+    ``work`` is a :func:`grubler.dynamics.workspace` to reuse.
+    """
+    groups = frozenset(groups)
+    n = model.n_links
+    if work is None:
+        work = workspace(n, len(model.closures))
+    y = np.empty(2 * n)
+    y[:n], y[n:] = z, zd
+    ok = rhs_into(model.arrays.packed, METHOD_CODE[method], float(t), y, -1, float(inputs.drive),
+                  float(inputs.load), work, np.empty(2 * n))
+    if not ok and groups & {"dynamics", "energy", "reactions"}:
+        raise np.linalg.LinAlgError("Singular matrix")
+    values = np.empty(9 * n + 11)
+    observe_into(model.arrays.packed, METHOD_CODE[method], y[n:], float(inputs.drive), "reactions" in groups,
+                 work, values)
+    values = values.tolist()
     out: dict[str, float] = {"t": t}
-    names = model.coordinate_names
-    need_dyn = groups & {"dynamics", "energy", "reactions"}
-    if need_dyn:
-        dyn = forward_dynamics(model, z, zd, inputs, method)
-        kin, ck = dyn.kin, dyn.ck
-    else:
-        kin = chain_kinematics(model, z, zd)
-        ck = closure_kinematics(model, kin)
-    if "state" in groups:
-        q = model.q_from_z(z)
-        qd = model.S @ zd
-        out.update(zip(names, q))
-        out.update(zip((f"{x}_d" for x in names), qd))
-        k = model.n_links - 1
-        tip, _, _ = point_on_link(kin, k, (model.links[k].a, 0.0))
-        out["tip_x"], out["tip_y"] = tip
-        out["closure_error"] = float(np.linalg.norm(ck.phi)) if len(ck.phi) else 0.0
-    if "dynamics" in groups:
-        out.update(zip((f"{x}_dd" for x in names), model.S @ dyn.zdd))
-        if model.closures:
-            (fx, fy), mz = closure_forces(model, dyn)[0]
-        else:
-            fx = fy = mz = 0.0
-        out["Fx"], out["Fy"], out["Mz"] = fx, fy, mz
-        out["tau_drive"] = inputs.drive if model.drive else 0.0
-        out["P_drive"] = inputs.drive * zd[model.arrays.drive] if model.drive else 0.0
-    if "energy" in groups:
-        ke = kinetic_energy(dyn.M, zd)
-        pe = potential_energy(model, dyn.mp, ck, method)
-        out["KE"], out["PE"], out["E"] = ke, pe, ke + pe
-    if "reactions" in groups:
-        for k, (fx, fy, mz) in enumerate(joint_reactions(model, dyn, inputs), start=1):
-            out[f"R{k}_Fx"], out[f"R{k}_Fy"], out[f"R{k}_Mz"] = fx, fy, mz
+    for column, i in _observed(n, groups):
+        out[column] = values[i]
     return out
 
 
@@ -195,12 +196,14 @@ class Simulator:
             z, zd = assemble(m, z, zd)
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
-        self._scale = max([1.0] + [abs(l.a) for l in m.links])
         self._n = m.n_free
-        closed_exactly = self.method == EXACT and m.n_constraints > 0
-        self._integ = Integrator(self._rhs, self.t0, np.concatenate([z, zd]), method=self.integrator,
+        key = -1 if self.drive_function is None else register_drive(self, self.drive_function)
+        ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_key=key,
+                            project_state=self.method == EXACT and m.n_constraints > 0,
+                            scale=max([1.0] + [abs(l.a) for l in m.links]))
+        self._integ = Integrator(ode, self.t0, np.concatenate([z, zd]), method=self.integrator,
                                  rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
-                                 project=self._project if closed_exactly else None, h_max=self.max_step)
+                                 h_max=self.max_step)
 
     # -- the ODE -------------------------------------------------------------
     def _inputs_at(self, t: float) -> Inputs:
@@ -208,15 +211,9 @@ class Simulator:
             return self.inputs
         return Inputs(float(self.drive_function(t)), self.inputs.load)
 
-    def _project(self, y: np.ndarray) -> np.ndarray:
-        n = self._n
-        z, zd = project(self.model, y[:n], y[n:], self._scale)
-        return np.concatenate([z, zd])
-
     def _rhs(self, t: float, y: np.ndarray) -> np.ndarray:
-        n = self._n
-        dyn = forward_dynamics(self.model, y[:n], y[n:], self._inputs_at(t), self.method)
-        return np.concatenate([y[n:], dyn.zdd])
+        """The state equation at (t, y): ``(zd, zdd)``."""
+        return self._integ.ode(t, y)
 
     # -- state ---------------------------------------------------------------
     @property
@@ -237,15 +234,34 @@ class Simulator:
         load = self.inputs.load if load is None else float(load)
         if drive != self.inputs.drive or load != self.inputs.load:
             self.inputs = Inputs(drive, load)
+            self._integ.ode.drive, self._integ.ode.load = drive, load
             self._integ.reset_derivative()
 
     def advance_to(self, t: float) -> None:
         """Integrate to time ``t`` (it sub-steps to its own tolerance)."""
+        ode = self._integ.ode
+        ode.drive, ode.load = self.inputs.drive, self.inputs.load
         self._integ.advance_to(t)
 
+    def advance_through(self, times: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate through increasing ``times``; the joint coordinates and rates at each.
+
+        One call into the compiled integrator for the whole grid (``simulate`` uses
+        it); the same steps as :meth:`advance_to` at each time in turn.
+
+        Returns
+        -------
+        z, zd : ndarray, shape (len(times), N)
+        """
+        ode = self._integ.ode
+        ode.drive, ode.load = self.inputs.drive, self.inputs.load
+        states = self._integ.advance_through(np.asarray(list(times) if not isinstance(times, np.ndarray) else times,
+                                                        dtype=float))
+        return states[:, : self._n].copy(), states[:, self._n :].copy()
+
     def outputs(self, groups: Iterable[str] = DEFAULT_GROUPS) -> dict[str, float]:
-        return evaluate(self.model, self.method, self.t, self.z.copy(), self.zd.copy(),
-                        self._inputs_at(self.t), groups)
+        return evaluate(self.model, self.method, self.t, self.z, self.zd, self._inputs_at(self.t), groups,
+                        self._integ.ode.work)
 
     def snapshot(self) -> dict:
         """The whole run state, for rollback."""
@@ -293,7 +309,8 @@ class Result:
         todo = [g for g in groups if g not in self._cache]
         if not todo:
             return
-        rows = [evaluate(self.model, self.method, t, z, zd, self.inputs_at(t), todo)
+        work = workspace(self.model.n_links, len(self.model.closures))
+        rows = [evaluate(self.model, self.method, t, z, zd, self.inputs_at(t), todo, work)
                 for t, z, zd in zip(self.t, self.z, self.zd)]
         for g in todo:
             cols = [c for c in output_columns(self.model, (g,)) if c != "t"]
@@ -378,11 +395,7 @@ def simulate(
     times = np.arange(n_out) * dt_out
     if times[-1] < t_end - 1e-12:
         times = np.append(times, t_end)
-    zs = np.empty((len(times), sim.model.n_free))
-    zds = np.empty_like(zs)
-    for i, t in enumerate(times):
-        sim.advance_to(float(t))
-        zs[i], zds[i] = sim.z, sim.zd
+    zs, zds = sim.advance_through(times)
     return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats)
 
 
