@@ -562,15 +562,6 @@ def forward_dynamics(
                     ClosureKinematics.of(model, J, R), T[:, :n], T[:, zdd_column], R[:, R_LAM], W)
 
 
-def closure_forces(model: Mechanism, dyn: Dynamics) -> list[tuple[np.ndarray, float]]:
-    """Force (world frame) and moment that each closure's to_link exerts on its link."""
-    out = []
-    for j, cl in enumerate(model.closures):
-        lam = dyn.lam[2 * j : 2 * j + 2]
-        out.append((dyn.ck.force_dir[j] @ lam, float(dyn.ck.moment_row[j] @ lam)))
-    return out
-
-
 def joint_reactions(model: Mechanism, dyn: Dynamics, inputs: Inputs) -> np.ndarray:
     """Force and moment each link's predecessor exerts on it at its joint.
 
@@ -585,19 +576,6 @@ def joint_reactions(model: Mechanism, dyn: Dynamics, inputs: Inputs) -> np.ndarr
     out = np.empty(3 * model.n_links)
     reactions_into(model.arrays.packed, dyn.work, out, 0)
     return out.reshape(model.n_links, 3)
-
-
-def kinetic_energy(M: np.ndarray, zd: np.ndarray) -> float:
-    return 0.5 * float(zd @ M @ zd)
-
-
-def potential_energy(model: Mechanism, mp: MassProperties, ck: ClosureKinematics | None = None,
-                     method: str = EXACT) -> float:
-    """Gravity potential (zero at y = 0) plus the penalty springs' energy."""
-    pe = model.gravity * float(model.arrays.m @ mp.centre[:, 1])
-    if method == PENALTY and ck is not None and len(ck.phi):
-        pe += 0.5 * float(model.arrays.gain @ ck.phi**2)
-    return pe
 
 
 def inverse_dynamics(
@@ -640,7 +618,4 @@ __all__ = [
     "forward_dynamics",
     "inverse_dynamics",
     "joint_reactions",
-    "closure_forces",
-    "kinetic_energy",
-    "potential_energy",
 ]
