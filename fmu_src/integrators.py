@@ -174,7 +174,8 @@ class StateEquation:
 
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 # what advance() reports
-OK, NONFINITE_DERIVATIVE, STEP_UNDERFLOW, TOO_MANY_STEPS, NONFINITE_FIXED_STEP = range(5)
+OK, NONFINITE_DERIVATIVE, STEP_UNDERFLOW, TOO_MANY_STEPS, NONFINITE_FIXED_STEP, BRANCH_JUMP_STATUS = range(6)
+BRANCH_JUMP = 1e-2  # fraction of the joint speeds one projection may remove
 
 
 # rows of the integrator's state table Y, after the s + 1 stage derivatives
@@ -384,6 +385,21 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
             if project:
                 Y[proj] = Y[new]
                 project_into(P, scale, Y[proj], W)
+                # a step's correction is of the order of the tolerance; one that takes
+                # a good part of the speed away means the step crossed a position
+                # where two assembly branches meet (a change point) and landed on
+                # the other: the motion would go on, closed but with energy gone
+                half = N // 2
+                dv2 = 0.0
+                v2 = 0.0
+                for r in range(half, N):
+                    dv2 += (Y[proj, r] - Y[new, r]) ** 2
+                    v2 += Y[new, r] ** 2
+                # (relative to the speed, and far above the tolerance: a resting
+                # linkage's last 1e-9 rad/s may well be corrected away)
+                if dv2 > BRANCH_JUMP**2 * v2 and dv2 > (1e3 * atol) ** 2:
+                    return (BRANCH_JUMP_STATUS, t, Y, out, have_f, h, steps, rejected_total, evals, t,
+                            math.sqrt(dv2 / v2))
                 # a correction far below the tolerance leaves the derivative valid
                 if have_new_f:
                     d = 0.0
@@ -546,4 +562,9 @@ def _failure(status: int, where: float, limit: float) -> str:
                 "the mechanism is at a singular (locked) position")
     if status == TOO_MANY_STEPS:
         return f"more than {int(limit)} steps before t = {where:.6g} s"
+    if status == BRANCH_JUMP_STATUS:
+        return (f"at t = {where:.6g} s keeping the loop closed would take {100 * limit:.3g} % of the joint "
+                "speeds away: the linkage is at a position where two of its assembly branches meet (a change "
+                "point), and the exact closure cannot tell which one it takes; stopped rather than lose "
+                "the energy")
     return f"non-finite state at t = {where:.6g} s with fixed step {limit:.3g} s"

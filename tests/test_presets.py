@@ -16,7 +16,8 @@ def test_the_thesis_names_are_all_there():
         assert n in names
 
 
-@pytest.mark.parametrize("name", preset_names())
+# a change-point linkage stops, by name, where its branches meet (test_physics)
+@pytest.mark.parametrize("name", [n for n in preset_names() if n != "fourbar-change-point"])
 def test_every_preset_runs_five_seconds_exactly_closed(name):
     res = grubler.simulate(name, t_end=5.0, dt_out=0.05)
     assert np.all(np.isfinite(res["E"]))
