@@ -101,10 +101,13 @@ class Mechanism(DeclaredDependencies):
             unit = unit_of(name)
             self._param_real(f"initial.{name}", f"initial {name} [{unit}] (a guess for the dependent ones)")
             self._param_real(f"initial.{name}_d", f"initial {name}_d [{unit}/s]")
+        self._input_vr: dict[int, str] = {}
         for name, text in (("motor_torque", "drive effort at drive_joint [N m, or N on a slide]"),
                            ("load_torque", "load effort at load_joint [N m, or N on a slide]")):
-            self.register_variable(Real(name, causality=Fmi2Causality.input,
-                                        variability=Fmi2Variability.continuous, description=text))
+            var = Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                       description=text)
+            self.register_variable(var)
+            self._input_vr[var.value_reference] = name
         self._output_group: dict[str, str] = {}
         self._vr_group: dict[int, int] = {}
         self._vr_name: dict[int, str] = {}
@@ -239,6 +242,15 @@ class Mechanism(DeclaredDependencies):
         self._outputs = {}
         self._groups_done = set()
         self._inputs_seen = (self.motor_torque, self.load_torque)
+
+    def set_real(self, vrs, values):
+        # the inputs, every step: straight to their attributes
+        inputs = self._input_vr
+        if all(vr in inputs for vr in vrs):
+            for vr, value in zip(vrs, values):
+                setattr(self, inputs[vr], value)
+        else:
+            super().set_real(vrs, values)
 
     def get_real(self, vrs):
         # the importer asks for all its outputs at once: compute every group they
