@@ -291,7 +291,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--csv", help="write the trajectory to this CSV file")
     s.add_argument("--plot", help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
-    a = sub.add_parser("animate", help="draw a scene's motion (or a simulate CSV) to a GIF or MP4")
+    a = sub.add_parser("animate", help="draw a scene's motion (or a simulate or cosim CSV) to a GIF or MP4")
     a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate` or `cosim`")
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
     a.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
