@@ -565,6 +565,6 @@ def _failure(status: int, where: float, limit: float) -> str:
     if status == BRANCH_JUMP_STATUS:
         return (f"at t = {where:.6g} s keeping the loop closed would take {100 * limit:.3g} % of the joint "
                 "speeds away: the linkage is at a position where two of its assembly branches meet (a change "
-                "point), and the exact closure cannot tell which one it takes; stopped rather than lose "
-                "the energy")
+                "point), and the exact closure cannot tell which one it takes, or a fixed step is too long "
+                "for the motion; stopped rather than lose the energy")
     return f"non-finite state at t = {where:.6g} s with fixed step {limit:.3g} s"
