@@ -124,15 +124,20 @@ def main() -> None:
     rows = []
     for h in (1e-3, 1e-2):
         n = int(round(args.t_end / h))
-        med = {}
-        for label, fn in (("library", lambda: time_library(args.t_end, h)),
-                          ("fmu", lambda: time_fmu(mech, args.t_end, h, READ)),
-                          ("null", lambda: time_fmu(null, args.t_end, h, ["theta2"])),
-                          ("bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ)),
-                          ("null_bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ, null=True)),
-                          ("simulate_fmu", lambda: time_simulate_fmu(mech, args.t_end, h))):
-            runs = [fn() for _ in range(args.repeat if label != "simulate_fmu" else max(1, args.repeat // 2))]
-            med[label] = statistics.median(runs)
+        variants = (("library", lambda: time_library(args.t_end, h)),
+                    ("fmu", lambda: time_fmu(mech, args.t_end, h, READ)),
+                    ("null", lambda: time_fmu(null, args.t_end, h, ["theta2"])),
+                    ("bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ)),
+                    ("null_bookkeeping", lambda: time_slave_bookkeeping(args.t_end, h, READ, null=True)))
+        # interleaved, so that a machine that speeds up or slows down during the
+        # run moves every variant alike and their differences stay fair
+        runs: dict[str, list[float]] = {label: [] for label, _ in variants}
+        for _ in range(args.repeat):
+            for label, fn in variants:
+                runs[label].append(fn())
+        med = {label: statistics.median(r) for label, r in runs.items()}
+        med["simulate_fmu"] = statistics.median(time_simulate_fmu(mech, args.t_end, h)
+                                                for _ in range(max(1, args.repeat // 2)))
         overhead = (med["fmu"] - med["library"]) / n * 1e6
         rows.append((h, n, med, overhead))
         print(h, n, {k: round(v, 4) for k, v in med.items()}, f"overhead {overhead:.1f} us/step", flush=True)
