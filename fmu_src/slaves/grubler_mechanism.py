@@ -43,6 +43,10 @@ DEFAULT_SCENE = "thesis-fourbar"
 
 balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
+# output groups are computed cumulatively (a costlier one includes the cheaper ones'
+# work), so what has been computed for this state is one number: the level reached
+_LEVEL = {g: k for k, g in enumerate(GROUPS)}
+
 class Mechanism(DeclaredDependencies):
     """A planar four-link Grübler mechanism (imaginary-joints method)."""
 
@@ -66,7 +70,7 @@ class Mechanism(DeclaredDependencies):
         self._error: str | None = None
         self._sim: Simulator | None = None
         self._outputs: dict[str, float] = {}
-        self._groups_done: set[str] = set()
+        self._level = -1  # output groups computed for this state: GROUPS[:level + 1]
         self._inputs_seen = (0.0, 0.0)
         self._start_time = 0.0
         self._register()
@@ -111,7 +115,7 @@ class Mechanism(DeclaredDependencies):
         self._output_group: dict[str, str] = {}
         self._vr_group: dict[int, int] = {}
         self._vr_name: dict[int, str] = {}
-        self._top_group: dict[tuple, int] = {}  # costliest group a set of value references needs
+        self._read_plan: dict[tuple, tuple] = {}  # per set of value references: (group, names)
         model = self._scene.mechanism
         for group in GROUPS:
             for col in output_columns(model, [group]):
@@ -215,7 +219,7 @@ class Mechanism(DeclaredDependencies):
                 self.log(f"step from t = {current_time:g} s failed: {exc}", Fmi2Status.error)
                 return False
             self._outputs = {}
-            self._groups_done = set()
+            self._level = -1
             self._inputs_seen = (mt, lt)
             return True
         return self._refuse(current_time, step_size)
@@ -240,13 +244,15 @@ class Mechanism(DeclaredDependencies):
     # -- outputs ---------------------------------------------------------------
     def _invalidate(self):
         self._outputs = {}
-        self._groups_done = set()
+        self._level = -1
         self._inputs_seen = (self.motor_torque, self.load_torque)
 
     def set_real(self, vrs, values):
         # the inputs, every step: straight to their attributes
         inputs = self._input_vr
-        if all(vr in inputs for vr in vrs):
+        if len(vrs) == 1 and vrs[0] in inputs:  # the usual call: the motor torque alone
+            setattr(self, inputs[vrs[0]], values[0])
+        elif all(vr in inputs for vr in vrs):
             for vr, value in zip(vrs, values):
                 setattr(self, inputs[vr], value)
         else:
@@ -256,22 +262,34 @@ class Mechanism(DeclaredDependencies):
         # the importer asks for all its outputs at once: compute every group they
         # need in one pass (a costlier group includes the cheaper ones' work)
         key = tuple(vrs)
-        top = self._top_group.get(key)
-        if top is None:
-            top = self._top_group[key] = max((self._vr_group.get(vr, -1) for vr in vrs), default=-1)
-        if top < 0 or self._error is not None:
+        plan = self._read_plan.get(key)
+        if plan is None:
+            # once per set of value references: the costliest group they need, and
+            # their output names when every one of them is a grouped output
+            top = max((self._vr_group.get(vr, -1) for vr in vrs), default=-1)
+            names = [self._vr_name[vr] for vr in vrs] if all(vr in self._vr_name for vr in vrs) else None
+            plan = self._read_plan[key] = (GROUPS[top] if top >= 0 else None, names)
+        group, names = plan
+        if group is None or self._error is not None:
             return super().get_real(vrs)
         if (self.motor_torque, self.load_torque) != self._inputs_seen:
             self._invalidate()
-        if GROUPS[top] not in self._groups_done:
-            self._compute(GROUPS[top])
-        out, names, vars_ = self._outputs, self._vr_name, self.vars
-        return [out.get(names[vr], math.nan) if vr in names else float(vars_[vr].getter()) for vr in vrs]
+        if _LEVEL[group] > self._level:
+            self._compute(group)
+        out = self._outputs
+        if names is not None:
+            get, nan = out.get, math.nan
+            return [get(n, nan) for n in names]
+        vr_name, vars_ = self._vr_name, self.vars
+        return [out.get(vr_name[vr], math.nan) if vr in vr_name else float(vars_[vr].getter()) for vr in vrs]
 
     def _drive(self, name: str) -> float:
         sim = self._sim
         if sim is None:
-            return self._read(name)
+            self._compute("state")  # before initialisation: builds the start, for start values
+            sim = self._sim
+            if sim is None:
+                return math.nan
         i = sim.model.arrays.drive
         if i < 0:
             return 0.0
@@ -282,7 +300,7 @@ class Mechanism(DeclaredDependencies):
         if (self.motor_torque, self.load_torque) != self._inputs_seen:
             self._invalidate()
         group = self._output_group[name]
-        if group not in self._groups_done:
+        if _LEVEL[group] > self._level:
             self._compute(group)
         return self._outputs.get(name, math.nan)
 
@@ -300,13 +318,13 @@ class Mechanism(DeclaredDependencies):
         if (drive, load) != (sim.inputs.drive, sim.inputs.load) and math.isfinite(drive) and math.isfinite(load):
             sim.set_inputs(drive, load)
         # a costlier group includes the work of the cheaper ones: do them in one pass
-        groups = [g for g in GROUPS[: GROUPS.index(group) + 1] if g not in self._groups_done]
-        self._outputs.update(sim.outputs(groups))
-        if "state" in groups:
-            i = sim.model.arrays.drive
-            self._outputs["drive_angle"] = float(sim.z[i]) if i >= 0 else 0.0
-            self._outputs["drive_speed"] = float(sim.zd[i]) if i >= 0 else 0.0
-        self._groups_done.update(groups)
+        level = _LEVEL[group]
+        values = sim.outputs(GROUPS[self._level + 1: level + 1])
+        if self._outputs:
+            self._outputs.update(values)
+        else:
+            self._outputs = values  # a fresh dict of this state's outputs: no copy
+        self._level = level
 
     # -- state -------------------------------------------------------------------
     def _get_fmu_state(self):
