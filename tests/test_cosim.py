@@ -113,6 +113,11 @@ def test_one_mechanism_co_simulated_is_the_library_run(mechanism_fmu, tmp_path):
     s = ssp.System("alone", stop_time=1.0, step=0.01)
     s.add("m", mechanism_fmu, **{"link2.m": 1.5})
     path = s.write(tmp_path / "alone.ssd")
+    # the same system as an .ssp archive (FMU inside) runs the same
+    archive = s.write(tmp_path / "alone.ssp")
+    proc = run_cli(archive, "--csv", tmp_path / "alone_ssp.csv", "--record", "m.theta2")
+    assert proc.returncode == 0, proc.stderr
+    from_archive = read_csv(tmp_path / "alone_ssp.csv")
     proc = run_cli(path, "--csv", tmp_path / "alone.csv", "--record", "m.theta2,m.Fx")
     assert proc.returncode == 0, proc.stderr
     assert "alone: 1 s at step 0.01 s (gauss-seidel, order m)" in proc.stdout
@@ -127,6 +132,7 @@ def test_one_mechanism_co_simulated_is_the_library_run(mechanism_fmu, tmp_path):
     assert np.allclose(got["t"], lib.t, atol=1e-12)
     assert np.max(np.abs(got["m.theta2"] - lib["theta2"])) < 1e-9
     assert np.max(np.abs(got["m.Fx"] - lib["Fx"])) < 1e-6
+    assert np.array_equal(from_archive["m.theta2"], got["m.theta2"])
 
 
 def test_coupled_inputs_start_consistent_not_at_zero(mechanism_fmu, tmp_path):

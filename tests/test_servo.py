@@ -83,3 +83,22 @@ def test_sizing_closed_loop_check_confirms_the_prediction(fmu_dir):
     rms, rms_pred = nums[1], float(re.search(r"predicted ([\d.]+)\), tracking", line).group(1))
     assert abs(rms - rms_pred) < 0.05 * rms_pred, line  # the RMS current, what heats the motor
     assert float(re.search(r"within ([\d.e-]+) rad", line).group(1)) < 5e-3, line
+
+
+@pytest.mark.parametrize("example", ["servo_fourbar", "servo_slider_crank"])
+def test_the_shipped_ssd_is_what_its_example_script_writes(example):
+    import importlib
+
+    from grubler import ssp
+    from grubler.servo import servo_system
+
+    module = importlib.import_module(example)
+    shipped = ssp.read(HERE.parent / "examples" / f"{example}.ssd")
+    built = servo_system(module.DESIGN, HERE.parent / "dist", name=example)
+    assert shipped.components.keys() == built.components.keys()
+    for name, comp in built.components.items():
+        assert shipped.components[name].parameters == comp.parameters, name
+        assert shipped.source_path(shipped.components[name]).resolve() == built.source_path(comp).resolve()
+    assert shipped.connections == built.connections
+    assert (shipped.order, shipped.plots, shipped.step, shipped.stop_time) == (
+        built.order, built.plots, built.step, built.stop_time)
