@@ -527,7 +527,8 @@ def fmt(x, spec=".2e"):
 
 
 def setting_str(p: Point) -> str:
-    if "rk4" in p.curve.lower() or "mujoco" in p.curve:
+    # fixed-step curves show their step; "rk45" is adaptive and shows its tolerance
+    if p.curve.lower().split()[-1] == "rk4" or "mujoco" in p.curve:
         return f"h = {p.setting:g} s"
     return f"tol {p.setting:g}"
 
