@@ -343,6 +343,12 @@ class _Instance:
                         "fmi2GetReal")
         return self.read_buf
 
+    def publish(self, values: list[float], everything: bool = False) -> None:
+        """Read the outputs (and, with ``everything``, the recorded ones) into the connection slots."""
+        buf = self.pull(everything)
+        for i, s in enumerate(self.out_slots):
+            values[s] = buf[i]
+
     def do_step(self, t: float, h: float) -> None:
         status = self._step(self._c, t, h, 1)
         if status > 1:  # discard, error or fatal
@@ -519,10 +525,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
             k += 1
 
         for name in seq:  # outputs after initialisation, with inputs consistent
-            inst = insts[name]
-            buf = inst.pull(False)
-            for i, s in enumerate(inst.out_slots):
-                values[s] = buf[i]
+            insts[name].publish(values)
         record_row(t0, ())
         seq_insts = [insts[n] for n in seq]
         everyone = set(seq)
@@ -536,18 +539,14 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
                 for inst in seq_insts:
                     inst.push(values)
                     inst.do_step(t, h)
-                    buf = inst.pull(recording)
-                    for i, s in enumerate(inst.out_slots):
-                        values[s] = buf[i]
+                    inst.publish(values, recording)
             else:
                 for inst in seq_insts:
                     inst.push(values)
                 for inst in seq_insts:
                     inst.do_step(t, h)
                 for inst in seq_insts:
-                    buf = inst.pull(recording)
-                    for i, s in enumerate(inst.out_slots):
-                        values[s] = buf[i]
+                    inst.publish(values, recording)
             t = t0 + (n + 1) * step if n < n_steps - 1 else t_end
             if recording:
                 record_row(t, everyone)

@@ -367,8 +367,6 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
     -------
     SizingStudy
     """
-    from grubler.motors import Drive, Gearbox
-
     if not motors:
         raise SceneError("motors", "name at least one motor")
     demand = required_drive(model, cycle)
@@ -377,9 +375,7 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
         supply = supply_voltage if supply_voltage is not None else data.nominal_voltage
         if supply is None:
             raise SceneError("supply_voltage", f"{data.name} has no nominal voltage: give the supply voltage")
-        Drive(supply, current_limit)  # validates
-        for ratio in ratios:
-            Gearbox(float(ratio), efficiency)  # validates, naming the field
+        for ratio in ratios:  # assess builds the motor, whose gearbox and drive name a bad field
             assessments.append(assess(demand, cycle, Candidate(data, ratio, efficiency, supply, current_limit),
                                       ambient))
     ranked = sorted((a for a in assessments if a.feasible), key=lambda a: -a.min_margin)
