@@ -185,3 +185,13 @@ def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
         p = subprocess.run([sys.executable, "-m", "grubler.cli", *map(str, cmd)], capture_output=True, text=True)
         assert p.returncode == 0, p.stderr
     assert (tmp_path / "r.png").stat().st_size > 10_000 and (tmp_path / "a.gif").stat().st_size > 10_000
+
+
+def test_a_bad_order_or_record_is_named(mechanism_fmu):
+    s = ssp.System("two")
+    s.add("a", mechanism_fmu)
+    s.add("b", mechanism_fmu)
+    with pytest.raises(ssp.SystemDescriptionError, match="order a: must name every component once"):
+        cosim.run(s, t_end=0.01, step_order=["a"])
+    with pytest.raises(ssp.SystemDescriptionError, match="record 'a.nope': not an output of a component"):
+        cosim.run(s, t_end=0.01, record=["a.nope"])

@@ -1,0 +1,105 @@
+"""Bad input to the co-simulation runner, SSP reader, sweeps and sizing: each is refused
+with a message that names what is wrong (no FMU is run)."""
+
+import math
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grubler import GrublerError, SceneError
+from grubler import cosim, ssp
+from grubler.sizing import DutyCycle, size
+from grubler.sweep import run_sweep
+
+from test_sizing import balanced_crank, toy_motor
+from test_sweep import counted
+
+
+def one_component(tmp_path):
+    s = ssp.System("s")
+    s.add("m", tmp_path / "Mechanism.fmu")
+    return s
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"t_end": math.nan}, "t_end must be finite, got nan"),
+    ({"step": math.inf}, "step must be finite, got inf"),
+    ({"step": 0.0}, "step must be positive, got 0.0"),
+    ({"t_end": 1.0, "start_time": 2.0}, r"t_end \(1.0\) must be after the start time \(2.0\)"),
+    ({"master": "newton"}, "master must be one of gauss-seidel, jacobi, got 'newton'"),
+    ({"record_every": 0}, "record_every must be >= 1, got 0"),
+])
+def test_the_runner_names_a_bad_setting(tmp_path, kwargs, message):
+    with pytest.raises(ssp.SystemDescriptionError, match=message):
+        cosim.run(one_component(tmp_path), **kwargs)
+
+
+def test_the_runner_refuses_an_empty_system():
+    with pytest.raises(ssp.SystemDescriptionError, match="system 'empty' has no components"):
+        cosim.run(ssp.System("empty"))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("<not xml", "not valid XML"),
+    ("<root/>", "the root element is root, not ssd:SystemStructureDescription"),
+    ('<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+     'version="1.0" name="x"/>', "no ssd:System element"),
+    ('<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+     'version="1.0" name="x"><ssd:System name="x"><ssd:Elements><ssd:System name="inner"/></ssd:Elements>'
+     '</ssd:System></ssd:SystemStructureDescription>', "nested systems are not supported"),
+    ('<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+     'version="1.0" name="x"><ssd:System name="x"><ssd:Elements><ssd:Component name="a"/></ssd:Elements>'
+     '</ssd:System></ssd:SystemStructureDescription>', "a component needs a name and a source"),
+])
+def test_the_ssd_reader_names_what_is_wrong(text, message):
+    with pytest.raises(ssp.SystemDescriptionError, match=message):
+        ssp.from_xml(text)
+
+
+def test_ssd_building_and_files_name_what_is_wrong(tmp_path):
+    s = ssp.System("s")
+    s.add("a", "A.fmu")
+    with pytest.raises(ssp.SystemDescriptionError, match="component 'a': the name is used twice"):
+        s.add("a", "B.fmu")
+    with pytest.raises(ssp.SystemDescriptionError, match="a name is a letter then letters"):
+        s.add("2a", "B.fmu")
+    with pytest.raises(ssp.SystemDescriptionError, match="write it as 'component.variable'"):
+        s.connect("a", "a.u")
+    s.components["a"].parameters["bad"] = [1, 2]
+    with pytest.raises(ssp.SystemDescriptionError, match="parameter 'bad': list is not a Real"):
+        s.to_xml()
+    with pytest.raises(ssp.SystemDescriptionError, match="write a .ssd file or a .ssp archive"):
+        s.write(tmp_path / "s.xml")
+    with pytest.raises(ssp.SystemDescriptionError, match="no such file"):
+        ssp.read(tmp_path / "none.ssd")
+    empty = tmp_path / "empty.ssp"
+    with zipfile.ZipFile(empty, "w") as zf:
+        zf.writestr("other.txt", "x")
+    with pytest.raises(ssp.SystemDescriptionError, match="the archive has no SystemStructure.ssd"):
+        ssp.read(empty)
+
+
+def test_sweeps_and_sizing_name_what_is_wrong(tmp_path):
+    with pytest.raises(GrublerError, match="sweep: no points"):
+        run_sweep(counted, [], workers=1, progress=False)
+    with pytest.raises(GrublerError, match="sweep: workers must be >= 1, got -1"):
+        run_sweep(counted, [{"x": 1.0}, {"x": 2.0}], workers=-1, progress=False)
+    with pytest.raises(SceneError, match="supply_voltage: toy has no nominal voltage"):
+        size(balanced_crank(), DutyCycle.constant_speed(5.0, n=20), [toy_motor()], ratios=[10.0])
+    with pytest.raises(SceneError, match="duty_cycle.period: must be positive and finite"):
+        DutyCycle.from_trajectory(None, -1.0)
+    with pytest.raises(SceneError, match="duty_cycle.t: needs at least 4 samples at increasing times"):
+        DutyCycle.recorded([0.0, 1.0, 0.5, 2.0], np.zeros(4))
+
+
+def test_cosim_cli_names_a_record_interval_off_the_step():
+    # in a child process: `grubler cosim` leaves with os._exit (PythonFMU issue 228)
+    root = Path(__file__).parent.parent
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(root / "examples" / "servo_fourbar.ssd"),
+                           "--step", "0.001", "--dt-out", "0.0015"], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "--dt-out 0.0015 s must be a multiple of the step 0.001 s" in proc.stderr
