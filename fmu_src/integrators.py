@@ -187,6 +187,13 @@ def _y_rows(s):
 
 
 @jit(inline=True)
+def _copy_row(dst, i, src, j):
+    # a slice assignment would need reference counting, which the loop goes without
+    for r in range(src.shape[1]):
+        dst[i, r] = src[j, r]
+
+
+@jit(inline=True)
 def _all_finite(x):
     for v in x:
         if not math.isfinite(v):
@@ -318,16 +325,30 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
         ``limit`` the time and the step (or step limit) a failure names.  On
         failure the returned state is not to be used.
     """
-    E, adaptive, error_order, _ = tab
-    drive_key, tau_drive, tau_load = inputs
-    s = E.shape[1] - 1
-    _, new, proj, cur, der = _y_rows(s)
+    s = tab[0].shape[1] - 1
+    _, _, _, cur, der = _y_rows(s)
     N = y0.shape[0]
+    # the only allocations; the stepping loop runs without reference counting,
+    # which would otherwise cost atomic operations on every stage's array views
     W = workspace(N // 2, P[1].shape[0])
     Y = np.empty((s + 6, N))
     out = np.empty((t_out.shape[0], N))
     Y[cur] = y0
     Y[der] = f0
+    status, t, have_f, h, steps, rejected, evals, where, limit = _advance_in(
+        tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_max, rtol, atol, max_steps, W, Y, out)
+    return status, t, Y, out, have_f, h, steps, rejected, evals, where, limit
+
+
+@jit
+def _advance_in(tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_max, rtol, atol, max_steps,
+                W, Y, out):
+    """:func:`advance`'s loop, in the tables it allocated; returns its scalars."""
+    E, adaptive, error_order, _ = tab
+    drive_key, tau_drive, tau_load = inputs
+    s = E.shape[1] - 1
+    _, new, proj, cur, der = _y_rows(s)
+    N = Y.shape[1]
     steps = 0
     rejected_total = 0
     evals = 0
@@ -339,15 +360,15 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
                 rhs_into(P, method, t, Y[cur], drive_key, tau_drive, tau_load, W, Y[der])
                 evals += 1
                 if not _all_finite(Y[der]):
-                    return NONFINITE_DERIVATIVE, t, Y, out, have_f, h, steps, rejected_total, evals, t, 0.0
+                    return NONFINITE_DERIVATIVE, t, have_f, h, steps, rejected_total, evals, t, 0.0
                 have_f = True
-            Y[0] = Y[der]
+            _copy_row(Y, 0, Y, der)
             if not adaptive:
                 step = min(h, t_target - t)
                 _, k = _try_step(tab, P, method, inputs, W, t, step, Y, rtol, atol)
                 evals += k
                 if not _all_finite(Y[new]):
-                    return (NONFINITE_FIXED_STEP, t, Y, out, have_f, h, steps, rejected_total, evals, t + step,
+                    return (NONFINITE_FIXED_STEP, t, have_f, h, steps, rejected_total, evals, t + step,
                             step)
                 have_new_f = False
             else:
@@ -361,7 +382,7 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
                 rejected = False
                 while True:
                     if step < h_min:
-                        return STEP_UNDERFLOW, t, Y, out, have_f, h, steps, rejected_total, evals, t, h_min
+                        return STEP_UNDERFLOW, t, have_f, h, steps, rejected_total, evals, t, h_min
                     err, k = _try_step(tab, P, method, inputs, W, t, step, Y, rtol, atol)
                     evals += k
                     if err <= 1.0:
@@ -383,7 +404,7 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
                 h = max(proposed, step * factor) if clipped else step * factor
                 have_new_f = True
             if project:
-                Y[proj] = Y[new]
+                _copy_row(Y, proj, Y, new)
                 project_into(P, scale, Y[proj], W)
                 # a step's correction is of the order of the tolerance; one that takes
                 # a good part of the speed away means the step crossed a position
@@ -398,7 +419,7 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
                 # (relative to the speed, and far above the tolerance: a resting
                 # linkage's last 1e-9 rad/s may well be corrected away)
                 if dv2 > BRANCH_JUMP**2 * v2 and dv2 > (1e3 * atol) ** 2:
-                    return (BRANCH_JUMP_STATUS, t, Y, out, have_f, h, steps, rejected_total, evals, t,
+                    return (BRANCH_JUMP_STATUS, t, have_f, h, steps, rejected_total, evals, t,
                             math.sqrt(dv2 / v2))
                 # a correction far below the tolerance leaves the derivative valid
                 if have_new_f:
@@ -407,19 +428,19 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
                         d += ((Y[proj, r] - Y[new, r]) / (atol + rtol * abs(Y[proj, r]))) ** 2
                     if math.sqrt(d / N) > 1e-3:
                         have_new_f = False
-                Y[new] = Y[proj]
+                _copy_row(Y, new, Y, proj)
             t += step
-            Y[cur] = Y[new]
+            _copy_row(Y, cur, Y, new)
             if have_new_f:
-                Y[der] = Y[s]
+                _copy_row(Y, der, Y, s)
             have_f = have_new_f
             steps += 1
             if steps > max_steps:
-                return (TOO_MANY_STEPS, t, Y, out, have_f, h, steps, rejected_total, evals, t_target,
+                return (TOO_MANY_STEPS, t, have_f, h, steps, rejected_total, evals, t_target,
                         float(max_steps))
         t = t_target
-        out[o] = Y[cur]
-    return OK, t, Y, out, have_f, h, steps, rejected_total, evals, t, 0.0
+        _copy_row(out, o, Y, cur)
+    return OK, t, have_f, h, steps, rejected_total, evals, t, 0.0
 
 
 @dataclass
