@@ -228,6 +228,11 @@ class Simulator:
     def zd(self) -> np.ndarray:
         return self._integ.y[self._n :]
 
+    def joint_state(self, i: int) -> tuple[float, float]:
+        """Coordinate and rate of real coordinate ``i``, as floats (what a motor model reads)."""
+        y = self._integ.y
+        return float(y[i]), float(y[self._n + i])
+
     def set_inputs(self, drive: float | None = None, load: float | None = None) -> None:
         """Change the efforts; they hold until changed again."""
         drive = self.inputs.drive if drive is None else float(drive)
@@ -247,7 +252,10 @@ class Simulator:
         """Integrate through increasing ``times``; the joint coordinates and rates at each.
 
         One call into the compiled integrator for the whole grid (``simulate`` uses
-        it); the same steps as :meth:`advance_to` at each time in turn.
+        it).  DOP853 takes the steps of one :meth:`advance_to` to the last time and
+        interpolates the others (its continuous extension, then projected onto the
+        closures), so a fine grid costs interpolations, not steps; the fixed-step
+        and RK45 integrators end a step at each time.
 
         Returns
         -------

@@ -142,6 +142,19 @@ def scenario_start_time(r: Runner) -> dict:
     return {"rows": rows}
 
 
+def scenario_feedthrough(r: Runner) -> dict:
+    """Outputs read, an effort changed at the same instant, outputs read again."""
+    s = r.instance()
+    r.run(s, 0.0, 0.5, 1e-2, torque=3.0)
+    first = r.get(s, ["theta2", "drive_angle", "drive_speed", "Fx", "theta2_dd"])
+    s.setReal([r.vr["motor_torque"]], [5.0])
+    second = r.get(s, ["Fx", "theta2_dd", "drive_angle"])
+    alone = r.get(s, ["drive_speed"])
+    s.doStep(currentCommunicationPoint=0.5, communicationStepSize=1e-2)
+    after_step = r.get(s, ["drive_speed", "Fx"])
+    return {"first": first, "second": second, "alone": alone, "after_step": after_step}
+
+
 def scenario_simulate(r: Runner, fmu: str) -> dict:
     import fmpy
 

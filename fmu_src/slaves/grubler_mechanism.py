@@ -14,6 +14,7 @@ whose scripts share a name cannot be loaded in one process.
 from __future__ import annotations
 
 import math
+import operator
 import pickle
 import sys
 from pathlib import Path
@@ -43,9 +44,14 @@ DEFAULT_SCENE = "thesis-fourbar"
 
 balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
-# output groups are computed cumulatively (a costlier one includes the cheaper ones'
-# work), so what has been computed for this state is one number: the level reached
+# Outputs are computed by group, each group including the cheaper ones' work, so
+# what has been computed for this state is one number: the level reached (an index
+# in GROUPS).  The drive joint's coordinate and rate, what a motor and an encoder
+# read every step, are no group: they come straight from the state (DRIVE).
 _LEVEL = {g: k for k, g in enumerate(GROUPS)}
+_STATE = _LEVEL["state"]  # groups up to here do not depend on the inputs
+DRIVE = ("drive_angle", "drive_speed")
+_INF = math.inf
 
 class Mechanism(DeclaredDependencies):
     """A planar four-link Grübler mechanism (imaginary-joints method)."""
@@ -70,8 +76,7 @@ class Mechanism(DeclaredDependencies):
         self._error: str | None = None
         self._sim: Simulator | None = None
         self._outputs: dict[str, float] = {}
-        self._level = -1  # output groups computed for this state: GROUPS[:level + 1]
-        self._inputs_seen = (0.0, 0.0)
+        self._level = -1  # groups computed for this state and these inputs: GROUPS[:level + 1]
         self._start_time = 0.0
         self._register()
 
@@ -112,10 +117,9 @@ class Mechanism(DeclaredDependencies):
                        description=text)
             self.register_variable(var)
             self._input_vr[var.value_reference] = name
-        self._output_group: dict[str, str] = {}
-        self._vr_group: dict[int, int] = {}
-        self._vr_name: dict[int, str] = {}
-        self._read_plan: dict[tuple, tuple] = {}  # per set of value references: (group, names)
+        self._output_level: dict[str, int] = {}
+        self._vr_output: dict[int, str] = {}
+        self._read_plan: dict[tuple, tuple] = {}  # per set of value references: (level, names)
         model = self._scene.mechanism
         for group in GROUPS:
             for col in output_columns(model, [group]):
@@ -126,10 +130,7 @@ class Mechanism(DeclaredDependencies):
         # without evaluating any output group
         for name, text in (("drive_angle", "coordinate of the drive joint (relative) [rad or m]"),
                            ("drive_speed", "rate of the drive joint [rad/s or m/s]")):
-            self._output_group[name] = "state"
-            self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
-                                        initial=Fmi2Initial.exact, description=text,
-                                        getter=lambda n=name: self._drive(n)))
+            self._add_output(name, None, text)
 
     def feedthrough(self) -> dict[str, list[str]]:
         """Outputs that depend on this instant's inputs; the rest are states.
@@ -139,15 +140,15 @@ class Mechanism(DeclaredDependencies):
         depend on the torque applied now; accelerations and forces do).
         """
         inputs = ["motor_torque", "load_torque"]
-        return {n: inputs for n, g in self._output_group.items() if g in ("dynamics", "reactions")}
+        return {n: inputs for n, level in self._output_level.items()
+                if level >= 0 and GROUPS[level] in ("dynamics", "reactions")}
 
     def _add_output(self, name, group, text):
-        self._output_group[name] = group
+        self._output_level[name] = -1 if group is None else _LEVEL[group]
         var = Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                    initial=Fmi2Initial.exact, description=text, getter=lambda n=name: self._read(n))
         self.register_variable(var)
-        self._vr_group[var.value_reference] = GROUPS.index(group)
-        self._vr_name[var.value_reference] = name
+        self._vr_output[var.value_reference] = name
 
     def _param_real(self, name, text):
         self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
@@ -210,8 +211,8 @@ class Mechanism(DeclaredDependencies):
         sim, mt, lt = self._sim, self.motor_torque, self.load_torque
         # the common case first, in as few operations as it takes (x - x == 0 is
         # a finite x): a master pays this every communication step
-        if (self._error is None and sim is not None and mt - mt == 0.0 and lt - lt == 0.0
-                and 0.0 < step_size < math.inf and abs(current_time - sim.t) <= 1e-9 * max(1.0, abs(sim.t))):
+        if (sim is not None and self._error is None and mt - mt == 0.0 and lt - lt == 0.0
+                and 0.0 < step_size < _INF and abs(current_time - sim.t) <= 1e-9 * (1.0 + abs(current_time))):
             try:
                 sim.set_inputs(mt, lt)
                 sim.advance_to(current_time + step_size)  # all or nothing: a failure leaves it at current_time
@@ -220,7 +221,6 @@ class Mechanism(DeclaredDependencies):
                 return False
             self._outputs = {}
             self._level = -1
-            self._inputs_seen = (mt, lt)
             return True
         return self._refuse(current_time, step_size)
 
@@ -245,86 +245,92 @@ class Mechanism(DeclaredDependencies):
     def _invalidate(self):
         self._outputs = {}
         self._level = -1
-        self._inputs_seen = (self.motor_torque, self.load_torque)
 
     def set_real(self, vrs, values):
-        # the inputs, every step: straight to their attributes
+        # the inputs, every step: straight to their attributes.  A changed effort
+        # makes what depends on it (accelerations, forces) stale, not the state.
         inputs = self._input_vr
-        if len(vrs) == 1 and vrs[0] in inputs:  # the usual call: the motor torque alone
-            setattr(self, inputs[vrs[0]], values[0])
+        if len(vrs) == 1 and vrs[0] in inputs:  # the usual call: one effort
+            name, value = inputs[vrs[0]], values[0]
+            if value != getattr(self, name):
+                setattr(self, name, value)
+                self._level = min(self._level, _STATE)
         elif all(vr in inputs for vr in vrs):
             for vr, value in zip(vrs, values):
                 setattr(self, inputs[vr], value)
+            self._level = min(self._level, _STATE)
         else:
             super().set_real(vrs, values)
+            self._invalidate()
 
     def get_real(self, vrs):
-        # the importer asks for all its outputs at once: compute every group they
-        # need in one pass (a costlier group includes the cheaper ones' work)
-        key = tuple(vrs)
-        plan = self._read_plan.get(key)
+        # the importer asks for all its outputs at once: compute the costliest group
+        # they need in one pass (it includes the cheaper ones' work)
+        plan = self._read_plan.get(tuple(vrs))
         if plan is None:
-            # once per set of value references: the costliest group they need, and
-            # their output names when every one of them is a grouped output
-            top = max((self._vr_group.get(vr, -1) for vr in vrs), default=-1)
-            names = [self._vr_name[vr] for vr in vrs] if all(vr in self._vr_name for vr in vrs) else None
-            plan = self._read_plan[key] = (GROUPS[top] if top >= 0 else None, names)
-        group, names = plan
-        if group is None or self._error is not None:
+            plan = self._read_plan[tuple(vrs)] = self._plan(vrs)
+        level, drive, pick = plan
+        if pick is None:  # not all outputs: every variable through its getter
             return super().get_real(vrs)
-        if (self.motor_torque, self.load_torque) != self._inputs_seen:
-            self._invalidate()
-        if _LEVEL[group] > self._level:
-            self._compute(group)
-        out = self._outputs
-        if names is not None:
-            get, nan = out.get, math.nan
-            return [get(n, nan) for n in names]
-        vr_name, vars_ = self._vr_name, self.vars
-        return [out.get(vr_name[vr], math.nan) if vr in vr_name else float(vars_[vr].getter()) for vr in vrs]
+        if level > self._level:
+            self._compute(level)
+        if drive and "drive_angle" not in self._outputs:
+            self._compute_drive()
+        try:
+            values = pick(self._outputs)
+        except KeyError:  # nothing computed: the simulator could not be built
+            return [math.nan] * len(vrs)
+        return [values] if len(vrs) == 1 else list(values)
 
-    def _drive(self, name: str) -> float:
-        sim = self._sim
-        if sim is None:
-            self._compute("state")  # before initialisation: builds the start, for start values
-            sim = self._sim
-            if sim is None:
-                return math.nan
-        i = sim.model.arrays.drive
-        if i < 0:
-            return 0.0
-        return float(sim.z[i] if name == "drive_angle" else sim.zd[i])
+    def _plan(self, vrs) -> tuple:
+        """Once per set of value references: the group level they need, whether they
+        include the drive joint's values, and a picker of their values."""
+        if not vrs or not all(vr in self._vr_output for vr in vrs):
+            return -1, False, None
+        names = [self._vr_output[vr] for vr in vrs]
+        return (max(self._output_level[n] for n in names), any(n in DRIVE for n in names),
+                operator.itemgetter(*names))
 
     def _read(self, name: str) -> float:
-        # efforts set since the last read change accelerations and forces
-        if (self.motor_torque, self.load_torque) != self._inputs_seen:
-            self._invalidate()
-        group = self._output_group[name]
-        if _LEVEL[group] > self._level:
-            self._compute(group)
+        level = self._output_level[name]
+        if level > self._level:
+            self._compute(level)
+        if name in DRIVE and name not in self._outputs:
+            self._compute_drive()
         return self._outputs.get(name, math.nan)
 
-    def _compute(self, group: str) -> None:
-        sim = self._sim
-        if sim is None:
-            if self._error is not None:
-                return
-            try:  # before initialisation: the default scene's start, for start values
-                self._sim = sim = self._build()
+    def _simulator(self) -> Simulator | None:
+        """The simulator; before initialisation, the default scene's start (for start values)."""
+        if self._sim is None and self._error is None:
+            try:
+                self._sim = self._build()
             except (GrublerError, ValueError) as exc:
                 self._fail(str(exc))
-                return
-        drive, load = self._inputs_seen
+        return self._sim
+
+    def _compute(self, level: int) -> None:
+        """Compute GROUPS[self._level + 1: level + 1] (called when level > self._level)."""
+        sim = self._simulator()
+        if sim is None:
+            return
+        drive, load = self.motor_torque, self.load_torque
         if (drive, load) != (sim.inputs.drive, sim.inputs.load) and math.isfinite(drive) and math.isfinite(load):
             sim.set_inputs(drive, load)
-        # a costlier group includes the work of the cheaper ones: do them in one pass
-        level = _LEVEL[group]
         values = sim.outputs(GROUPS[self._level + 1: level + 1])
-        if self._outputs:
-            self._outputs.update(values)
+        if self._level < 0:  # a new state: the simulator's fresh dict, no copy
+            if self._outputs:  # the drive joint's values, read already
+                values.update({n: self._outputs[n] for n in DRIVE if n in self._outputs})
+            self._outputs = values
         else:
-            self._outputs = values  # a fresh dict of this state's outputs: no copy
+            self._outputs.update(values)
         self._level = level
+
+    def _compute_drive(self) -> None:
+        sim = self._simulator()
+        if sim is None:
+            return
+        i = sim.model.arrays.drive
+        self._outputs["drive_angle"], self._outputs["drive_speed"] = sim.joint_state(i) if i >= 0 else (0.0, 0.0)
 
     # -- state -------------------------------------------------------------------
     def _get_fmu_state(self):
