@@ -7,8 +7,9 @@ integrator state (time, state, step size) that can be saved and restored whole, 
 an FMU's rollback requires.  The Dormand-Prince 8(5,3) coefficients are read from
 scipy's own table; the 5(4) pair and classic RK4 are the published tableaux.
 
-The stepping loop (stages, error control, step-size control, projection) is one
-compiled kernel, :func:`advance`, that calls the compiled state equation
+The stepping loop (stages, error control, step-size control, projection, DOP853's
+continuous extension for output times between steps) is one compiled kernel,
+:func:`advance`, that calls the compiled state equation
 (:func:`grubler.dynamics.rhs_into`) directly: an :meth:`Integrator.advance_to` is
 one call into compiled code however many steps it takes.  The implicit methods
 (stiff penalty closures) are scipy's, calling the same state equation.
@@ -52,12 +53,19 @@ class Tableau:
     adaptive: bool = True
     e: np.ndarray | None = None  # weights of the error estimate (incl. the FSAL stage)
     e3: np.ndarray | None = None  # DOP853's second, 3rd-order estimate
+    # continuous extension: DENSE_STAGES more stages (their A rows over all
+    # s + 1 + DENSE_STAGES derivatives, and c) and the interpolant's D (DOP853's)
+    dense_a: np.ndarray | None = None
+    dense_c: np.ndarray | None = None
+    dense_d: np.ndarray | None = None
 
     @property
     def packed(self) -> tuple:
-        """The tableau as :func:`advance` takes it: one (s + 4, s + 1) table and flags.
+        """The tableau as :func:`advance` takes it: two tables and flags.
 
-        Rows 0..s-1 hold A, then b, c, e and e3 (zeros where absent).
+        The (s + 4, s + 1) table holds A in rows 0..s-1, then b, c, e and e3
+        (zeros where absent); the dense table the extra stages' A rows, their c
+        and the interpolant's D (one zero row when there is no dense output).
         """
         s = len(self.c)
         table = np.zeros((s + 4, s + 1))
@@ -68,7 +76,14 @@ class Tableau:
             table[s + 2, :len(self.e)] = self.e
         if self.e3 is not None:
             table[s + 3, :len(self.e3)] = self.e3
-        return table, bool(self.adaptive), int(self.error_order), self.e3 is not None
+        dense = np.zeros((1, 1))
+        if self.dense_d is not None:
+            dense = np.zeros((DENSE_STAGES + 1 + DENSE_D_ROWS, s + 1 + DENSE_STAGES))
+            dense[:DENSE_STAGES] = self.dense_a
+            dense[DENSE_STAGES, :DENSE_STAGES] = self.dense_c
+            dense[DENSE_STAGES + 1:] = self.dense_d
+        return (table, bool(self.adaptive), int(self.error_order), self.e3 is not None, dense,
+                self.dense_d is not None)
 
 
 def _dopri5() -> Tableau:
@@ -90,7 +105,9 @@ def _dop853() -> Tableau:
     from scipy.integrate._ivp import dop853_coefficients as dc
 
     s = dc.N_STAGES
-    return Tableau("dop853", dc.A[:s, :s], dc.B, dc.C[:s], 8, 7, True, dc.E5, dc.E3)
+    assert dc.N_STAGES_EXTENDED == s + 1 + DENSE_STAGES and dc.D.shape[0] == DENSE_D_ROWS
+    return Tableau("dop853", dc.A[:s, :s], dc.B, dc.C[:s], 8, 7, True, dc.E5, dc.E3,
+                   dense_a=dc.A[s + 1:], dense_c=dc.C[s + 1:], dense_d=dc.D)
 
 
 def _rk4() -> Tableau:
@@ -176,14 +193,18 @@ SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 # what advance() reports
 OK, NONFINITE_DERIVATIVE, STEP_UNDERFLOW, TOO_MANY_STEPS, NONFINITE_FIXED_STEP, BRANCH_JUMP_STATUS = range(6)
 BRANCH_JUMP = 1e-2  # fraction of the joint speeds one projection may remove
+# DOP853's continuous extension (Hairer, Norsett & Wanner, Solving ODEs I, II.6):
+# three more stages and a 7th-degree interpolant with 4 rows of coefficients
+DENSE_STAGES, DENSE_D_ROWS = 3, 4
 
 
-# rows of the integrator's state table Y, after the s + 1 stage derivatives
-# (the last one is f at the step's end): stage state, proposed state, projected
-# state, current state, current derivative
+# rows of the integrator's state table Y, after the s + 1 stage derivatives (the
+# last one is f at the step's end) and the dense output's extra stages: stage
+# state, proposed state, projected state, current state, current derivative
 @jit(inline=True)
 def _y_rows(s):
-    return s + 1, s + 2, s + 3, s + 4, s + 5
+    k = s + 1 + DENSE_STAGES
+    return k, k + 1, k + 2, k + 3, k + 4
 
 
 @jit(inline=True)
@@ -204,7 +225,7 @@ def _all_finite(x):
 @jit(inline=True)
 def _error_norm(tab, h, Y, rtol, atol):
     """Scaled error estimate of the step in ``Y``; <= 1 accepts it."""
-    E, _, _, has_e3 = tab
+    E, _, _, has_e3, _, _ = tab
     s = E.shape[1] - 1
     _, new, _, cur, _ = _y_rows(s)
     N = Y.shape[1]
@@ -235,7 +256,7 @@ def _try_step(tab, P, method, inputs, W, t, h, Y, rtol, atol):
     derivative.  Returns the scaled error (0 for a fixed-step tableau, inf when the
     step made a non-finite number) and the number of evaluations.
     """
-    E, adaptive, _, _ = tab
+    E, adaptive, _, _, _, _ = tab
     drive_key, tau_drive, tau_load = inputs
     s = E.shape[1] - 1
     stage, new, _, cur, _ = _y_rows(s)
@@ -263,7 +284,7 @@ def _try_step(tab, P, method, inputs, W, t, h, Y, rtol, atol):
 @jit(inline=True)
 def _initial_step(tab, P, method, inputs, W, t, Y, h_max, rtol, atol):
     # Hairer, Norsett & Wanner, Solving ODEs I, II.4
-    E, _, error_order, _ = tab
+    E, _, error_order, _, _, _ = tab
     drive_key, tau_drive, tau_load = inputs
     s = E.shape[1] - 1
     stage, _, _, cur, der = _y_rows(s)
@@ -291,13 +312,66 @@ def _initial_step(tab, P, method, inputs, W, t, Y, h_max, rtol, atol):
     return min(100.0 * h0, h1, h_max)
 
 
+@jit(inline=True)
+def _dense_stages(X, s, P, method, inputs, W, t, h, Y):
+    """The continuous extension's extra stages of the step just accepted, into
+    ``Y[s + 1:s + 1 + DENSE_STAGES]``; returns the evaluations made."""
+    drive_key, tau_drive, tau_load = inputs
+    stage, _, _, cur, _ = _y_rows(s)
+    N = Y.shape[1]
+    for k in range(DENSE_STAGES):
+        for r in range(N):
+            acc = 0.0
+            for j in range(s + 1 + k):
+                acc += X[k, j] * Y[j, r]
+            Y[stage, r] = Y[cur, r] + h * acc
+        rhs_into(P, method, t + X[DENSE_STAGES, k] * h, Y[stage], drive_key, tau_drive, tau_load, W,
+                 Y[s + 1 + k])
+    return DENSE_STAGES
+
+
+@jit(inline=True)
+def _interpolate(X, s, x, h, Y, out, o):
+    """The state at fraction ``x`` of the step just accepted, into ``out[o]``.
+
+    DOP853's interpolant in Hairer's nested form: ``y0 + x (F0 + (1 - x) (F1 + x
+    (F2 + ...))))``, from the step's ends, derivatives and extra stages.
+    """
+    _, new, _, cur, _ = _y_rows(s)
+    N = Y.shape[1]
+    d0 = DENSE_STAGES + 1
+    n_k = s + 1 + DENSE_STAGES
+    for r in range(N):
+        dy = Y[new, r] - Y[cur, r]
+        acc = 0.0
+        for i in range(DENSE_D_ROWS + 3):
+            row = DENSE_D_ROWS + 2 - i  # F6 first, F0 last
+            if row >= 3:
+                f = 0.0
+                for j in range(n_k):
+                    f += X[d0 + row - 3, j] * Y[j, r]
+                f *= h
+            elif row == 2:
+                f = 2.0 * dy - h * (Y[s, r] + Y[0, r])
+            elif row == 1:
+                f = h * Y[0, r] - dy
+            else:
+                f = dy
+            acc += f
+            acc *= x if i % 2 == 0 else 1.0 - x
+        out[o, r] = Y[cur, r] + acc
+
+
 @jit(nrt=True)
 def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out, h_max, rtol, atol,
             max_steps):
     """Step the mechanism's state equation from ``t`` through the times ``t_out``.
 
-    Each time in ``t_out`` (increasing) is reached exactly and the state there
-    recorded: one call integrates a whole output grid.
+    The state at each time of ``t_out`` (increasing) is recorded: one call
+    integrates a whole output grid.  The last time is reached exactly (the
+    efforts may change there).  With a continuous extension (DOP853) the steps
+    are the controller's own and the times before the last are interpolated,
+    then projected like a step's end; without one, every time is a step's end.
 
     Parameters
     ----------
@@ -331,7 +405,7 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
     # the only allocations; the stepping loop runs without reference counting,
     # which would otherwise cost atomic operations on every stage's array views
     W = workspace(N // 2, P[1].shape[0])
-    Y = np.empty((s + 6, N))
+    Y = np.empty((_y_rows(s)[4] + 1, N))
     out = np.empty((t_out.shape[0], N))
     Y[cur] = y0
     Y[der] = f0
@@ -344,7 +418,7 @@ def advance(tab, P, method, project, scale, inputs, t, y0, f0, have_f, h, t_out,
 def _advance_in(tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_max, rtol, atol, max_steps,
                 W, Y, out):
     """:func:`advance`'s loop, in the tables it allocated; returns its scalars."""
-    E, adaptive, error_order, _ = tab
+    E, adaptive, error_order, _, X, dense = tab
     drive_key, tau_drive, tau_load = inputs
     s = E.shape[1] - 1
     _, new, proj, cur, der = _y_rows(s)
@@ -353,8 +427,12 @@ def _advance_in(tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_m
     rejected_total = 0
     evals = 0
     exponent = -1.0 / (error_order + 1)
-    for o in range(t_out.shape[0]):
-        t_target = t_out[o]
+    last = t_out.shape[0] - 1
+    o = 0
+    while o <= last:
+        # with a continuous extension the steps aim at the last time and the others
+        # are interpolated; without, each time is a step's end
+        t_target = t_out[last] if dense else t_out[o]
         while t_target - t > 1e-12 * max(1.0, abs(t_target)):
             if not have_f:
                 rhs_into(P, method, t, Y[cur], drive_key, tau_drive, tau_load, W, Y[der])
@@ -403,6 +481,14 @@ def _advance_in(tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_m
                 # a step shortened only to land on t_target keeps the controller's proposal
                 h = max(proposed, step * factor) if clipped else step * factor
                 have_new_f = True
+                t_end = t + step
+                if dense and o < last and t_out[o] < t_end - 1e-12 * max(1.0, abs(t_end)):
+                    evals += _dense_stages(X, s, P, method, inputs, W, t, step, Y)
+                    while o < last and t_out[o] < t_end - 1e-12 * max(1.0, abs(t_end)):
+                        _interpolate(X, s, (t_out[o] - t) / step, step, Y, out, o)
+                        if project:
+                            project_into(P, scale, out[o], W)
+                        o += 1
             if project:
                 _copy_row(Y, proj, Y, new)
                 project_into(P, scale, Y[proj], W)
@@ -438,8 +524,13 @@ def _advance_in(tab, P, method, project, scale, inputs, t, have_f, h, t_out, h_m
             if steps > max_steps:
                 return (TOO_MANY_STEPS, t, have_f, h, steps, rejected_total, evals, t_target,
                         float(max_steps))
+            # times the step ended on (to rounding) take its projected state
+            while dense and o < last and t_out[o] - t <= 1e-12 * max(1.0, abs(t_out[o])):
+                _copy_row(out, o, Y, cur)
+                o += 1
         t = t_target
         _copy_row(out, o, Y, cur)
+        o += 1
     return OK, t, have_f, h, steps, rejected_total, evals, t, 0.0
 
 
@@ -542,7 +633,8 @@ class Integrator:
     def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
 
-        All or nothing, like :meth:`advance_to`.
+        All or nothing, like :meth:`advance_to`.  With DOP853 the steps are those of
+        ``advance_to(times[-1])`` and the earlier times are interpolated.
         """
         times = np.ascontiguousarray(times, dtype=float)
         if self._tab is None:

@@ -130,7 +130,7 @@ def test_one_mechanism_co_simulated_is_the_library_run(mechanism_fmu, tmp_path):
         links=(replace(m.links[0], m=1.5),) + m.links[1:]))
     lib = grubler.simulate(scene, t_end=1.0, dt_out=0.01)
     assert np.allclose(got["t"], lib.t, atol=1e-12)
-    assert np.max(np.abs(got["m.theta2"] - lib["theta2"])) < 1e-9
+    assert np.max(np.abs(got["m.theta2"] - lib["theta2"])) < 1e-8  # the library interpolates, the FMU steps to each point
     assert np.max(np.abs(got["m.Fx"] - lib["Fx"])) < 1e-6
     assert np.array_equal(from_archive["m.theta2"], got["m.theta2"])
 
@@ -177,7 +177,7 @@ def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
     scene = grubler.load_scene("thesis-fourbar")
     cols = read_run_csv(str(tmp_path / "run.csv"), scene.mechanism)
     lib = grubler.simulate(scene, t_end=0.5, dt_out=0.01)
-    assert np.max(np.abs(coordinates(cols, scene.mechanism) - lib.z)) < 1e-9
+    assert np.max(np.abs(coordinates(cols, scene.mechanism) - lib.z)) < 1e-8  # the library interpolates, the FMU steps to each point
     assert np.max(np.abs(cols["E"] - lib["E"])) < 1e-8
     for cmd in (["report", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "r.png"],
                 ["animate", tmp_path / "run.csv", "--scene", "thesis-fourbar", "--out", tmp_path / "a.gif",

@@ -1,0 +1,47 @@
+"""The integrator's dense output: states between steps, and steps that ignore the grid."""
+
+import numpy as np
+import scipy.integrate
+
+import grubler
+from grubler import Link, Mechanism, Simulator
+from grubler.integrators import Integrator, StateEquation
+
+PENDULUM = Mechanism(links=(Link("R", a=1.0, p=1.0, m=1.0),), q_ref=(0.0, -1.5))
+
+
+def test_states_between_steps_match_an_independent_integration():
+    # a 1 m point pendulum: theta'' = -g cos(theta), integrated by scipy as a plain ODE
+    integ = Integrator(StateEquation(PENDULUM), 0.0, [-1.5, 0.0], rtol=1e-10, atol=1e-10)
+    times = np.linspace(1e-3, 3.0, 3000)
+    out = integ.advance_through(times)
+    assert integ.n_steps < 300  # the 3000 outputs did not set the steps
+    ref = scipy.integrate.solve_ivp(lambda t, y: [y[1], -9.81 * np.cos(y[0])], (0.0, 3.0), [-1.5, 0.0],
+                                    method="DOP853", rtol=1e-13, atol=1e-13, t_eval=times)
+    assert np.max(np.abs(out[:, 0] - ref.y[0])) < 1e-8
+    assert np.max(np.abs(out[:, 1] - ref.y[1])) < 1e-8
+
+
+def test_an_output_grid_does_not_change_the_steps():
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    fine, alone = Simulator(m), Simulator(m)
+    z, zd = fine.advance_through(np.arange(1, 2001) * 1e-3)
+    alone.advance_to(2.0)
+    assert fine.stats["steps"] == alone.stats["steps"]
+    assert np.array_equal(fine.z, alone.z) and np.array_equal(fine.zd, alone.zd)
+    assert np.array_equal(z[-1], alone.z)
+
+
+def test_interpolated_states_are_put_back_on_the_closure():
+    res = grubler.simulate("thesis-fourbar", t_end=5.0, dt_out=1e-3)
+    assert np.max(np.abs(res["closure_error"])) < 1e-11
+    # and between steps they are as accurate as at the steps' ends
+    tight = grubler.simulate("thesis-fourbar", t_end=5.0, dt_out=1e-3, rtol=1e-13, atol=1e-13)
+    assert np.max(np.abs(res["theta2"] - tight["theta2"])) < 1e-7
+
+
+def test_fixed_step_and_rk45_still_end_a_step_at_every_output():
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    sim = Simulator(m, integrator="rk45", rtol=1e-6, atol=1e-6)
+    sim.advance_through(np.arange(1, 101) * 1e-2)
+    assert sim.stats["steps"] >= 100
