@@ -599,13 +599,25 @@ class Integrator:
         self.f = None
 
     # -- stepping -------------------------------------------------------------
-    def _advance_implicit(self, t_target: float) -> None:
-        # a fresh scipy solver per call: inputs may have changed at self.t
+    def _advance_implicit(self, times: np.ndarray) -> np.ndarray:
+        """scipy's solver from ``t`` to the last of ``times``, the others from its dense output.
+
+        One solver for the whole grid: a multistep method restarted at every output
+        time would start again from first order each time.  A fresh solver per call,
+        because the efforts may have changed at ``t``.
+        """
         import scipy.integrate
 
         cls = {"radau": scipy.integrate.Radau, "bdf": scipy.integrate.BDF}[self.method]
-        first = min(self.h, t_target - self.t) if self.h > 0 else None
-        solver = cls(self.ode, self.t, self.y, t_target, rtol=self.rtol, atol=self.atol,
+        out = np.empty((len(times), self.y.size))
+        done = 0
+        while done < len(times) and times[done] <= self.t:  # already there
+            out[done] = self.y
+            done += 1
+        if done == len(times):
+            return out
+        first = min(self.h, times[-1] - self.t) if self.h > 0 else None
+        solver = cls(self.ode, self.t, self.y, times[-1], rtol=self.rtol, atol=self.atol,
                      first_step=first, max_step=self.h_max)
         steps = 0
         while solver.status == "running":
@@ -613,10 +625,21 @@ class Integrator:
             if solver.status == "failed":
                 raise IntegrationError(f"{self.method} failed at t = {solver.t:.6g} s: {msg}")
             steps += 1
+            inside = done
+            while inside < len(times) - 1 and (times[inside] < solver.t or solver.status == "finished"):
+                inside += 1
+            if inside > done:
+                states = solver.dense_output()(times[done:inside])
+                for k in range(done, inside):
+                    y = states[:, k - done]
+                    out[k] = self.ode.project(y) if self.ode.project_state else y
+                done = inside
         y = self.ode.project(solver.y) if self.ode.project_state else solver.y
+        out[len(times) - 1] = y
         self.n_steps += steps
         self.n_evals += solver.nfev
-        self.t, self.y, self.h, self.f = t_target, y, solver.step_size or self.h, None
+        self.t, self.y, self.h, self.f = float(times[-1]), y, solver.step_size or self.h, None
+        return out
 
     def advance_to(self, t_target: float, max_steps: int = 10_000_000) -> None:
         """Step until ``t`` reaches ``t_target`` exactly.
@@ -625,29 +648,20 @@ class Integrator:
         caller (an FMU asked to retry with a shorter step) can go on from there.
         """
         if self._tab is None:
-            if t_target > self.t:
-                self._advance_implicit(t_target)
+            self._advance_implicit(np.array([float(t_target)]))
             return
         self._advance(np.array([float(t_target)]), max_steps)
 
     def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
 
-        All or nothing, like :meth:`advance_to`.  With DOP853 the steps are those of
-        ``advance_to(times[-1])`` and the earlier times are interpolated.
+        All or nothing, like :meth:`advance_to`.  With DOP853 and scipy's solvers
+        the steps are those of ``advance_to(times[-1])`` and the earlier times are
+        interpolated.
         """
         times = np.ascontiguousarray(times, dtype=float)
         if self._tab is None:
-            out = np.empty((len(times), self.y.size))
-            start = self.snapshot()
-            try:
-                for i, t in enumerate(times):
-                    self.advance_to(float(t))
-                    out[i] = self.y
-            except BaseException:
-                self.restore(start)
-                raise
-            return out
+            return self._advance_implicit(times)
         return self._advance(times, max_steps)
 
     def _advance(self, times: np.ndarray, max_steps: int) -> np.ndarray:

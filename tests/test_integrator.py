@@ -45,3 +45,18 @@ def test_fixed_step_and_rk45_still_end_a_step_at_every_output():
     sim = Simulator(m, integrator="rk45", rtol=1e-6, atol=1e-6)
     sim.advance_through(np.arange(1, 101) * 1e-2)
     assert sim.stats["steps"] >= 100
+
+
+def test_scipy_solvers_run_one_solver_through_the_grid():
+    # the penalty closure's default, Radau: one solver for the whole grid, the
+    # output times from its dense output (a restart per output time cost 2x the steps)
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    times = np.arange(1, 2001) * 1e-3
+    radau = Simulator(m, method="penalty", integrator="radau", rtol=1e-8, atol=1e-8)
+    z, zd = radau.advance_through(times)
+    assert radau.stats["steps"] < len(times)
+    assert radau.t == 2.0
+    ref = Simulator(m, method="penalty", integrator="dop853", rtol=1e-11, atol=1e-11)
+    z_ref, zd_ref = ref.advance_through(times)
+    assert np.max(np.abs(z - z_ref)) < 1e-5
+    assert np.array_equal(z[-1], radau.z)
