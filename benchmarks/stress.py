@@ -453,33 +453,33 @@ def all_cases() -> list[Case]:
 FINDINGS = """
 ## Findings
 
-**Defect: the change-point four-bar silently loses energy at its aligned position.**
-`fourbar-change-point` (s + l = p + q) reaches the position where all links lie in line at
-t = 0.571 s with the crank at 7.85 rad/s. The run goes on with the loop closed to 1e-13 m and no
-error, but E − E(0) − drive work jumps, and by how much depends on the output grid (which sets the
-integrator's steps): on a 5 ms grid the kinetic energy falls from 6.64 J to 0.03 J between 0.570 and
-0.575 s and the crank comes out turning backwards at −0.99 rad/s; two calls (to 0.570 s, then to
-0.575 s) lose 0.55 J; reaching 0.570 s in one call and going on in 0.2 ms steps loses 0.04 J. Over 10 s with the preset's 10 ms grid the balance is
-off by the whole kinetic energy (1.0 in the table). With a 1 ms grid the same preset stops at
-t = 6.214 s with a clear IntegrationError (step-size underflow at the aligned position). Reproduce:
+**The change-point four-bar stops, by name, where its branches meet (it used to lose its energy
+there silently).** `fourbar-change-point` (s + l = p + q) reaches the position where all links lie
+in line at t = 0.571 s with the crank at 7.85 rad/s. The exact closure cannot tell which of the two
+assembly branches that meet there the motion takes; a step that crosses can land on the other one,
+and the projection back onto the closures then takes the speed away: before the check below, on a
+5 ms grid the kinetic energy fell from 6.64 J to 0.03 J between 0.570 and 0.575 s with no error and
+the loop closed to 1e-13 m, and over 10 s the balance was off by the whole kinetic energy.
+
+Every projection is now watched: one that would remove more than 1 % of the joint speeds (and far
+more than the tolerance) stops the run with an IntegrationError that names the change point, the
+time and the fraction (the two rows above). Where the steps fall decides which crossing it is: with
+the 1 ms grid's run the first crossing is stepped over with 7e-6 of the energy lost and the run stops
+at the next one (1.09 s). `tests/test_stress.py` checks that it stops at 0.571 s by name with its
+energy intact up to there; passing through a change point on a chosen branch would need branch
+tracking, which the exact method does not have. Reproduce:
 
 ```python
-import grubler, numpy as np
+import grubler
 sim = grubler.Simulator(grubler.load_scene("fourbar-change-point").mechanism, inputs=grubler.Inputs(0.5, 0.0))
-for t in np.arange(0.005, 0.5751, 0.005):
-    sim.advance_to(t)
-    print(round(t, 3), sim.outputs()["KE"], sim.zd[0])   # 6.64 J at 0.570, 0.031 J and -0.99 rad/s at 0.575
+sim.advance_to(10.0)   # IntegrationError: at t = 0.57107 s keeping the loop closed would take ...
 ```
 
-The passage takes ~80 steps with ~60 rejections. The projection onto the closure (after each
-step) and the dropped closure direction at the singular position (dynamics.SINGULAR_RCOND) are where
-to look; `tests/test_stress.py` keeps this as a strict xfail.
-
 **Penalty closure: cost grows like √G, accuracy like 1/G.** The closure error falls as 1/G
-(4.7 mm at 1e4 to 5.6 nm at 1e10) and E never rises, but the spring rings at √(G/m) and its damper C
+(4.7 mm at 1e4 to 5.6 nm at 1e10) and E does not rise beyond round-off, but the spring rings at √(G/m) and its damper C
 takes the ringing out at the rate C / 2m, whatever G; Radau at rtol 1e-9 follows the ringing, so
-the step count grows fourfold from G = 1e4 to 1e6, sixfold from 1e6 to 1e8 (tending to √G), and
-G = 1e10 reaches only part of 0.5 s in the guard's 120 s. No error is raised because nothing is wrong: it is slow, not stuck.
+the step count grows fourfold from G = 1e4 to 1e6, then about sixfold for each factor 100 (tending
+to √G, tenfold): 0.5 s at G = 1e10 takes some 60 000 steps. It is slow, not wrong.
 
 **Tiny links are slow, not wrong.** A 1 mm crank (four-bar or slider-crank) takes about 8 times the
 steps of its 1 m neighbours (the nearly inertia-free crank whirls), with the same closure and energy.

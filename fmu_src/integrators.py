@@ -655,11 +655,24 @@ class Integrator:
     def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
 
-        All or nothing, like :meth:`advance_to`.  With DOP853 and scipy's solvers
-        the steps are those of ``advance_to(times[-1])`` and the earlier times are
-        interpolated.
+        All or nothing, like :meth:`advance_to`.  With DOP853 (and scipy's solvers on
+        the penalty closure) the steps are those of ``advance_to(times[-1])`` and the
+        earlier times are interpolated.
         """
         times = np.ascontiguousarray(times, dtype=float)
+        if self._tab is None and self.ode.project_state:
+            # the exact closure's drift is removed only where scipy's solver is
+            # restarted from a projected state: at every output time
+            out = np.empty((len(times), self.y.size))
+            start = self.snapshot()
+            try:
+                for i in range(len(times)):
+                    self._advance_implicit(times[i:i + 1])
+                    out[i] = self.y
+            except BaseException:
+                self.restore(start)
+                raise
+            return out
         if self._tab is None:
             return self._advance_implicit(times)
         return self._advance(times, max_steps)

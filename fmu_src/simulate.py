@@ -254,8 +254,9 @@ class Simulator:
         One call into the compiled integrator for the whole grid (``simulate`` uses
         it).  DOP853 takes the steps of one :meth:`advance_to` to the last time and
         interpolates the others (its continuous extension, then projected onto the
-        closures), so a fine grid costs interpolations, not steps; the fixed-step
-        and RK45 integrators end a step at each time.
+        closures), so a fine grid costs interpolations, not steps; so do scipy's
+        Radau and BDF on the penalty closure.  RK45, RK4, and scipy's solvers on the
+        exact closure (projected where they stop) end a step at each time.
 
         Returns
         -------
