@@ -224,7 +224,7 @@ def main() -> None:
     first = rows[0]
     lines += ["", f"Target: at a {first['h']:g} s step the FMU costs at most the library's run plus 10 us per step.",
               f"Through FMU2Slave's methods: {first['over']:.1f} us/step, "
-              + ("met." if first["over"] <= 10 else "not met") + f"; through fmpy's C functions as grubler's "
+              + ("met" if first["over"] <= 10 else "not met") + f"; through fmpy's C functions as grubler's "
               f"master calls them: {first['over_raw']:.1f} us/step, " + ("met." if first["over_raw"] <= 10 else
                                                                          "not met.")
               + f" The leanest FMU around the library already costs {first['floor']:.1f} us/step through "
