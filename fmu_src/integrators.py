@@ -647,10 +647,15 @@ class Integrator:
         All or nothing: if it fails, the integrator is left where it started, so a
         caller (an FMU asked to retry with a shorter step) can go on from there.
         """
+        t_target = float(t_target)
+        # (NaN fails the comparison too)
+        if not (math.isfinite(t_target) and t_target >= self.t - 1e-12 * max(1.0, abs(self.t))):
+            raise ValueError(f"t: must be finite and not before the integrator's time {self.t:.12g} s, "
+                             f"got {t_target!r}")
         if self._tab is None:
-            self._advance_implicit(np.array([float(t_target)]))
+            self._advance_implicit(np.array([t_target]))
             return
-        self._advance(np.array([float(t_target)]), max_steps)
+        self._advance(np.array([t_target]), max_steps)
 
     def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
@@ -660,6 +665,13 @@ class Integrator:
         earlier times are interpolated.
         """
         times = np.ascontiguousarray(times, dtype=float)
+        if times.ndim != 1 or times.size == 0:
+            raise ValueError(f"times: must be a non-empty 1-D sequence, got shape {times.shape}")
+        if not np.all(np.isfinite(times)):
+            raise ValueError(f"times: must be finite, got {times[~np.isfinite(times)][0]!r}")
+        if np.any(np.diff(times) < 0) or times[0] < self.t - 1e-12 * max(1.0, abs(self.t)):
+            raise ValueError(f"times: must increase from the integrator's time {self.t:.12g} s "
+                             f"(got {times[0]:.12g} ... {times[-1]:.12g} s, not in order)")
         if self._tab is None and self.ode.project_state:
             # the exact closure's drift is removed only where scipy's solver is
             # restarted from a projected state: at every output time

@@ -1,6 +1,7 @@
 """The integrator's dense output: states between steps, and steps that ignore the grid."""
 
 import numpy as np
+import pytest
 import scipy.integrate
 
 import grubler
@@ -60,3 +61,19 @@ def test_scipy_solvers_run_one_solver_through_the_grid():
     z_ref, zd_ref = ref.advance_through(times)
     assert np.max(np.abs(z - z_ref)) < 1e-5
     assert np.array_equal(z[-1], radau.z)
+
+
+def test_times_out_of_order_are_refused_by_name():
+    # an interpolant asked for a time outside its step would extrapolate: refuse instead
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    sim = Simulator(m)
+    sim.advance_to(0.5)
+    for bad in ([0.8, 0.6, 1.0], [0.2, 1.0], [0.7, np.nan], [0.7, np.inf], []):
+        with pytest.raises(ValueError, match="times: must"):
+            sim.advance_through(bad)
+    for bad in (0.2, np.nan, np.inf):
+        with pytest.raises(ValueError, match="t: must be finite and not before"):
+            sim.advance_to(bad)
+    assert sim.t == 0.5  # untouched
+    z, _ = sim.advance_through([0.5, 0.5, 0.75, 1.0])  # repeated and current times are fine
+    assert np.array_equal(z[0], z[1])
