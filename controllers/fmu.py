@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import importlib
 import math
-import pickle
 import shutil
 import sys
 import tempfile
@@ -56,7 +55,7 @@ from pathlib import Path
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 
-from grubler.fmi_slave import DeclaredDependencies
+from grubler.fmi_slave import ProjectSlave
 
 import grubler
 from grubler.errors import SceneError
@@ -73,7 +72,7 @@ def _variable_type(value):
     raise TypeError(f"parameter default {value!r}: an FMU parameter is a float, int, bool or str")
 
 
-class LawSlave(DeclaredDependencies):
+class LawSlave(ProjectSlave):
     """FMI 2.0 co-simulation slave running a :class:`Law` (subclass it and set ``law``)."""
 
     law: type[Law] = Law
@@ -88,7 +87,6 @@ class LawSlave(DeclaredDependencies):
         self._overrides: dict[str, object] = {}
         self._error: str | None = None
         self._sampler: Sampler | None = None
-        self._t0 = 0.0
         self._time = 0.0
         try:  # the defaults' initial outputs are the outputs' start values
             self._initial = Sampler(law.from_parameters(), 0.0).outputs
@@ -129,19 +127,12 @@ class LawSlave(DeclaredDependencies):
         outputs = self._sampler.outputs if self._sampler is not None else self._initial
         return float(outputs.get(name, math.nan))
 
-    def _fail(self, msg: str) -> None:
-        self._error = msg
-        self.log(msg, Fmi2Status.error)
-
     # -- set-up ----------------------------------------------------------------
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
-        self._t0 = float(start_time or 0.0)
-
     def exit_initialization_mode(self):
         try:
             law = type(self).law.from_parameters(**self._overrides)
-            self._sampler = Sampler(law, self._t0)
-            self._time = self._t0
+            self._sampler = Sampler(law, self._start_time)
+            self._time = self._start_time
             self._error = None
         except Exception as exc:  # noqa: BLE001 - a user's law may raise anything; the importer must not see it
             self._sampler = None
@@ -180,14 +171,6 @@ class LawSlave(DeclaredDependencies):
         self._inputs.update(state["inputs"])
         self._time = state["time"]
         self._error = state["error"]
-
-    @staticmethod
-    def _fmu_state_to_bytes(state) -> bytes:
-        return pickle.dumps(state)
-
-    @staticmethod
-    def _fmu_state_from_bytes(state: bytes):
-        return pickle.loads(state)
 
 
 def _describe(exc: Exception) -> str:

@@ -1,5 +1,6 @@
 """What every pythonfmu slave of the project shares: declared output dependencies,
-and a balanced reference count on the slave script's namespace.
+errors logged instead of raised, its whole state pickled for rollback, and a
+balanced reference count on the slave script's namespace.
 
 pythonfmu writes every output as depending on every input, which makes any
 feedback loop through the FMU look algebraic to a master.  A slave that knows
@@ -10,7 +11,10 @@ model description's ModelStructure carries it.
 
 from __future__ import annotations
 
+import pickle
+
 from pythonfmu import Fmi2Slave
+from pythonfmu.enums import Fmi2Status
 
 
 class DeclaredDependencies(Fmi2Slave):
@@ -33,6 +37,35 @@ class DeclaredDependencies(Fmi2Slave):
         return root
 
 
+class ProjectSlave(DeclaredDependencies):
+    """The base of the project's slaves.
+
+    A failure is recorded in ``_error`` and logged as fmi2Error, never raised into
+    the importer; the start time is kept in ``_start_time``; a slave's own
+    ``_get_fmu_state`` returns everything a rollback needs (pythonfmu's default
+    holds only the registered variables), and it is serialised with pickle
+    (pythonfmu's default, JSON, takes no arrays or tuples).
+    """
+
+    _error: str | None = None
+    _start_time: float = 0.0
+
+    def _fail(self, msg: str) -> None:
+        self._error = msg
+        self.log(msg, Fmi2Status.error)
+
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._start_time = float(start_time or 0.0)
+
+    @staticmethod
+    def _fmu_state_to_bytes(state) -> bytes:
+        return pickle.dumps(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes):
+        return pickle.loads(state)
+
+
 def balance_loader_reference(namespace: dict) -> None:
     """Take the reference to a slave script's namespace that pythonfmu 0.7 gives back.
 
@@ -47,4 +80,4 @@ def balance_loader_reference(namespace: dict) -> None:
     namespace.setdefault("_loader_references", []).append(namespace)
 
 
-__all__ = ["DeclaredDependencies", "balance_loader_reference"]
+__all__ = ["DeclaredDependencies", "ProjectSlave", "balance_loader_reference"]

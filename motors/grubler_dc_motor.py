@@ -19,7 +19,6 @@ whose scripts share a name cannot be loaded in one process.
 from __future__ import annotations
 
 import math
-import pickle
 import sys
 from pathlib import Path
 
@@ -32,7 +31,7 @@ from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String 
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.fmi_slave import DeclaredDependencies, balance_loader_reference  # noqa: E402
+from grubler.fmi_slave import ProjectSlave, balance_loader_reference  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.motors import dc_motor as dcm  # noqa: E402
 from grubler.motors.motor_data import MotorData, load_motor  # noqa: E402
@@ -83,7 +82,7 @@ OUTPUTS = {
 
 balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
 
-class DCMotor(DeclaredDependencies):
+class DCMotor(ProjectSlave):
     """A permanent-magnet DC motor with gearbox, current-limited drive and winding temperature."""
 
     author = "grubler"
@@ -179,10 +178,6 @@ class DCMotor(DeclaredDependencies):
                             ambient_temperature=p("ambient_temperature"), max_substep=p("max_substep"))
         return model, dcm.initial_state(model, p("initial_current"), p("initial_temperature"))
 
-    def _fail(self, msg: str) -> None:
-        self._error = msg
-        self.log(msg, Fmi2Status.error)
-
     def exit_initialization_mode(self):
         try:
             self._model, self._state = self._build()
@@ -265,10 +260,3 @@ class DCMotor(DeclaredDependencies):
         self._error = state["error"]
         self._out_key = None
 
-    @staticmethod
-    def _fmu_state_to_bytes(state) -> bytes:
-        return pickle.dumps(state)
-
-    @staticmethod
-    def _fmu_state_from_bytes(state: bytes):
-        return pickle.loads(state)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 import operator
-import pickle
 import sys
 from pathlib import Path
 
@@ -28,7 +27,7 @@ from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Variability, Real, String 
 from pythonfmu.enums import Fmi2Status  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.fmi_slave import DeclaredDependencies, balance_loader_reference  # noqa: E402
+from grubler.fmi_slave import ProjectSlave, balance_loader_reference  # noqa: E402
 from grubler.errors import GrublerError  # noqa: E402
 from grubler.model import coordinate_names  # noqa: E402
 from grubler.scene import load_scene, override, parameter  # noqa: E402
@@ -53,7 +52,8 @@ _STATE = _LEVEL["state"]  # groups up to here do not depend on the inputs
 DRIVE = ("drive_angle", "drive_speed")
 _INF = math.inf
 
-class Mechanism(DeclaredDependencies):
+
+class Mechanism(ProjectSlave):
     """A planar four-link Grübler mechanism (imaginary-joints method)."""
 
     author = "grubler"
@@ -77,7 +77,6 @@ class Mechanism(DeclaredDependencies):
         self._sim: Simulator | None = None
         self._outputs: dict[str, float] = {}
         self._level = -1  # groups computed for this state and these inputs: GROUPS[:level + 1]
-        self._start_time = 0.0
         self._register()
 
     # -- variables -----------------------------------------------------------
@@ -186,13 +185,6 @@ class Mechanism(DeclaredDependencies):
         return Simulator(model, method=self.method, rtol=self.rtol, atol=self.atol, integrator=integrator,
                          zd0=configured.initial_rates, t0=self._start_time,
                          max_step=self.max_step if self.max_step > 0 else math.inf)
-
-    def _fail(self, msg: str) -> None:
-        self._error = msg
-        self.log(msg, Fmi2Status.error)
-
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
-        self._start_time = float(start_time or 0.0)
 
     def exit_initialization_mode(self):
         try:
@@ -344,10 +336,3 @@ class Mechanism(DeclaredDependencies):
         self._error = state["error"]
         self._invalidate()
 
-    @staticmethod
-    def _fmu_state_to_bytes(state) -> bytes:
-        return pickle.dumps(state)
-
-    @staticmethod
-    def _fmu_state_from_bytes(state: bytes):
-        return pickle.loads(state)
