@@ -18,6 +18,7 @@ import sys
 
 import numpy as np
 
+from fmi_child import instance, status  # beside this script
 from grubler.controllers import Law, Parameter
 
 
@@ -131,37 +132,15 @@ class FmuBlock:
 
     def __init__(self, fmu: str, params: dict | None = None, name: str = "x", messages: list | None = None):
         from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
 
         if fmu not in _EXTRACTED:  # one extraction per FMU: one copy of its binary in the process
             _EXTRACTED[fmu] = (read_model_description(fmu), extract(fmu))
         md, unzipped = _EXTRACTED[fmu]
         _ALIVE.append(self)  # an instance dropped without freeInstance takes the process down later
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.types = {v.name: v.type for v in md.modelVariables}
         self.names = sorted(v.name for v in md.modelVariables if v.causality == "output")
         self.messages = messages if messages is not None else []
-
-        def logger(component, instance_name, status, category, message):
-            self.messages.append(f"{status}:{message.decode()}")
-
-        s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName=name)
-        s.instantiate(loggingOn=True)
-        s.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        for k, v in (params or {}).items():
-            kind = self.types[k]
-            if kind == "String":
-                s.setString([self.vr[k]], [v])
-            elif kind == "Integer":
-                s.setInteger([self.vr[k]], [int(v)])
-            elif kind == "Boolean":
-                s.setBoolean([self.vr[k]], [bool(v)])
-            else:
-                s.setReal([self.vr[k]], [float(v)])
-        s.exitInitializationMode()
+        s = instance(md, unzipped, name, self.messages, params)
         self.s = s
         self.outputs = self.read()  # held outputs, as Sampler.outputs
 
@@ -174,14 +153,6 @@ class FmuBlock:
         self.s.doStep(t, h)
         self.outputs = self.read()
         return self.outputs
-
-
-def _status(call) -> str:
-    try:
-        call()
-        return "ok"
-    except Exception as exc:  # fmpy raises FMICallException carrying the status
-        return str(exc)
 
 
 def run_all(dist: str) -> dict:
@@ -220,17 +191,17 @@ def run_all(dist: str) -> dict:
     pid = FmuBlock(f("PID"), PID_PARAMS, "nan", msgs)
     pid.step(0.0, 1e-3, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})
     pid.s.setReal([pid.vr["measurement"]], [math.nan])
-    res["nan_step"] = _status(lambda: pid.s.doStep(1e-3, 1e-3))
+    res["nan_step"] = status(lambda: pid.s.doStep(1e-3, 1e-3))
     pid.s.setReal([pid.vr["measurement"]], [0.0])
-    res["after_nan"] = _status(lambda: pid.s.doStep(1e-3, 1e-3))
+    res["after_nan"] = status(lambda: pid.s.doStep(1e-3, 1e-3))
     res["messages_nan"] = list(msgs)
     msgs.clear()
     bad = FmuBlock(f("PID"), {"u_min": 1.0, "u_max": -1.0}, "bad", msgs)
-    res["bad_param"] = _status(lambda: bad.s.doStep(0.0, 1e-3))
+    res["bad_param"] = status(lambda: bad.s.doStep(0.0, 1e-3))
     res["messages_param"] = list(msgs)
     msgs.clear()
     badct = FmuBlock(f("ComputedTorque"), {"mechanism": "no-such-mechanism"}, "badct", msgs)
-    res["bad_mechanism"] = _status(lambda: badct.s.doStep(0.0, 1e-3))
+    res["bad_mechanism"] = status(lambda: badct.s.doStep(0.0, 1e-3))
     res["messages_mechanism"] = list(msgs)
     # Trajectory through fmpy's own simulate_fmu
     import fmpy

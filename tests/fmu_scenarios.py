@@ -17,7 +17,8 @@ import sys
 
 import numpy as np
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
+
+from fmi_child import instance, status  # beside this script
 
 
 class Runner:
@@ -28,25 +29,7 @@ class Runner:
         self.messages: list[str] = []
 
     def instance(self, name: str = "m", params: dict | None = None, start: float = 0.0):
-        from fmpy.fmi2 import fmi2CallbackLoggerTYPE
-
-        def logger(component, instance_name, status, category, message):
-            self.messages.append(f"{status}:{message.decode()}")
-
-        s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=self.md.coSimulation.modelIdentifier,
-                      instanceName=name)
-        s.instantiate(loggingOn=True, callbacks=None)
-        # fmpy's default logger prints; record messages instead
-        s.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        s.setupExperiment(startTime=start)
-        s.enterInitializationMode()
-        for k, v in (params or {}).items():
-            if isinstance(v, str):
-                s.setString([self.vr[k]], [v])
-            else:
-                s.setReal([self.vr[k]], [float(v)])
-        s.exitInitializationMode()
-        return s
+        return instance(self.md, self.dir, name, self.messages, params, start)
 
     def get(self, s, names):
         return s.getReal([self.vr[n] for n in names])
@@ -106,31 +89,22 @@ def scenario_rollback(r: Runner) -> dict:
     return {"first": first, "replay": replay, "replay_serialized": replay2, "after_reset": again}
 
 
-def _status(call) -> str:
-    """'ok', or fmpy's message carrying the FMI status of a failed call."""
-    try:
-        call()
-        return "ok"
-    except Exception as exc:  # fmpy raises FMICallException carrying the status
-        return str(exc)
-
-
 def scenario_bad_inputs(r: Runner) -> dict:
     out = {}
     s = r.instance("nan")
     r.run(s, 0.0, 0.1, 1e-2, torque=1.0)
     s.setReal([r.vr["motor_torque"]], [math.nan])
-    out["nan_step"] = _status(lambda: s.doStep(0.1, 0.01))
+    out["nan_step"] = status(lambda: s.doStep(0.1, 0.01))
     # the instance survives: a finite input steps again from where it was
     s.setReal([r.vr["motor_torque"]], [1.0])
-    out["after_nan"] = _status(lambda: s.doStep(0.1, 0.01))
+    out["after_nan"] = status(lambda: s.doStep(0.1, 0.01))
     out["messages_nan"] = list(r.messages)
     r.messages.clear()
-    out["zero_step"] = _status(lambda: s.doStep(0.11, 0.0))
+    out["zero_step"] = status(lambda: s.doStep(0.11, 0.0))
     out["messages_zero_step"] = list(r.messages)
     for key, params in (("param", {"link2.m": -1.0}), ("scene", {"mechanism": "no-such-mechanism"})):
         r.messages.clear()
-        out[f"bad_{key}"] = _status(lambda: r.instance(f"bad{key}", params).doStep(0.0, 0.01))
+        out[f"bad_{key}"] = status(lambda: r.instance(f"bad{key}", params).doStep(0.0, 0.01))
         out[f"messages_{key}"] = list(r.messages)
     return out
 

@@ -456,30 +456,16 @@ def test_fmu_rolls_back_and_refuses_bad_input(fmu, tmp_path):
 # -- child process: drive the FMU through fmpy and write what it measured ------------------------
 def _child(scenario: str, fmu: str, out_path: str) -> None:
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+
+    import fmi_child  # beside this file
 
     md = read_model_description(fmu)
     unzipped = extract(fmu)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     messages: list[str] = []
 
-    def logger(component, instance_name, status, category, message):
-        messages.append(f"{status}:{message.decode()}")
-
     def instance(name, params):
-        s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName=name)
-        s.instantiate(loggingOn=True)
-        s.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        for k, v in params.items():
-            if isinstance(v, str):
-                s.setString([vr[k]], [v])
-            else:
-                s.setReal([vr[k]], [float(v)])
-        s.exitInitializationMode()
-        return s
+        return fmi_child.instance(md, unzipped, name, messages, params)
 
     names = ["shaft_torque", "current", "winding_temperature", "electrical_power", "motor_speed", "back_emf"]
 
@@ -491,12 +477,7 @@ def _child(scenario: str, fmu: str, out_path: str) -> None:
             rows.append([(k + 1) * h] + s.getReal([vr[x] for x in names]))
         return rows
 
-    def status(call):
-        try:
-            call()
-            return "ok"
-        except Exception as exc:  # fmpy raises carrying the FMI status
-            return str(exc)
+    status = fmi_child.status
 
     if scenario == "voltage_step":
         s = instance("a", PARAMS)

@@ -1,0 +1,50 @@
+"""What the tests' child processes share when they drive an FMU through fmpy.
+
+A child process runs the FMU, writes what it measured and leaves with os._exit,
+so that pythonfmu's crash at interpreter exit (upstream issue 228) cannot hide
+or fake a result.
+"""
+
+from __future__ import annotations
+
+
+def status(call) -> str:
+    """'ok', or fmpy's message carrying the FMI status of a failed call."""
+    try:
+        call()
+        return "ok"
+    except Exception as exc:  # fmpy raises FMICallException carrying the status
+        return str(exc)
+
+
+def instance(md, unzipped: str, name: str, messages: list[str], params: dict | None = None, start: float = 0.0):
+    """An FMU2Slave instantiated, its parameters set by their declared type, initialised.
+
+    The FMU's log messages are appended to ``messages`` as 'status:text'.
+    """
+    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+
+    def logger(component, instance_name, level, category, message):
+        messages.append(f"{level}:{message.decode()}")
+
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    types = {v.name: v.type for v in md.modelVariables}
+    s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=name)
+    s.instantiate(loggingOn=True)
+    # fmpy's default logger prints; record the messages instead
+    s.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    s.setupExperiment(startTime=start)
+    s.enterInitializationMode()
+    for k, v in (params or {}).items():
+        kind = types[k]
+        if kind == "String":
+            s.setString([vr[k]], [str(v)])
+        elif kind == "Integer":
+            s.setInteger([vr[k]], [int(v)])
+        elif kind == "Boolean":
+            s.setBoolean([vr[k]], [bool(v)])
+        else:
+            s.setReal([vr[k]], [float(v)])
+    s.exitInitializationMode()
+    return s
