@@ -3,8 +3,8 @@
 Each step it does exactly what the benchmark's library run does (set the torque,
 advance, read the state and dynamics outputs), so its cost over that run is what
 pythonfmu's C++ layer and fmpy add around a slave that does real work.  That is
-more than around the do-nothing slave (about 9.5 against 7 us per step here), most
-likely because the library's work between the FMI calls pushes that layer's code
+more than around the do-nothing slave (docs/fmu-benchmark.md: `wrapper - library`
+against `null`), most likely because the library's work between the FMI calls pushes that layer's code
 and data out of the processor's caches.  It imports grubler from the benchmark's
 own process, which has it.
 """
