@@ -1,0 +1,160 @@
+/* grubler kernel: the imaginary-joints planar chain, its closures and integrators.
+ *
+ * One C99 implementation (libm only) that the Python library calls through
+ * ctypes (grubler/kernel.py) and the native FMU (grubler/fmi/) runs.
+ *
+ * Conventions, as the Reference FMUs and pinocchio keep them:
+ *   - the model (grb_model: geometry, inertia, closures as two number tables) is
+ *     separate from the data (state vectors, a workspace); the kernel keeps no
+ *     globals and allocates nothing: every buffer belongs to the caller;
+ *   - every function that can fail returns a grb_status.
+ *
+ * Coordinates: y = (z, zd), z the N real joint variables (a slide's B, or a
+ * revolute's angle relative to its predecessor), in chain order.
+ */
+#ifndef GRUBLER_H
+#define GRUBLER_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32) && defined(GRB_SHARED)
+#define GRB_API __declspec(dllexport)
+#else
+#define GRB_API
+#endif
+
+typedef enum grb_status {
+    GRB_OK = 0,
+    GRB_SINGULAR,              /* the matrix to solve is singular */
+    GRB_NONFINITE_DERIVATIVE,  /* where: time */
+    GRB_STEP_UNDERFLOW,        /* where: time, limit: smallest step */
+    GRB_TOO_MANY_STEPS,        /* where: target time, limit: steps allowed */
+    GRB_NONFINITE_FIXED_STEP,  /* where: time, limit: step */
+    GRB_BRANCH_JUMP,           /* where: time, limit: fraction of the speeds removed */
+    GRB_BAD_ARGUMENT,          /* a time, tolerance or size out of range */
+    GRB_NOT_CLOSED             /* assembly: limit: the closest violation reached */
+} grb_status;
+
+/* Columns of the link table, one row per moving link (model.py's L_*):
+ * mass, centroidal inertia, mass centre along and across the link vector, the
+ * vector's length, the predecessor's vector length (a1 for link 2), joint
+ * damping, 1 if the revolute is the real joint (0: the slide), and the locked
+ * slide and absolute angle that the real joints add to (q_locked). */
+enum { GRB_L_M, GRB_L_I, GRB_L_P, GRB_L_Q, GRB_L_A, GRB_L_APRED, GRB_L_DAMP, GRB_L_REV, GRB_L_SLIDE0,
+       GRB_L_THETA0, GRB_L_COLUMNS };
+/* Columns of the closure table, one row per closure: kind (0 revolute,
+ * 1 prismatic), closing link and target link (0-based moving-link index, -1 the
+ * ground), point, target point, line angle, held orientation psi, penalty gain
+ * and damping. */
+enum { GRB_CL_KIND, GRB_CL_LINK, GRB_CL_TO, GRB_CL_PX, GRB_CL_PY, GRB_CL_TX, GRB_CL_TY, GRB_CL_ANGLE,
+       GRB_CL_PSI, GRB_CL_GAIN, GRB_CL_DAMP, GRB_CL_COLUMNS };
+
+enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
+enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
+
+/* The model: never changes during a run. */
+typedef struct grb_model {
+    int n_links;              /* N moving links (N real joints) */
+    int n_closures;           /* C closures, 2 constraint rows each */
+    const double *links;      /* N x GRB_L_COLUMNS, row-major */
+    const double *closures;   /* C x GRB_CL_COLUMNS, row-major */
+    double theta1;            /* ground vector angle, rad */
+    double gravity;           /* g along -y, m/s^2 */
+    int drive, load;          /* index in z of the drive and load joints, -1 none */
+    double drive_inertia;     /* reflected rotor inertia on z[drive] */
+} grb_model;
+
+/* Number of outputs of grb_observe for N links: coordinates, rates and
+ * accelerations in thesis order (2N each), tip_x, tip_y, closure_error, Fx, Fy,
+ * Mz, KE, PE, E, tau_drive, P_drive (11), the joint reactions (3N). */
+#define GRB_N_OBSERVED(n) (9 * (n) + 11)
+
+/* Doubles of workspace the functions below need for a model (grb_work_size). */
+GRB_API size_t grb_work_size(int n_links, int n_closures);
+
+/* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
+ * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
+GRB_API int grb_rhs(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+                    double *work, double *out);
+
+/* Every output of one state (after the forward dynamics it runs itself), into
+ * out[GRB_N_OBSERVED(n)]; the reactions only when want_reactions (else left as is). */
+GRB_API int grb_observe(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+                        int want_reactions, double *work, double *out);
+
+/* grb_observe over rows states y (rows x 2N), efforts per row (tau_drive may be
+ * NULL: then tau_drive_const), into out (rows x GRB_N_OBSERVED(n)). */
+GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
+                             double tau_drive_const, double tau_load, int want_reactions, double *work, double *out);
+
+/* Closure violation phi (2C) and its Jacobian J (2C x N, row-major) at z. */
+GRB_API int grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
+
+/* Minimum-norm projection of y = (z, zd) onto the position and velocity
+ * constraints, in place (scale: the length scale of the position tolerance). */
+GRB_API int grb_project(const grb_model *m, double scale, double *y, double *work);
+
+/* Consistent assembly: hold the n_held coordinates listed in held, solve the
+ * closures for the others by damped Newton from z (the user's sketch picks the
+ * branch), then the rates of the others from the velocity constraint.  z and zd
+ * are updated in place.  GRB_NOT_CLOSED with *closest the smallest violation
+ * reached when the loop cannot close. */
+GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
+                         double *closest, double *work);
+
+/* Which coordinates assembly holds: the drive (if any), then, up to the
+ * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
+ * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */
+GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
+                                 double *work);
+
+/* A drive effort given as a function of time (NULL: the constant tau_drive). */
+typedef double (*grb_drive_fn)(void *ctx, double t);
+
+/* How to integrate: fixed for a run (the efforts may change between advances). */
+typedef struct grb_settings {
+    int tableau;              /* enum grb_tableau */
+    int method;               /* enum grb_method */
+    int project;              /* project onto the closures after every step */
+    double scale;             /* length scale of the projection's tolerance, m */
+    double rtol, atol;        /* adaptive tableaus */
+    double h_max;             /* largest step, s (inf: none) */
+    double h_fixed;           /* rk4's step, s */
+    long max_steps;           /* steps allowed per grb_advance */
+    double tau_drive, tau_load;
+    grb_drive_fn drive_fn;
+    void *drive_ctx;
+} grb_settings;
+
+/* The integrator's own state besides y and its derivative f (plain data). */
+typedef struct grb_clock {
+    double t;                 /* time of y */
+    double h;                 /* next step (0: the integrator picks one) */
+    int have_f;               /* f holds ydot at (t, y) */
+    long steps, rejected, evals;
+} grb_clock;
+
+/* Where and why an advance stopped. */
+typedef struct grb_failure {
+    double where, limit;
+} grb_failure;
+
+/* Doubles of integrator workspace (stages, dense output) for 2N states. */
+GRB_API size_t grb_stepper_size(int tableau, int n_states);
+
+/* Step the state equation from clock->t through the increasing times t_out,
+ * recording the state at each into out (n_out x 2N).  All or nothing: y, f and
+ * the clock change only when it returns GRB_OK; otherwise *why says where.
+ * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
+GRB_API int grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
+                        const double *t_out, int n_out, double *out, double *work, double *stepper,
+                        grb_failure *why);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
