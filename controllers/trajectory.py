@@ -215,6 +215,24 @@ class Trajectory(Law):
             self._table = (t, p)
             self._spline = CubicSpline(t, p, bc_type="clamped")
 
+    def breakpoints(self, t_end: float) -> list[float]:
+        """Times in ``[0, t_end]`` where the motion law changes phase (a move's segments, a table's points).
+
+        A sampler puts samples in every phase (see :func:`grubler.sizing.sample_times`),
+        so that a short move in a long dwell is not missed.  At most 100 000 times.
+        """
+        out = [self.delay]
+        if self.kind in ("trapezoid", "scurve"):
+            period = self.move_time + self.dwell
+            k = 0
+            while self.delay + k * period <= t_end and len(out) < 100_000 and (not self.repeat or k < self.repeat):
+                start = self.delay + k * period
+                out += [start + seg.t0 for seg in self._move] + [start + self.move_time]
+                k += 1
+        elif self.kind == "table":
+            out += [self.delay + float(x) for x in self._table[0][:100_000]]
+        return [x for x in out if 0.0 <= x <= t_end]
+
     def evaluate(self, t: float) -> tuple[float, float, float]:
         """Position, velocity and acceleration at time ``t``."""
         tau = t - self.delay

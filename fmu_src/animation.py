@@ -21,7 +21,8 @@ import numpy as np  # noqa: E402
 from matplotlib import animation as mpl_animation  # noqa: E402
 from matplotlib.patches import Circle, Polygon  # noqa: E402
 
-from .errors import SceneError  # noqa: E402
+from .errors import InputError, SceneError  # noqa: E402
+from .limits import brief, check_size, number  # noqa: E402
 from .kinematics import chain_kinematics, point_on_link  # noqa: E402
 from .model import PRISMATIC, Mechanism  # noqa: E402
 
@@ -97,10 +98,11 @@ def trace_point(spec: str | None, model: Mechanism):
         return k, (model.links[k].a, 0.0)
     try:
         name, coords = spec.split(":")
-        k = int(name.removeprefix("link")) - 2
-        u, v = (float(x) for x in coords.split(","))
-    except ValueError:
-        raise SceneError("--trace", f"expected 'tip' or 'linkK:u,v' (e.g. link3:0.4,0), got {spec!r}") from None
+        u_text, v_text = coords.split(",")
+        k = number(name.removeprefix("link"), "--trace", integer=True) - 2
+        u, v = number(u_text, "--trace"), number(v_text, "--trace")
+    except (ValueError, InputError):
+        raise SceneError("--trace", f"expected 'tip' or 'linkK:u,v' (e.g. link3:0.4,0), got {brief(spec)}") from None
     if not 0 <= k < model.n_links:
         raise SceneError("--trace", f"link{k + 2} is not a moving link (2..{model.n_links + 1})")
     return k, (u, v)
@@ -197,6 +199,9 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int 
         raise SceneError("--out", "MP4 needs ffmpeg on the PATH (apt-get install ffmpeg); write a .gif instead")
     if not (out.endswith(".gif") or out.endswith(".mp4")):
         raise SceneError("--out", f"expected a .gif or .mp4 file name, got {out!r}")
+    # the GIF writer holds every frame in memory (RGBA at the figure's size)
+    check_size((t[-1] - t[0]) * fps / speed + 1, 4 * size[0] * size[1] * dpi * dpi, "the animation's frames",
+               "--fps, --speed or the run's length")
     times = np.arange(t[0], t[-1] + 1e-12, speed / fps)
     idx = np.clip(np.searchsorted(t, times - 1e-12), 0, len(t) - 1)
     point = trace_point(trace, model)

@@ -16,6 +16,7 @@ import math
 from typing import Callable
 
 from .errors import SceneError
+from .limits import brief
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
 BUILDER_DOCS: dict[str, str] = {}
@@ -87,7 +88,7 @@ def four_bar(params: dict, prefix: str) -> dict:
     th2 = p.angle("crank_angle")
     branch = p.values["branch"]
     if branch not in ("open", "crossed"):
-        raise SceneError(f"{prefix}.branch", f"must be 'open' or 'crossed', got {branch!r}")
+        raise SceneError(f"{prefix}.branch", f"must be 'open' or 'crossed', got {brief(branch)}")
     rho = p.positive("mass_per_length")
     # a guess on the chosen branch; assembly makes it exact (or says why it cannot)
     px, py = r2 * math.cos(th2), r2 * math.sin(th2)

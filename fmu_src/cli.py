@@ -17,33 +17,40 @@ import numpy as np
 
 from .analysis import classify
 from .assembly import assemble
-from .errors import GrublerError
+from . import limits
+from .errors import GrublerError, InputError
+from .limits import number
 from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
 from .simulate import output_columns, simulate
 
 
-def _positive(name: str):
+def _number(name: str, **bounds):
+    """An argparse type: a number through :func:`grubler.limits.number` with ``bounds``."""
     def parse(text: str) -> float:
         try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        if not (v > 0 and math.isfinite(v)):
-            raise argparse.ArgumentTypeError(f"must be positive and finite, got {text}")
-        return v
+            return number(text, name, **bounds)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(exc.reason) from None
     return parse
 
 
+def _positive(name: str):
+    return _number(name, low=0.0, low_open=True)
+
+
 def _finite(name: str):
-    def parse(text: str) -> float:
+    return _number(name)
+
+
+def _output(name: str, kinds: tuple[str, ...] | str | None = None):
+    """An argparse type for a file to write: checked before any work (folder, extension)."""
+    def parse(text: str) -> str:
         try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"must be finite, got {text}")
-        return v
+            limits.output_file(text, name, kinds)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(exc.reason) from None
+        return text
     return parse
 
 
@@ -179,7 +186,12 @@ def cmd_sweep(args) -> int:
     from .scene import override
     from .sweep import grid, parse_axis, run_sweep, scene_point
 
-    axes = dict(parse_axis(a) for a in args.set)
+    axes = {}
+    for text in args.set:
+        name, values = parse_axis(text)
+        if name in axes:  # two --set of one parameter: which one was meant is the user's to say
+            raise InputError(f"--set {limits.clip(name)}", "given twice; put every value in one --set")
+        axes[name] = values
     scene = load_scene(args.scene)
     override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
     func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
@@ -281,20 +293,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the scene's)")
     s.add_argument("--dt-out", type=_positive("--dt-out"), help="output interval, s")
     s.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
-    s.add_argument("--rtol", type=_positive("--rtol"), default=1e-9, help="relative tolerance")
+    s.add_argument("--rtol", type=_number("--rtol", low=1e-14, high=0.1), default=1e-9,
+                   help="relative tolerance (1e-14 to 0.1: below, no double-precision step can meet it)")
     s.add_argument("--atol", type=_positive("--atol"), help="absolute tolerance (default: rtol)")
     s.add_argument("--integrator", choices=["dop853", "rk45", "rk4", "radau", "bdf"],
                    help="default: dop853 (exact), radau (penalty)")
     s.add_argument("--step", type=_positive("--step"), default=1e-3, help="fixed step for rk4, s")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
-    s.add_argument("--csv", help="write the trajectory to this CSV file")
-    s.add_argument("--plot", help="write a plot to this PNG file")
+    s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
+    s.add_argument("--plot", type=_output("--plot", "figure"), help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
     a = sub.add_parser("animate", help="draw a scene's motion (or a simulate or cosim CSV) to a GIF or MP4")
     a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate` or `cosim`")
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
-    a.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
+    a.add_argument("--out", type=_output("--out", (".gif", ".mp4")),
+                   help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
     a.add_argument("--fps", type=_positive("--fps"), default=25.0, help="frames per second of film")
     a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
     a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0)")
@@ -304,7 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
     r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
-    r.add_argument("--out", default="report.png", help="report.png or report.pdf")
+    r.add_argument("--out", type=_output("--out", "figure"), default="report.png", help="report.png or report.pdf")
     r.set_defaults(func=cmd_report)
     w = sub.add_parser("sweep", help="run a scene over a grid of parameters, in parallel or on Dask")
     w.add_argument("scene", help="preset name or TOML file")
@@ -312,8 +326,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an axis: NAME=V1,V2,... or NAME=START:STOP:N (e.g. link2.a=0.15:0.25:5); repeat")
     w.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="simulated time per point, s")
     w.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
-    w.add_argument("--out", help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
-    w.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    w.add_argument("--out", type=_output("--out", (".csv", ".parquet")), help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
+    w.add_argument("--workers", type=_number("--workers", low=1, high=1024, integer=True),
+                   help="local processes (default: all cores)")
     w.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
     w.add_argument("--no-resume", action="store_true", help="ignore the journal of an earlier run")
     w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
@@ -327,19 +342,19 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--v-max", type=_positive("--v-max"), default=2 * math.pi, help="move speed limit, rad/s")
     z.add_argument("--a-max", type=_positive("--a-max"), default=20.0, help="move acceleration limit, rad/s2")
     z.add_argument("--j-max", type=_positive("--j-max"), default=400.0, help="scurve jerk limit, rad/s3")
-    z.add_argument("--dwell", type=_finite("--dwell"), default=0.5, help="rest after each move, s")
+    z.add_argument("--dwell", type=_number("--dwell", low=0.0), default=0.5, help="rest after each move, s")
     z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
     z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
                    help="load on the load joint (the drive joint if the scene has none), N m")
     z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see grubler.motors)")
     z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
-    z.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
+    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9, help="gearbox efficiency")
     z.add_argument("--supply", type=_positive("--supply"), help="supply voltage, V (default: each motor's nominal)")
     z.add_argument("--current-limit", type=_positive("--current-limit"), default=math.inf,
                    help="the drive's current limit, A")
     z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
-    z.add_argument("--out", help="write every combination's numbers and reasons to this CSV")
-    z.add_argument("--plot", help="write envelopes and margin against ratio to this PNG")
+    z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
+    z.add_argument("--plot", type=_output("--plot", "figure"), help="write envelopes and margin against ratio to this PNG")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
     z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
                                                      "(FMUs from FMU_DIR, e.g. dist) and compare")
@@ -354,31 +369,100 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dt-out", type=_positive("--dt-out"),
                    help="record every this many seconds (a multiple of the step; default every step)")
     c.add_argument("--order", help="comma-separated stepping order of the components (default: the system's)")
-    c.add_argument("--csv", help="write every recorded output to this CSV file")
-    c.add_argument("--plot", help="write the system's plot to this PNG file")
+    c.add_argument("--csv", type=_output("--csv"), help="write every recorded output to this CSV file")
+    c.add_argument("--plot", type=_output("--plot", "figure"), help="write the system's plot to this PNG file")
     c.set_defaults(func=cmd_cosim)
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    if hasattr(signal, "SIGPIPE"):  # `grubler ... | head` ends quietly
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+def _one_line(exc: BaseException) -> str:
+    """An error as the CLI prints it: its lines, each cut to a readable length."""
+    lines = str(exc).splitlines() or [type(exc).__name__]
+    return "\n".join(limits.clip(line, 400) for line in lines[:50])
+
+
+_LAST: dict = {}  # the command run() last parsed, for main()'s way out
+
+
+def run(argv: Sequence[str] | None = None) -> int:
+    """The command line in this process: parse, run, and turn a refusal into exit status 2.
+
+    What :func:`main` adds is process-wide (signals, the exit itself); tests and
+    the fuzz suite call this.  Every temporary folder a command made is removed
+    here, whatever the outcome.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        code = args.func(args)
-    except (GrublerError, OSError) as exc:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: -h (0) or a bad option (2), already printed
+        return exc.code if isinstance(exc.code, int) else 2
+    _LAST["command"], _LAST["check"] = args.command, getattr(args, "check", None)
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("grubler: interrupted", file=sys.stderr)
+        return 130
+    except (GrublerError, OSError, MemoryError) as exc:
         if args.debug:
             raise
-        print(f"grubler: error: {exc}", file=sys.stderr)
-        code = 2
-    if args.command == "cosim" or getattr(args, "check", None):
-        # pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit
-        # (upstream PythonFMU issue 228) after correct results: leave without
-        # the interpreter's teardown so that the exit status is the run's
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
+        if isinstance(exc, MemoryError):
+            exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
+        print(f"grubler: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    finally:
+        limits.remove_temp_dirs()
+
+
+def _exit_now(code: int) -> None:
+    # pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit
+    # (upstream PythonFMU issue 228) after correct results: leave without
+    # the interpreter's teardown so that the exit status is the run's
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def _watch_interrupts(grace: float = 0.5) -> None:
+    """Ctrl-C (or SIGTERM) ends any command within a second, with status 130 and one line.
+
+    Python runs its SIGINT handler only between bytecodes of the main thread,
+    which a long call into compiled code does not reach.  The signal's byte on
+    the wakeup pipe reaches this watcher thread regardless; if the main thread
+    has not ended ``grace`` seconds later, the watcher removes the temporary
+    folders and leaves.  (It needs the GIL, which ctypes calls release.)
+    """
+    import threading
+
+    read_fd, write_fd = os.pipe()
+    os.set_blocking(write_fd, False)
+    signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, signal.default_int_handler)
+
+    def watch():
+        import time
+
+        while True:
+            data = os.read(read_fd, 64)
+            if any(b in (signal.SIGINT, getattr(signal, "SIGTERM", -1)) for b in data):
+                time.sleep(grace)
+                print("grubler: interrupted", file=sys.stderr)
+                limits.remove_temp_dirs()
+                _exit_now(130)
+
+    threading.Thread(target=watch, name="grubler-interrupt", daemon=True).start()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The ``grubler`` command (see :func:`run`), with the process-wide parts."""
+    if hasattr(signal, "SIGPIPE"):  # `grubler ... | head` ends quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    _watch_interrupts()
+    _LAST.clear()
+    code = run(argv)
+    if _LAST.get("command") == "cosim" or _LAST.get("check") or code == 130:
+        # cosim: see _exit_now; 130: sweep workers and other threads must not hold the exit
+        _exit_now(code)
     return code
 
 

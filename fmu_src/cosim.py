@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import GrublerError
+from .limits import MAX_STEPS, brief, clip, check_count, check_size, extract_zip, remove_temp_dir, temp_dir
 from .ssp import System, SystemDescriptionError, read
 
 GAUSS_SEIDEL = "gauss-seidel"
@@ -71,10 +72,11 @@ class FmuInterface:
     feedthrough: dict[str, set[str] | None]  # output -> inputs it depends on now (None: unknown = all)
 
     @staticmethod
-    def of(path: Path) -> "FmuInterface":
+    def of(path: Path, unzipdir: Path | None = None) -> "FmuInterface":
+        """The interface of the FMU at ``path`` (read from ``unzipdir`` when it is unpacked there)."""
         from fmpy import read_model_description
 
-        md = read_model_description(str(path), validate=False)
+        md = read_model_description(str(unzipdir or path), validate=False)
         if md.coSimulation is None:
             raise SystemDescriptionError(f"{path.name}: not a co-simulation FMU")
         ports = {}
@@ -399,13 +401,11 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     -------
     CosimResult
     """
-    from fmpy import extract
-
     if not isinstance(system, System):
         system = read(system)
     t0 = start_time if start_time is not None else (system.start_time or 0.0)
     t_end = t_end if t_end is not None else (system.stop_time if system.stop_time is not None else 1.0)
-    step = step if step is not None else (system.step or 1e-3)
+    step = step if step is not None else (system.step if system.step is not None else 1e-3)
     for name, v in (("t_end", t_end), ("step", step), ("start_time", t0)):
         if not math.isfinite(v):
             raise SystemDescriptionError(f"{name} must be finite, got {v}")
@@ -418,19 +418,31 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     if int(record_every) < 1:
         raise SystemDescriptionError(f"record_every must be >= 1, got {record_every}")
     if not system.components:
-        raise SystemDescriptionError(f"system {system.name!r} has no components")
+        raise SystemDescriptionError(f"system {brief(system.name)} has no components")
+    unzipped: dict[Path, Path] = {}  # each FMU unpacked once, into a folder removed on the way out
+    try:
+        return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped)
+    finally:
+        for folder in unzipped.values():
+            remove_temp_dir(folder)
 
+
+def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
+         step_order, unzipped: dict[Path, Path]) -> CosimResult:
     interfaces = {}
     problems = []
     for name, comp in system.components.items():
         path = system.source_path(comp)
         if not path.is_file():
-            problems.append(f"component {name}: FMU {path} not found (run python build_fmu.py?)")
+            problems.append(f"component {name}: FMU {brief(str(path))} not found (run python build_fmu.py?)")
             continue
         try:
-            interfaces[name] = FmuInterface.of(path)
+            if path not in unzipped:
+                unzipped[path] = temp_dir("grubler_fmu_")
+                extract_zip(path, unzipped[path], f"component {name}")
+            interfaces[name] = FmuInterface.of(path, unzipped[path])
         except Exception as exc:  # noqa: BLE001 - a broken FMU is one of the problems listed
-            problems.append(f"component {name}: cannot read {path.name}: {exc}")
+            problems.append(f"component {name}: cannot read {brief(path.name)}: {clip(str(exc), 200)}")
     problems += check(system, interfaces)
     if problems:
         raise SystemDescriptionError("the system cannot run:\n  " + "\n  ".join(problems))
@@ -464,12 +476,9 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     wall0 = _time.perf_counter()
     insts: dict[str, _Instance] = {}
     try:
-        unzipped: dict[Path, str] = {}
         for name in seq:
             itf = interfaces[name]
-            if itf.path not in unzipped:
-                unzipped[itf.path] = extract(str(itf.path))
-            inst = insts[name] = _Instance(name, itf, unzipped[itf.path], t0)
+            inst = insts[name] = _Instance(name, itf, str(unzipped[itf.path]), t0)
             _call(inst, "set parameters", lambda: inst.set_parameters(system.components[name].parameters), t0)
             conn_out = [c.start_connector for c in system.connections if c.start_element == name]
             conn_out = list(dict.fromkeys(conn_out))
@@ -498,10 +507,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
                 columns.append(c.end)
                 col_src.append(("", slot[c.start]))
                 units[c.end] = units.get(c.start, "")
-        n_steps = int(math.floor((t_end - t0) / step + 1e-9))
+        n_steps = check_count(math.floor((t_end - t0) / step + 1e-9), MAX_STEPS, "communication steps",
+                              "t_end or step (--t-end, --step)")
         if t0 + n_steps * step < t_end - 1e-9 * step:
             n_steps += 1  # a last, shorter step lands on t_end
-        n_rec = n_steps // record_every + 2
+        n_rec = check_size(n_steps // record_every + 2, 8 * (len(columns) + 1), "the recorded table",
+                           "t_end, step or record_every (--t-end, --step, --dt-out)")
         times = np.empty(n_rec)
         data = np.empty((n_rec, len(columns)))
         col_index = {n: [(j, i) for j, (c, i) in enumerate(col_src) if c == n] for n in seq}

@@ -7,14 +7,14 @@ class GrublerError(Exception):
     """Base class of every error the library raises on purpose."""
 
 
-class SceneError(GrublerError, ValueError):
-    """A mechanism or scene description that makes no sense.
+class InputError(GrublerError, ValueError):
+    """A value from outside (an option, a file, a field of a scene or system) that is refused.
 
     Parameters
     ----------
     field : str
-        Where the bad value sits, spelled as in the scene file
-        (e.g. ``links[2].m`` or ``closure.point``).
+        Where the bad value sits, spelled as the user wrote it (an option such
+        as ``--dt-out``, a scene field such as ``links[2].m``).
     reason : str
         What is wrong with it, in the engineer's terms.
     """
@@ -23,6 +23,17 @@ class SceneError(GrublerError, ValueError):
         self.field = field
         self.reason = reason
         super().__init__(f"{field}: {reason}")
+
+    def __reduce__(self):  # sweep workers send errors back pickled
+        return (type(self), (self.field, self.reason))
+
+
+class LimitError(InputError):
+    """An input that would take more memory, disk or time than the program allows itself."""
+
+
+class SceneError(InputError):
+    """A mechanism or scene description that makes no sense (see :class:`InputError`)."""
 
 
 class AssemblyError(SceneError):

@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .analysis import kutzbach_mobility
-from .errors import SceneError
+from .errors import InputError, SceneError
+from .limits import number
 
 G_STANDARD = 9.81
 
@@ -186,13 +187,14 @@ def coordinate_names(n_links: int) -> list[str]:
 
 
 def _finite(fieldname: str, value) -> float:
+    # the one gate for numbers (finite, bounded magnitude), whoever builds the model:
+    # a scene file, a sweep's override or an FMU's parameter
+    if isinstance(value, np.generic):
+        value = value.item()
     try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(fieldname, f"must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise SceneError(fieldname, f"must be finite, got {v}")
-    return v
+        return number(value, fieldname)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
 
 
 def _parallel(angle1: float, angle2: float) -> bool:

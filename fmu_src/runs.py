@@ -9,9 +9,13 @@ effort, current and voltage the way a simulate CSV would.
 
 from __future__ import annotations
 
+import csv
+import io
+
 import numpy as np
 
-from .errors import GrublerError
+from .errors import GrublerError, InputError
+from .limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, brief, read_text
 from .model import Mechanism
 
 
@@ -60,20 +64,68 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
     return cols
 
 
-def read_run_csv(path: str, model: Mechanism | None = None) -> dict[str, np.ndarray]:
-    """Read a simulate or cosim CSV into simulate-vocabulary columns."""
-    data = np.genfromtxt(path, delimiter=",", names=True, deletechars="")
-    if data.dtype.names is None:
-        raise GrublerError(f"{path}: not a run CSV (no header)")
-    raw = {n: np.atleast_1d(data[n]) for n in data.dtype.names}
+def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
+    """A numeric CSV table: a header of distinct names, then rows of finite numbers.
+
+    Every row must have one value per column, every value be a finite number
+    within :data:`grubler.limits.MAX_MAGNITUDE`, and ``t`` (when present) must
+    increase.  A refusal names the file, the line and the column.
+    """
+    text = read_text(path, field, MAX_TABLE_BYTES)
+    where = brief(str(path))
+    try:
+        lines = [row for row in csv.reader(io.StringIO(text)) if row and any(c.strip() for c in row)]
+    except csv.Error as exc:
+        raise InputError(field, f"{where}: not a CSV table ({exc})") from None
+    if not lines:
+        raise InputError(field, f"{where}: empty, not a run CSV (no header)")
+    header = [h.strip() for h in lines[0]]
+    if any(not h for h in header):
+        raise InputError(field, f"{where}: the header has an empty column name")
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise InputError(field, f"{where}: column {brief(dup[0])} appears twice in the header")
+    if len(lines) < 2:
+        raise InputError(field, f"{where}: a header and no rows")
+    for i, row in enumerate(lines[1:], start=2):
+        if len(row) != len(header):
+            raise InputError(field, f"{where}: row {i} has {len(row)} values for {len(header)} columns")
+    body = lines[1:]
+    try:
+        data = np.array(body, dtype=float)
+    except ValueError:
+        for i, row in enumerate(body, start=2):
+            for name, cell in zip(header, row):
+                try:
+                    float(cell)
+                except ValueError:
+                    raise InputError(field, f"{where}: row {i}, column {brief(name)}: not a number: "
+                                            f"{brief(cell)}") from None
+        raise
+    bad = ~np.isfinite(data) | (np.abs(np.nan_to_num(data)) > MAX_MAGNITUDE)
+    if bad.any():
+        i, j = map(int, np.argwhere(bad)[0])
+        raise InputError(field, f"{where}: row {i + 2}, column {brief(header[j])}: {data[i, j]:g} is not a finite "
+                                f"number within +-{MAX_MAGNITUDE:g}")
+    cols = {h: data[:, j].copy() for j, h in enumerate(header)}
+    if "t" in cols and len(cols["t"]) > 1 and np.any(np.diff(cols["t"]) <= 0):
+        i = int(np.argmax(np.diff(cols["t"]) <= 0))
+        raise InputError(field, f"{where}: column 't' must increase, row {i + 3} does not")
+    return cols
+
+
+def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") -> dict[str, np.ndarray]:
+    """Read a simulate or cosim CSV (see :func:`read_table`) into simulate-vocabulary columns."""
+    raw = read_table(path, field)
     try:
         cols = run_columns(raw, model)
     except GrublerError as exc:
-        raise GrublerError(f"{path}: {exc}") from None
+        raise InputError(field, f"{brief(str(path))}: {exc}") from None
     if model is not None:
         missing = [n for n in model.coordinate_names if n not in cols]
         if missing:
-            raise GrublerError(f"{path}: missing columns {', '.join(missing)} (is it a run of this scene?)")
+            raise InputError(field, f"{brief(str(path))}: missing columns {', '.join(missing)} "
+                                    "(is it a run of this scene?)")
     return cols
 
 
@@ -83,4 +135,4 @@ def coordinates(cols: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
     return np.array([model.z_from_q(row) for row in q])
 
 
-__all__ = ["read_run_csv", "run_columns", "mechanism_prefix", "coordinates"]
+__all__ = ["read_run_csv", "read_table", "run_columns", "mechanism_prefix", "coordinates"]

@@ -26,7 +26,8 @@ import numpy as np
 
 from .builders import BUILDERS
 from .dynamics import METHODS
-from .errors import SceneError
+from .errors import InputError, SceneError
+from .limits import brief, number, parse_toml, read_text
 from .model import Closure, Link, Mechanism, coordinate_names
 
 _ANGLE = re.compile(
@@ -36,12 +37,12 @@ _PI = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<k>(\d+(\.\d*)?|\.\d+))?\s*\*?\s*pi\
 
 
 def parse_angle_or_number(value, field: str) -> float:
-    """A number, or a string such as '60 deg', '1.2 rad', 'pi/3', '-2*pi/3'."""
-    if isinstance(value, bool):
-        raise SceneError(field, f"must be a number, got {value!r}")
-    if isinstance(value, (int, float)):
-        v = float(value)
-    elif isinstance(value, str):
+    """A number, or a string such as '60 deg', '1.2 rad', 'pi/3', '-2*pi/3'.
+
+    Whatever the spelling, the value goes through :func:`grubler.limits.number`:
+    finite and no larger in magnitude than :data:`grubler.limits.MAX_MAGNITUDE`.
+    """
+    if isinstance(value, str) and len(value) <= 64:
         m = _ANGLE.match(value)
         p = _PI.match(value)
         if m:
@@ -52,12 +53,14 @@ def parse_angle_or_number(value, field: str) -> float:
             v = math.pi * float(p["k"] or 1.0) / float(p["d"] or 1.0)
             v = -v if p["sign"] == "-" else v
         else:
-            raise SceneError(field, f"cannot read {value!r} as a number or an angle ('60 deg', 'pi/3')")
-    else:
-        raise SceneError(field, f"must be a number, got {value!r}")
-    if not math.isfinite(v):
-        raise SceneError(field, f"must be finite, got {value!r}")
-    return v
+            raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
+        value = v
+    elif isinstance(value, str):
+        raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
+    try:
+        return number(value, field)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
 
 
 @dataclass(frozen=True)
@@ -115,7 +118,7 @@ def _joint(d: dict, field: str) -> str:
     if "existence" in d:
         ef = d["existence"]
         if not (isinstance(ef, list) and len(ef) == 2 and all(x in (0, 1) for x in ef)):
-            raise SceneError(f"{field}.existence", f"must be a pair of 0/1 factors, got {ef!r}")
+            raise SceneError(f"{field}.existence", f"must be a pair of 0/1 factors, got {brief(ef)}")
         if sum(ef) != 1:
             raise SceneError(
                 f"{field}.existence",
@@ -123,11 +126,11 @@ def _joint(d: dict, field: str) -> str:
                 "exactly one must be (prismatic [1, 0] or revolute [0, 1])")
         j = "P" if ef == [1, 0] else "R"
         if "joint" in d and d["joint"] != j:
-            raise SceneError(f"{field}.joint", f"{d['joint']!r} contradicts existence {ef}")
+            raise SceneError(f"{field}.joint", f"{brief(d['joint'])} contradicts existence {ef}")
         return j
     j = d.get("joint")
     if j not in ("R", "P"):
-        raise SceneError(f"{field}.joint", f"must be 'R' (revolute) or 'P' (prismatic), got {j!r}")
+        raise SceneError(f"{field}.joint", f"must be 'R' (revolute) or 'P' (prismatic), got {brief(j)}")
     return j
 
 
@@ -141,7 +144,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         mech = _table(data, "mechanism")
         kind = mech.get("type")
         if kind not in BUILDERS:
-            raise SceneError("mechanism.type", f"unknown builder {kind!r}; choose one of {', '.join(BUILDERS)}")
+            raise SceneError("mechanism.type", f"unknown builder {brief(kind)}; choose one of {', '.join(BUILDERS)}")
         built = BUILDERS[kind](mech, "mechanism")
     # links: the builder's, each overridable field by field
     links_data = [dict(d) for d in built.get("links", [])]
@@ -178,9 +181,9 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     closures = []
     ctype = closure_data.get("type", "none")
     if ctype not in ("none", "revolute", "prismatic"):
-        raise SceneError("closure.type", f"must be 'none', 'revolute' or 'prismatic', got {ctype!r}")
+        raise SceneError("closure.type", f"must be 'none', 'revolute' or 'prismatic', got {brief(ctype)}")
     if ctype != "none":
-        cl_link = int(closure_data.get("link", n + 1))
+        cl_link = _whole(closure_data.get("link", n + 1), "closure.link")
         if not 2 <= cl_link <= n + 1:
             raise SceneError("closure.link", f"must be a moving link 2..{n + 1}, got {cl_link}")
         at = closure_data.get("at", [links[cl_link - 2].a, 0.0])
@@ -190,7 +193,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
             kind=ctype,
             link=cl_link,
             point=_pair(at, "closure.at"),
-            to_link=int(closure_data.get("to_link", 1)),
+            to_link=_whole(closure_data.get("to_link", 1), "closure.to_link"),
             to_point=_pair(closure_data["point"], "closure.point"),
             angle=parse_angle_or_number(closure_data.get("angle", 0.0), "closure.angle"),
             psi=parse_angle_or_number(closure_data.get("psi", 0.0), "closure.psi"),
@@ -230,7 +233,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     _check_keys(sim, {"t_end", "dt_out", "method"}, "simulate")
     method = sim.get("method", "exact")
     if method not in METHODS:
-        raise SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        raise SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {brief(method)}")
     t_end = parse_angle_or_number(sim.get("t_end", 10.0), "simulate.t_end")
     dt_out = parse_angle_or_number(sim.get("dt_out", 0.01), "simulate.dt_out")
     if t_end <= 0:
@@ -246,9 +249,16 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
 
 
+def _whole(v, field: str) -> int:
+    try:
+        return number(v, field, integer=True)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
+
+
 def _pair(v, field: str) -> tuple[float, float]:
     if not (isinstance(v, (list, tuple)) and len(v) == 2):
-        raise SceneError(field, f"must be [x, y], got {v!r}")
+        raise SceneError(field, f"must be [x, y], got {brief(v)}")
     return (parse_angle_or_number(v[0], field), parse_angle_or_number(v[1], field))
 
 
@@ -273,18 +283,18 @@ def load_scene(source: str | Path) -> Scene:
     src = str(source)
     if src in preset_names():
         text, name = preset_text(src), src
+    elif "\n" not in src and len(src) < 4096 and Path(src).is_file():
+        # a file first: a file name may well contain '=' (run=3.toml)
+        text, name = read_text(src, "scene"), Path(src).stem
     elif "\n" in src or "=" in src:
         text, name = src, ""
     else:
-        path = Path(src)
-        if not path.is_file():
-            raise SceneError("scene", f"{src!r} is neither a preset ({', '.join(preset_names()[:4])}, ...; "
-                                      "see `grubler presets`) nor a TOML file")
-        text, name = path.read_text(), path.stem
+        raise SceneError("scene", f"{brief(src)} is neither a preset ({', '.join(preset_names()[:4])}, ...; "
+                                  "see `grubler presets`) nor a TOML file")
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError("scene", f"not valid TOML: {exc}") from None
+        data = parse_toml(text, "scene")
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
     return scene_from_dict(data, name)
 
 
@@ -376,7 +386,14 @@ def override(scene: Scene, values: dict) -> Scene:
         if name not in known:
             parameter(scene, name)  # raises with the list of known names
     m = scene.mechanism
-    ov = dict(values)
+    ov = {}
+    for name, v in values.items():  # every number through the same gate as the scene file's
+        if name in ("drive_joint", "load_joint"):
+            if v is not None and not isinstance(v, str):
+                raise SceneError(name, f"must be a coordinate name (or empty for none), got {brief(v)}")
+            ov[name] = v
+        else:
+            ov[name] = parse_angle_or_number(v, name)
     links = tuple(replace(link, **{f: ov[f"link{i + 2}.{f}"] for f in _LINK_PARAMS if f"link{i + 2}.{f}" in ov})
                   for i, link in enumerate(m.links))
     closures = m.closures

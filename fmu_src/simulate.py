@@ -40,6 +40,7 @@ from .dynamics import (
 )
 from .errors import SceneError
 from .integrators import Integrator, StateEquation
+from .limits import check_size
 from .model import Mechanism, coordinate_names
 from .scene import Scene, load_scene
 
@@ -391,6 +392,9 @@ def simulate(
         raise SceneError("t_end", f"must be positive and finite, got {t_end}")
     if not (dt_out > 0 and math.isfinite(dt_out)):
         raise SceneError("dt_out", f"must be positive and finite, got {dt_out}")
+    # refuse before allocating: the output grid's size is known now
+    check_size(t_end / dt_out + 2, 8 * len(output_columns(scene.mechanism, GROUPS)), "the output grid",
+               "dt_out or t_end (--dt-out, --t-end)")
     method = scene.method if method is None else method
     torque = scene.torque if torque is None else torque
     load = scene.load_torque if load_torque is None else float(load_torque)

@@ -43,8 +43,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import SceneError
+from .limits import check_count, check_size, number
 from .inverse import DriveDemand, drive_demand
 from .model import Mechanism
+
+
+MAX_SAMPLES = 1e6  # samples of one duty cycle
 
 
 @dataclass
@@ -80,7 +84,7 @@ class DutyCycle:
         """
         if not (period > 0 and math.isfinite(period)):
             raise SceneError("duty_cycle.period", f"must be positive and finite, got {period}")
-        t = np.linspace(0.0, period, int(n))
+        t = sample_times(period, int(n), getattr(trajectory, "breakpoints", lambda _: [])(period))
         pva = np.array([trajectory.evaluate(float(tk)) for tk in t])
         load = np.broadcast_to(np.asarray(load, float), t.shape).copy()
         return DutyCycle(t, pva[:, 0] + (start or 0.0), pva[:, 1], pva[:, 2], load, name)
@@ -155,6 +159,9 @@ class Assessment:
         for k, v in self.margins.items():
             if v < 1.0:
                 need, limit, unit = self.needs[k]
+                if math.isnan(need):
+                    out.append(f"{k}: could not be computed for this cycle (not a number)")
+                    continue
                 out.append(f"{k}: needs {need:.4g} {unit}, " + (
                     "the data set gives no limit to check it against" if math.isnan(limit)
                     else f"limit {limit:.4g} {unit}"))
@@ -175,6 +182,25 @@ class Assessment:
         row["binding"] = self.binding
         row["why_not"] = "; ".join(self.failures)
         return row
+
+
+def sample_times(period: float, n: int, breakpoints=(), per_phase: int = 64) -> np.ndarray:
+    """``n`` times over ``[0, period]``, and ``per_phase`` more in every phase between breakpoints.
+
+    A uniform grid alone misses a short move in a long dwell (a 0.7 s move in a
+    one-hour cycle falls between samples): each phase of the motion law gets its
+    own samples, whatever its length.
+
+    Examples
+    --------
+    >>> t = sample_times(3600.0, 11, [1.0, 2.0], per_phase=4)
+    >>> [float(x) for x in t[(t > 0.9) & (t < 2.5)]]
+    [1.0, 1.25, 1.5, 1.75, 2.0]
+    """
+    knots = np.unique(np.clip(np.concatenate([[0.0, period], np.asarray(list(breakpoints), float)]), 0.0, period))
+    check_count(len(knots) * per_phase + n, MAX_SAMPLES, "samples of the duty cycle", "the move or its dwell")
+    parts = [np.linspace(0.0, period, n)] + [np.linspace(a, b, per_phase + 1) for a, b in zip(knots[:-1], knots[1:])]
+    return np.unique(np.concatenate(parts))
 
 
 def _rms(x: np.ndarray) -> float:
@@ -201,17 +227,19 @@ def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: floa
     a = i2_mid * R_ref * alpha / C - 1.0 / (R_th * C)
     b = i2_mid * R_ref * (1.0 - alpha * T_ref) / C + ambient / (R_th * C)
     h = np.diff(t)
-    e = np.exp(a * h)
-    gain = np.where(np.abs(a * h) > 1e-12, (e - 1.0) / np.where(a == 0, 1.0, a), h)
-    A, B = 1.0, 0.0
-    for ek, gk, bk in zip(e, gain, b):  # compose the affine maps
-        A, B = ek * A, ek * B + gk * bk
-    if A >= 1.0:
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is the runaway, tested below
+        e = np.exp(a * h)
+        gain = np.where(np.abs(a * h) > 1e-12, (e - 1.0) / np.where(a == 0, 1.0, a), h)
+        A, B = 1.0, 0.0
+        for ek, gk, bk in zip(e, gain, b):  # compose the affine maps
+            A, B = ek * A, ek * B + gk * bk
+    if not (math.isfinite(A) and math.isfinite(B)) or A >= 1.0:
         return np.full_like(t, np.inf)  # the copper heats faster than it cools: runaway
     temps = np.empty_like(t)
     temps[0] = B / (1.0 - A)
-    for k in range(len(h)):
-        temps[k + 1] = e[k] * temps[k] + gain[k] * b[k]
+    with np.errstate(over="ignore", invalid="ignore"):  # a peak past the doubles is inf: not feasible
+        for k in range(len(h)):
+            temps[k + 1] = e[k] * temps[k] + gain[k] * b[k]
     return temps
 
 
@@ -248,7 +276,9 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
     needs["voltage"] = (float(np.max(np.abs(v))), candidate.supply_voltage, "V")
     t_max = data.max_winding_temperature
     needs["temperature rise"] = (hot - ambient, unknown if t_max is None else t_max - ambient, "K")
-    margins = {k: (0.0 if math.isnan(lim) else lim / need if need > 0 else math.inf)
+    # a need that could not be computed (NaN) fails like an unknown limit: never "fits" by
+    # way of a comparison that is false
+    margins = {k: (0.0 if math.isnan(lim) or math.isnan(need) else lim / need if need > 0 else math.inf)
                for k, (need, lim, _) in needs.items()}
     return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient)
 
@@ -369,6 +399,12 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
     """
     if not motors:
         raise SceneError("motors", "name at least one motor")
+    ratios = list(ratios)
+    for r in ratios:
+        number(r, "ratios")
+    # each candidate keeps six arrays over the cycle
+    check_size(len(motors) * len(ratios) * len(cycle.t), 6 * 8, "the study's arrays",
+               "ratios or motors (--ratios, --motors)")
     demand = required_drive(model, cycle)
     assessments = []
     for data in motors:

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from .errors import GrublerError
+from .errors import GrublerError, InputError
+from .limits import brief, clip, extract_zip, number, read_bytes, remove_temp_dir, temp_dir
 
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -144,9 +145,9 @@ class System:
     def add(self, name: str, source: str | Path, **parameters) -> Component:
         """Add a component; parameters as keywords (dotted names via ``**{...}``)."""
         if name in self.components:
-            raise SystemDescriptionError(f"component {name!r}: the name is used twice")
+            raise SystemDescriptionError(f"component {brief(name)}: the name is used twice")
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-            raise SystemDescriptionError(f"component {name!r}: a name is a letter then letters, digits, _")
+            raise SystemDescriptionError(f"component {brief(name)}: a name is a letter then letters, digits, _")
         comp = Component(name, str(source), dict(parameters))
         self.components[name] = comp
         return comp
@@ -299,7 +300,7 @@ class System:
 def _split(ref: str, end: str) -> tuple[str, str]:
     element, dot, connector = str(ref).partition(".")
     if not dot or not element or not connector:
-        raise SystemDescriptionError(f"connection {end} {ref!r}: write it as 'component.variable'")
+        raise SystemDescriptionError(f"connection {end} {brief(ref)}: write it as 'component.variable'")
     return element, connector
 
 
@@ -320,22 +321,45 @@ def _ssv_value(ssv: str, name: str, value) -> tuple[str, dict]:
 def read(path: str | Path) -> System:
     """Read a ``.ssd`` file or a ``.ssp`` archive.
 
-    A ``.ssp`` is extracted to a temporary folder that lives as long as the
-    process, so the components' sources resolve to real files.
+    A ``.ssp`` is extracted, within :func:`grubler.limits.extract_zip`'s bounds,
+    to a temporary folder so that the components' sources resolve to real files.
+    The folder is removed at once if the archive is refused, else by
+    :func:`grubler.limits.remove_temp_dirs` (which the CLI calls on every exit,
+    and which runs at interpreter exit).
     """
     path = Path(path)
+    where = brief(str(path))
     if not path.is_file():
-        raise SystemDescriptionError(f"{path}: no such file")
+        raise SystemDescriptionError(f"{where}: no such file")
     if path.suffix == ".ssp" or zipfile.is_zipfile(path):
-        import tempfile
-        tmp = Path(tempfile.mkdtemp(prefix="grubler_ssp_"))
-        with zipfile.ZipFile(path) as zf:
-            zf.extractall(tmp)
-        ssd = tmp / "SystemStructure.ssd"
-        if not ssd.is_file():
-            raise SystemDescriptionError(f"{path}: the archive has no SystemStructure.ssd")
-        return from_xml(ssd.read_bytes(), base=tmp, where=str(path))
-    return from_xml(path.read_bytes(), base=path.parent, where=str(path))
+        tmp = temp_dir("grubler_ssp_")
+        try:
+            _limited(lambda: extract_zip(path, tmp, "system"))
+            ssd = tmp / "SystemStructure.ssd"
+            if not ssd.is_file():
+                raise SystemDescriptionError(f"{where}: the archive has no SystemStructure.ssd")
+            return from_xml(_limited(lambda: read_bytes(ssd, "system")), base=tmp, where=where)
+        except BaseException:
+            remove_temp_dir(tmp)
+            raise
+    return from_xml(_limited(lambda: read_bytes(path, "system")), base=path.parent, where=where)
+
+
+def _limited(fn):
+    # the limits layer names its field; here every refusal is the system description's
+    try:
+        return fn()
+    except InputError as exc:
+        raise SystemDescriptionError(exc.reason if exc.field == "system" else str(exc)) from None
+
+
+def _number(text: str | None, where: str, positive: bool = False) -> float | None:
+    if text is None or text == "":
+        return None
+    try:
+        return number(text, where, low=0.0 if positive else None, low_open=positive)
+    except InputError as exc:
+        raise SystemDescriptionError(str(exc)) from None
 
 
 def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") -> System:
@@ -344,8 +368,11 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
         root = ET.parse(io.BytesIO(text.encode() if isinstance(text, str) else text)).getroot()
     except ET.ParseError as exc:
         raise SystemDescriptionError(f"{where}: not valid XML ({exc})") from None
+    except RecursionError:
+        raise SystemDescriptionError(f"{where}: not valid here: elements nested too deep") from None
     if root.tag != f"{{{NS['ssd']}}}SystemStructureDescription":
-        raise SystemDescriptionError(f"{where}: the root element is {root.tag}, not ssd:SystemStructureDescription")
+        raise SystemDescriptionError(f"{where}: the root element is {clip(root.tag)}, "
+                                     "not ssd:SystemStructureDescription")
     sys_el = root.find("ssd:System", NS)
     if sys_el is None:
         raise SystemDescriptionError(f"{where}: no ssd:System element")
@@ -360,6 +387,8 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
         comp = system.add(name, source)
         for cn in el.findall("ssd:Connectors/ssd:Connector", NS):
             real = cn.find("ssc:Real", NS)
+            if not cn.get("name"):
+                raise SystemDescriptionError(f"component {brief(name)}: a connector without a name")
             if real is not None and real.get("unit"):
                 comp.units[cn.get("name")] = real.get("unit")
         for binding in el.findall("ssd:ParameterBindings/ssd:ParameterBinding", NS):
@@ -368,25 +397,30 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
                                              "put the values inline")
             prefix = binding.get("prefix", "")
             for p in binding.findall("ssd:ParameterValues/ssv:ParameterSet/ssv:Parameters/ssv:Parameter", NS):
+                if not p.get("name"):
+                    raise SystemDescriptionError(f"component {brief(name)}: a parameter without a name")
                 comp.parameters[_strip(p.get("name"), prefix, name)] = _parameter_value(p, name)
     for c in sys_el.findall("ssd:Connections/ssd:Connection", NS):
         if c.get("startElement") is None or c.get("endElement") is None:
             raise SystemDescriptionError(
                 f"connection {c.get('startConnector')} -> {c.get('endConnector')}: connections to the system's "
                 "own connectors are not supported; connect components directly")
+        if not c.get("startConnector") or not c.get("endConnector"):
+            raise SystemDescriptionError(f"connection from {brief(c.get('startElement'))} to "
+                                         f"{brief(c.get('endElement'))}: both connectors must be named")
         system.connections.append(Connection(c.get("startElement"), c.get("startConnector"),
                                              c.get("endElement"), c.get("endConnector")))
     exp = root.find("ssd:DefaultExperiment", NS)
     if exp is not None:
-        system.start_time = float(exp.get("startTime")) if exp.get("startTime") else None
-        system.stop_time = float(exp.get("stopTime")) if exp.get("stopTime") else None
+        system.start_time = _number(exp.get("startTime"), "DefaultExperiment.startTime")
+        system.stop_time = _number(exp.get("stopTime"), "DefaultExperiment.stopTime")
     for ann in root.findall("ssd:Annotations/ssc:Annotation", NS):
         if ann.get("type") != ANNOTATION_TYPE:
             continue
         cosim = ann.find("Cosim")
         if cosim is not None:
-            if cosim.get("step"):
-                system.step = float(cosim.get("step"))
+            if cosim.get("step") is not None:  # step="0" is refused, not read as "unset"
+                system.step = _number(cosim.get("step"), "Annotation Cosim.step", positive=True)
             if cosim.get("order"):
                 system.order = cosim.get("order").split()
             for p in cosim.findall("Plot"):
@@ -403,18 +437,27 @@ def _strip(pname: str, prefix: str, component: str) -> str:
 
 
 def _parameter_value(p: ET.Element, component: str):
-    for tag, conv in (("Real", float), ("Integer", int), ("String", str)):
+    field = f"parameter {component}.{brief(p.get('name'))}"
+    for tag in ("Real", "Integer"):
         v = p.find(f"ssv:{tag}", NS)
         if v is not None:
             try:
-                return conv(v.get("value"))
-            except (TypeError, ValueError):
-                raise SystemDescriptionError(f"parameter {component}.{p.get('name')}: "
-                                             f"{v.get('value')!r} is not a valid {tag}") from None
+                return number(v.get("value") if v.get("value") is not None else "", field,
+                              integer=tag == "Integer")
+            except InputError as exc:
+                raise SystemDescriptionError(f"{field}: {brief(v.get('value'))} is not a valid {tag} "
+                                             f"({exc.reason})") from None
+    v = p.find("ssv:String", NS)
+    if v is not None:
+        if v.get("value") is None:
+            raise SystemDescriptionError(f"{field}: a String with no value")
+        return v.get("value")
     v = p.find("ssv:Boolean", NS)
     if v is not None:
+        if v.get("value") not in ("true", "1", "false", "0"):
+            raise SystemDescriptionError(f"{field}: {brief(v.get('value'))} is not a Boolean (true, false)")
         return v.get("value") in ("true", "1")
-    raise SystemDescriptionError(f"parameter {component}.{p.get('name')}: no Real, Integer, Boolean or String value")
+    raise SystemDescriptionError(f"{field}: no Real, Integer, Boolean or String value")
 
 
 __all__ = ["System", "Component", "Connection", "Plot", "SystemDescriptionError", "read", "from_xml"]

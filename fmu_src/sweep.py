@@ -29,6 +29,7 @@ import itertools
 import json
 import math
 import os
+import re
 import sys
 import time
 import traceback
@@ -37,7 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import GrublerError
+from .errors import GrublerError, InputError
+from .limits import MAX_POINTS, MAX_TABLE_BYTES, brief, check_count, clip, decode_text, number, read_bytes
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
@@ -47,7 +49,9 @@ META = ("status", "error", "seconds", "key")
 def grid(**axes: Iterable) -> list[dict]:
     """Every combination of the axes' values, the first axis varying slowest."""
     names = list(axes)
-    return [dict(zip(names, combo)) for combo in itertools.product(*(list(v) for v in axes.values()))]
+    values = [list(v) for v in axes.values()]
+    check_count(math.prod(len(v) for v in values), MAX_POINTS, "points in the grid", "--set")
+    return [dict(zip(names, combo)) for combo in itertools.product(*values)]
 
 
 def point_key(values: dict) -> str:
@@ -134,7 +138,8 @@ def _journal(out: Path) -> Path:
 
 
 def signature(func: Callable) -> str:
-    """What a journal is of: the function and the constants bound to it.
+    """What a journal is of: the function, the constants bound to it, and the content of
+    the files those constants name (an edited scene file is another sweep).
 
     Examples
     --------
@@ -144,11 +149,16 @@ def signature(func: Callable) -> str:
     """
     import functools
 
-    args = ""
+    args, files = "", []
     while isinstance(func, functools.partial):
         args = f"{func.args!r} {dict(sorted(func.keywords.items()))!r}" + args
+        files += [v for v in list(func.args) + list(func.keywords.values()) if isinstance(v, (str, Path))]
         func = func.func
-    return f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', repr(func))}{args}"
+    digests = ""
+    for f in files:
+        if "\n" not in str(f) and len(str(f)) < 4096 and Path(f).is_file():
+            digests += f" {Path(f).name}#sha256:{hashlib.sha256(Path(f).read_bytes()).hexdigest()[:16]}"
+    return f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', repr(func))}{args}{digests}"
 
 
 def _read_done(out: Path | None, sig: str, retry_failed: bool) -> dict[str, dict]:
@@ -158,20 +168,41 @@ def _read_done(out: Path | None, sig: str, retry_failed: bool) -> dict[str, dict
     done = {}
     journal = _journal(out)
     if journal.is_file():
-        lines = journal.read_text().splitlines()
-        head = json.loads(lines[0]) if lines else {}
-        if lines and head.get("sweep") != sig:
-            raise GrublerError(f"{out}: its journal is of another sweep ({head.get('sweep')}), not {sig}; "
-                               "start afresh (resume=False, --no-resume) or write elsewhere")
+        lines = decode_text(read_bytes(journal, "--out", MAX_TABLE_BYTES), "--out", str(journal)).splitlines()
+        if not lines:  # killed before its header reached the disk: nothing was finished
+            return done
+        try:
+            head = json.loads(lines[0])
+        except json.JSONDecodeError:
+            head = None
+        if not isinstance(head, dict) or "sweep" not in head:
+            raise GrublerError(f"{journal}: not a sweep journal (its first line is no header); "
+                               "move it away, or start afresh with --no-resume (which keeps it as a backup)")
+        if head.get("sweep") != sig:
+            raise GrublerError(f"{out}: its journal is of another sweep ({clip(str(head.get('sweep')), 200)}), "
+                               f"not {clip(sig, 200)}; start afresh (resume=False, --no-resume, which keeps the "
+                               "old journal as a backup) or write elsewhere")
         for line in lines[1:]:
             try:
                 row = json.loads(line)
             except json.JSONDecodeError:  # a line cut by the interruption
                 continue
+            if not isinstance(row, dict) or not isinstance(row.get("key"), str):
+                continue
             if retry_failed and row.get("status") == STATUS_FAILED:
                 continue
             done[row["key"]] = row
     return done
+
+
+def _set_aside(journal: Path) -> Path:
+    """Move an old journal to the first free ``.N`` backup name: never delete finished points."""
+    k = 1
+    while journal.with_name(f"{journal.name}.{k}").exists():
+        k += 1
+    backup = journal.with_name(f"{journal.name}.{k}")
+    journal.rename(backup)
+    return backup
 
 
 class _Progress:
@@ -238,8 +269,10 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
             raise GrublerError(f"sweep: point {i} has keys {list(p)}, the first has {inputs}")
     out = Path(out) if out is not None else None
     sig = signature(func)
-    if out is not None and not resume and _journal(out).exists():
-        _journal(out).unlink()
+    if out is not None and not resume and _journal(out).exists() and _journal(out).stat().st_size:
+        backup = _set_aside(_journal(out))
+        if progress:
+            print(f"sweep: the earlier journal is kept as {backup}", file=sys.stderr)
     done = _read_done(out, sig, retry_failed) if resume else {}
     keys = [point_key(p) for p in points]
     todo = [(k, p) for k, p in zip(keys, points) if k not in done]
@@ -248,10 +281,12 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
     rows: dict[str, dict] = {k: done[k] for k in keys if k in done}
     journal = None
     if out is not None:
-        fresh = not _journal(out).exists()
-        journal = open(_journal(out), "a")
-        if fresh:
+        fresh = not _journal(out).exists() or _journal(out).stat().st_size == 0
+        journal = open(_journal(out), "w" if fresh else "a")
+        if fresh:  # the header reaches the disk before any work: a journal is never headerless
             journal.write(json.dumps({"sweep": sig}) + "\n")
+            journal.flush()
+            os.fsync(journal.fileno())
     t0 = time.perf_counter()
 
     def finished(row: dict) -> None:
@@ -272,10 +307,15 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
             n = workers or os.cpu_count() or 1
             if n < 1:
                 raise GrublerError(f"sweep: workers must be >= 1, got {n}")
-            with ProcessPoolExecutor(max_workers=n) as pool:
+            pool = ProcessPoolExecutor(max_workers=n, initializer=_worker_start, initargs=(os.getpid(),))
+            try:
                 futures = [pool.submit(evaluate_point, func, p) for _, p in todo]
                 for fut in as_completed(futures):
                     finished(fut.result())
+            except BaseException:  # Ctrl-C or an error: no worker outlives the sweep
+                _stop_workers(pool)
+                raise
+            pool.shutdown()
             where = f"{n} processes"
     finally:
         if journal is not None:
@@ -291,13 +331,61 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
     return table
 
 
+def _worker_start(parent: int) -> None:
+    """A local worker ignores Ctrl-C (the main process stops it) and dies with the main process."""
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:  # PR_SET_PDEATHSIG: the kernel sends SIGKILL when the parent dies, even mid-computation
+            ctypes.CDLL(None, use_errno=True).prctl(1, 9, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # the parent died before the line above took effect
+        os._exit(1)
+
+    def watch():  # elsewhere (and as a second guard): poll for the parent
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the workers now, not after their current point."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor has no public handle
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=1.0)
+        if proc.is_alive():
+            proc.kill()
+
+
 def _run_dask(func, todo, scheduler, finished) -> str:
     try:
         from distributed import Client, as_completed as dask_completed
     except ImportError:
         raise GrublerError("sweep: a Dask scheduler needs dask.distributed "
                            "(pip install 'dask[distributed]')") from None
-    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
+    if isinstance(scheduler, Client):
+        client = scheduler
+    else:
+        address = str(scheduler)
+        if not re.fullmatch(r"(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+:\d{1,5}|(tcp|tls)://\[[0-9a-fA-F:]+\]:\d{1,5}",
+                            address):
+            raise InputError("--scheduler", f"{brief(address)} is not a scheduler address: write "
+                                            "tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)")
+        try:
+            client = Client(address, timeout=10)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError("--scheduler", f"cannot reach {address}: {clip(str(exc), 200)}") from None
     try:
         futures = client.map(evaluate_point, [func] * len(todo), [p for _, p in todo], pure=False)
         for fut in dask_completed(futures):
@@ -367,16 +455,17 @@ def parse_axis(text: str) -> tuple[str, list]:
     name, eq, spec = text.partition("=")
     name = name.strip()
     if not eq or not name or not spec.strip():
-        raise GrublerError(f"--set {text!r}: write NAME=V1,V2,... or NAME=START:STOP:N")
+        raise InputError("--set", f"{brief(text)}: write NAME=V1,V2,... or NAME=START:STOP:N")
     parts = spec.split(":")
     if len(parts) == 3:
         try:
-            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-        except ValueError:
-            raise GrublerError(f"--set {text!r}: START:STOP:N needs two numbers and a count") from None
-        if n < 1:
-            raise GrublerError(f"--set {text!r}: N must be >= 1")
+            a, b = number(parts[0], f"--set {clip(name)}"), number(parts[1], f"--set {clip(name)}")
+            n = number(parts[2], f"--set {clip(name)}", low=1, high=MAX_POINTS, integer=True)
+        except InputError as exc:
+            raise InputError(exc.field, f"START:STOP:N needs two numbers and a count from 1 to {MAX_POINTS:g}: "
+                                        f"{exc.reason}") from None
         return name, [a + (b - a) * i / (n - 1) if n > 1 else a for i in range(n)]
+    check_count(spec.count(",") + 1, MAX_POINTS, "values", f"--set {clip(name)}")
     values = []
     for v in spec.split(","):
         v = v.strip()

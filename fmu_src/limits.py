@@ -1,0 +1,342 @@
+"""What outside input may ask of the program: numbers, files, sizes, archives, temporary folders.
+
+Every command, the scene reader, the SSP reader and the run-CSV reader take what
+comes from outside through this module, so that a bad value is refused in one
+way everywhere: an :class:`~grubler.errors.InputError` naming the field (or the
+option) and the reason, before anything large is allocated or written.
+
+- numbers: :func:`number` (finite, within a range, a whole number when asked,
+  and no larger in magnitude than :data:`MAX_MAGNITUDE`, beyond which the
+  kernel's squares and products leave double precision);
+- files: :func:`read_text` (a size cap, UTF-8, no binary), :func:`parse_toml`
+  (nesting depth and huge integers), :func:`output_file` (checked before the
+  run: a folder that exists, an extension the writer knows);
+- sizes: :func:`check_size` (an estimate of what an output would take, refused
+  with the size and the option that changes it);
+- archives: :func:`extract_zip` (bounded total size, compression ratio and
+  member count, checked while reading, not only from the declared sizes);
+- temporary folders: :func:`temp_dir` registers each one so that
+  :func:`remove_temp_dirs` (called by the CLI on every exit path, and at
+  interpreter exit) leaves nothing behind.
+
+Examples
+--------
+>>> number("2.5", "--t-end", low=0.0, low_open=True)
+2.5
+>>> number(float("nan"), "link2.m")
+Traceback (most recent call last):
+...
+grubler.errors.InputError: link2.m: must be a finite number, got nan
+>>> brief("x" * 1000, 20)
+"'xxxxxxxxxxxxxxxxxxx... (1002 characters)"
+"""
+
+from __future__ import annotations
+
+import atexit
+import math
+import os
+import shutil
+import tempfile
+import threading
+import tomllib
+import zipfile
+import zlib
+from pathlib import Path
+
+from .errors import InputError, LimitError
+
+# Largest magnitude a number from outside may have.  Lengths, masses, gains and
+# torques are multiplied together in the equations of motion (m a^2 w^2 ...):
+# past ~1e12 their products leave the range where a double keeps the digits the
+# integrator's error test needs, and past ~1e154 their squares overflow.
+MAX_MAGNITUDE = 1e12
+# Output budget: what an array, table or file a command writes may take.  It can
+# be raised for a big machine (GRUBLER_MAX_OUTPUT_BYTES, in bytes).
+MAX_OUTPUT_BYTES = int(float(os.environ.get("GRUBLER_MAX_OUTPUT_BYTES", 2 * 1024**3)))
+MAX_TEXT_BYTES = 16 * 1024**2  # a scene or an SSD: kilobytes in practice
+MAX_TABLE_BYTES = 512 * 1024**2  # a run CSV
+MAX_TOML_DEPTH = 32  # a scene nests three tables deep
+# Archives (SSP, FMU): an FMU compresses 3 to 10 times; a zip bomb 1000 times.
+ARCHIVE_MAX_BYTES = 2 * 1024**3
+ARCHIVE_MAX_RATIO = 200.0
+ARCHIVE_MAX_MEMBERS = 10_000
+MAX_STEPS = 1e9  # rounds of a loop the input sets (communication steps): a day of FMU calls
+MAX_POINTS = 1e6  # points of a sweep grid
+MESSAGE_CHARS = 80  # what a message quotes of a value
+
+
+def brief(value, limit: int = MESSAGE_CHARS) -> str:
+    """``repr(value)``, cut to ``limit`` characters so that a message stays one readable line."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit - 1]}... ({len(text)} characters)"
+
+
+def clip(text: str, limit: int = MESSAGE_CHARS) -> str:
+    """``text`` itself, cut to ``limit`` characters (:func:`brief` without the quotes)."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit - 1]}... ({len(text)} characters)"
+
+
+def number(value, field: str, *, low: float | None = None, high: float | None = None, low_open: bool = False,
+           integer: bool = False, magnitude: float = MAX_MAGNITUDE) -> float:
+    """A finite number from outside (int, float or its text), or an InputError naming ``field``.
+
+    Parameters
+    ----------
+    value : int, float or str
+    field : str
+        The field or option, as the user spells it.
+    low, high : float, optional
+        Inclusive bounds (``low`` exclusive with ``low_open``).
+    integer : bool
+        It must be a whole number (returned as ``int``).
+    magnitude : float
+        Largest absolute value accepted.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise InputError(field, f"must be a number, got {brief(value)}")
+    if isinstance(value, str):
+        text = value.strip()
+        if len(text) > 64:
+            raise InputError(field, f"is not a number: {brief(value)}")
+        try:
+            v = int(text) if integer and text.lstrip("+-").isdigit() else float(text)
+        except ValueError:
+            raise InputError(field, f"is not a number: {brief(value)}") from None
+    else:
+        v = value
+    if isinstance(v, int) and abs(v) > magnitude:
+        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, "
+                                f"got {brief(v, 24)}")
+    v_f = float(v)
+    if not math.isfinite(v_f):
+        raise InputError(field, f"must be a finite number, got {brief(value)}")
+    if abs(v_f) > magnitude:
+        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, got {v_f:g}")
+    if low is not None and (v_f < low or (low_open and v_f == low)):
+        raise InputError(field, f"must be {'>' if low_open else '>='} {low:g}, got {v_f:g}")
+    if high is not None and v_f > high:
+        raise InputError(field, f"must be <= {high:g}, got {v_f:g}")
+    if integer:
+        if v_f != int(v_f):
+            raise InputError(field, f"must be a whole number, got {v_f:g}")
+        return int(v_f)
+    return v_f
+
+
+# -- files ----------------------------------------------------------------------------------
+def read_bytes(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) -> bytes:
+    """The bytes of a regular file no larger than ``max_bytes``."""
+    p = Path(path)
+    if not p.exists():
+        raise InputError(field, f"{brief(str(p))}: no such file")
+    if not p.is_file():
+        raise InputError(field, f"{brief(str(p))}: not a regular file")
+    size = p.stat().st_size
+    if size > max_bytes:
+        raise LimitError(field, f"{brief(str(p))} is {_size(size)}, more than the {_size(max_bytes)} this "
+                                "reader accepts")
+    with open(p, "rb") as fh:
+        data = fh.read(max_bytes + 1)  # the file may have grown since stat()
+    if len(data) > max_bytes:
+        raise LimitError(field, f"{brief(str(p))} is more than the {_size(max_bytes)} this reader accepts")
+    return data
+
+
+def decode_text(data: bytes, field: str, where: str = "") -> str:
+    """UTF-8 text, refusing binary data by name."""
+    head = f"{where}: " if where else ""
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        raise InputError(field, f"{head}a binary file, not text (a NUL byte at offset {nul})")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(field, f"{head}not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})") \
+            from None
+
+
+def read_text(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """A UTF-8 text file no larger than ``max_bytes``, or an InputError naming ``field``."""
+    return decode_text(read_bytes(path, field, max_bytes), field, brief(str(path)))
+
+
+def parse_toml(text: str, field: str) -> dict:
+    """TOML text, with the nesting depth bounded (tomllib recurses) and huge integers refused."""
+    depth = deepest = 0
+    quote = None
+    for ch in text:  # brackets outside strings: an upper bound of tomllib's recursion
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "\n":
+            depth = max(depth, 0)
+    if deepest > MAX_TOML_DEPTH:
+        raise InputError(field, f"not valid here: arrays or tables nested {deepest} deep "
+                                f"(at most {MAX_TOML_DEPTH})")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(field, f"not valid TOML: {exc}") from None
+    except (RecursionError, ValueError) as exc:  # ValueError: an integer of more than 4300 digits
+        raise InputError(field, f"not valid here: {brief(str(exc), 120)}") from None
+
+
+def _writable_formats() -> set[str]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return set(FigureCanvasBase.get_supported_filetypes())
+
+
+def output_file(path: str, option: str, suffixes: tuple[str, ...] | str | None = None) -> Path:
+    """Check, before the run, that ``path`` can be written: its folder exists, it is not a
+    folder, and its extension is one of ``suffixes`` (``'figure'``: what matplotlib writes)."""
+    p = Path(path)
+    if not str(path) or p.name in ("", ".", ".."):
+        raise InputError(option, f"{brief(str(path))} is not a file name")
+    if p.is_dir():
+        raise InputError(option, f"{brief(str(path))} is a folder; give a file name")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(option, f"{brief(str(path))}: the folder {brief(str(parent))} does not exist")
+    if suffixes is not None:
+        allowed = sorted(_writable_formats()) if suffixes == "figure" else [s.lstrip(".") for s in suffixes]
+        ext = p.suffix.lower().lstrip(".")
+        if ext not in allowed:
+            raise InputError(option, f"{brief(str(path))}: cannot write a {ext or 'file without extension'!r} "
+                                     f"file; use one of {', '.join('.' + a for a in allowed)}")
+    return p
+
+
+# -- sizes ----------------------------------------------------------------------------------
+def _size(n: float) -> str:
+    for unit in ("bytes", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}" if unit != "bytes" else f"{int(n)} bytes"
+        n /= 1000
+    return f"{n:.3g} EB"
+
+
+def check_size(count: float, bytes_each: float, what: str, option: str, budget: int | None = None) -> int:
+    """Refuse an output of ``count`` items of ``bytes_each`` that would exceed the budget.
+
+    Returns ``count`` as an int when it fits.  The message gives the estimate and
+    the option that changes it.
+    """
+    budget = MAX_OUTPUT_BYTES if budget is None else budget
+    if not math.isfinite(count) or count * bytes_each > budget:
+        total = count * bytes_each
+        raise LimitError(option, f"{what} would take {_size(total) if math.isfinite(total) else 'unbounded memory'}"
+                                 f" ({count:.3g} items), more than the {_size(budget)} budget; change it "
+                                 "(or raise GRUBLER_MAX_OUTPUT_BYTES)")
+    return int(count)
+
+
+def check_count(count: float, limit: float, what: str, option: str) -> int:
+    """Refuse a loop of ``count`` rounds, input-controlled, beyond ``limit``; else ``int(count)``."""
+    if not (math.isfinite(count) and count <= limit):
+        raise LimitError(option, f"{count:.3g} {what}, more than the {limit:.3g} this command allows; change it")
+    return int(count)
+
+
+# -- temporary folders ----------------------------------------------------------------------
+_TEMP: list[Path] = []
+_TEMP_LOCK = threading.Lock()
+
+
+def temp_dir(prefix: str) -> Path:
+    """A new temporary folder, removed by :func:`remove_temp_dirs` (or at interpreter exit)."""
+    p = Path(tempfile.mkdtemp(prefix=prefix))
+    with _TEMP_LOCK:
+        _TEMP.append(p)
+    return p
+
+
+def remove_temp_dir(path: Path) -> None:
+    """Remove one registered temporary folder now."""
+    with _TEMP_LOCK:
+        if path in _TEMP:
+            _TEMP.remove(path)
+    shutil.rmtree(path, ignore_errors=True)
+
+
+def remove_temp_dirs() -> None:
+    """Remove every temporary folder this process made (the CLI calls it on every exit)."""
+    with _TEMP_LOCK:
+        paths, _TEMP[:] = list(_TEMP), []
+    for p in paths:
+        shutil.rmtree(p, ignore_errors=True)
+
+
+atexit.register(remove_temp_dirs)
+
+
+# -- archives -------------------------------------------------------------------------------
+def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int = ARCHIVE_MAX_BYTES,
+                max_ratio: float = ARCHIVE_MAX_RATIO, max_members: int = ARCHIVE_MAX_MEMBERS) -> Path:
+    """Extract a zip archive into ``dest`` within bounds, counting the bytes actually inflated.
+
+    Refuses (InputError naming ``field``) an archive that is not a zip, one with
+    more than ``max_members`` members, more than ``max_bytes`` in total or a
+    member inflating more than ``max_ratio`` times (past a 1 MB allowance, so
+    small well-compressed text is fine).  Member names that would leave ``dest``
+    are refused too.  On a refusal, what was extracted is removed.
+    """
+    name = brief(str(path))
+    try:
+        zf = zipfile.ZipFile(path)
+    except zipfile.BadZipFile:
+        raise InputError(field, f"{name}: not a zip archive") from None
+    except OSError as exc:
+        raise InputError(field, f"{name}: cannot be read ({exc.strerror or exc})") from None
+    dest = Path(dest)
+    root = dest.resolve()
+    total = 0
+    try:
+        with zf:
+            infos = zf.infolist()
+            if len(infos) > max_members:
+                raise LimitError(field, f"{name}: {len(infos)} members, more than {max_members}")
+            for info in infos:
+                target = (dest / info.filename).resolve()
+                if root != target and root not in target.parents:
+                    raise InputError(field, f"{name}: member {brief(info.filename)} would be written outside "
+                                            "the extraction folder")
+                if info.is_dir():
+                    target.mkdir(parents=True, exist_ok=True)
+                    continue
+                target.parent.mkdir(parents=True, exist_ok=True)
+                allowance = max(info.compress_size * max_ratio, 1024**2)
+                written = 0
+                with zf.open(info) as src, open(target, "wb") as out:
+                    while chunk := src.read(1 << 20):
+                        written += len(chunk)
+                        total += len(chunk)
+                        if written > allowance:
+                            raise LimitError(field, f"{name}: member {brief(info.filename)} inflates more than "
+                                                    f"{max_ratio:g} times its compressed size (a zip bomb?)")
+                        if total > max_bytes:
+                            raise LimitError(field, f"{name}: more than {_size(max_bytes)} once extracted")
+                        out.write(chunk)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError, zlib.error) as exc:
+        shutil.rmtree(dest, ignore_errors=True)
+        raise InputError(field, f"{name}: a damaged or unsupported zip archive ({brief(str(exc), 100)})") from None
+    except BaseException:
+        shutil.rmtree(dest, ignore_errors=True)
+        raise
+    return dest
+
+
+__all__ = ["number", "read_text", "read_bytes", "decode_text", "parse_toml", "output_file", "check_size",
+           "extract_zip", "clip", "temp_dir", "remove_temp_dir", "remove_temp_dirs", "brief", "MAX_MAGNITUDE",
+           "MAX_OUTPUT_BYTES", "check_count"]
