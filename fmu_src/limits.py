@@ -23,12 +23,13 @@ Examples
 --------
 >>> number("2.5", "--t-end", low=0.0, low_open=True)
 2.5
->>> number(float("nan"), "link2.m")
-Traceback (most recent call last):
-...
-grubler.errors.InputError: link2.m: must be a finite number, got nan
+>>> try:
+...     number(float("nan"), "link2.m")
+... except InputError as exc:
+...     print(exc)
+link2.m: must be a finite number, got nan
 >>> brief("x" * 1000, 20)
-"'xxxxxxxxxxxxxxxxxxx... (1002 characters)"
+"'xxxxxxxxxxxxxxxxxx... (1002 characters)"
 """
 
 from __future__ import annotations
