@@ -186,6 +186,15 @@ class Drawer:
         return line
 
 
+def check_frames(duration: float, fps: float, speed: float, size=(6.4, 5.2), dpi: int = 80) -> int:
+    """The frame count of ``duration`` seconds of motion, refused past the output budget.
+
+    The GIF writer holds every frame in memory (RGBA at the figure's size).
+    """
+    return check_size(duration * fps / speed + 1, 4 * size[0] * size[1] * dpi * dpi, "the animation's frames",
+                      "--fps, --speed or the run's length")
+
+
 def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int = 25, speed: float = 1.0,
             trace: str | None = None, title: str = "", size=(6.4, 5.2), dpi: int = 80) -> int:
     """Write a GIF (or MP4 with ffmpeg) of a trajectory; returns the frame count.
@@ -199,9 +208,7 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int 
         raise SceneError("--out", "MP4 needs ffmpeg on the PATH (apt-get install ffmpeg); write a .gif instead")
     if not (out.endswith(".gif") or out.endswith(".mp4")):
         raise SceneError("--out", f"expected a .gif or .mp4 file name, got {out!r}")
-    # the GIF writer holds every frame in memory (RGBA at the figure's size)
-    check_size((t[-1] - t[0]) * fps / speed + 1, 4 * size[0] * size[1] * dpi * dpi, "the animation's frames",
-               "--fps, --speed or the run's length")
+    check_frames(t[-1] - t[0], fps, speed, size, dpi)
     times = np.arange(t[0], t[-1] + 1e-12, speed / fps)
     idx = np.clip(np.searchsorted(t, times - 1e-12), 0, len(t) - 1)
     point = trace_point(trace, model)

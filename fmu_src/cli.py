@@ -120,7 +120,7 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .animation import animate
+    from .animation import animate, check_frames
 
     if args.source.endswith(".csv"):
         if not args.scene:
@@ -131,6 +131,7 @@ def cmd_animate(args) -> int:
         t, zs = cols["t"], coordinates(cols, scene.mechanism)
     else:
         scene = load_scene(args.source)
+        check_frames(args.t_end or scene.t_end, args.fps, args.speed)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
         t, zs = res.t, res.z
     out = args.out or f"{scene.name or 'mechanism'}.gif"
@@ -400,6 +401,7 @@ def run(argv: Sequence[str] | None = None) -> int:
     try:
         return args.func(args)
     except KeyboardInterrupt:
+        _LAST["interrupted"] = True
         print("grubler: interrupted", file=sys.stderr)
         return 130
     except (GrublerError, OSError, MemoryError) as exc:
@@ -422,6 +424,9 @@ def _exit_now(code: int) -> None:
     os._exit(code)
 
 
+_WATCHING = False
+
+
 def _watch_interrupts(grace: float = 0.5) -> None:
     """Ctrl-C (or SIGTERM) ends any command within a second, with status 130 and one line.
 
@@ -433,6 +438,10 @@ def _watch_interrupts(grace: float = 0.5) -> None:
     """
     import threading
 
+    global _WATCHING
+    if _WATCHING or threading.current_thread() is not threading.main_thread():
+        return  # once per process; signals are the main thread's
+    _WATCHING = True
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
     signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
@@ -446,7 +455,8 @@ def _watch_interrupts(grace: float = 0.5) -> None:
             data = os.read(read_fd, 64)
             if any(b in (signal.SIGINT, getattr(signal, "SIGTERM", -1)) for b in data):
                 time.sleep(grace)
-                print("grubler: interrupted", file=sys.stderr)
+                if not _LAST.get("interrupted"):
+                    print("grubler: interrupted", file=sys.stderr)
                 limits.remove_temp_dirs()
                 _exit_now(130)
 

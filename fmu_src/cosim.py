@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import GrublerError
+from .errors import GrublerError, InputError
 from .limits import MAX_STEPS, brief, clip, check_count, check_size, extract_zip, remove_temp_dir, temp_dir
 from .ssp import System, SystemDescriptionError, read
 
@@ -439,8 +439,10 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         try:
             if path not in unzipped:
                 unzipped[path] = temp_dir("grubler_fmu_")
-                extract_zip(path, unzipped[path], f"component {name}")
+                extract_zip(path, unzipped[path], f"component {name}", where=clip(comp.source))
             interfaces[name] = FmuInterface.of(path, unzipped[path])
+        except InputError as exc:
+            problems.append(f"component {name}: cannot read {exc.reason}")
         except Exception as exc:  # noqa: BLE001 - a broken FMU is one of the problems listed
             problems.append(f"component {name}: cannot read {brief(path.name)}: {clip(str(exc), 200)}")
     problems += check(system, interfaces)

@@ -283,17 +283,22 @@ atexit.register(remove_temp_dirs)
 
 
 # -- archives -------------------------------------------------------------------------------
-def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int = ARCHIVE_MAX_BYTES,
-                max_ratio: float = ARCHIVE_MAX_RATIO, max_members: int = ARCHIVE_MAX_MEMBERS) -> Path:
+def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int | None = None,
+                max_ratio: float | None = None, max_members: int | None = None,
+                where: str | None = None) -> Path:
     """Extract a zip archive into ``dest`` within bounds, counting the bytes actually inflated.
 
     Refuses (InputError naming ``field``) an archive that is not a zip, one with
     more than ``max_members`` members, more than ``max_bytes`` in total or a
     member inflating more than ``max_ratio`` times (past a 1 MB allowance, so
-    small well-compressed text is fine).  Member names that would leave ``dest``
-    are refused too.  On a refusal, what was extracted is removed.
+    small well-compressed text is fine); the bounds default to the module's.  Member names that would leave ``dest``
+    are refused too.  On a refusal, what was extracted is removed.  ``where``
+    names the archive in messages (default: its path).
     """
-    name = brief(str(path))
+    max_bytes = ARCHIVE_MAX_BYTES if max_bytes is None else max_bytes
+    max_ratio = ARCHIVE_MAX_RATIO if max_ratio is None else max_ratio
+    max_members = ARCHIVE_MAX_MEMBERS if max_members is None else max_members
+    name = where or brief(str(path))
     try:
         zf = zipfile.ZipFile(path)
     except zipfile.BadZipFile:

@@ -437,7 +437,7 @@ def _strip(pname: str, prefix: str, component: str) -> str:
 
 
 def _parameter_value(p: ET.Element, component: str):
-    field = f"parameter {component}.{brief(p.get('name'))}"
+    field = f"parameter {component}.{clip(p.get('name'))}"
     for tag in ("Real", "Integer"):
         v = p.find(f"ssv:{tag}", NS)
         if v is not None:
