@@ -202,8 +202,8 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int 
     Frames are taken at ``speed`` seconds of motion per second of film, ``fps``
     frames per second.
     """
-    if not (fps > 0 and speed > 0):
-        raise SceneError("--fps/--speed", "must be positive")
+    if not (0.01 <= fps <= 100.0 and speed > 0):  # a GIF frame lasts 10 ms to 655 s
+        raise SceneError("--fps/--speed", f"fps must be 0.01 to 100 and speed positive, got {fps:g}, {speed:g}")
     if out.endswith(".mp4") and shutil.which("ffmpeg") is None:
         raise SceneError("--out", "MP4 needs ffmpeg on the PATH (apt-get install ffmpeg); write a .gif instead")
     if not (out.endswith(".gif") or out.endswith(".mp4")):

@@ -310,7 +310,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
     a.add_argument("--out", type=_output("--out", (".gif", ".mp4")),
                    help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
-    a.add_argument("--fps", type=_positive("--fps"), default=25.0, help="frames per second of film")
+    a.add_argument("--fps", type=_number("--fps", low=0.01, high=100.0), default=25.0,
+                   help="frames per second of film, 0.01 to 100 (a GIF frame lasts 10 ms to 655 s)")
     a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
     a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0)")
     a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")

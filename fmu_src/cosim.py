@@ -408,17 +408,17 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     step = step if step is not None else (system.step if system.step is not None else 1e-3)
     for name, v in (("t_end", t_end), ("step", step), ("start_time", t0)):
         if not math.isfinite(v):
-            raise SystemDescriptionError(f"{name} must be finite, got {v}")
+            raise SystemDescriptionError(f"{name}: must be finite, got {v}")
     if not step > 0:
-        raise SystemDescriptionError(f"step must be positive, got {step}")
+        raise SystemDescriptionError(f"step: must be positive, got {step}")
     if t_end <= t0:
-        raise SystemDescriptionError(f"t_end ({t_end}) must be after the start time ({t0})")
+        raise SystemDescriptionError(f"t_end: {t_end} must be after the start time {t0}")
     if master not in MASTERS:
-        raise SystemDescriptionError(f"master must be one of {', '.join(MASTERS)}, got {master!r}")
-    if int(record_every) < 1:
-        raise SystemDescriptionError(f"record_every must be >= 1, got {record_every}")
+        raise SystemDescriptionError(f"master: must be one of {', '.join(MASTERS)}, got {brief(master)}")
+    if not (isinstance(record_every, int) and record_every >= 1):
+        raise SystemDescriptionError(f"record_every: must be a whole number >= 1, got {brief(record_every)}")
     if not system.components:
-        raise SystemDescriptionError(f"system {brief(system.name)} has no components")
+        raise SystemDescriptionError(f"system {brief(system.name)}: has no components")
     unzipped: dict[Path, Path] = {}  # each FMU unpacked once, into a folder removed on the way out
     try:
         return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped)
@@ -440,6 +440,9 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             if path not in unzipped:
                 unzipped[path] = temp_dir("grubler_fmu_")
                 extract_zip(path, unzipped[path], f"component {name}", where=clip(comp.source))
+            if not (unzipped[path] / "modelDescription.xml").is_file():
+                problems.append(f"component {name}: {clip(comp.source)} is not an FMU (no modelDescription.xml)")
+                continue
             interfaces[name] = FmuInterface.of(path, unzipped[path])
         except InputError as exc:
             problems.append(f"component {name}: cannot read {exc.reason}")
@@ -447,7 +450,8 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             problems.append(f"component {name}: cannot read {brief(path.name)}: {clip(str(exc), 200)}")
     problems += check(system, interfaces)
     if problems:
-        raise SystemDescriptionError("the system cannot run:\n  " + "\n  ".join(problems))
+        raise SystemDescriptionError(f"system {brief(system.name)}: cannot run, {len(problems)} "
+                                     f"problem{'s' if len(problems) > 1 else ''}:\n  " + "\n  ".join(problems))
     seq = order(system, interfaces)  # also what finds an algebraic loop
     chosen = step_order if step_order is not None else system.order
     if chosen:

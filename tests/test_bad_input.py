@@ -26,12 +26,12 @@ def one_component(tmp_path):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"t_end": math.nan}, "t_end must be finite, got nan"),
-    ({"step": math.inf}, "step must be finite, got inf"),
-    ({"step": 0.0}, "step must be positive, got 0.0"),
-    ({"t_end": 1.0, "start_time": 2.0}, r"t_end \(1.0\) must be after the start time \(2.0\)"),
-    ({"master": "newton"}, "master must be one of gauss-seidel, jacobi, got 'newton'"),
-    ({"record_every": 0}, "record_every must be >= 1, got 0"),
+    ({"t_end": math.nan}, "t_end: must be finite, got nan"),
+    ({"step": math.inf}, "step: must be finite, got inf"),
+    ({"step": 0.0}, "step: must be positive, got 0.0"),
+    ({"t_end": 1.0, "start_time": 2.0}, "t_end: 1.0 must be after the start time 2.0"),
+    ({"master": "newton"}, "master: must be one of gauss-seidel, jacobi, got 'newton'"),
+    ({"record_every": 0}, "record_every: must be a whole number >= 1, got 0"),
 ])
 def test_the_runner_names_a_bad_setting(tmp_path, kwargs, message):
     with pytest.raises(ssp.SystemDescriptionError, match=message):
@@ -39,7 +39,7 @@ def test_the_runner_names_a_bad_setting(tmp_path, kwargs, message):
 
 
 def test_the_runner_refuses_an_empty_system():
-    with pytest.raises(ssp.SystemDescriptionError, match="system 'empty' has no components"):
+    with pytest.raises(ssp.SystemDescriptionError, match="system 'empty': has no components"):
         cosim.run(ssp.System("empty"))
 
 

@@ -126,8 +126,9 @@ def test_an_output_grid_of_terabytes_is_refused_before_allocating(capsys):
 
 def test_an_animation_of_too_many_frames_is_refused(capsys, tmp_path):
     for source in ("thesis-fourbar", GOOD_CSV(tmp_path)):
-        refused(capsys, "animate", source, "--scene", "thesis-fourbar", "--t-end", "0.2", "--fps", "1e9",
-                "--out", tmp_path / "a.gif", field="--fps", reason="frames would take")
+        refused(capsys, "animate", source, "--scene", "thesis-fourbar", "--t-end", "0.2", "--speed", "1e-9",
+                "--out", tmp_path / "a.gif", field="--speed", reason="frames would take")
+    refused(capsys, "animate", "thesis-fourbar", "--fps", "0.001", field="--fps", reason=">= 0.01")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["good.csv"]
 
 
