@@ -52,7 +52,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from grubler.errors import SceneError
+import numpy as np
+
+from grubler.errors import InputError, SceneError
+from grubler.limits import number
 
 # A sample instant within this fraction of Ts of a step's end belongs to the
 # next step: communication points accumulated in floating point (0.1 + 0.2)
@@ -150,20 +153,18 @@ def check_sample_time(Ts: float, field: str = "Ts", allow_zero: bool = False) ->
 
 def check_number(value, field: str, low: float = -math.inf, high: float = math.inf,
                  low_open: bool = False) -> float:
-    """A finite float in [low, high] (or (low, high]), or SceneError naming the field."""
-    if isinstance(value, bool):
-        raise SceneError(field, f"must be a number, got {value!r}")
+    """A finite float in [low, high] (or (low, high]), or SceneError naming the field.
+
+    The project's one gate for numbers (:func:`grubler.limits.number`), without
+    its magnitude bound: a controller's limits use +-1e300 for "none".
+    """
+    if isinstance(value, np.generic):
+        value = value.item()
     try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(field, f"must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise SceneError(field, f"must be finite, got {v}")
-    if v < low or (low_open and v == low):
-        raise SceneError(field, f"must be {'>' if low_open else '>='} {low:g}, got {v:g}")
-    if v > high:
-        raise SceneError(field, f"must be <= {high:g}, got {v:g}")
-    return v
+        return number(value, field, low=None if low == -math.inf else low,
+                      high=None if high == math.inf else high, low_open=low_open, magnitude=math.inf)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
 
 
 class Sampler:

@@ -30,6 +30,7 @@ import tomllib
 import numpy as np
 
 from grubler.errors import SceneError
+from grubler.limits import brief
 
 from .law import Law, Parameter, check_sample_time
 
@@ -41,9 +42,9 @@ def _coefficients(text: str, field: str) -> list[float]:
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise SceneError(field, f"must be numbers separated by spaces or commas, got {text!r}") from None
+        raise SceneError(field, f"must be numbers separated by spaces or commas, got {brief(text)}") from None
     if not values or not np.all(np.isfinite(values)):
-        raise SceneError(field, f"needs at least one finite coefficient, got {text!r}")
+        raise SceneError(field, f"needs at least one finite coefficient, got {brief(text)}")
     return values
 
 

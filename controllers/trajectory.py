@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grubler.errors import SceneError
+from grubler.limits import brief
 
 from .law import Law, Parameter, check_number
 
@@ -112,7 +113,7 @@ def _floats(value, field: str) -> np.ndarray:
         try:
             value = [float(p) for p in parts]
         except ValueError:
-            raise SceneError(field, f"must be numbers separated by spaces or commas, got {value!r}") from None
+            raise SceneError(field, f"must be numbers separated by spaces or commas, got {brief(value)}") from None
     arr = np.asarray(value, dtype=float)
     if arr.ndim != 1 or not np.all(np.isfinite(arr)):
         raise SceneError(field, "must be a list of finite numbers")

@@ -19,13 +19,20 @@ class InputError(GrublerError, ValueError):
         What is wrong with it, in the engineer's terms.
     """
 
+    MAX_CHARS = 1000  # a value echoed into a message is cut, whatever its size
+
     def __init__(self, field: str, reason: str):
+        field, reason = _cut(str(field), 200), _cut(str(reason), self.MAX_CHARS)
         self.field = field
         self.reason = reason
         super().__init__(f"{field}: {reason}")
 
     def __reduce__(self):  # sweep workers send errors back pickled
         return (type(self), (self.field, self.reason))
+
+
+def _cut(text: str, limit: int) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 class LimitError(InputError):

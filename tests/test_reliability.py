@@ -418,3 +418,15 @@ def test_ctrl_c_stops_a_long_simulate_within_a_second():
     proc.wait(timeout=30)
     assert time.monotonic() - t0 < 1.5
     assert proc.returncode == 130
+
+
+def test_a_huge_value_is_never_echoed_whole():
+    from grubler.controllers import Trajectory
+
+    big = "0 " * 12_000_000 + "x"  # a 24 MB table with one bad entry
+    with pytest.raises(SceneError, match="times: must be numbers") as info:
+        Trajectory("table", times=big, positions="0 1")
+    assert len(str(info.value)) < 1500
+    with pytest.raises(SceneError) as info:
+        override(load_scene("thesis-fourbar"), {"drive_joint": list(range(3_000_000))})
+    assert len(str(info.value)) < 1500
