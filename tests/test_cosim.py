@@ -5,6 +5,7 @@ CSV it wrote, so a crash at interpreter exit (PythonFMU issue 228) cannot hide o
 fake a result.  Checking and ordering read model descriptions only.
 """
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -195,3 +196,17 @@ def test_a_bad_order_or_record_is_named(mechanism_fmu):
         cosim.run(s, t_end=0.01, step_order=["a"])
     with pytest.raises(ssp.SystemDescriptionError, match="record 'a.nope': not an output of a component"):
         cosim.run(s, t_end=0.01, record=["a.nope"])
+
+
+@pytest.mark.parametrize("params, status", [({}, 0), ({"link2.m": -1.0}, 2)])
+def test_a_cosim_leaves_nothing_in_the_temporary_folder(mechanism_fmu, tmp_path, params, status):
+    # issue 13: the archive's and the FMU's extraction folders go, on success and on error
+    s = ssp.System("alone")
+    s.add("m", mechanism_fmu, **params)
+    archive = s.write(tmp_path / "alone.ssp")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(archive), "--t-end", "0.01"],
+                          capture_output=True, text=True, timeout=600, env={**os.environ, "TMPDIR": str(tmp)})
+    assert proc.returncode == status, proc.stderr
+    assert list(tmp.iterdir()) == []
