@@ -193,3 +193,33 @@ def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
         return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
                 f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle inequality)")
     return ""
+
+
+def explain_singular_start(model: "Mechanism", z, zd, method: str) -> str:
+    """Which link's missing inertia makes the equations of motion unsolvable at a state ('' if none).
+
+    A revolute link with ``I = 0`` and its mass centre on its joint gives its
+    coordinate no inertia; unless a closure carries it, the equations of motion
+    are singular.  Each link in turn is given a small moment of inertia: the one
+    that makes the state solvable is named.  (The equations themselves are the
+    kernel's; this only calls them.)
+    """
+    from dataclasses import replace
+
+    from .dynamics import Inputs, forward_dynamics
+
+    scale = max([1.0] + [link.m * link.a**2 for link in model.links])
+    for k, link in enumerate(model.links):
+        if link.joint != "R" or link.I > 0:
+            continue
+        links = list(model.links)
+        links[k] = replace(link, I=1e-6 * scale)
+        try:
+            forward_dynamics(model.replace(links=tuple(links)), np.asarray(z, float), np.asarray(zd, float),
+                             Inputs(), method)
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            continue
+        return (f"link{k + 2}.I: the link's rotation carries no inertia (I = 0 and its mass centre on its "
+                "joint) and no closure carries it, so the equations of motion are singular; give it a "
+                "moment of inertia I > 0 or move its mass centre (p, q) off the joint")
+    return ""

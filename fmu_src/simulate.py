@@ -38,7 +38,8 @@ from .dynamics import (
     rhs_into,
     workspace,
 )
-from .errors import SceneError
+from .analysis import explain_singular_start
+from .errors import IntegrationError, SceneError
 from .integrators import Integrator, StateEquation
 from .limits import check_size
 from .model import Mechanism, coordinate_names
@@ -408,7 +409,15 @@ def simulate(
     times = np.arange(n_out) * dt_out
     if times[-1] < t_end - 1e-12:
         times = np.append(times, t_end)
-    zs, zds = sim.advance_through(times)
+    try:
+        zs, zds = sim.advance_through(times)
+    except IntegrationError:
+        # a scene whose start cannot be solved: name the field at fault when one is
+        why = explain_singular_start(scene.mechanism, sim.z, sim.zd, method) if sim.t == 0.0 else ""
+        if why:
+            field, _, reason = why.partition(": ")
+            raise SceneError(field, reason) from None
+        raise
     return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats)
 
 

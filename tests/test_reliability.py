@@ -430,3 +430,13 @@ def test_a_huge_value_is_never_echoed_whole():
     with pytest.raises(SceneError) as info:
         override(load_scene("thesis-fourbar"), {"drive_joint": list(range(3_000_000))})
     assert len(str(info.value)) < 1500
+
+
+def test_a_link_without_inertia_is_named_not_blamed_on_the_integrator(capsys, tmp_path):
+    # found by the fuzz suite: an open chain whose last link is a point mass on its joint
+    path = tmp_path / "s.toml"
+    path.write_text('[link2]\njoint = "R"\na = 0.25\np = 0.25\nm = 1.0\n[link3]\njoint = "R"\na = 1.0\np = 1.0\n'
+                    'm = 2.0\n[link4]\njoint = "R"\na = 0.0\nm = 3.0\n[drive]\njoint = "theta2"\n')
+    refused(capsys, "simulate", path, "--t-end", "0.02", field="link4.I", reason="carries no inertia")
+    path.write_text(path.read_text().replace("m = 3.0", "m = 3.0\nI = 0.01"))
+    assert cli(capsys, "simulate", path, "--t-end", "0.02")[0] == 0
