@@ -328,11 +328,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an axis: NAME=V1,V2,... or NAME=START:STOP:N (e.g. link2.a=0.15:0.25:5); repeat")
     w.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="simulated time per point, s")
     w.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
-    w.add_argument("--out", type=_output("--out", (".csv", ".parquet")), help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
+    w.add_argument("--out", type=_output("--out", (".csv", ".parquet")),
+                   help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
     w.add_argument("--workers", type=_number("--workers", low=1, high=1024, integer=True),
                    help="local processes (default: all cores)")
     w.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
-    w.add_argument("--no-resume", action="store_true", help="ignore the journal of an earlier run")
+    w.add_argument("--no-resume", action="store_true", help="start afresh (an earlier journal is kept as OUT.journal.jsonl.N)")
     w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
     w.set_defaults(func=cmd_sweep)
     z = sub.add_parser("size", help="size a motor and gear ratio for a drive duty cycle")

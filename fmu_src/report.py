@@ -85,7 +85,7 @@ def write_report(columns: dict[str, np.ndarray], out: str, title: str = "",
         ax.set_xlabel("t [s]", fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.tick_params(labelsize=8)
-        if len(names) > 1:
+        if sum(n in columns for n in names) > 1:  # a legend only for the lines there are
             ax.legend(fontsize=7)
         return ax
 

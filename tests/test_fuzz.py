@@ -46,7 +46,7 @@ def mutated_scene(draw) -> dict:
     return data
 
 
-@examples(120)
+@examples(90)
 @given(mutated_scene(), st.integers(0, 4))
 def test_fuzz_scene_files(data, which):
     files = {"s.toml": toml_text(data).encode("utf-8", "surrogatepass")}
@@ -69,7 +69,7 @@ def test_fuzz_scene_bytes(content):
     check_cli("scene (raw bytes)", ["info", "s.toml"], {"s.toml": content})
 
 
-@examples(80)
+@examples(60)
 @given(st.lists(st.tuples(st.sampled_from(["--t-end", "--dt-out", "--rtol", "--atol", "--step", "--torque",
                                            "--method", "--integrator", "--plot", "--csv"]),
                           number_text(small=True)), max_size=4))
@@ -144,7 +144,7 @@ def test_fuzz_animate_options(options):
     check_cli("options: animate", argv, {}, ("a.gif",))
 
 
-@examples(120)
+@examples(90)
 @given(ssd_text(), st.lists(st.tuples(st.sampled_from(["--t-end", "--step", "--dt-out"]), number_text()),
                             max_size=2))
 def test_fuzz_ssd_files(text, options):
@@ -155,20 +155,20 @@ def test_fuzz_ssd_files(text, options):
                                      "A.fmu": b"PK\x05\x06" + b"\0" * 18})
 
 
-@examples(60)
+@examples(45)
 @given(ssp_archive())
 def test_fuzz_ssp_archives(data):
     check_cli("system (SSP archive)", ["cosim", "s.ssp"], {"s.ssp": data})
 
 
-@examples(50)
+@examples(40)
 @given(run_csv(), st.booleans())
 def test_fuzz_report_csv(data, with_scene):
     argv = ["report", "r.csv", "--out", "r.png"] + (["--scene", "thesis-fourbar"] if with_scene else [])
     check_cli("run CSV: report", argv, {"r.csv": data}, ("r.png",))
 
 
-@examples(30)
+@examples(25)
 @given(run_csv())
 def test_fuzz_animate_csv(data):
     check_cli("run CSV: animate", ["animate", "r.csv", "--scene", "thesis-fourbar", "--out", "a.gif", "--fps", "4"],
