@@ -211,28 +211,36 @@ static double advance_temperature(const dcm_params *p, double temp, double i2_me
     return temp + (a * temp + c) * h * phi;
 }
 
+/* tanh(omega_m / omega_s): the smoothed sign of the motor speed, over which
+ * both the dry friction and the gearbox's direction of power flow turn. */
+static double speed_sign(const dcm_params *p, double motor_speed)
+{
+    return tanh(motor_speed / p->smoothing_speed);
+}
+
 /* Motor-shaft friction torque, b omega_m + tau_c tanh(omega_m / omega_s): the
  * dry friction smoothed so that a speed held over a step does not chatter. */
-static double friction(const dcm_params *p, double motor_speed)
+static double friction(const dcm_params *p, double motor_speed, double sign_w)
 {
-    return p->viscous_friction * motor_speed + p->coulomb_friction * tanh(motor_speed / p->smoothing_speed);
+    return p->viscous_friction * motor_speed + p->coulomb_friction * sign_w;
 }
 
 /* Output torque / motor torque: N eta when the motor drives (torque and motor
  * speed of one sign), N / eta when the load drives it, blended as
  * N eta^tanh(sign(torque) omega_m / omega_s) so the torque stays continuous
- * (and lossless) through standstill.  The factor is positive, so the output
- * torque and the motor torque share the sign that picks the direction. */
-static double gear_factor(const dcm_params *p, double torque, double motor_speed)
+ * (and lossless) through standstill; tanh is odd, so the exponent is
+ * sign(torque) sign_w.  The factor is positive: the output torque and the motor
+ * torque share the sign that picks the direction. */
+static double gear_factor(const dcm_params *p, double torque, double sign_w)
 {
-    const double direction = tanh(copysign(1.0, torque) * motor_speed / p->smoothing_speed);
-    return p->gear_ratio * pow(p->gear_efficiency, direction);
+    return p->gear_ratio * pow(p->gear_efficiency, copysign(1.0, torque) * sign_w);
 }
 
 static double output_torque(const dcm_params *p, double current, double motor_speed)
 {
-    const double tau_m = p->torque_constant * current - friction(p, motor_speed);
-    return tau_m * gear_factor(p, tau_m, motor_speed);
+    const double sign_w = speed_sign(p, motor_speed);
+    const double tau_m = p->torque_constant * current - friction(p, motor_speed, sign_w);
+    return tau_m * gear_factor(p, tau_m, sign_w);
 }
 
 int dcm_shaft_torque(const dcm_params *p, double current, double motor_speed, double *torque)
@@ -247,9 +255,9 @@ int dcm_current_for_torque(const dcm_params *p, long n, const double *torque, co
 {
     if (!p || n < 0 || (n > 0 && (!torque || !motor_speed || !current))) return DCM_BAD_ARGUMENT;
     for (long k = 0; k < n; k++) {
-        const double w = motor_speed[k];
-        const double tau_m = torque[k] / gear_factor(p, torque[k], w);
-        current[k] = (tau_m + friction(p, w)) / p->torque_constant;
+        const double w = motor_speed[k], sign_w = speed_sign(p, w);
+        const double tau_m = torque[k] / gear_factor(p, torque[k], sign_w);
+        current[k] = (tau_m + friction(p, w, sign_w)) / p->torque_constant;
     }
     return DCM_OK;
 }
