@@ -169,6 +169,15 @@ class DCMotor:
         _call(native.functions().dcm_reflected_inertia(ctypes.byref(self._params), ctypes.byref(out)))
         return out.value
 
+    @property
+    def chatter_free_step(self) -> float:
+        """2 omega_s J_rotor / tau_c [s]: the longest step a master may hold the speed over
+        without the dry friction chattering (see the module's coupling limits; inf without
+        dry friction)."""
+        out = ctypes.c_double()
+        _call(native.functions().dcm_chatter_free_step(ctypes.byref(self._params), ctypes.byref(out)))
+        return out.value
+
 
 @dataclass(frozen=True)
 class MotorState:

@@ -150,3 +150,12 @@ def test_the_source_builds_with_libm_alone_and_runs_as_the_library_does(tmp_path
     assert abs(s.current) == 4.0  # the run ends at the limit: the limiter's branch ran in both builds
     want = [s.current, s.temperature, o.shaft_torque, o.terminal_voltage]
     assert got == pytest.approx(want, rel=1e-13, abs=1e-13)
+
+
+def test_chatter_free_step_is_where_held_speed_makes_the_friction_damper_unstable():
+    d = load_motor(RE40)
+    # the smoothed friction is a damper tau_c / omega_s on the rotor; an explicit
+    # step of J w' = -c w is stable for h < 2 J / c
+    assert DCMotor(d).chatter_free_step == pytest.approx(2 * d.rotor_inertia * d.smoothing_speed
+                                                         / d.coulomb_friction, rel=1e-15)
+    assert DCMotor(d.replace(coulomb_friction=0.0)).chatter_free_step == math.inf

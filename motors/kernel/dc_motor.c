@@ -269,6 +269,14 @@ int dcm_reflected_inertia(const dcm_params *p, double *inertia)
     return DCM_OK;
 }
 
+int dcm_chatter_free_step(const dcm_params *p, double *step)
+{
+    if (!p || !step) return DCM_BAD_ARGUMENT;
+    *step = p->coulomb_friction > 0.0 ? 2.0 * p->smoothing_speed * p->rotor_inertia / p->coulomb_friction
+                                      : INFINITY;
+    return DCM_OK;
+}
+
 int dcm_observe(const dcm_params *p, const dcm_state *s, double voltage, double shaft_speed, dcm_outputs *out)
 {
     if (!p || !s || !out) return DCM_BAD_ARGUMENT;

@@ -22,7 +22,10 @@
  *   dcm_observe(&p, &s, voltage, shaft_speed, &o)    the outputs now, for
  *       these inputs (what an FMU returns between steps).
  *   dcm_shaft_torque, dcm_current_for_torque, dcm_reflected_inertia: the
- *       torque law, its inverse over arrays (motor sizing), and J_rotor N^2.
+ *       torque law, its inverse over arrays (motor sizing), and J_rotor N^2
+ *       (an FMU output: the mechanism's drive.inertia).
+ *   dcm_chatter_free_step: the step above which an FMU should warn that the
+ *       friction may chatter with the speed held.
  *   dcm_status_message(status): a sentence for a log.
  *
  * Units: SI, temperatures in degC, torque and speed at the gearbox output
@@ -150,6 +153,14 @@ DCM_API int dcm_current_for_torque(const dcm_params *p, long n, const double *to
 /* J_rotor N^2 [kg m2]: the rotor's inertia seen at the gearbox output, which
  * the mechanism carries in its mass matrix (its drive.inertia). */
 DCM_API int dcm_reflected_inertia(const dcm_params *p, double *inertia);
+
+/* The longest communication step [s] over which a master may hold the shaft
+ * speed without the dry friction chattering, 2 omega_s J_rotor / tau_c: held
+ * speed makes the smoothed friction act as a damper of up to tau_c / omega_s on
+ * the rotor, and an explicit step of such a damper is stable below 2 J / damping
+ * (worst case: nothing but the rotor on the shaft).  INFINITY without dry friction.
+ * An FMU warns when a step exceeds it. */
+DCM_API int dcm_chatter_free_step(const dcm_params *p, double *step);
 
 #ifdef __cplusplus
 }
