@@ -47,8 +47,8 @@ of friction chatter for ``h tau_c / (omega_s J_rotor) < 2``.
 
 from __future__ import annotations
 
-import math
 import ctypes
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -171,9 +171,11 @@ class DCMotor:
 
     @property
     def chatter_free_step(self) -> float:
-        """2 omega_s J_rotor / tau_c [s]: the longest step a master may hold the speed over
-        without the dry friction chattering (see the module's coupling limits; inf without
-        dry friction)."""
+        """Longest step [s] over which a held speed keeps the dry friction from chattering.
+
+        2 omega_s J_rotor / tau_c (see the module's coupling limits), inf without
+        dry friction.
+        """
         out = ctypes.c_double()
         _call(native.functions().dcm_chatter_free_step(ctypes.byref(self._params), ctypes.byref(out)))
         return out.value
