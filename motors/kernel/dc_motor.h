@@ -5,7 +5,8 @@
  * ctypes in grubler.motors.native) and the native DCMotor.fmu both run these
  * functions; the equations are stated in motors/dc_motor.py's docstring.
  *
- * API (all functions return a dcm_status; the caller owns every struct):
+ * API (every function but the two that name things returns a dcm_status;
+ * no globals, no allocation: the caller owns every struct):
  *
  *   dcm_params  p  = { the constants: motor data, gearbox, drive, ambient };
  *   dcm_state   s  = { winding current, winding temperature };
@@ -13,7 +14,8 @@
  *
  *   dcm_check_params(&p, &field, &why)   once, after the parameters are set:
  *       DCM_BAD_PARAMETER names the offending field (dcm_field_name(field))
- *       and why it is refused; nothing else checks the parameters again.
+ *       and why it is refused.  The functions below assume p passed it and
+ *       do not check again (an FMU checks when it leaves initialisation).
  *   dcm_check_state(&p, &s, &field, &why)  a start state set from outside.
  *   dcm_step(&p, &s, voltage, shaft_speed, dt, &o)   one communication step
  *       with the inputs held; s is updated and o holds the outputs at the
@@ -27,6 +29,10 @@
  *   dcm_chatter_free_step: the step above which an FMU should warn that the
  *       friction may chatter with the speed held.
  *   dcm_status_message(status): a sentence for a log.
+ *
+ * dcm_state is all the motor remembers: an FMU's get/set/serialise state is
+ * these two doubles (plus its inputs).  No current limit is INFINITY here (the
+ * FMU's "0: none" is the wrapper's convention).
  *
  * Units: SI, temperatures in degC, torque and speed at the gearbox output
  * unless named motor_.
