@@ -333,7 +333,8 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--workers", type=_number("--workers", low=1, high=1024, integer=True),
                    help="local processes (default: all cores)")
     w.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
-    w.add_argument("--no-resume", action="store_true", help="start afresh (an earlier journal is kept as OUT.journal.jsonl.N)")
+    w.add_argument("--no-resume", action="store_true",
+                   help="start afresh (an earlier journal is kept as OUT.journal.jsonl.N)")
     w.add_argument("--retry-failed", action="store_true", help="when resuming, rerun the failed points")
     w.set_defaults(func=cmd_sweep)
     z = sub.add_parser("size", help="size a motor and gear ratio for a drive duty cycle")
@@ -351,13 +352,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="load on the load joint (the drive joint if the scene has none), N m")
     z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see grubler.motors)")
     z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
-    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9, help="gearbox efficiency")
+    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9,
+                   help="gearbox efficiency")
     z.add_argument("--supply", type=_positive("--supply"), help="supply voltage, V (default: each motor's nominal)")
     z.add_argument("--current-limit", type=_positive("--current-limit"), default=math.inf,
                    help="the drive's current limit, A")
     z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
-    z.add_argument("--plot", type=_output("--plot", "figure"), help="write envelopes and margin against ratio to this PNG")
+    z.add_argument("--plot", type=_output("--plot", "figure"),
+                   help="write envelopes and margin against ratio to this PNG")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
     z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
                                                      "(FMUs from FMU_DIR, e.g. dist) and compare")

@@ -434,7 +434,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     for name, comp in system.components.items():
         path = system.source_path(comp)
         if not path.is_file():
-            problems.append(f"component {name}: FMU {clip(str(path))} not found (run python build_fmu.py?)")
+            problems.append(f"component {name}: FMU {clip(str(path), 240)} not found (run python build_fmu.py?)")
             continue
         try:
             if path not in unzipped:

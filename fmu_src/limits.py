@@ -29,7 +29,7 @@ Examples
 ...     print(exc)
 link2.m: must be a finite number, got nan
 >>> brief("x" * 1000, 20)
-"'xxxxxxxxxxxxxxxxxx... (1002 characters)"
+"'xxxxxxxx...xxxxxxxx' (1002 characters)"
 """
 
 from __future__ import annotations
@@ -65,20 +65,21 @@ ARCHIVE_MAX_MEMBERS = 10_000
 MAX_STEPS = 1e9  # rounds of a loop the input sets (communication steps): a day of FMU calls
 MAX_POINTS = 1e6  # points of a sweep grid
 MESSAGE_CHARS = 80  # what a message quotes of a value
+PATH_CHARS = 240  # of a path (head and tail: its file name is kept)
 
 
 def brief(value, limit: int = MESSAGE_CHARS) -> str:
     """``repr(value)``, cut to ``limit`` characters so that a message stays one readable line."""
-    text = repr(value)
-    if len(text) <= limit:
-        return text
-    return f"{text[:limit - 1]}... ({len(text)} characters)"
+    return clip(repr(value), limit)
 
 
 def clip(text: str, limit: int = MESSAGE_CHARS) -> str:
     """``text`` itself, cut to ``limit`` characters (:func:`brief` without the quotes)."""
     text = str(text)
-    return text if len(text) <= limit else f"{text[:limit - 1]}... ({len(text)} characters)"
+    if len(text) <= limit:
+        return text
+    half = max(limit // 2 - 1, 1)  # head and tail: a path's file name is at its end
+    return f"{text[:half]}...{text[-half:]} ({len(text)} characters)"
 
 
 def number(value, field: str, *, low: float | None = None, high: float | None = None, low_open: bool = False,
@@ -132,18 +133,18 @@ def number(value, field: str, *, low: float | None = None, high: float | None = 
 def read_bytes(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) -> bytes:
     """The bytes of a regular file no larger than ``max_bytes``."""
     p = Path(path)
+    where = brief(str(p), PATH_CHARS)
     if not p.exists():
-        raise InputError(field, f"{brief(str(p))}: no such file")
+        raise InputError(field, f"{where}: no such file")
     if not p.is_file():
-        raise InputError(field, f"{brief(str(p))}: not a regular file")
+        raise InputError(field, f"{where}: not a regular file")
     size = p.stat().st_size
     if size > max_bytes:
-        raise LimitError(field, f"{brief(str(p))} is {_size(size)}, more than the {_size(max_bytes)} this "
-                                "reader accepts")
+        raise LimitError(field, f"{where} is {_size(size)}, more than the {_size(max_bytes)} this reader accepts")
     with open(p, "rb") as fh:
         data = fh.read(max_bytes + 1)  # the file may have grown since stat()
     if len(data) > max_bytes:
-        raise LimitError(field, f"{brief(str(p))} is more than the {_size(max_bytes)} this reader accepts")
+        raise LimitError(field, f"{where} is more than the {_size(max_bytes)} this reader accepts")
     return data
 
 
@@ -162,7 +163,7 @@ def decode_text(data: bytes, field: str, where: str = "") -> str:
 
 def read_text(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
     """A UTF-8 text file no larger than ``max_bytes``, or an InputError naming ``field``."""
-    return decode_text(read_bytes(path, field, max_bytes), field, brief(str(path)))
+    return decode_text(read_bytes(path, field, max_bytes), field, brief(str(path), PATH_CHARS))
 
 
 def parse_toml(text: str, field: str) -> dict:
@@ -203,19 +204,20 @@ def output_file(path: str, option: str, suffixes: tuple[str, ...] | str | None =
     """Check, before the run, that ``path`` can be written: its folder exists, it is not a
     folder, and its extension is one of ``suffixes`` (``'figure'``: what matplotlib writes)."""
     p = Path(path)
+    where = brief(str(path), PATH_CHARS)
     if not str(path) or p.name in ("", ".", ".."):
-        raise InputError(option, f"{brief(str(path))} is not a file name")
+        raise InputError(option, f"{where} is not a file name")
     if p.is_dir():
-        raise InputError(option, f"{brief(str(path))} is a folder; give a file name")
+        raise InputError(option, f"{where} is a folder; give a file name")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
-        raise InputError(option, f"{brief(str(path))}: the folder {brief(str(parent))} does not exist")
+        raise InputError(option, f"{where}: the folder {brief(str(parent), PATH_CHARS)} does not exist")
     if suffixes is not None:
         allowed = sorted(_writable_formats()) if suffixes == "figure" else [s.lstrip(".") for s in suffixes]
         ext = p.suffix.lower().lstrip(".")
         if ext not in allowed:
-            raise InputError(option, f"{brief(str(path))}: cannot write a {ext or 'file without extension'!r} "
-                                     f"file; use one of {', '.join('.' + a for a in allowed)}")
+            raise InputError(option, f"{where}: cannot write a {ext or 'file without extension'!r} file; "
+                                     f"use one of {', '.join('.' + a for a in allowed)}")
     return p
 
 
@@ -298,7 +300,7 @@ def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int | None 
     max_bytes = ARCHIVE_MAX_BYTES if max_bytes is None else max_bytes
     max_ratio = ARCHIVE_MAX_RATIO if max_ratio is None else max_ratio
     max_members = ARCHIVE_MAX_MEMBERS if max_members is None else max_members
-    name = where or brief(str(path))
+    name = where or brief(str(path), PATH_CHARS)
     try:
         zf = zipfile.ZipFile(path)
     except zipfile.BadZipFile:

@@ -15,7 +15,7 @@ import io
 import numpy as np
 
 from .errors import GrublerError, InputError
-from .limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, brief, read_text
+from .limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, PATH_CHARS, brief, read_text
 from .model import Mechanism
 
 
@@ -72,7 +72,7 @@ def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
     increase.  A refusal names the file, the line and the column.
     """
     text = read_text(path, field, MAX_TABLE_BYTES)
-    where = brief(str(path))
+    where = brief(str(path), PATH_CHARS)
     try:
         lines = [row for row in csv.reader(io.StringIO(text)) if row and any(c.strip() for c in row)]
     except csv.Error as exc:
@@ -120,11 +120,11 @@ def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") 
     try:
         cols = run_columns(raw, model)
     except GrublerError as exc:
-        raise InputError(field, f"{brief(str(path))}: {exc}") from None
+        raise InputError(field, f"{brief(str(path), PATH_CHARS)}: {exc}") from None
     if model is not None:
         missing = [n for n in model.coordinate_names if n not in cols]
         if missing:
-            raise InputError(field, f"{brief(str(path))}: missing columns {', '.join(missing)} "
+            raise InputError(field, f"{brief(str(path), PATH_CHARS)}: missing columns {', '.join(missing)} "
                                     "(is it a run of this scene?)")
     return cols
 

@@ -440,7 +440,7 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
     c = assessment.candidate
     design = ServoDesign(scene=scene, motor=c.motor.name, gear_ratio=c.ratio, gear_efficiency=c.efficiency,
                          supply_voltage=c.supply_voltage,
-                         current_limit=c.current_limit if math.isfinite(c.current_limit) else 0.0,
+                         current_limit=c.current_limit,  # inf: none (servo_system spells it 0 for the FMU)
                          trajectory=dict(trajectory), feedforward=True, load_joint=load_joint,
                          load_torque=load_torque, t_end=periods * cycle.period, step=step)
     res = run(servo_system(design, fmu_dir, name="sizing_check"),

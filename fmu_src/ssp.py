@@ -33,7 +33,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from .errors import GrublerError, InputError
-from .limits import brief, clip, extract_zip, number, read_bytes, remove_temp_dir, temp_dir
+from .limits import PATH_CHARS, brief, clip, extract_zip, number, read_bytes, remove_temp_dir, temp_dir
 
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -328,7 +328,7 @@ def read(path: str | Path) -> System:
     and which runs at interpreter exit).
     """
     path = Path(path)
-    where = brief(str(path))
+    where = brief(str(path), PATH_CHARS)
     if not path.is_file():
         raise SystemDescriptionError(f"{where}: no such file")
     if path.suffix == ".ssp" or zipfile.is_zipfile(path):

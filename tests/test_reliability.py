@@ -440,3 +440,12 @@ def test_a_link_without_inertia_is_named_not_blamed_on_the_integrator(capsys, tm
     refused(capsys, "simulate", path, "--t-end", "0.02", field="link4.I", reason="carries no inertia")
     path.write_text(path.read_text().replace("m = 3.0", "m = 3.0\nI = 0.01"))
     assert cli(capsys, "simulate", path, "--t-end", "0.02")[0] == 0
+
+
+def test_size_check_without_a_current_limit_reaches_the_cosimulation(capsys, tmp_path):
+    # 'no current limit' (inf) was coerced to 0 A before the servo system was built, which
+    # the drive refused: every --check without --current-limit failed on a field not given
+    code, out, err = cli(capsys, "size", "thesis-fourbar", "--supply", "48", "--motors", "maxon-re40-148877",
+                         "--ratios", "50", "--check", tmp_path / "no-fmus")
+    assert code == 2
+    assert "Trajectory.fmu not found" in err and "current_limit" not in err, err
