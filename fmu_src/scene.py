@@ -143,7 +143,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     if "mechanism" in data:
         mech = _table(data, "mechanism")
         kind = mech.get("type")
-        if kind not in BUILDERS:
+        if not isinstance(kind, str) or kind not in BUILDERS:
             raise SceneError("mechanism.type", f"unknown builder {brief(kind)}; choose one of {', '.join(BUILDERS)}")
         built = BUILDERS[kind](mech, "mechanism")
     # links: the builder's, each overridable field by field
@@ -232,7 +232,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     sim = _table(data, "simulate")
     _check_keys(sim, {"t_end", "dt_out", "method"}, "simulate")
     method = sim.get("method", "exact")
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {brief(method)}")
     t_end = parse_angle_or_number(sim.get("t_end", 10.0), "simulate.t_end")
     dt_out = parse_angle_or_number(sim.get("dt_out", 0.01), "simulate.dt_out")

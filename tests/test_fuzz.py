@@ -39,7 +39,8 @@ def mutated_scene(draw) -> dict:
             if op == "delete":
                 del where[key]
             elif op == "scale":  # a plausible scene that is not the preset
-                if isinstance(where[key], (int, float)) and not isinstance(where[key], bool):
+                if (isinstance(where[key], (int, float)) and not isinstance(where[key], bool)
+                        and abs(where[key]) < 1e300):
                     where[key] = where[key] * draw(st.floats(0.2, 5.0)) + draw(st.floats(-0.1, 0.1))
             elif not isinstance(where[key], dict):
                 where[key] = draw(nasty_value())
