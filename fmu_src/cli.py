@@ -278,7 +278,8 @@ class _Parser(argparse.ArgumentParser):
     """argparse, but a bad option is one line on stderr, like every other error."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
+        # argparse quotes the value it refused: cut it like every other message
+        self.exit(2, f"{self.prog}: error: {limits.clip(message, 400)} (see {self.prog} -h)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -469,10 +470,16 @@ def _watch_interrupts(grace: float = 0.5) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The ``grubler`` command (see :func:`run`), with the process-wide parts."""
-    if hasattr(signal, "SIGPIPE"):  # `grubler ... | head` ends quietly
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
-    _watch_interrupts()
+    """The ``grubler`` command (see :func:`run`), with the process-wide parts.
+
+    Signal handling is installed only when the command owns the process (no
+    ``argv`` given: the console script, ``python -m grubler.cli``), not when a
+    test or a program calls ``main([...])``.
+    """
+    if argv is None:
+        if hasattr(signal, "SIGPIPE"):  # `grubler ... | head` ends quietly
+            signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+        _watch_interrupts()
     _LAST.clear()
     code = run(argv)
     if _LAST.get("command") == "cosim" or _LAST.get("check") or code == 130:

@@ -110,6 +110,7 @@ def test_a_huge_mass_is_refused_by_its_field_from_a_file_a_sweep_and_the_api(cap
     (["size", "thesis-fourbar", "--dwell", "-1"], "--dwell", ">= 0"),
     (["size", "thesis-fourbar", "--efficiency", "1.5"], "--efficiency", "<= 1"),
     (["animate", "thesis-fourbar", "--trace", "link3:nan,0"], "--trace", "expected 'tip'"),
+    (["simulate", "thesis-fourbar", "--method", "9" * 400], "--method", "invalid choice"),  # long profile
 ])
 def test_an_option_out_of_range_is_refused_by_name(capsys, args, field, reason):
     refused(capsys, *args, field=field, reason=reason)
@@ -449,3 +450,13 @@ def test_size_check_without_a_current_limit_reaches_the_cosimulation(capsys, tmp
                          "--ratios", "50", "--check", tmp_path / "no-fmus")
     assert code == 2
     assert "Trajectory.fmu not found" in err and "current_limit" not in err, err
+
+
+@pytest.mark.parametrize("text, field", [
+    ('[mechanism]\ntype = []\n', "mechanism.type"),  # found by the long fuzz profile: a TypeError
+    ('[link2]\na = 1\njoint = "R"\n[simulate]\nmethod = ["exact"]\n', "simulate.method"),
+])
+def test_a_word_given_as_a_list_is_refused_by_name(capsys, tmp_path, text, field):
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    refused(capsys, "info", path, field=field)
