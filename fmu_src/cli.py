@@ -124,8 +124,8 @@ def cmd_animate(args) -> int:
 
     if args.source.endswith(".csv"):
         if not args.scene:
-            raise GrublerError("--scene: a CSV holds coordinates only; name the scene it came from "
-                               "(a preset or TOML file) to draw it")
+            raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "
+                                        "(a preset or TOML file) to draw it")
         scene = load_scene(args.scene)
         cols = read_run_csv(args.source, scene.mechanism)
         t, zs = cols["t"], coordinates(cols, scene.mechanism)
@@ -163,9 +163,10 @@ def cmd_cosim(args) -> int:
 
         system = read(args.system)
         h = args.step or system.step or 1e-3
-        every = max(1, int(round(args.dt_out / h)))
+        every = max(1, limits.check_count(round(args.dt_out / h) if math.isfinite(args.dt_out / h) else math.inf,
+                                          limits.MAX_STEPS, "communication steps per recorded row", "--dt-out"))
         if abs(every * h - args.dt_out) > 1e-9 * args.dt_out:
-            raise GrublerError(f"--dt-out {args.dt_out:g} s must be a multiple of the step {h:g} s")
+            raise InputError("--dt-out", f"{args.dt_out:g} s must be a multiple of the step {h:g} s")
         args.system = system
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
               step_order=step_order, record_every=every)

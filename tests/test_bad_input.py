@@ -102,4 +102,4 @@ def test_cosim_cli_names_a_record_interval_off_the_step():
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(root / "examples" / "servo_fourbar.ssd"),
                            "--step", "0.001", "--dt-out", "0.0015"], capture_output=True, text=True)
     assert proc.returncode == 2
-    assert "--dt-out 0.0015 s must be a multiple of the step 0.001 s" in proc.stderr
+    assert "--dt-out: 0.0015 s must be a multiple of the step 0.001 s" in proc.stderr

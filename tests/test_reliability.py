@@ -460,3 +460,14 @@ def test_a_word_given_as_a_list_is_refused_by_name(capsys, tmp_path, text, field
     path = tmp_path / "s.toml"
     path.write_text(text)
     refused(capsys, "info", path, field=field)
+
+
+@pytest.mark.parametrize("step, reason", [
+    ("2.0", "1 s must be a multiple of the step 2 s"),
+    ("1e-320", "communication steps per recorded row"),  # a denormal step: dt_out / step overflowed
+])
+def test_a_record_interval_against_the_systems_step_is_refused_by_option(capsys, private_tmp, tmp_path, step,
+                                                                        reason):
+    path = tmp_path / "s.ssd"
+    path.write_text(ssd(annotation=f'<Cosim step="{step}"/>'))
+    refused(capsys, "cosim", path, "--dt-out", "1.0", field="--dt-out", reason=reason)
