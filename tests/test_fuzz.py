@@ -42,6 +42,11 @@ def mutated_scene(draw) -> dict:
                 if (isinstance(where[key], (int, float)) and not isinstance(where[key], bool)
                         and abs(where[key]) < 1e300):
                     where[key] = where[key] * draw(st.floats(0.2, 5.0)) + draw(st.floats(-0.1, 0.1))
+            elif key in ("name", "kind", "description") and where is data:
+                # free text: anything goes, but not the word nan, which the finite-output check
+                # would take for a number when the name is echoed
+                where[key] = draw(st.one_of(nasty_value(), st.text(max_size=12)).filter(
+                    lambda v: "nan" not in str(v).lower()))
             elif not isinstance(where[key], dict):
                 where[key] = draw(nasty_value())
     return data
