@@ -48,4 +48,17 @@ class AssemblyError(SceneError):
 
 
 class IntegrationError(GrublerError, RuntimeError):
-    """The integrator could not continue (step-size underflow, non-finite state)."""
+    """The integrator could not continue (step-size underflow, non-finite state).
+
+    Its message starts with the field ``integration:``, like every refusal the
+    CLI prints: what failed is the run itself, at the time the reason gives.
+    """
+
+    field = "integration"
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason if reason.startswith("integration: ") else f"integration: {reason}")
+
+    def __reduce__(self):  # sweep workers send errors back pickled
+        return (type(self), (self.reason,))

@@ -205,13 +205,16 @@ def output_file(path: str, option: str, suffixes: tuple[str, ...] | str | None =
     folder, and its extension is one of ``suffixes`` (``'figure'``: what matplotlib writes)."""
     p = Path(path)
     where = brief(str(path), PATH_CHARS)
-    if not str(path) or p.name in ("", ".", ".."):
+    if not str(path) or p.name in ("", ".", "..") or "\x00" in str(path):
         raise InputError(option, f"{where} is not a file name")
-    if p.is_dir():
-        raise InputError(option, f"{where} is a folder; give a file name")
     parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise InputError(option, f"{where}: the folder {brief(str(parent), PATH_CHARS)} does not exist")
+    try:
+        if p.is_dir():
+            raise InputError(option, f"{where} is a folder; give a file name")
+        if not parent.is_dir():
+            raise InputError(option, f"{where}: the folder {brief(str(parent), PATH_CHARS)} does not exist")
+    except OSError as exc:  # a name too long for the file system, a folder we may not look into
+        raise InputError(option, f"{where}: {exc.strerror or exc}") from None
     if suffixes is not None:
         allowed = sorted(_writable_formats()) if suffixes == "figure" else [s.lstrip(".") for s in suffixes]
         ext = p.suffix.lower().lstrip(".")

@@ -471,3 +471,26 @@ def test_a_record_interval_against_the_systems_step_is_refused_by_option(capsys,
     path = tmp_path / "s.ssd"
     path.write_text(ssd(annotation=f'<Cosim step="{step}"/>'))
     refused(capsys, "cosim", path, "--dt-out", "1.0", field="--dt-out", reason=reason)
+
+
+def test_an_output_name_too_long_for_the_file_system_is_refused(capsys):
+    # found by the long fuzz profile: the OSError escaped argparse's type check
+    refused(capsys, "simulate", "thesis-fourbar", "--plot", "out." + "9" * 400, field="--plot",
+            reason="File name too long")
+
+
+def test_a_run_the_integrator_cannot_finish_names_the_integration(capsys, monkeypatch):
+    # found by the long fuzz profile: `--t-end 400 --torque -1589` spins the crank so fast that
+    # the kernel's 10-million-step guard stops it (after 90 s, too long for here: the guard's
+    # message is fed instead, through the same simulate() and CLI layers)
+    from grubler import IntegrationError
+    from grubler.simulate import Simulator
+
+    def stop(self, times):
+        self.advance_to(float(times[1]))
+        raise IntegrationError("more than 10000000 steps before t = 400 s")
+
+    monkeypatch.setattr(Simulator, "advance_through", stop)
+    line = refused(capsys, "simulate", "thesis-fourbar", "--t-end", "400", "--torque", "-1589",
+                   field="integration", reason="steps before t = 400 s")
+    assert line.startswith("grubler: error: integration: ")
