@@ -125,15 +125,22 @@ class Law:
         raise NotImplementedError
 
     def get_state(self) -> Any:
-        """Everything :meth:`set_state` needs to resume from here (picklable).
+        """Everything :meth:`set_state` needs to resume from here, as plain data.
 
-        The default copies the instance's attributes, a random generator's state
-        included; override it when some attribute cannot be deep-copied.
+        The default takes a copy of the instance's attributes (a random
+        generator's state included) and the state of every attribute that is a
+        Law itself (a cascade's inner loops).  An FMU serialises it with
+        :mod:`grubler.fmu_state`: numbers, strings, None, lists, tuples, dicts,
+        deques, numpy arrays and random Generators; override this (and
+        :meth:`set_state`) when some attribute is none of these.
         """
-        return copy.deepcopy(self.__dict__)
+        return {"attributes": {k: copy.deepcopy(v) for k, v in self.__dict__.items() if not isinstance(v, Law)},
+                "laws": {k: v.get_state() for k, v in self.__dict__.items() if isinstance(v, Law)}}
 
     def set_state(self, state: Any) -> None:
-        self.__dict__.update(copy.deepcopy(state))
+        self.__dict__.update(copy.deepcopy(state["attributes"]))
+        for name, inner in state["laws"].items():
+            self.__dict__[name].set_state(inner)
 
 
 def check_sample_time(Ts: float, field: str = "Ts", allow_zero: bool = False) -> float:
@@ -164,6 +171,25 @@ def check_number(value, field: str, low: float = -math.inf, high: float = math.i
     if v > high:
         raise SceneError(field, f"must be <= {high:g}, got {v:g}")
     return v
+
+
+def check_count(value, field: str, limit: int) -> int:
+    """A whole number in [0, limit], or SceneError naming the field and the limit.
+
+    For a parameter that sizes a buffer: the limit keeps a mistyped value from
+    allocating until the operating system ends the host process.
+    """
+    if isinstance(value, bool):
+        raise SceneError(field, f"must be a whole number, got {value!r}")
+    try:
+        ok = int(value) == value
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or value < 0:
+        raise SceneError(field, f"must be a whole number >= 0, got {value!r}")
+    if value > limit:
+        raise SceneError(field, f"must be at most {limit}, got {value!r}")
+    return int(value)
 
 
 class Sampler:
@@ -232,4 +258,4 @@ class Sampler:
         self.outputs = dict(state["outputs"])
 
 
-__all__ = ["Law", "Parameter", "Sampler", "check_number", "check_sample_time", "GRID_TOL"]
+__all__ = ["Law", "Parameter", "Sampler", "check_count", "check_number", "check_sample_time", "GRID_TOL"]

@@ -248,12 +248,12 @@ class DCMotor(ProjectSlave):
         return getattr(self._out, name)
 
     # -- state -------------------------------------------------------------------
-    def _get_fmu_state(self):
+    def _save_state(self):
         s = self._state
         return {"state": None if s is None else (s.current, s.temperature),
                 "inputs": (self.voltage, self.shaft_speed), "error": self._error}
 
-    def _set_fmu_state(self, state):
+    def _load_state(self, state):
         if state["state"] is not None and self._model is not None:
             self._state = dcm.MotorState(*state["state"])
         self.voltage, self.shaft_speed = state["inputs"]

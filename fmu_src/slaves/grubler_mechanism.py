@@ -325,11 +325,11 @@ class Mechanism(ProjectSlave):
         self._outputs["drive_angle"], self._outputs["drive_speed"] = sim.joint_state(i) if i >= 0 else (0.0, 0.0)
 
     # -- state -------------------------------------------------------------------
-    def _get_fmu_state(self):
+    def _save_state(self):
         return {"sim": None if self._sim is None else self._sim.snapshot(),
                 "inputs": (self.motor_torque, self.load_torque), "error": self._error}
 
-    def _set_fmu_state(self, state):
+    def _load_state(self, state):
         if state["sim"] is not None and self._sim is not None:
             self._sim.restore(state["sim"])
         self.motor_torque, self.load_torque = state["inputs"]
