@@ -82,6 +82,7 @@ static void relay(fmi2ComponentEnvironment env, fmi2String instanceName, fmi2Sta
     Wrapper *w = (Wrapper *)env;
     (void)instanceName;
     w->worst = worse(w->worst, status);
+    if (status == fmi2Fatal) status = fmi2Error; /* pythonfmu's word for a Python exception: never Fatal here */
     if (w->host->logger && (w->loggingOn || status >= fmi2Warning))
         w->host->logger(w->host->componentEnvironment, w->name, status, category ? category : "", message);
 }
