@@ -267,9 +267,29 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte serializedState[], size_t size) {
     FORWARD(serializeFMUstate, state, serializedState, size);
 }
+/* Not a variable: through it the slave says whether the blob it just deserialised
+ * is refused (grubler.fmi_slave.STATE_CHECK_VR), logging why. */
+#define STATE_CHECK_VR ((fmi2ValueReference)0xFFFFFFFFu)
+
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *state) {
-    FORWARD(deSerializeFMUstate, serializedState, size, state);
+    Wrapper *w = (Wrapper *)c;
+    fmi2ValueReference vr = STATE_CHECK_VR;
+    fmi2String verdict = NULL;
+    fmi2Status status;
+    if (w == NULL || state == NULL) return fmi2Error;
+    if (refuse_dead(w, "deSerializeFMUstate")) return fmi2Error;
+    w->worst = fmi2OK;
+    status = settle(w, w->f.deSerializeFMUstate(w->inner, serializedState, size, state), "deSerializeFMUstate");
+    if (status >= fmi2Error) return status;
+    /* pythonfmu deserialises on the class, which cannot log: ask the instance */
+    w->worst = fmi2OK;
+    if (settle(w, w->f.getString(w->inner, &vr, 1, &verdict), "deSerializeFMUstate") >= fmi2Error) {
+        if (!w->dead) w->f.freeFMUstate(w->inner, state);
+        *state = NULL;
+        return fmi2Error;
+    }
+    return status;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,

@@ -27,6 +27,7 @@ import functools
 import hashlib
 import json
 import math
+import threading
 
 from pythonfmu import Boolean, Fmi2Slave, Integer, Real, String
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
@@ -59,6 +60,11 @@ class DeclaredDependencies(Fmi2Slave):
 INSTANTIATED, INITIALISING, STEPPING, FAILED, TERMINATED = (
     "instantiated", "initialisation mode", "stepping", "failed initialisation", "terminated")
 _BEFORE_STEPPING = (INSTANTIATED, INITIALISING)
+# Not a variable: the value reference through which the status wrapper asks, right
+# after fmi2DeSerializeFMUstate, whether the blob is refused (controllers/status_wrapper.c)
+STATE_CHECK_VR = 0xFFFFFFFF
+# the blob pythonfmu's class-level deserialisation hook saw last, per thread
+_DESERIALISED = threading.local()
 _KINDS = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 # what a failed getter answers in place of a value, per type
 _MISSING = {Real: math.nan, Integer: 0, Boolean: False, String: ""}
@@ -170,8 +176,24 @@ class ProjectSlave(DeclaredDependencies):
 
     @staticmethod
     def _fmu_state_from_bytes(state: bytes) -> bytes:
-        # a class method cannot log: the blob is checked by _set_fmu_state, which can
-        return bytes(state)
+        # pythonfmu calls this on the class, which cannot log: the status wrapper
+        # asks the instance next (STATE_CHECK_VR), and _set_fmu_state checks again
+        _DESERIALISED.blob = bytes(state)
+        return _DESERIALISED.blob
+
+    def _check_deserialised(self) -> str:
+        """Check the blob this thread last deserialised; log why it is refused ('' if it is not)."""
+        blob, _DESERIALISED.blob = getattr(_DESERIALISED, "blob", None), None
+        try:
+            if blob is None:
+                raise StateError("state blob: none was deserialised")
+            restored = from_bytes(blob)
+            if self._phase not in _BEFORE_STEPPING:  # before, parameters may still change
+                restored.check(self._identity())
+        except StateError as exc:
+            self._refuse(f"deSerializeFMUstate refused: {exc}")
+            return str(exc)
+        return ""
 
     # -- variables -----------------------------------------------------------------
     def _why_not_set(self, var) -> str | None:
@@ -248,6 +270,9 @@ class ProjectSlave(DeclaredDependencies):
         return self._get(Boolean, vrs)
 
     def get_string(self, vrs):
+        # pythonfmu hands value references over as C ints: 0xFFFFFFFF arrives as -1
+        if len(vrs) == 1 and vrs[0] & 0xFFFFFFFF == STATE_CHECK_VR:
+            return [self._check_deserialised()]
         return self._get(String, vrs)
 
 
@@ -370,4 +395,4 @@ def balance_loader_reference(namespace: dict) -> None:
     namespace.setdefault("_loader_references", []).append(namespace)
 
 
-__all__ = ["DeclaredDependencies", "ProjectSlave", "balance_loader_reference"]
+__all__ = ["DeclaredDependencies", "ProjectSlave", "STATE_CHECK_VR", "balance_loader_reference"]
