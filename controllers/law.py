@@ -58,6 +58,9 @@ from grubler.errors import SceneError
 # next step: communication points accumulated in floating point (0.1 + 0.2)
 # miss the sample grid by a few ulps.
 GRID_TOL = 1e-7
+# Samples one communication step may run: a step of 100 s at 1 kHz.  A longer
+# step is refused rather than computed for minutes (or for ever: h = 1e300).
+MAX_SAMPLES_PER_STEP = 100_000
 
 
 @dataclass(frozen=True)
@@ -221,7 +224,8 @@ class Sampler:
         Raises
         ------
         ValueError
-            A step that is not positive and finite, or a non-finite input.
+            A step that is not positive and finite, one that holds more than
+            ``MAX_SAMPLES_PER_STEP`` samples, or a non-finite input.
         """
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"step size must be positive and finite, got {h}")
@@ -237,6 +241,10 @@ class Sampler:
         else:
             Ts = law.Ts
             end = t + h - GRID_TOL * Ts
+            due = (end - self.t0) / Ts - self.samples  # a float: inf for a step of 1e300 s
+            if due > MAX_SAMPLES_PER_STEP:
+                raise ValueError(f"a step of {h:g} s holds {due:.3g} samples of Ts = {Ts:g} s; "
+                                 f"at most {MAX_SAMPLES_PER_STEP} per communication step")
             while self.t0 + self.samples * Ts < end:
                 self._sample(self.t0 + self.samples * Ts, inputs)
         return self.outputs
@@ -258,4 +266,5 @@ class Sampler:
         self.outputs = dict(state["outputs"])
 
 
-__all__ = ["Law", "Parameter", "Sampler", "check_count", "check_number", "check_sample_time", "GRID_TOL"]
+__all__ = ["Law", "Parameter", "Sampler", "check_count", "check_number", "check_sample_time", "GRID_TOL",
+           "MAX_SAMPLES_PER_STEP"]

@@ -2,7 +2,7 @@
 
     python contract_scenarios.py MODE DIST_FOLDER OUT.json [EXTRA]
 
-MODE is one of ``states``, ``sequence``, ``reload`` (a second instantiation
+MODE is one of ``states``, ``every`` (state round trips of every FMU), ``sequence``, ``reload`` (a second instantiation
 after the first extraction folder is deleted) and ``versions`` (two builds of
 the package in one process; EXTRA is the other build's FMU).  The child writes
 what it measured to OUT.json and leaves with os._exit (pythonfmu's exit crash,
@@ -131,6 +131,72 @@ def states(dist: str, scratch: str) -> dict:
     return res
 
 
+# every pythonfmu FMU the project builds, with parameters and an input sequence that move its state
+EVERY = {
+    "PID": ({"K": 8.0, "Ti": 0.4, "Td": 0.05, "Ts": 1e-3}, lambda t: {"setpoint": 1.0, "measurement": math.sin(t)}),
+    "CascadeController": ({"K_position": 10.0, "K_speed": 50.0, "Ti_speed": 0.05, "Ts": 1e-3},
+                          lambda t: {"position_setpoint": 1.0, "position": math.sin(t), "speed": math.cos(t)}),
+    "LinearController": ({"num": "0.5 2 1", "den": "0.02 1 0", "Ts": 1e-3},
+                         lambda t: {"setpoint": 1.0, "measurement": 0.2 * math.cos(7 * t)}),
+    "ComputedTorque": ({"mechanism": "thesis-fourbar", "gear_ratio": 10.0},
+                       lambda t: {"position": 0.2 + t, "velocity": 3.0, "acceleration": 5.0 * math.cos(t)}),
+    "Trajectory": ({"kind": "trapezoid", "distance": 1.0, "v_max": 2.0, "a_max": 8.0}, lambda t: {}),
+    "Encoder": (ENC, lambda t: {"position": 0.3 * math.sin(3.0 * t)}),
+    "RateLimiter": ({"rate": 3.0}, lambda t: {"target": 1.0 if t < 0.03 else -0.5}),
+}
+
+
+def _run(s, md, inputs, t0: float, n: int, h: float = 1e-3) -> list:
+    vr, out = _refs(md), _outputs(md)
+    rows = []
+    for k in range(n):
+        t = t0 + k * h
+        u = inputs(t)
+        if u:
+            s.setReal([vr[name] for name in u], list(u.values()))
+        s.doStep(t, h)
+        rows.append(list(s.getReal(out)))
+    return rows
+
+
+def every(dist: str) -> dict:
+    """For each FMU: a serialised state replays bit for bit, also when set before initialisation."""
+    from fmpy.fmi2 import FMU2Slave
+
+    res = {}
+    for name, (params, inputs) in EVERY.items():
+        md, d = _open(os.path.join(dist, f"{name}.fmu"))
+        msgs: list[str] = []
+        a = instance(md, d, f"{name}_a", msgs, params)
+        _run(a, md, inputs, 0.0, 40)
+        blob = bytes(a.serializeFMUState(a.getFMUState()))
+        rest = _run(a, md, inputs, 0.04, 40)
+        replay_status = _set_blob(a, blob)
+        replay = _run(a, md, inputs, 0.04, 40)
+        # a fresh instance, its parameters set, the state set before initialisation
+        b = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName=f"{name}_b")
+        b.instantiate(loggingOn=True)
+        _set_params(b, md, params)
+        preinit_status = _set_blob(b, blob)
+        b.setupExperiment(startTime=0.0)
+        b.enterInitializationMode()
+        exit_status = status(b.exitInitializationMode)
+        preinit = _run(b, md, inputs, 0.04, 40)
+        res[name] = {"replay_status": replay_status, "replay_equal": replay == rest, "preinit_status": preinit_status,
+                     "exit_status": exit_status, "preinit_equal": preinit == rest,
+                     "moved": rest[0] != rest[-1], "messages": msgs}
+    return res
+
+
+def _set_params(s, md, params: dict) -> None:
+    vr = _refs(md)
+    kinds = {v.name: v.type for v in md.modelVariables}
+    for k, v in params.items():
+        setter = {"Real": s.setReal, "Integer": s.setInteger, "Boolean": s.setBoolean, "String": s.setString}[kinds[k]]
+        setter([vr[k]], [v])
+
+
 def _reframe(blob: bytes, body: bytes) -> bytes:
     """A blob with a valid header and digest around ``body`` (what a crafted state would look like)."""
     import hashlib
@@ -189,6 +255,19 @@ def sequence(dist: str) -> dict:
     lin = instance(md_l, d_l, "lin", msgs, {"num": "1 " * 5000, "den": "1 " * 5001})
     res["huge_order_exit"] = lin.init_status
     res["huge_order_exit_messages"] = list(msgs)
+    # a step that would run for ever: refused (fmi2Discard), the instance goes on
+    msgs.clear()
+    long = instance(md, d, "long", msgs, ENC)
+    record("endless_step", lambda: long.doStep(0.0, 1e300))
+    record("after_endless_step", lambda: long.doStep(0.0, 1e-3))
+    # scene text an importer may pass as the computed-torque mechanism (issue 13): Error, never Fatal
+    md_c, d_c = _open(os.path.join(dist, "ComputedTorque.fmu"))
+    for key, text in (("deep_toml", "a = " + "[" * 3000 + "]" * 3000), ("huge_integer", "gravity = " + "9" * 400),
+                      ("binary", "\x01\x02 = ]]")):
+        msgs.clear()
+        ct = instance(md_c, d_c, key, msgs, {"mechanism": text})
+        res[key + "_exit"] = ct.init_status
+        res[key + "_exit_messages"] = list(msgs)
     return res
 
 
@@ -246,7 +325,7 @@ def main() -> None:
     extra = sys.argv[4] if len(sys.argv) > 4 else ""
     # a runaway allocation ends in MemoryError here, not in the machine's OOM killer
     resource.setrlimit(resource.RLIMIT_AS, (16 << 30, 16 << 30))
-    result = {"states": lambda: states(dist, extra), "sequence": lambda: sequence(dist),
+    result = {"states": lambda: states(dist, extra), "sequence": lambda: sequence(dist), "every": lambda: every(dist),
               "reload": lambda: reload(dist, extra), "versions": lambda: versions(dist, extra)}[mode]()
     with open(out_path, "w") as fh:
         json.dump({"done": True, "result": result}, fh)

@@ -104,8 +104,13 @@ def dist(tmp_path_factory):
     sys.path.insert(0, str(HERE.parent))
     import build_fmu
 
+    from controller_scenarios import RateLimiter  # a user's own law
+    from grubler.controllers.fmu import build_controller_fmu
+
     folder = tmp_path_factory.mktemp("contract_dist")
-    build_fmu.build(folder, ["Encoder", "PID", "LinearController", "ComputedTorque"])
+    build_fmu.build(folder, ["PID", "CascadeController", "LinearController", "ComputedTorque", "Trajectory",
+                             "Encoder"])
+    build_controller_fmu(RateLimiter, folder)
     return folder
 
 
@@ -152,6 +157,41 @@ def test_call_sequence_and_statuses(dist, tmp_path):
         assert _said(r[key + "_messages"], why), (key, r[key + "_messages"])
     assert r["exit"] == "ok" and r["step"] == "ok"
     assert r["delay_after_refusal"] == 0  # the refused value was not taken
+    # a step that would run for ever is refused as fmi2Discard, and the instance goes on
+    assert "status 2 (discard)" in r["endless_step"] and _said(r["endless_step_messages"], "at most 100000")
+    assert r["after_endless_step"] == "ok"
+    # scene text that once took the importer down with fmi2Fatal
+    for key in ("deep_toml", "huge_integer", "binary"):
+        assert ERROR in r[key + "_exit"], key
+        assert _said(r[key + "_exit_messages"], "initialisation failed"), r[key + "_exit_messages"]
+
+
+def test_every_fmu_replays_a_serialised_state_also_set_before_initialisation(dist, tmp_path):
+    r = run_child("every", dist, tmp_path / "out.json")
+    assert set(r) == {"PID", "CascadeController", "LinearController", "ComputedTorque", "Trajectory", "Encoder",
+                      "RateLimiter"}
+    for name, got in r.items():
+        assert got["moved"], name  # the replayed stretch is not a constant
+        assert got["replay_status"] == "ok" and got["replay_equal"], (name, got)
+        assert got["preinit_status"] == "ok" and got["exit_status"] == "ok" and got["preinit_equal"], (name, got)
+
+
+def test_fuzzed_call_sequences_never_crash_hang_or_answer_fatal(dist, tmp_path):
+    """hypothesis-generated FMI call sequences on every FMU (fmu_fuzz.py), fixed seed.
+
+    benchmarks/fmu_fuzz.py runs the long profile.
+    """
+    pytest.importorskip("hypothesis")
+    out = tmp_path / "out.json"
+    proc = subprocess.run([sys.executable, str(HERE / "fmu_fuzz.py"), str(dist), str(out), "60"],
+                          capture_output=True, text=True, timeout=900, cwd=str(HERE))
+    assert out.exists(), f"the fuzz child died (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
+    r = json.loads(out.read_text())["result"]
+    assert len(r["fmus"]) == 7
+    for name, got in r["fmus"].items():
+        assert got["statuses"].get("ok", 0) > 0 and got["statuses"].get("error", 0) > 0, (name, got)
+        assert "fatal" not in got["statuses"], (name, got)
+    assert r["violations"] == []
 
 
 def test_second_instantiation_after_the_extraction_folder_is_gone(dist, tmp_path):
