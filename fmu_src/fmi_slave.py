@@ -99,6 +99,10 @@ class ProjectSlave(DeclaredDependencies):
     _pending: SlaveState | None = None
     _entered: str | None = None  # the entry point being run (see _entry)
 
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._fast_access: dict = {}
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         _guard(cls)
@@ -208,7 +212,30 @@ class ProjectSlave(DeclaredDependencies):
         what = causality.name if causality is not None else "local"
         return f"{var.name} is {'an' if what[0] in 'aeiou' else 'a'} {what} variable: only inputs and parameters can be set"
 
+    def _fast(self, kind) -> tuple[dict, dict]:
+        """Per type, once: value reference -> setter of each input, and -> getter of each variable.
+
+        A master sets inputs and reads outputs every step: these take one
+        dictionary lookup per value reference, the checks below only the rest.
+        """
+        tables = self._fast_access.get(kind)
+        if tables is None:
+            tables = self._fast_access[kind] = (
+                {vr: v.setter for vr, v in self.vars.items()
+                 if isinstance(v, kind) and v.causality == Fmi2Causality.input and v.setter is not None},
+                {vr: v.getter for vr, v in self.vars.items() if isinstance(v, kind)})
+        return tables
+
     def _set(self, kind, vrs, values) -> None:
+        setters = self._fast(kind)[0]
+        try:
+            calls = [setters[vr] for vr in vrs]
+        except KeyError:  # not all inputs of this type: check each, below
+            pass
+        else:
+            for setter, value in zip(calls, values):
+                setter(value)
+            return
         problems = []
         for vr in vrs:
             var = self.vars.get(vr)
@@ -227,8 +254,16 @@ class ProjectSlave(DeclaredDependencies):
             self.vars[vr].setter(value)
 
     def _get(self, kind, vrs) -> list:
-        out, problems = [], []
         convert = _CONVERT[kind]
+        if self._phase != FAILED:
+            getters = self._fast(kind)[1]
+            try:
+                calls = [getters[vr] for vr in vrs]
+            except KeyError:  # an unknown reference or another type: check each, below
+                pass
+            else:
+                return [convert(get()) for get in calls]
+        out, problems = [], []
         for vr in vrs:
             var = self.vars.get(vr)
             if var is None or not isinstance(var, kind):
@@ -352,6 +387,7 @@ def _entry(name: str, fn):
     fmi2Error and a safe value answered.  A call made from inside another entry
     point (a subclass's ``super().get_real(...)``) runs ``fn`` as it is."""
     sequence, default = _ENTRY_POINTS[name]
+    run = fn if sequence is _plain else functools.partial(_in_sequence, sequence, fn)
 
     @functools.wraps(fn)
     def entry(self, *args):
@@ -359,7 +395,7 @@ def _entry(name: str, fn):
             return fn(self, *args)
         self._entered = name
         try:
-            return sequence(self, fn, *args)
+            return run(self, *args)
         except Exception as exc:  # noqa: BLE001 - raising would be fmi2Fatal and free the instance
             self.log(f"{name} failed: {type(exc).__name__}: {exc}", Fmi2Status.error)
             return default(self, *args)
@@ -368,6 +404,10 @@ def _entry(name: str, fn):
 
     entry._entry_point = True
     return entry
+
+
+def _in_sequence(sequence, fn, self, *args):
+    return sequence(self, fn, *args)
 
 
 def _guard(cls) -> None:
