@@ -141,8 +141,14 @@ class Law:
                 "laws": {k: v.get_state() for k, v in self.__dict__.items() if isinstance(v, Law)}}
 
     def set_state(self, state: Any) -> None:
-        self.__dict__.update(copy.deepcopy(state["attributes"]))
-        for name, inner in state["laws"].items():
+        attributes, laws = state["attributes"], state["laws"]
+        # a state names only attributes the law has: it cannot add one, or shadow a method
+        unknown = [k for k in (*attributes, *laws) if k not in self.__dict__]
+        if unknown or any(isinstance(self.__dict__[k], Law) for k in attributes) \
+                or not all(isinstance(self.__dict__[k], Law) for k in laws):
+            raise ValueError(f"a state of another law: attributes {sorted(map(str, (*attributes, *laws)))}")
+        self.__dict__.update(copy.deepcopy(attributes))
+        for name, inner in laws.items():
             self.__dict__[name].set_state(inner)
 
 

@@ -169,10 +169,22 @@ class ProjectSlave(DeclaredDependencies):
             return
         try:
             restored.check(self._identity())
+            self._restore(restored.payload)
         except StateError as exc:
             self._refuse(f"setFMUstate refused, the instance is unchanged: {exc}")
-            return
-        self._load_state(restored.payload)
+
+    def _restore(self, payload) -> None:
+        """:meth:`_load_state`, all or nothing: a payload that does not fit leaves the instance as it was.
+
+        A blob's identity can be copied into a crafted one; its payload is plain
+        data, so at worst it does not fit.
+        """
+        backup = self._save_state()
+        try:
+            self._load_state(payload)
+        except Exception as exc:  # noqa: BLE001 - any misfit of plain data
+            self._load_state(backup)
+            raise StateError(f"state blob: its content does not fit this FMU ({type(exc).__name__}: {exc})") from None
 
     @staticmethod
     def _fmu_state_to_bytes(state) -> bytes:
@@ -348,7 +360,7 @@ def _sequenced_exit(self, fn):
         pending, self._pending = self._pending, None
         try:
             pending.check(self._identity())
-            self._load_state(pending.payload)
+            self._restore(pending.payload)
         except StateError as exc:
             self._fail(f"initialisation failed: the state set before it is refused: {exc}")
     self._phase = FAILED if self._error is not None else STEPPING

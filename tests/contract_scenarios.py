@@ -90,7 +90,22 @@ def states(dist: str, scratch: str) -> dict:
         res[f"{name}_status"] = _set_blob(a, b)
         res[f"{name}_messages"] = list(msgs)
     res["pickle_ran"] = os.path.exists(marker)
-    res["unchanged_after_bad_blobs"] = _steps(a, md, 0.2, 1) != []  # still steps at its own time
+    # a crafted blob with this instance's identity (copied from a real one) whose payload does not
+    # fit: refused by setFMUstate, and the instance is left as it was
+    from grubler.fmu_state import SlaveState, from_bytes, to_bytes  # the FMUs' own copy, loaded by now
+
+    real = from_bytes(blob)
+    payload = real.payload
+    payload["sampler"]["law"]["attributes"]["update"] = "shadows the law's method"
+    misfit = to_bytes(SlaveState(real.identity, payload))
+    now = bytes(a.serializeFMUState(a.getFMUState()))
+    t_now = 0.2
+    expected = _steps(a, md, t_now, 10)
+    _set_blob(a, now)
+    msgs.clear()
+    res["misfit_status"] = _set_blob(a, misfit)
+    res["misfit_messages"] = list(msgs)
+    res["misfit_left_unchanged"] = _steps(a, md, t_now, 10) == expected
     # a state from an instance with other parameters, and from another FMU
     b_inst = instance(md, d, "b", msgs, {**ENC, "seed": 8})
     _steps(b_inst, md, 0.0, 10)

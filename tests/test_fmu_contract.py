@@ -136,6 +136,9 @@ def test_serialised_states_replay_and_bad_blobs_are_refused(dist, tmp_path):
         assert r[f"{name}_status"] == f"fmi2DeSerializeFMUstate failed with {ERROR}.", (name, r[f"{name}_status"])
         assert _said(r[f"{name}_messages"], why), (name, r[f"{name}_messages"])
     assert not r["pickle_ran"]
+    assert r["misfit_status"] == f"fmi2SetFMUstate failed with {ERROR}.", r["misfit_status"]
+    assert _said(r["misfit_messages"], "does not fit this FMU"), r["misfit_messages"]
+    assert r["misfit_left_unchanged"]
     # a state set between instantiate and initialisation is applied when initialisation ends
     assert r["preinit_set_status"] == "ok" and r["preinit_exit_status"] == "ok"
     assert r["preinit_equal"]
