@@ -32,10 +32,11 @@ Examples
 >>> back.check(ident), back.payload["x"].tolist(), back.payload["n"]
 (None, [0.0, 1.0, 2.0], 2)
 >>> bad = bytearray(blob); bad[30] ^= 1
->>> from_bytes(bytes(bad))
-Traceback (most recent call last):
-...
-grubler.fmu_state.StateError: state blob: corrupted (its SHA-256 digest does not match its content)
+>>> try:
+...     from_bytes(bytes(bad))
+... except StateError as exc:
+...     print(exc)
+state blob: corrupted (its SHA-256 digest does not match its content)
 """
 
 from __future__ import annotations
