@@ -8,6 +8,9 @@ runs it (see the README's FMU section).
 
 Every slave declares which outputs depend on an input at the same instant
 (grubler.fmi_slave), so a master can tell a state from an algebraic output.
+The controller FMUs carry a C wrapper in front of pythonfmu's linux64 binary
+that reports the status each call deserves (controllers/status_wrapper.c):
+building them needs a C compiler.
 """
 
 from __future__ import annotations
