@@ -149,7 +149,7 @@ class LawSlave(ProjectSlave):
     def do_step(self, current_time: float, step_size: float) -> bool:
         # the base lets a step through only after a successful initialisation
         if abs(current_time - self._time) > 1e-9 * max(1.0, abs(self._time)):
-            self._refuse(f"doStep at t = {current_time:.12g} s, but the controller is at t = {self._time:.12g} s "
+            self._refused(f"doStep at t = {current_time:.12g} s, but the controller is at t = {self._time:.12g} s "
                          "(restore a saved FMU state to roll back)")
             return False
         try:

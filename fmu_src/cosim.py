@@ -280,19 +280,26 @@ class _Instance:
     """One instantiated FMU with the master's preallocated buffers."""
 
     def __init__(self, name, itf: FmuInterface, unzipdir: str, start_time: float):
-        from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
         md = itf.model_description
         self.name, self.itf, self.messages = name, itf, []
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(loggingOn=True, callbacks=None)
 
         def logger(component, instance_name, status, category, message):
             self.messages.append(f"{name}: {message.decode(errors='replace')}")
 
+        # callbacks of its own, from instantiation on: an FMU keeps the pointer it is given
+        # (fmpy's default struct is shared by every instance), and what it logs while it is
+        # instantiated says why it could not be
         self._logger = fmi2CallbackLoggerTYPE(logger)  # keep a reference: C holds the pointer
-        self.fmu.callbacks.logger = self._logger
+        self._callbacks = fmi2CallbackFunctions(logger=self._logger, allocateMemory=defaultCallbacks.allocateMemory,
+                                                freeMemory=defaultCallbacks.freeMemory)
+        try:
+            self.fmu.instantiate(loggingOn=True, callbacks=self._callbacks)
+        except Exception:  # noqa: BLE001 - fmpy says only "Failed to instantiate model"
+            raise CosimError(f"{name}: {itf.path.name} could not be instantiated" + _last_message(self)) from None
         self.fmu.setupExperiment(startTime=start_time)
         self.bind_calls()
 

@@ -111,7 +111,7 @@ class ProjectSlave(DeclaredDependencies):
         self._error = msg
         self.log(msg, Fmi2Status.error)
 
-    def _refuse(self, msg: str) -> None:
+    def _refused(self, msg: str) -> None:
         """Log a refused call (fmi2Error): the instance is unchanged."""
         self.log(msg, Fmi2Status.error)
 
@@ -125,7 +125,7 @@ class ProjectSlave(DeclaredDependencies):
         pass
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        self._refuse(f"{type(self).__name__} defines no do_step")
+        self._refused(f"{type(self).__name__} defines no do_step")
         return False
 
     def terminate(self):
@@ -155,14 +155,14 @@ class ProjectSlave(DeclaredDependencies):
         try:
             return to_bytes(SlaveState(self._identity(), self._save_state()))
         except StateError as exc:
-            self._refuse(f"getFMUstate: {exc}")
+            self._refused(f"getFMUstate: {exc}")
             return b""
 
     def _set_fmu_state(self, state) -> None:
         try:
             restored = from_bytes(state)
         except (StateError, TypeError) as exc:
-            self._refuse(f"setFMUstate refused, the instance is unchanged: {exc}")
+            self._refused(f"setFMUstate refused, the instance is unchanged: {exc}")
             return
         if self._phase in _BEFORE_STEPPING:
             self._pending = restored  # checked and applied when initialisation ends
@@ -171,7 +171,7 @@ class ProjectSlave(DeclaredDependencies):
             restored.check(self._identity())
             self._restore(restored.payload)
         except StateError as exc:
-            self._refuse(f"setFMUstate refused, the instance is unchanged: {exc}")
+            self._refused(f"setFMUstate refused, the instance is unchanged: {exc}")
 
     def _restore(self, payload) -> None:
         """:meth:`_load_state`, all or nothing: a payload that does not fit leaves the instance as it was.
@@ -207,7 +207,7 @@ class ProjectSlave(DeclaredDependencies):
             if self._phase not in _BEFORE_STEPPING:  # before, parameters may still change
                 restored.check(self._identity())
         except StateError as exc:
-            self._refuse(f"deSerializeFMUstate refused: {exc}")
+            self._refused(f"deSerializeFMUstate refused: {exc}")
             return str(exc)
         return ""
 
@@ -260,7 +260,7 @@ class ProjectSlave(DeclaredDependencies):
                 if why:
                     problems.append(why)
         if problems:  # all or nothing
-            self._refuse(f"set{kind.__name__} refused, nothing was set: " + "; ".join(problems))
+            self._refused(f"set{kind.__name__} refused, nothing was set: " + "; ".join(problems))
             return
         for vr, value in zip(vrs, values):
             self.vars[vr].setter(value)
@@ -292,7 +292,7 @@ class ProjectSlave(DeclaredDependencies):
                 problems.append(f"{var.name}: {type(exc).__name__}: {exc}")
                 out.append(_MISSING[kind])
         if problems:
-            self._refuse(f"get{kind.__name__}: " + "; ".join(problems))
+            self._refused(f"get{kind.__name__}: " + "; ".join(problems))
         return out
 
     def set_real(self, vrs, values):
@@ -334,14 +334,14 @@ def _sequenced_do_step(self, fn, current_time, step_size):
                INITIALISING: "in initialisation mode (call exitInitializationMode first)",
                TERMINATED: "after terminate",
                FAILED: f"after a failed initialisation: {self._error}"}[self._phase]
-        self._refuse(f"doStep refused {why}")
+        self._refused(f"doStep refused {why}")
         return False
     return bool(fn(self, current_time, step_size))
 
 
 def _sequenced_enter(self, fn):
     if self._phase != INSTANTIATED:
-        self._refuse(f"enterInitializationMode refused: the instance is {self._phase}")
+        self._refused(f"enterInitializationMode refused: the instance is {self._phase}")
         return None
     self._phase = INITIALISING
     return fn(self)
@@ -349,7 +349,7 @@ def _sequenced_enter(self, fn):
 
 def _sequenced_exit(self, fn):
     if self._phase not in _BEFORE_STEPPING:
-        self._refuse(f"exitInitializationMode refused: the instance is {self._phase}")
+        self._refused(f"exitInitializationMode refused: the instance is {self._phase}")
         return None
     self._error = None
     try:

@@ -3,11 +3,12 @@
     python contract_scenarios.py MODE DIST_FOLDER OUT.json [EXTRA]
 
 MODE is one of ``states``, ``every`` (state round trips of every FMU), ``sequence``, ``reload`` (a second instantiation
-after the first extraction folder is deleted) and ``versions`` (two builds of
-the package in one process; EXTRA is the other build's FMU).  The child writes
+after the first extraction folder is deleted), ``versions`` (two builds of
+the package in one process; EXTRA is the other build's FMU) and ``cosim`` (grubler's
+runner given the other build).  The child writes
 what it measured to OUT.json and leaves with os._exit (pythonfmu's exit crash,
-upstream issue 228).  It never imports grubler itself: the FMUs load their own
-copies, as in an importer that is not grubler.
+upstream issue 228).  Before its FMUs are loaded it never imports grubler (but in
+``cosim``): they load their own copies, as in an importer that is not grubler.
 """
 
 from __future__ import annotations
@@ -335,13 +336,27 @@ def versions(dist: str, other: str) -> dict:
     return res
 
 
+def cosim_other_build(other: str) -> dict:
+    """grubler's own co-simulation runner given an FMU built from other package sources."""
+    from grubler import cosim, ssp  # this process runs the grubler under test
+
+    system = ssp.System("other")
+    system.add("pid", other)
+    try:
+        cosim.run(system, t_end=0.01, step=1e-3)
+        return {"error": None}
+    except cosim.CosimError as exc:
+        return {"error": str(exc)}
+
+
 def main() -> None:
     mode, dist, out_path = sys.argv[1:4]
     extra = sys.argv[4] if len(sys.argv) > 4 else ""
     # a runaway allocation ends in MemoryError here, not in the machine's OOM killer
     resource.setrlimit(resource.RLIMIT_AS, (16 << 30, 16 << 30))
     result = {"states": lambda: states(dist, extra), "sequence": lambda: sequence(dist), "every": lambda: every(dist),
-              "reload": lambda: reload(dist, extra), "versions": lambda: versions(dist, extra)}[mode]()
+              "reload": lambda: reload(dist, extra), "versions": lambda: versions(dist, extra),
+              "cosim": lambda: cosim_other_build(extra)}[mode]()
     with open(out_path, "w") as fh:
         json.dump({"done": True, "result": result}, fh)
         fh.flush()

@@ -232,3 +232,7 @@ build_controller_fmu(PID, {str(other / 'PID.fmu')!r})
     assert "Failed to instantiate" in r["second"], r["second"]
     assert _said(r["second_messages"], "is already loaded in this process"), r["second_messages"]
     assert r["first_still_steps"] == "ok"
+    # grubler's co-simulation runner, which imports grubler itself, says why
+    r = run_child("cosim", dist, tmp_path / "cosim.json", str(other / "PID.fmu"))
+    assert r["error"].startswith("pid: PID.fmu could not be instantiated: pid: "), r["error"]
+    assert "is already loaded in this process" in r["error"]
