@@ -101,6 +101,7 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     System
     """
     from grubler.motors import DCMotor, Drive, Gearbox, load_motor
+    from .fmi.mechanism import scene_fmu
     from .scene import load_scene
 
     data = load_motor(design.motor)
@@ -120,8 +121,9 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
           gear_efficiency=float(design.gear_efficiency), supply_voltage=float(design.supply_voltage),
           current_limit=float(design.current_limit) if math.isfinite(design.current_limit) else 0.0)
     loads = {"load_joint": design.load_joint, "load_torque": float(design.load_torque)} if design.load_joint else {}
-    s.add("mechanism", d / "Mechanism.fmu", mechanism=design.scene,
-          **{"drive.inertia": motor.reflected_inertia}, **loads)
+    # the native mechanism FMU is re-tuned into the scene through its parameters
+    mech_fmu, scene_params = scene_fmu(scene, d)
+    s.add("mechanism", mech_fmu, **{**scene_params, "drive.inertia": motor.reflected_inertia, **loads})
     s.connect("trajectory.position", "controller.setpoint")
     s.connect("mechanism.drive_angle", "encoder.position")
     s.connect("encoder.measured_position", "controller.measurement")

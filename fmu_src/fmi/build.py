@@ -31,7 +31,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..errors import SceneError
+from ..errors import GrublerError, SceneError
 from .description import model_description
 from .header import config_header, variables_source
 from .variables import ModelSpec
@@ -47,7 +47,7 @@ CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-functi
 MINGW = "x86_64-w64-mingw32-gcc"
 
 
-class BuildError(RuntimeError):
+class BuildError(GrublerError, RuntimeError):
     """A compiler is missing or failed (its output attached)."""
 
 

@@ -83,6 +83,42 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
     return p
 
 
+STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fmu
+
+
+def same_shape(a: Mechanism, b: Mechanism) -> bool:
+    """Whether one mechanism FMU serves both (same number of links and of closures)."""
+    return (a.n_links, len(a.closures)) == (b.n_links, len(b.closures))
+
+
+def scene_fmu(scene: Scene, fmu_dir) -> tuple:
+    """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
+
+    ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
+    (three moving links, one closure: every four-link preset) through its
+    parameters.  A scene of another shape gets its own FMU, exported into
+    ``fmu_dir`` as ``Mechanism_<scene>.fmu``.
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        Every scene quantity, by FMU variable name (:func:`fmu_parameters`).
+    """
+    from pathlib import Path
+
+    from ..scene import load_scene
+
+    d = Path(fmu_dir)
+    if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
+        return d / "Mechanism.fmu", fmu_parameters(scene)
+    from .build import export, identifier_for
+
+    path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
+    export(scene, path)
+    return path, fmu_parameters(scene)
+
+
 def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     """The variables of a mechanism FMU with ``scene``'s shape and defaults."""
     m = scene.mechanism

@@ -545,13 +545,19 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     fmi2Status s;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!allowed(inst, "fmi2DoStep", MASK_DO_STEP)) return fmi2Error;
-    if (!(communicationStepSize > 0.0) || !isfinite(communicationStepSize))
-        return fail(inst, "fmi2DoStep: the step size must be positive and finite, got %g", communicationStepSize);
+    /* a step the model cannot take from here is refused, not fatal: the master
+     * may retry with another step, or restore a saved state to roll back */
+    if (!(communicationStepSize > 0.0) || !isfinite(communicationStepSize)) {
+        grb_log(inst, fmi2Discard, "fmi2DoStep: the step size must be positive and finite, got %g",
+                communicationStepSize);
+        return fmi2Discard;
+    }
     t = model_time(inst);
-    if (!isfinite(currentCommunicationPoint) ||
-        fabs(currentCommunicationPoint - t) > 1e-9 * (1.0 + fabs(t)))
-        return fail(inst, "fmi2DoStep at t = %.17g s, but the model is at t = %.17g s (restore a saved FMU state "
-                    "to roll back)", currentCommunicationPoint, t);
+    if (!isfinite(currentCommunicationPoint) || fabs(currentCommunicationPoint - t) > 1e-9 * (1.0 + fabs(t))) {
+        grb_log(inst, fmi2Discard, "fmi2DoStep at t = %.17g s, but the model is at t = %.17g s (restore a saved FMU "
+                "state to roll back)", currentCommunicationPoint, t);
+        return fmi2Discard;
+    }
     s = model_do_step(inst, t, currentCommunicationPoint + communicationStepSize - t);
     if (s > fmi2Discard) {
         inst->state = GRB_ERROR;

@@ -1,0 +1,499 @@
+"""The native Mechanism.fmu: C kernel + FMI 2.0 wrapper, run with no Python in the process.
+
+Most checks drive the FMU's binary from a small C host (tests/fmi_host.c, built
+here with ``cc``) started with an empty environment, so nothing of Python can
+reach it.  The references are the library's own :class:`grubler.Simulator`
+stepped to the same communication points (the same kernel through ctypes), the
+model description's start values, and the FMI contract itself.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import grubler
+from grubler.fmi.build import FMI_HEADERS, fmi_headers_dir
+from grubler.fmi.mechanism import fmu_parameters
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+MATCH = 1e-12
+
+
+@pytest.fixture(scope="session")
+def fmu(tmp_path_factory):
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    return path
+
+
+@pytest.fixture(scope="session")
+def unzipped(fmu, tmp_path_factory):
+    d = tmp_path_factory.mktemp("Mechanism")
+    zipfile.ZipFile(fmu).extractall(d)
+    return d
+
+
+@pytest.fixture(scope="session")
+def md(fmu):
+    from fmpy import read_model_description
+
+    return read_model_description(str(fmu))
+
+
+@pytest.fixture(scope="session")
+def host(tmp_path_factory):
+    """tests/fmi_host.c, compiled against the FMI headers fmpy ships."""
+    out = tmp_path_factory.mktemp("host") / "fmi_host"
+    subprocess.run(["cc", "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
+                    str(HERE / "fmi_host.c"), "-o", str(out), "-ldl"], check=True)
+    return out
+
+
+class Host:
+    """Runs scripts through the C host on one FMU binary, with an empty environment."""
+
+    def __init__(self, host: Path, library: Path, guid: str, vr: dict[str, int], wrapper: list[str] | None = None):
+        self.cmd = [*(wrapper or []), str(host), str(library), guid]
+        self.vr = vr
+
+    def run(self, script: list[str], env: dict | None = None) -> "Transcript":
+        proc = subprocess.run(self.cmd, input="\n".join(script) + "\n", capture_output=True, text=True,
+                              env={} if env is None else env, timeout=600)
+        assert proc.returncode == 0, f"host failed ({proc.returncode}):\n{proc.stderr[-2000:]}\n{proc.stdout[-2000:]}"
+        return Transcript(proc.stdout)
+
+    def start(self, params: dict | None = None, k: int = 0, name: str = "m", t0: float = 0.0,
+              md=None) -> list[str]:
+        """Lines that instantiate slot k, set parameters by their type, and initialise."""
+        lines = [f"new {k} {name}", f"setup {t0!r}", "enter"]
+        lines += self.set_lines(params or {}, md)
+        return lines + ["exit"]
+
+    def set_lines(self, params: dict, md) -> list[str]:
+        types = {v.name: v.type for v in md.modelVariables}
+        lines = []
+        for name, value in params.items():
+            t = types[name]
+            if t == "String":
+                lines.append(f"sets {self.vr[name]} {value if value != '' else '-'}")
+            elif t in ("Integer", "Enumeration"):
+                lines.append(f"seti {self.vr[name]} {int(value)}")
+            else:
+                lines.append(f"setr {self.vr[name]} {float(value)!r}")
+        return lines
+
+    def getr(self, *names: str) -> str:
+        return "getr " + " ".join(str(self.vr[n]) for n in names)
+
+    def run_steps(self, t0: float, h: float, n: int, *names: str) -> str:
+        return f"run {t0!r} {h!r} {n} " + " ".join(str(self.vr[n]) for n in names)
+
+
+class Transcript:
+    def __init__(self, text: str):
+        self.text = text
+        self.lines = text.splitlines()
+        self.logs = [ln for ln in self.lines if ln.startswith("log ")]
+        self.results = [ln.split() for ln in self.lines if not ln.startswith(("log ", "row "))]
+
+    def rows(self) -> np.ndarray:
+        return np.array([[float(x) for x in ln.split()[1:]] for ln in self.lines if ln.startswith("row ")])
+
+    def status(self, k: int) -> int:
+        """Status of the k-th command (negative k from the end)."""
+        return int(self.results[k][1])
+
+    def statuses(self, cmd: str) -> list[int]:
+        return [int(r[1]) for r in self.results if r[0] == cmd]
+
+    def values(self, k: int) -> list[str]:
+        return self.results[k][2:]
+
+    def logged(self, text: str) -> bool:
+        return any(text in ln for ln in self.logs)
+
+
+@pytest.fixture(scope="session")
+def native(host, unzipped, md):
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    return Host(host, unzipped / "binaries" / "linux64" / "Mechanism.so", md.guid, vr)
+
+
+def library_steps(scene, h: float, n: int, names, torque: float = 3.0, t0: float = 0.0) -> np.ndarray:
+    """The library stepped like an FMU: the torque held, advance_to each communication point, outputs read."""
+    if isinstance(scene, str):
+        scene = grubler.load_scene(scene)
+    sim = grubler.Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates, t0=t0)
+    rows = []
+    for i in range(n):
+        sim.set_inputs(torque, 0.0)
+        sim.advance_to(t0 + (i + 1) * h)
+        out = sim.outputs(["state", "dynamics", "energy", "reactions"])
+        z, zd = sim.joint_state(sim.model.arrays.drive)
+        out.update(drive_angle=z, drive_speed=zd)
+        rows.append([t0 + (i + 1) * h] + [out[k] for k in names])
+    return np.array(rows)
+
+
+NAMES = ("theta2", "theta3", "theta4_d", "theta2_dd", "tip_x", "closure_error", "Fx", "Fy", "Mz", "KE", "PE",
+         "R2_Fx", "drive_angle", "drive_speed")
+
+
+# -- the binary -----------------------------------------------------------------
+
+def test_the_binary_needs_no_python_and_exports_only_fmi2(unzipped):
+    so = unzipped / "binaries" / "linux64" / "Mechanism.so"
+    undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
+                               check=True).stdout
+    assert undefined.strip()  # libc and libm functions at least
+    assert not [ln for ln in undefined.splitlines() if "Py" in ln or "python" in ln.lower()]
+    defined = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True,
+                             check=True).stdout.split("\n")
+    exported = [ln.split()[-1] for ln in defined if ln.strip() and ln.split()[1] in "TD"]
+    assert exported and all(name.startswith("fmi2") for name in exported), exported
+    deps = subprocess.run(["ldd", str(so)], capture_output=True, text=True).stdout
+    assert "python" not in deps.lower()
+
+
+def test_fmpy_validate_passes(fmu):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(fmu)) == []
+
+
+def test_model_description_is_self_contained_with_units_and_structure(md):
+    cs = md.coSimulation
+    assert cs.needsExecutionTool is False or cs.needsExecutionTool == "false" or not cs.needsExecutionTool
+    assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    by = {v.name: v for v in md.modelVariables}
+    assert by["theta2"].unit == "rad" and by["B1_d"].unit == "m/s" and by["Fx"].unit == "N"
+    assert by["Mz"].unit == "N.m" and by["link2.I"].unit == "kg.m2" and by["gravity"].unit == "m/s2"
+    assert by["link3.m"].min == "0.0" or float(by["link3.m"].min) == 0.0
+    assert by["link2.joint"].type == "Enumeration" and by["closure.type"].type == "Enumeration"
+    units = {u.name for u in md.unitDefinitions}
+    assert {v.unit for v in md.modelVariables if v.unit} <= units
+    outputs = [v for v in md.modelVariables if v.causality == "output"]
+    assert len(md.outputs) == len(outputs) and len(md.initialUnknowns) == len(outputs)
+    deps = {u.variable.name: [d.name for d in (u.dependencies or [])] for u in md.outputs}
+    assert deps["theta2"] == [] and deps["drive_speed"] == [] and deps["KE"] == []
+    assert sorted(deps["Fx"]) == ["load_torque", "motor_torque"] and deps["theta2_dd"]
+    files = md.buildConfigurations[0].sourceFileSets[0].sourceFiles
+    assert "fmi2_wrapper.c" in files and "mechanism_model.c" in files
+
+
+def test_value_references_agree_between_binary_and_description(native, md):
+    # what the binary reads at each value reference is what the description declares there
+    stored = [v for v in md.modelVariables if v.causality in ("parameter", "input")]
+    script = native.start(md=md)[:-1]  # in initialisation mode, every variable is readable
+    for v in stored:
+        kind = {"Real": "getr", "String": "gets"}.get(v.type, "geti")
+        script.append(f"{kind} {v.valueReference}")
+    t = native.run(script)
+    got = t.results[-len(stored):]
+    for v, r in zip(stored, got):
+        assert r[1] == "0", (v.name, r)
+        if v.type == "Real":
+            assert float(r[2]) == float(v.start), v.name
+        elif v.type == "String":
+            assert r[2] == f"[{v.start}]", v.name
+        else:
+            assert int(r[2]) == int(v.start), v.name
+
+
+# -- physics: what the library computes ---------------------------------------------
+
+def test_c_host_with_an_empty_environment_matches_the_library(native, md):
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0.0, 0.01, 200, *NAMES)])
+    assert t.statuses("run") == [OK]
+    rows = t.rows()
+    lib = library_steps("thesis-fourbar", 0.01, 200, NAMES)
+    assert rows.shape == lib.shape == (200, 1 + len(NAMES))
+    np.testing.assert_allclose(rows, lib, rtol=0, atol=MATCH)
+    assert abs(rows[-1, 1] - rows[0, 1]) > 0.1  # it moved
+
+
+@pytest.mark.parametrize("preset", ["thesis-slider-crank", "thesis-scotch-yoke", "thesis-oldham",
+                                    "thesis-double-slider", "thesis-swinging-block", "thesis-quick-return",
+                                    "thesis-conchoidal", "offset-slider-crank"])
+def test_one_fmu_retuned_into_each_inversion_by_its_parameters(native, md, preset):
+    scene = grubler.load_scene(preset)
+    names = ("theta2", "B2", "theta3", "B3", "theta4", "Fx", "Fy", "KE", "drive_angle")
+    torque = 0.5
+    t = native.run(native.start(fmu_parameters(scene), md=md)
+                   + [f"setr {native.vr['motor_torque']} {torque}", native.run_steps(0.0, 0.01, 50, *names)])
+    assert t.statuses("exit") == [OK], t.logs
+    lib = library_steps(scene, 0.01, 50, names, torque=torque)
+    np.testing.assert_allclose(t.rows(), lib, rtol=0, atol=MATCH)
+
+
+def test_the_loop_that_cannot_close_is_an_error_with_its_reason(native, md):
+    t = native.run(native.start({"link2.a": 5.0}, md=md) + ["step 0 0.01"])
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged("cannot be closed")
+    assert t.statuses("step") == [ERROR]
+
+
+# -- state ---------------------------------------------------------------------
+
+def test_serialised_state_round_trips_bit_exactly(native, md, tmp_path):
+    blob, again = tmp_path / "s.bin", tmp_path / "again.bin"
+    names = ("theta2", "Fx", "KE")
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100),
+                                          "save 0", f"ser 0 {blob}", native.run_steps(1.0, 0.01, 50, *names),
+                                          f"deser 1 {blob}", "load 1", f"ser 1 {again}",
+                                          native.run_steps(1.0, 0.01, 50, *names)])
+    assert set(t.statuses("ser")) == {OK} and t.statuses("deser") == [OK] and t.statuses("load") == [OK]
+    assert blob.read_bytes() == again.read_bytes()
+    rows = t.rows()
+    first, replay = rows[100:150], rows[150:]
+    assert first.shape == (50, 4) and np.array_equal(first, replay)
+
+
+@pytest.mark.parametrize("damage", ["corrupted", "truncated", "foreign", "padded", "version"])
+def test_a_bad_state_blob_is_refused_with_an_error(native, md, tmp_path, damage):
+    good = tmp_path / "good.bin"
+    native.run(native.start(md=md) + [native.run_steps(0, 0.01, 10), "save 0", f"ser 0 {good}"])
+    data = bytearray(good.read_bytes())
+    if damage == "corrupted":
+        data[len(data) // 2] ^= 0x10
+        expect = "checksum"
+    elif damage == "truncated":
+        data = data[: len(data) - 8]
+        expect = "truncated"
+    elif damage == "padded":
+        data += b"\0" * 8
+        expect = "bytes"
+    elif damage == "version":
+        data[8] = 99
+        expect = "version"
+    else:  # a state of another model: same layout, another GUID
+        data[24] ^= 0xFF
+        expect = "another model"
+    bad = tmp_path / "bad.bin"
+    bad.write_bytes(bytes(data))
+    t = native.run(native.start(md=md) + [f"deser 1 {bad}", "load 1", native.getr("theta2")])
+    assert t.statuses("deser") == [ERROR]
+    assert t.logged(expect), t.logs
+    assert t.statuses("load") == [ERROR] and t.statuses("getr") == [ERROR]  # and the instance stays refused
+
+
+def test_a_state_set_before_initialisation_is_honoured(native, md, tmp_path):
+    blob = tmp_path / "s.bin"
+    names = ("theta2", "theta2_d", "Fx")
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 2.0", native.run_steps(0, 0.01, 70),
+                                          "save 0", f"ser 0 {blob}", native.run_steps(0.7, 0.01, 30, *names),
+                                          # a new instance: the state restored before initialisation
+                                          "new 1 later", f"deser 1 {blob}", "load 1", "setup 0", "enter", "exit",
+                                          native.run_steps(0.7, 0.01, 30, *names)])
+    assert t.statuses("exit") == [OK, OK]
+    rows = t.rows()
+    assert np.array_equal(rows[70:100], rows[100:130])
+
+
+def test_reset_runs_again_from_the_start(native, md):
+    names = ("theta2", "Fx")
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 40, *names),
+                                          "reset", "setup 0", "enter", "exit",
+                                          f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 40, *names)])
+    rows = t.rows()
+    assert np.array_equal(rows[:40], rows[40:])
+
+
+def test_many_instances_in_one_process(native, md):
+    masses = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0]
+    script = []
+    for k, m in enumerate(masses):
+        script += native.start({"link2.m": m}, k=k, name=f"m{k}", md=md)
+        script.append(f"setr {native.vr['motor_torque']} 3.0")
+    for i in range(30):  # interleaved: each instance one step in turn
+        for k in range(len(masses)):
+            script += [f"use {k}", native.run_steps(i * 0.01, 0.01, 1, "theta2")]
+    rows = native.run(script).rows()
+    assert rows.shape == (30 * len(masses), 2)
+    scene = grubler.load_scene("thesis-fourbar")
+    for k, m in enumerate(masses):
+        sc = grubler.scene.override(scene, {"link2.m": m})
+        lib = library_steps(sc, 0.01, 30, ("theta2",))
+        np.testing.assert_allclose(rows[k:: len(masses)], lib, rtol=0, atol=MATCH)
+
+
+# -- the error contract: one test per class ---------------------------------------------
+
+def _contract(native, md, lines: list[str]):
+    return native.run(native.start(md=md) + lines + [native.getr("theta2"), "reset", "setup 0", "enter", "exit",
+                                                     native.run_steps(0, 0.01, 2, "theta2")])
+
+
+def _refused_then_reset_works(t, cmd: str):
+    assert t.statuses(cmd)[-1] == ERROR
+    assert t.statuses("getr")[-1] == ERROR and t.logged("an earlier call failed")  # any call after an error
+    assert t.statuses("reset") == [OK] and t.statuses("run") == [OK]  # fmi2Reset recovers
+
+
+def test_unknown_value_reference(native, md):
+    t = _contract(native, md, ["getr 99999"])
+    assert t.logged("unknown value reference 99999")
+    _refused_then_reset_works(t, "getr")
+
+
+def test_wrong_type(native, md):
+    t = _contract(native, md, [f"geti {native.vr['theta2']}"])
+    assert t.logged("theta2") and t.logged("is a Real variable, not Integer")
+    _refused_then_reset_works(t, "geti")
+
+
+def test_set_an_output(native, md):
+    t = _contract(native, md, [f"setr {native.vr['Fx']} 1.0"])
+    assert t.logged("Fx is an output")
+    _refused_then_reset_works(t, "setr")
+
+
+def test_a_parameter_after_initialisation(native, md):
+    t = _contract(native, md, [f"setr {native.vr['link2.m']} 2.0"])
+    assert t.logged("link2.m is a fixed parameter; it cannot change after initialisation")
+    _refused_then_reset_works(t, "setr")
+
+
+def test_an_unknown_string_value(native, md):
+    t = native.run([*native.start(md=md)[:-1], f"sets {native.vr['method']} lagrange"])
+    assert t.statuses("sets") == [ERROR] and t.logged("method cannot be 'lagrange'; it accepts 'exact', 'penalty'")
+
+
+def test_do_step_before_initialisation_and_after_terminate(native, md):
+    t = native.run(["new 0 a", "setup 0", "step 0 0.01"])
+    assert t.statuses("step") == [ERROR] and t.logged("fmi2DoStep is not allowed in the state instantiated")
+    t = native.run(native.start(md=md) + ["step 0 0.01", "term", "step 0.01 0.01"])
+    assert t.statuses("step") == [OK, ERROR] and t.logged("not allowed in the state terminated")
+
+
+def test_a_bad_parameter_is_an_error_at_initialisation_naming_it(native, md):
+    t = native.run(native.start({"link2.m": -1.0}, md=md) + ["step 0 0.01"])
+    assert t.statuses("exit") == [ERROR] and t.logged("link2.m: mass must be positive, got -1")
+    assert t.statuses("step") == [ERROR]
+    t = native.run(native.start({"drive_joint": "B2"}, md=md))
+    assert t.statuses("exit") == [ERROR] and t.logged("drive_joint: B2 is a locked (fictitious) coordinate")
+
+
+def test_a_non_finite_input_is_discarded_with_its_reason(native, md):
+    t = native.run(native.start(md=md) + [native.run_steps(0, 0.01, 3), f"setr {native.vr['motor_torque']} nan",
+                                          "step 0.03 0.01", f"setr {native.vr['motor_torque']} 1.0", "step 0.03 0.01"])
+    assert t.statuses("step") == [DISCARD, OK]
+    assert t.logged("motor_torque is nan at t = 0.03 s: inputs must be finite")
+
+
+def test_an_integration_failure_is_discarded_with_its_reason(native, md):
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 1e300", "step 0 0.01",
+                                          f"setr {native.vr['motor_torque']} 1.0", "step 0 0.01"])
+    assert t.statuses("step") == [DISCARD, OK]
+    assert t.logged("step from t = 0 s failed")
+
+
+def test_a_null_instance_does_not_crash_the_host(native):
+    t = native.run(["null"])
+    assert t.statuses("null") == [ERROR]
+
+
+# -- other builds and masters ---------------------------------------------------------
+
+def test_fmpy_builds_a_working_binary_from_the_shipped_sources(native, md, unzipped, tmp_path):
+    from fmpy.build import build_platform_binary
+
+    if shutil.which("cmake") is None:
+        pytest.skip("fmpy.build needs cmake")
+    d = tmp_path / "src"
+    shutil.copytree(unzipped, d)
+    shutil.rmtree(d / "binaries")
+    build_platform_binary(d, build_dir=tmp_path / "build")
+    built = d / "binaries" / "linux64" / "Mechanism.so"
+    assert built.is_file()
+    other = Host(native.cmd[0], built, md.guid, native.vr)
+    script = native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100, *NAMES)]
+    np.testing.assert_allclose(other.run(script).rows(), native.run(script).rows(), rtol=0, atol=MATCH)
+
+
+def test_fmpy_runs_it_like_the_c_host(native, md, fmu):
+    import fmpy
+
+    names = ["theta2", "Fx", "drive_speed"]
+    sig = np.array([(0.0, 3.0, 0.0), (10.0, 3.0, 0.0)],
+                   dtype=[("time", float), ("motor_torque", float), ("load_torque", float)])
+    res = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output_interval=1e-2, step_size=1e-2, input=sig, output=names)
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100, *names)])
+    rows = t.rows()
+    for k, n in enumerate(names):
+        np.testing.assert_allclose(res[n][1:], rows[:, k + 1], rtol=0, atol=MATCH)
+
+
+def test_libcosim_runs_it_like_fmpy(fmu, tmp_path):
+    pytest.importorskip("libcosimpy")
+    import json
+
+    out = tmp_path / "libcosim.json"
+    subprocess.run([sys.executable, str(HERE / "libcosim_scenario.py"), str(fmu), str(out)], timeout=600)
+    rows = np.array(json.loads(out.read_text())["result"]["rows"])
+    lib = library_steps("thesis-fourbar", 0.01, 200, ("theta2", "Fx"))
+    assert rows.shape == (200, 3)
+    np.testing.assert_allclose(rows, lib, rtol=0, atol=MATCH)
+
+
+def test_win64_binary_under_wine_agrees(native, md, unzipped, tmp_path):
+    gcc, wine = shutil.which("x86_64-w64-mingw32-gcc"), shutil.which("wine") or shutil.which("wine64")
+    dll = unzipped / "binaries" / "win64" / "Mechanism.dll"
+    if gcc is None or wine is None:
+        pytest.skip("needs the MinGW-w64 cross compiler and wine (Debian: gcc-mingw-w64-x86-64, wine64)")
+    assert dll.is_file(), "MinGW-w64 is installed, so build_fmu.py must ship binaries/win64"
+    exe = tmp_path / "fmi_host.exe"
+    subprocess.run([gcc, "-std=c99", "-O2", "-I", str(fmi_headers_dir()), str(HERE / "fmi_host.c"), "-o", str(exe)],
+                   check=True)
+    env = {"WINEDEBUG": "-all", "WINEPREFIX": str(tmp_path / "wine"), "HOME": str(tmp_path),
+           "PATH": "/usr/bin:/bin"}
+    win = Host(exe, dll, md.guid, native.vr, wrapper=[wine])
+    script = native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100, *NAMES)]
+    np.testing.assert_allclose(win.run(script, env=env).rows(), native.run(script).rows(), rtol=0, atol=MATCH)
+
+
+# -- grubler export --------------------------------------------------------------------
+
+def test_export_an_open_chain_and_run_it(host, tmp_path):
+    from fmpy import read_model_description
+
+    from grubler.cli import main
+
+    path = tmp_path / "Pendulum.fmu"
+    assert main(["export", "triple-pendulum", "-o", str(path)]) == 0
+    md2 = read_model_description(str(path))
+    assert md2.coSimulation.modelIdentifier == "Pendulum"
+    assert not any(v.name.startswith("closure") for v in md2.modelVariables)
+    d = tmp_path / "x"
+    zipfile.ZipFile(path).extractall(d)
+    vr = {v.name: v.valueReference for v in md2.modelVariables}
+    h = Host(host, d / "binaries" / "linux64" / "Pendulum.so", md2.guid, vr)
+    names = ("theta2", "theta3", "theta4", "KE", "PE")
+    t = h.run(h.start(md=md2) + [f"setr {vr['motor_torque']} 0.0", h.run_steps(0, 0.01, 50, *names)])
+    np.testing.assert_allclose(t.rows(), library_steps("triple-pendulum", 0.01, 50, names, torque=0.0),
+                               rtol=0, atol=MATCH)
+
+
+@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output")])
+def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", *args], capture_output=True, text=True,
+                          cwd=tmp_path)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"{field}:" in lines[0]
+
+
+def test_fmi_headers_come_from_fmpy(unzipped):
+    for name in FMI_HEADERS:
+        assert (unzipped / "sources" / name).read_bytes() == (fmi_headers_dir() / name).read_bytes()
