@@ -3,8 +3,16 @@
 The kernel (``fmu_src/kernel/*.c``, and the motor model in ``motors/kernel``) is
 built into the extension ``grubler._kernel`` by ``pip install -e .``; this module
 loads that file with ctypes and declares each function's argument types once.
-Arrays cross as pointers to the numpy buffers the caller owns: no copies, no
-Python call inside the kernel's loops.
+Arrays cross as the addresses of numpy buffers the caller owns (float64,
+C-contiguous): no copies, and no Python call inside the kernel's loops, except
+a drive effort the user gave as a Python function of time.
+
+Examples
+--------
+>>> import numpy as np
+>>> x, rank = lstsq(np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]), np.array([1.0, 2.0]), 1e-8)
+>>> rank, bool(np.allclose(x, np.linalg.lstsq([[1, 0, 1], [0, 1, 1]], [1, 2], rcond=None)[0]))
+(2, True)
 """
 
 from __future__ import annotations
@@ -12,17 +20,130 @@ from __future__ import annotations
 import ctypes
 import functools
 import importlib.util
+from ctypes import POINTER, c_double, c_int, c_long, c_size_t, c_void_p
+
+import numpy as np
+
+# grb_status (grubler.h)
+(OK, SINGULAR, NONFINITE_DERIVATIVE, STEP_UNDERFLOW, TOO_MANY_STEPS, NONFINITE_FIXED_STEP, BRANCH_JUMP,
+ BAD_ARGUMENT, NOT_CLOSED) = range(9)
+TABLEAU_CODE = {"dop853": 0, "rk45": 1, "rk4": 2}
+DRIVE_FN = ctypes.CFUNCTYPE(c_double, c_void_p, c_double)
 
 
 class KernelMissing(ImportError):
     """The compiled kernel is not built (run ``pip install -e .`` with a C compiler)."""
 
 
+class Model(ctypes.Structure):
+    """``grb_model``: the model's two number tables and its scalars."""
+
+    _fields_ = [("n_links", c_int), ("n_closures", c_int), ("links", c_void_p), ("closures", c_void_p),
+                ("theta1", c_double), ("gravity", c_double), ("drive", c_int), ("load", c_int),
+                ("drive_inertia", c_double)]
+
+
+class Settings(ctypes.Structure):
+    """``grb_settings``: how a run is integrated."""
+
+    _fields_ = [("tableau", c_int), ("method", c_int), ("project", c_int), ("scale", c_double),
+                ("rtol", c_double), ("atol", c_double), ("h_max", c_double), ("h_fixed", c_double),
+                ("max_steps", c_long), ("tau_drive", c_double), ("tau_load", c_double), ("drive_fn", DRIVE_FN),
+                ("drive_ctx", c_void_p)]
+
+
+class Clock(ctypes.Structure):
+    """``grb_clock``: the integrator's state besides y and f."""
+
+    _fields_ = [("t", c_double), ("h", c_double), ("have_f", c_int), ("steps", c_long), ("rejected", c_long),
+                ("evals", c_long)]
+
+
+class Failure(ctypes.Structure):
+    _fields_ = [("where", c_double), ("limit", c_double)]
+
+
+class TableauData(ctypes.Structure):
+    """``grb_tableau_data`` (kernel/tableaus.h), read by the tests."""
+
+    _fields_ = [("name", ctypes.c_char_p), ("stages", c_int), ("adaptive", c_int), ("error_order", c_int),
+                ("A", POINTER(c_double)), ("lda", c_int), ("b", POINTER(c_double)), ("c", POINTER(c_double)),
+                ("e", POINTER(c_double)), ("e3", POINTER(c_double)), ("dense_stages", c_int),
+                ("dense_a", POINTER(c_double)), ("dense_c", POINTER(c_double)), ("dense_rows", c_int),
+                ("dense_d", POINTER(c_double))]
+
+
+_P = c_void_p  # a numpy buffer's address
+_M = c_void_p  # a grb_model's address (ModelArrays.c): the struct may come from another import of this module
+_SIGNATURES = {
+    "grb_work_size": (c_size_t, [c_int, c_int]),
+    "grb_stepper_size": (c_size_t, [c_int, c_int]),
+    "grb_work_layout": (None, [c_int, c_int, _P]),
+    "grb_rhs": (c_int, [_M, c_int, _P, c_double, c_double, _P, _P]),
+    "grb_evaluate": (c_int, [_M, c_int, _P, c_double, c_double, _P]),
+    "grb_observe": (c_int, [_M, c_int, _P, c_double, c_double, c_int, _P, _P]),
+    "grb_observe_rows": (c_int, [_M, c_int, c_int, _P, _P, c_double, c_double, c_int, _P, _P]),
+    "grb_point_on_link": (c_int, [_M, _P, c_int, c_double, c_double, _P, _P]),
+    "grb_joint_reactions": (c_int, [_M, _P, _P]),
+    "grb_inverse_residual": (c_int, [_M, _P, _P, c_double, _P, _P]),
+    "grb_constraint": (c_int, [_M, _P, _P, _P, _P]),
+    "grb_project": (c_int, [_M, c_double, _P, _P]),
+    "grb_held_coordinates": (c_int, [_M, c_int, _P, _P, POINTER(c_int), _P]),
+    "grb_assemble": (c_int, [_M, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
+    "grb_advance": (c_int, [_M, POINTER(Settings), POINTER(Clock), _P, _P, _P, c_int, _P, _P, _P,
+                            POINTER(Failure)]),
+    "grb_lstsq": (c_int, [_P, c_int, c_int, _P, c_double, _P, _P]),
+    "grb_tableau": (POINTER(TableauData), [c_int]),
+}
+
+
 @functools.lru_cache(maxsize=None)
 def library() -> ctypes.CDLL:
-    """The loaded kernel library (grubler._kernel's shared object)."""
+    """The loaded kernel library (grubler._kernel's shared object), its functions declared."""
     spec = importlib.util.find_spec("grubler._kernel")
     if spec is None or spec.origin is None:
         raise KernelMissing("grubler's compiled kernel (grubler._kernel) is not built: run `pip install -e .` "
                             "in the project folder on a machine with a C compiler")
-    return ctypes.CDLL(spec.origin)
+    lib = ctypes.CDLL(spec.origin)
+    for name, (restype, argtypes) in _SIGNATURES.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = restype, argtypes
+    return lib
+
+
+def address(a: np.ndarray) -> int:
+    """The buffer address of a float64 (or int32) C-contiguous array the kernel may write."""
+    if not a.flags.c_contiguous:
+        raise ValueError("kernel arrays must be C-contiguous")
+    return a.ctypes.data
+
+
+def model_struct(links: np.ndarray, closures: np.ndarray, theta1: float, gravity: float, drive: int, load: int,
+                 drive_inertia: float) -> Model:
+    """A ``grb_model`` over two tables (the caller keeps them alive)."""
+    return Model(links.shape[0], closures.shape[0], address(links), address(closures) if closures.size else None,
+                 float(theta1), float(gravity), int(drive), int(load), float(drive_inertia))
+
+
+def work(n_links: int, n_closures: int) -> np.ndarray:
+    """A workspace buffer for a model of this size."""
+    return np.zeros(library().grb_work_size(n_links, n_closures))
+
+
+@functools.lru_cache(maxsize=64)
+def layout(n_links: int, n_closures: int) -> tuple[int, ...]:
+    """grb_work_layout: table offsets and column counts in a workspace."""
+    out = np.zeros(12, dtype=np.int64 if ctypes.sizeof(c_long) == 8 else np.int32)
+    library().grb_work_layout(n_links, n_closures, address(out))
+    return tuple(int(v) for v in out)
+
+
+def lstsq(J: np.ndarray, b: np.ndarray, rcond: float) -> tuple[np.ndarray, int]:
+    """Minimum-norm least-squares solution of ``J x = b`` and the rank used (the kernel's solver)."""
+    J = np.ascontiguousarray(J, dtype=float)
+    b = np.ascontiguousarray(b, dtype=float)
+    m, n = J.shape
+    x = np.zeros(n)
+    scratch = np.zeros((n + m) * m + 1)
+    rank = library().grb_lstsq(address(J), m, n, address(b), float(rcond), address(x), address(scratch))
+    return x, rank

@@ -17,11 +17,13 @@ are the affine image ``q = q_locked + S z``.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import binding
 from .analysis import kutzbach_mobility
 from .errors import SceneError
 
@@ -116,7 +118,7 @@ REVOLUTE_CLOSURE, PRISMATIC_CLOSURE = 0.0, 1.0
 
 @dataclass(frozen=True)
 class ModelArrays:
-    """The model's numbers as two tables, built once: what the compiled kernels read.
+    """The model's numbers as two tables, built once: what the compiled kernel reads.
 
     ``links`` has one row per moving link: m, I, p, q, a, the predecessor's vector
     length (a1 for link 2), damping, 1.0 if the revolute is the real joint, and the
@@ -142,7 +144,25 @@ class ModelArrays:
     drive: int  # index in z, -1 for none
     load: int
     drive_inertia: float  # reflected rotor inertia on z[drive]
-    packed: tuple  # what every kernel takes: (links, closures, theta1, gravity, drive, load, drive_inertia)
+    theta1: float
+    gravity: float
+    struct: object  # the kernel's grb_model over these tables (grubler.binding.Model)
+    c: int  # its address, what the kernel's functions take
+
+    def _struct(self):
+        return binding.model_struct(self.links, self.closures, self.theta1, self.gravity, self.drive, self.load,
+                                    self.drive_inertia)
+
+    # the struct holds the tables' addresses: never carry it to another process
+    def __getstate__(self):
+        return {k: v for k, v in self.__dict__.items() if k not in ("c", "struct")}
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+        struct = self._struct()
+        object.__setattr__(self, "struct", struct)
+        object.__setattr__(self, "c", ctypes.addressof(struct))
 
     @staticmethod
     def of(model: "Mechanism") -> "ModelArrays":
@@ -167,13 +187,14 @@ class ModelArrays:
         C.setflags(write=False)
         drive = -1 if model.drive is None else model.free_index(model.drive)
         load = -1 if model.load is None else model.free_index(model.load)
+        struct = binding.model_struct(L, C, model.theta1, model.gravity, drive, load, model.drive_inertia)
         return ModelArrays(
             links=L, closures=C,
             m=L[:, L_M], I=L[:, L_I], p=L[:, L_P], q=L[:, L_Q], a=L[:, L_A], a_pred=L[:, L_APRED],
             damping=L[:, L_DAMP], revolute=L[:, L_REV] != 0.0,
             gain=np.repeat(C[:, CL_GAIN], 2), closure_damping=np.repeat(C[:, CL_DAMP], 2),
             drive=drive, load=load, drive_inertia=float(model.drive_inertia),
-            packed=(L, C, float(model.theta1), float(model.gravity), drive, load, float(model.drive_inertia)),
+            theta1=float(model.theta1), gravity=float(model.gravity), struct=struct, c=ctypes.addressof(struct),
         )
 
 

@@ -24,20 +24,9 @@ from typing import Callable, Iterable
 
 import numpy as np
 
+from . import binding
 from .assembly import POSITION_TOL, assemble
-from .dynamics import (
-    EXACT,
-    METHOD_CODE,
-    METHODS,
-    PENALTY,
-    Inputs,
-    forward_dynamics,
-    observation_names,
-    observe_into,
-    register_drive,
-    rhs_into,
-    workspace,
-)
+from .dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
 from .errors import SceneError
 from .integrators import Integrator, StateEquation
 from .model import Mechanism, coordinate_names
@@ -45,7 +34,8 @@ from .scene import Scene, load_scene
 
 # Output groups.  One compiled forward-dynamics evaluation (about a microsecond)
 # serves 'state', 'dynamics' and 'energy' alike; only 'reactions' adds work, a
-# Newton-Euler pass, and only when asked for.
+# Newton-Euler pass, and only when asked for.  The joint coordinates and rates
+# need no evaluation at all: they are the stored states.
 GROUPS = ("state", "dynamics", "energy", "reactions")
 DEFAULT_GROUPS = ("state", "dynamics", "energy")
 
@@ -103,26 +93,25 @@ def _observed(n_links: int, groups: frozenset) -> tuple[tuple[str, int], ...]:
 
 
 def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndarray, inputs: Inputs,
-             groups: Iterable[str] = DEFAULT_GROUPS, work: tuple | None = None) -> dict[str, float]:
+             groups: Iterable[str] = DEFAULT_GROUPS, work: np.ndarray | None = None) -> dict[str, float]:
     """Outputs at one state; only the requested groups are computed.
 
-    One compiled evaluation of the equations of motion and one of the outputs;
-    the joint reactions (a Newton-Euler pass) only when 'reactions' is asked for.
-    ``work`` is a :func:`grubler.dynamics.workspace` to reuse.
+    One compiled evaluation of the equations of motion and the outputs; the joint
+    reactions (a Newton-Euler pass) only when 'reactions' is asked for.  ``work``
+    is a kernel workspace to reuse (:func:`grubler.binding.work`).
     """
     groups = frozenset(groups)
     n = model.n_links
     if work is None:
-        work = workspace(n, len(model.closures))
+        work = binding.work(n, len(model.closures))
     y = np.empty(2 * n)
     y[:n], y[n:] = z, zd
-    ok = rhs_into(model.arrays.packed, METHOD_CODE[method], float(t), y, -1, float(inputs.drive),
-                  float(inputs.load), work, np.empty(2 * n))
-    if not ok and groups & {"dynamics", "energy", "reactions"}:
+    values = np.zeros(9 * n + 11)
+    status = binding.library().grb_observe(model.arrays.c, METHOD_CODE[method], binding.address(y),
+                                           float(inputs.drive), float(inputs.load), "reactions" in groups,
+                                           binding.address(work), binding.address(values))
+    if status != binding.OK and groups & {"dynamics", "energy", "reactions"}:
         raise np.linalg.LinAlgError("Singular matrix")
-    values = np.empty(9 * n + 11)
-    observe_into(model.arrays.packed, METHOD_CODE[method], y[n:], float(inputs.drive), "reactions" in groups,
-                 work, values)
     values = values.tolist()
     out: dict[str, float] = {"t": t}
     for column, i in _observed(n, groups):
@@ -197,8 +186,7 @@ class Simulator:
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
         self._n = m.n_free
-        key = -1 if self.drive_function is None else register_drive(self, self.drive_function)
-        ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_key=key,
+        ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_function=self.drive_function,
                             project_state=self.method == EXACT and m.n_constraints > 0,
                             scale=max([1.0] + [abs(l.a) for l in m.links]))
         self._integ = Integrator(ode, self.t0, np.concatenate([z, zd]), method=self.integrator,
@@ -290,8 +278,10 @@ class Simulator:
 class Result:
     """A trajectory: joint states at output times, outputs computed on demand.
 
-    Index it by column name (``res['theta2']``) to get an array.  Columns of the
-    'dynamics', 'energy' and 'reactions' groups are computed on first use.
+    Index it by column name (``res['theta2']``) to get an array.  Coordinates
+    and rates are read from the stored states; the other columns of a group
+    ('state', 'dynamics', 'energy', 'reactions') are computed on first use, in
+    one pass of the kernel over every output time.
     """
 
     model: Mechanism
@@ -301,6 +291,7 @@ class Result:
     zd: np.ndarray
     inputs_at: Callable[[float], Inputs]
     stats: dict
+    constant_inputs: Inputs | None = None  # the efforts when they do not change with time
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -313,22 +304,52 @@ class Result:
                 return g
         raise KeyError(f"{column!r}: no such output; columns are {', '.join(output_columns(self.model, GROUPS))}")
 
+    def _coordinate(self, column: str) -> np.ndarray | None:
+        """A coordinate or rate column straight from the stored states (None for others)."""
+        names = self.model.coordinate_names
+        base, rate = (column[:-2], True) if column.endswith("_d") else (column, False)
+        if base not in names:
+            return None
+        i = names.index(base)
+        S = self.model.S[i]
+        if rate:
+            return self.zd @ S
+        return self.model.q_from_z(np.zeros(self.model.n_free))[i] + self.z @ S
+
     def compute(self, groups: Iterable[str]) -> None:
-        """Evaluate output groups at every output time (cached)."""
+        """Evaluate output groups at every output time (cached): one kernel pass."""
         todo = [g for g in groups if g not in self._cache]
         if not todo:
             return
-        work = workspace(self.model.n_links, len(self.model.closures))
-        rows = [evaluate(self.model, self.method, t, z, zd, self.inputs_at(t), todo, work)
-                for t, z, zd in zip(self.t, self.z, self.zd)]
+        m, n, rows = self.model, self.model.n_links, len(self.t)
+        y = np.ascontiguousarray(np.hstack([self.z, self.zd]), dtype=float)
+        width = 9 * n + 11
+        values, work = np.zeros((rows, width)), binding.work(n, len(m.closures))
+        if self.constant_inputs is not None:
+            tau, drive, load = None, float(self.constant_inputs.drive), float(self.constant_inputs.load)
+        else:
+            inputs = [self.inputs_at(float(t)) for t in self.t]
+            tau = np.ascontiguousarray([i.drive for i in inputs], dtype=float)
+            drive, load = 0.0, float(inputs[0].load) if inputs else 0.0
+        status = binding.library().grb_observe_rows(
+            m.arrays.c, METHOD_CODE[self.method], rows, binding.address(y),
+            None if tau is None else binding.address(tau), drive, load, "reactions" in todo,
+            binding.address(work), binding.address(values))
+        if status != binding.OK and set(todo) & {"dynamics", "energy", "reactions"}:
+            raise np.linalg.LinAlgError("Singular matrix")
+        index = {name: i for i, name in enumerate(observation_names(n))}
         for g in todo:
-            cols = [c for c in output_columns(self.model, (g,)) if c != "t"]
-            self._cache[g] = {c: np.array([r[c] for r in rows]) for c in cols}
+            cols = [c for c in output_columns(m, (g,)) if c != "t"]
+            self._cache[g] = {c: values[:, index[c]].copy() for c in cols}
 
     def __getitem__(self, column: str) -> np.ndarray:
         if column == "t":
             return self.t
         g = self._group_of(column)
+        if g not in self._cache:
+            values = self._coordinate(column)
+            if values is not None:
+                return values
         self.compute([g])
         return self._cache[g][column]
 
@@ -405,7 +426,8 @@ def simulate(
     if times[-1] < t_end - 1e-12:
         times = np.append(times, t_end)
     zs, zds = sim.advance_through(times)
-    return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats)
+    return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats,
+                  constant_inputs=None if callable(torque) else sim.inputs)
 
 
 __all__ = ["Simulator", "Result", "simulate", "evaluate", "output_columns", "unit_of", "GROUPS",

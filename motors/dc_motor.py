@@ -1,5 +1,10 @@
 """A permanent-magnet DC motor with gearbox, current-limited drive and winding thermal model.
 
+The equations below run in C (``motors/kernel/dc_motor.c``, called through
+:mod:`grubler.motors.native`), the same code the native DCMotor.fmu runs; this
+module checks what users give it, naming the field at fault, and wraps the
+results in immutable records.
+
 The motor is one side of a co-simulation coupling: the rotor's inertia lives in
 the mechanism's mass matrix (``drive.inertia`` = J_rotor N², see
 :attr:`DCMotor.reflected_inertia`), so the motor does not integrate speed.  It
@@ -42,13 +47,15 @@ of friction chatter for ``h tau_c / (omega_s J_rotor) < 2``.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field, replace
 
-from grubler.errors import SceneError
-from grubler.motors.motor_data import MotorData, check_number
+import numpy as np
 
-_LIMIT_TOL = 1e-12  # relative: a current this close to I_max is at the limit
+from grubler.errors import SceneError
+from grubler.motors import native
+from grubler.motors.motor_data import MotorData, check_number
 
 
 @dataclass(frozen=True)
@@ -127,6 +134,7 @@ class DCMotor:
     drive: Drive | None = None
     ambient_temperature: float = 25.0
     max_substep: float = 0.01
+    _params: native.Params = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         if not isinstance(self.data, MotorData):
@@ -140,17 +148,37 @@ class DCMotor:
             raise SceneError("ambient_temperature", f"must be a finite number, got {t!r}")
         object.__setattr__(self, "ambient_temperature", float(t))
         object.__setattr__(self, "max_substep", check_number("max_substep", self.max_substep))
-        _check_temperature("ambient_temperature", self.data, self.ambient_temperature)
+        d, g, v = self.data, self.gear, self.drive
+        params = native.Params(
+            d.resistance, d.inductance, d.torque_constant, d.back_emf_constant, d.rotor_inertia,
+            d.viscous_friction, d.coulomb_friction, d.smoothing_speed, d.thermal_resistance,
+            d.thermal_time_constant, d.temperature_coefficient, d.reference_temperature, g.ratio, g.efficiency,
+            v.supply_voltage, v.current_limit, self.ambient_temperature, self.max_substep)
+        # the C model's own check is the last word: what it accepts here, it steps
+        # (the rules that only a whole motor can check, such as R(T_amb) > 0, live there)
+        bad = native.check("params", params)
+        if bad is not None:
+            name, why = bad
+            raise SceneError(name, f"{why} (got {getattr(params, name)!r})")
+        object.__setattr__(self, "_params", params)
 
     @property
     def reflected_inertia(self) -> float:
         """J_rotor N² [kg m2]: the rotor's inertia seen at the gearbox output."""
-        return self.data.rotor_inertia * self.gear.ratio ** 2
+        out = ctypes.c_double()
+        _call(native.functions().dcm_reflected_inertia(ctypes.byref(self._params), ctypes.byref(out)))
+        return out.value
 
+    @property
+    def chatter_free_step(self) -> float:
+        """Longest step [s] over which a held speed keeps the dry friction from chattering.
 
-def _check_temperature(name: str, data: MotorData, temperature: float) -> None:
-    if data.resistance_at(temperature) <= 0.0:
-        raise SceneError(name, f"{temperature} degC is below where R(T) = R_ref (1 + alpha (T - T_ref)) vanishes")
+        2 omega_s J_rotor / tau_c (see the module's coupling limits), inf without
+        dry friction.
+        """
+        out = ctypes.c_double()
+        _call(native.functions().dcm_chatter_free_step(ctypes.byref(self._params), ctypes.byref(out)))
+        return out.value
 
 
 @dataclass(frozen=True)
@@ -178,15 +206,17 @@ def initial_state(motor: DCMotor, current: float = 0.0, temperature: float | Non
         ``initial_current`` beyond the current limit or not finite;
         ``initial_temperature`` not finite or below where R(T) vanishes.
     """
-    if isinstance(current, bool) or not isinstance(current, (int, float)) or not math.isfinite(current):
-        raise SceneError("initial_current", f"must be a finite number, got {current!r}")
-    if abs(current) > motor.drive.current_limit:
-        raise SceneError("initial_current", f"|{current}| A exceeds the current limit {motor.drive.current_limit} A")
     t = motor.ambient_temperature if temperature is None else temperature
-    if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-        raise SceneError("initial_temperature", f"must be a finite number, got {t!r}")
-    _check_temperature("initial_temperature", motor.data, t)
-    return MotorState(float(current), float(t))
+    for name, value in (("initial_current", current), ("initial_temperature", t)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(name, f"must be a number, got {value!r}")
+    state = MotorState(float(current), float(t))
+    bad = native.check("state", motor._params, native.State(state.current, state.temperature))
+    if bad is not None:
+        name, why = bad
+        limit = f", limit {motor.drive.current_limit} A" if name == "current" else ""
+        raise SceneError(f"initial_{name}", f"{why} (got {getattr(state, name)!r}{limit})")
+    return state
 
 
 @dataclass(frozen=True)
@@ -220,84 +250,36 @@ class MotorOutputs:
     terminal_voltage: float
 
 
-# -- the drive's voltage law and the exact current solution ----------------------
-def _terminal_voltage(i: float, v_cmd: float, emf: float, r: float, drive: Drive) -> tuple[float, bool]:
-    """Voltage the drive applies at current i, and whether it is holding the limit."""
-    vs, imax = drive.supply_voltage, drive.current_limit
-    v = min(max(v_cmd, -vs), vs)
-    if abs(i) >= imax * (1.0 - _LIMIT_TOL):
-        s = 1.0 if i > 0 else -1.0
-        if abs(i) > imax * (1.0 + _LIMIT_TOL):
-            return -s * vs, False  # beyond the limit: the drive opposes with all it has
-        v_hold = s * imax * r + emf
-        if s * v > s * v_hold:  # the command would push the current past the limit
-            if abs(v_hold) <= vs:
-                return v_hold, True
-            return min(max(v_hold, -vs), vs), False
-    return v, False
+# -- the model, in C ------------------------------------------------------------------
+# what each failure of dcm_step / dcm_observe means to the caller: the field at fault
+_FAILURES = {native.BAD_VOLTAGE: "voltage", native.BAD_SHAFT_SPEED: "shaft_speed", native.BAD_STEP_SIZE: "dt",
+             native.RESISTANCE_VANISHED: "winding_temperature", native.BAD_STATE: "state"}
 
 
-def _mean_square(i0: float, i_ss: float, t: float, tau: float) -> float:
-    """Integral of i² over [0, t] for i = i_ss + (i0 - i_ss) exp(-s / tau)."""
-    c = i0 - i_ss
-    e1, e2 = -math.expm1(-t / tau), -math.expm1(-2.0 * t / tau)
-    return i_ss * i_ss * t + 2.0 * i_ss * c * tau * e1 + 0.5 * c * c * tau * e2
+def _call(status: int, **given) -> None:
+    """Raise SceneError naming the field for a C model status other than OK."""
+    if status == native.OK:
+        return
+    name = _FAILURES.get(status)
+    if name is None:  # a NULL pointer or a wrong count: a defect of this module, not the user's input
+        raise RuntimeError(f"dc_motor: {native.message(status)}")
+    got = f" (got {given[name]!r})" if name in given else ""
+    raise SceneError(name, native.message(status) + got)
 
 
-def _advance_current(i: float, v_cmd: float, emf: float, r: float, tau: float, h: float,
-                     drive: Drive) -> tuple[float, float]:
-    """Current after h [s] and the integral of i² over it, exact for constant v_cmd and emf.
-
-    The step is cut where the current reaches the limit (from below, or coming
-    back from above), after which the drive's voltage law changes.
-    """
-    imax = drive.current_limit
-    t, acc = 0.0, 0.0
-    for _ in range(4):  # at most: free rise, hit limit, hold; or beyond, come back, hold
-        rem = h - t
-        if rem <= 0.0:
-            break
-        v, holding = _terminal_voltage(i, v_cmd, emf, r, drive)
-        if holding:
-            i = math.copysign(imax, i)
-            acc += i * i * rem
-            break
-        i_ss = (v - emf) / r
-        target = None
-        if imax < math.inf:  # the nearest limit the current crosses on its way to i_ss
-            for lim in sorted((imax, -imax), key=lambda x: abs(i - x)):
-                a, b = i - lim, i_ss - lim
-                if a * b < 0.0 and abs(a) > _LIMIT_TOL * imax:
-                    target = lim
-                    break
-        if target is not None:
-            t_hit = -tau * math.log((target - i_ss) / (i - i_ss))
-            if t_hit < rem:
-                acc += _mean_square(i, i_ss, t_hit, tau)
-                i, t = target, t + t_hit
-                continue
-        acc += _mean_square(i, i_ss, rem, tau)
-        i = i_ss + (i - i_ss) * math.exp(-rem / tau)
-        break
-    return i, acc
-
-
-def _advance_temperature(temp: float, i2_mean: float, h: float, motor: DCMotor) -> float:
-    """Winding temperature after h [s] at mean square current i2_mean, exact for R(T) linear in T."""
-    d = motor.data
-    c_th = d.thermal_capacity
-    p = i2_mean * d.resistance
-    a = (p * d.temperature_coefficient - 1.0 / d.thermal_resistance) / c_th  # dT/dt = a T + c
-    c = (p * (1.0 - d.temperature_coefficient * d.reference_temperature)
-         + motor.ambient_temperature / d.thermal_resistance) / c_th
-    x = a * h
-    phi = math.expm1(x) / x if abs(x) > 1e-12 else 1.0 + 0.5 * x
-    return temp + (a * temp + c) * h * phi
+def _record(out: native.Outputs) -> MotorOutputs:
+    return MotorOutputs(out.shaft_torque, out.current, out.winding_temperature, out.electrical_power,
+                        out.motor_speed, out.back_emf, out.terminal_voltage)
 
 
 # -- public functions -----------------------------------------------------------------
 def outputs(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float) -> MotorOutputs:
     """The motor's outputs in `state` with inputs `voltage` [V] and `shaft_speed` [rad/s].
+
+    Raises
+    ------
+    SceneError
+        Non-finite `voltage` or `shaft_speed`.
 
     Examples
     --------
@@ -310,13 +292,11 @@ def outputs(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: floa
     >>> abs(out.shaft_torque - 5.0 * 0.8 * tau_m) < 1e-12       # the motor drives: N eta tau_m
     True
     """
-    d, n = motor.data, motor.gear.ratio
-    w = n * shaft_speed
-    emf = d.back_emf_constant * w
-    v, _ = _terminal_voltage(state.current, voltage, emf, d.resistance_at(state.temperature), motor.drive)
-    return MotorOutputs(shaft_torque=shaft_torque(motor, state.current, w), current=state.current,
-                        winding_temperature=state.temperature, electrical_power=v * state.current,
-                        motor_speed=w, back_emf=emf, terminal_voltage=v)
+    voltage, shaft_speed = float(voltage), float(shaft_speed)
+    s, out = native.State(state.current, state.temperature), native.Outputs()
+    _call(native.functions().dcm_observe(ctypes.byref(motor._params), ctypes.byref(s), voltage, shaft_speed,
+                                         ctypes.byref(out)), voltage=voltage, shaft_speed=shaft_speed)
+    return _record(out)
 
 
 def shaft_torque(motor: DCMotor, current: float, motor_speed: float) -> float:
@@ -332,19 +312,19 @@ def shaft_torque(motor: DCMotor, current: float, motor_speed: float) -> float:
     >>> round(shaft_torque(m, 1.0, -1000.0), 6)   # back-driven: N k_t i / eta
     1.206
     """
-    d, g = motor.data, motor.gear
-    tau_m = (d.torque_constant * current - d.viscous_friction * motor_speed
-             - d.coulomb_friction * math.tanh(motor_speed / d.smoothing_speed))
-    direction = math.tanh(math.copysign(1.0, tau_m) * motor_speed / d.smoothing_speed)
-    return g.ratio * tau_m * g.efficiency ** direction
+    out = ctypes.c_double()
+    _call(native.functions().dcm_shaft_torque(ctypes.byref(motor._params), float(current), float(motor_speed),
+                                              ctypes.byref(out)))
+    return out.value
 
 
 def current_for_torque(motor: DCMotor, torque, motor_speed):
     """Winding current [A] that gives gearbox output `torque` [N m] at `motor_speed` [rad/s].
 
-    The inverse of :func:`shaft_torque`, elementwise over arrays: the gearbox
-    factor keeps the sign of the motor torque, so the direction of power flow
-    is known from the output torque and the speed.
+    The inverse of :func:`shaft_torque`, elementwise over arrays (broadcast
+    against each other; one C loop over them): the gearbox factor keeps the sign
+    of the motor torque, so the direction of power flow is known from the
+    output torque and the speed.
 
     Examples
     --------
@@ -354,13 +334,14 @@ def current_for_torque(motor: DCMotor, torque, motor_speed):
     >>> round(float(shaft_torque(m, float(i), 500.0)), 12)
     2.0
     """
-    import numpy as np
-
-    d, g = motor.data, motor.gear
-    torque, w = np.asarray(torque, float), np.asarray(motor_speed, float)
-    direction = np.tanh(np.sign(torque) * w / d.smoothing_speed)
-    tau_m = torque / (g.ratio * g.efficiency ** direction)
-    return (tau_m + d.viscous_friction * w + d.coulomb_friction * np.tanh(w / d.smoothing_speed)) / d.torque_constant
+    torque, w = np.broadcast_arrays(np.asarray(torque, float), np.asarray(motor_speed, float))
+    current = np.empty(torque.shape)  # before ascontiguousarray, which makes a 0-d array 1-d
+    torque, w = np.ascontiguousarray(torque), np.ascontiguousarray(w)
+    dp = ctypes.POINTER(ctypes.c_double)
+    _call(native.functions().dcm_current_for_torque(ctypes.byref(motor._params), current.size,
+                                                    torque.ctypes.data_as(dp), w.ctypes.data_as(dp),
+                                                    current.ctypes.data_as(dp)))
+    return current[()]
 
 
 def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
@@ -377,7 +358,9 @@ def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
     Raises
     ------
     SceneError
-        Non-finite `voltage` or `shaft_speed`, or `dt` not positive and finite.
+        Non-finite `voltage` or `shaft_speed`; `dt` not positive and finite, or
+        more than 1e8 sub-steps of ``motor.max_substep``; a non-finite `state`;
+        a winding cooled to where R(T) vanishes (``winding_temperature``).
 
     Examples
     --------
@@ -389,25 +372,12 @@ def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
     >>> round(out.current, 6), round(1.0 / 1.16, 6)
     (0.862069, 0.862069)
     """
-    for name, v in (("voltage", voltage), ("shaft_speed", shaft_speed)):
-        if not math.isfinite(v):
-            raise SceneError(name, f"must be finite, got {v}")
-    if not (dt > 0.0 and math.isfinite(dt)):
-        raise SceneError("dt", f"must be positive and finite, got {dt}")
-    d = motor.data
-    w = motor.gear.ratio * shaft_speed
-    emf = d.back_emf_constant * w
-    n = max(1, math.ceil(dt / motor.max_substep - 1e-9))
-    h = dt / n
-    i, temp = state.current, state.temperature
-    for _ in range(n):
-        r = d.resistance_at(temp)
-        if r <= 0.0:
-            raise SceneError("winding_temperature", f"{temp:.6g} degC: the winding's resistance model gives R <= 0")
-        i, i2 = _advance_current(i, voltage, emf, r, d.inductance / r, h, motor.drive)
-        temp = _advance_temperature(temp, i2 / h, h, motor)
-    new = MotorState(i, temp)
-    return new, outputs(motor, new, voltage, shaft_speed)
+    voltage, shaft_speed, dt = float(voltage), float(shaft_speed), float(dt)
+    s, out = native.State(state.current, state.temperature), native.Outputs()
+    _call(native.functions().dcm_step(ctypes.byref(motor._params), ctypes.byref(s), voltage, shaft_speed, dt,
+                                      ctypes.byref(out)),
+          voltage=voltage, shaft_speed=shaft_speed, dt=dt, state=state)
+    return MotorState(s.current, s.temperature), _record(out)
 
 
 class MotorSimulator:

@@ -207,10 +207,10 @@ class DCMotor(ProjectSlave):
             self.log("doStep before initialisation (call exitInitializationMode first)", Fmi2Status.error)
             return False
         d = self._model.data
-        if not self._chatter_warned and step_size * d.coulomb_friction > 2.0 * d.smoothing_speed * d.rotor_inertia:
+        if not self._chatter_warned and step_size > self._model.chatter_free_step:
             self._chatter_warned = True
             self.log(f"communication step {step_size:g} s exceeds 2 smoothing_speed rotor_inertia / "
-                     f"coulomb_friction = {2 * d.smoothing_speed * d.rotor_inertia / d.coulomb_friction:.3g} s: "
+                     f"coulomb_friction = {self._model.chatter_free_step:.3g} s: "
                      "with the speed held over a step the friction torque may chatter (raise smoothing_speed)",
                      Fmi2Status.warning)
         try:

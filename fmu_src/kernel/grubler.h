@@ -112,6 +112,32 @@ GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double
 GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
                                  double *work);
 
+/* -- the workspace as tables, for callers that read intermediate results ----
+ * grb_evaluate fills the whole workspace at one state: the kinematic pass, the
+ * mass centres, the closure rows, the mass matrix, the accelerations and the
+ * closure multipliers (GRB_SINGULAR when the solve fails; the kinematics are
+ * still filled).  grb_work_layout says where each table starts:
+ * layout[0..6] offsets of K, Jc, J, R, T, Q, S; layout[7..10] the columns of K,
+ * R, T and Q; layout[11] T's column of the accelerations. */
+GRB_API void grb_work_layout(int n_links, int n_closures, long *layout);
+GRB_API int grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+                         double *work);
+/* Position r[0..1], bias acceleration r[2..3] and Jacobian J (2 x N) of the
+ * point (lx along, ly across the link vector) of moving link k, from a
+ * workspace grb_evaluate filled. */
+GRB_API int grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
+/* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor on it) from a
+ * workspace grb_evaluate filled. */
+GRB_API int grb_joint_reactions(const grb_model *m, double *work, double *out);
+/* Inverse dynamics residual M zdd + h - Q at (z, zd) with no drive effort:
+ * what the drive and the closures must supply.  Leaves the closure rows in the
+ * workspace. */
+GRB_API int grb_inverse_residual(const grb_model *m, const double *y, const double *zdd, double tau_load,
+                                 double *work, double *out);
+/* Minimum-norm least-squares solution of J x = b, J m x n row-major, with a
+ * relative singular-value cut-off; returns the rank (scratch: (n + m) * m). */
+GRB_API int grb_lstsq(const double *J, int m, int n, const double *b, double rcond, double *x, double *scratch);
+
 /* A drive effort given as a function of time (NULL: the constant tau_drive). */
 typedef double (*grb_drive_fn)(void *ctx, double t);
 

@@ -1,0 +1,226 @@
+/* Keeping the loop closed: consistent assembly, and the projection that is the
+ * exact method's drift control.
+ *
+ * Assembly holds the driving coordinate (and, for mobility above one, the
+ * best-conditioned further coordinates) at the user's value and solves the
+ * closure equations for the others by damped Newton from the user's sketch, so
+ * that the branch the user drew is the branch found.  The same Gauss-Newton
+ * correction, started from an integrator step already closed to the local
+ * error, is the projection. */
+#include <float.h>
+#include <math.h>
+
+#include "workspace.h"
+
+#define POSITION_TOL 1e-12     /* m (or rad): closure reached by assembly and projection */
+#define LSTSQ_RCOND 1e-8       /* relative singular value below which a direction is dropped */
+#define PROJECTION_ITERATIONS 4 /* Gauss-Newton steps at most (one or two suffice after a step) */
+#define ASSEMBLY_ITERATIONS 100
+#define ASSEMBLY_CLOSED 1e-9   /* relative to the scale: what counts as closed at all */
+
+/* scratch blocks in S (see grb_work_size): U (N x M), V (M x M), a compact
+ * Jacobian (M x N), and N- and M-vectors */
+typedef struct scratch {
+    double *U, *V, *Jd, *x, *trial, *step, *phi, *b, *best;
+} scratch;
+
+static scratch scratch_of(grb_ws *w) {
+    scratch s;
+    int n = w->n, m = w->m;
+    s.U = w->S;
+    s.V = s.U + n * m;
+    s.Jd = s.V + m * m;
+    s.x = s.Jd + m * n;
+    s.trial = s.x + n;
+    s.step = s.trial + n;
+    s.phi = s.step + n;
+    s.b = s.phi + m;
+    s.best = s.b + m;
+    return s;
+}
+
+/* Closure rows at z with zero rates (the rates enter neither phi nor J). */
+static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
+    double *rest = w->J + (w->m + 2) * w->n;
+    for (int i = 0; i < w->n; i++) rest[i] = 0.0;
+    grb_chain(md, z, rest, w);
+    grb_closure_rows(md, rest, w);
+}
+
+static double worst_violation(const grb_ws *w) {
+    double worst = 0.0;
+    for (int r = 0; r < w->m; r++)
+        if (!(fabs(R_(w, r, R_PHI)) <= worst)) worst = fabs(R_(w, r, R_PHI)); /* a nan wins */
+    return worst;
+}
+
+/* Minimum-norm projection of y = (z, zd) onto the closures, in place:
+ * Gauss-Newton on phi(z) = 0, then the rates onto the null space of J. */
+void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
+    int n = w->n, m = w->m;
+    double *z = y, *zd = y + n;
+    scratch s = scratch_of(w);
+    for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
+        rows_at(md, z, w);
+        if (worst_violation(w) <= POSITION_TOL * scale) break;
+        grb_lstsq_min_norm(w->J, n, m, n, w->R + R_PHI, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+        for (int i = 0; i < n; i++) z[i] -= s.x[i];
+    }
+    for (int r = 0; r < m; r++) {
+        double v = 0.0;
+        for (int i = 0; i < n; i++) v += J_(w, r, i) * zd[i];
+        R_(w, r, R_B) = v;
+    }
+    grb_lstsq_min_norm(w->J, n, m, n, w->R + R_B, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+    for (int i = 0; i < n; i++) zd[i] -= s.x[i];
+}
+
+int grb_project(const grb_model *md, double scale, double *y, double *work) {
+    grb_ws w;
+    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    if (w.m == 0) return GRB_OK;
+    grb_project_ws(md, scale, y, &w);
+    for (int i = 0; i < 2 * w.n; i++)
+        if (!isfinite(y[i])) return GRB_SINGULAR;
+    return GRB_OK;
+}
+
+int grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
+    grb_ws w;
+    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    rows_at(md, z, &w);
+    for (int r = 0; r < w.m; r++) {
+        phi[r] = R_(&w, r, R_PHI);
+        for (int i = 0; i < w.n; i++) J[r * w.n + i] = J_(&w, r, i);
+    }
+    return GRB_OK;
+}
+
+int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
+    grb_ws w;
+    int n = md->n_links;
+    grb_ws_init(&w, n, md->n_closures, work);
+    int m = w.m, count = 0;
+    if (n_hold < 0) n_hold = 0;
+    if (md->drive >= 0 && n_hold > 0) held[count++] = md->drive;
+    if (count >= n_hold) {
+        *n_held = count;
+        return GRB_OK;
+    }
+    /* the columns a column-pivoted QR of J[:, others] picks first are the best
+     * dependent set (Businger and Golub); hold the rest, in chain order */
+    scratch s = scratch_of(&w);
+    rows_at(md, z, &w);
+    int k = 0, others[64 + 1];
+    if (n > 64) return GRB_BAD_ARGUMENT;
+    for (int i = 0; i < n; i++)
+        if (i != md->drive || count == 0) others[k++] = i;
+    double *A = s.Jd; /* m x k */
+    int chosen[64] = {0};
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < k; c++) A[r * k + c] = J_(&w, r, others[c]);
+    int steps = m < k ? m : k;
+    for (int st = 0; st < steps; st++) {
+        int p = -1;
+        double big = -1.0;
+        for (int c = 0; c < k; c++) {
+            if (chosen[c]) continue;
+            double norm = 0.0;
+            for (int r = st; r < m; r++) norm += A[r * k + c] * A[r * k + c];
+            if (norm > big) {
+                big = norm;
+                p = c;
+            }
+        }
+        if (p < 0) break; /* only non-finite columns left */
+        chosen[p] = 1;
+        /* Householder reflection zeroing column p below row st */
+        double alpha = sqrt(big);
+        if (alpha == 0.0) continue;
+        if (A[st * k + p] > 0) alpha = -alpha;
+        double *v = s.x;
+        double vnorm = 0.0;
+        for (int r = st; r < m; r++) {
+            v[r - st] = A[r * k + p] - (r == st ? alpha : 0.0);
+            vnorm += v[r - st] * v[r - st];
+        }
+        if (vnorm == 0.0) continue;
+        for (int c = 0; c < k; c++) {
+            double d = 0.0;
+            for (int r = st; r < m; r++) d += v[r - st] * A[r * k + c];
+            d *= 2.0 / vnorm;
+            for (int r = st; r < m; r++) A[r * k + c] -= d * v[r - st];
+        }
+    }
+    for (int c = 0; c < k && count < n_hold; c++)
+        if (!chosen[c]) held[count++] = others[c];
+    *n_held = count;
+    return GRB_OK;
+}
+
+/* lstsq of the columns dep of the closure Jacobian (at the state rows_at left) */
+static void solve_dependent(const grb_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
+    int m = w->m;
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < nd; c++) s->Jd[r * nd + c] = J_(w, r, dep[c]);
+    /* numpy.linalg.lstsq's default cut-off: machine epsilon times the larger size */
+    double rcond = DBL_EPSILON * (m > nd ? m : nd);
+    grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
+}
+
+int grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
+                 double *closest, double *work) {
+    grb_ws w;
+    int n = md->n_links;
+    grb_ws_init(&w, n, md->n_closures, work);
+    int m = w.m;
+    *closest = 0.0;
+    if (m == 0) return GRB_OK;
+    if (n > 64 || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
+    scratch s = scratch_of(&w);
+    int dep[64], nd = 0, is_held[64] = {0};
+    for (int i = 0; i < n_held; i++) {
+        if (held[i] < 0 || held[i] >= n) return GRB_BAD_ARGUMENT;
+        is_held[held[i]] = 1;
+    }
+    for (int i = 0; i < n; i++)
+        if (!is_held[i]) dep[nd++] = i;
+    double best = INFINITY;
+    for (int it = 0; it < ASSEMBLY_ITERATIONS; it++) {
+        rows_at(md, z, &w);
+        double err = worst_violation(&w);
+        if (err < best) best = err;
+        if (err < POSITION_TOL * scale) break;
+        for (int r = 0; r < m; r++) s.phi[r] = -R_(&w, r, R_PHI);
+        solve_dependent(&w, &s, dep, nd, s.phi, s.step);
+        /* damped Newton: the largest fraction that reduces the violation */
+        int moved = 0;
+        for (double frac = 1.0; frac >= 0.0625; frac *= 0.5) {
+            for (int i = 0; i < n; i++) s.trial[i] = z[i];
+            for (int c = 0; c < nd; c++) s.trial[dep[c]] += frac * s.step[c];
+            rows_at(md, s.trial, &w);
+            if (worst_violation(&w) < err) {
+                for (int i = 0; i < n; i++) z[i] = s.trial[i];
+                moved = 1;
+                break;
+            }
+        }
+        if (!moved) break;
+    }
+    rows_at(md, z, &w);
+    double err = worst_violation(&w);
+    if (!(err <= ASSEMBLY_CLOSED * scale)) {
+        *closest = best;
+        return GRB_NOT_CLOSED;
+    }
+    /* rates: keep the held ones, solve the velocity constraint for the rest */
+    for (int r = 0; r < m; r++) {
+        double v = 0.0;
+        for (int i = 0; i < n_held; i++) v -= J_(&w, r, held[i]) * zd[held[i]];
+        s.b[r] = v;
+    }
+    solve_dependent(&w, &s, dep, nd, s.b, s.x);
+    for (int c = 0; c < nd; c++) zd[dep[c]] = s.x[c];
+    *closest = err;
+    return GRB_OK;
+}

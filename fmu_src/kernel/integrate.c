@@ -1,0 +1,341 @@
+/* Explicit Runge-Kutta integration with error control, dense output and
+ * projection onto the closures.
+ *
+ * Written here rather than borrowed because a closed loop needs two things a
+ * general ODE solver does not give: a projection back onto the closure after
+ * every accepted step (the exact method's drift control), and an integrator
+ * state that is plain data (grb_clock, y, f), saved and restored whole as an
+ * FMU's rollback requires.  Step-size control and the initial step follow
+ * Hairer, Norsett and Wanner (Solving ODEs I, II.4); DOP853's error estimate and
+ * continuous extension are theirs (II.5, II.6). */
+#include <math.h>
+#include <string.h>
+
+#include "tableaus.h"
+#include "workspace.h"
+
+#define SAFETY 0.9
+#define MIN_FACTOR 0.2
+#define MAX_FACTOR 10.0
+/* fraction of the joint speeds one projection may remove before the step is
+ * taken for a jump between assembly branches (a change point) */
+#define BRANCH_JUMP 1e-2
+
+/* rows of the stepper table after the s + 1 stage derivatives and the dense
+ * stages: stage state, proposed state, projected state, current state, current
+ * derivative */
+typedef struct rows {
+    int stage, new_, proj, cur, der, count;
+} rows;
+
+static rows rows_of(const grb_tableau_data *tab) {
+    rows r;
+    int k = tab->stages + 1 + tab->dense_stages;
+    r.stage = k;
+    r.new_ = k + 1;
+    r.proj = k + 2;
+    r.cur = k + 3;
+    r.der = k + 4;
+    r.count = k + 5;
+    return r;
+}
+
+size_t grb_stepper_size(int tableau, int n_states) {
+    const grb_tableau_data *tab = grb_tableau(tableau);
+    if (!tab || n_states <= 0) return 0;
+    return (size_t)rows_of(tab).count * (size_t)n_states;
+}
+
+/* what one evaluation of the state equation needs */
+typedef struct problem {
+    const grb_model *md;
+    const grb_settings *s;
+    grb_ws ws;
+    double *work;
+    int N; /* states, 2n */
+} problem;
+
+static void rhs(problem *p, double t, const double *y, double *out) {
+    double tau = p->s->drive_fn ? p->s->drive_fn(p->s->drive_ctx, t) : p->s->tau_drive;
+    grb_rhs(p->md, p->s->method, y, tau, p->s->tau_load, p->work, out);
+}
+
+static int all_finite(const double *x, int n) {
+    for (int i = 0; i < n; i++)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+#define ROW(Y, i) ((Y) + (size_t)(i) * N)
+
+/* Scaled error of the step in Y; <= 1 accepts it. */
+static double error_norm(const grb_tableau_data *tab, double h, const double *Y, int N, double rtol, double atol) {
+    int s = tab->stages;
+    rows rw = rows_of(tab);
+    double e5_sum = 0.0, e3_sum = 0.0;
+    for (int r = 0; r < N; r++) {
+        double sc = atol + rtol * fmax(fabs(ROW(Y, rw.cur)[r]), fabs(ROW(Y, rw.new_)[r]));
+        double acc5 = 0.0, acc3 = 0.0;
+        for (int j = 0; j <= s; j++) {
+            acc5 += tab->e[j] * ROW(Y, j)[r];
+            if (tab->e3) acc3 += tab->e3[j] * ROW(Y, j)[r];
+        }
+        e5_sum += (acc5 / sc) * (acc5 / sc);
+        e3_sum += (acc3 / sc) * (acc3 / sc);
+    }
+    if (!tab->e3) return fabs(h) * sqrt(e5_sum / N);
+    /* Hairer's DOP853 estimate, mixing the 5th- and 3rd-order errors */
+    if (e5_sum == 0.0 && e3_sum == 0.0) return 0.0;
+    return fabs(h) * e5_sum / sqrt((e5_sum + 0.01 * e3_sum) * N);
+}
+
+/* One step of size h from the current state, f(t, y) in Y[0].  Fills the
+ * proposed state and, when adaptive, Y[s] = its derivative.  Returns the
+ * scaled error (0 for a fixed step, inf when the step made a non-finite number)
+ * and adds the evaluations made to *evals. */
+static double try_step(const grb_tableau_data *tab, problem *p, double t, double h, double *Y, long *evals) {
+    int s = tab->stages, N = p->N;
+    rows rw = rows_of(tab);
+    double *stage = ROW(Y, rw.stage), *cur = ROW(Y, rw.cur), *nw = ROW(Y, rw.new_);
+    for (int i = 1; i < s; i++) {
+        for (int r = 0; r < N; r++) {
+            double acc = 0.0;
+            for (int j = 0; j < i; j++) acc += tab->A[i * tab->lda + j] * ROW(Y, j)[r];
+            stage[r] = cur[r] + h * acc;
+        }
+        rhs(p, t + tab->c[i] * h, stage, ROW(Y, i));
+    }
+    for (int r = 0; r < N; r++) {
+        double acc = 0.0;
+        for (int j = 0; j < s; j++) acc += tab->b[j] * ROW(Y, j)[r];
+        nw[r] = cur[r] + h * acc;
+    }
+    *evals += s - 1;
+    if (!tab->adaptive) return 0.0;
+    rhs(p, t + h, nw, ROW(Y, s));
+    *evals += 1;
+    if (!(all_finite(nw, N) && all_finite(ROW(Y, s), N))) return INFINITY;
+    return error_norm(tab, h, Y, N, p->s->rtol, p->s->atol);
+}
+
+static double initial_step(const grb_tableau_data *tab, problem *p, double t, double *Y, double h_max) {
+    int s = tab->stages, N = p->N;
+    rows rw = rows_of(tab);
+    double rtol = p->s->rtol, atol = p->s->atol;
+    double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *stage = ROW(Y, rw.stage);
+    double d0 = 0.0, d1 = 0.0, d2 = 0.0;
+    for (int r = 0; r < N; r++) {
+        double sc = atol + rtol * fabs(cur[r]);
+        d0 += (cur[r] / sc) * (cur[r] / sc);
+        d1 += (der[r] / sc) * (der[r] / sc);
+    }
+    d0 = sqrt(d0 / N);
+    d1 = sqrt(d1 / N);
+    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    for (int r = 0; r < N; r++) stage[r] = cur[r] + h0 * der[r];
+    rhs(p, t + h0, stage, ROW(Y, s));
+    for (int r = 0; r < N; r++) {
+        double v = (ROW(Y, s)[r] - der[r]) / (atol + rtol * fabs(cur[r]));
+        d2 += v * v;
+    }
+    d2 = sqrt(d2 / N) / h0;
+    double h1;
+    if (d1 <= 1e-15 && d2 <= 1e-15)
+        h1 = fmax(1e-6, h0 * 1e-3);
+    else
+        h1 = pow(0.01 / fmax(d1, d2), 1.0 / (tab->error_order + 1));
+    double h = 100.0 * h0;
+    if (h1 < h) h = h1;
+    if (h_max < h) h = h_max;
+    return h; /* nan when the derivative is: the caller's guard stops on it */
+}
+
+/* The continuous extension's extra stages of the step just accepted. */
+static void dense_stages(const grb_tableau_data *tab, problem *p, double t, double h, double *Y, long *evals) {
+    int s = tab->stages, N = p->N;
+    rows rw = rows_of(tab);
+    double *stage = ROW(Y, rw.stage), *cur = ROW(Y, rw.cur);
+    for (int k = 0; k < tab->dense_stages; k++) {
+        for (int r = 0; r < N; r++) {
+            double acc = 0.0;
+            for (int j = 0; j < s + 1 + k; j++) acc += tab->dense_a[k * tab->lda + j] * ROW(Y, j)[r];
+            stage[r] = cur[r] + h * acc;
+        }
+        rhs(p, t + tab->dense_c[k] * h, stage, ROW(Y, s + 1 + k));
+    }
+    *evals += tab->dense_stages;
+}
+
+/* The state at fraction x of the step just accepted (DOP853's interpolant in
+ * Hairer's nested form y0 + x (F0 + (1 - x) (F1 + x (F2 + ...)))). */
+static void interpolate(const grb_tableau_data *tab, double x, double h, const double *Y, int N, double *out) {
+    int s = tab->stages, n_k = s + 1 + tab->dense_stages, rows_d = tab->dense_rows;
+    rows rw = rows_of(tab);
+    const double *cur = ROW(Y, rw.cur), *nw = ROW(Y, rw.new_);
+    for (int r = 0; r < N; r++) {
+        double dy = nw[r] - cur[r], acc = 0.0;
+        for (int i = 0; i < rows_d + 3; i++) {
+            int row = rows_d + 2 - i; /* F6 first, F0 last */
+            double f;
+            if (row >= 3) {
+                f = 0.0;
+                for (int j = 0; j < n_k; j++) f += tab->dense_d[(row - 3) * tab->lda + j] * ROW(Y, j)[r];
+                f *= h;
+            } else if (row == 2)
+                f = 2.0 * dy - h * (ROW(Y, s)[r] + ROW(Y, 0)[r]);
+            else if (row == 1)
+                f = h * ROW(Y, 0)[r] - dy;
+            else
+                f = dy;
+            acc += f;
+            acc *= (i % 2 == 0) ? x : 1.0 - x;
+        }
+        out[r] = cur[r] + acc;
+    }
+}
+
+static int fail(grb_failure *why, int status, double where, double limit) {
+    if (why) {
+        why->where = where;
+        why->limit = limit;
+    }
+    return status;
+}
+
+int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                const double *t_out, int n_out, double *out, double *work, double *stepper, grb_failure *why) {
+    const grb_tableau_data *tab = grb_tableau(st->tableau);
+    if (!tab || n_out < 1 || !(st->rtol > 0.0) || !(st->atol > 0.0) || !isfinite(st->rtol) ||
+        !isfinite(st->atol) || !(st->h_max > 0.0) || st->max_steps < 0)
+        return fail(why, GRB_BAD_ARGUMENT, clock->t, 0.0);
+    if (!tab->adaptive && !(st->h_fixed > 0.0 && isfinite(st->h_fixed)))
+        return fail(why, GRB_BAD_ARGUMENT, clock->t, st->h_fixed);
+    for (int i = 0; i < n_out; i++) {
+        double lo = i ? t_out[i - 1] : clock->t - 1e-12 * fmax(1.0, fabs(clock->t));
+        if (!isfinite(t_out[i]) || !(t_out[i] >= lo)) return fail(why, GRB_BAD_ARGUMENT, t_out[i], 0.0);
+    }
+    problem p = {md, st, {0}, work, 2 * md->n_links};
+    grb_ws_init(&p.ws, md->n_links, md->n_closures, work);
+    int N = p.N, s = tab->stages, dense = tab->dense_stages > 0;
+    rows rw = rows_of(tab);
+    double *Y = stepper;
+    double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *nw = ROW(Y, rw.new_), *proj = ROW(Y, rw.proj);
+    memcpy(cur, y, sizeof(double) * N);
+    int have_f = clock->have_f;
+    if (have_f) memcpy(der, f, sizeof(double) * N);
+    double t = clock->t, h = tab->adaptive ? clock->h : st->h_fixed;
+    long steps = 0, rejected_total = 0, evals = 0;
+    double exponent = -1.0 / (tab->error_order + 1);
+    int last = n_out - 1, o = 0;
+    while (o <= last) {
+        /* with a continuous extension the steps aim at the last time and the
+         * others are interpolated; without, each time is a step's end */
+        double t_target = dense ? t_out[last] : t_out[o];
+        while (t_target - t > 1e-12 * fmax(1.0, fabs(t_target))) {
+            if (!have_f) {
+                rhs(&p, t, cur, der);
+                evals++;
+                if (!all_finite(der, N)) return fail(why, GRB_NONFINITE_DERIVATIVE, t, 0.0);
+                have_f = 1;
+            }
+            memcpy(ROW(Y, 0), der, sizeof(double) * N);
+            double step;
+            int have_new_f;
+            if (!tab->adaptive) {
+                step = fmin(h, t_target - t);
+                try_step(tab, &p, t, step, Y, &evals);
+                if (!all_finite(nw, N)) return fail(why, GRB_NONFINITE_FIXED_STEP, t + step, step);
+                have_new_f = 0;
+            } else {
+                if (!(h > 0.0)) {
+                    h = initial_step(tab, &p, t, Y, st->h_max);
+                    evals++;
+                }
+                double proposed = fmin(h, st->h_max);
+                step = fmin(proposed, t_target - t);
+                int clipped = step < proposed, rejected = 0;
+                double h_min = 1e-13 * fmax(1.0, fabs(t)), err;
+                for (;;) {
+                    /* (a nan step fails this test too: no endless rejection loop) */
+                    if (!(step >= h_min)) return fail(why, GRB_STEP_UNDERFLOW, t, h_min);
+                    err = try_step(tab, &p, t, step, Y, &evals);
+                    if (err <= 1.0) break;
+                    rejected_total++;
+                    rejected = 1;
+                    if (isfinite(err))
+                        step *= fmax(MIN_FACTOR, SAFETY * pow(err, exponent));
+                    else
+                        step *= MIN_FACTOR;
+                    clipped = 0;
+                }
+                double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, exponent));
+                if (rejected) factor = fmin(1.0, factor);
+                /* a step shortened only to land on t_target keeps the controller's proposal */
+                h = clipped ? fmax(proposed, step * factor) : step * factor;
+                have_new_f = 1;
+                double t_end = t + step;
+                if (dense && o < last && t_out[o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
+                    dense_stages(tab, &p, t, step, Y, &evals);
+                    while (o < last && t_out[o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
+                        double *row = out + (size_t)o * N;
+                        interpolate(tab, (t_out[o] - t) / step, step, Y, N, row);
+                        if (st->project) grb_project_ws(md, st->scale, row, &p.ws);
+                        o++;
+                    }
+                }
+            }
+            if (st->project && md->n_closures > 0) {
+                memcpy(proj, nw, sizeof(double) * N);
+                grb_project_ws(md, st->scale, proj, &p.ws);
+                /* a step's correction is of the order of the tolerance; one that
+                 * takes a good part of the speed away means the step crossed a
+                 * position where two assembly branches meet (a change point) and
+                 * landed on the other: the motion would go on, closed but with
+                 * energy gone.  (Relative to the speed, and far above the
+                 * tolerance: a resting linkage's last 1e-9 rad/s may well go.) */
+                int half = N / 2;
+                double dv2 = 0.0, v2 = 0.0;
+                for (int r = half; r < N; r++) {
+                    dv2 += (proj[r] - nw[r]) * (proj[r] - nw[r]);
+                    v2 += nw[r] * nw[r];
+                }
+                if (dv2 > BRANCH_JUMP * BRANCH_JUMP * v2 && dv2 > (1e3 * st->atol) * (1e3 * st->atol))
+                    return fail(why, GRB_BRANCH_JUMP, t, sqrt(dv2 / v2));
+                if (!all_finite(proj, N)) return fail(why, GRB_NONFINITE_DERIVATIVE, t, 0.0);
+                /* a correction far below the tolerance leaves the derivative valid */
+                if (have_new_f) {
+                    double d = 0.0;
+                    for (int r = 0; r < N; r++) {
+                        double v = (proj[r] - nw[r]) / (st->atol + st->rtol * fabs(proj[r]));
+                        d += v * v;
+                    }
+                    if (sqrt(d / N) > 1e-3) have_new_f = 0;
+                }
+                memcpy(nw, proj, sizeof(double) * N);
+            }
+            t += step;
+            memcpy(cur, nw, sizeof(double) * N);
+            if (have_new_f) memcpy(der, ROW(Y, s), sizeof(double) * N);
+            have_f = have_new_f;
+            steps++;
+            if (steps > st->max_steps) return fail(why, GRB_TOO_MANY_STEPS, t_target, (double)st->max_steps);
+            /* times the step ended on (to rounding) take its projected state */
+            while (dense && o < last && t_out[o] - t <= 1e-12 * fmax(1.0, fabs(t_out[o]))) {
+                memcpy(out + (size_t)o * N, cur, sizeof(double) * N);
+                o++;
+            }
+        }
+        t = t_target;
+        memcpy(out + (size_t)o * N, cur, sizeof(double) * N);
+        o++;
+    }
+    memcpy(y, cur, sizeof(double) * N);
+    if (have_f) memcpy(f, der, sizeof(double) * N);
+    clock->t = t;
+    clock->h = tab->adaptive ? h : clock->h;
+    clock->have_f = have_f;
+    clock->steps += steps;
+    clock->rejected += rejected_total;
+    clock->evals += evals;
+    return GRB_OK;
+}

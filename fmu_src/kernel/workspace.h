@@ -1,0 +1,61 @@
+/* The kernel's workspace layout, shared by its translation units (not public).
+ *
+ * One caller-owned buffer of grb_work_size() doubles holds every table the
+ * kernel fills; grb_ws_init() only points into it.  Tables are row-major:
+ *   K  (N x K_COLUMNS)  the link table of the kinematic pass
+ *   Jc (N x 2 x N)      mass-centre Jacobians
+ *   J  ((M + 3) x N)    closure Jacobian, then three scratch rows
+ *   R  (M x R_COLUMNS)  constraint rows
+ *   T  (N x TC)         solver table: M, the matrix a solve destroys, right-hand
+ *                       sides (forces, then J^T), zdd, a scratch vector, M scratch
+ *   Q  (M x (3M + 1))   Schur complement, scratch, eigenvectors, eigenvalues
+ *   S  scratch for assembly (several N- and M x N-sized blocks)
+ * with N moving links and M = 2C closure rows. */
+#ifndef GRUBLER_WORKSPACE_H
+#define GRUBLER_WORKSPACE_H
+
+#include "grubler.h"
+
+/* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
+ * bias acceleration, slide axis, slide and its rate, mass centre, its bias */
+enum { K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX, K_CBY,
+       K_COLUMNS };
+/* constraint rows: violation, acceleration right side, solver columns b and
+ * lambda, the line normal's component along this row's axis (prismatic) and
+ * the closing point's */
+enum { R_PHI, R_GAMMA, R_B, R_LAM, R_NORMAL, R_POINT, R_COLUMNS };
+
+typedef struct grb_ws {
+    int n, m;        /* links, closure rows */
+    int tc, qc;      /* columns of T and Q */
+    int a0, x0, dd, vec, block; /* column offsets in T */
+    double *K, *Jc, *J, *R, *T, *Q, *S;
+} grb_ws;
+
+void grb_ws_init(grb_ws *w, int n_links, int n_closures, double *buffer);
+
+#define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
+#define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
+#define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
+#define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
+#define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
+#define Q_(w, i, c) ((w)->Q[(i) * (w)->qc + (c)])
+#define J_(w, r, i) ((w)->J[(r) * (w)->n + (i)])
+#define JC_(w, k, d, i) ((w)->Jc[((k) * 2 + (d)) * (w)->n + (i)])
+
+/* dense linear algebra on small matrices (linalg.c); row-major with a stride */
+int grb_lu_solve(double *T, int stride, int n, int a0, int x0, int ncols);
+void grb_sym_eig(double *Q, int stride, int m);
+int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
+                       double *x, double *U, double *V);
+
+/* the kinematic and dynamic passes (chain.c) */
+void grb_chain(const grb_model *md, const double *z, const double *zd, grb_ws *w);
+void grb_point(const grb_model *md, const grb_ws *w, int k, double lx, double ly, double *J, double *r);
+void grb_closure_rows(const grb_model *md, const double *zd, grb_ws *w);
+int grb_accelerations(const grb_model *md, int method, const double *z, const double *zd, double tau_drive,
+                      double tau_load, grb_ws *w);
+void grb_reactions(const grb_model *md, grb_ws *w, double *out);
+void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
+
+#endif

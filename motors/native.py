@@ -1,0 +1,91 @@
+"""ctypes declarations of the C motor model (``motors/kernel/dc_motor.h``).
+
+The motor's equations exist once, in C; :mod:`grubler.motors.dc_motor` calls
+them through the functions declared here, on the library handle of
+:func:`grubler.binding.library` (the compiled ``grubler._kernel``), and the
+native DCMotor.fmu compiles the same source.  The structures mirror the header's
+field for field: a field added there must be added here, in the same place.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+
+from grubler.binding import library
+
+# enum dcm_status, in the header's order
+OK, BAD_PARAMETER, BAD_STATE, BAD_VOLTAGE, BAD_SHAFT_SPEED, BAD_STEP_SIZE, RESISTANCE_VANISHED, BAD_ARGUMENT = range(8)
+
+
+class Params(ctypes.Structure):
+    """struct dcm_params: the constants of a step (SI units, degC)."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "resistance", "inductance", "torque_constant", "back_emf_constant", "rotor_inertia",
+        "viscous_friction", "coulomb_friction", "smoothing_speed", "thermal_resistance",
+        "thermal_time_constant", "temperature_coefficient", "reference_temperature", "gear_ratio",
+        "gear_efficiency", "supply_voltage", "current_limit", "ambient_temperature", "max_substep")]
+
+
+class State(ctypes.Structure):
+    """struct dcm_state: winding current [A] and temperature [degC]."""
+
+    _fields_ = [("current", ctypes.c_double), ("temperature", ctypes.c_double)]
+
+
+class Outputs(ctypes.Structure):
+    """struct dcm_outputs, in :class:`grubler.motors.dc_motor.MotorOutputs`' field order."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "shaft_torque", "current", "winding_temperature", "electrical_power", "motor_speed", "back_emf",
+        "terminal_voltage")]
+
+
+_P, _S, _O = ctypes.POINTER(Params), ctypes.POINTER(State), ctypes.POINTER(Outputs)
+_D, _DP, _I = ctypes.c_double, ctypes.POINTER(ctypes.c_double), ctypes.c_int
+_SIGNATURES = {
+    "dcm_field_name": (ctypes.c_char_p, [_I]),
+    "dcm_status_message": (ctypes.c_char_p, [_I]),
+    "dcm_check_params": (_I, [_P, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+    "dcm_check_state": (_I, [_P, _S, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+    "dcm_step": (_I, [_P, _S, _D, _D, _D, _O]),
+    "dcm_observe": (_I, [_P, _S, _D, _D, _O]),
+    "dcm_shaft_torque": (_I, [_P, _D, _D, _DP]),
+    "dcm_current_for_torque": (_I, [_P, ctypes.c_long, _DP, _DP, _DP]),
+    "dcm_reflected_inertia": (_I, [_P, _DP]),
+    "dcm_chatter_free_step": (_I, [_P, _DP]),
+}
+
+
+@functools.lru_cache(maxsize=None)
+def functions() -> ctypes.CDLL:
+    """The kernel library with the motor functions' signatures declared (once)."""
+    lib = library()
+    for name, (restype, argtypes) in _SIGNATURES.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = restype, argtypes
+    return lib
+
+
+def check(kind, p: Params, state: State | None = None) -> tuple[str, str] | None:
+    """``(field, why)`` of the first field the C model refuses, or None.
+
+    `kind` is ``"params"`` (dcm_check_params) or ``"state"`` (dcm_check_state).
+    """
+    lib = functions()
+    field, why = ctypes.c_int(-1), ctypes.c_char_p()
+    if kind == "params":
+        status = lib.dcm_check_params(ctypes.byref(p), ctypes.byref(field), ctypes.byref(why))
+    else:
+        status = lib.dcm_check_state(ctypes.byref(p), ctypes.byref(state), ctypes.byref(field), ctypes.byref(why))
+    if status == OK:
+        return None
+    if status not in (BAD_PARAMETER, BAD_STATE):
+        raise RuntimeError(f"dc_motor: {message(status)}")
+    return lib.dcm_field_name(field.value).decode(), why.value.decode()
+
+
+def message(status: int) -> str:
+    """dcm_status_message: the C model's sentence for a status."""
+    return functions().dcm_status_message(status).decode()

@@ -1,0 +1,81 @@
+"""The compiled kernel's own contract: its coefficient tables, its guards, its binding."""
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+from scipy.integrate._ivp import dop853_coefficients as dc
+
+import grubler
+from grubler import binding
+from grubler.errors import IntegrationError
+from grubler.simulate import Simulator
+
+
+def _table(ptr, count):
+    return np.array([ptr[i] for i in range(count)])
+
+
+def test_dop853_table_is_scipys():
+    # the C table was printed from scipy's copy of Hairer's coefficients: it must
+    # still be that table, digit for digit
+    tab = binding.library().grb_tableau(0).contents
+    s, lda = tab.stages, tab.lda
+    assert (s, tab.dense_stages, tab.dense_rows) == (dc.N_STAGES, dc.N_STAGES_EXTENDED - dc.N_STAGES - 1, 4)
+    A = _table(tab.A, 16 * lda).reshape(16, lda)
+    assert np.array_equal(A[:s, :s], dc.A[:s, :s])
+    assert np.array_equal(_table(tab.b, s), dc.B)
+    assert np.array_equal(_table(tab.c, s), dc.C[:s])
+    assert np.array_equal(_table(tab.e, s + 1), dc.E5)
+    assert np.array_equal(_table(tab.e3, s + 1), dc.E3)
+    assert np.array_equal(_table(tab.dense_a, 3 * lda).reshape(3, lda), dc.A[s + 1:])
+    assert np.array_equal(_table(tab.dense_c, 3), dc.C[s + 1:])
+    assert np.array_equal(_table(tab.dense_d, 4 * lda).reshape(4, lda), dc.D)
+
+
+def test_rk45_weights_are_consistent():
+    # order conditions a reader can check by hand: rows of A sum to c, b sums to 1,
+    # the error weights sum to 0
+    tab = binding.library().grb_tableau(1).contents
+    s = tab.stages
+    A = _table(tab.A, s * tab.lda).reshape(s, tab.lda)
+    np.testing.assert_allclose(A.sum(axis=1), _table(tab.c, s), atol=1e-15)
+    assert abs(_table(tab.b, s).sum() - 1.0) < 1e-15
+    assert abs(_table(tab.e, s + 1).sum()) < 1e-15
+
+
+def test_an_absurd_tolerance_stops_instead_of_spinning():
+    # rtol 1e-200 once made the error norm overflow, the step nan and the
+    # rejection loop endless; now the step-size guard ends it by name
+    sim = Simulator(grubler.load_scene("thesis-fourbar").mechanism, rtol=1e-200, atol=1e-300)
+    with pytest.raises(IntegrationError, match="step size fell below"):
+        sim.advance_to(0.01)
+    assert sim.t == 0.0  # all or nothing
+
+
+def test_a_failing_drive_function_raises_its_own_error():
+    def torque(t):
+        if t > 0.05:
+            raise RuntimeError("sensor lost")
+        return 1.0
+
+    with pytest.raises(RuntimeError, match="sensor lost"):
+        grubler.simulate("thesis-fourbar", t_end=0.1, torque=torque)
+
+
+def test_a_model_survives_pickling_with_a_fresh_kernel_struct():
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    copy = pickle.loads(pickle.dumps(m))
+    assert copy.arrays.c != m.arrays.c  # its own tables, not the original's addresses
+    a, b = Simulator(copy), Simulator(m)
+    a.advance_to(0.2)
+    b.advance_to(0.2)
+    assert np.array_equal(a.z, b.z)
+
+
+def test_kernel_refuses_times_out_of_order():
+    sim = Simulator(grubler.load_scene("thesis-fourbar").mechanism)
+    with pytest.raises(ValueError, match="times"):
+        sim.advance_through([0.5, 0.2])
+    assert math.isfinite(sim.t)
