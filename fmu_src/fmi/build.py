@@ -73,7 +73,7 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     sources.mkdir(parents=True, exist_ok=True)
     dirs = _kernel_dirs()
     for key in spec.kernel_sources:
-        for f in sorted(dirs[key].glob("*.[ch]")):
+        for f in sorted([*dirs[key].glob("*.[ch]"), *dirs[key].glob("*.inc")]):
             if f.name not in NOT_IN_FMU:
                 shutil.copy2(f, sources / f.name)
     for name in (*WRAPPER, spec.model_source):

@@ -87,8 +87,9 @@ const double *model_outputs(const grb_instance *inst);
 int model_input_free_level(void);
 /* The time of the run (a started run). */
 double model_time(const grb_instance *inst);
-/* One communication step from t to t + h; fmi2Discard with a logged reason when
- * the inputs are not finite or the integration fails (the run stays at t). */
-fmi2Status model_do_step(grb_instance *inst, double t, double h);
+/* One communication step from the run's time to t_end; fmi2Discard with a
+ * logged reason when the inputs are not finite or the integration fails (the
+ * run stays where it was). */
+fmi2Status model_do_step(grb_instance *inst, double t_end);
 
 #endif

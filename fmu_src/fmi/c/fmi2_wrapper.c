@@ -558,7 +558,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                 "state to roll back)", currentCommunicationPoint, t);
         return fmi2Discard;
     }
-    s = model_do_step(inst, t, currentCommunicationPoint + communicationStepSize - t);
+    s = model_do_step(inst, currentCommunicationPoint + communicationStepSize);
     if (s > fmi2Discard) {
         inst->state = GRB_ERROR;
         return fmi2Error;

@@ -26,7 +26,7 @@
 /* internal steps allowed per communication step: a bound against a stall, far
  * above what any tolerance needs for a step of seconds */
 #ifndef GRB_FMU_MAX_STEPS
-#define GRB_FMU_MAX_STEPS 1000000L
+#define GRB_FMU_MAX_STEPS 10000000L  /* the library's Integrator.advance_to default */
 #endif
 
 #define N N_LINKS
@@ -349,9 +349,9 @@ fmi2Status model_compute(grb_instance *inst, int level) {
 
 /* ---- stepping ---------------------------------------------------------------- */
 
-fmi2Status model_do_step(grb_instance *inst, double t, double h) {
+fmi2Status model_do_step(grb_instance *inst, double t_out) {
     mech *mm = (mech *)inst->model;
-    double *p = inst->p, t_out = t + h;
+    double *p = inst->p, t = p[P_T];
     double drive = p[SLOT_MOTOR_TORQUE], load = p[SLOT_LOAD_TORQUE];
     grb_clock clock;
     grb_failure why = {0.0, 0.0};
@@ -370,12 +370,11 @@ fmi2Status model_do_step(grb_instance *inst, double t, double h) {
     }
     mm->s.tau_drive = drive;
     mm->s.tau_load = load;
-    clock.t = p[P_T];
-    clock.h = p[P_H];
+    /* as grubler.integrators.Integrator._advance: the counts are per advance */
+    clock.t = t;
+    clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;
-    clock.steps = (long)p[P_STEPS];
-    clock.rejected = (long)p[P_REJECTED];
-    clock.evals = (long)p[P_EVALS];
+    clock.steps = clock.rejected = clock.evals = 0;
     st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
     if (st != GRB_OK) {
         grb_log(inst, fmi2Discard, "step from t = %.12g s failed at t = %.12g s: %s (limit %g); the mechanism stays "
@@ -383,10 +382,10 @@ fmi2Status model_do_step(grb_instance *inst, double t, double h) {
         return fmi2Discard;
     }
     p[P_T] = clock.t;
-    p[P_H] = clock.h;
+    if (mm->s.tableau != GRB_RK4) p[P_H] = clock.h;
     p[P_HAVE_F] = clock.have_f ? 1.0 : 0.0;
-    p[P_STEPS] = (double)clock.steps;
-    p[P_REJECTED] = (double)clock.rejected;
-    p[P_EVALS] = (double)clock.evals;
+    p[P_STEPS] += (double)clock.steps;
+    p[P_REJECTED] += (double)clock.rejected;
+    p[P_EVALS] += (double)clock.evals;
     return fmi2OK;
 }
