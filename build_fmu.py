@@ -37,6 +37,9 @@ NATIVE = {
 SLAVES = {
     "DCMotor": HERE / "motors" / "grubler_dc_motor.py",
 }
+# the pythonfmu mechanism the native one replaces, built only when named, until
+# it is removed (tests/test_fmu.py runs it beside the native one's tests)
+LEGACY = {"MechanismPython": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py"}
 # grubler.controllers: each law becomes an FMU the way a user's own law does
 LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, ComputedTorque, Trajectory, Encoder)}
 FMUS = [*NATIVE, *SLAVES, *LAWS]
@@ -44,7 +47,7 @@ FMUS = [*NATIVE, *SLAVES, *LAWS]
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:
     """Build the named FMUs (default: all) and return their paths."""
-    unknown = set(names or ()) - set(FMUS)
+    unknown = set(names or ()) - set(FMUS) - set(LEGACY)
     if unknown:
         raise SystemExit(f"build_fmu: no FMU named {', '.join(sorted(unknown))} (have: {', '.join(FMUS)})")
     dest.mkdir(parents=True, exist_ok=True)
@@ -54,8 +57,8 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
             built.append(build_fmu(spec(), dest / f"{name}.fmu"))
     with tempfile.TemporaryDirectory(prefix="grubler_fmu_") as tmp:
         package = stage_package(Path(tmp))
-        for name, script in SLAVES.items():
-            if names and name not in names:
+        for name, script in {**SLAVES, **LEGACY}.items():
+            if (names and name not in names) or (name in LEGACY and not names):
                 continue
             path = FmuBuilder.build_FMU(script, dest=dest / f"{name}.fmu", project_files=[package],
                                         canGetAndSetFMUstate=True, canSerializeFMUstate=True)

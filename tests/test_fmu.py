@@ -25,7 +25,7 @@ def fmu(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
     import build_fmu
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["MechanismPython"])
     return path
 
 

@@ -11,7 +11,7 @@ Examples
 >>> spec = mechanism_spec(load_scene("thesis-fourbar"))
 >>> spec.vr("link2.a") > 0, spec.defines["N_LINKS"]
 (True, 3)
->>> fmu_parameters(load_scene("thesis-slider-crank"))["link4.joint"]
+>>> fmu_parameters(load_scene("thesis-scotch-yoke"))["link2.joint"]  # P: item 2
 2
 """
 
@@ -139,8 +139,8 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
                   "step": 1e-3})
     par("integrator", STRING, "auto | dop853 | rk45 | rk4 (auto: dop853); radau and bdf exist only in the "
                               "Python library", choices=INTEGRATORS)
-    par("rtol", REAL, "relative tolerance of the internal integration", None, 0.0)
-    par("atol", REAL, "absolute tolerance of the internal integration (rad and m)", None, 0.0)
+    par("rtol", REAL, "relative tolerance of the internal integration [-]", None, 0.0)
+    par("atol", REAL, "absolute tolerance of the internal integration [rad, m]", None, 0.0)
     par("max_step", REAL, "largest internal step (0: no limit)", "s", 0.0)
     par("step", REAL, "fixed internal step of rk4", "s", 0.0)
     par("gravity", REAL, "gravity g, acting along -y", "m/s2", 0.0)
@@ -149,12 +149,12 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     coord_choices = ("",) + tuple(names)
     par("drive_joint", STRING, "real joint the motor acts on (e.g. theta2; empty: none)", choices=coord_choices)
     par("load_joint", STRING, "real joint the load acts on (empty: none)", choices=coord_choices)
-    par("drive.inertia", REAL, "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2 (kg m2, or kg "
-                               "on a slide)", None, 0.0)
+    par("drive.inertia", REAL, "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2 "
+                               "[kg m2, or kg on a slide]", None, 0.0)
     link_text = {"a": ("link vector length", "m", 0.0), "p": ("mass centre along the link vector", "m", None),
                  "q": ("mass centre across the link vector", "m", None), "m": ("mass (> 0)", "kg", 0.0),
                  "I": ("centroidal moment of inertia", "kg.m2", 0.0),
-                 "damping": ("viscous damping of the real joint (N m s/rad, or N s/m on a slide)", None, 0.0)}
+                 "damping": ("viscous damping of its real joint [N m s/rad or N s/m]", None, 0.0)}
     for k in range(2, n + 2):
         par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
         for f in LINK_FIELDS[1:]:
@@ -172,20 +172,20 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
         par(f"{pre}.point_y", REAL, "target point (or a point of the line) in to_link's frame, y", "m")
         par(f"{pre}.angle", REAL, "prismatic: direction of the line in to_link's frame", "rad")
         par(f"{pre}.psi", REAL, "prismatic: held orientation of the link relative to to_link", "rad")
-        par(f"{pre}.gain", REAL, "penalty closure stiffness G (N/m and N m/rad)", None, 0.0)
-        par(f"{pre}.damping", REAL, "penalty closure damping C (N s/m and N m s/rad)", None, 0.0)
+        par(f"{pre}.gain", REAL, "penalty closure stiffness G [N/m, N m/rad]", None, 0.0)
+        par(f"{pre}.damping", REAL, "penalty closure damping C [N s/m, N m s/rad]", None, 0.0)
     for x in names:
         par(f"initial.{x}", REAL, f"initial {x} (a guess for the coordinates assembly solves for)",
             _coordinate_unit(x, 0))
         par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)", _coordinate_unit(x, 1))
-    v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint (N m, or N on a slide)", 0.0))
-    v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint (N m, or N on a slide)", 0.0))
+    v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint [N m, or N on a slide]", 0.0))
+    v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint [N m, or N on a slide]", 0.0))
 
     obs = observation_names(n)
     index = {name: i for i, name in enumerate(obs)}
     units = {"tip_x": "m", "tip_y": "m", "Fx": "N", "Fy": "N", "Mz": "N.m", "KE": "J", "PE": "J"}
     texts = {"tip_x": "chain tip (the closing point of the last link), x", "tip_y": "chain tip, y",
-             "closure_error": "largest closure violation (m or rad)",
+             "closure_error": "largest closure violation [m or rad]",
              "Fx": "force the ground exerts on the last link at the closing joint, x",
              "Fy": "force the ground exerts on the last link at the closing joint, y",
              "Mz": "moment the ground exerts on the last link at the closing joint",
@@ -213,9 +213,8 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
             feed = order_ == 2
         level = LEVEL_REACTIONS if name.startswith("R") and name[1].isdigit() else LEVEL_OBSERVE
         v.append(Variable(name, REAL, OUTPUT, text, unit=unit, level=level, feedthrough=feed, slot=index[name]))
-    v.append(Variable("drive_angle", REAL, OUTPUT, "coordinate of the drive joint, relative to its predecessor "
-                                                   "(rad, or m on a slide)", level=LEVEL_DRIVE, slot=len(obs)))
-    v.append(Variable("drive_speed", REAL, OUTPUT, "rate of the drive joint (rad/s, or m/s on a slide)",
+    v.append(Variable("drive_angle", REAL, OUTPUT, "coordinate of the drive joint (relative) [rad or m]", level=LEVEL_DRIVE, slot=len(obs)))
+    v.append(Variable("drive_speed", REAL, OUTPUT, "rate of the drive joint [rad/s or m/s]",
                       level=LEVEL_DRIVE, slot=len(obs) + 1))
 
     slot_order = [*GLOBALS]

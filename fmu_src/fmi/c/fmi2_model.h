@@ -45,7 +45,9 @@ enum {
 };
 
 typedef struct grb_instance {
-    fmi2CallbackFunctions cb;   /* a copy: the importer's struct need not outlive the call */
+    fmi2CallbackFunctions cb;   /* the memory functions, copied */
+    const fmi2CallbackFunctions *functions;  /* the importer's struct, valid until fmi2FreeInstance (FMI 2.0):
+                                              * its logger is read at each message, as hosts replace it */
     char *name;
     int state;                  /* one of the bits above */
     int logging;                /* fmi2SetDebugLogging */

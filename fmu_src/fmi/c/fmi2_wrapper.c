@@ -68,7 +68,10 @@ void grb_log(grb_instance *inst, fmi2Status status, const char *fmt, ...) {
     char msg[1024], out[2048];
     size_t i, j = 0;
     va_list ap;
-    if (inst == NULL || inst->cb.logger == NULL) return;
+    const fmi2CallbackFunctions *f;
+    if (inst == NULL) return;
+    f = inst->functions != NULL ? inst->functions : &inst->cb;
+    if (f->logger == NULL) return;
     if (status == fmi2OK && !inst->logging) return;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
@@ -80,7 +83,7 @@ void grb_log(grb_instance *inst, fmi2Status status, const char *fmt, ...) {
         out[j++] = msg[i];
     }
     out[j] = '\0';
-    inst->cb.logger(inst->cb.componentEnvironment, inst->name, status, status_category(status), out);
+    f->logger(f->componentEnvironment, inst->name, status, status_category(status), out);
 }
 
 /* log, enter the error state, return fmi2Error */
@@ -284,6 +287,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     if (functions == NULL || functions->allocateMemory == NULL || functions->freeMemory == NULL) return NULL;
     memset(&tmp, 0, sizeof tmp);
     tmp.cb = *functions;
+    tmp.functions = functions;
     tmp.name = (char *)name;
     tmp.state = GRB_INSTANTIATED;
     if (instanceName == NULL || instanceName[0] == '\0') {
