@@ -3,7 +3,8 @@
     python build_fmu.py [--dest dist] [NAME ...]
 
 The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
-defaults; every scene quantity a parameter) is the C kernel behind an FMI 2.0
+defaults; every scene quantity a parameter) and DCMotor.fmu (the maxon RE 40's
+data; every datasheet number a parameter) are the C models behind one FMI 2.0
 wrapper, compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
 is installed), with its C sources inside.  It runs without Python.
 
@@ -26,20 +27,21 @@ from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder,
 from grubler.controllers.fmu import build_controller_fmu, stage_package
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
+from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
 from grubler.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
 # native FMUs: name -> the ModelSpec of the model they serve
 NATIVE = {
     "Mechanism": lambda: mechanism_spec(load_scene("thesis-fourbar"), "Mechanism"),
+    "DCMotor": lambda: motor_spec(DEFAULT_MOTOR, "DCMotor"),
 }
 # pythonfmu FMUs with a slave script of their own
-SLAVES = {
-    "DCMotor": HERE / "motors" / "grubler_dc_motor.py",
-}
+SLAVES: dict[str, Path] = {}
 # the pythonfmu mechanism the native one replaces, built only when named, until
 # it is removed (tests/test_fmu.py runs it beside the native one's tests)
-LEGACY = {"MechanismPython": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py"}
+LEGACY = {"MechanismPython": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
+          "DCMotorPython": HERE / "motors" / "grubler_dc_motor.py"}
 # grubler.controllers: each law becomes an FMU the way a user's own law does
 LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, ComputedTorque, Trajectory, Encoder)}
 FMUS = [*NATIVE, *SLAVES, *LAWS]

@@ -374,7 +374,7 @@ def fmu(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
     import build_fmu
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["DCMotor"])
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["DCMotorPython"])
     return path
 
 

@@ -29,26 +29,33 @@ MATCH = 1e-12
 
 
 @pytest.fixture(scope="session")
-def fmu(tmp_path_factory):
+def built(tmp_path_factory):
+    """dist/Mechanism.fmu and dist/DCMotor.fmu as build_fmu.py makes them, unzipped too."""
     sys.path.insert(0, str(ROOT))
     import build_fmu
-
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
-    return path
-
-
-@pytest.fixture(scope="session")
-def unzipped(fmu, tmp_path_factory):
-    d = tmp_path_factory.mktemp("Mechanism")
-    zipfile.ZipFile(fmu).extractall(d)
-    return d
-
-
-@pytest.fixture(scope="session")
-def md(fmu):
     from fmpy import read_model_description
 
-    return read_model_description(str(fmu))
+    out = {}
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor"]):
+        d = tmp_path_factory.mktemp(path.stem)
+        zipfile.ZipFile(path).extractall(d)
+        out[path.stem] = (path, d, read_model_description(str(path)))
+    return out
+
+
+@pytest.fixture(scope="session")
+def fmu(built):
+    return built["Mechanism"][0]
+
+
+@pytest.fixture(scope="session")
+def unzipped(built):
+    return built["Mechanism"][1]
+
+
+@pytest.fixture(scope="session")
+def md(built):
+    return built["Mechanism"][2]
 
 
 @pytest.fixture(scope="session")
@@ -126,10 +133,23 @@ class Transcript:
         return any(text in ln for ln in self.logs)
 
 
+def host_for(host, built, name: str) -> Host:
+    _, d, desc = built[name]
+    vr = {v.name: v.valueReference for v in desc.modelVariables}
+    return Host(host, d / "binaries" / "linux64" / f"{name}.so", desc.guid, vr)
+
+
 @pytest.fixture(scope="session")
-def native(host, unzipped, md):
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    return Host(host, unzipped / "binaries" / "linux64" / "Mechanism.so", md.guid, vr)
+def native(host, built):
+    return host_for(host, built, "Mechanism")
+
+
+@pytest.fixture(scope="session")
+def motor(host, built):
+    return host_for(host, built, "DCMotor")
+
+
+BOTH = pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
 
 
 def library_steps(scene, h: float, n: int, names, torque: float = 3.0, t0: float = 0.0) -> np.ndarray:
@@ -150,12 +170,26 @@ def library_steps(scene, h: float, n: int, names, torque: float = 3.0, t0: float
 
 NAMES = ("theta2", "theta3", "theta4_d", "theta2_dd", "tip_x", "closure_error", "Fx", "Fy", "Mz", "KE", "PE",
          "R2_Fx", "drive_angle", "drive_speed")
+MOTOR_NAMES = ("shaft_torque", "current", "winding_temperature", "electrical_power", "motor_speed", "back_emf",
+               "terminal_voltage", "reflected_inertia")
+# a run of 100 steps of 10 ms per FMU: constant inputs, outputs read after every step
+RUNS = {"Mechanism": ({"motor_torque": 3.0}, NAMES),
+        "DCMotor": ({"voltage": 24.0, "shaft_speed": 5.0}, MOTOR_NAMES)}
+
+
+def _script(name):
+    inputs, names = RUNS[name]
+    return lambda h: [f"setr {h.vr[k]} {v!r}" for k, v in inputs.items()] + [h.run_steps(0, 0.01, 100, *names)]
+
+
+SCRIPTS = {name: _script(name) for name in RUNS}
 
 
 # -- the binary -----------------------------------------------------------------
 
-def test_the_binary_needs_no_python_and_exports_only_fmi2(unzipped):
-    so = unzipped / "binaries" / "linux64" / "Mechanism.so"
+@BOTH
+def test_the_binary_needs_no_python_and_exports_only_fmi2(built, name):
+    so = built[name][1] / "binaries" / "linux64" / f"{name}.so"
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
                                check=True).stdout
     assert undefined.strip()  # libc and libm functions at least
@@ -168,10 +202,11 @@ def test_the_binary_needs_no_python_and_exports_only_fmi2(unzipped):
     assert "python" not in deps.lower()
 
 
-def test_fmpy_validate_passes(fmu):
+@BOTH
+def test_fmpy_validate_passes(built, name):
     from fmpy.validation import validate_fmu
 
-    assert validate_fmu(str(fmu)) == []
+    assert validate_fmu(str(built[name][0])) == []
 
 
 def test_model_description_is_self_contained_with_units_and_structure(md):
@@ -194,8 +229,10 @@ def test_model_description_is_self_contained_with_units_and_structure(md):
     assert "fmi2_wrapper.c" in files and "mechanism_model.c" in files
 
 
-def test_value_references_agree_between_binary_and_description(native, md):
+@BOTH
+def test_value_references_agree_between_binary_and_description(host, built, name):
     # what the binary reads at each value reference is what the description declares there
+    native, md = host_for(host, built, name), built[name][2]
     stored = [v for v in md.modelVariables if v.causality in ("parameter", "input")]
     script = native.start(md=md)[:-1]  # in initialisation mode, every variable is readable
     for v in stored:
@@ -408,7 +445,8 @@ def test_a_null_instance_does_not_crash_the_host(native):
 
 # -- other builds and masters ---------------------------------------------------------
 
-def test_fmpy_builds_a_working_binary_from_the_shipped_sources(native, md, unzipped, tmp_path):
+@BOTH
+def test_fmpy_builds_a_working_binary_from_the_shipped_sources(host, built, name, tmp_path):
     """fmpy.build compiles sources/ with its own CMakeLists (fmpy/c-code); fmpy runs the result.
 
     fmpy's CMakeLists links no libm: a Python host has it loaded already, a C
@@ -419,25 +457,27 @@ def test_fmpy_builds_a_working_binary_from_the_shipped_sources(native, md, unzip
 
     if shutil.which("cmake") is None:
         pytest.skip("fmpy.build needs cmake")
+    native, unzipped, md = host_for(host, built, name), built[name][1], built[name][2]
     d = tmp_path / "src"
     shutil.copytree(unzipped, d)
     shutil.rmtree(d / "binaries")
     (tmp_path / "build").mkdir()
     build_platform_binary(d, build_dir=tmp_path / "build")
-    assert (d / "binaries" / "linux64" / "Mechanism.so").is_file()
-    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="Mechanism", instanceName="built")
+    assert (d / "binaries" / "linux64" / f"{name}.so").is_file()
+    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=name, instanceName="built")
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     s.exitInitializationMode()
-    s.setReal([native.vr["motor_torque"]], [3.0])
+    inputs, names = RUNS[name]
+    s.setReal([native.vr[k] for k in inputs], list(inputs.values()))
     rows = []
     for i in range(100):
         s.doStep(i * 0.01, 0.01)
-        rows.append([(i + 1) * 0.01] + s.getReal([native.vr[n] for n in NAMES]))
+        rows.append([(i + 1) * 0.01] + s.getReal([native.vr[n] for n in names]))
     s.terminate()
     s.freeInstance()
-    script = native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100, *NAMES)]
+    script = native.start(md=md) + SCRIPTS[name](native)
     np.testing.assert_allclose(np.array(rows), native.run(script).rows(), rtol=0, atol=MATCH)
 
 
@@ -466,9 +506,11 @@ def test_libcosim_runs_it_like_fmpy(fmu, tmp_path):
     np.testing.assert_allclose(rows, lib, rtol=0, atol=MATCH)
 
 
-def test_win64_binary_under_wine_agrees(native, md, unzipped, tmp_path):
+@BOTH
+def test_win64_binary_under_wine_agrees(host, built, name, tmp_path):
     gcc, wine = shutil.which("x86_64-w64-mingw32-gcc"), shutil.which("wine") or shutil.which("wine64")
-    dll = unzipped / "binaries" / "win64" / "Mechanism.dll"
+    native, md = host_for(host, built, name), built[name][2]
+    dll = built[name][1] / "binaries" / "win64" / f"{name}.dll"
     if gcc is None or wine is None:
         pytest.skip("needs the MinGW-w64 cross compiler and wine (Debian: gcc-mingw-w64-x86-64, wine64)")
     assert dll.is_file(), "MinGW-w64 is installed, so build_fmu.py must ship binaries/win64"
@@ -478,8 +520,67 @@ def test_win64_binary_under_wine_agrees(native, md, unzipped, tmp_path):
     env = {"WINEDEBUG": "-all", "WINEPREFIX": str(tmp_path / "wine"), "HOME": str(tmp_path),
            "PATH": "/usr/bin:/bin"}
     win = Host(exe, dll, md.guid, native.vr, wrapper=[wine])
-    script = native.start(md=md) + [f"setr {native.vr['motor_torque']} 3.0", native.run_steps(0, 0.01, 100, *NAMES)]
+    script = native.start(md=md) + SCRIPTS[name](native)
     np.testing.assert_allclose(win.run(script, env=env).rows(), native.run(script).rows(), rtol=0, atol=MATCH)
+
+
+# -- the DC motor ------------------------------------------------------------------------
+
+MOTOR_PARAMS = {"gear_ratio": 5.0, "gear_efficiency": 0.8, "current_limit": 4.0, "supply_voltage": 36.0,
+                "ambient_temperature": 30.0, "viscous_friction": 2e-5}
+
+
+def motor_library(h: float, voltages, speed: float, **changes):
+    """grubler.motors' MotorSimulator with MOTOR_PARAMS: the library's motor, step by step."""
+    from grubler.motors import DCMotor, Drive, Gearbox, load_motor
+    from grubler.motors.dc_motor import MotorSimulator
+
+    p = {**MOTOR_PARAMS, **changes}
+    data = load_motor("maxon-re40-148877").replace(viscous_friction=p["viscous_friction"])
+    m = DCMotor(data, Gearbox(p["gear_ratio"], p["gear_efficiency"]), Drive(p["supply_voltage"], p["current_limit"]),
+                ambient_temperature=p["ambient_temperature"])
+    sim, rows = MotorSimulator(m), []
+    for k, v in enumerate(voltages):
+        out = sim.step(v, speed, h)
+        rows.append([(k + 1) * h] + [getattr(out, n) for n in MOTOR_NAMES[:-1]] + [m.reflected_inertia])
+    return np.array(rows)
+
+
+def test_motor_in_the_c_host_matches_the_library(motor, built):
+    md = built["DCMotor"][2]
+    volts = [0.0] * 10 + [30.0] * 60 + [-12.0] * 30  # a step that hits the current limit, then a reversal
+    script = motor.start(MOTOR_PARAMS, md=md) + [f"setr {motor.vr['shaft_speed']} 20.0"]
+    for k, v in enumerate(volts):
+        script += [f"setr {motor.vr['voltage']} {v!r}", motor.run_steps(k * 1e-3, 1e-3, 1, *MOTOR_NAMES)]
+    rows = motor.run(script).rows()
+    lib = motor_library(1e-3, volts, 20.0)
+    np.testing.assert_allclose(rows, lib, rtol=0, atol=MATCH)
+    assert np.max(np.abs(rows[:, 2])) == pytest.approx(4.0)  # the limiter acted
+
+
+def test_motor_winding_starts_at_ambient_unless_set(motor, built):
+    md = built["DCMotor"][2]
+    t = motor.run(motor.start({"ambient_temperature": 40.0}, md=md) + [motor.getr("winding_temperature")]
+                  + motor.start({"ambient_temperature": 40.0, "initial_temperature": 60.0}, k=1, md=md)
+                  + [motor.getr("winding_temperature")])
+    assert [float(v[2]) for v in t.results if v[0] == "getr"] == [40.0, 60.0]
+
+
+def test_motor_state_round_trips_and_is_honoured_before_initialisation(motor, built, tmp_path):
+    md, blob = built["DCMotor"][2], tmp_path / "m.bin"
+    names = ("current", "winding_temperature", "shaft_torque")
+    t = motor.run(motor.start(MOTOR_PARAMS, md=md) + [f"setr {motor.vr['voltage']} 24.0",
+                                                      motor.run_steps(0, 1e-3, 30), "save 0", f"ser 0 {blob}",
+                                                      motor.run_steps(0.03, 1e-3, 20, *names),
+                                                      "new 1 later", f"deser 1 {blob}", "load 1", "setup 0",
+                                                      "enter", "exit", motor.run_steps(0.03, 1e-3, 20, *names)])
+    rows = t.rows(width=4)
+    assert rows.shape == (40, 4) and np.array_equal(rows[:20], rows[20:])
+
+
+def test_motor_refuses_a_bad_parameter_naming_it(motor, built):
+    t = motor.run(motor.start({"gear_efficiency": 1.5}, md=built["DCMotor"][2]) + ["step 0 0.001"])
+    assert t.statuses("exit") == [ERROR] and t.logged("gear_efficiency:") and t.statuses("step") == [ERROR]
 
 
 # -- grubler export --------------------------------------------------------------------

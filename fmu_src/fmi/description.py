@@ -29,6 +29,15 @@ def _num(x) -> str:
     return repr(float(x)) if not isinstance(x, int) else str(x)
 
 
+def described(v) -> str:
+    """A variable's description, ending with its unit in brackets (the project's
+    convention, which masters that read no FMI units fall back on)."""
+    text = v.description.rstrip()
+    if v.unit and not text.endswith("]"):
+        text += f" [{v.unit.replace('.', ' ')}]"
+    return text
+
+
 def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
     """The model description's XML text.
 
@@ -81,7 +90,7 @@ def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
 
     mv = ET.SubElement(root, "ModelVariables")
     for k, v in enumerate(spec.variables, start=1):
-        attrs = {"name": v.name, "valueReference": str(k), "description": v.description, "causality": v.causality,
+        attrs = {"name": v.name, "valueReference": str(k), "description": described(v), "causality": v.causality,
                  "variability": "fixed" if v.causality == PARAMETER else "continuous"}
         if v.causality == PARAMETER:
             attrs["initial"] = "exact"
@@ -102,13 +111,13 @@ def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
         ET.SubElement(sv, v.type, tattrs)
 
     ms = ET.SubElement(root, "ModelStructure")
-    inputs = [str(k) for k, v in enumerate(spec.variables, start=1) if v.causality == INPUT]
+    inputs = {v.name: str(k) for k, v in enumerate(spec.variables, start=1) if v.causality == INPUT}
     outs = ET.SubElement(ms, "Outputs")
     init = ET.SubElement(ms, "InitialUnknowns")
     for k, v in enumerate(spec.variables, start=1):
         if v.causality != OUTPUT:
             continue
-        deps = inputs if v.feedthrough else []
+        deps = [inputs[n] for n in (v.depends_on or inputs)] if v.feedthrough else []
         a = {"index": str(k), "dependencies": " ".join(deps)}
         if deps:
             a["dependenciesKind"] = " ".join(["dependent"] * len(deps))

@@ -85,7 +85,8 @@ class Variable:
         Outputs: the model's output group that computes it (the C model's
         levels, ordered by cost).
     feedthrough : bool
-        Outputs: depends on the inputs at the same instant.
+        Outputs: depends on the inputs at the same instant (``depends_on``
+        names which; empty: all of them).
     slot : int
         Set by :class:`ModelSpec`.
     """
@@ -103,6 +104,7 @@ class Variable:
     level: int = 0
     feedthrough: bool = False
     slot: int = -1
+    depends_on: tuple[str, ...] = ()
 
     @property
     def stored_start(self) -> float:

@@ -33,6 +33,13 @@ typedef struct grb_variable {
 } grb_variable;
 
 extern const grb_variable model_variables[MODEL_N_VARIABLES];
+
+/* The persistent block: the parameters' and inputs' values (slots 0 ..
+ * MODEL_N_STORED - 1), then for each slot 1.0 if the importer set it (a model
+ * may default one parameter to another's value unless it was set), then the
+ * model's own part from GRB_MODEL_BASE on. */
+#define GRB_WAS_SET(inst, slot) ((inst)->p[MODEL_N_STORED + (slot)] != 0.0)
+#define GRB_MODEL_BASE (2 * MODEL_N_STORED)
 extern const double model_starts[MODEL_N_STORED];
 
 /* FMI 2.0 co-simulation states, as bits so a call's allowed states are a mask */
@@ -89,9 +96,10 @@ const double *model_outputs(const grb_instance *inst);
 int model_input_free_level(void);
 /* The time of the run (a started run). */
 double model_time(const grb_instance *inst);
-/* One communication step from the run's time to t_end; fmi2Discard with a
- * logged reason when the inputs are not finite or the integration fails (the
- * run stays where it was). */
-fmi2Status model_do_step(grb_instance *inst, double t_end);
+/* One communication step of h from t (the run's time, as the importer states
+ * it); fmi2Discard with a logged reason when the inputs are not finite or the
+ * integration fails (the run stays where it was).  On success the model sets
+ * inst->level to what is valid for the new state. */
+fmi2Status model_do_step(grb_instance *inst, double t, double h);
 
 #endif

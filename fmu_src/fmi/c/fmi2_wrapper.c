@@ -167,6 +167,7 @@ static int settable(grb_instance *inst, const char *call, const grb_variable *v)
 }
 
 static void set_stored(grb_instance *inst, const grb_variable *v, double x) {
+    inst->p[MODEL_N_STORED + v->slot] = 1.0;
     if (inst->p[v->slot] == x) return;
     inst->p[v->slot] = x;
     if (v->causality == GRB_C_PARAMETER) {
@@ -562,12 +563,11 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                 "state to roll back)", currentCommunicationPoint, t);
         return fmi2Discard;
     }
-    s = model_do_step(inst, currentCommunicationPoint + communicationStepSize);
+    s = model_do_step(inst, currentCommunicationPoint, communicationStepSize);
     if (s > fmi2Discard) {
         inst->state = GRB_ERROR;
         return fmi2Error;
     }
-    if (s == fmi2OK || s == fmi2Warning) inst->level = 0;
     return s;
 }
 

@@ -35,7 +35,7 @@
 
 /* the model's part of the persistent block, after the parameter and input slots */
 enum {
-    P_STARTED = MODEL_N_STORED, /* 1: the block holds a started run (initialised or restored) */
+    P_STARTED = GRB_MODEL_BASE, /* 1: the block holds a started run (initialised or restored) */
     P_T,                        /* time of the state */
     P_H,                        /* the integrator's next step */
     P_HAVE_F,                   /* f holds ydot at (t, y) */
@@ -349,9 +349,9 @@ fmi2Status model_compute(grb_instance *inst, int level) {
 
 /* ---- stepping ---------------------------------------------------------------- */
 
-fmi2Status model_do_step(grb_instance *inst, double t_out) {
+fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     mech *mm = (mech *)inst->model;
-    double *p = inst->p, t = p[P_T];
+    double *p = inst->p, t = p[P_T], t_out = t_now + h;  /* the library's advance_to(t + h) */
     double drive = p[SLOT_MOTOR_TORQUE], load = p[SLOT_LOAD_TORQUE];
     grb_clock clock;
     grb_failure why = {0.0, 0.0};
@@ -387,5 +387,6 @@ fmi2Status model_do_step(grb_instance *inst, double t_out) {
     p[P_STEPS] += (double)clock.steps;
     p[P_REJECTED] += (double)clock.rejected;
     p[P_EVALS] += (double)clock.evals;
+    inst->level = 0;
     return fmi2OK;
 }
