@@ -18,13 +18,10 @@ instant, so a master can tell a state from an algebraic output.
 from __future__ import annotations
 
 import argparse
-import tempfile
 from pathlib import Path
 
-from pythonfmu.builder import FmuBuilder
-
 from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, LinearController, Trajectory
-from grubler.controllers.fmu import build_controller_fmu, stage_package
+from grubler.controllers.fmu import build_controller_fmu
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
 from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
@@ -36,20 +33,15 @@ NATIVE = {
     "Mechanism": lambda: mechanism_spec(load_scene("thesis-fourbar"), "Mechanism"),
     "DCMotor": lambda: motor_spec(DEFAULT_MOTOR, "DCMotor"),
 }
-# pythonfmu FMUs with a slave script of their own
-SLAVES: dict[str, Path] = {}
-# the pythonfmu mechanism the native one replaces, built only when named, until
-# it is removed (tests/test_fmu.py runs it beside the native one's tests)
-LEGACY = {"MechanismPython": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
-          "DCMotorPython": HERE / "motors" / "grubler_dc_motor.py"}
+
 # grubler.controllers: each law becomes an FMU the way a user's own law does
 LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, ComputedTorque, Trajectory, Encoder)}
-FMUS = [*NATIVE, *SLAVES, *LAWS]
+FMUS = [*NATIVE, *LAWS]
 
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:
     """Build the named FMUs (default: all) and return their paths."""
-    unknown = set(names or ()) - set(FMUS) - set(LEGACY)
+    unknown = set(names or ()) - set(FMUS)
     if unknown:
         raise SystemExit(f"build_fmu: no FMU named {', '.join(sorted(unknown))} (have: {', '.join(FMUS)})")
     dest.mkdir(parents=True, exist_ok=True)
@@ -57,14 +49,6 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
     for name, spec in NATIVE.items():
         if not names or name in names:
             built.append(build_fmu(spec(), dest / f"{name}.fmu"))
-    with tempfile.TemporaryDirectory(prefix="grubler_fmu_") as tmp:
-        package = stage_package(Path(tmp))
-        for name, script in {**SLAVES, **LEGACY}.items():
-            if (names and name not in names) or (name in LEGACY and not names):
-                continue
-            path = FmuBuilder.build_FMU(script, dest=dest / f"{name}.fmu", project_files=[package],
-                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            built.append(Path(path))
     for name, law in LAWS.items():
         if not names or name in names:
             built.append(build_controller_fmu(law, dest / f"{name}.fmu"))
