@@ -250,6 +250,19 @@ def test_value_references_agree_between_binary_and_description(host, built, name
             assert int(r[2]) == int(v.start), v.name
 
 
+def test_the_library_and_the_fmu_build_the_same_tables_as_the_model_locks_coordinates():
+    # grb_scene_tables (C) builds the kernel's tables for the library and the FMU
+    # alike; the locked coordinates must be the Python model's own (q_from_z uses them)
+    from grubler.model import L_APRED, L_SLIDE0, L_THETA0
+
+    for preset in grubler.scene.preset_names():
+        m = grubler.load_scene(preset).mechanism
+        L = m.arrays.links
+        assert np.array_equal(L[:, L_SLIDE0], m._q_locked[0::2]), preset
+        assert np.array_equal(L[:, L_THETA0], m._q_locked[1::2]), preset
+        assert np.array_equal(L[:, L_APRED], [m.a1] + [link.a for link in m.links[:-1]]), preset
+
+
 # -- physics: what the library computes ---------------------------------------------
 
 def test_c_host_with_an_empty_environment_matches_the_library(native, md):
