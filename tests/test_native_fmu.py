@@ -340,6 +340,14 @@ def test_a_bad_state_blob_is_refused_with_an_error(native, md, tmp_path, damage)
     assert t.statuses("load") == [ERROR] and t.statuses("getr") == [ERROR]  # and the instance stays refused
 
 
+def test_a_state_of_another_fmu_is_refused(native, motor, built, tmp_path):
+    blob = tmp_path / "motor.bin"
+    motor.run(motor.start(md=built["DCMotor"][2]) + [motor.run_steps(0, 1e-3, 5), "save 0", f"ser 0 {blob}"])
+    assert blob.stat().st_size > 48
+    t = native.run(native.start(md=built["Mechanism"][2]) + [f"deser 0 {blob}"])
+    assert t.statuses("deser") == [ERROR] and t.logged("the state belongs to another model")
+
+
 def test_a_state_set_before_initialisation_is_honoured(native, md, tmp_path):
     blob = tmp_path / "s.bin"
     names = ("theta2", "theta2_d", "Fx")
@@ -351,6 +359,20 @@ def test_a_state_set_before_initialisation_is_honoured(native, md, tmp_path):
     assert t.statuses("exit") == [OK, OK]
     rows = t.rows(width=4)
     assert rows.shape == (60, 4) and np.array_equal(rows[:30], rows[30:])
+
+
+def test_a_state_restored_while_stepping_brings_its_parameters(native, md, tmp_path):
+    # instance a (a heavier crank) saves at 0.5 s; instance b, at 0.3 s with the
+    # default crank, restores it and must go on exactly as a does
+    blob = tmp_path / "a.bin"
+    names = ("theta2", "Fx")
+    torque = f"setr {native.vr['motor_torque']} 3.0"
+    t = native.run(native.start({"link2.m": 2.0}, md=md) + [torque, native.run_steps(0, 0.01, 50), "save 0",
+                                                            f"ser 0 {blob}", native.run_steps(0.5, 0.01, 20, *names)]
+                   + native.start(k=1, name="b", md=md) + [torque, native.run_steps(0, 0.01, 30), f"deser 1 {blob}",
+                                                           "load 1", native.run_steps(0.5, 0.01, 20, *names)])
+    rows = t.rows(width=3)
+    assert rows.shape == (40, 3) and np.array_equal(rows[:20], rows[20:])
 
 
 def test_reset_runs_again_from_the_start(native, md):

@@ -550,6 +550,15 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     fmi2Status s;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!allowed(inst, "fmi2DoStep", MASK_DO_STEP)) return fmi2Error;
+    if (inst->dirty) {  /* a state restored while stepping: the model follows its parameters */
+        s = ready(inst, 0);
+        if (s > fmi2Warning) return fmi2Error;
+        s = model_start(inst);  /* (a state saved before initialisation starts here) */
+        if (s > fmi2Warning) {
+            inst->state = GRB_ERROR;
+            return fmi2Error;
+        }
+    }
     /* a step the model cannot take from here is refused, not fatal: the master
      * may retry with another step, or restore a saved state to roll back */
     if (!(communicationStepSize > 0.0) || !isfinite(communicationStepSize)) {
