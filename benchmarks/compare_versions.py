@@ -52,6 +52,13 @@ def workloads(pkg) -> dict:
             return sim.stats["steps"]
         return run
 
+    def simulate_and_read(column):
+        def run():
+            res = pkg.simulate("thesis-fourbar", t_end=10.0)
+            res[column]
+            return res.stats["steps"]
+        return run
+
     def cosim():
         sim = pkg.Simulator(m)
         for i in range(1000):
@@ -65,6 +72,8 @@ def workloads(pkg) -> dict:
         "10 s, thesis method: penalty RK4 at 1 ms, 0.1 s grid": grid("penalty", "rk4", step=1e-3),
         "10 s, penalty closure's default (Radau, rtol 1e-6), 0.1 s grid": grid("penalty", "radau", rtol=1e-6,
                                                                                  atol=1e-6),
+        "the same simulate, then read theta2 (a state column)": simulate_and_read("theta2"),
+        "the same simulate, then read Fx (a derived column, 1001 rows)": simulate_and_read("Fx"),
         "1 000 co-simulation steps: set_inputs + advance_to(t + 1 ms)": cosim,
     }
 

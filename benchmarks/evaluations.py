@@ -40,7 +40,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import grubler  # noqa: E402
-from grubler.dynamics import Inputs, workspace  # noqa: E402
+from grubler.dynamics import Inputs  # noqa: E402
 from grubler.integrators import StateEquation  # noqa: E402
 from grubler.simulate import DEFAULT_RTOL, Simulator  # noqa: E402
 from work_precision import make_problem  # noqa: E402
@@ -84,32 +84,38 @@ def grubler_run(prob, method: str, integ: str, setting: float, z0, zd0) -> tuple
 
 
 def rhs_costs(mechanism, repeat: int = 15) -> dict[str, float]:
-    """Seconds per right-hand side of each closure in a compiled loop (no Python in
-    between), the two measured alternately so that the machine's drift moves both."""
-    from numba import njit
+    """Seconds per right-hand side of each closure, in the compiled kernel.
 
-    from grubler.dynamics import rhs_into
+    Each evaluation is one ctypes call of ``grb_rhs``; the binding's own cost per
+    call is measured on an empty kernel call (``grb_work_size``) in the same
+    alternation and taken off, so what remains is the kernel's."""
+    from grubler import binding
 
-    @njit
-    def loop(P, code, y, out, n):
-        W = workspace(y.shape[0] // 2, P[1].shape[0])
-        for _ in range(n):
-            rhs_into(P, code, 0.0, y, -1, 1.0, 0.0, W, out)
-
+    lib = binding.library()
     z0, zd0 = grubler.assemble(mechanism, mechanism.z_from_q(mechanism.q_ref), np.ones(mechanism.n_free))
     y = np.concatenate([z0, zd0])
-    out = np.empty_like(y)
-    codes = {"exact": 0, "penalty": 1}
+    out, work = np.empty_like(y), binding.work(mechanism.n_links, len(mechanism.closures))
+    args = (binding.address(y), 1.0, 0.0, binding.address(work), binding.address(out))
+    c, rhs, floor = mechanism.arrays.c, lib.grb_rhs, lib.grb_work_size
     n = 100_000
-    times: dict[str, list[float]] = {name: [] for name in codes}
-    for name, code in codes.items():
-        loop(mechanism.arrays.packed, code, y, out, 10)
+
+    def run(code):
+        for _ in range(n):
+            rhs(c, code, *args)
+
+    def empty(_):
+        for _ in range(n):
+            floor(3, 1)
+
+    loops = {"exact": (run, 0), "penalty": (run, 1), "call": (empty, 0)}
+    times: dict[str, list[float]] = {name: [] for name in loops}
     for _ in range(repeat):
-        for name, code in codes.items():
+        for name, (fn, code) in loops.items():
             t0 = time.perf_counter()
-            loop(mechanism.arrays.packed, code, y, out, n)
+            fn(code)
             times[name].append((time.perf_counter() - t0) / n)
-    return {name: statistics.median(v) for name, v in times.items()}
+    call = statistics.median(times["call"])
+    return {name: statistics.median(times[name]) - call for name in ("exact", "penalty")}
 
 
 def loglog_at(points: list[tuple[int, float]], target: float) -> float | None:

@@ -94,6 +94,10 @@ _SIGNATURES = {
                             POINTER(Failure)]),
     "grb_lstsq": (c_int, [_P, c_int, c_int, _P, c_double, _P, _P]),
     "grb_tableau": (POINTER(TableauData), [c_int]),
+    # complex-step twins (kernel/grubler_cs.h): complex128 buffers, efforts by address
+    "grb_cs_rhs_at": (c_int, [_M, c_int, _P, _P, _P, _P]),
+    "grb_cs_observe_at": (c_int, [_M, c_int, _P, _P, c_int, _P, _P]),
+    # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
     "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, c_double, c_double, _P, _P, _P, _P]),
 }
 
@@ -113,7 +117,7 @@ def library() -> ctypes.CDLL:
 
 
 def address(a: np.ndarray) -> int:
-    """The buffer address of a float64 (or int32) C-contiguous array the kernel may write."""
+    """The buffer address of a C-contiguous array the kernel may write (float64, complex128 or int32)."""
     if not a.flags.c_contiguous:
         raise ValueError("kernel arrays must be C-contiguous")
     return a.ctypes.data

@@ -43,6 +43,7 @@ from .model import Mechanism
 EXPLICIT = tuple(binding.TABLEAU_CODE)
 IMPLICIT = ("radau", "bdf")
 METHODS = EXPLICIT + IMPLICIT
+_advance_fn = binding.library().grb_advance
 
 
 @dataclass
@@ -155,6 +156,11 @@ class Integrator:
                 h_fixed=float(self.h) if self.method == "rk4" else 0.0)
             self._stepper = np.zeros(binding.library().grb_stepper_size(binding.TABLEAU_CODE[self.method], n))
             self._ybuf, self._fbuf = np.zeros(n), np.zeros(n)
+            self._t1, self._out1 = np.zeros(1), np.zeros((1, n))  # advance_to's target and result
+            # the addresses of buffers that live as long as the integrator, taken
+            # once: numpy's .ctypes costs about a microsecond a call
+            self._addr = tuple(binding.address(a) for a in (self._ybuf, self._fbuf, self.ode.work, self._stepper,
+                                                           self._t1, self._out1))
             self._clock, self._why = binding.Clock(), binding.Failure()
             self._callback_error: BaseException | None = None
             if ode.drive_function is not None:
@@ -246,7 +252,8 @@ class Integrator:
         if not self._explicit:
             self._advance_implicit(np.array([t_target]))
             return
-        self._advance(np.array([t_target]), max_steps)
+        self._t1[0] = t_target
+        self._advance(self._t1, max_steps)
 
     def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
@@ -281,6 +288,8 @@ class Integrator:
         return self._advance(times, max_steps)
 
     def _advance(self, times: np.ndarray, max_steps: int) -> np.ndarray:
+        """The kernel's grb_advance through ``times``; the states there (a buffer of
+        the integrator's own when ``times`` is advance_to's)."""
         ode, st, clock, n = self.ode, self._settings, self._clock, self.y.size
         st.tau_drive, st.tau_load, st.max_steps = float(ode.drive), float(ode.load), int(max_steps)
         clock.t, clock.h, clock.have_f = self.t, self.h if self.method != "rk4" else 0.0, self.f is not None
@@ -288,12 +297,15 @@ class Integrator:
         self._ybuf[:] = self.y
         if self.f is not None:
             self._fbuf[:] = self.f
-        out = np.empty((times.shape[0], n))
+        a_y, a_f, a_work, a_stepper, a_t1, a_out1 = self._addr
+        if times is self._t1:
+            out, a_times, a_out = self._out1, a_t1, a_out1
+        else:
+            out = np.empty((times.shape[0], n))
+            a_times, a_out = binding.address(times), binding.address(out)
         self._callback_error = None
-        status = binding.library().grb_advance(
-            ode.model.arrays.c, st, clock, binding.address(self._ybuf), binding.address(self._fbuf),
-            binding.address(times), times.shape[0], binding.address(out), binding.address(ode.work),
-            binding.address(self._stepper), self._why)
+        status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
+                             a_stepper, self._why)
         if self._callback_error is not None:
             raise self._callback_error
         if status != binding.OK:

@@ -41,7 +41,9 @@ C_DIR = HERE / "c"
 KERNEL_DIRS = {"kernel": HERE.parent / "kernel", "motor": HERE.parent.parent / "motors" / "kernel"}
 WRAPPER = ("fmi2_wrapper.c", "fmi2_model.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
-# the Python module entry of grubler._kernel: not part of an FMU
+# not part of an FMU: the Python module entry of grubler._kernel, and (*_cs.c) the
+# complex-step twins of the equations, which only the library's linearisation uses
+# (C99 complex arithmetic, which not every importer's compiler has)
 NOT_IN_FMU = {"_module.c"}
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
 MINGW = "x86_64-w64-mingw32-gcc"
@@ -74,7 +76,7 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     dirs = _kernel_dirs()
     for key in spec.kernel_sources:
         for f in sorted([*dirs[key].glob("*.[ch]"), *dirs[key].glob("*.inc")]):
-            if f.name not in NOT_IN_FMU:
+            if f.name not in NOT_IN_FMU and not f.name.endswith("_cs.c"):
                 shutil.copy2(f, sources / f.name)
     for name in (*WRAPPER, spec.model_source):
         shutil.copy2(C_DIR / name, sources / name)

@@ -13,8 +13,6 @@
  * and the closures add J^T lambda: the exact method solves lambda from
  * J zdd = gamma (index-1 DAE; the integrator projects the drift away), the
  * penalty method is the thesis's imaginary joint, lambda = -G phi - C phi_dot. */
-#include <math.h>
-
 #include "workspace.h"
 
 /* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer. */
@@ -29,7 +27,7 @@ static void ws_offsets(int n, int m, size_t *off) {
     off[6] = off[5] + M * (3 * M + 1);
 }
 
-size_t grb_work_size(int n, int n_closures) {
+size_t GRB(work_size)(int n, int n_closures) {
     size_t off[7], N = (size_t)n, M = 2 * (size_t)n_closures;
     ws_offsets(n, (int)M, off);
     /* assembly's scratch: U (N x M), V (M x M), a compact Jacobian (M x N),
@@ -37,7 +35,7 @@ size_t grb_work_size(int n, int n_closures) {
     return off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
 }
 
-void grb_ws_init(grb_ws *w, int n, int n_closures, double *buffer) {
+void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
     int m = 2 * n_closures;
     size_t off[7];
     ws_offsets(n, m, off);
@@ -60,13 +58,13 @@ void grb_ws_init(grb_ws *w, int n, int n_closures, double *buffer) {
 }
 
 /* Recursive pass from ground to tip (MODEL.md section 2) into K. */
-void grb_chain(const grb_model *md, const double *z, const double *zd, grb_ws *w) {
+void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     int n = md->n_links;
     /* the predecessor's frame; link 2's predecessor is the ground vector */
-    double cp = cos(md->theta1), sp = sin(md->theta1), wp = 0.0;
-    double z_sum = 0.0, w_sum = 0.0, ox = 0.0, oy = 0.0, bx = 0.0, by = 0.0;
+    real cp = RCOS(md->theta1), sp = RSIN(md->theta1), wp = 0.0;
+    real z_sum = 0.0, w_sum = 0.0, ox = 0.0, oy = 0.0, bx = 0.0, by = 0.0;
     for (int k = 0; k < n; k++) {
-        double slide, rate;
+        real slide, rate;
         if (L_(md, k, GRB_L_REV) != 0.0) {
             z_sum += z[k];
             w_sum += zd[k];
@@ -76,20 +74,20 @@ void grb_chain(const grb_model *md, const double *z, const double *zd, grb_ws *w
             slide = z[k];
             rate = zd[k];
         }
-        double theta = L_(md, k, GRB_L_THETA0) + z_sum;
+        real theta = L_(md, k, GRB_L_THETA0) + z_sum;
         /* each link hangs off its predecessor's vector end, moved along the slide
          * axis e_perp(predecessor) */
-        double ax = -sp, ay = cp;
-        double dx = L_(md, k, GRB_L_APRED) * cp + slide * ax;
-        double dy = L_(md, k, GRB_L_APRED) * sp + slide * ay;
+        real ax = -sp, ay = cp;
+        real dx = L_(md, k, GRB_L_APRED) * cp + slide * ax;
+        real dy = L_(md, k, GRB_L_APRED) * sp + slide * ay;
         ox += dx;
         oy += dy;
         /* d'' at zero joint acceleration: centripetal of the predecessor's turn
          * plus the Coriolis term of a slide on a turning axis */
         bx += -wp * wp * dx - 2.0 * wp * rate * cp;
         by += -wp * wp * dy - 2.0 * wp * rate * sp;
-        double c = cos(theta), s = sin(theta);
-        double *row = w->K + k * K_COLUMNS;
+        real c = RCOS(theta), s = RSIN(theta);
+        real *row = w->K + k * K_COLUMNS;
         row[K_TH] = theta;
         row[K_OM] = w_sum;
         row[K_COS] = c;
@@ -112,11 +110,11 @@ void grb_chain(const grb_model *md, const double *z, const double *zd, grb_ws *w
  * across the link vector) of moving link k; its Jacobian (rdot = J zd) into the
  * two rows of J (row stride N).  A revolute at O_j moves the point with
  * k x (r - O_j), a slide along its axis. */
-void grb_point(const grb_model *md, const grb_ws *w, int k, double lx, double ly, double *J, double *r) {
+void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r) {
     int n = md->n_links;
-    double c = K_(w, k, K_COS), s = K_(w, k, K_SIN);
-    double armx = lx * c - ly * s, army = lx * s + ly * c;
-    double rx = K_(w, k, K_OX) + armx, ry = K_(w, k, K_OY) + army;
+    real c = K_(w, k, K_COS), s = K_(w, k, K_SIN);
+    real armx = lx * c - ly * s, army = lx * s + ly * c;
+    real rx = K_(w, k, K_OX) + armx, ry = K_(w, k, K_OY) + army;
     for (int j = 0; j < n; j++) {
         if (j > k) {
             J[j] = 0.0;
@@ -129,7 +127,7 @@ void grb_point(const grb_model *md, const grb_ws *w, int k, double lx, double ly
             J[n + j] = K_(w, j, K_AY);
         }
     }
-    double w2 = K_(w, k, K_OM) * K_(w, k, K_OM);
+    real w2 = K_(w, k, K_OM) * K_(w, k, K_OM);
     r[0] = rx;
     r[1] = ry;
     r[2] = K_(w, k, K_BX) - w2 * armx;
@@ -138,18 +136,18 @@ void grb_point(const grb_model *md, const grb_ws *w, int k, double lx, double ly
 
 /* Constraint rows of every closure (MODEL.md section 3), any pair of links:
  * J[:M] (phi_dot = J zd; rows M, M+1 scratch) and the row table R. */
-void grb_closure_rows(const grb_model *md, const double *zd, grb_ws *w) {
+void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
     int n = md->n_links;
-    double *tmp = w->J + w->m * n;
+    real *tmp = w->J + w->m * n;
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
         int ka = (int)CL_(md, j, GRB_CL_LINK);
         int kb = (int)CL_(md, j, GRB_CL_TO); /* -1: the ground, whose frame is the world's */
-        double *Jr = w->J + r * n;
-        double pa[4], pb[4], thb, wb;
-        grb_point(md, w, ka, CL_(md, j, GRB_CL_PX), CL_(md, j, GRB_CL_PY), Jr, pa);
+        real *Jr = w->J + r * n;
+        real pa[4], pb[4], thb, wb;
+        GRB(point)(md, w, ka, CL_(md, j, GRB_CL_PX), CL_(md, j, GRB_CL_PY), Jr, pa);
         if (kb >= 0) {
-            grb_point(md, w, kb, CL_(md, j, GRB_CL_TX), CL_(md, j, GRB_CL_TY), tmp, pb);
+            GRB(point)(md, w, kb, CL_(md, j, GRB_CL_TX), CL_(md, j, GRB_CL_TY), tmp, pb);
             for (int i = 0; i < n; i++) {
                 Jr[i] -= tmp[i];
                 Jr[n + i] -= tmp[n + i];
@@ -174,23 +172,23 @@ void grb_closure_rows(const grb_model *md, const double *zd, grb_ws *w) {
             continue;
         }
         /* the line of to_link through to_point at its angle; the link held at psi */
-        double beta = thb + CL_(md, j, GRB_CL_ANGLE);
-        double alx = cos(beta), aly = sin(beta), nx = -aly, ny = alx;
-        double dx = pa[0] - pb[0], dy = pa[1] - pb[1], ddx = 0.0, ddy = 0.0;
+        real beta = thb + CL_(md, j, GRB_CL_ANGLE);
+        real alx = RCOS(beta), aly = RSIN(beta), nx = -aly, ny = alx;
+        real dx = pa[0] - pb[0], dy = pa[1] - pb[1], ddx = 0.0, ddy = 0.0;
         for (int i = 0; i < n; i++) {
             ddx += Jr[i] * zd[i];
             ddy += Jr[n + i] * zd[i];
         }
-        double d_normal = dx * nx + dy * ny, d_along = dx * alx + dy * aly;
+        real d_normal = dx * nx + dy * ny, d_along = dx * alx + dy * aly;
         R_(w, r, R_PHI) = d_normal;
         R_(w, r, R_GAMMA) = -(nx * (pa[2] - pb[2]) + ny * (pa[3] - pb[3]) - 2.0 * wb * (ddx * alx + ddy * aly) -
                              d_normal * wb * wb);
         R_(w, r + 1, R_PHI) = K_(w, ka, K_TH) - thb - CL_(md, j, GRB_CL_PSI);
         R_(w, r + 1, R_GAMMA) = 0.0;
         for (int i = 0; i < n; i++) {
-            double jwa = i <= ka ? L_(md, i, GRB_L_REV) : 0.0;
-            double jwb = i <= kb ? L_(md, i, GRB_L_REV) : 0.0;
-            double jx = Jr[i], jy = Jr[n + i];
+            real jwa = i <= ka ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwb = i <= kb ? L_(md, i, GRB_L_REV) : 0.0;
+            real jx = Jr[i], jy = Jr[n + i];
             /* d(normal)/d(theta_b) = -along */
             Jr[i] = nx * jx + ny * jy - d_along * jwb;
             Jr[n + i] = jwa - jwb;
@@ -203,8 +201,8 @@ void grb_closure_rows(const grb_model *md, const double *zd, grb_ws *w) {
 /* Mass centres, their Jacobians and bias accelerations. */
 static void mass_centres(const grb_model *md, grb_ws *w) {
     for (int k = 0; k < md->n_links; k++) {
-        double c[4];
-        grb_point(md, w, k, L_(md, k, GRB_L_P), L_(md, k, GRB_L_Q), w->Jc + 2 * k * w->n, c);
+        real c[4];
+        GRB(point)(md, w, k, L_(md, k, GRB_L_P), L_(md, k, GRB_L_Q), w->Jc + 2 * k * w->n, c);
         K_(w, k, K_CX) = c[0];
         K_(w, k, K_CY) = c[1];
         K_(w, k, K_CBX) = c[2];
@@ -218,9 +216,9 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
-        double mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
+        real mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
         for (int i = 0; i <= k; i++) {
-            double wi = ik * L_(md, i, GRB_L_REV);
+            real wi = ik * L_(md, i, GRB_L_REV);
             for (int j = i; j <= k; j++)
                 T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * L_(md, j, GRB_L_REV);
@@ -232,14 +230,14 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
 }
 
 /* Applied minus velocity-product force, Q - h, into T[:, col]. */
-static void generalised_force(const grb_model *md, const double *zd, double tau_drive, double tau_load, grb_ws *w,
+static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w,
                               int col) {
     int n = md->n_links;
     for (int i = 0; i < n; i++) T_(w, i, col) = -L_(md, i, GRB_L_DAMP) * zd[i];
     for (int k = 0; k < n; k++) {
-        double mk = L_(md, k, GRB_L_M);
+        real mk = L_(md, k, GRB_L_M);
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
-        double fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
+        real fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
         for (int i = 0; i <= k; i++) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
     if (md->drive >= 0) T_(w, md->drive, col) += tau_drive;
@@ -258,22 +256,22 @@ static void closure_multipliers(grb_ws *w) {
     if (m == 2) {
         /* one closure in closed form; det / trace^2 is, to first order, the
          * eigenvalue ratio the cut-off below tests */
-        double det = Q_(w, 0, 0) * Q_(w, 1, 1) - Q_(w, 0, 1) * Q_(w, 1, 0), tr = Q_(w, 0, 0) + Q_(w, 1, 1);
-        if (det > SINGULAR_RCOND * tr * tr) {
+        real det = Q_(w, 0, 0) * Q_(w, 1, 1) - Q_(w, 0, 1) * Q_(w, 1, 0), tr = Q_(w, 0, 0) + Q_(w, 1, 1);
+        if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
             R_(w, 0, R_LAM) = (Q_(w, 1, 1) * R_(w, 0, R_B) - Q_(w, 0, 1) * R_(w, 1, R_B)) / det;
             R_(w, 1, R_LAM) = (Q_(w, 0, 0) * R_(w, 1, R_B) - Q_(w, 1, 0) * R_(w, 0, R_B)) / det;
             return;
         }
     }
-    grb_sym_eig(w->Q, w->qc, m);
+    GRB(sym_eig)(w->Q, w->qc, m);
     int v0 = 2 * m, w0 = 3 * m;
     double w_max = -INFINITY;
     for (int i = 0; i < m; i++)
-        if (Q_(w, i, w0) > w_max) w_max = Q_(w, i, w0);
+        if (RE(Q_(w, i, w0)) > w_max) w_max = RE(Q_(w, i, w0));
     for (int r = 0; r < m; r++) R_(w, r, R_LAM) = 0.0;
     for (int i = 0; i < m; i++) {
-        if (!(Q_(w, i, w0) > SINGULAR_RCOND * w_max)) continue;
-        double coef = 0.0;
+        if (!(RE(Q_(w, i, w0)) > SINGULAR_RCOND * w_max)) continue;
+        real coef = 0.0;
         for (int r = 0; r < m; r++) coef += Q_(w, r, v0 + i) * R_(w, r, R_B);
         coef /= Q_(w, i, w0);
         for (int r = 0; r < m; r++) R_(w, r, R_LAM) += Q_(w, r, v0 + i) * coef;
@@ -282,12 +280,12 @@ static void closure_multipliers(grb_ws *w) {
 
 /* Joint accelerations (T's zdd column) and closure multipliers (R_LAM) at one
  * state.  0 (and nan accelerations) when the matrix to solve is singular. */
-int grb_accelerations(const grb_model *md, int method, const double *z, const double *zd, double tau_drive,
-                      double tau_load, grb_ws *w) {
+int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+                      real tau_load, grb_ws *w) {
     int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
-    grb_chain(md, z, zd, w);
+    GRB(chain)(md, z, zd, w);
     mass_centres(md, w);
-    grb_closure_rows(md, zd, w);
+    GRB(closure_rows)(md, zd, w);
     mass_matrix(md, w);
     generalised_force(md, zd, tau_drive, tau_load, w, x0);
     for (int i = 0; i < n; i++)
@@ -295,59 +293,59 @@ int grb_accelerations(const grb_model *md, int method, const double *z, const do
     if (m > 0 && method == GRB_PENALTY) {
         /* the thesis's imaginary joint: spring G and damper C on each violation */
         for (int r = 0; r < m; r++) {
-            double phidot = 0.0;
+            real phidot = 0.0;
             for (int i = 0; i < n; i++) phidot += J_(w, r, i) * zd[i];
-            double lam = -CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) - CL_(md, r / 2, GRB_CL_DAMP) * phidot;
+            real lam = -CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) - CL_(md, r / 2, GRB_CL_DAMP) * phidot;
             R_(w, r, R_LAM) = lam;
             for (int i = 0; i < n; i++) T_(w, i, x0) += J_(w, r, i) * lam;
         }
     }
     if (m == 0 || method == GRB_PENALTY) {
-        int ok = grb_lu_solve(w->T, w->tc, n, a0, x0, 1);
+        int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
         for (int i = 0; i < n; i++) T_(w, i, dd) = ok ? T_(w, i, x0) : NAN;
         return ok;
     }
     /* M may be singular where a real coordinate carries no inertia of its own (a
      * point-mass slider's rotation); M + a J^T J is not, and since J zdd = gamma
      * the added term changes nothing in the solution (augmented Lagrangian). */
-    double trace = 0.0, jj = 0.0;
+    real trace = 0.0, jj = 0.0;
     for (int i = 0; i < n; i++) trace += T_(w, i, i);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
-    double a = trace / (jj > 1e-300 ? jj : 1e-300);
+    real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
             T_(w, i, x0) += a * J_(w, r, i) * R_(w, r, R_GAMMA);
             T_(w, i, x0 + 1 + r) = J_(w, r, i);
             for (int j = 0; j < n; j++) T_(w, i, a0 + j) += a * J_(w, r, i) * J_(w, r, j);
         }
-    int ok = grb_lu_solve(w->T, w->tc, n, a0, x0, m + 1);
+    int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
-        double s = R_(w, r, R_GAMMA);
+        real s = R_(w, r, R_GAMMA);
         for (int i = 0; i < n; i++) s -= J_(w, r, i) * T_(w, i, x0);
         R_(w, r, R_B) = s;
         for (int c = 0; c < m; c++) {
-            double q = 0.0;
+            real q = 0.0;
             for (int i = 0; i < n; i++) q += J_(w, r, i) * T_(w, i, x0 + 1 + c);
             Q_(w, r, c) = q;
         }
     }
     if (ok) closure_multipliers(w);
     for (int i = 0; i < n; i++) {
-        double s = T_(w, i, x0);
+        real s = T_(w, i, x0);
         for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * R_(w, c, R_LAM);
         T_(w, i, dd) = ok ? s : NAN;
     }
     return ok;
 }
 
-int grb_rhs(const grb_model *md, int method, const double *y, double tau_drive, double tau_load, double *work,
-            double *out) {
+int GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
+            real *out) {
     grb_ws w;
     int n = md->n_links;
-    grb_ws_init(&w, n, md->n_closures, work);
-    int ok = grb_accelerations(md, method, y, y + n, tau_drive, tau_load, &w);
+    GRB(ws_init)(&w, n, md->n_closures, work);
+    int ok = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
     for (int i = 0; i < n; i++) {
         out[i] = y[n + i];
         out[n + i] = T_(&w, i, w.dd);
@@ -358,13 +356,13 @@ int grb_rhs(const grb_model *md, int method, const double *y, double tau_drive, 
 /* Force and moment each link's predecessor exerts on it, after
  * grb_accelerations: Newton-Euler from the tip back to the ground.  out[3k ..
  * 3k+2] is (Fx, Fy, Mz) for the joint pair of link k+2, at its point O_{k+2}. */
-void grb_reactions(const grb_model *md, grb_ws *w, double *out) {
+void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     int n = md->n_links, dd = w->dd;
     for (int i = 0; i < 3 * n; i++) out[i] = 0.0;
     /* first the closures' forces on the links they join, about each link's origin */
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
-        double fx, fy, mz;
+        real fx, fy, mz;
         if (CL_(md, j, GRB_CL_KIND) != 0.0) {
             fx = R_(w, r, R_NORMAL) * R_(w, r, R_LAM);
             fy = R_(w, r + 1, R_NORMAL) * R_(w, r, R_LAM);
@@ -374,33 +372,33 @@ void grb_reactions(const grb_model *md, grb_ws *w, double *out) {
             fy = R_(w, r + 1, R_LAM);
             mz = 0.0;
         }
-        double px = R_(w, r, R_POINT), py = R_(w, r + 1, R_POINT);
+        real px = R_(w, r, R_POINT), py = R_(w, r + 1, R_POINT);
         for (int side = 0; side < 2; side++) {
             int k = (int)(side == 0 ? CL_(md, j, GRB_CL_LINK) : CL_(md, j, GRB_CL_TO));
             if (k < 0) continue; /* the ground */
-            double sign = side == 0 ? 1.0 : -1.0;
+            real sign = side == 0 ? 1.0 : -1.0;
             out[3 * k] += sign * fx;
             out[3 * k + 1] += sign * fy;
             out[3 * k + 2] += sign * (mz + (px - K_(w, k, K_OX)) * fy - (py - K_(w, k, K_OY)) * fx);
         }
     }
-    double fnx = 0.0, fny = 0.0, nn = 0.0;
+    real fnx = 0.0, fny = 0.0, nn = 0.0;
     for (int k = n - 1; k >= 0; k--) {
-        double ax = K_(w, k, K_CBX), ay = K_(w, k, K_CBY), alpha = 0.0;
+        real ax = K_(w, k, K_CBX), ay = K_(w, k, K_CBY), alpha = 0.0;
         for (int i = 0; i <= k; i++) {
             ax += JC_(w, k, 0, i) * T_(w, i, dd);
             ay += JC_(w, k, 1, i) * T_(w, i, dd);
             alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
         }
-        double ix = L_(md, k, GRB_L_M) * ax, iy = L_(md, k, GRB_L_M) * (ay + md->gravity); /* m (a - g) */
-        double fx = ix - out[3 * k] + fnx, fy = iy - out[3 * k + 1] + fny;
-        double cx = K_(w, k, K_CX) - K_(w, k, K_OX), cy = K_(w, k, K_CY) - K_(w, k, K_OY);
-        double nx = 0.0, ny = 0.0;
+        real ix = L_(md, k, GRB_L_M) * ax, iy = L_(md, k, GRB_L_M) * (ay + md->gravity); /* m (a - g) */
+        real fx = ix - out[3 * k] + fnx, fy = iy - out[3 * k + 1] + fny;
+        real cx = K_(w, k, K_CX) - K_(w, k, K_OX), cy = K_(w, k, K_CY) - K_(w, k, K_OY);
+        real nx = 0.0, ny = 0.0;
         if (k + 1 < n) {
             nx = K_(w, k + 1, K_OX) - K_(w, k, K_OX);
             ny = K_(w, k + 1, K_OY) - K_(w, k, K_OY);
         }
-        double mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + (nx * fny - ny * fnx) - out[3 * k + 2];
+        real mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + (nx * fny - ny * fnx) - out[3 * k + 2];
         out[3 * k] = fx;
         out[3 * k + 1] = fy;
         out[3 * k + 2] = mz;
@@ -410,15 +408,15 @@ void grb_reactions(const grb_model *md, grb_ws *w, double *out) {
     }
 }
 
-int grb_observe(const grb_model *md, int method, const double *y, double tau_drive, double tau_load,
-                int want_reactions, double *work, double *out) {
+int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load,
+                int want_reactions, real *work, real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
-    grb_ws_init(w, n, md->n_closures, work);
-    const double *zd = y + n;
-    int ok = grb_accelerations(md, method, y, zd, tau_drive, tau_load, w);
+    GRB(ws_init)(w, n, md->n_closures, work);
+    const real *zd = y + n;
+    int ok = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     int dd = w->dd;
-    double acc = 0.0;
+    real acc = 0.0;
     for (int k = 0; k < n; k++) {
         int revolute = L_(md, k, GRB_L_REV) != 0.0;
         out[2 * k] = K_(w, k, K_SLIDE);
@@ -430,14 +428,14 @@ int grb_observe(const grb_model *md, int method, const double *y, double tau_dri
         out[4 * n + 2 * k + 1] = acc;
     }
     int o = 6 * n;
-    double tip[4];
-    grb_point(md, w, n - 1, L_(md, n - 1, GRB_L_A), 0.0, w->J + m * n, tip);
+    real tip[4];
+    GRB(point)(md, w, n - 1, L_(md, n - 1, GRB_L_A), 0.0, w->J + m * n, tip);
     out[o] = tip[0];
     out[o + 1] = tip[1];
-    double err = 0.0;
+    real err = 0.0;
     for (int r = 0; r < m; r++) err += R_(w, r, R_PHI) * R_(w, r, R_PHI);
-    out[o + 2] = sqrt(err);
-    double fx = 0.0, fy = 0.0, mz = 0.0;
+    out[o + 2] = RSQRT(err);
+    real fx = 0.0, fy = 0.0, mz = 0.0;
     if (m > 0) {
         if (CL_(md, 0, GRB_CL_KIND) != 0.0) {
             fx = R_(w, 0, R_NORMAL) * R_(w, 0, R_LAM);
@@ -451,7 +449,7 @@ int grb_observe(const grb_model *md, int method, const double *y, double tau_dri
     out[o + 3] = fx;
     out[o + 4] = fy;
     out[o + 5] = mz;
-    double ke = 0.0, pe = 0.0;
+    real ke = 0.0, pe = 0.0;
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) ke += zd[i] * T_(w, i, j) * zd[j];
     for (int k = 0; k < n; k++) pe += L_(md, k, GRB_L_M) * K_(w, k, K_CY);
@@ -463,23 +461,23 @@ int grb_observe(const grb_model *md, int method, const double *y, double tau_dri
     out[o + 8] = 0.5 * ke + pe;
     out[o + 9] = md->drive >= 0 ? tau_drive : 0.0;
     out[o + 10] = md->drive >= 0 ? tau_drive * zd[md->drive] : 0.0;
-    if (want_reactions) grb_reactions(md, w, out + o + 11);
+    if (want_reactions) GRB(reactions)(md, w, out + o + 11);
     return ok ? GRB_OK : GRB_SINGULAR;
 }
 
-int grb_observe_rows(const grb_model *md, int method, int rows, const double *y, const double *tau_drive,
-                     double tau_drive_const, double tau_load, int want_reactions, double *work, double *out) {
+int GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, const real *tau_drive,
+                     real tau_drive_const, real tau_load, int want_reactions, real *work, real *out) {
     int n = md->n_links, status = GRB_OK;
     for (int i = 0; i < rows; i++) {
-        double tau = tau_drive ? tau_drive[i] : tau_drive_const;
-        int s = grb_observe(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
+        real tau = tau_drive ? tau_drive[i] : tau_drive_const;
+        int s = GRB(observe)(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
                             out + (size_t)i * GRB_N_OBSERVED(n));
         if (s != GRB_OK && status == GRB_OK) status = s;
     }
     return status;
 }
 
-void grb_work_layout(int n, int n_closures, long *layout) {
+void GRB(work_layout)(int n, int n_closures, long *layout) {
     size_t off[7];
     int m = 2 * n_closures;
     ws_offsets(n, m, off);
@@ -491,41 +489,54 @@ void grb_work_layout(int n, int n_closures, long *layout) {
     layout[11] = 2 * n + m + 1;
 }
 
-int grb_evaluate(const grb_model *md, int method, const double *y, double tau_drive, double tau_load, double *work) {
+int GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
-    return grb_accelerations(md, method, y, y + md->n_links, tau_drive, tau_load, &w) ? GRB_OK : GRB_SINGULAR;
+    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w) ? GRB_OK : GRB_SINGULAR;
 }
 
-int grb_point_on_link(const grb_model *md, double *work, int k, double lx, double ly, double *J, double *r) {
+int GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
     grb_ws w;
     if (k < 0 || k >= md->n_links) return GRB_BAD_ARGUMENT;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
-    grb_point(md, &w, k, lx, ly, J, r);
+    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    GRB(point)(md, &w, k, lx, ly, J, r);
     return GRB_OK;
 }
 
-int grb_joint_reactions(const grb_model *md, double *work, double *out) {
+int GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
-    grb_reactions(md, &w, out);
+    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    GRB(reactions)(md, &w, out);
     return GRB_OK;
 }
 
-int grb_inverse_residual(const grb_model *md, const double *y, const double *zdd, double tau_load, double *work,
-                         double *out) {
+int GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, real tau_load, real *work,
+                         real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links;
-    grb_ws_init(w, n, md->n_closures, work);
-    grb_chain(md, y, y + n, w);
+    GRB(ws_init)(w, n, md->n_closures, work);
+    GRB(chain)(md, y, y + n, w);
     mass_centres(md, w);
-    grb_closure_rows(md, y + n, w);
+    GRB(closure_rows)(md, y + n, w);
     mass_matrix(md, w);
     generalised_force(md, y + n, 0.0, tau_load, w, w->vec);
     for (int i = 0; i < n; i++) {
-        double s = -T_(w, i, w->vec);
+        real s = -T_(w, i, w->vec);
         for (int j = 0; j < n; j++) s += T_(w, i, j) * zdd[j];
         out[i] = s;
     }
     return GRB_OK;
 }
+
+#ifdef GRB_COMPLEX_STEP
+/* Entry points with the efforts passed by address: a complex number passed by
+ * value is not something every foreign-function interface can do. */
+int grb_cs_rhs_at(const grb_model *md, int method, const real *y, const real *efforts, real *work, real *out) {
+    return GRB(rhs)(md, method, y, efforts[0], efforts[1], work, out);
+}
+
+int grb_cs_observe_at(const grb_model *md, int method, const real *y, const real *efforts, int want_reactions,
+                      real *work, real *out) {
+    return GRB(observe)(md, method, y, efforts[0], efforts[1], want_reactions, work, out);
+}
+#endif

@@ -7,8 +7,6 @@
  * one-sided (Hestenes) Jacobi SVD with a relative singular-value cut-off (gelsd).
  * Jacobi methods are as accurate as their LAPACK counterparts (more so for small
  * singular values) and converge in a handful of sweeps at these sizes. */
-#include <math.h>
-
 #include "workspace.h"
 
 #define MAX_SWEEPS 60
@@ -18,32 +16,32 @@
 /* Solve A Y = X in place: A is the n x n block of T from column a0 (destroyed),
  * X the ncols columns from x0 (overwritten by Y).  0 when a pivot is exactly
  * zero (singular), as gesv reports it. */
-int grb_lu_solve(double *T, int stride, int n, int a0, int x0, int ncols) {
+int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
 #define A(r, c) T[(r) * stride + a0 + (c)]
 #define X(r, c) T[(r) * stride + x0 + (c)]
     for (int c = 0; c < n; c++) {
         int p = c;
-        double big = fabs(A(c, c));
+        double big = fabs(RE(A(c, c)));
         for (int r = c + 1; r < n; r++)
-            if (fabs(A(r, c)) > big) {
-                big = fabs(A(r, c));
+            if (fabs(RE(A(r, c))) > big) {
+                big = fabs(RE(A(r, c)));
                 p = r;
             }
         if (big == 0.0) return 0;
         if (p != c) {
             for (int j = 0; j < n; j++) {
-                double t = A(c, j);
+                real t = A(c, j);
                 A(c, j) = A(p, j);
                 A(p, j) = t;
             }
             for (int j = 0; j < ncols; j++) {
-                double t = X(c, j);
+                real t = X(c, j);
                 X(c, j) = X(p, j);
                 X(p, j) = t;
             }
         }
         for (int r = c + 1; r < n; r++) {
-            double f = A(r, c) / A(c, c);
+            real f = A(r, c) / A(c, c);
             if (f != 0.0) {
                 for (int j = c + 1; j < n; j++) A(r, j) -= f * A(c, j);
                 for (int j = 0; j < ncols; j++) X(r, j) -= f * X(c, j);
@@ -52,7 +50,7 @@ int grb_lu_solve(double *T, int stride, int n, int a0, int x0, int ncols) {
     }
     for (int c = n - 1; c >= 0; c--)
         for (int j = 0; j < ncols; j++) {
-            double s = X(c, j);
+            real s = X(c, j);
             for (int k = c + 1; k < n; k++) s -= A(c, k) * X(k, j);
             X(c, j) = s / A(c, c);
         }
@@ -62,18 +60,18 @@ int grb_lu_solve(double *T, int stride, int n, int a0, int x0, int ncols) {
 }
 
 /* Cosine and sine of the Jacobi rotation that zeroes apq (Rutishauser's form). */
-static void rotation(double app, double aqq, double apq, double *c, double *s) {
-    double theta = (aqq - app) / (2.0 * apq);
-    double t = 1.0 / (fabs(theta) + sqrt(theta * theta + 1.0));
-    if (theta < 0.0) t = -t;
-    *c = 1.0 / sqrt(t * t + 1.0);
+static void rotation(real app, real aqq, real apq, real *c, real *s) {
+    real theta = (aqq - app) / (2.0 * apq);
+    real t = 1.0 / (RABS(theta) + RSQRT(theta * theta + 1.0));
+    if (RE(theta) < 0.0) t = -t;
+    *c = 1.0 / RSQRT(t * t + 1.0);
     *s = t * *c;
 }
 
 /* Columns p and q of the rows x ? matrix A (row stride) turned by (c, s). */
-static void rotate_columns(double *A, int stride, int rows, int p, int q, double c, double s) {
+static void rotate_columns(real *A, int stride, int rows, int p, int q, real c, real s) {
     for (int k = 0; k < rows; k++) {
-        double akp = A[k * stride + p], akq = A[k * stride + q];
+        real akp = A[k * stride + p], akq = A[k * stride + q];
         A[k * stride + p] = c * akp - s * akq;
         A[k * stride + q] = s * akp + c * akq;
     }
@@ -82,7 +80,7 @@ static void rotate_columns(double *A, int stride, int rows, int p, int q, double
 /* Eigen-decomposition of the symmetric m x m matrix S held in Q = [S | scratch |
  * V | w]: S is kept, the eigenvectors land in V's columns, the eigenvalues (not
  * sorted) in the last column. */
-void grb_sym_eig(double *Q, int stride, int m) {
+void GRB(sym_eig)(real *Q, int stride, int m) {
 #define S_(i, j) Q[(i) * stride + (j)]
 #define B(i, j) Q[(i) * stride + m + (j)]
 #define V(i, j) Q[(i) * stride + 2 * m + (j)]
@@ -94,18 +92,18 @@ void grb_sym_eig(double *Q, int stride, int m) {
     for (int sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         double off = 0.0, diag = 0.0;
         for (int i = 0; i < m; i++) {
-            diag += B(i, i) * B(i, i);
-            for (int j = i + 1; j < m; j++) off += B(i, j) * B(i, j);
+            diag += RE(B(i, i)) * RE(B(i, i));
+            for (int j = i + 1; j < m; j++) off += RE(B(i, j)) * RE(B(i, j));
         }
         if (off <= 1e-36 * diag || off == 0.0) break;
         for (int p = 0; p < m; p++)
             for (int q = p + 1; q < m; q++) {
                 if (B(p, q) == 0.0) continue;
-                double c, s;
+                real c, s;
                 rotation(B(p, p), B(q, q), B(p, q), &c, &s);
                 rotate_columns(Q + m, stride, m, p, q, c, s);
                 for (int k = 0; k < m; k++) {
-                    double bpk = B(p, k), bqk = B(q, k);
+                    real bpk = B(p, k), bqk = B(q, k);
                     B(p, k) = c * bpk - s * bqk;
                     B(q, k) = s * bpk + c * bqk;
                 }
@@ -118,6 +116,7 @@ void grb_sym_eig(double *Q, int stride, int m) {
 #undef V
 }
 
+#ifndef GRB_COMPLEX_STEP
 /* Minimum-norm least-squares solution x (n) of J x = b with J (m x n, row
  * stride jstride) and b[r * bstride].  Singular values below rcond times the
  * largest count as zero, as in numpy.linalg.lstsq.  U (n x m) and V (m x m) are
@@ -199,3 +198,4 @@ int grb_lstsq(const double *J, int m, int n, const double *b, double rcond, doub
     if (m < 0 || n < 0) return -1;
     return grb_lstsq_min_norm(J, n, m, n, b, 1, rcond, x, scratch, scratch + (size_t)n * m);
 }
+#endif

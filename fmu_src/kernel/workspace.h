@@ -1,7 +1,7 @@
 /* The kernel's workspace layout, shared by its translation units (not public).
  *
- * One caller-owned buffer of grb_work_size() doubles holds every table the
- * kernel fills; grb_ws_init() only points into it.  Tables are row-major:
+ * One caller-owned buffer of GRB(work_size)() doubles holds every table the
+ * kernel fills; GRB(ws_init)() only points into it.  Tables are row-major:
  *   K  (N x K_COLUMNS)  the link table of the kinematic pass
  *   Jc (N x 2 x N)      mass-centre Jacobians
  *   J  ((M + 3) x N)    closure Jacobian, then three scratch rows
@@ -15,6 +15,7 @@
 #define GRUBLER_WORKSPACE_H
 
 #include "grubler.h"
+#include "real.h"
 
 /* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
  * bias acceleration, slide axis, slide and its rate, mass centre, its bias */
@@ -29,10 +30,10 @@ typedef struct grb_ws {
     int n, m;        /* links, closure rows */
     int tc, qc;      /* columns of T and Q */
     int a0, x0, dd, vec, block; /* column offsets in T */
-    double *K, *Jc, *J, *R, *T, *Q, *S;
+    real *K, *Jc, *J, *R, *T, *Q, *S;
 } grb_ws;
 
-void grb_ws_init(grb_ws *w, int n_links, int n_closures, double *buffer);
+void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
 
 #define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
 #define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
@@ -43,19 +44,20 @@ void grb_ws_init(grb_ws *w, int n_links, int n_closures, double *buffer);
 #define J_(w, r, i) ((w)->J[(r) * (w)->n + (i)])
 #define JC_(w, k, d, i) ((w)->Jc[((k) * 2 + (d)) * (w)->n + (i)])
 
-/* dense linear algebra on small matrices (linalg.c); row-major with a stride */
-int grb_lu_solve(double *T, int stride, int n, int a0, int x0, int ncols);
-void grb_sym_eig(double *Q, int stride, int m);
+/* dense linear algebra on small matrices (linalg.c); row-major with a stride;
+ * the least-squares solver exists in the plain (double) build only */
+int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
+void GRB(sym_eig)(real *Q, int stride, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
 
 /* the kinematic and dynamic passes (chain.c) */
-void grb_chain(const grb_model *md, const double *z, const double *zd, grb_ws *w);
-void grb_point(const grb_model *md, const grb_ws *w, int k, double lx, double ly, double *J, double *r);
-void grb_closure_rows(const grb_model *md, const double *zd, grb_ws *w);
-int grb_accelerations(const grb_model *md, int method, const double *z, const double *zd, double tau_drive,
-                      double tau_load, grb_ws *w);
-void grb_reactions(const grb_model *md, grb_ws *w, double *out);
+void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w);
+void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r);
+void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w);
+int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+                       real tau_load, grb_ws *w);
+void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
 
 #endif

@@ -1,0 +1,31 @@
+/* The kernel's equations over complex numbers: complex-step differentiation.
+ *
+ * Each function is its grubler.h namesake (grb_rhs -> grb_cs_rhs_at) with the
+ * state, efforts (passed by address), workspace and outputs complex (C99 double
+ * complex, numpy's complex128).  Evaluated at y + i h e_k with h tiny (1e-30), the imaginary part
+ * of every output divided by h is its exact derivative along e_k, free of
+ * truncation and cancellation error; the real part is the plain value.  The
+ * model's tables stay real: derivatives are with respect to state and efforts.
+ * The workspace has grb_work_size() complex entries. */
+#ifndef GRUBLER_CS_H
+#define GRUBLER_CS_H
+
+#include <complex.h>
+
+#include "grubler.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* efforts: (drive, load); the complex-step rules are in real.h */
+GRB_API int grb_cs_rhs_at(const grb_model *m, int method, const double complex *y, const double complex *efforts,
+                          double complex *work, double complex *out);
+GRB_API int grb_cs_observe_at(const grb_model *m, int method, const double complex *y,
+                              const double complex *efforts, int want_reactions, double complex *work,
+                              double complex *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

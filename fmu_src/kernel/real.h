@@ -1,0 +1,39 @@
+/* The number type of the kernel's equations, so that they can be compiled twice.
+ *
+ * The dynamics (chain.c) and the small solvers they use (linalg.c) are written
+ * over `real`.  Compiled plainly, real is double.  Compiled with
+ * GRB_COMPLEX_STEP (chain_cs.c, linalg_cs.c) it is double complex and every
+ * external name gets the prefix grb_cs_: evaluating the same equations at
+ * x + i h e_k gives the exact derivative along e_k in the imaginary part
+ * (complex-step differentiation, Squire and Trapp 1998; Martins et al. 2003),
+ * with no step-size trade-off, which is what linearisation needs.
+ *
+ * Complex-step rules the code keeps: arithmetic and cos, sin, sqrt are
+ * analytic; a comparison or a pivot choice looks at the real part (RE), and an
+ * absolute value flips the sign of the whole number (RABS), the analytic
+ * continuation of |x| away from zero. */
+#ifndef GRUBLER_REAL_H
+#define GRUBLER_REAL_H
+
+#include <math.h>
+
+#ifdef GRB_COMPLEX_STEP
+#include <complex.h>
+typedef double complex real;
+#define RE(x) creal(x)
+#define RCOS(x) ccos(x)
+#define RSIN(x) csin(x)
+#define RSQRT(x) csqrt(x)
+#define GRB(name) grb_cs_##name
+#else
+typedef double real;
+#define RE(x) (x)
+#define RCOS(x) cos(x)
+#define RSIN(x) sin(x)
+#define RSQRT(x) sqrt(x)
+#define GRB(name) grb_##name
+#endif
+
+#define RABS(x) (RE(x) < 0.0 ? -(x) : (x))
+
+#endif
