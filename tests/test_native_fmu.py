@@ -618,6 +618,18 @@ def test_motor_refuses_a_bad_parameter_naming_it(motor, built):
     assert t.statuses("exit") == [ERROR] and t.logged("gear_efficiency:") and t.statuses("step") == [ERROR]
 
 
+def test_a_system_written_for_the_pythonfmu_plant_is_told_what_to_set(built):
+    from grubler import cosim, ssp
+
+    s = ssp.System("old")
+    s.add("m", built["Mechanism"][0], mechanism="thesis-fourbar")
+    s.add("d", built["DCMotor"][0], motor="maxon-re40-148877")
+    with pytest.raises(ssp.SystemDescriptionError) as err:
+        cosim.run(s, t_end=0.01)
+    assert "has no variable 'mechanism' (the native Mechanism.fmu takes the scene's quantities" in str(err.value)
+    assert "grubler.fmi.motor.motor_parameters(name)" in str(err.value)
+
+
 # -- grubler export --------------------------------------------------------------------
 
 def test_export_an_open_chain_and_run_it(host, tmp_path):
