@@ -38,7 +38,6 @@ from .variables import ModelSpec
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
-KERNEL_DIRS = {"kernel": HERE.parent / "kernel", "motor": HERE.parent.parent / "motors" / "kernel"}
 WRAPPER = ("fmi2_wrapper.c", "fmi2_model.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 # not part of an FMU: the Python module entry of grubler._kernel, and (*_cs.c) the
@@ -55,13 +54,9 @@ class BuildError(GrublerError, RuntimeError):
 
 def _kernel_dirs() -> dict[str, Path]:
     """Where the C sources sit: in this source tree, or the installed package."""
-    dirs = dict(KERNEL_DIRS)
-    try:  # an installed grubler.motors keeps its kernel beside it
-        import grubler.motors as motors
-        dirs["motor"] = Path(motors.__file__).resolve().parent / "kernel"
-    except ImportError:  # pragma: no cover
-        pass
-    return dirs
+    import grubler.motors as motors  # its kernel sits beside it, in a source tree or installed
+
+    return {"kernel": HERE.parent / "kernel", "motor": Path(motors.__file__).resolve().parent / "kernel"}
 
 
 def fmi_headers_dir() -> Path:
@@ -88,10 +83,9 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     return sorted(p.name for p in sources.glob("*.c"))
 
 
-def compile_binary(sources: Path, files: list[str], out: Path, compiler: str = "cc") -> Path:
-    """Compile the C files into the FMU's shared library ``out``."""
+def compile_binary(sources: Path, files: list[str], out: Path, compiler: str = "cc", windows: bool = False) -> Path:
+    """Compile the C files into the FMU's shared library ``out`` (a DLL with a MinGW ``compiler``)."""
     out.parent.mkdir(parents=True, exist_ok=True)
-    windows = "mingw" in compiler
     cmd = [compiler, "-shared", *CFLAGS, "-I", str(sources), "-o", str(out), *(str(sources / f) for f in files)]
     cmd += ["-static-libgcc"] if windows else ["-fPIC", "-lm"]
     try:
@@ -118,6 +112,8 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
     dest : path
     win64 : bool, optional
         Also cross-compile ``binaries/win64`` (default: when MinGW-w64 is installed).
+        On Windows the binary is ``win64`` anyway: with MinGW's ``gcc`` if on
+        PATH, else with Visual Studio through fmpy's CMake project.
 
     Returns
     -------
@@ -130,16 +126,24 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
         root = Path(tmp)
         files = stage_sources(spec, root / "sources")
         (root / "modelDescription.xml").write_bytes(model_description(spec, files))
+        name, src = spec.identifier, root / "sources"
         if sys.platform.startswith("linux"):
-            compile_binary(root / "sources", files, root / "binaries" / "linux64" / f"{spec.identifier}.so")
+            compile_binary(src, files, root / "binaries" / "linux64" / f"{name}.so")
         elif sys.platform == "darwin":
-            compile_binary(root / "sources", files, root / "binaries" / "darwin64" / f"{spec.identifier}.dylib")
-        if win64:
-            compiler = cross_compiler() if not sys.platform.startswith("win") else "gcc"
+            compile_binary(src, files, root / "binaries" / "darwin64" / f"{name}.dylib")
+        elif sys.platform.startswith("win"):
+            if shutil.which("gcc"):  # MinGW-w64 on PATH
+                compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", "gcc", windows=True)
+            else:  # Visual Studio, through fmpy's CMake project
+                from fmpy.build import build_platform_binary
+
+                build_platform_binary(root)
+        if win64 and not sys.platform.startswith("win"):
+            compiler = cross_compiler()
             if compiler is None:
                 raise BuildError(f"win64 binaries need the MinGW-w64 cross compiler ({MINGW}); Debian/Ubuntu: "
                                  "apt-get install gcc-mingw-w64-x86-64")
-            compile_binary(root / "sources", files, root / "binaries" / "win64" / f"{spec.identifier}.dll", compiler)
+            compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", compiler, windows=True)
         dest.parent.mkdir(parents=True, exist_ok=True)
         partial = dest.with_name(dest.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
