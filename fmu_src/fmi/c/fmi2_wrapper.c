@@ -501,25 +501,26 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     return fmi2OK;
 }
 
+static int choice_index(const grb_variable *v, const char *text) {
+    int i;
+    for (i = 0; i < v->n_choices; i++)
+        if (strcmp(text, v->choices[i]) == 0) return i;
+    return -1;
+}
+
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
     grb_instance *inst = (grb_instance *)c;
     size_t k;
-    int index[64];
     if (!allowed(inst, "fmi2SetString", MASK_SET) || !check_array(inst, "fmi2SetString", vr, nvr, value))
         return fmi2Error;
-    for (k = 0; k < nvr; k++) {
+    for (k = 0; k < nvr; k++) {  /* all checked before any is stored */
         const grb_variable *v = lookup(inst, "fmi2SetString", vr[k], GRB_T_STRING);
         char accepted[512];
         size_t used = 0;
         int i;
         if (v == NULL || !settable(inst, "fmi2SetString", v)) return fmi2Error;
         if (value[k] == NULL) return fail(inst, "fmi2SetString: NULL value for %s", v->name);
-        for (i = 0; i < v->n_choices; i++)
-            if (strcmp(value[k], v->choices[i]) == 0) break;
-        if (i < v->n_choices) {
-            if (k < 64) index[k] = i;
-            continue;
-        }
+        if (choice_index(v, value[k]) >= 0) continue;
         accepted[0] = '\0';
         for (i = 0; i < v->n_choices && used + 4 < sizeof accepted; i++) {
             int w = snprintf(accepted + used, sizeof accepted - used, "%s'%s'", i ? ", " : "", v->choices[i]);
@@ -530,13 +531,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     }
     for (k = 0; k < nvr; k++) {
         const grb_variable *v = &model_variables[vr[k] - 1];
-        int i = 0;
-        if (k < 64) {
-            i = index[k];
-        } else {
-            while (strcmp(value[k], v->choices[i]) != 0) i++;
-        }
-        set_stored(inst, v, (double)i);
+        set_stored(inst, v, (double)choice_index(v, value[k]));
     }
     return fmi2OK;
 }

@@ -108,7 +108,6 @@ static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
 /* The checks grubler.model.Mechanism makes, with its messages. */
 static fmi2Status validate(grb_instance *inst) {
     const double *p = inst->p;
-    static const char *const link_names[] = {"joint", "a", "p", "q", "m", "I", "damping"};
     char name[32];
     int i, j, k;
     for (k = 0; k < MODEL_N_STORED; k++)
@@ -126,7 +125,6 @@ static fmi2Status validate(grb_instance *inst) {
     if (p[SLOT_GRAVITY] < 0) BAD("gravity: must be >= 0 (it acts along -y), got %g", p[SLOT_GRAVITY]);
     if (p[SLOT_GROUND_A1] < 0) BAD("ground.a1: length must be >= 0, got %g", p[SLOT_GROUND_A1]);
     for (i = 0; i < N; i++) {
-        (void)link_names;
         if (link_field(p, i, LF_A) < 0) BAD("link%d.a: length must be >= 0, got %g", i + 2, link_field(p, i, LF_A));
         if (!(link_field(p, i, LF_M) > 0)) BAD("link%d.m: mass must be positive, got %g", i + 2,
                                                link_field(p, i, LF_M));
