@@ -639,6 +639,9 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
 
     path = tmp_path / "Pendulum.fmu"
     assert main(["export", "triple-pendulum", "-o", str(path)]) == 0
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(path)) == []
     md2 = read_model_description(str(path))
     assert md2.coSimulation.modelIdentifier == "Pendulum"
     assert not any(v.name.startswith(("closure.", "closure[")) for v in md2.modelVariables)
@@ -652,8 +655,11 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
                                rtol=0, atol=MATCH)
 
 
-@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output")])
+@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output"),
+                                         (["bad.toml"], "link2.m")])
 def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
+    text = grubler.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
+    (tmp_path / "bad.toml").write_text(text)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", *args], capture_output=True, text=True,
                           cwd=tmp_path)
     assert proc.returncode == 2
