@@ -88,6 +88,7 @@ int main(int argc, char **argv) {
             if (!strcmp(cmd, "new")) {
                 char name[256];
                 sscanf(rest, "%d %255s", &k, name);
+                if (inst[k] != NULL) fmi2FreeInstance(inst[k]);  /* the slot's previous instance */
                 c = inst[k] = fmi2Instantiate(name, fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
                 printf("new %s\n", c ? "ok" : "null");
             } else if (!strcmp(cmd, "use")) {
@@ -198,8 +199,10 @@ int main(int argc, char **argv) {
                     s = fmi2SerializeFMUstate(c, saved[k], b, size);
                     if (s == fmi2OK) {
                         FILE *f = fopen(path, "wb");
-                        fwrite(b, 1, size, f);
-                        fclose(f);
+                        if (f != NULL) {
+                            fwrite(b, 1, size, f);
+                            fclose(f);
+                        }
                     }
                     free(b);
                 }
@@ -211,6 +214,11 @@ int main(int argc, char **argv) {
                 FILE *f;
                 sscanf(rest, "%d %4095s", &k, path);
                 f = fopen(path, "rb");
+                if (f == NULL) {
+                    printf("deser nofile\n");
+                    fflush(stdout);
+                    continue;
+                }
                 fseek(f, 0, SEEK_END);
                 size = ftell(f);
                 fseek(f, 0, SEEK_SET);
@@ -243,12 +251,17 @@ int main(int argc, char **argv) {
             }
             fflush(stdout);
         }
-        {  /* states first, through any live instance, then the instances */
-            int j, k;
+        {  /* states first, through a live instance (a fresh one if none is left), then the instances */
+            int j, k, left = 0;
+            fmi2Component any = NULL;
+            for (k = 0; k < 16; k++) if (inst[k] != NULL) any = inst[k];
+            for (j = 0; j < 16; j++) left |= saved[j] != NULL;
+            if (left && any == NULL)
+                any = inst[0] = fmi2Instantiate("cleanup", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
+            for (j = 0; j < 16 && any != NULL; j++)
+                if (saved[j]) fmi2FreeFMUstate(any, &saved[j]);
             for (k = 0; k < 16; k++) {
                 if (inst[k] == NULL) continue;
-                for (j = 0; j < 16; j++)
-                    if (saved[j]) fmi2FreeFMUstate(inst[k], &saved[j]);
                 fmi2FreeInstance(inst[k]);
                 for (j = k + 1; j < 16; j++) if (inst[j] == inst[k]) inst[j] = NULL;
             }

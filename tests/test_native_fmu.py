@@ -478,6 +478,98 @@ def test_a_null_instance_does_not_crash_the_host(native):
     assert t.statuses("null") == [ERROR]
 
 
+@pytest.fixture(scope="session")
+def sanitized(built, tmp_path_factory):
+    """The FMUs' binaries and the host, rebuilt from sources/ with AddressSanitizer and UBSan."""
+    d = tmp_path_factory.mktemp("asan")
+    flags = ["-std=c99", "-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
+             "-fno-sanitize-recover=undefined"]
+    probe = subprocess.run(["cc", *flags, "-x", "c", "-", "-o", str(d / "probe")], input="int main(void){return 0;}",
+                           capture_output=True, text=True)
+    if probe.returncode != 0:
+        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
+    out = {"host": d / "fmi_host"}
+    subprocess.run(["cc", *flags, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()), str(HERE / "fmi_host.c"),
+                    "-o", str(out["host"]), "-ldl"], check=True)
+    for name, (_, unzipped_dir, _) in built.items():
+        src = unzipped_dir / "sources"
+        files = [str(src / f) for f in built[name][2].buildConfigurations[0].sourceFileSets[0].sourceFiles]
+        out[name] = d / f"{name}.so"
+        subprocess.run(["cc", "-shared", "-fPIC", *flags, "-I", str(src), *files, "-o", str(out[name]), "-lm"],
+                       check=True)
+    return out
+
+
+def random_script(md, rng, tmp_path, n: int = 40) -> list[str]:
+    """n random episodes of FMI calls: mostly a proper run (parameters, initialisation,
+    steps with inputs, outputs read, states saved, serialised and restored), with a
+    random call anywhere now and then: any state, any value reference, any value,
+    good and bad state blobs."""
+    variables = md.modelVariables
+    n_vr = len(variables)
+    params = [v for v in variables if v.causality == "parameter" and v.type == "Real"]
+    inputs = [v.valueReference for v in variables if v.causality == "input"]
+    outputs = [v.valueReference for v in variables if v.causality == "output"]
+    strings = [c for v in variables if v.type == "String" for c in (v.start, "")] + ["garbage", "-"]
+    numbers = ["0", "1", "-1", "0.5", "3", "1e300", "-1e300", "nan", "inf", "-inf", "1e-300", "2"]
+    blobs = [tmp_path / f"s{k}.bin" for k in range(3)]
+    (tmp_path / "junk.bin").write_bytes(bytes(rng.integers(0, 256, 200, dtype=np.uint8)))
+    (tmp_path / "empty.bin").write_bytes(b"")
+    files = [*blobs, tmp_path / "junk.bin", tmp_path / "empty.bin"]
+
+    def fault() -> str:
+        vr, k = int(rng.integers(0, n_vr + 4)), int(rng.integers(0, 3))
+        return str(rng.choice([
+            f"setr {vr} {rng.choice(numbers)}", f"seti {vr} {rng.choice(numbers)}",
+            f"sets {vr} {rng.choice(strings) or '-'}", f"getr {vr}", f"geti {vr}", f"gets {vr}",
+            f"step {rng.choice(['0', '0.3', 'nan'])} {rng.choice(['0', '-0.01', 'inf', 'nan', '0.01'])}",
+            "enter", "exit", "term", "free", f"use {k}", f"new {k} i{k}", f"load {k}", f"drop {k}", f"save {k}",
+            f"ser {k} {blobs[k]}", f"deser {k} {files[int(rng.integers(0, len(files)))]}", "null", "reset",
+            "setup 0"]))
+
+    out = []
+    for _ in range(n):
+        k = int(rng.integers(0, 3))
+        out += [f"new {k} i{k}" if rng.random() < 0.5 else f"use {k}", "reset", "setup 0"]
+        for v in rng.choice(params, size=min(3, len(params)), replace=False):
+            x = float(v.start) * float(rng.choice([1.0] * 8 + [0.9, 1.1, -1.0])) if v.start else 0.0
+            out.append(f"setr {v.valueReference} {x!r}")
+        out += ["enter", "exit"]
+        t = 0.0
+        for _ in range(int(rng.integers(5, 25))):
+            if rng.random() < 0.04:
+                out.append(fault())
+            h = float(rng.choice([1e-3, 1e-2, 5e-2]))
+            out += [f"setr {vr} {float(rng.normal()) * 2:.6g}" for vr in inputs]
+            out += [f"step {t!r} {h!r}", "getr " + " ".join(str(int(x)) for x in rng.choice(outputs, size=4))]
+            t += h
+            r = rng.random()
+            if r < 0.1:
+                out += [f"save {k}", f"ser {k} {blobs[k]}"]
+            elif r < 0.15:
+                out += [f"deser {k} {blobs[k]}", f"load {k}"]
+        if rng.random() < 0.3:
+            out.append("term")
+    return out
+
+
+@BOTH
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_call_sequences_never_crash_nor_corrupt_memory(built, sanitized, name, seed, tmp_path):
+    md = built[name][2]
+    script = random_script(md, np.random.default_rng(seed), tmp_path)
+    proc = subprocess.run([str(sanitized["host"]), str(sanitized[name]), md.guid], input="\n".join(script) + "\n",
+                          capture_output=True, text=True, timeout=600,
+                          env={"ASAN_OPTIONS": "halt_on_error=1:detect_leaks=1", "UBSAN_OPTIONS": "halt_on_error=1"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, proc.stderr[-3000:]
+    t = Transcript(proc.stdout)
+    statuses = [int(r[1]) for r in t.results if len(r) > 1 and r[1].lstrip("-").isdigit()]
+    assert len(statuses) > 500 and set(statuses) <= {OK, WARNING, DISCARD, ERROR}  # never fmi2Fatal
+    steps = t.statuses("step")
+    assert steps.count(OK) > 100 and ERROR in statuses  # real runs, with faults among them
+
+
 # -- other builds and masters ---------------------------------------------------------
 
 @BOTH

@@ -76,11 +76,16 @@ void grb_log(grb_instance *inst, fmi2Status status, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    /* the message goes as the logger's format (hosts that format it and hosts
-     * that print it as is both show it right): a literal % is doubled */
-    for (i = 0; msg[i] != '\0' && j + 2 < sizeof out; i++) {
-        if (msg[i] == '%') out[j++] = '%';
-        out[j++] = msg[i];
+    /* Some hosts use the message as a printf format, others print it as is: a
+     * message without % reads the same to both (and cannot make a formatting
+     * host read arguments that are not there), so a % becomes a word. */
+    for (i = 0; msg[i] != '\0' && j + 8 < sizeof out; i++) {
+        if (msg[i] == '%') {
+            memcpy(out + j, "percent", 7);
+            j += 7;
+        } else {
+            out[j++] = msg[i];
+        }
     }
     out[j] = '\0';
     f->logger(f->componentEnvironment, inst->name, status, status_category(status), out);
