@@ -621,6 +621,28 @@ def test_fmpy_runs_it_like_the_c_host(native, md, fmu):
         np.testing.assert_allclose(res[n][1:], rows[:, k + 1], rtol=0, atol=MATCH)
 
 
+def test_instantiated_again_after_its_first_extraction_folder_is_gone(fmu, md, native):
+    # (the pythonfmu FMU could not: a stale module stayed in sys.modules)
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+
+    rows = []
+    for k in range(2):
+        d = extract(str(fmu))
+        s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier="Mechanism", instanceName=f"m{k}")
+        s.instantiate()
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        s.setReal([native.vr["motor_torque"]], [3.0])
+        s.doStep(0.0, 0.1)
+        rows.append(s.getReal([native.vr["theta2"], native.vr["Fx"]]))
+        s.terminate()
+        s.freeInstance()
+        shutil.rmtree(d, ignore_errors=True)
+    assert rows[0] == rows[1]
+
+
 def test_libcosim_runs_it_like_fmpy(fmu, tmp_path):
     pytest.importorskip("libcosimpy")
     import json
