@@ -15,7 +15,7 @@ are 1-based positions in :attr:`ModelSpec.variables`.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 # FMI 2.0 unit definitions: name -> exponents of the SI base units
 # (kg, m, s, A, K, mol, cd, rad); only the units the models use.
@@ -164,7 +164,7 @@ class ModelSpec:
             s = slot[v.name] if v.causality in (PARAMETER, INPUT) else v.slot
             if v.causality == OUTPUT and not (0 <= s < self.n_outputs):
                 raise ValueError(f"{v.name}: output slot {s} outside the output vector")
-            variables.append(_with(v, slot=s))
+            variables.append(replace(v, slot=s))
         object.__setattr__(self, "variables", tuple(variables))
 
     @property
@@ -194,7 +194,3 @@ class ModelSpec:
         d = h.hexdigest()
         return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
-
-def _with(v: Variable, **changes) -> Variable:
-    from dataclasses import replace
-    return replace(v, **changes)
