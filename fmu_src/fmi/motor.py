@@ -96,7 +96,8 @@ def motor_spec(motor=DEFAULT_MOTOR, identifier: str = "DCMotor") -> ModelSpec:
     v = []
     for table in (DATA, SETUP, EXTRA):
         for name, (text, unit, lo) in table.items():
-            v.append(Variable(name, REAL, PARAMETER, text, start[name], unit, lo))
+            hi = 1.0 if name == "gear_efficiency" else None
+            v.append(Variable(name, REAL, PARAMETER, text, start[name], unit, lo, hi))
     for name, (text, unit) in INPUTS.items():
         v.append(Variable(name, REAL, INPUT, text, 0.0, unit))
     for k, (name, (text, unit, deps)) in enumerate(OUTPUTS.items()):
