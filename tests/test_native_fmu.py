@@ -451,6 +451,12 @@ def test_do_step_before_initialisation_and_after_terminate(native, md):
     assert t.statuses("step") == [OK, ERROR] and t.logged("not allowed in the state terminated")
 
 
+def test_a_bad_parameter_reads_back_and_is_refused_at_initialisation(native, md):
+    t = native.run([*native.start({"link2.m": -1.0}, md=md)[:-1], native.getr("link2.m"), "exit"])
+    assert t.statuses("getr") == [OK] and t.values(-2) == ["-1"]
+    assert t.statuses("exit") == [ERROR]
+
+
 def test_a_bad_parameter_is_an_error_at_initialisation_naming_it(native, md):
     t = native.run(native.start({"link2.m": -1.0}, md=md) + ["step 0 0.01"])
     assert t.statuses("exit") == [ERROR] and t.logged("link2.m: mass must be positive, got -1")

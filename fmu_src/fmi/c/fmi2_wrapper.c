@@ -409,8 +409,10 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         if (v == NULL) return fmi2Error;
         if (v->causality == GRB_C_OUTPUT && v->level > level) level = v->level;
     }
-    s = ready(inst, level);
-    if (s > fmi2Warning) return fmi2Error;
+    if (level > 0) {  /* parameters and inputs read back need no model */
+        s = ready(inst, level);
+        if (s > fmi2Warning) return fmi2Error;
+    }
     out = model_outputs(inst);
     for (k = 0; k < nvr; k++) {
         const grb_variable *v = &model_variables[vr[k] - 1];
