@@ -308,6 +308,11 @@ def test_the_penalty_closure_and_other_integrators_as_in_the_library(native, md)
         np.testing.assert_allclose(t.rows(), np.array(lib), rtol=0, atol=MATCH, err_msg=str(params))
 
 
+def test_a_penalty_closure_on_a_link_without_inertia_is_refused_at_initialisation(native, md):
+    t = native.run(native.start({"method": "penalty", "link4.I": 0.0, "link4.p": 0.0}, md=md) + ["step 0 0.01"])
+    assert t.statuses("exit") == [ERROR] and t.logged("method: the penalty closure cannot move the mechanism")
+
+
 def test_the_loop_that_cannot_close_is_an_error_with_its_reason(native, md):
     t = native.run(native.start({"link2.a": 5.0}, md=md) + ["step 0 0.01"])
     assert t.statuses("exit") == [ERROR]

@@ -310,6 +310,18 @@ fmi2Status model_prepare(grb_instance *inst) {
                     "closure", n_held ? names : "nothing", closest);
             if (st != GRB_OK) BAD("initial: assembly failed (%s)", status_text(st));
         }
+        if (method == GRB_PENALTY && NC > 0) {
+            /* the penalty springs act through inertia: every real coordinate needs some
+             * (grubler.simulate's check, which names the link from M's eigenvectors) */
+            double yd[NS];
+            int k, finite = 1;
+            st = grb_rhs(&mm->m, GRB_PENALTY, y, 0.0, 0.0, mm->work, yd);
+            for (k = 0; k < NS; k++) finite = finite && isfinite(yd[k]);
+            if (st != GRB_OK || !finite)
+                BAD("method: the penalty closure cannot move the mechanism: a real coordinate carries no inertia "
+                    "(a link with I = 0 and its mass centre on its joint), so the imaginary joint's spring would "
+                    "accelerate it without bound; give that link a positive I or use the exact closure");
+        }
         p[P_T] = inst->start_time;
         p[P_H] = 0.0;
         p[P_HAVE_F] = 0.0;
