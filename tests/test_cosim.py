@@ -176,7 +176,7 @@ def test_a_bad_parameter_is_named_by_the_fmu_that_refused_it(mechanism_fmu, tmp_
     proc = run_cli(s.write(tmp_path / "badparam.ssd"))
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.startswith("grubler: error: a: "), proc.stderr
-    assert "link2.m: mass must be positive, got -2.0" in proc.stderr
+    assert "a: link2.m: mass must be positive" in proc.stderr
     assert "Traceback" not in proc.stderr
 
 
