@@ -77,7 +77,17 @@ def cmd_info(args) -> int:
     print(f"drive      {m.drive or '-'}  torque {scene.torque:g}")
     if m.load:
         print(f"load       {m.load}  torque {scene.load_torque:g}")
+    if args.at is not None:
+        if not m.drive:
+            raise GrublerError("--at: this scene has no drive joint whose angle it could set")
+        from .scene import parse_angle_or_number
+
+        q_ref = list(m.q_ref)
+        q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(args.at, "--at")
+        m = m.replace(q_ref=tuple(q_ref))
     z0 = m.z_from_q(m.q_ref)
+    if m.closures and m.drive:
+        _print_branches(m, z0)
     z, zd = assemble(m, z0, scene.initial_rates)
     q = m.q_from_z(z)
     print("assembled  " + ", ".join(f"{n} = {v:.9g}" for n, v in zip(m.coordinate_names, q)))
@@ -86,6 +96,20 @@ def cmd_info(args) -> int:
         print("           (closed from the scene's start: "
               + ", ".join(f"{n} {a:.6g} -> {b:.6g}" for n, a, b in moved) + ")")
     return 0
+
+
+def _print_branches(m, z0) -> None:
+    from .assembly import branches
+
+    found, default = branches(m, z0)
+    names = [n for n in m.free_names if n != m.drive]
+    print(f"branches   {len(found)} with {m.drive} = {math.degrees(m.q_from_z(z0)[m.coordinate_names.index(m.drive)]):.6g} "
+          f"deg (assembly from the scene's sketch and 256 random ones):")
+    for k, z in enumerate(found):
+        q = m.q_from_z(z)
+        angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.4g}" for n in names)
+        note = "  <- the scene's (its sketch closes here; the default)" if k == default else ""
+        print(f"  [{k + 1}] {angles}{note}")
 
 
 def cmd_simulate(args) -> int:
@@ -275,6 +299,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("presets", help="list the shipped scenes").set_defaults(func=cmd_presets)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
+    info.add_argument("--at", help="drive angle to assemble at, e.g. '120 deg' (default: the scene's)")
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
