@@ -1,0 +1,234 @@
+"""Six-bar presets against references that share no code with the library.
+
+The reference (tests/planar_bodies.py) is a body-and-pin model in absolute
+coordinates; here each preset is described to it from the preset file's own
+dimensions (pivots, pin-to-pin lengths, triangles), the way the builder's
+docstring says a designer draws it, with positions from closed-form dyads
+(two circles) where the chain is a chain of dyads.
+"""
+
+import math
+import tomllib
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import grubler
+from grubler.dynamics import Inputs, forward_dynamics
+from grubler.inverse import drive_demand
+from grubler.kinematics import chain_kinematics
+from grubler.scene import override
+from planar_bodies import Bodies, Body, Pin, dyad
+
+SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii"]
+DYADIC = ["watt-i", "watt-ii", "stephenson-i"]
+RHO = 1.0  # kg/m: the presets' bars
+
+
+def params(name):
+    text = (resources.files("grubler") / "presets" / f"{name}.toml").read_text()
+    return tomllib.loads(text)["mechanism"]
+
+
+def third(p, q, r_p, r_q, side):
+    return dyad(p, q, r_p, r_q, 1 if side == "left" else -1)
+
+
+# Each preset: its joints (where they are at a crank angle, by dyads), its bodies
+# (which joints each carries, in the builder's documented chain order: the
+# library's link k+2 is body k, whose joint to its predecessor comes first) and
+# which joints are on the ground.
+def joints(name, P, th, signs):
+    A = np.array([math.cos(th), math.sin(th)])
+    if name == "watt-ii":
+        w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"]), "O6": np.array(P["output_pivot"])}
+        w["A"] = P["crank"] * A
+        w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
+        if w["B"] is None:
+            return None
+        w["C"] = third(w["O4"], w["B"], P["rocker_arm"], P["rocker_web"], P.get("rocker_side", "left"))
+        w["D"] = dyad(w["C"], w["O6"], P["coupler2"], P["output"], signs[1])
+    else:
+        w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"])}
+        w["A"] = P["crank"] * A
+        w["C"] = third(w["O2"], w["A"], P["crank_arm"], P["crank_web"], P.get("crank_side", "left"))
+        w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
+        if w["B"] is None:
+            return None
+        if name == "watt-i":
+            w["E"] = third(w["A"], w["B"], P["coupler_arm"], P["coupler_web"], P.get("coupler_side", "left"))
+        else:
+            w["E"] = third(w["O4"], w["B"], P["rocker_arm"], P["rocker_web"], P.get("rocker_side", "left"))
+        w["D"] = dyad(w["C"], w["E"], P["link5"], P["link6"], signs[1])
+    return None if w["D"] is None else w
+
+
+BODIES = {
+    "watt-ii": [("O2", "A"), ("A", "B"), ("B", "C", "O4"), ("C", "D"), ("D", "O6")],
+    "watt-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")],
+    "stephenson-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")],
+    "stephenson-ii": [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")],
+}
+GROUND = {"watt-ii": ("O2", "O4", "O6"), "watt-i": ("O2", "O4"), "stephenson-i": ("O2", "O4"),
+          "stephenson-ii": ("O2", "O6")}
+
+
+def reference(name, w, damping=0.0):
+    """Bodies (bars between each body's joints, mass RHO per metre) and pins from joint positions."""
+    bodies, owner = [], {}
+    for k, names in enumerate(BODIES[name]):
+        pts = [w[n] for n in names]
+        bars = [(pts[i], pts[j]) for i in range(len(pts)) for j in range(i + 1, len(pts))]
+        ms = [RHO * np.linalg.norm(b - a) for a, b in bars]
+        m = sum(ms)
+        c = sum(mi * (a + b) / 2 for mi, (a, b) in zip(ms, bars)) / m
+        inertia = sum(mi * (np.linalg.norm(b - a) ** 2 / 12 + np.sum(((a + b) / 2 - c) ** 2))
+                      for mi, (a, b) in zip(ms, bars))
+        bodies.append(Body(name, m, inertia, {n: w[n] - c for n in names}))  # frame: world axes at the sketch
+        for n in names:
+            owner.setdefault(n, []).append(k)
+    pins = []
+    for n, ks in owner.items():
+        if n in GROUND[name]:
+            pins += [Pin(k, n, None, w[n], damping) for k in ks]
+        else:
+            pins.append(Pin(ks[0], n, ks[1], n, damping))
+    x = np.concatenate([[*(w[BODIES[name][k][0]] - b.points[BODIES[name][k][0]]), 0.0]
+                        for k, b in enumerate(bodies)])
+    return Bodies(bodies, pins), x
+
+
+def library_joints(model, z):
+    """World positions of the library's chain joints (each link's origin)."""
+    kin = chain_kinematics(model, z, np.zeros(model.n_links))
+    return [np.array(kin.origin[k]) for k in range(model.n_links)]
+
+
+def sketch(name):
+    P = params(name)
+    th = grubler.scene.parse_angle_or_number(P["input_angle"], "input_angle")
+    return P, th
+
+
+@pytest.mark.parametrize("name", DYADIC)
+def test_loop_positions_follow_the_closed_form_dyads_around_the_crank(name):
+    P, th0 = sketch(name)
+    m = grubler.load_scene(name).mechanism
+    z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    # which side each dyad is on at the start, read from the library's first assembly
+    signs = min(((s1, s2) for s1 in (1, -1) for s2 in (1, -1)),
+                key=lambda s: np.inf if joints(name, P, th0, s) is None else
+                max(np.linalg.norm(a - joints(name, P, th0, s)[n])
+                    for a, n in zip(library_joints(m, z), [b[0] for b in BODIES[name]])))
+    worst, checked = 0.0, 0
+    # link 2's vector runs to its chain joint: a ternary crank's theta2 is the
+    # input angle plus a constant
+    offset = z[0] - th0
+    for th in th0 + np.radians(np.arange(0, 360, 5)):
+        w = joints(name, P, th, signs)
+        z_next = z.copy()
+        z_next[0] = th + offset
+        try:
+            z_next, _ = grubler.assemble(m, z_next)
+        except grubler.AssemblyError:
+            assert w is None  # the library closes wherever the dyads do
+            continue
+        z = z_next
+        if w is None:
+            continue
+        worst = max(worst, max(np.linalg.norm(a - w[n]) for a, n in zip(library_joints(m, z),
+                                                                         [b[0] for b in BODIES[name]])))
+        checked += 1
+    assert checked > 30
+    assert worst < 1e-10
+
+
+def closed_library(name, **overrides):
+    scene = grubler.load_scene(name)
+    if overrides:
+        scene = override(scene, overrides)
+    m = scene.mechanism
+    z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    return scene, m, z
+
+
+def world_of(name, m, z):
+    """Joint positions (every named joint) of a library configuration, read from its chain."""
+    kin = chain_kinematics(m, z, np.zeros(m.n_links))
+    w = {}
+    for k, names in enumerate(BODIES[name]):
+        c, s = math.cos(kin.theta[k]), math.sin(kin.theta[k])
+        o = np.array(kin.origin[k])
+        w[names[0]] = o
+        link = m.links[k]
+        w.setdefault(names[1], o + link.a * np.array([c, s]))
+    for cl in m.closures:  # the third joints are the closures' points
+        k = cl.link - 2
+        c, s = math.cos(kin.theta[k]), math.sin(kin.theta[k])
+        at = np.array(kin.origin[k]) + np.array([[c, -s], [s, c]]) @ np.array(cl.point)
+        for n in BODIES[name][k]:
+            if n not in w:
+                w[n] = at
+    for n in GROUND[name]:
+        w.setdefault(n, None)
+    return w
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_undamped_undriven_six_bar_keeps_its_energy_for_ten_seconds(name):
+    scene, m, z = closed_library(name)
+    res = grubler.simulate(scene, t_end=10.0, dt_out=0.05, torque=0.0, rtol=1e-10, atol=1e-10)
+    assert np.max(res["closure_error"]) < 1e-10
+    assert np.ptp(res["theta2"]) > 0.5  # it moves
+    e = res["E"]
+    assert np.ptp(e) < 1e-7 * (np.max(res["KE"]) + 1e-3)
+    # the energy the library starts from is the reference's, from joint positions alone
+    w = world_of(name, m, z)
+    ref, x = reference(name, w)
+    assert abs(e[0] - ref.potential(x)) < 1e-12
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_damped_six_bar_rests_where_the_potential_is_least_with_the_static_forces(name):
+    damp = {f"link{k}.damping": 0.02 for k in range(2, 7)}
+    scene, m, z = closed_library(name, **damp)
+    res = grubler.simulate(scene, t_end=60.0, dt_out=0.5, torque=0.0, rtol=1e-10, atol=1e-10)
+    assert np.max(np.abs(res.zd[-1])) < 1e-7  # at rest
+    w = world_of(name, m, res.z[-1])
+    ref, x_lib = reference(name, w)
+    x_rest = ref.rest(x_lib + 0.01 * np.sin(np.arange(len(x_lib))))  # started off the library's answer
+    assert np.max(np.abs(x_rest - x_lib)) < 1e-6
+    # static pin forces: the reference's statics at its own rest position
+    lam = ref.static_forces(x_rest)
+    dyn = forward_dynamics(m, res.z[-1], np.zeros(m.n_links), Inputs())
+    for j, cl in enumerate(m.closures):
+        k, joint = cl.link - 2, None
+        on_to = BODIES[name][cl.to_link - 2] if cl.to_link > 1 else GROUND[name]
+        joint = next(n for n in BODIES[name][k] if n in on_to and n != BODIES[name][k][0])
+        other = None if cl.to_link == 1 else cl.to_link - 2
+        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, other})
+        f = lam[r] if ref.pins[r].i == k else -lam[r]  # on the closing link
+        assert np.allclose(dyn.lam[2 * j:2 * j + 2], f, atol=1e-6), (cl, dyn.lam, f)
+    # every chain joint's reaction (the force of link k-1 on link k)
+    reactions = res["R1_Fx"][-1], res["R1_Fy"][-1]
+    r0 = next(i for i, p in enumerate(ref.pins) if p.i == 0 and p.j is None and p.a == "O2")
+    assert np.allclose(reactions, lam[r0], atol=1e-6)
+    for k in range(1, m.n_links):
+        joint = BODIES[name][k][0]
+        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, k - 1})
+        f = lam[r] if ref.pins[r].i == k else -lam[r]
+        assert np.allclose([res[f"R{k + 1}_Fx"][-1], res[f"R{k + 1}_Fy"][-1]], f, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_forward_then_inverse_dynamics_gives_back_the_applied_torque(name):
+    scene, m, z = closed_library(name)
+
+    def torque(t):
+        return 0.03 * math.sin(3.0 * t)
+
+    res = grubler.simulate(scene, t_end=1.0, dt_out=0.02, torque=torque, rtol=1e-11, atol=1e-11)
+    demand = drive_demand(m, res["theta2"], res["theta2_d"], res["theta2_dd"], z_guess=res.z[0])
+    applied = np.array([torque(t) for t in res.t])
+    assert np.max(np.abs(demand.torque - applied)) < 1e-7
