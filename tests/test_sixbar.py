@@ -232,3 +232,35 @@ def test_forward_then_inverse_dynamics_gives_back_the_applied_torque(name):
     demand = drive_demand(m, res["theta2"], res["theta2_d"], res["theta2_dd"], z_guess=res.z[0])
     applied = np.array([torque(t) for t in res.t])
     assert np.max(np.abs(demand.torque - applied)) < 1e-7
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_ternary_links_are_drawn_as_plates_and_the_chain_is_named(name):
+    from grubler.animation import frame_geometry
+
+    m = grubler.load_scene(name).mechanism
+    z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    geo = frame_geometry(m, z)
+    ternary_moving = 1 if name == "watt-ii" else 2  # watt-ii's other ternary is the ground
+    assert len(geo.plates) == ternary_moving and all(len(p) == 3 for p in geo.plates)
+    c = grubler.classify(m)
+    assert c.mobility == 1
+    assert c.name == {"watt-i": "Watt I", "watt-ii": "Watt II", "stephenson-i": "Stephenson I",
+                      "stephenson-ii": "Stephenson II"}[name] + " six-bar"
+
+
+def test_an_input_angle_that_cannot_close_names_the_loop_and_its_triangle():
+    scene = grubler.scene.scene_from_dict({"mechanism": {
+        "type": "watt-ii", "crank": 0.1, "coupler": 0.35, "rocker": 0.25, "rocker_arm": 0.2, "rocker_web": 0.3,
+        "coupler2": 0.2, "output": 0.2, "rocker_pivot": [0.3, 0.0], "output_pivot": [0.35, 0.4],
+        "input_angle": "30 deg"}})
+    m = scene.mechanism
+    q = list(m.q_ref)
+    q[1] = math.radians(90)
+    with pytest.raises(grubler.AssemblyError, match=r"link5-link6 .* must span the 0.43\d* m .* no triangle"):
+        grubler.assemble(m, m.z_from_q(q))
+    # the reference's dyad agrees that no position exists there
+    w = joints("watt-ii", {"crank": 0.1, "coupler": 0.35, "rocker": 0.25, "rocker_arm": 0.2, "rocker_web": 0.3,
+                           "coupler2": 0.2, "output": 0.2, "rocker_pivot": [0.3, 0.0],
+                           "output_pivot": [0.35, 0.4]}, math.radians(90), (1, 1))
+    assert w is None
