@@ -324,20 +324,35 @@ def _six_link_chain(world: dict, chain: list, closures: list, rho: float) -> dic
     """Links, closures and the initial angles of a chain laid through joint positions.
 
     ``world``: joint name -> position at the sketch; ``chain``: per moving link
-    (in series from the ground) its joint, the joint its vector runs to (the next
-    link's joint, or the last link's tip) and its other joints; ``closures``:
-    (joint, link carrying it, link it is pinned to; 1 is the ground).
+    (in series from the ground) its joint, the joint its vector points at, and
+    its other joints; ``closures``: (joint, link carrying it, link it is pinned
+    to; 1 is the ground).  The next link's joint is the first joint of its entry:
+    when that is not where the vector points (a ternary crank whose angle is the
+    designer's input angle), it sits at (a, B) in this link's frame, a the
+    distance along the vector and B the locked slide across it; should it lie
+    behind the joint (a < 0), the vector points at it instead.
     """
     links, frames, initial = [], [], {}
     for k, (origin, to, *extra) in enumerate(chain):
-        o, t = world[origin], world[to]
-        th = math.atan2(t[1] - o[1], t[0] - o[0])
-        c, s = math.cos(th), math.sin(th)
-        local = {name: ((world[name][0] - o[0]) * c + (world[name][1] - o[1]) * s,
-                        -(world[name][0] - o[0]) * s + (world[name][1] - o[1]) * c) for name in (origin, to, *extra)}
+        nxt = chain[k + 1][0] if k + 1 < len(chain) else to
+        names = (origin, to, *extra)
+        o = world[origin]
+
+        def frame(toward):
+            t = world[toward]
+            th = math.atan2(t[1] - o[1], t[0] - o[0])
+            c, s = math.cos(th), math.sin(th)
+            return th, {n: ((world[n][0] - o[0]) * c + (world[n][1] - o[1]) * s,
+                            -(world[n][0] - o[0]) * s + (world[n][1] - o[1]) * c) for n in names}
+
+        th, local = frame(to)
+        if local[nxt][0] < 0:
+            th, local = frame(nxt)
         frames.append(local)
-        links.append({"joint": "R", "a": local[to][0], **_plate([local[x] for x in (origin, to, *extra)], rho)})
+        links.append({"joint": "R", "a": local[nxt][0], **_plate([local[x] for x in names], rho)})
         initial[f"theta{k + 2}"] = th
+        if k + 1 < len(chain) and local[nxt][1] != 0.0:
+            initial[f"B{k + 2}"] = local[nxt][1]
     out = []
     for joint, link, to_link in closures:
         d = {"type": "revolute", "link": link, "at": list(frames[link - 2][joint]), "to_link": to_link}
@@ -416,7 +431,7 @@ def watt_i(params: dict, prefix: str) -> dict:
                        "the coupler's triangle A-B-E", prefix, "coupler_web")
     w["D"] = _circles(w["C"], w["E"], L["link5"], L["link6"], _branch(p, "branch2"),
                       "loop 2 (crank arm, link5, link6, coupler arm): triangle C-D-E", prefix)
-    chain = [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")]
+    chain = [("O2", "A", "C"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")]
     return _six_link_chain(w, chain, [("O4", 6, 1), ("A", 5, 2)], p.positive("mass_per_length"))
 
 
@@ -442,7 +457,7 @@ def stephenson_i(params: dict, prefix: str) -> dict:
                        "the rocker's triangle O4-B-E", prefix, "rocker_web")
     w["D"] = _circles(w["C"], w["E"], L["link5"], L["link6"], _branch(p, "branch2"),
                       "loop 2 (crank arm, link5, link6, rocker arm): triangle C-D-E", prefix)
-    chain = [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")]
+    chain = [("O2", "A", "C"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")]
     return _six_link_chain(w, chain, [("O4", 5, 1), ("A", 6, 2)], p.positive("mass_per_length"))
 
 

@@ -154,24 +154,17 @@ def closed_library(name, **overrides):
 
 
 def world_of(name, m, z):
-    """Joint positions (every named joint) of a library configuration, read from its chain."""
+    """Joint positions (every named joint) of a library configuration: each link's
+    joint is its origin, the third joints are the closures' points."""
     kin = chain_kinematics(m, z, np.zeros(m.n_links))
-    w = {}
-    for k, names in enumerate(BODIES[name]):
-        c, s = math.cos(kin.theta[k]), math.sin(kin.theta[k])
-        o = np.array(kin.origin[k])
-        w[names[0]] = o
-        link = m.links[k]
-        w.setdefault(names[1], o + link.a * np.array([c, s]))
-    for cl in m.closures:  # the third joints are the closures' points
+    w = {names[0]: np.array(kin.origin[k]) for k, names in enumerate(BODIES[name])}
+    for cl in m.closures:
         k = cl.link - 2
         c, s = math.cos(kin.theta[k]), math.sin(kin.theta[k])
         at = np.array(kin.origin[k]) + np.array([[c, -s], [s, c]]) @ np.array(cl.point)
-        for n in BODIES[name][k]:
-            if n not in w:
-                w[n] = at
-    for n in GROUND[name]:
-        w.setdefault(n, None)
+        on_to = GROUND[name] if cl.to_link == 1 else BODIES[name][cl.to_link - 2]
+        (joint,) = [n for n in BODIES[name][k] if n in on_to and n not in w]
+        w[joint] = at
     return w
 
 
