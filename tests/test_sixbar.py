@@ -203,6 +203,8 @@ def test_damped_six_bar_rests_where_the_potential_is_least_with_the_static_force
         r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, other})
         f = lam[r] if ref.pins[r].i == k else -lam[r]  # on the closing link
         assert np.allclose(dyn.lam[2 * j:2 * j + 2], f, atol=1e-6), (cl, dyn.lam, f)
+        col = "F" if j == 0 else f"closure{j}_F"  # the Result's columns for every closure
+        assert np.allclose([res[col + "x"][-1], res[col + "y"][-1]], f, atol=1e-6)
     # every chain joint's reaction (the force of link k-1 on link k)
     reactions = res["R1_Fx"][-1], res["R1_Fy"][-1]
     r0 = next(i for i, p in enumerate(ref.pins) if p.i == 0 and p.j is None and p.a == "O2")
