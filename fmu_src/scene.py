@@ -406,9 +406,9 @@ def override(scene: Scene, values: dict) -> Scene:
                   for i, link in enumerate(m.links))
     closures = m.closures
     if closures and ("closure.gain" in ov or "closure.damping" in ov):
-        first = replace(closures[0], gain=ov.get("closure.gain", closures[0].gain),
-                        damping=ov.get("closure.damping", closures[0].damping))
-        closures = (first,) + closures[1:]
+        # one penalty tuning for every loop: a six-bar's two closures alike
+        closures = tuple(replace(c, gain=ov.get("closure.gain", c.gain), damping=ov.get("closure.damping", c.damping))
+                         for c in closures)
     names = m.coordinate_names
     q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
     qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, m.S @ scene.initial_rates)]
