@@ -351,7 +351,7 @@ def _six_link_chain(world: dict, chain: list, closures: list, rho: float) -> dic
         frames.append(local)
         links.append({"joint": "R", "a": local[nxt][0], **_plate([local[x] for x in names], rho)})
         initial[f"theta{k + 2}"] = th
-        if k + 1 < len(chain) and local[nxt][1] != 0.0:
+        if k + 1 < len(chain) and abs(local[nxt][1]) > 1e-12 * max(1.0, abs(local[nxt][0])):
             initial[f"B{k + 2}"] = local[nxt][1]
     out = []
     for joint, link, to_link in closures:
@@ -476,19 +476,47 @@ def stephenson_ii(params: dict, prefix: str) -> dict:
     th, phi = p.angle("input_angle"), p.angle("coupler_angle")
     w = {"O2": (0.0, 0.0), "O6": _point(p, "rocker_pivot")}
     w["E"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
-    # a triad, not a dyad: no closed form from the input.  The sketch puts the
-    # floating ternary at coupler_angle and hangs the rocker from P; assembly
-    # then closes the second tie from there, on the nearest branch.
-    w["P"] = (w["E"][0] + L["coupler_p"] * math.cos(phi), w["E"][1] + L["coupler_p"] * math.sin(phi))
-    w["Q"] = _triangle(w["E"], w["P"], L["coupler_q"], L["coupler_web"], _side(p, "coupler_side"),
-                       "the coupler's triangle E-P-Q", prefix, "coupler_web")
-    w["R"] = _circles(w["P"], w["O6"], L["link_p"], L["rocker_r"], _branch(p, "branch"),
-                      "the sketch (link_p, rocker): triangle P-R-O6", prefix)
-    w["S"] = _triangle(w["O6"], w["R"], L["rocker_s"], L["rocker_web"], _side(p, "rocker_side"),
-                       "the rocker's triangle O6-R-S", prefix, "rocker_web")
+    # a triad, not a dyad: no closed form from the input.  Given the floating
+    # ternary's direction phi, P and Q follow, the rocker hangs from P (a dyad
+    # P-R-O6) and the miss |SQ| - link_q is a function of phi alone: its roots are
+    # the branches.  The sketch is the root nearest coupler_angle.
+    side_c, side_r, br = _side(p, "coupler_side"), _side(p, "rocker_side"), _branch(p, "branch")
+
+    def place(angle):
+        w["P"] = (w["E"][0] + L["coupler_p"] * math.cos(angle), w["E"][1] + L["coupler_p"] * math.sin(angle))
+        w["Q"] = _triangle(w["E"], w["P"], L["coupler_q"], L["coupler_web"], side_c,
+                           "the coupler's triangle E-P-Q", prefix, "coupler_web")
+        w["R"] = _circles(w["P"], w["O6"], L["link_p"], L["rocker_r"], br,
+                          "link_p and the rocker: triangle P-R-O6", prefix)
+        w["S"] = _triangle(w["O6"], w["R"], L["rocker_s"], L["rocker_web"], side_r,
+                           "the rocker's triangle O6-R-S", prefix, "rocker_web")
+        return math.dist(w["S"], w["Q"]) - L["link_q"]
+
+    def miss(angle):
+        try:
+            return place(angle)
+        except SceneError:
+            return math.nan
+
+    grid = [phi + 2 * math.pi * i / 720 for i in range(-360, 361)]  # outward from the sketch
+    grid.sort(key=lambda a: abs(a - phi))
+    values = {a: miss(a) for a in grid}
+    roots = []
+    ordered = sorted(grid)
+    for a, b in zip(ordered, ordered[1:]):
+        fa, fb = values[a], values[b]
+        if fa == fa and fb == fb and fa * fb <= 0:
+            for _ in range(60):  # bisection: exact to rounding, no derivative needed
+                mid = 0.5 * (a + b)
+                fm = miss(mid)
+                if not fm == fm:
+                    break
+                a, b, fa = (a, mid, fa) if fa * fm <= 0 else (mid, b, fm)
+            roots.append(0.5 * (a + b))
+    if not roots:
+        raise SceneError(f"{prefix}.input_angle",
+                         "no direction of the floating ternary closes the loop through link_q at this input angle "
+                         f"(the rocker hanging on the '{p.values['branch']}' side)")
+    place(min(roots, key=lambda a: abs(a - phi)))
     chain = [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")]
-    out = _six_link_chain(w, chain, [("O6", 5, 1), ("Q", 6, 3)], p.positive("mass_per_length"))
-    # the sketch's last link points from S at Q's sketch position: its length is link_q, not |SQ|
-    out["links"][4].update(bar("R", L["link_q"], p.positive("mass_per_length")))
-    out["closure"][1]["at"] = [L["link_q"], 0.0]
-    return out
+    return _six_link_chain(w, chain, [("O6", 5, 1), ("Q", 6, 3)], p.positive("mass_per_length"))

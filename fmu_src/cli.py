@@ -107,7 +107,7 @@ def _print_branches(m, z0) -> None:
           f"deg (assembly from the scene's sketch and 256 random ones):")
     for k, z in enumerate(found):
         q = m.q_from_z(z)
-        angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.4g}" for n in names)
+        angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.6g}" for n in names)
         note = "  <- the scene's (its sketch closes here; the default)" if k == default else ""
         print(f"  [{k + 1}] {angles}{note}")
 
