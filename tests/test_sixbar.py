@@ -322,3 +322,25 @@ def test_info_at_an_angle_that_cannot_close_exits_with_the_loop_and_triangle(tmp
     assert main(["info", str(scene), "--at", "90 deg"]) == 2
     err = capsys.readouterr().err
     assert "closure[1]" in err and "link5-link6" in err and "no triangle" in err
+
+
+@pytest.mark.parametrize("name", SIX)
+def test_drive_demand_over_a_turn_at_constant_speed_does_no_net_work(name):
+    # sizing's demand for a six-bar: undamped, the mechanism returns every joule
+    # it takes over one crank turn, and the static part is the reference's statics
+    from grubler.sizing import DutyCycle, required_drive
+
+    m = grubler.load_scene(name).mechanism
+    start = m.q_ref[1]
+    cycle = DutyCycle.constant_speed(2 * math.pi, n=2001, start=start)
+    demand = required_drive(m, cycle)
+    work = np.trapezoid(demand.torque * demand.velocity, cycle.t)
+    assert abs(work) < 1e-5 * np.trapezoid(np.abs(demand.torque * demand.velocity), cycle.t)
+    slow = required_drive(m, DutyCycle.constant_speed(1e-4, n=73, start=start))  # quasi-static
+    w = world_of(name, m, slow.z[0])
+    ref, x = reference(name, w)
+    J, Q = ref.jac(x), ref.forces(x, np.zeros(ref.n))
+    crank = np.zeros(ref.n)
+    crank[2] = 1.0  # the drive: a torque on body 0 (the crank) from the ground
+    sol, *_ = np.linalg.lstsq(np.column_stack([crank, J.T]), -Q, rcond=None)
+    assert abs(sol[0] - slow.torque[0]) < 1e-6
