@@ -110,6 +110,8 @@ def _print_branches(m, z0) -> None:
         angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.6g}" for n in names)
         note = "  <- the scene's (its sketch closes here; the default)" if k == default else ""
         print(f"  [{k + 1}] {angles}{note}")
+    if default < 0:
+        print("  (the scene's sketch closes to none of them: its assembly fails, below)")
 
 
 def cmd_simulate(args) -> int:
