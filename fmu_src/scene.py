@@ -226,13 +226,14 @@ def _closure_tables(built: dict, data: dict) -> list[tuple[dict, str]]:
     """The closure tables of a scene (the builder's, overridden field by field), with their field names."""
     base = built.get("closure", {})
     base = [dict(d) for d in base] if isinstance(base, list) else [dict(base)]
-    given = data.get("closure", {})
+    given = data.get("closure", [])
     if isinstance(given, dict):
         given = [given]
     elif not (isinstance(given, list) and all(isinstance(d, dict) for d in given)):
         raise SceneError("closure", "must be a table [closure] or an array of tables [[closure]]")
-    if len(given) > 1 and len(base) > 1 and len(given) != len(base):
-        raise SceneError("closure", f"the builder makes {len(base)} closures; give all {len(base)} or one")
+    if len(base) > 1 and given and len(given) != len(base):
+        raise SceneError("closure", f"the builder makes {len(base)} closures: override them as {len(base)} "
+                                    "[[closure]] tables, in order (an empty one keeps its closure as built)")
     while len(base) < len(given):
         base.append({})
     for d, g in zip(base, given):
@@ -251,10 +252,10 @@ def _closure(d: dict, f: str, links: list) -> Closure:
         choices = "'none', 'revolute' or 'prismatic'" if f == "closure" else "'revolute' or 'prismatic'"
         raise SceneError(f"{f}.type", f"must be {choices}, got {ctype!r}")
     cl_link = d.get("link", n + 1)
-    if not (isinstance(cl_link, int) and 2 <= cl_link <= n + 1):
+    if not (isinstance(cl_link, int) and not isinstance(cl_link, bool) and 2 <= cl_link <= n + 1):
         raise SceneError(f"{f}.link", f"must be a moving link 2..{n + 1}, got {cl_link!r}")
     to_link = d.get("to_link", 1)
-    if not (isinstance(to_link, int) and 1 <= to_link <= n + 1):
+    if not (isinstance(to_link, int) and not isinstance(to_link, bool) and 1 <= to_link <= n + 1):
         raise SceneError(f"{f}.to_link", f"must be a link 1..{n + 1}, got {to_link!r}")
     if "point" not in d:
         raise SceneError(f"{f}.point", "is required: [x, y] of the pivot, or a point of the line")

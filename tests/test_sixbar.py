@@ -344,3 +344,18 @@ def test_drive_demand_over_a_turn_at_constant_speed_does_no_net_work(name):
     crank[2] = 1.0  # the drive: a torque on body 0 (the crank) from the ground
     sol, *_ = np.linalg.lstsq(np.column_stack([crank, J.T]), -Q, rcond=None)
     assert abs(sol[0] - slow.torque[0]) < 1e-6
+
+
+def test_several_closures_are_overridden_table_by_table_and_errors_name_the_closure():
+    base = {k: v for k, v in params("watt-ii").items()}
+    scene = grubler.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"gain": 5e4}]})
+    assert [c.gain for c in scene.mechanism.closures] == [1e4, 5e4]
+    with pytest.raises(grubler.SceneError, match=r"closure: the builder makes 2 closures"):
+        grubler.scene.scene_from_dict({"mechanism": base, "closure": {"gain": 5e4}})
+    with pytest.raises(grubler.SceneError, match=r"closure\[1\]\.link: must be a moving link 2\.\.6"):
+        grubler.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"link": True}]})
+    with pytest.raises(grubler.SceneError, match=r"closure\[0\]\.to_link"):
+        grubler.scene.scene_from_dict({"mechanism": base, "closure": [{"to_link": 9}, {}]})
+    # one tuning for every loop, as a sweep or an FMU sets it
+    tuned = override(scene, {"closure.gain": 2e5})
+    assert [c.gain for c in tuned.mechanism.closures] == [2e5, 2e5]
