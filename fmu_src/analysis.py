@@ -239,7 +239,16 @@ def link_graph(model: "Mechanism") -> list[Joint]:
     return out
 
 
-_SIX_BAR_DOC = {
+def joint_counts(model: "Mechanism") -> dict[int, int]:
+    """How many joints each link carries (1 the ground): 2 binary, 3 ternary, ..."""
+    count = {b: 0 for b in range(1, model.n_links + 2)}
+    for j in link_graph(model):
+        count[j.a] += 1
+        count[j.b] += 1
+    return count
+
+
+SIX_BAR_INVERSIONS = {  # what each name means: which link of which chain is the ground
     "Watt I": "Watt chain (the two ternary links share a joint), a binary link fixed",
     "Watt II": "Watt chain (the two ternary links share a joint), a ternary link fixed: two four-bars in series",
     "Stephenson I": "Stephenson chain (binary links between the ternaries), the binary joining both ternaries fixed",
@@ -258,11 +267,9 @@ def six_bar_inversion(model: "Mechanism") -> str | None:
     joints = link_graph(model)
     if model.n_links != 5 or len(joints) != 7 or any(j.kind != "R" for j in joints):
         return None
-    degree = {b: 0 for b in range(1, 7)}
+    degree = joint_counts(model)
     nbrs: dict[int, set] = {b: set() for b in range(1, 7)}
     for j in joints:
-        degree[j.a] += 1
-        degree[j.b] += 1
         nbrs[j.a].add(j.b)
         nbrs[j.b].add(j.a)
     ternary = [b for b, d in degree.items() if d == 3]

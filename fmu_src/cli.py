@@ -64,8 +64,19 @@ def cmd_info(args) -> int:
     if m.description:
         print(f"           {m.description}")
     print(f"type       {c.name} ({c.chain} chain)")
+    if c.chain in ("Watt", "Stephenson"):
+        from .analysis import SIX_BAR_INVERSIONS
+
+        print(f"           {SIX_BAR_INVERSIONS[c.name.removesuffix(' six-bar')]}")
     print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
           f"j = {m.n_links + len(m.closures)})")
+    if len(m.closures) > 1:
+        from .analysis import joint_counts
+
+        ternary = [f"link{b}" + (" (ground)" if b == 1 else "") for b, d in joint_counts(m).items() if d >= 3]
+        print(f"topology   {m.n_links + 1} links, {m.n_links + len(m.closures)} joints; ternary: "
+              f"{', '.join(ternary) or 'none'}; loops closed by "
+              + ", ".join(f"closure[{j}] (link{c.link} to link{c.to_link})" for j, c in enumerate(m.closures)))
     joints = ", ".join(f"link{k + 2}: {'R' if l.joint == 'R' else 'P'}" for k, l in enumerate(m.links))
     print(f"joints     {joints}; real coordinates {', '.join(m.free_names)}")
     if c.grashof:
