@@ -52,7 +52,7 @@ def cmd_presets(args) -> int:
     for name in preset_names():
         scene = load_scene(name)
         c = classify(scene.mechanism)
-        print(f"{name:<{width}}  {c.chain:<8} {c.name}")
+        print(f"{name:<{width}}  {c.chain:<10} {c.name}")
     return 0
 
 
