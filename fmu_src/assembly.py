@@ -95,6 +95,14 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
         names = model.free_names
         held_txt = ", ".join(f"{names[i]} = {z0[i]:.6g}" for i in held) or "nothing"
         why = explain_unclosable(model, z0, held)
+        if not why and len(model.closures) > 1:
+            # z holds the closest configuration reached: name the loop left open there
+            phi, _ = constraint(model, z)
+            gaps = np.maximum(np.abs(phi[0::2]), np.abs(phi[1::2]))
+            j = int(np.argmax(gaps))
+            cl = model.closures[j]
+            others = ", ".join(f"closure[{i}] {g:.2g}" for i, g in enumerate(gaps) if i != j)
+            why = f"the loop left open is closure[{j}]'s (link{cl.link} to link{cl.to_link}; {others})"
         raise AssemblyError(
             field,
             f"the loop cannot be closed with {held_txt} held: the closest the tip gets is "

@@ -359,3 +359,15 @@ def test_several_closures_are_overridden_table_by_table_and_errors_name_the_clos
     # one tuning for every loop, as a sweep or an FMU sets it
     tuned = override(scene, {"closure.gain": 2e5})
     assert [c.gain for c in tuned.mechanism.closures] == [2e5, 2e5]
+
+
+def test_a_triad_that_cannot_close_names_the_loop_left_open():
+    # no dyad to blame in a Stephenson II: the message names the closure still open
+    import dataclasses
+
+    m = grubler.load_scene("stephenson-ii").mechanism
+    closures = list(m.closures)
+    closures[1] = dataclasses.replace(closures[1], point=(0.8, 0.0))  # link_q far too long
+    m = m.replace(closures=tuple(closures))
+    with pytest.raises(grubler.AssemblyError, match=r"the loop left open is closure\[1\]'s \(link6 to link3"):
+        grubler.assemble(m, m.z_from_q(m.q_ref))
