@@ -281,8 +281,8 @@ def conchoidal(params: dict, prefix: str) -> dict:
 # A six-bar is five moving links in series from the ground and two closures.  The
 # builders below take what a designer dimensions (pivot positions, pin-to-pin
 # lengths, each ternary link's triangle by its three sides) and lay the chain
-# through the links; a ternary link is a link whose vector runs to its next chain
-# joint, with its third joint a point in its frame that a closure attaches to.
+# through the links; a ternary link is a link of the chain whose third joint is a
+# point in its frame that a closure attaches to.
 
 def _circles(p, q, r_p: float, r_q: float, sign: int, what: str, prefix: str):
     """Where a link of length r_p from p meets one of length r_q from q (sign: left/right of p -> q)."""
@@ -309,8 +309,6 @@ def _triangle(p, q, r_p: float, r_q: float, side: int, what: str, prefix: str, k
 def _plate(points, rho: float) -> dict:
     """Mass, centre and inertia of a link drawn as bars between its joints (a ternary: three bars)."""
     bars = [(points[i], points[j]) for i in range(len(points)) for j in range(i + 1, len(points))]
-    if len(points) == 2:
-        bars = bars[:1]
     m = sum(rho * math.dist(a, b) for a, b in bars)
     cx = sum(rho * math.dist(a, b) * (a[0] + b[0]) / 2 for a, b in bars) / m
     cy = sum(rho * math.dist(a, b) * (a[1] + b[1]) / 2 for a, b in bars) / m
