@@ -338,6 +338,35 @@ fmi2Status model_start(grb_instance *inst) {
 
 /* ---- outputs ----------------------------------------------------------------- */
 
+#if N_CLOSURES > 1
+/* Force and moment of closures 1 .. NC-1 on their closing links (closure 0's are
+ * grb_observe's Fx, Fy, Mz), into out[3 (j - 1) ..]: from the multipliers the
+ * forward dynamics grb_observe just ran left in the workspace's constraint-row
+ * table (grb_work_layout; its columns lambda and the line normal are the
+ * kernel's R_LAM and R_NORMAL, as grubler.simulate.closure_forces reads them). */
+enum { ROW_LAM = 3, ROW_NORMAL = 4 };
+
+static void closure_forces(const mech *mm, double *out) {
+    long layout[12];
+    grb_work_layout(N, NC, layout);
+    const double *R = mm->work + layout[3];
+    long rc = layout[8];
+    for (int j = 1; j < NC; j++) {
+        const double *r0 = R + 2 * j * rc, *r1 = r0 + rc;
+        double *o = out + 3 * (j - 1);
+        if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: its normal force, holding moment */
+            o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];
+            o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];
+            o[2] = r1[ROW_LAM];
+        } else { /* a pin */
+            o[0] = r0[ROW_LAM];
+            o[1] = r1[ROW_LAM];
+            o[2] = 0.0;
+        }
+    }
+}
+#endif
+
 fmi2Status model_compute(grb_instance *inst, int level) {
     mech *mm = (mech *)inst->model;
     const double *p = inst->p, *y = p + P_Y;
@@ -353,6 +382,9 @@ fmi2Status model_compute(grb_instance *inst, int level) {
             grb_log(inst, fmi2Warning, "outputs at t = %.12g s: %s; they read as NaN", p[P_T], status_text(st));
             return fmi2Warning;
         }
+#if N_CLOSURES > 1
+        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->out + N_OBSERVED + 2);
+#endif
     }
     return fmi2OK;
 }
