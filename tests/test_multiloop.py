@@ -109,3 +109,64 @@ def test_six_bar_penalty_agrees_with_exact_to_the_springs_error():
         penalty.advance_to(t)
     assert np.max(np.abs(exact.z - penalty.z)) < 1e-3
     assert penalty.outputs()["closure_error"] < 1e-4
+
+
+# -- three loops: the same description, two links and a closure longer ----------------
+EIGHT = LINKS + ((0.6, 0.3, 0.5, 0.015), (0.5, 0.25, 0.4, 0.008))
+EIGHT_PIVOT, EIGHT_SIDE = (1.9, 1.6), 0.25
+EIGHT_SKETCH = np.radians([80, 10, -60, 40, -20, 60, -10])
+
+
+def eight_bar():
+    # the six-bar's output link 6 becomes ternary: link 7 hangs 0.25 m to the
+    # side of its ground pivot (B6), and links 7 and 8 close a third loop on the
+    # ground at (1.9, 1.6).  No code: two more links and one more closure.
+    six = watt_six_bar()
+    links = tuple(Link("R", a=a, p=p, m=m, I=i) for a, p, m, i in EIGHT)
+    closures = six.closures + (Closure("revolute", link=8, point=(0.5, 0.0), to_point=EIGHT_PIVOT),)
+    q_ref = (0.0, EIGHT_SKETCH[0], 0.0, EIGHT_SKETCH[1], 0.0, EIGHT_SKETCH[2], SIDE, EIGHT_SKETCH[3], 0.0,
+             EIGHT_SKETCH[4], EIGHT_SIDE, EIGHT_SKETCH[5], 0.0, EIGHT_SKETCH[6])
+    return Mechanism(links=links, closures=closures, q_ref=q_ref, drive="theta2", name="eight")
+
+
+def eight_reference():
+    bodies = []
+    for k, (a, p, m, i) in enumerate(EIGHT):
+        pts = {"start": (-p, 0.0), "end": (a - p, 0.0)}
+        if k in (2, 4):
+            pts["side"] = (a - p, SIDE if k == 2 else EIGHT_SIDE)
+        bodies.append(Body(f"link{k + 2}", m, i, pts))
+    pins = [Pin(0, "start", None, (0.0, 0.0)), Pin(0, "end", 1, "start"), Pin(1, "end", 2, "start"),
+            Pin(2, "end", None, ROCKER_PIVOT), Pin(3, "start", 2, "side"), Pin(3, "end", 4, "start"),
+            Pin(4, "end", None, OUTPUT_PIVOT), Pin(5, "start", 4, "side"), Pin(5, "end", 6, "start"),
+            Pin(6, "end", None, EIGHT_PIVOT)]
+    ref = Bodies(bodies, pins)
+    x, joint = np.zeros(21), np.zeros(2)
+    for k, (a, p, _, _) in enumerate(EIGHT):
+        x[3 * k:3 * k + 2] = joint + rot(EIGHT_SKETCH[k]) @ np.array([p, 0.0])
+        x[3 * k + 2] = EIGHT_SKETCH[k]
+        joint = joint + rot(EIGHT_SKETCH[k]) @ np.array([a, 0.0])
+        if k in (2, 4):
+            joint = joint + rot(EIGHT_SKETCH[k]) @ np.array([0.0, SIDE if k == 2 else EIGHT_SIDE])
+    return ref, ref.close(x, hold=0)
+
+
+def test_an_eight_bar_is_data_too_and_agrees_with_the_body_model():
+    m = eight_bar()
+    assert m.mobility == 1 == grubler.kutzbach_mobility(8, 10)
+    ref, x0 = eight_reference()
+    assert np.abs(ref.phi(x0)).max() < 1e-12
+    times = np.linspace(0.0, 3.0, 31)
+    ref_x, _ = ref.simulate(x0, np.zeros(21), times)
+    sim = Simulator(m, rtol=1e-11, atol=1e-11)
+    angles, energies = [], []
+    for t in times:
+        sim.advance_to(t)
+        out = sim.outputs()
+        assert out["closure_error"] < 1e-10
+        angles.append(m.q_from_z(sim.z)[1::2])
+        energies.append(out["E"])
+    angles = np.array(angles)
+    assert np.ptp(angles[:, 5]) > 0.05 and np.ptp(angles[:, 6]) > 0.05  # the third loop moves
+    assert np.max(np.abs(angles - ref_x[:, 2::3])) < 1e-7
+    assert np.ptp(energies) < 1e-7 * max(1.0, abs(energies[0]))
