@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import binding
-from .assembly import _scale, assemble, held_coordinates
+from .assembly import _scale, assemble, constraint, held_coordinates
 from .dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
 from .errors import SceneError
 from .model import Mechanism
@@ -53,6 +53,7 @@ EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an
 EQUILIBRIUM_ITERATIONS = 60
 MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
 ISOLATION_RCOND = 1e-9  # reciprocal condition number below which an equilibrium is not isolated
+SINGULAR_RCOND = 1e-7  # of the closure Jacobian's dependent columns: below it, a toggle or change point
 
 DRIVE, LOAD, VOLTAGE = "drive", "load", "voltage"
 _INPUT_ALIASES = {"drive": DRIVE, "tau_drive": DRIVE, "torque": DRIVE, "load": LOAD, "tau_load": LOAD,
@@ -153,6 +154,16 @@ class _Plant:
                                     "(the closure Jacobian's dependent columns are singular: a dead centre or "
                                     "change point); linearise elsewhere")
         raise SceneError(where, f"the loop cannot be closed at {at}")
+
+    def check_regular(self, y: np.ndarray) -> None:
+        """Refuse a configuration where the dependent coordinates barely follow from the independent ones."""
+        if not self.model.n_constraints:
+            return
+        _, J = constraint(self.model, y[:self.n])
+        dep = [i for i in range(self.n) if i not in self.ind]
+        s = np.linalg.svd(J[:, dep], compute_uv=False)
+        if s[-1] <= SINGULAR_RCOND * s[0]:
+            self._check(binding.SINGULAR, "at", y)
 
     def rhs(self, y: np.ndarray, drive: float, load: float) -> np.ndarray:
         out = np.empty(2 * self.n)
@@ -466,6 +477,7 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor) -> tuple[Oper
         y, drive = _equilibrium(plant, y, drive, load, held)
         kind = "equilibrium"
     n = plant.n
+    plant.check_regular(y)
     acc = plant.rhs(y, drive, load)[n + plant.ind]
     q, qd = model.q_from_z(y[:n]), model.S @ y[n:]
     coords = dict(zip(model.coordinate_names, q))
