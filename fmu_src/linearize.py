@@ -251,7 +251,8 @@ def _parse_at(at):
             raise SceneError("at", f"cannot read the time in {at!r} (write t=1.5)") from None
     else:
         raise SceneError("at", f"must be 'equilibrium', 'initial', 't=T' (a time along the simulated "
-                               f"trajectory) or {{coordinate: value}}, got {at!r}")
+                               f"trajectory) or a coordinate held at a value ({{'theta2': 0.5}}; on the command "
+                               f"line theta2=0.5), got {at!r}")
     if not (math.isfinite(t) and t >= 0):
         raise SceneError("at", f"the time must be finite and >= 0, got {t}")
     return "trajectory", t
@@ -729,6 +730,30 @@ def summary(sys) -> str:
     return "\n".join(lines)
 
 
+def plot_bode(sys, path: str) -> None:
+    """Bode plot of every input-output pair, with units in the title, to a PNG or PDF."""
+    import control
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    units = getattr(sys, "units", {})
+    # a decade beyond the slowest and the fastest pole: python-control's own
+    # choice misses the winding's pole three decades above the mechanism's
+    corners = np.abs(sys.poles())
+    corners = corners[corners > 1e-9] if np.any(corners > 1e-9) else np.array([1.0])
+    omega = np.logspace(np.log10(corners.min() / 10), np.log10(corners.max() * 10), 600)
+    plt.figure(figsize=(8, 6))
+    control.bode_plot(sys, omega, dB=True, Hz=False, title=None)
+    pairs = ", ".join(f"{o} [{units.get(o, '')}] / {i} [{units.get(i, '')}]"
+                      for o in sys.output_labels for i in sys.input_labels)
+    fig = plt.gcf()
+    fig.suptitle(f"{sys.name}: {pairs}", fontsize=9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def to_json(sys) -> dict:
     """A, B, C, D (lists of rows), the names, units and the operating point."""
     op = getattr(sys, "operating_point", None)
@@ -738,5 +763,5 @@ def to_json(sys) -> dict:
             "operating_point": op.as_dict() if op is not None else None}
 
 
-__all__ = ["OperatingPoint", "linearize", "operating_point", "output_names", "summary", "to_json",
+__all__ = ["OperatingPoint", "linearize", "operating_point", "output_names", "plot_bode", "summary", "to_json",
            "input_unit", "signal_unit"]
