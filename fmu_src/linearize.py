@@ -374,7 +374,8 @@ def _motor_model(motor):
     return motor
 
 
-def operating_point(scene, at="equilibrium", *, torque=None, load_torque=None, motor=None) -> OperatingPoint:
+def operating_point(scene, at="equilibrium", *, torque=None, load_torque=None, motor=None,
+                    near: OperatingPoint | None = None) -> OperatingPoint:
     """Find the state a mechanism is linearised about.
 
     Parameters
@@ -393,6 +394,9 @@ def operating_point(scene, at="equilibrium", *, torque=None, load_torque=None, m
     motor : grubler.motors.DCMotor, optional
         Its rotor inertia joins the drive joint; the point gets the current that
         gives the drive effort and the voltage that holds that current.
+    near : OperatingPoint, optional
+        Start from this point's configuration instead of the scene's sketch: a
+        sweep that passes each point to the next stays on one assembly branch.
 
     Returns
     -------
@@ -413,7 +417,7 @@ def operating_point(scene, at="equilibrium", *, torque=None, load_torque=None, m
     >>> round(op.drive, 4)                                 # the torque that holds the crank level
     5.3955
     """
-    return _operating_point(_prepared(_scene(scene), motor), at, torque, load_torque, motor)[0]
+    return _operating_point(_prepared(_scene(scene), motor), at, torque, load_torque, motor, near)[0]
 
 
 def _prepared(scene: Scene, motor) -> Scene:
@@ -431,7 +435,8 @@ def _prepared(scene: Scene, motor) -> Scene:
     return replace(scene, mechanism=model.replace(drive_inertia=motor.reflected_inertia))
 
 
-def _operating_point(scene: Scene, at, torque, load_torque, motor) -> tuple[OperatingPoint, _Plant]:
+def _operating_point(scene: Scene, at, torque, load_torque, motor,
+                     near: OperatingPoint | None = None) -> tuple[OperatingPoint, _Plant]:
     model = scene.mechanism
     kind, what = _parse_at(at)
     drive = _effort(torque, scene.torque, "torque")
@@ -442,9 +447,13 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor) -> tuple[Oper
         raise SceneError("load_torque", f"{model.name or 'this scene'} has no load joint to apply it to")
     plant = _Plant(model)
     z0, zd0 = model.z_from_q(model.q_ref), np.asarray(scene.initial_rates, dtype=float)
+    if near is not None:
+        if not isinstance(near, OperatingPoint) or near.z.shape != z0.shape:
+            raise SceneError("near", "must be an OperatingPoint of this mechanism")
+        z0 = near.z.copy()
     time = None
     if kind == "trajectory":
-        sim = Simulator(model, zd0=zd0, inputs=Inputs(drive, load))
+        sim = Simulator(model, z0=z0, zd0=zd0, inputs=Inputs(drive, load))
         if what > 0:
             sim.advance_to(what)
         z, zd, time = sim.z.copy(), sim.zd.copy(), what
@@ -572,7 +581,7 @@ def signal_unit(name: str) -> str:
 
 
 def linearize(scene, at="equilibrium", inputs=None, outputs=None, motor=None, *, torque=None,
-              load_torque=None):
+              load_torque=None, near=None):
     """The mechanism's linear model about an operating point, as a python-control StateSpace.
 
     Parameters
@@ -594,6 +603,8 @@ def linearize(scene, at="equilibrium", inputs=None, outputs=None, motor=None, *,
         its winding current a state (the winding temperature is held at ambient).
     torque, load_torque : float, optional
         Constant efforts defining the operating point (default the scene's).
+    near : OperatingPoint, optional
+        A nearby operating point whose assembly branch to keep (for sweeps).
 
     Returns
     -------
@@ -631,7 +642,7 @@ def linearize(scene, at="equilibrium", inputs=None, outputs=None, motor=None, *,
         motor = _motor_model(motor)
     scene = _prepared(scene, motor)
     model = scene.mechanism
-    op, plant = _operating_point(scene, at, torque, load_torque, motor)
+    op, plant = _operating_point(scene, at, torque, load_torque, motor, near)
     in_names = _inputs(inputs if inputs is not None else [VOLTAGE if motor is not None else DRIVE], motor, model)
     out_names = _outputs(outputs, model, motor, plant)
     n, rows = plant.n, plant.rows

@@ -387,3 +387,16 @@ def test_cli_bad_input_exits_2_naming_the_field(argv, field, capsys):
     assert main(["linearize", "thesis-fourbar", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"grubler: error: {field}"), err
+
+
+def test_a_sweep_with_near_stays_on_one_assembly_branch():
+    # from the scene's sketch, assembly at a far crank angle may land on the other
+    # (crossed) branch; continuing from the neighbour keeps the sketched one
+    near, theta3 = None, []
+    for a in np.radians(np.arange(0.0, 181.0, 20.0)):
+        near = operating_point("thesis-fourbar", at={"theta2": float(a)}, near=near)
+        theta3.append(near.coordinates["theta3"])
+    steps = np.abs(np.diff(theta3))
+    assert steps.max() < 0.2, theta3
+    with pytest.raises(SceneError, match="^near: "):
+        operating_point("thesis-fourbar", at="initial", near="here")
