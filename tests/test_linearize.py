@@ -400,3 +400,42 @@ def test_a_sweep_with_near_stays_on_one_assembly_branch():
     assert steps.max() < 0.2, theta3
     with pytest.raises(SceneError, match="^near: "):
         operating_point("thesis-fourbar", at="initial", near="here")
+
+
+# -- the design example, co-simulated ----------------------------------------------
+def test_design_example_predictions_hold_in_cosimulation(tmp_path):
+    # the example's designs as FMUs on the nonlinear plant: on the ideal plant
+    # (no dry friction, lossless gearbox, no quantisation) the linear prediction
+    # holds to a few per cent of the step; with the datasheet motor and the 14-bit
+    # encoder within about one encoder count
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    sys.path.insert(0, str(root))
+    import build_fmu
+
+    d = tmp_path / "dist"
+    build_fmu.build(d, ["Mechanism", "DCMotor", "Encoder", "Trajectory"])
+    out = tmp_path / "rows.json"
+    proc = subprocess.run([sys.executable, str(root / "examples" / "control_design.py"), "--fmu-dir", str(d),
+                           "--img-dir", str(tmp_path), "--json", str(out)], capture_output=True, text=True,
+                          timeout=900)
+    assert out.exists(), proc.stderr[-3000:]
+    rows = json.loads(out.read_text())
+    step, count = 0.008, 2 * math.pi / 16384
+    co = [r for r in rows if r["source"] == "co-simulated"]
+    assert len(co) == 8
+    for r in co:
+        pred = next(p for p in rows if p["source"] == "predicted" and
+                    all(p[k] == r[k] for k in ("design", "plant", "angle_deg")))
+        if r["plant"] == "ideal":
+            assert r["gap_rad"] < 0.02 * step, r
+            assert abs(r["overshoot_%"] - pred["overshoot_%"]) < 1.0, (r, pred)
+            assert abs(r["settling_s"] - pred["settling_s"]) < 0.01, (r, pred)
+        else:
+            assert r["gap_rad"] < 1.5 * count, r
+            assert abs(r["rms_error_rad"] - pred["rms_error_rad"]) < 0.1 * pred["rms_error_rad"], (r, pred)
+    assert (tmp_path / "control-pole-map.png").stat().st_size > 20_000
