@@ -280,7 +280,7 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
     y[n:] = 0.0
     start = y[ind].copy()
 
-    def potential(yy, grad=False):
+    def potential(yy):
         obs = plant.observe(yy, drive, load)
         v = obs[_PE(n)] - (drive * yy[d] if d >= 0 else 0.0) - (load * yy[l] if l >= 0 else 0.0)
         return v
