@@ -52,7 +52,7 @@ H_STEP = 1e-30  # complex step: any tiny h is exact; this one keeps h^2 far abov
 EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an equilibrium
 EQUILIBRIUM_ITERATIONS = 60
 MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
-ISOLATION_RCOND = 1e-9  # reciprocal condition number below which an equilibrium is not isolated
+ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
 SINGULAR_RCOND = 1e-7  # of the closure Jacobian's dependent columns: below it, a toggle or change point
 
 DRIVE, LOAD, VOLTAGE = "drive", "load", "voltage"
@@ -304,19 +304,22 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
         stiff = 0.5 * (stiff + stiff.T)
         try:
             np.linalg.cholesky(stiff)
-            step = -np.linalg.solve(stiff, gf)
+            step, newton = -np.linalg.solve(stiff, gf), True
         except np.linalg.LinAlgError:
-            step = -np.linalg.solve(Mf, gf)
+            step, newton = -np.linalg.solve(Mf, gf), False
         biggest = np.abs(step).max()
         if biggest > MAX_NEWTON_STEP:
             step *= MAX_NEWTON_STEP / biggest
-        v0, slope, lam = potential(y), float(gf @ step), 1.0
+        v0, slope, lam, residual = potential(y), float(gf @ step), 1.0, np.linalg.norm(acc[free])
         while True:
             trial = y.copy()
             trial[ind[free]] += lam * step
             try:
                 trial = plant.close(trial)
-                ok = potential(trial) <= v0 + 1e-4 * lam * slope
+                # near the minimum V's decrease drowns in its rounding: there a
+                # Newton step that halves the accelerations is as good
+                ok = (potential(trial) <= v0 + 1e-4 * lam * slope or
+                      (newton and np.linalg.norm(plant.rhs(trial, drive, load)[n + ind][free]) < 0.5 * residual))
             except SceneError:
                 ok = False
             if ok:
@@ -324,15 +327,14 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
                 break
             lam /= 2
             if lam < 1e-8:
-                if np.abs(gf).max() <= 1e3 * EQUILIBRIUM_TOL * max(1.0, np.abs(np.diag(Mf)).max()):
-                    break  # at the floor of V's rounding: the accelerations decide below
                 raise SceneError("at", "no equilibrium found near the initial configuration: the search stalls "
                                        f"at {_where(names, y, ind)} with joint accelerations "
                                        f"{', '.join(f'{v:.3g}' for v in acc)}")
         if np.abs(y[ind] - start).max() > 4 * math.pi:
+            moving = [names[k] for k in free]
             raise SceneError("at", f"no equilibrium under these efforts: the potential keeps falling as "
-                                   f"{', '.join(names[k] for k in free)} turn (the drive or load effort exceeds "
-                                   "what gravity can hold)")
+                                   f"{', '.join(moving)} {'moves' if len(moving) == 1 else 'move'} on (the drive or "
+                                   "load effort exceeds what gravity can hold)")
     else:
         raise SceneError("at", f"no equilibrium found in {EQUILIBRIUM_ITERATIONS} steps from the initial "
                                f"configuration (joint accelerations {', '.join(f'{v:.3g}' for v in acc)})")
@@ -343,9 +345,11 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
         raise SceneError("at", f"no equilibrium found: at {_where(names, y, ind)} the joint accelerations are "
                                f"{', '.join(f'{v:.3g}' for v in acc)}")
     if not held:
+        # the stiffness against gravity's own scale g / l: below that fraction the
+        # natural frequency is a rounding error's
         _, Mr, K, _ = local(y)
         s = np.linalg.svd(K, compute_uv=False)
-        if s[-1] <= ISOLATION_RCOND * max(s[0], 1.0):
+        if s[-1] <= ISOLATION_RCOND * max(s[0], max(model.gravity, 1.0) / plant.scale):
             raise SceneError("at", f"the equilibrium at {_where(names, y, ind)} is not isolated: the joint "
                                    "accelerations do not change with the coordinates there (neutral "
                                    "equilibrium: every nearby configuration is one, so there is no one point "
