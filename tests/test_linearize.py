@@ -439,3 +439,19 @@ def test_design_example_predictions_hold_in_cosimulation(tmp_path):
             assert r["gap_rad"] < 1.5 * count, r
             assert abs(r["rms_error_rad"] - pred["rms_error_rad"]) < 0.1 * pred["rms_error_rad"], (r, pred)
     assert (tmp_path / "control-pole-map.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("name", grubler.preset_names())
+def test_every_preset_linearises_or_says_why(name):
+    # at rest under the preset's own efforts: a finite model whose equilibrium the
+    # kernel confirms, or an error naming the operating point
+    try:
+        sys = linearize(name)
+    except SceneError as exc:
+        assert exc.field == "at" and ("no equilibrium" in exc.reason or "not isolated" in exc.reason), exc
+        return
+    assert np.all(np.isfinite(sys.A)) and np.all(np.isfinite(sys.B))
+    op = sys.operating_point
+    model = grubler.load_scene(name).mechanism
+    dyn = forward_dynamics(model, op.z, op.zd, Inputs(op.drive, op.load))
+    assert np.abs(dyn.zdd).max() < 1e-7
