@@ -22,7 +22,7 @@ The parallelogram swings as a simple pendulum of length 1 m (MODEL.md): its
 linear model has the pendulum's frequency sqrt(g / l).
 
 >>> import numpy as np, grubler
->>> sys = linearize("fourbar-parallelogram", at="equilibrium")
+>>> sys = grubler.linearize("fourbar-parallelogram", at="equilibrium")
 >>> sys.nstates, sys.state_labels
 (2, ['theta2', 'theta2_d'])
 >>> wn = np.abs(sys.poles()).max()
