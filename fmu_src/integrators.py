@@ -81,17 +81,21 @@ class StateEquation:
     def __post_init__(self):
         self.method_code = METHOD_CODE[self.method]
         self.work = binding.work(self.model.n_links, len(self.model.closures))
+        # scipy's implicit solvers call this once per evaluation: buffers and
+        # their addresses made once (numpy's .ctypes costs about a microsecond)
+        n = 2 * self.model.n_links
+        self._y, self._out = np.zeros(n), np.zeros(n)
+        self._call = (binding.library().grb_rhs, self.model.arrays.c, binding.address(self._y),
+                      binding.address(self.work), binding.address(self._out))
 
     def drive_at(self, t: float) -> float:
         return self.drive if self.drive_function is None else float(self.drive_function(t))
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
-        y = np.ascontiguousarray(y, dtype=float)
-        out = np.empty_like(y)
-        binding.library().grb_rhs(self.model.arrays.c, self.method_code, binding.address(y),
-                                  self.drive_at(float(t)), float(self.load), binding.address(self.work),
-                                  binding.address(out))
-        return out
+        rhs, model, a_y, a_work, a_out = self._call
+        self._y[:] = y
+        rhs(model, self.method_code, a_y, self.drive_at(float(t)), float(self.load), a_work, a_out)
+        return self._out.copy()
 
     def project(self, y: np.ndarray) -> np.ndarray:
         """``y`` put back onto the closures (a new array)."""
