@@ -464,12 +464,14 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
     else:
         z, zd = assemble(model, z0, zd0 if kind == "initial" else np.zeros(model.n_free))
     if kind == "held":
-        z = z.copy()
+        # the value is the absolute coordinate (thesis order), as every output names it
+        q = model.q_from_z(z)
         for name, value in what.items():
             if not isinstance(name, str) or name not in model.free_names:
                 raise SceneError("at", f"{name!r} is not a real joint coordinate; expected one of "
                                        f"{', '.join(model.free_names)}")
-            z[model.free_names.index(name)] = _effort(value, 0.0, f"at.{name}")
+            q[model.coordinate_names.index(name)] = _effort(value, 0.0, f"at.{name}")
+        z = model.z_from_q(q)
         if model.n_constraints:
             z, _ = assemble(model, z, None, field="at")
     plant.choose_independent(z)
