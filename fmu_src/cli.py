@@ -1,4 +1,4 @@
-"""Command line: ``grubler presets | info | simulate | animate | report | cosim | linearize``.
+"""Command line: ``grubler presets | info | simulate | animate | report | sweep | size | cosim | export | linearize``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -141,6 +141,14 @@ def cmd_report(args) -> int:
     title = f"{args.scene or args.csv}: run report"
     write_report(columns, args.out, title, model)
     print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    from .fmi.build import export
+
+    path = export(args.scene, args.out)
+    print(f"wrote {path}")
     return 0
 
 
@@ -393,6 +401,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--csv", help="write every recorded output to this CSV file")
     c.add_argument("--plot", help="write the system's plot to this PNG file")
     c.set_defaults(func=cmd_cosim)
+    e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
+    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
+    e.add_argument("-o", "--out", help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")
     lin.add_argument("--at", default="equilibrium",

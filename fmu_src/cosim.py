@@ -90,6 +90,17 @@ class FmuInterface:
         return FmuInterface(path, md, ports, feed)
 
 
+# string parameters of the pythonfmu plant FMUs that the native ones replace by
+# their quantities: what an SSD written for those should set instead
+_RETIRED = {
+    "mechanism": " (the native Mechanism.fmu takes the scene's quantities as parameters: "
+                 "grubler.fmi.mechanism.fmu_parameters(scene) gives them; rewrite the system with grubler.servo "
+                 "or set them)",
+    "motor": " (the native DCMotor.fmu takes the data set's numbers as parameters: "
+             "grubler.fmi.motor.motor_parameters(name) gives them)",
+}
+
+
 def _bracket_unit(description: str) -> str | None:
     # the project's convention for pythonfmu FMUs: the description ends in [unit]
     m = re.search(r"\[([^\[\]]+)\]\s*$", description)
@@ -142,7 +153,9 @@ def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
         for p, value in comp.parameters.items():
             port = itf.ports.get(p)
             if port is None:
-                problems.append(f"parameter {name}.{p}: {itf.path.name} has no variable {p!r}")
+                ours = (getattr(itf.model_description, "generationTool", "") or "").startswith("grubler")
+                hint = _RETIRED.get(p, "") if ours else ""
+                problems.append(f"parameter {name}.{p}: {itf.path.name} has no variable {p!r}{hint}")
             elif port.causality not in ("parameter", "input"):
                 problems.append(f"parameter {name}.{p}: it is an {port.causality}, not a parameter")
         for c, unit in comp.units.items():

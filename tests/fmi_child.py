@@ -38,9 +38,9 @@ def instance(md, unzipped: str, name: str, messages: list[str], params: dict | N
     s.enterInitializationMode()
     for k, v in (params or {}).items():
         kind = types[k]
-        if kind == "String":
+        if kind == "String":  # (an Enumeration is set as an Integer)
             s.setString([vr[k]], [str(v)])
-        elif kind == "Integer":
+        elif kind in ("Integer", "Enumeration"):
             s.setInteger([vr[k]], [int(v)])
         elif kind == "Boolean":
             s.setBoolean([vr[k]], [bool(v)])
