@@ -39,8 +39,11 @@ from control_laws import LoopShapedPID, LQRServo  # noqa: E402
 from grubler.controllers import Sampler  # noqa: E402
 from grubler.controllers.fmu import build_controller_fmu  # noqa: E402
 from grubler.cosim import run  # noqa: E402
+from grubler.fmi.mechanism import scene_fmu  # noqa: E402
+from grubler.fmi.motor import motor_parameters  # noqa: E402
 from grubler.linearize import linearize  # noqa: E402
 from grubler.motors import DCMotor, Drive, Gearbox, load_motor  # noqa: E402
+from grubler.scene import load_scene  # noqa: E402
 from grubler.ssp import System  # noqa: E402
 
 SCENE = "thesis-fourbar"
@@ -221,11 +224,13 @@ def system(design: Design, angle: float, fmu: Path, ideal: bool = False) -> Syst
           a_max=1e6, delay=T_STEP - TS, repeat=1)
     s.add("encoder", FMU_DIR / "Encoder.fmu", counts_per_rev=0 if ideal else COUNTS, Ts=TS)
     s.add("controller", fmu, **design.at(angle, motor))
-    s.add("motor", FMU_DIR / "DCMotor.fmu", motor=IDEAL_TEXT if ideal else MOTOR_NAME, gear_ratio=RATIO,
-          gear_efficiency=motor.gear.efficiency,
-          supply_voltage=SUPPLY, current_limit=CURRENT_LIMIT, initial_current=op.current)
-    s.add("mechanism", FMU_DIR / "Mechanism.fmu", mechanism=SCENE,
-          **{"drive.inertia": MOTOR.reflected_inertia, "initial.theta2": angle})
+    # the native FMUs are made this motor and this scene through their parameters
+    s.add("motor", FMU_DIR / "DCMotor.fmu", **{**motor_parameters(motor.data), "gear_ratio": RATIO,
+                                               "gear_efficiency": motor.gear.efficiency, "supply_voltage": SUPPLY,
+                                               "current_limit": CURRENT_LIMIT, "initial_current": op.current})
+    mech_fmu, scene_params = scene_fmu(load_scene(SCENE), FMU_DIR)
+    s.add("mechanism", mech_fmu, **{**scene_params, "drive.inertia": MOTOR.reflected_inertia,
+                                    "initial.theta2": angle})
     s.connect("trajectory.position", "controller.setpoint")
     s.connect("mechanism.drive_angle", "encoder.position")
     for law_input, signal in design.wiring.items():
