@@ -19,6 +19,11 @@
 #include "fmi2_model.h"
 #include "grb_scene.h"
 #include "grubler.h"
+#if MODEL_DIRECTIONAL_DERIVATIVE
+#include <complex.h>
+
+#include "grubler_cs.h"  /* the kernel over complex numbers: exact directional derivatives */
+#endif
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -412,10 +417,6 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
 /* ---- directional derivatives ------------------------------------------------- */
 
 #if MODEL_DIRECTIONAL_DERIVATIVE
-#include <complex.h>
-
-#include "grubler_cs.h"
-
 /* Complex step: any tiny h gives the exact slope (kernel/real.h). */
 #define CS_STEP 1e-30
 
