@@ -1,4 +1,4 @@
-"""Command line: ``grubler presets | info | simulate | animate | report | sweep | size | cosim | export``.
+"""Command line: ``grubler presets | info | simulate | animate | report | sweep | size | cosim | export | linearize``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -306,6 +306,42 @@ def cmd_size(args) -> int:
     return 0
 
 
+def cmd_linearize(args) -> int:
+    """grubler linearize: the linear model about an operating point, printed, as JSON, as a Bode plot."""
+    import json
+
+    from .errors import SceneError
+    from .linearize import linearize, plot_bode, summary, to_json
+    from .scene import parse_angle_or_number
+
+    at = args.at.strip()
+    if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
+        name, _, value = at.partition("=")
+        at = {name.strip(): parse_angle_or_number(value.strip(), "--at")}
+    motor = None
+    if args.motor:
+        from .motors import DCMotor, Gearbox, load_motor
+
+        motor = DCMotor(load_motor(args.motor), Gearbox(args.ratio if args.ratio is not None else 1.0,
+                                                        args.efficiency))
+    elif args.ratio is not None:
+        raise SceneError("--ratio", "a gear ratio needs a motor (--motor NAME)")
+    sys_ = linearize(args.scene, at=at, inputs=args.input.split(",") if args.input else None,
+                     outputs=args.output.split(",") if args.output else None, motor=motor, torque=args.torque,
+                     load_torque=args.load_torque)
+    print(f"{args.scene}: linear model with {sys_.nstates} states, inputs {', '.join(sys_.input_labels)}, "
+          f"outputs {', '.join(sys_.output_labels)}")
+    print(summary(sys_))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(to_json(sys_), fh, indent=1)
+        print(f"wrote {args.json}")
+    if args.bode:
+        plot_bode(sys_, args.bode)
+        print(f"wrote {args.bode}")
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, but a bad option is one line on stderr, like every other error."""
 
@@ -407,6 +443,22 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
     e.add_argument("-o", "--out", help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.set_defaults(func=cmd_export)
+    lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
+    lin.add_argument("scene", help="preset name or TOML file")
+    lin.add_argument("--at", default="equilibrium",
+                     help="equilibrium (default), initial, t=T (along the trajectory under the efforts), or "
+                          "COORDINATE=VALUE (at rest there, held by the drive effort; e.g. theta2=30deg)")
+    lin.add_argument("--torque", type=_finite("--torque"), help="constant drive effort, N m (default: the scene's)")
+    lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m")
+    lin.add_argument("--motor", help="DC motor data set on the drive joint (see grubler.motors): input voltage")
+    lin.add_argument("--ratio", type=_positive("--ratio"), help="its gear ratio (default 1)")
+    lin.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
+    lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")
+    lin.add_argument("--output", help="comma-separated outputs, e.g. theta2,theta4_d,Fx,current "
+                                      "(default: the drive coordinate)")
+    lin.add_argument("--json", help="write A, B, C, D, the names and the operating point to this JSON file")
+    lin.add_argument("--bode", help="write a Bode plot to this PNG file")
+    lin.set_defaults(func=cmd_linearize)
     return p
 
 

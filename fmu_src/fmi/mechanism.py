@@ -240,6 +240,8 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     defines["SLOT_LOAD_TORQUE"] = defines["SLOT_MOTOR_TORQUE"] + 1
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
+    # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
+    defines["MODEL_DIRECTIONAL_DERIVATIVE"] = 1
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
