@@ -92,11 +92,13 @@ _SIGNATURES = {
     "grb_assemble": (c_int, [_M, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
     "grb_advance": (c_int, [_M, POINTER(Settings), POINTER(Clock), _P, _P, _P, c_int, _P, _P, _P,
                             POINTER(Failure)]),
+    "grb_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     "grb_lstsq": (c_int, [_P, c_int, c_int, _P, c_double, _P, _P]),
     "grb_tableau": (POINTER(TableauData), [c_int]),
     # complex-step twins (kernel/grubler_cs.h): complex128 buffers, efforts by address
     "grb_cs_rhs_at": (c_int, [_M, c_int, _P, _P, _P, _P]),
     "grb_cs_observe_at": (c_int, [_M, c_int, _P, _P, c_int, _P, _P]),
+    "grb_cs_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
     "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, c_double, c_double, _P, _P, _P, _P]),
 }

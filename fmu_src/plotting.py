@@ -5,7 +5,8 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np  # noqa: E402
 
 from .simulate import Result, unit_of  # noqa: E402
 
@@ -21,7 +22,14 @@ def plot_result(res: Result, path: str) -> None:
     ax.set_ylabel("real joint coordinates (absolute)")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
-    if m.closures:
+    if len(m.closures) > 1:
+        # several loops: each closure's force magnitude on its closing link
+        for j, cl in enumerate(m.closures):
+            fx, fy = (res["Fx"], res["Fy"]) if j == 0 else (res[f"closure{j}_Fx"], res[f"closure{j}_Fy"])
+            ax.plot(res.t, np.hypot(fx, fy), label=f"closure[{j}]: link{cl.link}-link{cl.to_link} [N]")
+        ax.set_ylabel("closing-joint force magnitudes")
+        ax.legend(fontsize=8)
+    elif m.closures:
         for c in ("Fx", "Fy", "Mz"):
             ax.plot(res.t, res[c], label=f"{c} [{unit_of(c)}]")
         ax.set_ylabel("closing-joint force on the last link")

@@ -29,6 +29,7 @@ import subprocess
 import sys
 import tempfile
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 from ..errors import GrublerError, SceneError
@@ -40,10 +41,11 @@ HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
 WRAPPER = ("fmi2_wrapper.c", "fmi2_model.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
-# not part of an FMU: the Python module entry of grubler._kernel, and (*_cs.c) the
-# complex-step twins of the equations, which only the library's linearisation uses
-# (C99 complex arithmetic, which not every importer's compiler has)
+# not part of an FMU: the Python module entry of grubler._kernel; the complex-step
+# twins of the equations (*_cs.c, C99 complex arithmetic, which not every
+# importer's compiler has) only in a model that provides directional derivatives
 NOT_IN_FMU = {"_module.c"}
+DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
 MINGW = "x86_64-w64-mingw32-gcc"
 
@@ -71,7 +73,7 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     dirs = _kernel_dirs()
     for key in spec.kernel_sources:
         for f in sorted([*dirs[key].glob("*.[ch]"), *dirs[key].glob("*.inc")]):
-            if f.name not in NOT_IN_FMU and not f.name.endswith("_cs.c"):
+            if f.name not in NOT_IN_FMU and (spec.defines.get(DIRECTIONAL) or not f.name.endswith("_cs.c")):
                 shutil.copy2(f, sources / f.name)
     for name in (*WRAPPER, spec.model_source):
         shutil.copy2(C_DIR / name, sources / name)
@@ -122,6 +124,9 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
     dest = Path(dest)
     if win64 is None:
         win64 = cross_compiler() is not None
+    if sys.platform.startswith("win") and not shutil.which("gcc") and spec.defines.get(DIRECTIONAL):
+        # Visual Studio's C has no C99 complex arithmetic: no directional derivatives
+        spec = replace(spec, defines={**spec.defines, DIRECTIONAL: 0})
     with tempfile.TemporaryDirectory(prefix="grubler_native_") as tmp:
         root = Path(tmp)
         files = stage_sources(spec, root / "sources")

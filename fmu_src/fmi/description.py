@@ -58,7 +58,7 @@ def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
         "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
         "maxOutputDerivativeOrder": "0", "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess":
         "false", "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
-        "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false",
+        "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true" if spec.defines.get("MODEL_DIRECTIONAL_DERIVATIVE") else "false",
     })
     files = ET.SubElement(cs, "SourceFiles")
     for s in sources:

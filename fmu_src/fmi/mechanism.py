@@ -216,6 +216,13 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     v.append(Variable("drive_angle", REAL, OUTPUT, "coordinate of the drive joint (relative) [rad or m]", level=LEVEL_DRIVE, slot=len(obs)))
     v.append(Variable("drive_speed", REAL, OUTPUT, "rate of the drive joint [rad/s or m/s]",
                       level=LEVEL_DRIVE, slot=len(obs) + 1))
+    # the first closure's force is Fx, Fy, Mz; a chain of several loops (a
+    # six-bar) publishes the others' as the library names them, closureJ_*
+    for j in range(1, nc):
+        for c, (what, unit) in enumerate((("force, x", "N"), ("force, y", "N"), ("moment", "N.m"))):
+            v.append(Variable(f"closure{j}_{('Fx', 'Fy', 'Mz')[c]}", REAL, OUTPUT,
+                              f"{what} closure[{j}] exerts on its closing link (world axes)", unit=unit,
+                              level=LEVEL_REACTIONS, feedthrough=True, slot=len(obs) + 2 + 3 * (j - 1) + c))
 
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]
@@ -233,8 +240,11 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     defines["SLOT_LOAD_TORQUE"] = defines["SLOT_MOTOR_TORQUE"] + 1
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
+    # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
+    defines["MODEL_DIRECTIONAL_DERIVATIVE"] = 1
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
-                     tuple(v), "mechanism_model.c", defines, len(obs) + 2, tuple(slot_order), (JOINT, CLOSURE),
+                     tuple(v), "mechanism_model.c", defines, len(obs) + 2 + 3 * max(nc - 1, 0), tuple(slot_order),
+                     (JOINT, CLOSURE),
                      ("kernel",))

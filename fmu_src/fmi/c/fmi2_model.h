@@ -96,6 +96,19 @@ const double *model_outputs(const grb_instance *inst);
 int model_input_free_level(void);
 /* The time of the run (a started run). */
 double model_time(const grb_instance *inst);
+/* Does the model provide fmi2GetDirectionalDerivative (config.h, from its ModelSpec)? */
+#ifndef MODEL_DIRECTIONAL_DERIVATIVE
+#define MODEL_DIRECTIONAL_DERIVATIVE 0
+#endif
+#if MODEL_DIRECTIONAL_DERIVATIVE
+/* The outputs' derivative along a direction of the inputs at the present state
+ * and inputs: dv_unknown[k] for output unknown[k], the direction dv_known[j] of
+ * input known[j] (value references the wrapper has checked: Real outputs and
+ * Real inputs, seeds finite, the model prepared). */
+fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
+                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[]);
+#endif
 /* One communication step of h from t (the run's time, as the importer states
  * it); fmi2Discard with a logged reason when the inputs are not finite or the
  * integration fails (the run stays where it was).  On success the model sets

@@ -604,13 +604,41 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
     return fail(inst, "fmi2GetRealOutputDerivatives: not supported (maxOutputDerivativeOrder is 0)");
 }
 
+/* A co-simulation FMU's partial derivatives are those of its outputs with
+ * respect to its inputs at the present state (FMI 2.0, section 4.2.3): every
+ * unknown must be a Real output and every known a Real input. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
                                         const fmi2ValueReference vKnown_ref[], size_t nKnown,
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
     grb_instance *inst = (grb_instance *)c;
+#if MODEL_DIRECTIONAL_DERIVATIVE
+    static const char *const call = "fmi2GetDirectionalDerivative";
+    size_t k;
+    if (!allowed(inst, call, MASK_GET) || !check_array(inst, call, vUnknown_ref, nUnknown, dvUnknown) ||
+        !check_array(inst, call, vKnown_ref, nKnown, dvKnown))
+        return fmi2Error;
+    for (k = 0; k < nUnknown; k++) {
+        const grb_variable *v = lookup(inst, call, vUnknown_ref[k], GRB_T_REAL);
+        if (v == NULL) return fmi2Error;
+        if (v->causality != GRB_C_OUTPUT)
+            return fail(inst, "%s: %s is not an output; a co-simulation FMU's unknowns are its outputs", call,
+                        v->name);
+    }
+    for (k = 0; k < nKnown; k++) {
+        const grb_variable *v = lookup(inst, call, vKnown_ref[k], GRB_T_REAL);
+        if (v == NULL) return fmi2Error;
+        if (v->causality != GRB_C_INPUT)
+            return fail(inst, "%s: %s is not an input; a co-simulation FMU's knowns are its inputs", call, v->name);
+        if (!isfinite(dvKnown[k])) return fail(inst, "%s: the seed of %s is %g; it must be finite", call, v->name,
+                                               dvKnown[k]);
+    }
+    if (ready(inst, 0) > fmi2Warning) return fmi2Error;
+    return model_directional_derivative(inst, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown, dvUnknown);
+#else
     (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
     if (!allowed(inst, "fmi2GetDirectionalDerivative", ANY_LIVE)) return fmi2Error;
     return fail(inst, "fmi2GetDirectionalDerivative: not supported (providesDirectionalDerivative is false)");
+#endif
 }
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {

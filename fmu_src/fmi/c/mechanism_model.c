@@ -19,6 +19,11 @@
 #include "fmi2_model.h"
 #include "grb_scene.h"
 #include "grubler.h"
+#if MODEL_DIRECTIONAL_DERIVATIVE
+#include <complex.h>
+
+#include "grubler_cs.h"  /* the kernel over complex numbers: exact directional derivatives */
+#endif
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -71,7 +76,15 @@ static size_t stepper_doubles(void) {
 }
 
 size_t model_persistent_size(void) { return (size_t)P_STEPPER + stepper_doubles(); }
-size_t model_scratch_bytes(void) { return sizeof(mech) + grb_work_size(N, NC) * sizeof(double); }
+/* Scratch: the mech struct and the kernel's workspace, then (with directional
+ * derivatives) the complex-step workspace, state and observations, 16-byte aligned. */
+static size_t complex_offset(void) {
+    return (sizeof(mech) + grb_work_size(N, NC) * sizeof(double) + 15) & ~(size_t)15;
+}
+size_t model_scratch_bytes(void) {
+    return complex_offset() + (MODEL_DIRECTIONAL_DERIVATIVE ? 2 * sizeof(double) * (grb_work_size(N, NC) + NS +
+                                                                                     N_OBSERVED) : 0);
+}
 int model_input_free_level(void) { return LEVEL_DRIVE; }
 const double *model_outputs(const grb_instance *inst) { return ((const mech *)inst->model)->out; }
 double model_time(const grb_instance *inst) { return inst->p[P_T]; }
@@ -338,6 +351,35 @@ fmi2Status model_start(grb_instance *inst) {
 
 /* ---- outputs ----------------------------------------------------------------- */
 
+#if N_CLOSURES > 1
+/* Force and moment of closures 1 .. NC-1 on their closing links (closure 0's are
+ * grb_observe's Fx, Fy, Mz), into out[3 (j - 1) ..]: from the multipliers the
+ * forward dynamics grb_observe just ran left in the workspace's constraint-row
+ * table (grb_work_layout; its columns lambda and the line normal are the
+ * kernel's R_LAM and R_NORMAL, as grubler.simulate.closure_forces reads them). */
+enum { ROW_LAM = 3, ROW_NORMAL = 4 };
+
+static void closure_forces(const mech *mm, double *out) {
+    long layout[12];
+    grb_work_layout(N, NC, layout);
+    const double *R = mm->work + layout[3];
+    long rc = layout[8];
+    for (int j = 1; j < NC; j++) {
+        const double *r0 = R + 2 * j * rc, *r1 = r0 + rc;
+        double *o = out + 3 * (j - 1);
+        if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: its normal force, holding moment */
+            o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];
+            o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];
+            o[2] = r1[ROW_LAM];
+        } else { /* a pin */
+            o[0] = r0[ROW_LAM];
+            o[1] = r1[ROW_LAM];
+            o[2] = 0.0;
+        }
+    }
+}
+#endif
+
 fmi2Status model_compute(grb_instance *inst, int level) {
     mech *mm = (mech *)inst->model;
     const double *p = inst->p, *y = p + P_Y;
@@ -353,6 +395,9 @@ fmi2Status model_compute(grb_instance *inst, int level) {
             grb_log(inst, fmi2Warning, "outputs at t = %.12g s: %s; they read as NaN", p[P_T], status_text(st));
             return fmi2Warning;
         }
+#if N_CLOSURES > 1
+        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->out + N_OBSERVED + 2);
+#endif
     }
     return fmi2OK;
 }
@@ -400,3 +445,45 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     inst->level = 0;
     return fmi2OK;
 }
+
+/* ---- directional derivatives ------------------------------------------------- */
+
+#if MODEL_DIRECTIONAL_DERIVATIVE
+/* Complex step: any tiny h gives the exact slope (kernel/real.h). */
+#define CS_STEP 1e-30
+
+/* d(outputs)/d(motor_torque, load_torque) along the seed: the kernel's
+ * observations compiled over complex numbers (grb_cs_observe_at, the same
+ * equations grb_observe runs) at the present state, with the efforts moved by
+ * i h times the seed; the imaginary parts over h are the exact derivatives.
+ * The drive joint's angle and speed are states: zero. */
+fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
+                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[]) {
+    mech *mm = (mech *)inst->model;
+    const double *p = inst->p, *y = p + P_Y;
+    double complex *cwork = (double complex *)((char *)inst->model + complex_offset());
+    double complex *cy = cwork + grb_work_size(N, NC), *cout = cy + NS, efforts[2];
+    double seed[2] = {0.0, 0.0};
+    size_t k;
+    int i, st;
+    for (k = 0; k < n_known; k++) {
+        int slot = model_variables[known[k] - 1].slot;
+        seed[slot == SLOT_MOTOR_TORQUE ? 0 : 1] += dv_known[k];
+    }
+    for (i = 0; i < NS; i++) cy[i] = y[i];
+    efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
+    efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
+    st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
+    for (k = 0; k < n_unknown; k++) {
+        int slot = model_variables[unknown[k] - 1].slot;
+        dv_unknown[k] = slot < N_OBSERVED ? cimag(cout[slot]) / CS_STEP : 0.0;
+    }
+    if (st != GRB_OK) {
+        grb_log(inst, fmi2Warning, "directional derivative at t = %.12g s: %s; it reads as NaN", p[P_T],
+                status_text(st));
+        return fmi2Warning;
+    }
+    return fmi2OK;
+}
+#endif
