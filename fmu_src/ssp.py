@@ -110,10 +110,25 @@ class Connection:
 
 @dataclass
 class Plot:
-    """One panel of the run's plot: a title and the signals it shows."""
+    """One panel of the run's plot: a title and the signals it shows.
+
+    Parameters
+    ----------
+    title : str
+        The panel's axis label, with the unit in square brackets.
+    signals : list of str
+        ``element.connector`` names.
+    labels : dict
+        The legend's words for a signal, by name (default: the name).
+    difference : bool
+        Draw one curve, the first signal minus the second (a tracking error),
+        labelled ``labels["difference"]`` when given.
+    """
 
     title: str
     signals: list[str]
+    labels: dict[str, str] = field(default_factory=dict)
+    difference: bool = False
 
 
 @dataclass
@@ -249,7 +264,12 @@ class System:
                 attrs["order"] = " ".join(self.order)
             cosim = ET.SubElement(ann, "Cosim", attrs)
             for p in self.plots:
-                ET.SubElement(cosim, "Plot", {"title": p.title, "signals": " ".join(p.signals)})
+                attrs = {"title": p.title, "signals": " ".join(p.signals)}
+                if p.difference:
+                    attrs["difference"] = "true"
+                plot = ET.SubElement(cosim, "Plot", attrs)
+                for name, words in p.labels.items():
+                    ET.SubElement(plot, "Label", {"signal": name, "text": words})
         ET.indent(root)
         return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
@@ -416,7 +436,9 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
             if cosim.get("order"):
                 system.order = cosim.get("order").split()
             for p in cosim.findall("Plot"):
-                system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split()))
+                labels = {lab.get("signal", ""): lab.get("text", "") for lab in p.findall("Label")}
+                system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split(), labels,
+                                         p.get("difference", "false") == "true"))
     return system
 
 

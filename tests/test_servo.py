@@ -143,3 +143,21 @@ def test_libcosim_runs_the_servo_from_its_file_alone_as_the_jacobi_master_does(f
     # measured: 3.8e-12 rad and 2.9e-11 A (of 5 A peak) over 10 s
     assert np.max(np.abs(ours["mechanism.drive_angle"][at] - rows[:, 1])) < 1e-10
     assert np.max(np.abs(ours["motor.current"][at] - rows[:, 2])) < 1e-10
+
+
+def test_the_servo_plot_shows_the_tracking_error_on_its_own_axis_in_words(fmu_dir, tmp_path):
+    from grubler import cosim
+    from grubler.servo import servo_system
+
+    res = cosim.run(servo_system(servo_fourbar.DESIGN, fmu_dir, name="servo_fourbar"), t_end=T_END)
+    panels = dict(res.panels())
+    angle = {label: values for label, values, _ in panels["crank angle [rad]"]}
+    assert set(angle) == {"crank angle, setpoint", "crank angle, response", "crank angle, encoder"}
+    ((label, error, unit),) = panels["tracking error [rad]"]
+    assert (label, unit) == ("setpoint - response", "rad")
+    assert np.array_equal(error, res["trajectory.position"] - res["mechanism.drive_angle"])
+    assert np.max(np.abs(error)) > 0
+    for lines in panels.values():
+        assert all("." not in label for label, _, _ in lines), lines   # words, not signal names
+    res.plot(tmp_path / "servo.png")
+    assert (tmp_path / "servo.png").stat().st_size > 10_000
