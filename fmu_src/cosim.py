@@ -264,26 +264,54 @@ class CosimResult:
                 w.writerow([repr(float(t))] + [repr(float(x)) for x in row])
 
     def plot(self, path: str | Path) -> None:
-        """One panel per plot in the system (default: connected signals by unit)."""
+        """Draw :meth:`panels` to ``path``, sharing the time axis."""
         from .plotting import plot_panels
 
+        plot_panels(self.t, self.panels(), path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
+
+    def panels(self) -> list[tuple[str, list[tuple[str, np.ndarray, str]]]]:
+        """One panel per plot in the system (default: connected signals by unit).
+
+        Each is ``(axis label, [(legend, values, unit), ...])``. Legends are the
+        plots' words for their signals (default: the FMU's description of the
+        variable); a difference plot has one curve, the first signal minus the
+        second.
+        """
         panels = self.system.plots or _default_panels(self)
         rows = []
         for p in panels:
             sig = [s for s in p.signals if s in self.columns]
-            rows.append((p.title, [(s, self[s], self.units.get(s, "")) for s in sig]))
-        plot_panels(self.t, rows, path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
+            if p.difference:
+                if len(sig) != 2:
+                    continue  # a signal it needs was not recorded
+                words = p.labels.get("difference", f"{sig[0]} - {sig[1]}")
+                lines = [(words, self[sig[0]] - self[sig[1]], self.units.get(sig[0], ""))]
+            else:
+                lines = [(p.labels.get(s, s), self[s], self.units.get(s, "")) for s in sig]
+            rows.append((p.title, lines))
+        return rows
 
 
 def _default_panels(res: CosimResult):
+    """The connected outputs, one panel per unit, labelled by their FMUs' descriptions."""
     from .ssp import Plot
 
+    words: dict[str, str] = {}
+    for name, comp in res.system.components.items():
+        try:
+            ports = FmuInterface.of(res.system.source_path(comp)).ports
+        except Exception:  # noqa: BLE001 - no FMU to describe it: the legend keeps the name
+            continue
+        for port in ports.values():
+            text = re.sub(r"\s*\[[^\]]*\]\s*$", "", port.description or "")
+            if text:
+                words[f"{name}.{port.name}"] = f"{text} ({name})"
     by_unit: dict[str, list[str]] = {}
     for c in res.system.connections:
-        by_unit.setdefault(res.units.get(c.start, "") or "-", [])
-        if c.start not in by_unit[res.units.get(c.start, "") or "-"]:
-            by_unit[res.units.get(c.start, "") or "-"].append(c.start)
-    return [Plot(f"[{u}]", s) for u, s in by_unit.items()]
+        unit = res.units.get(c.start, "") or "-"
+        if c.start not in by_unit.setdefault(unit, []):
+            by_unit[unit].append(c.start)
+    return [Plot(f"[{u}]", s, {x: words[x] for x in s if x in words}) for u, s in by_unit.items()]
 
 
 _STATUS = {2: "discard", 3: "error", 4: "fatal", 5: "pending"}

@@ -416,7 +416,7 @@ def operating_point(scene, at="equilibrium", *, torque=None, load_torque=None, m
     --------
     >>> op = operating_point("thesis-fourbar-damped")    # where its damped simulation settles
     >>> round(math.degrees(op.coordinates["theta2"]), 2)
-    -125.29
+    -112.58
     >>> op = operating_point("thesis-fourbar", at={"theta2": 0.0})
     >>> round(op.drive, 4)                                 # the torque that holds the crank level
     5.3955

@@ -147,12 +147,20 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     # that they read the crank and the setpoint at the sample instant itself
     s.order = ["encoder"] + (["feedforward"] if design.feedforward else []) + [
         "controller", "motor", "mechanism", "trajectory"]
+    # what a design review asks of a servo: does it follow, by how much does it
+    # miss, and what does it cost the motor; legends in words, one unit per axis
     s.plots += [
-        Plot("crank angle [rad]", ["trajectory.position", "mechanism.drive_angle", "encoder.measured_position"]),
-        Plot("motor current [A]", ["motor.current"]),
-        Plot("motor voltage [V]", ["motor.voltage", "motor.terminal_voltage"]),
-        Plot("torque at the crank [N m]", ["motor.shaft_torque"]),
-        Plot("closing-joint force [N]", ["mechanism.Fx", "mechanism.Fy"]),
+        Plot("crank angle [rad]", ["trajectory.position", "mechanism.drive_angle", "encoder.measured_position"],
+             {"trajectory.position": "crank angle, setpoint", "mechanism.drive_angle": "crank angle, response",
+              "encoder.measured_position": "crank angle, encoder"}),
+        Plot("tracking error [rad]", ["trajectory.position", "mechanism.drive_angle"],
+             {"difference": "setpoint - response"}, difference=True),
+        Plot("motor current [A]", ["motor.current"], {"motor.current": "winding current"}),
+        Plot("motor voltage [V]", ["motor.voltage", "motor.terminal_voltage"],
+             {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
+        Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
+        Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
+             {"mechanism.Fx": "ground on the last link, x", "mechanism.Fy": "ground on the last link, y"}),
     ]
     return s
 
