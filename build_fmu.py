@@ -1,35 +1,45 @@
-"""Build the project's FMUs into dist/ with pythonfmu.
+"""Build the project's FMUs into dist/.
 
     python build_fmu.py [--dest dist] [NAME ...]
 
-Each FMU carries a copy of the grubler package in its resources/, so it runs the
-same code the library runs; numpy and scipy must be installed in the Python that
-runs it (see the README's FMU section).
+The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
+defaults; every scene quantity a parameter) and DCMotor.fmu (the maxon RE 40's
+data; every datasheet number a parameter) are the C models behind one FMI 2.0
+wrapper, compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
+is installed), with its C sources inside.  It runs without Python.
 
-Every slave declares which outputs depend on an input at the same instant
-(grubler.fmi_slave), so a master can tell a state from an algebraic output.
+The controllers and the transducers stay pythonfmu FMUs, where Python is the
+point: each carries a copy of the grubler package in its resources/ and runs
+inside a Python interpreter with numpy and scipy installed (see the README's FMU
+section).  Every FMU declares which outputs depend on an input at the same
+instant, so a master can tell a state from an algebraic output.  A controller
+FMU carries a C wrapper in front of pythonfmu's linux64 binary that reports the
+status each call deserves (controllers/status_wrapper.c): building one needs a
+C compiler too.
 """
 
 from __future__ import annotations
 
 import argparse
-import tempfile
 from pathlib import Path
 
-from pythonfmu.builder import FmuBuilder
-
 from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, LinearController, Trajectory
-from grubler.controllers.fmu import build_controller_fmu, stage_package
+from grubler.controllers.fmu import build_controller_fmu
+from grubler.fmi.build import build_fmu
+from grubler.fmi.mechanism import mechanism_spec
+from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
+from grubler.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
-# FMUs with a slave script of their own
-SLAVES = {
-    "Mechanism": HERE / "fmu_src" / "slaves" / "grubler_mechanism.py",
-    "DCMotor": HERE / "motors" / "grubler_dc_motor.py",
+# native FMUs: name -> the ModelSpec of the model they serve
+NATIVE = {
+    "Mechanism": lambda: mechanism_spec(load_scene("thesis-fourbar"), "Mechanism"),
+    "DCMotor": lambda: motor_spec(DEFAULT_MOTOR, "DCMotor"),
 }
+
 # grubler.controllers: each law becomes an FMU the way a user's own law does
 LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, ComputedTorque, Trajectory, Encoder)}
-FMUS = [*SLAVES, *LAWS]
+FMUS = [*NATIVE, *LAWS]
 
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:
@@ -39,14 +49,9 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
         raise SystemExit(f"build_fmu: no FMU named {', '.join(sorted(unknown))} (have: {', '.join(FMUS)})")
     dest.mkdir(parents=True, exist_ok=True)
     built = []
-    with tempfile.TemporaryDirectory(prefix="grubler_fmu_") as tmp:
-        package = stage_package(Path(tmp))
-        for name, script in SLAVES.items():
-            if names and name not in names:
-                continue
-            path = FmuBuilder.build_FMU(script, dest=dest / f"{name}.fmu", project_files=[package],
-                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            built.append(Path(path))
+    for name, spec in NATIVE.items():
+        if not names or name in names:
+            built.append(build_fmu(spec(), dest / f"{name}.fmu"))
     for name, law in LAWS.items():
         if not names or name in names:
             built.append(build_controller_fmu(law, dest / f"{name}.fmu"))

@@ -33,7 +33,10 @@ import numpy as np
 
 from grubler.errors import SceneError
 
-from .law import Law, Parameter, check_number, check_sample_time
+from .law import Law, Parameter, check_count, check_number, check_sample_time
+
+# the delay line holds delay + 1 readings: a million samples is 1000 s at 1 kHz
+MAX_DELAY = 1_000_000
 
 
 class Encoder(Law):
@@ -48,7 +51,7 @@ class Encoder(Law):
     seed : int
         Seed of the noise generator.
     delay : int
-        Pure delay, samples.
+        Pure delay, samples (at most ``MAX_DELAY``).
     Ts : float
         Sample time, s.
     """
@@ -66,13 +69,13 @@ class Encoder(Law):
 
     def __init__(self, counts_per_rev: int = 0, noise_std: float = 0.0, seed: int = 0, delay: int = 0,
                  Ts: float = 1e-3):
-        for name, value in (("counts_per_rev", counts_per_rev), ("seed", seed), ("delay", delay)):
+        for name, value in (("counts_per_rev", counts_per_rev), ("seed", seed)):
             if isinstance(value, bool) or int(value) != value or value < 0:
                 raise SceneError(name, f"must be a whole number >= 0, got {value!r}")
         self.counts_per_rev = int(counts_per_rev)
         self.noise_std = check_number(noise_std, "noise_std", low=0.0)
         self.seed = int(seed)
-        self.delay = int(delay)
+        self.delay = check_count(delay, "delay", MAX_DELAY)
         self.Ts = check_sample_time(Ts)
         self.reset()
 

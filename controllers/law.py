@@ -61,6 +61,9 @@ from grubler.limits import number
 # next step: communication points accumulated in floating point (0.1 + 0.2)
 # miss the sample grid by a few ulps.
 GRID_TOL = 1e-7
+# Samples one communication step may run: a step of 100 s at 1 kHz.  A longer
+# step is refused rather than computed for minutes (or for ever: h = 1e300).
+MAX_SAMPLES_PER_STEP = 100_000
 
 
 @dataclass(frozen=True)
@@ -128,15 +131,28 @@ class Law:
         raise NotImplementedError
 
     def get_state(self) -> Any:
-        """Everything :meth:`set_state` needs to resume from here (picklable).
+        """Everything :meth:`set_state` needs to resume from here, as plain data.
 
-        The default copies the instance's attributes, a random generator's state
-        included; override it when some attribute cannot be deep-copied.
+        The default takes a copy of the instance's attributes (a random
+        generator's state included) and the state of every attribute that is a
+        Law itself (a cascade's inner loops).  An FMU serialises it with
+        :mod:`grubler.fmu_state`: numbers, strings, None, lists, tuples, dicts,
+        deques, numpy arrays and random Generators; override this (and
+        :meth:`set_state`) when some attribute is none of these.
         """
-        return copy.deepcopy(self.__dict__)
+        return {"attributes": {k: copy.deepcopy(v) for k, v in self.__dict__.items() if not isinstance(v, Law)},
+                "laws": {k: v.get_state() for k, v in self.__dict__.items() if isinstance(v, Law)}}
 
     def set_state(self, state: Any) -> None:
-        self.__dict__.update(copy.deepcopy(state))
+        attributes, laws = state["attributes"], state["laws"]
+        # a state names only attributes the law has: it cannot add one, or shadow a method
+        unknown = [k for k in (*attributes, *laws) if k not in self.__dict__]
+        if unknown or any(isinstance(self.__dict__[k], Law) for k in attributes) \
+                or not all(isinstance(self.__dict__[k], Law) for k in laws):
+            raise ValueError(f"a state of another law: attributes {sorted(map(str, (*attributes, *laws)))}")
+        self.__dict__.update(copy.deepcopy(attributes))
+        for name, inner in laws.items():
+            self.__dict__[name].set_state(inner)
 
 
 def check_sample_time(Ts: float, field: str = "Ts", allow_zero: bool = False) -> float:
@@ -165,6 +181,25 @@ def check_number(value, field: str, low: float = -math.inf, high: float = math.i
                       high=None if high == math.inf else high, low_open=low_open, magnitude=math.inf)
     except InputError as exc:
         raise SceneError(exc.field, exc.reason) from None
+
+
+def check_count(value, field: str, limit: int) -> int:
+    """A whole number in [0, limit], or SceneError naming the field and the limit.
+
+    For a parameter that sizes a buffer: the limit keeps a mistyped value from
+    allocating until the operating system ends the host process.
+    """
+    if isinstance(value, bool):
+        raise SceneError(field, f"must be a whole number, got {value!r}")
+    try:
+        ok = int(value) == value
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or value < 0:
+        raise SceneError(field, f"must be a whole number >= 0, got {value!r}")
+    if value > limit:
+        raise SceneError(field, f"must be at most {limit}, got {value!r}")
+    return int(value)
 
 
 class Sampler:
@@ -196,7 +231,8 @@ class Sampler:
         Raises
         ------
         ValueError
-            A step that is not positive and finite, or a non-finite input.
+            A step that is not positive and finite, one that holds more than
+            ``MAX_SAMPLES_PER_STEP`` samples, or a non-finite input.
         """
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"step size must be positive and finite, got {h}")
@@ -212,6 +248,10 @@ class Sampler:
         else:
             Ts = law.Ts
             end = t + h - GRID_TOL * Ts
+            due = (end - self.t0) / Ts - self.samples  # a float: inf for a step of 1e300 s
+            if due > MAX_SAMPLES_PER_STEP:
+                raise ValueError(f"a step of {h:g} s holds {due:.3g} samples of Ts = {Ts:g} s; "
+                                 f"at most {MAX_SAMPLES_PER_STEP} per communication step")
             while self.t0 + self.samples * Ts < end:
                 self._sample(self.t0 + self.samples * Ts, inputs)
         return self.outputs
@@ -233,4 +273,5 @@ class Sampler:
         self.outputs = dict(state["outputs"])
 
 
-__all__ = ["Law", "Parameter", "Sampler", "check_number", "check_sample_time", "GRID_TOL"]
+__all__ = ["Law", "Parameter", "Sampler", "check_count", "check_number", "check_sample_time", "GRID_TOL",
+           "MAX_SAMPLES_PER_STEP"]

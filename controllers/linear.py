@@ -37,8 +37,16 @@ from .law import Law, Parameter, check_sample_time
 DISCRETE = "none"
 
 
+# the state has the order of the controller and the update costs its square:
+# a controller of higher order is a typing error, not a design
+MAX_ORDER = 64
+
+
 def _coefficients(text: str, field: str) -> list[float]:
     parts = [p for p in re.split(r"[\s,;]+", text.strip().strip("[]")) if p]
+    if len(parts) > MAX_ORDER + 1:
+        raise SceneError(field, f"{len(parts)} coefficients: a controller has order at most {MAX_ORDER} "
+                                f"({MAX_ORDER + 1} coefficients)")
     try:
         values = [float(p) for p in parts]
     except ValueError:
@@ -57,6 +65,9 @@ def _matrix(data: dict, key: str) -> np.ndarray:
         raise SceneError(f"state_space.{key}", f"must be a matrix of numbers, got {data[key]!r}") from None
     if m.ndim != 2 or not np.all(np.isfinite(m)):
         raise SceneError(f"state_space.{key}", "must be a finite matrix (a list of rows)")
+    if max(m.shape) > MAX_ORDER:
+        raise SceneError(f"state_space.{key}", f"is {m.shape[0]} x {m.shape[1]}: a controller has order at most "
+                                               f"{MAX_ORDER}")
     return m
 
 

@@ -11,12 +11,16 @@ Examples
 ['t', 'B1', 'theta2', 'B2', 'theta3', 'B3', 'theta4']
 >>> bool(res["closure_error"].max() < 1e-12)
 True
+>>> sys = grubler.linearize("thesis-fourbar-damped")      # a python-control StateSpace
+>>> sys.state_labels
+['theta2', 'theta2_d']
 """
 
 from .analysis import Grashof, classify, grashof, kutzbach_mobility
 from .assembly import assemble
 from .dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
 from .errors import AssemblyError, GrublerError, IntegrationError, SceneError
+from .linearize import OperatingPoint, linearize, operating_point
 from .model import Closure, Link, Mechanism
 from .scene import Scene, load_scene, preset_names, scene_from_dict
 from .simulate import Result, Simulator, evaluate, output_columns, simulate
@@ -25,7 +29,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
-    "Mechanism", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
-    "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility",
-    "load_scene", "output_columns", "preset_names", "scene_from_dict", "simulate",
+    "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
+    "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility", "linearize",
+    "load_scene", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
 ]

@@ -117,7 +117,7 @@ def grashof(ground: float, crank: float, coupler: float, rocker: float, rtol: fl
 class Classification:
     """What a mechanism is, read off its topology and dimensions."""
 
-    chain: str  # 'RRRR', 'RRRP', 'RRPP', 'RPRP', or 'open' / 'N-link'
+    chain: str  # 'RRRR', 'RRRP', 'RRPP', 'RPRP', 'Watt', 'Stephenson', or 'open' / 'N-link'
     name: str  # inversion, e.g. 'slider-crank', or the declared kind
     mobility: int
     grashof: Grashof | None
@@ -142,6 +142,9 @@ def classify(model: "Mechanism") -> Classification:
     mob = model.mobility
     if not model.closures:
         return Classification("open", model.kind or f"open chain of {model.n_links} links", mob, None, None)
+    six = six_bar_inversion(model)
+    if six:
+        return Classification(six.split()[0], f"{six} six-bar", mob, None, None)
     cl = model.closures[0]
     if model.n_links != 3 or len(model.closures) != 1 or cl.to_link != 1 or cl.link != 4:
         return Classification(f"{model.n_links + 1}-link", model.kind or "closed chain", mob, None, None)
@@ -175,10 +178,11 @@ def classify(model: "Mechanism") -> Classification:
 
 
 def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
-    """Why a four-bar cannot close, in Grashof / triangle terms ('' if not a four-bar)."""
+    """Why a chain cannot close: a four-bar in Grashof / triangle terms, a chain of dyads by
+    the loop and the triangle that fail ('' when neither applies)."""
     c = classify(model)
     if c.chain != "RRRR" or c.fourbar_lengths is None:
-        return ""
+        return dyad_reason(model, z0, held)
     ground, crank, coupler, rocker = c.fourbar_lengths
     ordered = sorted(c.fourbar_lengths)
     if ordered[-1] >= sum(ordered[:-1]):
@@ -222,4 +226,157 @@ def explain_singular_start(model: "Mechanism", z, zd, method: str) -> str:
         return (f"link{k + 2}.I: the link's rotation carries no inertia (I = 0 and its mass centre on its "
                 "joint) and no closure carries it, so the equations of motion are singular; give it a "
                 "moment of inertia I > 0 or move its mass centre (p, q) off the joint")
+
+
+# -- topology: the links as bodies, the chain's joints and the closures as edges ----------
+@dataclass(frozen=True)
+class Joint:
+    """One joint of the link graph: bodies (1 = ground), kind 'R'/'P', and where it sits on each.
+
+    ``at_a`` and ``at_b`` are the joint's point in body a's and body b's frame
+    (the ground's frame is the world frame); ``label`` names it for people.
+    """
+
+    a: int
+    b: int
+    kind: str
+    at_a: tuple[float, float]
+    at_b: tuple[float, float]
+    label: str
+
+
+def link_graph(model: "Mechanism") -> list[Joint]:
+    """Every joint of the mechanism as an edge between two bodies.
+
+    The chain's pairs join link k-1 and link k at link k's origin (its
+    predecessor's point (a, B)); each closure joins its two links at its points.
+    """
+    q = model.q_ref
+    out = []
+    for k, link in enumerate(model.links):
+        body = k + 2
+        if k == 0:
+            c, s = math.cos(model.theta1), math.sin(model.theta1)
+            at_pred = (model.a1 * c - q[0] * s, model.a1 * s + q[0] * c)
+        else:
+            at_pred = (model.links[k - 1].a, q[2 * k])
+        out.append(Joint(body - 1, body, link.joint, at_pred, (0.0, 0.0), f"link{body - 1}-link{body} (chain)"))
+    for j, cl in enumerate(model.closures):
+        name = "closure" if len(model.closures) == 1 else f"closure[{j}]"
+        out.append(Joint(cl.link, cl.to_link, "R" if cl.kind == "revolute" else "P", tuple(cl.point),
+                         tuple(cl.to_point), f"{name}: link{cl.link}-link{cl.to_link}"))
+    return out
+
+
+def joint_counts(model: "Mechanism") -> dict[int, int]:
+    """How many joints each link carries (1 the ground): 2 binary, 3 ternary, ..."""
+    count = {b: 0 for b in range(1, model.n_links + 2)}
+    for j in link_graph(model):
+        count[j.a] += 1
+        count[j.b] += 1
+    return count
+
+
+SIX_BAR_INVERSIONS = {  # what each name means: which link of which chain is the ground
+    "Watt I": "Watt chain (the two ternary links share a joint), a binary link fixed",
+    "Watt II": "Watt chain (the two ternary links share a joint), a ternary link fixed: two four-bars in series",
+    "Stephenson I": "Stephenson chain (binary links between the ternaries), the binary joining both ternaries fixed",
+    "Stephenson II": "Stephenson chain (binary links between the ternaries), a binary of the two-link path fixed",
+    "Stephenson III": "Stephenson chain (binary links between the ternaries), a ternary link fixed",
+}
+
+
+def six_bar_inversion(model: "Mechanism") -> str | None:
+    """'Watt I' ... 'Stephenson III' for a six-link chain of seven revolutes, else None.
+
+    Read off the link graph: the two ternary links (three joints each) are
+    adjacent in a Watt chain, not in a Stephenson chain; which link is the ground
+    (link 1) picks the inversion.
+    """
+    joints = link_graph(model)
+    if model.n_links != 5 or len(joints) != 7 or any(j.kind != "R" for j in joints):
+        return None
+    degree = joint_counts(model)
+    nbrs: dict[int, set] = {b: set() for b in range(1, 7)}
+    for j in joints:
+        nbrs[j.a].add(j.b)
+        nbrs[j.b].add(j.a)
+    ternary = [b for b, d in degree.items() if d == 3]
+    if len(ternary) != 2 or sorted(degree.values()) != [2, 2, 2, 2, 3, 3]:
+        return None
+    t1, t2 = ternary
+    if t2 in nbrs[t1]:
+        return "Watt II" if 1 in ternary else "Watt I"
+    if 1 in ternary:
+        return "Stephenson III"
+    return "Stephenson I" if {t1, t2} <= nbrs[1] else "Stephenson II"
+
+
+def _pose_point(pose, local):
+    (ox, oy, th) = pose
+    c, s = math.cos(th), math.sin(th)
+    return (ox + c * local[0] - s * local[1], oy + s * local[0] + c * local[1])
+
+
+def dyad_reason(model: "Mechanism", z0, held: list[int]) -> str:
+    """Which loop and which triangle keep a revolute chain from closing ('' when none is found).
+
+    With the held coordinate's link placed, take in turn every dyad (two unplaced
+    links pinned together, each pinned to a placed link): its two outer pins are
+    fixed, and the triangle they make with the two links' pin-to-pin lengths must
+    exist.  The branch of each dyad that closes is the one nearest the sketch.
+    """
+    from .kinematics import chain_kinematics
+
+    if not held or any(l.joint != "R" for l in model.links) or any(c.kind != "revolute" for c in model.closures):
+        return ""
+    joints = link_graph(model)
+    kin = chain_kinematics(model, np.asarray(z0, float), np.zeros(model.n_links))
+    sketch = {k + 2: (kin.origin[k][0], kin.origin[k][1], kin.theta[k]) for k in range(model.n_links)}
+    placed = {1: (0.0, 0.0, 0.0)}
+    # the held link hangs from the ground at its sketch pose; links before it are not held
+    h = held[0] + 2
+    if h != 2:
+        return ""
+    placed[2] = sketch[2]
+    while len(placed) < model.n_links + 1:
+        found = False
+        for pin in joints:
+            u1, u2 = pin.a, pin.b
+            if u1 in placed or u2 in placed:
+                continue
+            outer = []
+            for u, at_mid in ((u1, pin.at_a), (u2, pin.at_b)):
+                ties = [(j, j.b if j.a == u else j.a) for j in joints if j is not pin and u in (j.a, j.b)
+                        and (j.b if j.a == u else j.a) in placed]
+                if len(ties) != 1:
+                    break
+                j, other = ties[0]
+                at_u, at_other = (j.at_a, j.at_b) if j.a == u else (j.at_b, j.at_a)
+                outer.append((u, at_mid, at_u, _pose_point(placed[other], at_other), j.label))
+            if len(outer) != 2:
+                continue
+            (ua, ma, oa, pa, la), (ub, mb, ob, pb, lb) = outer
+            ra, rb = math.dist(ma, oa), math.dist(mb, ob)
+            d = math.dist(pa, pb)
+            if d > ra + rb or d < abs(ra - rb) or d == 0:
+                return (f"the loop through {la} and {lb} cannot close: its dyad link{ua}-link{ub} "
+                        f"({ra:.6g} m and {rb:.6g} m pin to pin) must span the {d:.6g} m between those two pins, "
+                        f"but reaches only {abs(ra - rb):.6g} to {ra + rb:.6g} m (no triangle)")
+            # place both on the sketch's side: the middle pin nearest its sketch position
+            along = (ra * ra - rb * rb + d * d) / (2 * d)
+            hgt = math.sqrt(max(ra * ra - along * along, 0.0))
+            ux, uy = (pb[0] - pa[0]) / d, (pb[1] - pa[1]) / d
+            target = _pose_point(sketch[ua], ma)
+            mids = [(pa[0] + along * ux - s * hgt * uy, pa[1] + along * uy + s * hgt * ux) for s in (1, -1)]
+            mid = min(mids, key=lambda m: math.dist(m, target))
+            for u, at_mid, at_out, p_out in ((ua, ma, oa, pa), (ub, mb, ob, pb)):
+                th = (math.atan2(mid[1] - p_out[1], mid[0] - p_out[0])
+                      - math.atan2(at_mid[1] - at_out[1], at_mid[0] - at_out[0]))
+                c, s = math.cos(th), math.sin(th)
+                placed[u] = (p_out[0] - c * at_out[0] + s * at_out[1], p_out[1] - s * at_out[0] - c * at_out[1], th)
+            found = True
+            break
+        if not found:
+            return ""  # not a chain of dyads (a triad): the assembly's closest approach is all there is
     return ""

@@ -42,6 +42,7 @@ class FrameGeometry:
     fixed: list = field(default_factory=list)  # ground pivots (hatched)
     blocks: list = field(default_factory=list)  # (centre, axis angle)
     guides: list = field(default_factory=list)  # (point, axis angle, fixed?)
+    plates: list = field(default_factory=list)  # ternary (or higher) links: their joints' corners
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
@@ -72,6 +73,18 @@ def frame_geometry(model: Mechanism, z: np.ndarray) -> FrameGeometry:
             geo.joints.append(kin.origin[k].copy())
             if k == 0:
                 geo.fixed.append(kin.origin[0].copy())
+    # a link with three or more joints (its own, its successor's, closures' points) is a plate
+    corners: list[list] = [[kin.origin[k].copy()] + ([kin.origin[k + 1].copy()] if k + 1 < n else [])
+                           for k in range(n)]
+    for cl in model.closures:
+        corners[cl.link - 2].append(point_on_link(kin, cl.link - 2, cl.point)[0])
+        if cl.to_link > 1:
+            corners[cl.to_link - 2].append(point_on_link(kin, cl.to_link - 2, cl.to_point)[0])
+    for pts in corners:
+        distinct = [p for i, p in enumerate(pts) if all(np.linalg.norm(p - q) > 1e-9 for q in pts[:i])]
+        if len(distinct) >= 3:
+            c = np.mean(distinct, axis=0)
+            geo.plates.append(sorted(distinct, key=lambda p: math.atan2(p[1] - c[1], p[0] - c[0])))
     for cl in model.closures:
         a_pt, _, _ = point_on_link(kin, cl.link - 2, cl.point)
         if cl.kind == "revolute":
@@ -154,6 +167,9 @@ class Drawer:
                          lw=1.0, zorder=1)
             if fixed:
                 A.append(self._hatch(p, angle))
+        for corners in geo.plates:
+            A.append(ax.add_patch(Polygon(corners, closed=True, fc=LINK_COLOUR, ec=LINK_COLOUR, alpha=0.35,
+                                          lw=2.0, zorder=2)))
         for p0, p1 in geo.bars:
             A += ax.plot([p0[0], p1[0]], [p0[1], p1[1]], "-", color=LINK_COLOUR, lw=4, solid_capstyle="round",
                          zorder=2)

@@ -95,6 +95,14 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
         names = model.free_names
         held_txt = ", ".join(f"{names[i]} = {z0[i]:.6g}" for i in held) or "nothing"
         why = explain_unclosable(model, z0, held)
+        if not why and len(model.closures) > 1:
+            # z holds the closest configuration reached: name the loop left open there
+            phi, _ = constraint(model, z)
+            gaps = np.maximum(np.abs(phi[0::2]), np.abs(phi[1::2]))
+            j = int(np.argmax(gaps))
+            cl = model.closures[j]
+            others = ", ".join(f"closure[{i}] {g:.2g}" for i, g in enumerate(gaps) if i != j)
+            why = f"the loop left open is closure[{j}]'s (link{cl.link} to link{cl.to_link}; {others})"
         raise AssemblyError(
             field,
             f"the loop cannot be closed with {held_txt} held: the closest the tip gets is "
@@ -115,3 +123,58 @@ def project(model: Mechanism, z: np.ndarray, zd: np.ndarray, scale: float = 1.0)
                                   binding.address(work))
     n = model.n_links
     return y[:n], y[n:]
+
+
+def branches(model: Mechanism, z0: np.ndarray, starts: int = 256, seed: int = 0) -> tuple[list[np.ndarray], int]:
+    """Every assembly branch the held coordinates allow, and which one the sketch closes to.
+
+    The assembly above, started from the scene's sketch and from ``starts``
+    further sketches drawn at random (a fixed seed: the same answer every time),
+    each closed to the assembly's tolerance; configurations that differ by less
+    than 1e-6 (angles modulo a turn) are one branch.  Random restarts cannot
+    prove that none was missed, but every branch listed is exact.
+
+    Returns
+    -------
+    found : list of ndarray
+        The branches' joint coordinates, the sketch's first.
+    default : int
+        Index of the sketch's branch in ``found`` (0), or -1 when the sketch does not close.
+
+    Raises
+    ------
+    AssemblyError
+        When no start closes: the reason is the sketch's.
+    """
+    z0 = np.asarray(z0, dtype=float)
+    held = held_coordinates(model, z0)
+    revolute = model.arrays.revolute
+    scale = _scale(model)
+    rng = np.random.default_rng(seed)
+    found: list[np.ndarray] = []
+    default, first_error = -1, None
+
+    def same(a, b):
+        d = a - b
+        d[revolute] = (d[revolute] + np.pi) % (2 * np.pi) - np.pi
+        return np.max(np.abs(d)) < 1e-6
+
+    for k in range(starts + 1):
+        z = z0.copy()
+        if k:
+            free = np.ones(model.n_free, bool)
+            free[held] = False
+            z[free & revolute] = rng.uniform(-np.pi, np.pi, int(np.sum(free & revolute)))
+            z[free & ~revolute] = z0[free & ~revolute] + rng.uniform(-scale, scale, int(np.sum(free & ~revolute)))
+        try:
+            z, _ = assemble(model, z)
+        except AssemblyError as exc:
+            first_error = first_error or exc
+            continue
+        if k == 0:
+            default = 0
+        if not any(same(z, f) for f in found):
+            found.append(z)
+    if not found:
+        raise first_error
+    return found, default

@@ -276,3 +276,246 @@ def conchoidal(params: dict, prefix: str) -> dict:
         "initial": {"theta2": th2, "B2": b2, "theta3": th2, "theta4": 0.0},
         "drive": "theta2",
     }
+
+
+# -- six-link chains ----------------------------------------------------------------
+# A six-bar is five moving links in series from the ground and two closures.  The
+# builders below take what a designer dimensions (pivot positions, pin-to-pin
+# lengths, each ternary link's triangle by its three sides) and lay the chain
+# through the links; a ternary link is a link of the chain whose third joint is a
+# point in its frame that a closure attaches to.
+
+def _circles(p, q, r_p: float, r_q: float, sign: int, what: str, prefix: str):
+    """Where a link of length r_p from p meets one of length r_q from q (sign: left/right of p -> q)."""
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    d = math.hypot(dx, dy)
+    if d == 0 or d > r_p + r_q or d < abs(r_p - r_q):
+        raise SceneError(f"{prefix}.input_angle",
+                         f"{what}: its ends are {d:.6g} m apart but the links ({r_p:.6g} m, {r_q:.6g} m) only "
+                         f"span {abs(r_p - r_q):.6g} to {r_p + r_q:.6g} m (triangle inequality)")
+    along = (r_p * r_p - r_q * r_q + d * d) / (2 * d)
+    h = math.sqrt(max(r_p * r_p - along * along, 0.0))
+    ux, uy = dx / d, dy / d
+    return (p[0] + along * ux - sign * h * uy, p[1] + along * uy + sign * h * ux)
+
+
+def _triangle(p, q, r_p: float, r_q: float, side: int, what: str, prefix: str, keys: str):
+    """Third vertex of a rigid triangle on the edge p -> q (side +1: left)."""
+    d = math.hypot(q[0] - p[0], q[1] - p[1])
+    if d > r_p + r_q or d < abs(r_p - r_q):
+        raise SceneError(f"{prefix}.{keys}", f"{what}: sides {d:.6g}, {r_p:.6g}, {r_q:.6g} m make no triangle")
+    return _circles(p, q, r_p, r_q, side, what, prefix)
+
+
+def _plate(points, rho: float) -> dict:
+    """Mass, centre and inertia of a link drawn as bars between its joints (a ternary: three bars)."""
+    bars = [(points[i], points[j]) for i in range(len(points)) for j in range(i + 1, len(points))]
+    m = sum(rho * math.dist(a, b) for a, b in bars)
+    cx = sum(rho * math.dist(a, b) * (a[0] + b[0]) / 2 for a, b in bars) / m
+    cy = sum(rho * math.dist(a, b) * (a[1] + b[1]) / 2 for a, b in bars) / m
+    inertia = sum(rho * math.dist(a, b) * (math.dist(a, b) ** 2 / 12
+                                           + ((a[0] + b[0]) / 2 - cx) ** 2 + ((a[1] + b[1]) / 2 - cy) ** 2)
+                  for a, b in bars)
+    return {"m": m, "p": cx, "q": cy, "I": inertia}
+
+
+def _six_link_chain(world: dict, chain: list, closures: list, rho: float) -> dict:
+    """Links, closures and the initial angles of a chain laid through joint positions.
+
+    ``world``: joint name -> position at the sketch; ``chain``: per moving link
+    (in series from the ground) its joint, the joint its vector points at, and
+    its other joints; ``closures``: (joint, link carrying it, link it is pinned
+    to; 1 is the ground).  The next link's joint is the first joint of its entry:
+    when that is not where the vector points (a ternary crank whose angle is the
+    designer's input angle), it sits at (a, B) in this link's frame, a the
+    distance along the vector and B the locked slide across it; should it lie
+    behind the joint (a < 0), the vector points at it instead.
+    """
+    links, frames, initial = [], [], {}
+    for k, (origin, to, *extra) in enumerate(chain):
+        nxt = chain[k + 1][0] if k + 1 < len(chain) else to
+        names = (origin, to, *extra)
+        o = world[origin]
+
+        def frame(toward):
+            t = world[toward]
+            th = math.atan2(t[1] - o[1], t[0] - o[0])
+            c, s = math.cos(th), math.sin(th)
+            return th, {n: ((world[n][0] - o[0]) * c + (world[n][1] - o[1]) * s,
+                            -(world[n][0] - o[0]) * s + (world[n][1] - o[1]) * c) for n in names}
+
+        th, local = frame(to)
+        if local[nxt][0] < 0:
+            th, local = frame(nxt)
+        frames.append(local)
+        links.append({"joint": "R", "a": local[nxt][0], **_plate([local[x] for x in names], rho)})
+        initial[f"theta{k + 2}"] = th
+        if k + 1 < len(chain) and abs(local[nxt][1]) > 1e-12 * max(1.0, abs(local[nxt][0])):
+            initial[f"B{k + 2}"] = local[nxt][1]
+    out = []
+    for joint, link, to_link in closures:
+        d = {"type": "revolute", "link": link, "at": list(frames[link - 2][joint]), "to_link": to_link}
+        d["point"] = list(world[joint]) if to_link == 1 else list(frames[to_link - 2][joint])
+        out.append(d)
+    return {"links": links, "closure": out, "initial": initial, "drive": "theta2"}
+
+
+def _branch(p: _Params, key: str) -> int:
+    v = p.values[key]
+    if v not in ("open", "crossed"):
+        raise SceneError(f"{p.prefix}.{key}", f"must be 'open' or 'crossed', got {v!r}")
+    return 1 if v == "open" else -1
+
+
+def _side(p: _Params, key: str) -> int:
+    v = p.values[key]
+    if v not in ("left", "right"):
+        raise SceneError(f"{p.prefix}.{key}", f"must be 'left' or 'right', got {v!r}")
+    return 1 if v == "left" else -1
+
+
+def _point(p: _Params, key: str) -> tuple[float, float]:
+    v = p.values[key]
+    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+        raise SceneError(f"{p.prefix}.{key}", f"must be [x, y], got {v!r}")
+    from .scene import parse_angle_or_number
+
+    return (parse_angle_or_number(v[0], f"{p.prefix}.{key}"), parse_angle_or_number(v[1], f"{p.prefix}.{key}"))
+
+
+_SIX = {"input_angle": 0.0, "mass_per_length": 1.0}
+
+
+@builder("watt-ii", "Watt II (ground ternary): two four-bars in series.  Crank O2A from the origin, coupler AB, "
+                    "rocker triangle at pivot O4 [rocker (O4B), rocker_arm (O4C), rocker_web (BC), rocker_side], "
+                    "coupler2 CD, output DO6; pivots rocker_pivot O4, output_pivot O6; branches branch1, branch2")
+def watt_ii(params: dict, prefix: str) -> dict:
+    p = _Params(params, prefix, {"crank": None, "coupler": None, "rocker": None, "rocker_arm": None,
+                                 "rocker_web": None, "rocker_side": "left", "coupler2": None, "output": None,
+                                 "rocker_pivot": None, "output_pivot": None, "branch1": "open",
+                                 "branch2": "open", **_SIX})
+    L = {k: p.length(k) for k in ("crank", "coupler", "rocker", "rocker_arm", "rocker_web", "coupler2", "output")}
+    th = p.angle("input_angle")
+    w = {"O2": (0.0, 0.0), "O4": _point(p, "rocker_pivot"), "O6": _point(p, "output_pivot")}
+    w["A"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
+    w["B"] = _circles(w["A"], w["O4"], L["coupler"], L["rocker"], _branch(p, "branch1"),
+                      "loop 1 (crank, coupler, rocker): triangle A-B-O4", prefix)
+    w["C"] = _triangle(w["O4"], w["B"], L["rocker_arm"], L["rocker_web"], _side(p, "rocker_side"),
+                       "the rocker's triangle O4-B-C", prefix, "rocker_web")
+    w["D"] = _circles(w["C"], w["O6"], L["coupler2"], L["output"], _branch(p, "branch2"),
+                      "loop 2 (rocker arm, coupler2, output): triangle C-D-O6", prefix)
+    chain = [("O2", "A"), ("A", "B"), ("B", "C", "O4"), ("C", "D"), ("D", "O6")]
+    return _six_link_chain(w, chain, [("O4", 4, 1), ("O6", 6, 1)], p.positive("mass_per_length"))
+
+
+@builder("watt-i", "Watt I (ground binary): a four-bar whose ternary crank and ternary coupler carry a dyad.  "
+                   "Crank triangle at the origin O2 [crank (O2A), crank_arm (O2C), crank_web (AC), crank_side], "
+                   "coupler triangle [coupler (AB), coupler_arm (AE), coupler_web (BE), coupler_side], rocker BO4 "
+                   "at rocker_pivot O4, dyad link5 CD and link6 DE; branches branch1, branch2")
+def watt_i(params: dict, prefix: str) -> dict:
+    p = _Params(params, prefix, {"crank": None, "crank_arm": None, "crank_web": None, "crank_side": "left",
+                                 "coupler": None, "coupler_arm": None, "coupler_web": None, "coupler_side": "left",
+                                 "rocker": None, "rocker_pivot": None, "link5": None, "link6": None,
+                                 "branch1": "open", "branch2": "open", **_SIX})
+    L = {k: p.length(k) for k in ("crank", "crank_arm", "crank_web", "coupler", "coupler_arm", "coupler_web",
+                                  "rocker", "link5", "link6")}
+    th = p.angle("input_angle")
+    w = {"O2": (0.0, 0.0), "O4": _point(p, "rocker_pivot")}
+    w["A"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
+    w["C"] = _triangle(w["O2"], w["A"], L["crank_arm"], L["crank_web"], _side(p, "crank_side"),
+                       "the crank's triangle O2-A-C", prefix, "crank_web")
+    w["B"] = _circles(w["A"], w["O4"], L["coupler"], L["rocker"], _branch(p, "branch1"),
+                      "loop 1 (crank, coupler, rocker): triangle A-B-O4", prefix)
+    w["E"] = _triangle(w["A"], w["B"], L["coupler_arm"], L["coupler_web"], _side(p, "coupler_side"),
+                       "the coupler's triangle A-B-E", prefix, "coupler_web")
+    w["D"] = _circles(w["C"], w["E"], L["link5"], L["link6"], _branch(p, "branch2"),
+                      "loop 2 (crank arm, link5, link6, coupler arm): triangle C-D-E", prefix)
+    chain = [("O2", "A", "C"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")]
+    return _six_link_chain(w, chain, [("O4", 6, 1), ("A", 5, 2)], p.positive("mass_per_length"))
+
+
+@builder("stephenson-i", "Stephenson I (ground binary between the ternaries): a four-bar whose ternary crank and "
+                         "ternary rocker carry a dyad.  Crank triangle at the origin O2 [crank (O2A), crank_arm "
+                         "(O2C), crank_web (AC), crank_side], coupler AB, rocker triangle at rocker_pivot O4 [rocker "
+                         "(O4B), rocker_arm (O4E), rocker_web (BE), rocker_side], dyad link5 CD and link6 DE")
+def stephenson_i(params: dict, prefix: str) -> dict:
+    p = _Params(params, prefix, {"crank": None, "crank_arm": None, "crank_web": None, "crank_side": "left",
+                                 "coupler": None, "rocker": None, "rocker_arm": None, "rocker_web": None,
+                                 "rocker_side": "left", "rocker_pivot": None, "link5": None, "link6": None,
+                                 "branch1": "open", "branch2": "open", **_SIX})
+    L = {k: p.length(k) for k in ("crank", "crank_arm", "crank_web", "coupler", "rocker", "rocker_arm",
+                                  "rocker_web", "link5", "link6")}
+    th = p.angle("input_angle")
+    w = {"O2": (0.0, 0.0), "O4": _point(p, "rocker_pivot")}
+    w["A"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
+    w["C"] = _triangle(w["O2"], w["A"], L["crank_arm"], L["crank_web"], _side(p, "crank_side"),
+                       "the crank's triangle O2-A-C", prefix, "crank_web")
+    w["B"] = _circles(w["A"], w["O4"], L["coupler"], L["rocker"], _branch(p, "branch1"),
+                      "loop 1 (crank, coupler, rocker): triangle A-B-O4", prefix)
+    w["E"] = _triangle(w["O4"], w["B"], L["rocker_arm"], L["rocker_web"], _side(p, "rocker_side"),
+                       "the rocker's triangle O4-B-E", prefix, "rocker_web")
+    w["D"] = _circles(w["C"], w["E"], L["link5"], L["link6"], _branch(p, "branch2"),
+                      "loop 2 (crank arm, link5, link6, rocker arm): triangle C-D-E", prefix)
+    chain = [("O2", "A", "C"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")]
+    return _six_link_chain(w, chain, [("O4", 5, 1), ("A", 6, 2)], p.positive("mass_per_length"))
+
+
+@builder("stephenson-ii", "Stephenson II (ground binary beside one ternary): crank O2E from the origin drives a "
+                          "floating ternary [coupler_p (EP), coupler_q (EQ), coupler_web (PQ), coupler_side] tied "
+                          "by link_p (PR) and link_q (QS) to a ternary rocker at rocker_pivot O6 [rocker_r (O6R), "
+                          "rocker_s (O6S), rocker_web (RS), rocker_side]; coupler_angle sketches the floating "
+                          "ternary's direction E->P, which picks the branch")
+def stephenson_ii(params: dict, prefix: str) -> dict:
+    p = _Params(params, prefix, {"crank": None, "coupler_p": None, "coupler_q": None, "coupler_web": None,
+                                 "coupler_side": "left", "link_p": None, "link_q": None, "rocker_r": None,
+                                 "rocker_s": None, "rocker_web": None, "rocker_side": "left", "rocker_pivot": None,
+                                 "coupler_angle": 0.0, "branch": "open", **_SIX})
+    L = {k: p.length(k) for k in ("crank", "coupler_p", "coupler_q", "coupler_web", "link_p", "link_q",
+                                  "rocker_r", "rocker_s", "rocker_web")}
+    th, phi = p.angle("input_angle"), p.angle("coupler_angle")
+    w = {"O2": (0.0, 0.0), "O6": _point(p, "rocker_pivot")}
+    w["E"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
+    # a triad, not a dyad: no closed form from the input.  Given the floating
+    # ternary's direction phi, P and Q follow, the rocker hangs from P (a dyad
+    # P-R-O6) and the miss |SQ| - link_q is a function of phi alone: its roots are
+    # the branches.  The sketch is the root nearest coupler_angle.
+    side_c, side_r, br = _side(p, "coupler_side"), _side(p, "rocker_side"), _branch(p, "branch")
+
+    def place(angle):
+        w["P"] = (w["E"][0] + L["coupler_p"] * math.cos(angle), w["E"][1] + L["coupler_p"] * math.sin(angle))
+        w["Q"] = _triangle(w["E"], w["P"], L["coupler_q"], L["coupler_web"], side_c,
+                           "the coupler's triangle E-P-Q", prefix, "coupler_web")
+        w["R"] = _circles(w["P"], w["O6"], L["link_p"], L["rocker_r"], br,
+                          "link_p and the rocker: triangle P-R-O6", prefix)
+        w["S"] = _triangle(w["O6"], w["R"], L["rocker_s"], L["rocker_web"], side_r,
+                           "the rocker's triangle O6-R-S", prefix, "rocker_web")
+        return math.dist(w["S"], w["Q"]) - L["link_q"]
+
+    def miss(angle):
+        try:
+            return place(angle)
+        except SceneError:
+            return math.nan
+
+    grid = [phi + 2 * math.pi * i / 720 for i in range(-360, 361)]  # outward from the sketch
+    grid.sort(key=lambda a: abs(a - phi))
+    values = {a: miss(a) for a in grid}
+    roots = []
+    ordered = sorted(grid)
+    for a, b in zip(ordered, ordered[1:]):
+        fa, fb = values[a], values[b]
+        if fa == fa and fb == fb and fa * fb <= 0:
+            for _ in range(60):  # bisection: exact to rounding, no derivative needed
+                mid = 0.5 * (a + b)
+                fm = miss(mid)
+                if not fm == fm:
+                    break
+                a, b, fa = (a, mid, fa) if fa * fm <= 0 else (mid, b, fm)
+            roots.append(0.5 * (a + b))
+    if not roots:
+        raise SceneError(f"{prefix}.input_angle",
+                         "no direction of the floating ternary closes the loop through link_q at this input angle "
+                         f"(the rocker hanging on the '{p.values['branch']}' side)")
+    place(min(roots, key=lambda a: abs(a - phi)))
+    chain = [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")]
+    return _six_link_chain(w, chain, [("O6", 5, 1), ("Q", 6, 3)], p.positive("mass_per_length"))

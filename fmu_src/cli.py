@@ -1,4 +1,4 @@
-"""Command line: ``grubler presets | info | simulate | animate | report | cosim``.
+"""Command line: ``grubler presets | info | simulate | animate | report | sweep | size | cosim | export | linearize``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -59,7 +59,7 @@ def cmd_presets(args) -> int:
     for name in preset_names():
         scene = load_scene(name)
         c = classify(scene.mechanism)
-        print(f"{name:<{width}}  {c.chain:<8} {c.name}")
+        print(f"{name:<{width}}  {c.chain:<10} {c.name}")
     return 0
 
 
@@ -71,8 +71,19 @@ def cmd_info(args) -> int:
     if m.description:
         print(f"           {m.description}")
     print(f"type       {c.name} ({c.chain} chain)")
+    if c.chain in ("Watt", "Stephenson"):
+        from .analysis import SIX_BAR_INVERSIONS
+
+        print(f"           {SIX_BAR_INVERSIONS[c.name.removesuffix(' six-bar')]}")
     print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
           f"j = {m.n_links + len(m.closures)})")
+    if len(m.closures) > 1:
+        from .analysis import joint_counts
+
+        ternary = [f"link{b}" + (" (ground)" if b == 1 else "") for b, d in joint_counts(m).items() if d >= 3]
+        print(f"topology   {m.n_links + 1} links, {m.n_links + len(m.closures)} joints; ternary: "
+              f"{', '.join(ternary) or 'none'}; loops closed by "
+              + ", ".join(f"closure[{j}] (link{c.link} to link{c.to_link})" for j, c in enumerate(m.closures)))
     joints = ", ".join(f"link{k + 2}: {'R' if l.joint == 'R' else 'P'}" for k, l in enumerate(m.links))
     print(f"joints     {joints}; real coordinates {', '.join(m.free_names)}")
     if c.grashof:
@@ -84,7 +95,17 @@ def cmd_info(args) -> int:
     print(f"drive      {m.drive or '-'}  torque {scene.torque:g}")
     if m.load:
         print(f"load       {m.load}  torque {scene.load_torque:g}")
+    if args.at is not None:
+        if not m.drive:
+            raise GrublerError("--at: this scene has no drive joint whose angle it could set")
+        from .scene import parse_angle_or_number
+
+        q_ref = list(m.q_ref)
+        q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(args.at, "--at")
+        m = m.replace(q_ref=tuple(q_ref))
     z0 = m.z_from_q(m.q_ref)
+    if m.closures and m.drive:
+        _print_branches(m, z0)
     z, zd = assemble(m, z0, scene.initial_rates)
     q = m.q_from_z(z)
     print("assembled  " + ", ".join(f"{n} = {v:.9g}" for n, v in zip(m.coordinate_names, q)))
@@ -93,6 +114,22 @@ def cmd_info(args) -> int:
         print("           (closed from the scene's start: "
               + ", ".join(f"{n} {a:.6g} -> {b:.6g}" for n, a, b in moved) + ")")
     return 0
+
+
+def _print_branches(m, z0) -> None:
+    from .assembly import branches
+
+    found, default = branches(m, z0)
+    names = [n for n in m.free_names if n != m.drive]
+    print(f"branches   {len(found)} with {m.drive} = {math.degrees(m.q_from_z(z0)[m.coordinate_names.index(m.drive)]):.6g} "
+          f"deg (assembly from the scene's sketch and 256 random ones):")
+    for k, z in enumerate(found):
+        q = m.q_from_z(z)
+        angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.6g}" for n in names)
+        note = "  <- the scene's (its sketch closes here; the default)" if k == default else ""
+        print(f"  [{k + 1}] {angles}{note}")
+    if default < 0:
+        print("  (the scene's sketch closes to none of them: its assembly fails, below)")
 
 
 def cmd_simulate(args) -> int:
@@ -149,6 +186,14 @@ def cmd_report(args) -> int:
     title = f"{args.scene or args.csv}: run report"
     write_report(columns, args.out, title, model)
     print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    from .fmi.build import export
+
+    path = export(args.scene, args.out)
+    print(f"wrote {path}")
     return 0
 
 
@@ -275,6 +320,42 @@ def cmd_size(args) -> int:
     return 0
 
 
+def cmd_linearize(args) -> int:
+    """grubler linearize: the linear model about an operating point, printed, as JSON, as a Bode plot."""
+    import json
+
+    from .errors import SceneError
+    from .linearize import linearize, plot_bode, summary, to_json
+    from .scene import parse_angle_or_number
+
+    at = args.at.strip()
+    if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
+        name, _, value = at.partition("=")
+        at = {name.strip(): parse_angle_or_number(value.strip(), "--at")}
+    motor = None
+    if args.motor:
+        from .motors import DCMotor, Gearbox, load_motor
+
+        motor = DCMotor(load_motor(args.motor), Gearbox(args.ratio if args.ratio is not None else 1.0,
+                                                        args.efficiency))
+    elif args.ratio is not None:
+        raise SceneError("--ratio", "a gear ratio needs a motor (--motor NAME)")
+    sys_ = linearize(args.scene, at=at, inputs=args.input.split(",") if args.input else None,
+                     outputs=args.output.split(",") if args.output else None, motor=motor, torque=args.torque,
+                     load_torque=args.load_torque)
+    print(f"{args.scene}: linear model with {sys_.nstates} states, inputs {', '.join(sys_.input_labels)}, "
+          f"outputs {', '.join(sys_.output_labels)}")
+    print(summary(sys_))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(to_json(sys_), fh, indent=1)
+        print(f"wrote {args.json}")
+    if args.bode:
+        plot_bode(sys_, args.bode)
+        print(f"wrote {args.bode}")
+    return 0
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, but a bad option is one line on stderr, like every other error."""
 
@@ -290,6 +371,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("presets", help="list the shipped scenes").set_defaults(func=cmd_presets)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
+    info.add_argument("--at", help="drive angle to assemble at, e.g. '120 deg' (default: the scene's)")
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
@@ -380,6 +462,26 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--csv", type=_output("--csv"), help="write every recorded output to this CSV file")
     c.add_argument("--plot", type=_output("--plot", "figure"), help="write the system's plot to this PNG file")
     c.set_defaults(func=cmd_cosim)
+    e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
+    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
+    e.add_argument("-o", "--out", help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.set_defaults(func=cmd_export)
+    lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
+    lin.add_argument("scene", help="preset name or TOML file")
+    lin.add_argument("--at", default="equilibrium",
+                     help="equilibrium (default), initial, t=T (along the trajectory under the efforts), or "
+                          "COORDINATE=VALUE (at rest there, held by the drive effort; e.g. theta2=30deg)")
+    lin.add_argument("--torque", type=_finite("--torque"), help="constant drive effort, N m (default: the scene's)")
+    lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m")
+    lin.add_argument("--motor", help="DC motor data set on the drive joint (see grubler.motors): input voltage")
+    lin.add_argument("--ratio", type=_positive("--ratio"), help="its gear ratio (default 1)")
+    lin.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
+    lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")
+    lin.add_argument("--output", help="comma-separated outputs, e.g. theta2,theta4_d,Fx,current "
+                                      "(default: the drive coordinate)")
+    lin.add_argument("--json", help="write A, B, C, D, the names and the operating point to this JSON file")
+    lin.add_argument("--bode", help="write a Bode plot to this PNG file")
+    lin.set_defaults(func=cmd_linearize)
     return p
 
 

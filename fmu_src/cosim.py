@@ -92,6 +92,17 @@ class FmuInterface:
         return FmuInterface(path, md, ports, feed)
 
 
+# string parameters of the pythonfmu plant FMUs that the native ones replace by
+# their quantities: what an SSD written for those should set instead
+_RETIRED = {
+    "mechanism": " (the native Mechanism.fmu takes the scene's quantities as parameters: "
+                 "grubler.fmi.mechanism.fmu_parameters(scene) gives them; rewrite the system with grubler.servo "
+                 "or set them)",
+    "motor": " (the native DCMotor.fmu takes the data set's numbers as parameters: "
+             "grubler.fmi.motor.motor_parameters(name) gives them)",
+}
+
+
 def _bracket_unit(description: str) -> str | None:
     # the project's convention for pythonfmu FMUs: the description ends in [unit]
     m = re.search(r"\[([^\[\]]+)\]\s*$", description)
@@ -144,7 +155,9 @@ def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
         for p, value in comp.parameters.items():
             port = itf.ports.get(p)
             if port is None:
-                problems.append(f"parameter {name}.{p}: {itf.path.name} has no variable {p!r}")
+                ours = (getattr(itf.model_description, "generationTool", "") or "").startswith("grubler")
+                hint = _RETIRED.get(p, "") if ours else ""
+                problems.append(f"parameter {name}.{p}: {itf.path.name} has no variable {p!r}{hint}")
             elif port.causality not in ("parameter", "input"):
                 problems.append(f"parameter {name}.{p}: it is an {port.causality}, not a parameter")
         for c, unit in comp.units.items():
@@ -253,26 +266,54 @@ class CosimResult:
                 w.writerow([repr(float(t))] + [repr(float(x)) for x in row])
 
     def plot(self, path: str | Path) -> None:
-        """One panel per plot in the system (default: connected signals by unit)."""
+        """Draw :meth:`panels` to ``path``, sharing the time axis."""
         from .plotting import plot_panels
 
+        plot_panels(self.t, self.panels(), path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
+
+    def panels(self) -> list[tuple[str, list[tuple[str, np.ndarray, str]]]]:
+        """One panel per plot in the system (default: connected signals by unit).
+
+        Each is ``(axis label, [(legend, values, unit), ...])``. Legends are the
+        plots' words for their signals (default: the FMU's description of the
+        variable); a difference plot has one curve, the first signal minus the
+        second.
+        """
         panels = self.system.plots or _default_panels(self)
         rows = []
         for p in panels:
             sig = [s for s in p.signals if s in self.columns]
-            rows.append((p.title, [(s, self[s], self.units.get(s, "")) for s in sig]))
-        plot_panels(self.t, rows, path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
+            if p.difference:
+                if len(sig) != 2:
+                    continue  # a signal it needs was not recorded
+                words = p.labels.get("difference", f"{sig[0]} - {sig[1]}")
+                lines = [(words, self[sig[0]] - self[sig[1]], self.units.get(sig[0], ""))]
+            else:
+                lines = [(p.labels.get(s, s), self[s], self.units.get(s, "")) for s in sig]
+            rows.append((p.title, lines))
+        return rows
 
 
 def _default_panels(res: CosimResult):
+    """The connected outputs, one panel per unit, labelled by their FMUs' descriptions."""
     from .ssp import Plot
 
+    words: dict[str, str] = {}
+    for name, comp in res.system.components.items():
+        try:
+            ports = FmuInterface.of(res.system.source_path(comp)).ports
+        except Exception:  # noqa: BLE001 - no FMU to describe it: the legend keeps the name
+            continue
+        for port in ports.values():
+            text = re.sub(r"\s*\[[^\]]*\]\s*$", "", port.description or "")
+            if text:
+                words[f"{name}.{port.name}"] = f"{text} ({name})"
     by_unit: dict[str, list[str]] = {}
     for c in res.system.connections:
-        by_unit.setdefault(res.units.get(c.start, "") or "-", [])
-        if c.start not in by_unit[res.units.get(c.start, "") or "-"]:
-            by_unit[res.units.get(c.start, "") or "-"].append(c.start)
-    return [Plot(f"[{u}]", s) for u, s in by_unit.items()]
+        unit = res.units.get(c.start, "") or "-"
+        if c.start not in by_unit.setdefault(unit, []):
+            by_unit[unit].append(c.start)
+    return [Plot(f"[{u}]", s, {x: words[x] for x in s if x in words}) for u, s in by_unit.items()]
 
 
 _STATUS = {2: "discard", 3: "error", 4: "fatal", 5: "pending"}
@@ -282,19 +323,26 @@ class _Instance:
     """One instantiated FMU with the master's preallocated buffers."""
 
     def __init__(self, name, itf: FmuInterface, unzipdir: str, start_time: float):
-        from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
         md = itf.model_description
         self.name, self.itf, self.messages = name, itf, []
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(loggingOn=True, callbacks=None)
 
         def logger(component, instance_name, status, category, message):
             self.messages.append(f"{name}: {message.decode(errors='replace')}")
 
+        # callbacks of its own, from instantiation on: an FMU keeps the pointer it is given
+        # (fmpy's default struct is shared by every instance), and what it logs while it is
+        # instantiated says why it could not be
         self._logger = fmi2CallbackLoggerTYPE(logger)  # keep a reference: C holds the pointer
-        self.fmu.callbacks.logger = self._logger
+        self._callbacks = fmi2CallbackFunctions(logger=self._logger, allocateMemory=defaultCallbacks.allocateMemory,
+                                                freeMemory=defaultCallbacks.freeMemory)
+        try:
+            self.fmu.instantiate(loggingOn=True, callbacks=self._callbacks)
+        except Exception:  # noqa: BLE001 - fmpy says only "Failed to instantiate model"
+            raise CosimError(f"{name}: {itf.path.name} could not be instantiated" + _last_message(self)) from None
         self.fmu.setupExperiment(startTime=start_time)
         self.bind_calls()
 

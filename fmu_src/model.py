@@ -167,23 +167,15 @@ class ModelArrays:
 
     @staticmethod
     def of(model: "Mechanism") -> "ModelArrays":
+        # the kernel builds the tables from the scene's quantities, as in the native FMU
         links = model.links
-        n = len(links)
-        L = np.zeros((n, 10))
-        L[:, L_M] = [l.m for l in links]
-        L[:, L_I] = [l.I for l in links]
-        L[:, L_P] = [l.p for l in links]
-        L[:, L_Q] = [l.q for l in links]
-        L[:, L_A] = [l.a for l in links]
-        L[:, L_APRED] = [model.a1] + [l.a for l in links[:-1]]
-        L[:, L_DAMP] = [l.damping for l in links]
-        L[:, L_REV] = [l.joint == REVOLUTE for l in links]
-        L[:, L_SLIDE0] = model._q_locked[0::2]
-        L[:, L_THETA0] = model._q_locked[1::2]
-        C = np.zeros((len(model.closures), 11))
-        for j, c in enumerate(model.closures):
-            C[j] = (PRISMATIC_CLOSURE if c.kind == "prismatic" else REVOLUTE_CLOSURE, c.link - 2, c.to_link - 2,
-                    *c.point, *c.to_point, c.angle, c.psi, c.gain, c.damping)
+        revolute = np.array([l.joint == REVOLUTE for l in links], dtype=np.int32)
+        fields = np.array([[l.a, l.p, l.q, l.m, l.I, l.damping] for l in links], dtype=float)
+        cfields = np.array([(PRISMATIC_CLOSURE if c.kind == "prismatic" else REVOLUTE_CLOSURE, c.link, c.to_link,
+                             *c.point, *c.to_point, c.angle, c.psi, c.gain, c.damping) for c in model.closures],
+                           dtype=float).reshape(len(model.closures), 11)
+        L, C = binding.scene_tables(revolute, fields, model.a1, model.theta1, np.array(model.q_ref, dtype=float),
+                                    cfields)
         L.setflags(write=False)
         C.setflags(write=False)
         drive = -1 if model.drive is None else model.free_index(model.drive)

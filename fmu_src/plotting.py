@@ -2,16 +2,45 @@
 
 from __future__ import annotations
 
+import textwrap
+
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np  # noqa: E402
+import scipy.integrate  # noqa: E402
 
 from .simulate import Result, unit_of  # noqa: E402
 
 
+# A curve with more samples than this is drawn as its min/max envelope over
+# bins plus the bins' means: a 1 kHz record of a chattering current on a
+# 10-inch axis would otherwise be a solid band of zig-zags (chatter), and a
+# subsample of it would alias.
+_ENVELOPE_BINS = 500
+
+
+def _all_zero(values) -> bool:
+    return bool(np.all(np.asarray(values) == 0.0))
+
+
 def plot_result(res: Result, path: str) -> None:
-    """Coordinates, closing-joint force, closure error and energy against time."""
+    """Save :func:`result_figure` of ``res`` to ``path`` (PNG or any format matplotlib writes)."""
+    fig = result_figure(res)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def result_figure(res: Result):
+    """Coordinates, closing-joint force, closure error and energy against time.
+
+    Columns that are zero at every sample (a revolute closure's moment ``Mz``)
+    are left out and named in the panel's title; the energy panel shows the
+    drive's work beside the energies, and ``E(0)`` plus that work, which ``E``
+    would follow without damping; the closure violation is drawn on a log axis
+    only where it is not exactly zero.
+    """
     m = res.model
     title = f"{m.name or 'scene'}: {m.kind or ''} ({res.method} closure)".replace(" ()", "")
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
@@ -21,55 +50,128 @@ def plot_result(res: Result, path: str) -> None:
     ax.set_ylabel("real joint coordinates (absolute)")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
-    if m.closures:
-        for c in ("Fx", "Fy", "Mz"):
-            ax.plot(res.t, res[c], label=f"{c} [{unit_of(c)}]")
-        ax.set_ylabel("closing-joint force on the last link")
+    if len(m.closures) > 1:
+        # several loops: each closure's force magnitude on its closing link
+        for j, cl in enumerate(m.closures):
+            fx, fy = (res["Fx"], res["Fy"]) if j == 0 else (res[f"closure{j}_Fx"], res[f"closure{j}_Fy"])
+            ax.plot(res.t, np.hypot(fx, fy), label=f"closure[{j}]: link{cl.link}-link{cl.to_link} [N]")
+        ax.set_ylabel("closing-joint force magnitudes")
         ax.legend(fontsize=8)
+    elif m.closures:
+        zero = [c for c in ("Fx", "Fy", "Mz") if _all_zero(res[c])]
+        for c in ("Fx", "Fy", "Mz"):
+            if c not in zero:
+                ax.plot(res.t, res[c], label=f"{c} [{unit_of(c)}]")
+        ax.set_ylabel("closing-joint force on the last link")
+        if zero:
+            ax.set_title(f"{', '.join(zero)} = 0 throughout (not drawn)", fontsize=9)
+        if len(zero) < 3:
+            ax.legend(fontsize=8)
     else:
         ax.plot(res["tip_x"], res["tip_y"])
         ax.set_ylabel("tip path y [m] (x on the bottom axis)")
     ax = axes[1, 0]
-    ax.semilogy(res.t, abs(res["closure_error"]) + 1e-18)
+    err = np.abs(np.asarray(res["closure_error"], dtype=float))
+    nonzero = err > 0
+    if nonzero.any():
+        # exact zeros have no logarithm: leave them out rather than floor them
+        # into a fence of spikes, and say how many there were
+        ax.semilogy(res.t[nonzero], err[nonzero], ".", ms=2.5)
+        n0 = int((~nonzero).sum())
+        if n0:
+            ax.set_title(f"exactly 0 at {n0} of {len(err)} samples (not drawn)", fontsize=9)
+    else:
+        ax.plot(res.t, err)
+        ax.set_title("exactly 0 at every sample", fontsize=9)
     ax.set_ylabel("closure violation [m or rad]")
     ax.set_xlabel("t [s]")
     ax = axes[1, 1]
-    for c in ("KE", "PE", "E"):
-        ax.plot(res.t, res[c], label=c)
+    for c, words in (("KE", "kinetic KE"), ("PE", "potential PE"), ("E", "total E = KE + PE")):
+        ax.plot(res.t, res[c], label=words)
+    if "P_drive" in res.columns and not _all_zero(res["P_drive"]):
+        work = scipy.integrate.cumulative_trapezoid(res["P_drive"], res.t, initial=0.0)
+        ax.plot(res.t, work, "--", label="work done by the drive")
+        ax.plot(res.t, res["E"][0] + work, ":", color="0.3", label="E(0) + drive work (E without losses)")
+    else:
+        damped = any(getattr(lk, "damping", 0.0) for lk in m.links)
+        ax.set_title("no drive work" + ("; E falls by what the dampers take" if damped else ""), fontsize=9)
     ax.set_ylabel("energy [J]")
     ax.set_xlabel("t [s]")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, framealpha=0.85)
     for a in axes.flat:
         a.grid(True, alpha=0.3)
     fig.suptitle(title)
     fig.tight_layout()
+    return fig
+
+
+def _envelope(t, values, bins: int):
+    """Per-bin time, min, max and mean of a dense series (bins of equal sample count)."""
+    edges = np.linspace(0, len(t), bins + 1).astype(int)
+    idx = edges[:-1]
+    tb = 0.5 * (t[idx] + t[edges[1:] - 1])
+    lo = np.minimum.reduceat(values, idx)
+    hi = np.maximum.reduceat(values, idx)
+    mean = np.add.reduceat(values, idx) / np.diff(edges)
+    return tb, lo, hi, mean
+
+
+def plot_panels(t, panels, path: str, title: str = "") -> None:
+    """Save :func:`panels_figure` to ``path`` (PNG or any format matplotlib writes)."""
+    fig = panels_figure(t, panels, title)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_panels(t, panels, path: str, title: str = "") -> None:
+def panels_figure(t, panels, title: str = ""):
     """Stacked time plots sharing the time axis.
+
+    Curves in a panel that are equal at every sample are drawn once, their
+    labels joined by " = "; a series denser than the axis can show is drawn as
+    its min/max band and mean over bins (the x label says how wide).
 
     Parameters
     ----------
     t : array
     panels : list of (title, [(label, values, unit), ...])
-    path : str
-        PNG (or any format matplotlib writes) to save.
+        The title is the axis label; give it the unit in square brackets.
+    title : str
+        The figure's title.
     """
+    t = np.asarray(t, dtype=float)
     n = max(len(panels), 1)
-    fig, axes = plt.subplots(n, 1, figsize=(10, 2.3 * n + 0.8), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(n, 1, figsize=(12, 1.9 * n + 1.0), sharex=True, squeeze=False)
+    dense = len(t) > 2 * _ENVELOPE_BINS
     for ax, (name, lines) in zip(axes[:, 0], panels):
-        units = sorted({u for _, _, u in lines if u})
+        merged: list[tuple[str, np.ndarray, str]] = []
         for label, values, unit in lines:
-            ax.plot(t, values, label=label, lw=1.2)
-        ax.set_ylabel(f"{name}" + (f" [{', '.join(units)}]" if units and f"[{units[0]}]" not in name else ""))
-        if lines:
-            ax.legend(fontsize=8, loc="best")
+            values = np.asarray(values, dtype=float)
+            for k, (other, ov, ou) in enumerate(merged):
+                if np.array_equal(ov, values):
+                    merged[k] = (f"{other} = {label}", ov, ou or unit)
+                    break
+            else:
+                merged.append((label, values, unit))
+        units = sorted({u for _, _, u in merged if u})
+        for label, values, _unit in merged:
+            if dense:
+                tb, lo, hi, mean = _envelope(t, values, _ENVELOPE_BINS)
+                (line,) = ax.plot(tb, mean, label=textwrap.fill(label, 28), lw=1.1)
+                ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
+            else:
+                ax.plot(t, values, label=textwrap.fill(label, 28), lw=1.2)
+        # a title that carries its unit keeps it; the FMUs' spellings ("N.m") would repeat it
+        ax.set_ylabel(name if "[" in name or not units else f"{name} [{', '.join(units)}]", fontsize=9)
+        if merged:
+            # beside the axes, never over a curve
+            ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
         ax.grid(True, alpha=0.3)
-    axes[-1, 0].set_xlabel("t [s]")
+    xlabel = "t [s]"
+    if dense:
+        width = (t[-1] - t[0]) / _ENVELOPE_BINS
+        xlabel += f"    (line: mean, band: min to max over each {width * 1e3:.3g} ms)"
+    axes[-1, 0].set_xlabel(xlabel)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig

@@ -174,32 +174,8 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     ground = dict(built.get("ground", {}))
     ground.update(_table(data, "ground"))
     _check_keys(ground, {"a1", "theta1"}, "ground")
-    # closure
-    closure_data = dict(built.get("closure", {}))
-    closure_data.update(_table(data, "closure"))
-    _check_keys(closure_data, _CLOSURE_KEYS, "closure")
-    closures = []
-    ctype = closure_data.get("type", "none")
-    if ctype not in ("none", "revolute", "prismatic"):
-        raise SceneError("closure.type", f"must be 'none', 'revolute' or 'prismatic', got {brief(ctype)}")
-    if ctype != "none":
-        cl_link = _whole(closure_data.get("link", n + 1), "closure.link")
-        if not 2 <= cl_link <= n + 1:
-            raise SceneError("closure.link", f"must be a moving link 2..{n + 1}, got {cl_link}")
-        at = closure_data.get("at", [links[cl_link - 2].a, 0.0])
-        if "point" not in closure_data:
-            raise SceneError("closure.point", "is required: [x, y] of the ground pivot, or a point of the line")
-        closures.append(Closure(
-            kind=ctype,
-            link=cl_link,
-            point=_pair(at, "closure.at"),
-            to_link=_whole(closure_data.get("to_link", 1), "closure.to_link"),
-            to_point=_pair(closure_data["point"], "closure.point"),
-            angle=parse_angle_or_number(closure_data.get("angle", 0.0), "closure.angle"),
-            psi=parse_angle_or_number(closure_data.get("psi", 0.0), "closure.psi"),
-            gain=parse_angle_or_number(closure_data.get("gain", 1.0e4), "closure.gain"),
-            damping=parse_angle_or_number(closure_data.get("damping", 100.0), "closure.damping"),
-        ))
+    # closures: one [closure] table, or an array [[closure]] for several loops
+    closures = tuple(_closure(d, f, links) for d, f in _closure_tables(built, data))
     # initial coordinates and rates
     names = coordinate_names(n)
     initial = dict(built.get("initial", {}))
@@ -249,11 +225,54 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
 
 
-def _whole(v, field: str) -> int:
-    try:
-        return number(v, field, integer=True)
-    except InputError as exc:
-        raise SceneError(exc.field, exc.reason) from None
+def _closure_tables(built: dict, data: dict) -> list[tuple[dict, str]]:
+    """The closure tables of a scene (the builder's, overridden field by field), with their field names."""
+    base = built.get("closure", {})
+    base = [dict(d) for d in base] if isinstance(base, list) else [dict(base)]
+    given = data.get("closure", [])
+    if isinstance(given, dict):
+        given = [given]
+    elif not (isinstance(given, list) and all(isinstance(d, dict) for d in given)):
+        raise SceneError("closure", "must be a table [closure] or an array of tables [[closure]]")
+    if len(base) > 1 and given and len(given) != len(base):
+        raise SceneError("closure", f"the builder makes {len(base)} closures: override them as {len(base)} "
+                                    "[[closure]] tables, in order (an empty one keeps its closure as built)")
+    while len(base) < len(given):
+        base.append({})
+    for d, g in zip(base, given):
+        d.update(g)
+    single = len(base) == 1
+    return [(d, "closure" if single else f"closure[{j}]") for j, d in enumerate(base)
+            if d.get("type", "none") != "none" or not single]
+
+
+def _closure(d: dict, f: str, links: list) -> Closure:
+    """One closure from its table; ``f`` names it in errors."""
+    n = len(links)
+    _check_keys(d, _CLOSURE_KEYS, f)
+    ctype = d.get("type", "none")
+    if ctype not in ("revolute", "prismatic"):
+        choices = "'none', 'revolute' or 'prismatic'" if f == "closure" else "'revolute' or 'prismatic'"
+        raise SceneError(f"{f}.type", f"must be {choices}, got {brief(ctype)}")
+    cl_link = d.get("link", n + 1)
+    if not (isinstance(cl_link, int) and not isinstance(cl_link, bool) and 2 <= cl_link <= n + 1):
+        raise SceneError(f"{f}.link", f"must be a moving link 2..{n + 1}, got {brief(cl_link)}")
+    to_link = d.get("to_link", 1)
+    if not (isinstance(to_link, int) and not isinstance(to_link, bool) and 1 <= to_link <= n + 1):
+        raise SceneError(f"{f}.to_link", f"must be a link 1..{n + 1}, got {brief(to_link)}")
+    if "point" not in d:
+        raise SceneError(f"{f}.point", "is required: [x, y] of the pivot, or a point of the line")
+    return Closure(
+        kind=ctype,
+        link=cl_link,
+        point=_pair(d.get("at", [links[cl_link - 2].a, 0.0]), f"{f}.at"),
+        to_link=to_link,
+        to_point=_pair(d["point"], f"{f}.point"),
+        angle=parse_angle_or_number(d.get("angle", 0.0), f"{f}.angle"),
+        psi=parse_angle_or_number(d.get("psi", 0.0), f"{f}.psi"),
+        gain=parse_angle_or_number(d.get("gain", 1.0e4), f"{f}.gain"),
+        damping=parse_angle_or_number(d.get("damping", 100.0), f"{f}.damping"),
+    )
 
 
 def _pair(v, field: str) -> tuple[float, float]:
@@ -398,9 +417,9 @@ def override(scene: Scene, values: dict) -> Scene:
                   for i, link in enumerate(m.links))
     closures = m.closures
     if closures and ("closure.gain" in ov or "closure.damping" in ov):
-        first = replace(closures[0], gain=ov.get("closure.gain", closures[0].gain),
-                        damping=ov.get("closure.damping", closures[0].damping))
-        closures = (first,) + closures[1:]
+        # one penalty tuning for every loop: a six-bar's two closures alike
+        closures = tuple(replace(c, gain=ov.get("closure.gain", c.gain), damping=ov.get("closure.damping", c.damping))
+                         for c in closures)
     names = m.coordinate_names
     q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
     qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, m.S @ scene.initial_rates)]

@@ -101,6 +101,8 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     System
     """
     from grubler.motors import DCMotor, Drive, Gearbox, load_motor
+    from .fmi.mechanism import scene_fmu
+    from .fmi.motor import motor_parameters
     from .scene import load_scene
 
     data = load_motor(design.motor)
@@ -116,12 +118,16 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     s.add("trajectory", d / "Trajectory.fmu", **{"start": start, **design.trajectory})
     s.add("encoder", d / "Encoder.fmu", **design.encoder)
     s.add("controller", d / "PID.fmu", **design.pid)
-    s.add("motor", d / "DCMotor.fmu", motor=design.motor, gear_ratio=float(design.gear_ratio),
-          gear_efficiency=float(design.gear_efficiency), supply_voltage=float(design.supply_voltage),
-          current_limit=float(design.current_limit) if math.isfinite(design.current_limit) else 0.0)
+    # the native motor FMU is made this motor through its data set's numbers
+    s.add("motor", d / "DCMotor.fmu", **{**motor_parameters(data), "gear_ratio": float(design.gear_ratio),
+                                         "gear_efficiency": float(design.gear_efficiency),
+                                         "supply_voltage": float(design.supply_voltage),
+                                         "current_limit": float(design.current_limit)
+                                         if math.isfinite(design.current_limit) else 0.0})
     loads = {"load_joint": design.load_joint, "load_torque": float(design.load_torque)} if design.load_joint else {}
-    s.add("mechanism", d / "Mechanism.fmu", mechanism=design.scene,
-          **{"drive.inertia": motor.reflected_inertia}, **loads)
+    # the native mechanism FMU is re-tuned into the scene through its parameters
+    mech_fmu, scene_params = scene_fmu(scene, d)
+    s.add("mechanism", mech_fmu, **{**scene_params, "drive.inertia": motor.reflected_inertia, **loads})
     s.connect("trajectory.position", "controller.setpoint")
     s.connect("mechanism.drive_angle", "encoder.position")
     s.connect("encoder.measured_position", "controller.measurement")
@@ -141,12 +147,20 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     # that they read the crank and the setpoint at the sample instant itself
     s.order = ["encoder"] + (["feedforward"] if design.feedforward else []) + [
         "controller", "motor", "mechanism", "trajectory"]
+    # what a design review asks of a servo: does it follow, by how much does it
+    # miss, and what does it cost the motor; legends in words, one unit per axis
     s.plots += [
-        Plot("crank angle [rad]", ["trajectory.position", "mechanism.drive_angle", "encoder.measured_position"]),
-        Plot("motor current [A]", ["motor.current"]),
-        Plot("motor voltage [V]", ["motor.voltage", "motor.terminal_voltage"]),
-        Plot("torque at the crank [N m]", ["motor.shaft_torque"]),
-        Plot("closing-joint force [N]", ["mechanism.Fx", "mechanism.Fy"]),
+        Plot("crank angle [rad]", ["trajectory.position", "mechanism.drive_angle", "encoder.measured_position"],
+             {"trajectory.position": "crank angle, setpoint", "mechanism.drive_angle": "crank angle, response",
+              "encoder.measured_position": "crank angle, encoder"}),
+        Plot("tracking error [rad]", ["trajectory.position", "mechanism.drive_angle"],
+             {"difference": "setpoint - response"}, difference=True),
+        Plot("motor current [A]", ["motor.current"], {"motor.current": "winding current"}),
+        Plot("motor voltage [V]", ["motor.voltage", "motor.terminal_voltage"],
+             {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
+        Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
+        Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
+             {"mechanism.Fx": "ground on the last link, x", "mechanism.Fy": "ground on the last link, y"}),
     ]
     return s
 

@@ -47,11 +47,11 @@ DEFAULT_ATOL = 1e-9
 
 def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> list[str]:
     """Column names, in CSV order, for the chosen output groups."""
-    return list(_columns(model.n_links, frozenset(groups)))
+    return list(_columns(model.n_links, frozenset(groups), len(model.closures)))
 
 
 @functools.lru_cache(maxsize=64)
-def _columns(n_links: int, groups: frozenset) -> tuple[str, ...]:
+def _columns(n_links: int, groups: frozenset, n_closures: int = 1) -> tuple[str, ...]:
     names = coordinate_names(n_links)
     cols = ["t"]
     if "state" in groups:
@@ -69,6 +69,9 @@ def _columns(n_links: int, groups: frozenset) -> tuple[str, ...]:
     if "reactions" in groups:
         for k in range(1, n_links + 1):
             cols += [f"R{k}_Fx", f"R{k}_Fy", f"R{k}_Mz"]
+        # the first closure's force is Fx, Fy, Mz; the others' are closureJ_*
+        for j in range(1, n_closures):
+            cols += [f"closure{j}_Fx", f"closure{j}_Fy", f"closure{j}_Mz"]
     return tuple(cols)
 
 
@@ -81,7 +84,7 @@ def unit_of(column: str) -> str:
     if column in UNITS:
         return UNITS[column]
     base, _, suffix = column.partition("_")
-    if base.startswith("R") and suffix:
+    if (base.startswith("R") or base.startswith("closure")) and suffix:
         return "N m" if suffix == "Mz" else "N"
     per = {"": "", "d": "/s", "dd": "/s^2"}[suffix]
     return ("m" if base.startswith("B") else "rad") + per
@@ -91,7 +94,7 @@ def unit_of(column: str) -> str:
 def _observed(n_links: int, groups: frozenset) -> tuple[tuple[str, int], ...]:
     """(column, index in the observation vector) of the groups' columns, in CSV order."""
     index = {name: i for i, name in enumerate(observation_names(n_links))}
-    return tuple((c, index[c]) for c in _columns(n_links, groups) if c != "t")
+    return tuple((c, index[c]) for c in _columns(n_links, groups) if c != "t" and c in index)
 
 
 def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndarray, inputs: Inputs,
@@ -118,6 +121,25 @@ def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndar
     out: dict[str, float] = {"t": t}
     for column, i in _observed(n, groups):
         out[column] = values[i]
+    if "reactions" in groups and len(model.closures) > 1:
+        for j, f in enumerate(closure_forces(model, method, z, zd, inputs)[1:], start=1):
+            out[f"closure{j}_Fx"], out[f"closure{j}_Fy"], out[f"closure{j}_Mz"] = f
+    return out
+
+
+def closure_forces(model: Mechanism, method: str, z, zd, inputs: Inputs) -> np.ndarray:
+    """Force (world frame) and moment every closure exerts on its closing link, (C, 3).
+
+    Row 0 is what ``Fx, Fy, Mz`` report; a mechanism of several loops (a six-bar)
+    reads the others here.  From the closure multipliers of one forward-dynamics
+    evaluation: the pin's force, or a line's normal force and holding moment.
+    """
+    dyn = forward_dynamics(model, np.asarray(z, float), np.asarray(zd, float), inputs, method)
+    out = np.empty((len(model.closures), 3))
+    for j in range(len(model.closures)):
+        lam = dyn.lam[2 * j:2 * j + 2]
+        out[j, :2] = dyn.ck.force_dir[j] @ lam
+        out[j, 2] = dyn.ck.moment_row[j] @ lam
     return out
 
 
@@ -341,8 +363,15 @@ class Result:
             raise np.linalg.LinAlgError("Singular matrix")
         index = {name: i for i, name in enumerate(observation_names(n))}
         for g in todo:
-            cols = [c for c in output_columns(m, (g,)) if c != "t"]
+            cols = [c for c in output_columns(m, (g,)) if c != "t" and c in index]
             self._cache[g] = {c: values[:, index[c]].copy() for c in cols}
+        if "reactions" in todo and len(m.closures) > 1:
+            inputs = [self.constant_inputs or self.inputs_at(float(t)) for t in self.t]
+            forces = np.array([closure_forces(m, self.method, z, zd, i)
+                               for z, zd, i in zip(self.z, self.zd, inputs)])
+            for j in range(1, len(m.closures)):
+                for c, name in enumerate(("Fx", "Fy", "Mz")):
+                    self._cache["reactions"][f"closure{j}_{name}"] = forces[:, j, c].copy()
 
     def __getitem__(self, column: str) -> np.ndarray:
         if column == "t":
@@ -443,5 +472,5 @@ def simulate(
                   constant_inputs=None if callable(torque) else sim.inputs)
 
 
-__all__ = ["Simulator", "Result", "simulate", "evaluate", "output_columns", "unit_of", "GROUPS",
+__all__ = ["Simulator", "Result", "simulate", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
            "POSITION_TOL", "PENALTY", "EXACT"]

@@ -5,7 +5,10 @@ connections, and optionally a default experiment and the plots to draw.  It is
 written as a ``.ssd`` file (FMU sources relative to the file) or as a ``.ssp``
 archive carrying the FMUs, and read back from either, so the same system opens in
 fmpy's SSP reader and other SSP tools.  What SSP has no element for (the
-communication step, the plots) goes in a ``grubler`` annotation other tools ignore.
+communication step, the plots) goes in a ``grubler`` annotation other tools ignore;
+the step is written a second time as the Open Simulation Platform's
+``osp:FixedStepAlgorithm baseStepSize`` annotation of the default experiment, so
+that libcosim runs the file with the step it was designed for.
 
 Units are checked where a connection is made: a connector's unit comes from the
 SSD when it declares one, else from the FMU (its declared unit, or the unit in
@@ -39,8 +42,12 @@ NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    # the Open Simulation Platform's annotations (libcosim's SSP loader reads its
+    # fixed-step master's base step from them, and matches the prefix literally)
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
 }
 ANNOTATION_TYPE = "org.grubler.cosim"
+OSP_ANNOTATION_TYPE = "com.opensimulationplatform"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
@@ -104,10 +111,25 @@ class Connection:
 
 @dataclass
 class Plot:
-    """One panel of the run's plot: a title and the signals it shows."""
+    """One panel of the run's plot: a title and the signals it shows.
+
+    Parameters
+    ----------
+    title : str
+        The panel's axis label, with the unit in square brackets.
+    signals : list of str
+        ``element.connector`` names.
+    labels : dict
+        The legend's words for a signal, by name (default: the name).
+    difference : bool
+        Draw one curve, the first signal minus the second (a tracking error),
+        labelled ``labels["difference"]`` when given.
+    """
 
     title: str
     signals: list[str]
+    labels: dict[str, str] = field(default_factory=dict)
+    difference: bool = False
 
 
 @dataclass
@@ -221,13 +243,20 @@ class System:
             for u in sorted(used_units):
                 unit = ET.SubElement(units, f"{ssc}Unit", {"name": u})
                 ET.SubElement(unit, f"{ssc}BaseUnit", {k: str(v) for k, v in _BASE_UNITS.get(u, {}).items()})
-        if self.start_time is not None or self.stop_time is not None:
+        if self.start_time is not None or self.stop_time is not None or self.step is not None:
             exp = {}
             if self.start_time is not None:
                 exp["startTime"] = repr(float(self.start_time))
             if self.stop_time is not None:
                 exp["stopTime"] = repr(float(self.stop_time))
-            ET.SubElement(root, f"{ssd}DefaultExperiment", exp)
+            exp_el = ET.SubElement(root, f"{ssd}DefaultExperiment", exp)
+            if self.step is not None:
+                # libcosim has no default step: without this it must be told one
+                osp = f"{{{NS['osp']}}}"
+                ann = ET.SubElement(ET.SubElement(exp_el, f"{ssd}Annotations"), f"{ssc}Annotation",
+                                    {"type": OSP_ANNOTATION_TYPE})
+                ET.SubElement(ET.SubElement(ann, f"{osp}Algorithm"), f"{osp}FixedStepAlgorithm",
+                              {"baseStepSize": repr(float(self.step))})
         if self.step is not None or self.plots or self.order:
             ann = ET.SubElement(ET.SubElement(root, f"{ssd}Annotations"), f"{ssc}Annotation",
                                 {"type": ANNOTATION_TYPE})
@@ -236,7 +265,12 @@ class System:
                 attrs["order"] = " ".join(self.order)
             cosim = ET.SubElement(ann, "Cosim", attrs)
             for p in self.plots:
-                ET.SubElement(cosim, "Plot", {"title": p.title, "signals": " ".join(p.signals)})
+                attrs = {"title": p.title, "signals": " ".join(p.signals)}
+                if p.difference:
+                    attrs["difference"] = "true"
+                plot = ET.SubElement(cosim, "Plot", attrs)
+                for name, words in p.labels.items():
+                    ET.SubElement(plot, "Label", {"signal": name, "text": words})
         ET.indent(root)
         return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
@@ -414,6 +448,11 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
     if exp is not None:
         system.start_time = _number(exp.get("startTime"), "DefaultExperiment.startTime")
         system.stop_time = _number(exp.get("stopTime"), "DefaultExperiment.stopTime")
+        # a file from OSP's tools keeps its step here only; grubler's own annotation, read below, wins
+        fixed = exp.find(f"ssd:Annotations/ssc:Annotation[@type='{OSP_ANNOTATION_TYPE}']"
+                         "/osp:Algorithm/osp:FixedStepAlgorithm", NS)
+        if fixed is not None and fixed.get("baseStepSize") is not None:
+            system.step = _number(fixed.get("baseStepSize"), "osp:FixedStepAlgorithm.baseStepSize", positive=True)
     for ann in root.findall("ssd:Annotations/ssc:Annotation", NS):
         if ann.get("type") != ANNOTATION_TYPE:
             continue
@@ -424,7 +463,9 @@ def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") ->
             if cosim.get("order"):
                 system.order = cosim.get("order").split()
             for p in cosim.findall("Plot"):
-                system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split()))
+                labels = {lab.get("signal", ""): lab.get("text", "") for lab in p.findall("Label")}
+                system.plots.append(Plot(p.get("title", ""), p.get("signals", "").split(), labels,
+                                         p.get("difference", "false") == "true"))
     return system
 
 

@@ -344,6 +344,51 @@ def current_for_torque(motor: DCMotor, torque, motor_speed):
     return current[()]
 
 
+@dataclass(frozen=True)
+class MotorLinearization:
+    """The motor's linear model about an operating point (:func:`linearization`).
+
+    ``di/dt = di_di i + di_dspeed w + di_dvoltage v`` and ``tau = dtau_di i +
+    dtau_dspeed w``, with w the gearbox output speed and tau its torque (exact:
+    the winding equation is linear; the torque law's derivatives are analytic).
+    """
+
+    di_di: float
+    di_dspeed: float
+    di_dvoltage: float
+    dtau_di: float
+    dtau_dspeed: float
+
+    def steady_voltage(self, current: float, shaft_speed: float) -> float:
+        """The voltage [V] that holds `current` [A] at `shaft_speed` [rad/s] (di/dt = 0)."""
+        return -(self.di_di * current + self.di_dspeed * shaft_speed) / self.di_dvoltage
+
+
+def linearization(motor: DCMotor, state: MotorState, shaft_speed: float) -> MotorLinearization:
+    """Partial derivatives of the motor's equations at `state` and `shaft_speed` (dcm_linearize).
+
+    The winding temperature is held at the state's (it moves on the thermal time
+    constant) and the drive's clamp and current limiter are taken as inactive:
+    the caller checks that the operating point lies inside them.
+
+    Examples
+    --------
+    >>> from grubler.motors import load_motor
+    >>> d = load_motor("maxon-re40-148877")
+    >>> m = DCMotor(d, Gearbox(ratio=50.0, efficiency=0.9))
+    >>> lin = linearization(m, initial_state(m), 0.0)
+    >>> round(lin.di_di, 3) == round(-d.resistance / d.inductance, 3)      # -R/L at the reference temperature
+    True
+    >>> round(lin.dtau_di, 6) == round(50.0 * d.torque_constant, 6)       # N k_t at standstill
+    True
+    """
+    out = (ctypes.c_double * 5)()
+    _call(native.functions().dcm_linearize(ctypes.byref(motor._params),
+                                           ctypes.byref(native.State(state.current, state.temperature)),
+                                           float(shaft_speed), out), shaft_speed=shaft_speed)
+    return MotorLinearization(*out)
+
+
 def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
          dt: float) -> tuple[MotorState, MotorOutputs]:
     """Advance the motor by `dt` [s] holding `voltage` [V] and `shaft_speed` [rad/s].

@@ -53,6 +53,7 @@ _SIGNATURES = {
     "dcm_observe": (_I, [_P, _S, _D, _D, _O]),
     "dcm_shaft_torque": (_I, [_P, _D, _D, _DP]),
     "dcm_current_for_torque": (_I, [_P, ctypes.c_long, _DP, _DP, _DP]),
+    "dcm_linearize": (_I, [_P, _S, _D, _DP]),
     "dcm_reflected_inertia": (_I, [_P, _DP]),
     "dcm_chatter_free_step": (_I, [_P, _DP]),
 }

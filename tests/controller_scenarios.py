@@ -142,7 +142,8 @@ class FmuBlock:
         self.messages = messages if messages is not None else []
         s = instance(md, unzipped, name, self.messages, params)
         self.s = s
-        self.outputs = self.read()  # held outputs, as Sampler.outputs
+        # held outputs, as Sampler.outputs (none after a failed initialisation: reading them is an error)
+        self.outputs = self.read() if s.init_status == "ok" else {}
 
     def read(self) -> dict:
         return dict(zip(self.names, self.s.getReal([self.vr[n] for n in self.names])))
@@ -197,10 +198,12 @@ def run_all(dist: str) -> dict:
     res["messages_nan"] = list(msgs)
     msgs.clear()
     bad = FmuBlock(f("PID"), {"u_min": 1.0, "u_max": -1.0}, "bad", msgs)
+    res["bad_param_init"] = bad.s.init_status
     res["bad_param"] = status(lambda: bad.s.doStep(0.0, 1e-3))
     res["messages_param"] = list(msgs)
     msgs.clear()
     badct = FmuBlock(f("ComputedTorque"), {"mechanism": "no-such-mechanism"}, "badct", msgs)
+    res["bad_mechanism_init"] = badct.s.init_status
     res["bad_mechanism"] = status(lambda: badct.s.doStep(0.0, 1e-3))
     res["messages_mechanism"] = list(msgs)
     # Trajectory through fmpy's own simulate_fmu

@@ -20,7 +20,10 @@ def status(call) -> str:
 def instance(md, unzipped: str, name: str, messages: list[str], params: dict | None = None, start: float = 0.0):
     """An FMU2Slave instantiated, its parameters set by their declared type, initialised.
 
-    The FMU's log messages are appended to ``messages`` as 'status:text'.
+    The FMU's log messages are appended to ``messages`` as 'status:text'; the
+    status of exitInitializationMode (as :func:`status` gives it) is kept in the
+    instance's ``init_status``: a failed initialisation leaves an instance that
+    refuses its steps, which the scenarios test.
     """
     from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
 
@@ -38,13 +41,13 @@ def instance(md, unzipped: str, name: str, messages: list[str], params: dict | N
     s.enterInitializationMode()
     for k, v in (params or {}).items():
         kind = types[k]
-        if kind == "String":
+        if kind == "String":  # (an Enumeration is set as an Integer)
             s.setString([vr[k]], [str(v)])
-        elif kind == "Integer":
+        elif kind in ("Integer", "Enumeration"):
             s.setInteger([vr[k]], [int(v)])
         elif kind == "Boolean":
             s.setBoolean([vr[k]], [bool(v)])
         else:
             s.setReal([vr[k]], [float(v)])
-    s.exitInitializationMode()
+    s.init_status = status(s.exitInitializationMode)
     return s

@@ -424,7 +424,10 @@ def test_controller_fmus_report_bad_inputs_and_parameters(child):
     assert "status 2 (discard)" in child["nan_step"]
     assert any("measurement is nan" in m for m in child["messages_nan"])
     assert child["after_nan"] == "ok"
-    assert "status 2 (discard)" in child["bad_param"]
+    # a failed initialisation says so, and every later step is refused
+    assert "status 3 (error)" in child["bad_param_init"]
+    assert "status 3 (error)" in child["bad_param"]
     assert any("u_max: must exceed u_min" in m for m in child["messages_param"])
-    assert "status 2 (discard)" in child["bad_mechanism"]
+    assert "status 3 (error)" in child["bad_mechanism_init"]
+    assert "status 3 (error)" in child["bad_mechanism"]
     assert any("no-such-mechanism" in m for m in child["messages_mechanism"])

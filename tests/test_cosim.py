@@ -168,6 +168,19 @@ def test_the_cli_names_the_problem_and_exits_2(mechanism_fmu, tmp_path):
     assert "Traceback" not in proc.stderr
 
 
+def test_a_bad_parameter_is_named_by_the_fmu_that_refused_it(mechanism_fmu, tmp_path):
+    # each instance logs through callbacks of its own: the reason reaches the error of the
+    # component it belongs to, not of whichever instance was created last
+    s = ssp.System("badparam", stop_time=0.01, step=1e-3)
+    s.add("a", mechanism_fmu, **{"link2.m": -2.0})
+    s.add("b", mechanism_fmu)
+    proc = run_cli(s.write(tmp_path / "badparam.ssd"))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.startswith("grubler: error: a: "), proc.stderr
+    assert "a: link2.m: mass must be positive" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
 def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
     from grubler.runs import coordinates, read_run_csv
 

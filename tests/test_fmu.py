@@ -1,4 +1,4 @@
-"""The mechanism FMU, driven through fmpy (and a second master) in child processes.
+"""The native mechanism FMU, driven through fmpy (and a second master) in child processes.
 
 Each scenario (tests/fmu_scenarios.py) writes its measurements to JSON; the tests
 judge that file, so a crash at interpreter exit (upstream PythonFMU issue 228)
@@ -72,10 +72,10 @@ def test_model_description_declares_the_interface(fmu):
     for name in outputs:
         assert by_name[name].causality == "output", name
         assert by_name[name].description
-    for name in ("mechanism", "method", "rtol", "link3.m", "link2.damping", "closure.gain", "drive_joint",
+    for name in ("method", "rtol", "link3.m", "link2.damping", "closure.gain", "drive_joint", "link2.joint",
                  "load_joint", "initial.theta3", "gravity"):
         assert by_name[name].causality == "parameter", name
-    assert by_name["mechanism"].start == "thesis-fourbar"
+    assert by_name["method"].start == "exact" and by_name["drive_joint"].start == "theta2"
     assert float(by_name["link4.m"].start) == 3.0
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
 
@@ -146,10 +146,11 @@ def test_bad_inputs_give_a_status_and_a_logged_message(fmu, tmp_path):
     assert res["after_nan"] == "ok"
     assert "status 2 (discard)" in res["zero_step"]
     assert any("step size must be positive" in m for m in res["messages_zero_step"])
-    assert "status 2 (discard)" in res["bad_param"]
+    # a bad parameter is an error at initialisation (the instance then refuses every call)
+    assert "status 3 (error)" in res["bad_param"]
     assert any("link2.m: mass must be positive" in m for m in res["messages_param"])
-    assert "status 2 (discard)" in res["bad_scene"]
-    assert any("no-such-mechanism" in m for m in res["messages_scene"])
+    assert "status 3 (error)" in res["bad_scene"]
+    assert any("method cannot be 'lagrange'" in m for m in res["messages_scene"])
 
 
 def test_a_second_master_libcosim_agrees_with_fmpy(fmu, tmp_path):

@@ -403,7 +403,7 @@ def test_model_description_declares_the_interface_with_units(fmu):
     assert {n for n, v in by_name.items() if v.causality == "output"} == {
         "shaft_torque", "current", "winding_temperature", "electrical_power", "motor_speed", "back_emf",
         "terminal_voltage", "reflected_inertia"}
-    for name in ("motor", "resistance", "inductance", "torque_constant", "back_emf_constant", "rotor_inertia",
+    for name in ("resistance", "inductance", "torque_constant", "back_emf_constant", "rotor_inertia",
                  "viscous_friction", "coulomb_friction", "smoothing_speed", "thermal_resistance",
                  "thermal_time_constant", "temperature_coefficient", "reference_temperature", "gear_ratio",
                  "gear_efficiency", "supply_voltage", "current_limit", "ambient_temperature", "initial_current",
@@ -417,10 +417,9 @@ def test_model_description_declares_the_interface_with_units(fmu):
         assert re.search(r"\[[^\[\]]+\]$", v.description), v.name
     for name, unit in units.items():
         assert by_name[name].description.endswith(f"[{unit}]"), name
-    assert by_name["motor"].start == RE40
-    assert float(by_name["resistance"].start) == 1.16
+    assert float(by_name["resistance"].start) == 1.16  # the RE 40's numbers by default
     assert float(by_name["supply_voltage"].start) == 48.0
-    assert float(by_name["reflected_inertia"].start) == pytest.approx(134e-7)
+    assert float(by_name["rotor_inertia"].start) == pytest.approx(134e-7)
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
 
 
@@ -441,10 +440,11 @@ def test_fmu_rolls_back_and_refuses_bad_input(fmu, tmp_path):
     assert "status 2 (discard)" in res["nan_step"]
     assert any("voltage is nan" in m for m in res["messages_nan"])
     assert res["after_nan"] == "ok"
-    assert "status 2 (discard)" in res["bad_param"]
+    # a bad parameter is an error at initialisation (the instance then refuses every call)
+    assert "status 3 (error)" in res["bad_param"]
     assert any("gear_efficiency" in m for m in res["messages_param"])
-    assert "status 2 (discard)" in res["bad_motor"]
-    assert any("no data set named" in m for m in res["messages_motor"])
+    assert "status 3 (error)" in res["bad_motor"]
+    assert any("resistance:" in m for m in res["messages_motor"])
     assert res["toml_motor"] == pytest.approx(outputs(
         DCMotor(load_motor(RE40)), MotorState(0.0, 25.0), 0.0, 0.0).shaft_torque)
     assert res["toml_current"] > 0
@@ -501,12 +501,15 @@ def _child(scenario: str, fmu: str, out_path: str) -> None:
         result["messages_nan"] = list(messages)
         s.setReal([vr["voltage"]], [1.0])
         result["after_nan"] = status(lambda: s.doStep(0.05, 1e-3))
-        for key, params in (("param", {"gear_efficiency": 1.5}), ("motor", {"motor": "no-such-motor"})):
+        for key, params in (("param", {"gear_efficiency": 1.5}), ("motor", {"resistance": -1.0})):
             messages.clear()
             result[f"bad_{key}"] = status(lambda: instance(key, params).doStep(0.0, 1e-3))
             result[f"messages_{key}"] = list(messages)
+        # a data set given as TOML text: its numbers are the FMU's parameters
+        from grubler.fmi.motor import motor_parameters
+
         text = (ROOT / "motors" / "data" / f"{RE40}.toml").read_text()
-        t = instance("toml", {"motor": text})
+        t = instance("toml", motor_parameters(text))
         result["toml_motor"] = t.getReal([vr["shaft_torque"]])[0]
         t.setReal([vr["voltage"]], [5.0])
         t.doStep(0.0, 1e-3)

@@ -228,3 +228,36 @@ def test_drive_inertia_is_a_flywheel_on_a_ground_pivoted_crank():
 def test_negative_drive_inertia_is_refused_by_name():
     with pytest.raises(grubler.SceneError, match="drive.inertia"):
         grubler.load_scene("thesis-fourbar").mechanism.replace(drive_inertia=-1.0)
+
+
+def test_damped_thesis_four_bar_rests_where_its_geometry_puts_the_least_potential():
+    """The thesis's damped four-bar (1 kg at B, C and D) comes to rest at the minimum of
+    a potential written from the drawing alone: B on the crank circle, C where circles of
+    0.8 m about B and 0.6 m about D = (1, 0) meet, D fixed; V = g (y_B + y_C)."""
+    scene = grubler.load_scene("thesis-fourbar-damped")
+    assert [(lk.a, lk.p, lk.m, lk.I) for lk in scene.mechanism.links] == [
+        (0.3, 0.3, 1.0, 0.0), (0.8, 0.8, 1.0, 0.0), (0.6, 0.6, 1.0, 0.0)]
+    D = np.array([1.0, 0.0])
+
+    def joints(t2):
+        B = 0.3 * np.array([math.cos(t2), math.sin(t2)])
+        d = np.linalg.norm(D - B)
+        u = (D - B) / d
+        along = (0.8 ** 2 - 0.6 ** 2 + d ** 2) / (2 * d)
+        # the branch the crank starts in: C above the line B -> D (a crank-rocker never leaves it)
+        return B, B + along * u + math.sqrt(0.8 ** 2 - along ** 2) * np.array([-u[1], u[0]])
+
+    def potential(t2):
+        B, C = joints(t2)
+        return 9.81 * (B[1] + C[1])   # D's kilogram does not move
+
+    grid = np.linspace(-math.pi, math.pi, 721)
+    values = [potential(t) for t in grid]
+    start = grid[int(np.argmin(values))]
+    rest = scipy.optimize.minimize_scalar(potential, bracket=(start - 0.02, start + 0.02), tol=1e-12).x
+    assert math.degrees(rest) == pytest.approx(-112.58, abs=0.01)   # MODEL.md: "near -112 deg"
+    res = grubler.simulate(scene, t_end=60.0, dt_out=60.0)
+    assert abs(res["theta2_d"][-1]) < 1e-6
+    assert res["theta2"][-1] == pytest.approx(rest, abs=1e-7)
+    B, C = joints(rest)
+    assert math.atan2(*(C - B)[::-1]) == pytest.approx(res["theta3"][-1], abs=1e-6)

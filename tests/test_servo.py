@@ -8,6 +8,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
@@ -102,3 +103,61 @@ def test_the_shipped_ssd_is_what_its_example_script_writes(example):
     assert shipped.connections == built.connections
     assert (shipped.order, shipped.plots, shipped.step, shipped.stop_time) == (
         built.order, built.plots, built.step, built.stop_time)
+
+
+def test_libcosim_runs_the_servo_from_its_file_alone_as_the_jacobi_master_does(fmu_dir, tmp_path):
+    """OSP's libcosim, given the .ssd and no step, takes the file's own step (the
+    osp:FixedStepAlgorithm annotation), parameters and connections, and its fixed-step
+    master (every FMU steps on the last communication point's values) is grubler's
+    Jacobi: the same numbers to rounding over the example's whole 10 s."""
+    pytest.importorskip("libcosimpy")
+    from grubler import cosim, ssp
+    from grubler.servo import servo_system
+
+    # the shipped file carries the step where libcosim looks for it
+    root = ET.parse(HERE.parent / "examples" / "servo_fourbar.ssd").getroot()
+    fixed = root.find("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation[@type='com.opensimulationplatform']"
+                      "/osp:Algorithm/osp:FixedStepAlgorithm", ssp.NS)
+    assert float(fixed.get("baseStepSize")) == servo_fourbar.DESIGN.step
+
+    path = servo_system(servo_fourbar.DESIGN, fmu_dir, name="servo_fourbar").write(tmp_path / "servo.ssd")
+    # an OSP file with no grubler annotation: its step is read from OSP's
+    only_osp = ET.parse(path)
+    for ann in only_osp.getroot().findall("ssd:Annotations", ssp.NS):
+        only_osp.getroot().remove(ann)
+    assert ssp.from_xml(ET.tostring(only_osp.getroot())).step == servo_fourbar.DESIGN.step
+
+    t_end = servo_fourbar.DESIGN.t_end
+    out = tmp_path / "libcosim.json"
+    proc = subprocess.run([sys.executable, str(HERE / "libcosim_ssp_scenario.py"), str(path), str(t_end), str(out),
+                           "mechanism.drive_angle", "motor.current"], capture_output=True, text=True, timeout=600)
+    assert out.exists(), f"libcosim wrote nothing (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
+    got = json.loads(out.read_text())["result"]
+    rows = np.array(got["rows"])
+    assert got["step"] == pytest.approx(servo_fourbar.DESIGN.step, abs=1e-12)
+
+    ours = cosim.run(path, master="jacobi")
+    assert ours.t[-1] == pytest.approx(t_end) and rows[-1, 0] == pytest.approx(t_end)
+    at = np.searchsorted(ours.t, rows[:, 0] - 1e-9)
+    assert np.max(np.abs(ours.t[at] - rows[:, 0])) < 1e-12
+    # measured: 3.8e-12 rad and 2.9e-11 A (of 5 A peak) over 10 s
+    assert np.max(np.abs(ours["mechanism.drive_angle"][at] - rows[:, 1])) < 1e-10
+    assert np.max(np.abs(ours["motor.current"][at] - rows[:, 2])) < 1e-10
+
+
+def test_the_servo_plot_shows_the_tracking_error_on_its_own_axis_in_words(fmu_dir, tmp_path):
+    from grubler import cosim
+    from grubler.servo import servo_system
+
+    res = cosim.run(servo_system(servo_fourbar.DESIGN, fmu_dir, name="servo_fourbar"), t_end=T_END)
+    panels = dict(res.panels())
+    angle = {label: values for label, values, _ in panels["crank angle [rad]"]}
+    assert set(angle) == {"crank angle, setpoint", "crank angle, response", "crank angle, encoder"}
+    ((label, error, unit),) = panels["tracking error [rad]"]
+    assert (label, unit) == ("setpoint - response", "rad")
+    assert np.array_equal(error, res["trajectory.position"] - res["mechanism.drive_angle"])
+    assert np.max(np.abs(error)) > 0
+    for lines in panels.values():
+        assert all("." not in label for label, _, _ in lines), lines   # words, not signal names
+    res.plot(tmp_path / "servo.png")
+    assert (tmp_path / "servo.png").stat().st_size > 10_000

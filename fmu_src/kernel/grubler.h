@@ -138,6 +138,17 @@ GRB_API int grb_inverse_residual(const grb_model *m, const double *y, const doub
  * relative singular-value cut-off; returns the rank (scratch: (n + m) * m). */
 GRB_API int grb_lstsq(const double *J, int m, int n, const double *b, double rcond, double *x, double *scratch);
 
+/* Minimal coordinates (minimal.c): the whole state y = (z, zd) of a closed
+ * chain from its n_ind = N - 2C independent coordinates ind[] and their rates,
+ * which y holds on entry together with a nearby closed configuration of the
+ * others (their branch).  Newton on the closures for the dependent
+ * coordinates, then their rates from J zd = 0; y is updated in place.
+ * GRB_SINGULAR when the dependent columns of J are singular (the independent
+ * set does not parametrise the motion there), GRB_NOT_CLOSED when Newton does
+ * not converge, GRB_BAD_ARGUMENT for a wrong count or a repeated index.  Its
+ * complex twin (grubler_cs.h) carries the tangent of the constraint manifold. */
+GRB_API int grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
+
 /* A drive effort given as a function of time (NULL: the constant tau_drive). */
 typedef double (*grb_drive_fn)(void *ctx, double t);
 

@@ -25,6 +25,13 @@ GRB_API int grb_cs_observe_at(const grb_model *m, int method, const double compl
                               const double complex *efforts, int want_reactions, double complex *work,
                               double complex *out);
 
+/* grb_minimal_state over complex numbers: y's real part must already be the
+ * closed state (from grb_minimal_state or assembly); the iteration converges
+ * the imaginary part, the derivative of the state along the independent
+ * coordinates' imaginary perturbation (scale: the length scale of the tolerance). */
+GRB_API int grb_cs_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double complex *y,
+                                 double complex *work);
+
 #ifdef __cplusplus
 }
 #endif

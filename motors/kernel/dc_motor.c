@@ -250,6 +250,28 @@ int dcm_shaft_torque(const dcm_params *p, double current, double motor_speed, do
     return DCM_OK;
 }
 
+int dcm_linearize(const dcm_params *p, const dcm_state *s, double shaft_speed, double *jac)
+{
+    if (!p || !s || !jac) return DCM_BAD_ARGUMENT;
+    if (!isfinite(shaft_speed)) return DCM_BAD_SHAFT_SPEED;
+    const double r = resistance_at(p, s->temperature);
+    if (!isfinite(s->current) || !(r > 0.0)) return DCM_BAD_STATE;
+    const double n = p->gear_ratio, w = n * shaft_speed;
+    const double sign_w = speed_sign(p, w), dsign_w = (1.0 - sign_w * sign_w) / p->smoothing_speed;
+    const double tau_m = p->torque_constant * s->current - friction(p, w, sign_w);
+    const double sigma = copysign(1.0, tau_m), g = gear_factor(p, tau_m, sign_w);
+    /* L di/dt = v - R(T) i - k_e omega_m */
+    jac[0] = -r / p->inductance;
+    jac[1] = -p->back_emf_constant * n / p->inductance;
+    jac[2] = 1.0 / p->inductance;
+    /* tau = tau_m g with g = N eta^(sigma sign_w): sigma is constant on either
+     * side of tau_m = 0, and where tau_m = 0 its term vanishes with tau_m */
+    jac[3] = g * p->torque_constant;
+    jac[4] = n * (g * (-p->viscous_friction - p->coulomb_friction * dsign_w)
+                  + tau_m * g * log(p->gear_efficiency) * sigma * dsign_w);
+    return DCM_OK;
+}
+
 int dcm_current_for_torque(const dcm_params *p, long n, const double *torque, const double *motor_speed,
                            double *current)
 {

@@ -151,6 +151,15 @@ DCM_API int dcm_observe(const dcm_params *p, const dcm_state *s, double voltage,
 /* Gearbox output torque [N m] at winding current [A] and motor speed [rad/s]. */
 DCM_API int dcm_shaft_torque(const dcm_params *p, double current, double motor_speed, double *torque);
 
+/* The motor's linear model about state s (current, temperature) at
+ * shaft_speed [rad/s], for control design: jac[0..4] = d(di/dt)/di,
+ * d(di/dt)/d(shaft speed), d(di/dt)/d(voltage), d(shaft torque)/di and
+ * d(shaft torque)/d(shaft speed), the analytic derivatives of the winding
+ * equation and of dcm_shaft_torque.  The winding temperature is held (it moves
+ * on the thermal time constant), and the drive's clamp and current limiter are
+ * taken as inactive: a caller checks the operating point lies inside them. */
+DCM_API int dcm_linearize(const dcm_params *p, const dcm_state *s, double shaft_speed, double *jac);
+
 /* The inverse of dcm_shaft_torque over n points: the winding current that
  * gives the output torque[k] at motor_speed[k] (non-finite entries propagate). */
 DCM_API int dcm_current_for_torque(const dcm_params *p, long n, const double *torque, const double *motor_speed,

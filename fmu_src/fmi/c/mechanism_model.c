@@ -1,0 +1,489 @@
+/* The mechanism FMU's model: FMI variables <-> grubler kernel calls.
+ *
+ * No physics here: the scene's parameters become the kernel's tables
+ * (grb_scene_tables), initialisation assembles the loop (grb_held_coordinates,
+ * grb_assemble) as the library's Simulator does, a communication step is one
+ * grb_advance (internal sub-steps to the tolerance), and the outputs are
+ * grb_observe's, computed when read, by level: the drive joint's coordinate and
+ * rate straight from the state, then one forward-dynamics evaluation for every
+ * coordinate, rate, acceleration, force and energy, then the joint reactions.
+ *
+ * The parameters are validated here, with the library's messages naming the
+ * field, because the library's checks are Python (grubler.model) and the FMU
+ * runs without it.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fmi2_model.h"
+#include "grb_scene.h"
+#include "grubler.h"
+#if MODEL_DIRECTIONAL_DERIVATIVE
+#include <complex.h>
+
+#include "grubler_cs.h"  /* the kernel over complex numbers: exact directional derivatives */
+#endif
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+/* internal steps allowed per communication step: a bound against a stall, far
+ * above what any tolerance needs for a step of seconds */
+#ifndef GRB_FMU_MAX_STEPS
+#define GRB_FMU_MAX_STEPS 10000000L  /* the library's Integrator.advance_to default */
+#endif
+
+#define N N_LINKS
+#define NC N_CLOSURES
+#define NS (2 * N_LINKS)
+
+/* the model's part of the persistent block, after the parameter and input slots */
+enum {
+    P_STARTED = GRB_MODEL_BASE, /* 1: the block holds a started run (initialised or restored) */
+    P_T,                        /* time of the state */
+    P_H,                        /* the integrator's next step */
+    P_HAVE_F,                   /* f holds ydot at (t, y) */
+    P_STEPS, P_REJECTED, P_EVALS,
+    P_DRIVE_USED, P_LOAD_USED,  /* the efforts f was computed with */
+    P_Y,                        /* y = (z, zd), 2N */
+    P_F = P_Y + NS,             /* f = ydot, 2N */
+    P_STEPPER = P_F + NS        /* the integrator's own workspace */
+};
+
+enum { LEVEL_DRIVE = 1, LEVEL_OBSERVE = 2, LEVEL_REACTIONS = 3 };
+
+typedef struct mech {
+    grb_model m;
+    grb_settings s;
+    double links[N * GRB_L_COLUMNS];
+    double closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS];
+    int revolute[N];
+    int q_index[N];             /* index in q of each pair's real coordinate */
+    double out[MODEL_N_OUTPUTS];
+    double y_end[NS];
+    int held[N];
+    int n_hold;
+    double scale;
+    double work[1];             /* grb_work_size doubles follow */
+} mech;
+
+static size_t stepper_doubles(void) {
+    size_t a = grb_stepper_size(GRB_DOP853, NS), b = grb_stepper_size(GRB_RK45, NS),
+           c = grb_stepper_size(GRB_RK4, NS);
+    size_t m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
+size_t model_persistent_size(void) { return (size_t)P_STEPPER + stepper_doubles(); }
+/* Scratch: the mech struct and the kernel's workspace, then (with directional
+ * derivatives) the complex-step workspace, state and observations, 16-byte aligned. */
+static size_t complex_offset(void) {
+    return (sizeof(mech) + grb_work_size(N, NC) * sizeof(double) + 15) & ~(size_t)15;
+}
+size_t model_scratch_bytes(void) {
+    return complex_offset() + (MODEL_DIRECTIONAL_DERIVATIVE ? 2 * sizeof(double) * (grb_work_size(N, NC) + NS +
+                                                                                     N_OBSERVED) : 0);
+}
+int model_input_free_level(void) { return LEVEL_DRIVE; }
+const double *model_outputs(const grb_instance *inst) { return ((const mech *)inst->model)->out; }
+double model_time(const grb_instance *inst) { return inst->p[P_T]; }
+
+void model_reset(grb_instance *inst) {
+    inst->p[P_STARTED] = 0.0;
+    inst->p[P_T] = 0.0;
+}
+
+/* ---- parameters ------------------------------------------------------------- */
+
+static double link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
+static double closure_field(const double *p, int j, int f) { return p[SLOT_CLOSURES + j * CLOSURE_STRIDE + f]; }
+
+static const char *coordinate_name(int index, char *buf, size_t size) {
+    if (index % 2 == 0)
+        snprintf(buf, size, "B%d", index / 2 + 1);
+    else
+        snprintf(buf, size, "theta%d", index / 2 + 2);
+    return buf;
+}
+
+static void closure_prefix(int j, char *buf, size_t size) {
+    if (NC == 1)
+        snprintf(buf, size, "closure");
+    else
+        snprintf(buf, size, "closure[%d]", j);
+}
+
+#define BAD(...) do { grb_log(inst, fmi2Error, __VA_ARGS__); return fmi2Error; } while (0)
+
+static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
+
+/* The checks grubler.model.Mechanism makes, with its messages. */
+static fmi2Status validate(grb_instance *inst) {
+    const double *p = inst->p;
+    char name[32];
+    int i, j, k;
+    for (k = 0; k < MODEL_N_STORED; k++)
+        if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE) {
+            int v;
+            for (v = 0; v < MODEL_N_VARIABLES; v++)
+                if (model_variables[v].causality == GRB_C_PARAMETER && model_variables[v].slot == k)
+                    BAD("%s: must be finite, got %g", model_variables[v].name, p[k]);
+        }
+    if (!(p[SLOT_RTOL] > 0)) BAD("rtol: must be positive and finite, got %g", p[SLOT_RTOL]);
+    if (!(p[SLOT_ATOL] > 0)) BAD("atol: must be positive and finite, got %g", p[SLOT_ATOL]);
+    if (!(p[SLOT_MAX_STEP] >= 0)) BAD("max_step: must be >= 0 and finite, got %g", p[SLOT_MAX_STEP]);
+    if ((int)p[SLOT_INTEGRATOR] == 3 && !(p[SLOT_STEP] > 0)) BAD("step: rk4's step must be positive, got %g",
+                                                                  p[SLOT_STEP]);
+    if (p[SLOT_GRAVITY] < 0) BAD("gravity: must be >= 0 (it acts along -y), got %g", p[SLOT_GRAVITY]);
+    if (p[SLOT_GROUND_A1] < 0) BAD("ground.a1: length must be >= 0, got %g", p[SLOT_GROUND_A1]);
+    for (i = 0; i < N; i++) {
+        if (link_field(p, i, LF_A) < 0) BAD("link%d.a: length must be >= 0, got %g", i + 2, link_field(p, i, LF_A));
+        if (!(link_field(p, i, LF_M) > 0)) BAD("link%d.m: mass must be positive, got %g", i + 2,
+                                               link_field(p, i, LF_M));
+        if (link_field(p, i, LF_I) < 0) BAD("link%d.I: moment of inertia must be >= 0, got %g", i + 2,
+                                            link_field(p, i, LF_I));
+        if (link_field(p, i, LF_DAMPING) < 0) BAD("link%d.damping: damping must be >= 0, got %g", i + 2,
+                                                  link_field(p, i, LF_DAMPING));
+    }
+    for (j = 0; j < NC; j++) {
+        int link = (int)closure_field(p, j, CF_LINK), to = (int)closure_field(p, j, CF_TO_LINK), lo, hi, nrev;
+        closure_prefix(j, name, sizeof name);
+        if (to == link) BAD("%s.to_link: must be another link than %s.link (%d)", name, name, link);
+        if (!(closure_field(p, j, CF_GAIN) > 0)) BAD("%s.gain: penalty gain must be positive, got %g", name,
+                                                     closure_field(p, j, CF_GAIN));
+        if (closure_field(p, j, CF_DAMPING) < 0) BAD("%s.damping: penalty damping must be >= 0, got %g", name,
+                                                     closure_field(p, j, CF_DAMPING));
+        /* a loop needs two revolutes to move (MODEL.md section 1) */
+        lo = link < to ? link : to;
+        hi = link < to ? to : link;
+        nrev = (int)closure_field(p, j, CF_TYPE) == 1;
+        for (k = lo + 1; k <= hi; k++) nrev += (int)link_field(p, k - 2, LF_JOINT) == 1;
+        if (nrev < 2)
+            BAD("%s.type: the loop from link %d to link %d has %d revolute joint(s); a loop needs at least two "
+                "revolutes to move", name, lo, hi, nrev);
+    }
+    {
+        /* two prismatic joints with parallel axes on one link add a redundant freedom */
+        double axis[2 * N + 2 * (NC > 0 ? NC : 1)];
+        int owner[2 * N + 2 * (NC > 0 ? NC : 1)], n_axes = 0, x, y;
+        char field[2 * N + 2 * (NC > 0 ? NC : 1)][48];
+        double prev = p[SLOT_GROUND_THETA1];
+        for (i = 0; i < N; i++) {
+            double rel = p[SLOT_Q0 + 2 * i + 1] - prev;
+            prev = p[SLOT_Q0 + 2 * i + 1];
+            if ((int)link_field(p, i, LF_JOINT) == 2) {
+                axis[n_axes] = (i == 0 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
+                owner[n_axes] = i + 1;
+                snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
+                axis[n_axes] = M_PI / 2 - rel;
+                owner[n_axes] = i + 2;
+                snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
+            }
+        }
+        for (j = 0; j < NC; j++) {
+            if ((int)closure_field(p, j, CF_TYPE) != 2) continue;
+            closure_prefix(j, name, sizeof name);
+            axis[n_axes] = closure_field(p, j, CF_ANGLE);
+            owner[n_axes] = (int)closure_field(p, j, CF_TO_LINK);
+            snprintf(field[n_axes++], 48, "%s.angle", name);
+            axis[n_axes] = closure_field(p, j, CF_ANGLE) - closure_field(p, j, CF_PSI);
+            owner[n_axes] = (int)closure_field(p, j, CF_LINK);
+            snprintf(field[n_axes++], 48, "%s.angle", name);
+        }
+        for (x = 0; x < n_axes; x++)
+            for (y = x + 1; y < n_axes; y++)
+                if (owner[x] == owner[y] && parallel(axis[x], axis[y]))
+                    BAD("%s: link %d has two prismatic joints with parallel axes (%s and %s): that adds a "
+                        "redundant freedom", field[y], owner[x], field[x], field[y]);
+    }
+    if (p[SLOT_DRIVE_INERTIA] < 0) BAD("drive.inertia: must be >= 0, got %g", p[SLOT_DRIVE_INERTIA]);
+    if (p[SLOT_DRIVE_INERTIA] > 0 && (int)p[SLOT_DRIVE_JOINT] == 0)
+        BAD("drive.inertia: a drive inertia needs the joint it acts on (drive_joint)");
+    return fmi2OK;
+}
+
+/* index in z of a real joint named by a drive_joint / load_joint choice (0: none -> -1) */
+static fmi2Status joint_index(grb_instance *inst, const mech *mm, const char *field, int choice, int *z_index) {
+    int q = choice - 1, pair;
+    char buf[32], real[32];
+    *z_index = -1;
+    if (choice == 0) return fmi2OK;
+    pair = q / 2;
+    if (mm->q_index[pair] != q)
+        BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", field,
+            coordinate_name(q, buf, sizeof buf), pair + 2, coordinate_name(mm->q_index[pair], real, sizeof real));
+    *z_index = pair;
+    return fmi2OK;
+}
+
+static const char *status_text(int status) {
+    switch (status) {
+    case GRB_SINGULAR: return "the mass matrix or the constraint Jacobian is singular";
+    case GRB_NONFINITE_DERIVATIVE: return "the state derivative is not finite";
+    case GRB_STEP_UNDERFLOW: return "the step size fell below its limit";
+    case GRB_TOO_MANY_STEPS: return "too many internal steps";
+    case GRB_NONFINITE_FIXED_STEP: return "a fixed step gave a non-finite state";
+    case GRB_BRANCH_JUMP: return "the projection would remove too much of the joint speeds (a change point, where "
+                                 "two assembly branches meet)";
+    case GRB_BAD_ARGUMENT: return "a time, tolerance or size is out of range";
+    case GRB_NOT_CLOSED: return "the loop cannot be closed";
+    default: return "unknown kernel status";
+    }
+}
+
+fmi2Status model_prepare(grb_instance *inst) {
+    mech *mm = (mech *)inst->model;
+    double *p = inst->p;
+    double lf[N * GRB_SL_COLUMNS], cf[(NC > 0 ? NC : 1) * GRB_SC_COLUMNS];
+    int i, j, st, method, tableau;
+    fmi2Status s = validate(inst);
+    if (s != fmi2OK) return s;
+    for (i = 0; i < N; i++) {
+        mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
+        lf[i * GRB_SL_COLUMNS + GRB_SL_A] = link_field(p, i, LF_A);
+        lf[i * GRB_SL_COLUMNS + GRB_SL_P] = link_field(p, i, LF_P);
+        lf[i * GRB_SL_COLUMNS + GRB_SL_Q] = link_field(p, i, LF_Q);
+        lf[i * GRB_SL_COLUMNS + GRB_SL_M] = link_field(p, i, LF_M);
+        lf[i * GRB_SL_COLUMNS + GRB_SL_I] = link_field(p, i, LF_I);
+        lf[i * GRB_SL_COLUMNS + GRB_SL_DAMP] = link_field(p, i, LF_DAMPING);
+    }
+    for (j = 0; j < NC; j++) {
+        double *row = cf + j * GRB_SC_COLUMNS;
+        row[GRB_SC_KIND] = (int)closure_field(p, j, CF_TYPE) == 2 ? 1.0 : 0.0;
+        row[GRB_SC_LINK] = closure_field(p, j, CF_LINK);
+        row[GRB_SC_TO] = closure_field(p, j, CF_TO_LINK);
+        row[GRB_SC_PX] = closure_field(p, j, CF_AT_X);
+        row[GRB_SC_PY] = closure_field(p, j, CF_AT_Y);
+        row[GRB_SC_TX] = closure_field(p, j, CF_POINT_X);
+        row[GRB_SC_TY] = closure_field(p, j, CF_POINT_Y);
+        row[GRB_SC_ANGLE] = closure_field(p, j, CF_ANGLE);
+        row[GRB_SC_PSI] = closure_field(p, j, CF_PSI);
+        row[GRB_SC_GAIN] = closure_field(p, j, CF_GAIN);
+        row[GRB_SC_DAMP] = closure_field(p, j, CF_DAMPING);
+    }
+    st = grb_scene_tables(N, NC, mm->revolute, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1], p + SLOT_Q0, cf,
+                          mm->links, mm->closures);
+    if (st != GRB_OK) BAD("closure: a link number is out of range");
+    grb_real_coordinates(N, mm->revolute, mm->q_index);
+    mm->m.n_links = N;
+    mm->m.n_closures = NC;
+    mm->m.links = mm->links;
+    mm->m.closures = mm->closures;
+    mm->m.theta1 = p[SLOT_GROUND_THETA1];
+    mm->m.gravity = p[SLOT_GRAVITY];
+    mm->m.drive_inertia = p[SLOT_DRIVE_INERTIA];
+    if (joint_index(inst, mm, "drive_joint", (int)p[SLOT_DRIVE_JOINT], &mm->m.drive) != fmi2OK) return fmi2Error;
+    if (joint_index(inst, mm, "load_joint", (int)p[SLOT_LOAD_JOINT], &mm->m.load) != fmi2OK) return fmi2Error;
+
+    /* how to integrate: what grubler.simulate.Simulator sets up */
+    method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
+    tableau = (int)p[SLOT_INTEGRATOR] == 2 ? GRB_RK45 : (int)p[SLOT_INTEGRATOR] == 3 ? GRB_RK4 : GRB_DOP853;
+    mm->scale = 1.0;
+    for (i = 0; i < N; i++)
+        if (fabs(link_field(p, i, LF_A)) > mm->scale) mm->scale = fabs(link_field(p, i, LF_A));
+    memset(&mm->s, 0, sizeof mm->s);
+    mm->s.tableau = tableau;
+    mm->s.method = method;
+    mm->s.project = method == GRB_EXACT && NC > 0;
+    mm->s.scale = mm->scale;
+    mm->s.rtol = p[SLOT_RTOL];
+    mm->s.atol = p[SLOT_ATOL];
+    mm->s.h_max = p[SLOT_MAX_STEP] > 0 ? p[SLOT_MAX_STEP] : INFINITY;
+    mm->s.h_fixed = p[SLOT_STEP];
+    mm->s.max_steps = GRB_FMU_MAX_STEPS;
+    mm->s.drive_fn = NULL;
+    mm->s.drive_ctx = NULL;
+    mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints */
+    if (mm->n_hold < 0) BAD("closure: the closures over-constrain the chain (mobility %d)", mm->n_hold);
+
+    if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
+
+    /* the initial state: the sketch, assembled (exact closure) holding the drive */
+    {
+        double *y = p + P_Y, *z = y, *zd = y + N, closest = 0.0;
+        int n_held = 0;
+        grb_z_from_q(N, mm->revolute, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
+        grb_zd_from_qd(N, mm->revolute, p + SLOT_QD0, zd);
+        if (method == GRB_EXACT && NC > 0) {
+            char names[256];
+            size_t used = 0;
+            st = grb_held_coordinates(&mm->m, mm->n_hold, z, mm->held, &n_held, mm->work);
+            if (st != GRB_OK) BAD("initial: cannot choose the coordinates to hold (%s)", status_text(st));
+            names[0] = '\0';
+            for (i = 0; i < n_held && used + 40 < sizeof names; i++) {
+                char buf[32];
+                int w = snprintf(names + used, sizeof names - used, "%s%s = %.6g", i ? ", " : "",
+                                 coordinate_name(mm->q_index[mm->held[i]], buf, sizeof buf), z[mm->held[i]]);
+                if (w > 0) used += (size_t)w;
+            }
+            st = grb_assemble(&mm->m, n_held, mm->held, mm->scale, z, zd, &closest, mm->work);
+            if (st == GRB_NOT_CLOSED)
+                BAD("initial: the loop cannot be closed with %s held: the closest the tip gets is %.3g from its "
+                    "closure", n_held ? names : "nothing", closest);
+            if (st != GRB_OK) BAD("initial: assembly failed (%s)", status_text(st));
+        }
+        if (method == GRB_PENALTY && NC > 0) {
+            /* the penalty springs act through inertia: every real coordinate needs some
+             * (grubler.simulate's check, which names the link from M's eigenvectors) */
+            double yd[NS];
+            int k, finite = 1;
+            st = grb_rhs(&mm->m, GRB_PENALTY, y, 0.0, 0.0, mm->work, yd);
+            for (k = 0; k < NS; k++) finite = finite && isfinite(yd[k]);
+            if (st != GRB_OK || !finite)
+                BAD("method: the penalty closure cannot move the mechanism: a real coordinate carries no inertia "
+                    "(a link with I = 0 and its mass centre on its joint), so the imaginary joint's spring would "
+                    "accelerate it without bound; give that link a positive I or use the exact closure");
+        }
+        p[P_T] = inst->start_time;
+        p[P_H] = 0.0;
+        p[P_HAVE_F] = 0.0;
+        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = 0.0;
+        p[P_DRIVE_USED] = p[P_LOAD_USED] = 0.0;
+    }
+    return fmi2OK;
+}
+
+fmi2Status model_start(grb_instance *inst) {
+    inst->p[P_STARTED] = 1.0;
+    return fmi2OK;
+}
+
+/* ---- outputs ----------------------------------------------------------------- */
+
+#if N_CLOSURES > 1
+/* Force and moment of closures 1 .. NC-1 on their closing links (closure 0's are
+ * grb_observe's Fx, Fy, Mz), into out[3 (j - 1) ..]: from the multipliers the
+ * forward dynamics grb_observe just ran left in the workspace's constraint-row
+ * table (grb_work_layout; its columns lambda and the line normal are the
+ * kernel's R_LAM and R_NORMAL, as grubler.simulate.closure_forces reads them). */
+enum { ROW_LAM = 3, ROW_NORMAL = 4 };
+
+static void closure_forces(const mech *mm, double *out) {
+    long layout[12];
+    grb_work_layout(N, NC, layout);
+    const double *R = mm->work + layout[3];
+    long rc = layout[8];
+    for (int j = 1; j < NC; j++) {
+        const double *r0 = R + 2 * j * rc, *r1 = r0 + rc;
+        double *o = out + 3 * (j - 1);
+        if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: its normal force, holding moment */
+            o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];
+            o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];
+            o[2] = r1[ROW_LAM];
+        } else { /* a pin */
+            o[0] = r0[ROW_LAM];
+            o[1] = r1[ROW_LAM];
+            o[2] = 0.0;
+        }
+    }
+}
+#endif
+
+fmi2Status model_compute(grb_instance *inst, int level) {
+    mech *mm = (mech *)inst->model;
+    const double *p = inst->p, *y = p + P_Y;
+    int d = mm->m.drive, st;
+    if (inst->level < LEVEL_DRIVE) {
+        mm->out[N_OBSERVED] = d >= 0 ? y[d] : 0.0;
+        mm->out[N_OBSERVED + 1] = d >= 0 ? y[N + d] : 0.0;
+    }
+    if (level >= LEVEL_OBSERVE && inst->level < level) {
+        st = grb_observe(&mm->m, mm->s.method, y, p[SLOT_MOTOR_TORQUE], p[SLOT_LOAD_TORQUE],
+                         level >= LEVEL_REACTIONS, mm->work, mm->out);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Warning, "outputs at t = %.12g s: %s; they read as NaN", p[P_T], status_text(st));
+            return fmi2Warning;
+        }
+#if N_CLOSURES > 1
+        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->out + N_OBSERVED + 2);
+#endif
+    }
+    return fmi2OK;
+}
+
+/* ---- stepping ---------------------------------------------------------------- */
+
+fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
+    mech *mm = (mech *)inst->model;
+    double *p = inst->p, t = p[P_T], t_out = t_now + h;  /* the library's advance_to(t + h) */
+    double drive = p[SLOT_MOTOR_TORQUE], load = p[SLOT_LOAD_TORQUE];
+    grb_clock clock;
+    grb_failure why = {0.0, 0.0};
+    int st;
+    if (!isfinite(drive) || !isfinite(load)) {
+        const char *name = !isfinite(drive) ? "motor_torque" : "load_torque";
+        grb_log(inst, fmi2Discard, "%s is %g at t = %.12g s: inputs must be finite", name,
+                !isfinite(drive) ? drive : load, t);
+        return fmi2Discard;
+    }
+    /* the state derivative held depends on the efforts it was computed with */
+    if (drive != p[P_DRIVE_USED] || load != p[P_LOAD_USED]) {
+        p[P_HAVE_F] = 0.0;
+        p[P_DRIVE_USED] = drive;
+        p[P_LOAD_USED] = load;
+    }
+    mm->s.tau_drive = drive;
+    mm->s.tau_load = load;
+    /* as grubler.integrators.Integrator._advance: the counts are per advance */
+    clock.t = t;
+    clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
+    clock.have_f = p[P_HAVE_F] != 0.0;
+    clock.steps = clock.rejected = clock.evals = 0;
+    st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
+    if (st != GRB_OK) {
+        grb_log(inst, fmi2Discard, "step from t = %.12g s failed at t = %.12g s: %s (limit %g); the mechanism stays "
+                "at t = %.12g s", t, why.where, status_text(st), why.limit, t);
+        return fmi2Discard;
+    }
+    p[P_T] = clock.t;
+    if (mm->s.tableau != GRB_RK4) p[P_H] = clock.h;
+    p[P_HAVE_F] = clock.have_f ? 1.0 : 0.0;
+    p[P_STEPS] += (double)clock.steps;
+    p[P_REJECTED] += (double)clock.rejected;
+    p[P_EVALS] += (double)clock.evals;
+    inst->level = 0;
+    return fmi2OK;
+}
+
+/* ---- directional derivatives ------------------------------------------------- */
+
+#if MODEL_DIRECTIONAL_DERIVATIVE
+/* Complex step: any tiny h gives the exact slope (kernel/real.h). */
+#define CS_STEP 1e-30
+
+/* d(outputs)/d(motor_torque, load_torque) along the seed: the kernel's
+ * observations compiled over complex numbers (grb_cs_observe_at, the same
+ * equations grb_observe runs) at the present state, with the efforts moved by
+ * i h times the seed; the imaginary parts over h are the exact derivatives.
+ * The drive joint's angle and speed are states: zero. */
+fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
+                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[]) {
+    mech *mm = (mech *)inst->model;
+    const double *p = inst->p, *y = p + P_Y;
+    double complex *cwork = (double complex *)((char *)inst->model + complex_offset());
+    double complex *cy = cwork + grb_work_size(N, NC), *cout = cy + NS, efforts[2];
+    double seed[2] = {0.0, 0.0};
+    size_t k;
+    int i, st;
+    for (k = 0; k < n_known; k++) {
+        int slot = model_variables[known[k] - 1].slot;
+        seed[slot == SLOT_MOTOR_TORQUE ? 0 : 1] += dv_known[k];
+    }
+    for (i = 0; i < NS; i++) cy[i] = y[i];
+    efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
+    efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
+    st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
+    for (k = 0; k < n_unknown; k++) {
+        int slot = model_variables[unknown[k] - 1].slot;
+        dv_unknown[k] = slot < N_OBSERVED ? cimag(cout[slot]) / CS_STEP : 0.0;
+    }
+    if (st != GRB_OK) {
+        grb_log(inst, fmi2Warning, "directional derivative at t = %.12g s: %s; it reads as NaN", p[P_T],
+                status_text(st));
+        return fmi2Warning;
+    }
+    return fmi2OK;
+}
+#endif

@@ -1,0 +1,250 @@
+"""The mechanism FMU's variables, from a scene (served by ``c/mechanism_model.c``).
+
+Every scene quantity is a parameter, the joint types and the closure's type,
+links and points included, so one exported FMU can be re-tuned into any
+mechanism with the same number of links and closures (the eight inversions of a
+four-link chain are one FMU).  Parameters default to the scene's values.
+
+Examples
+--------
+>>> from grubler.scene import load_scene
+>>> spec = mechanism_spec(load_scene("thesis-fourbar"))
+>>> spec.vr("link2.a") > 0, spec.defines["N_LINKS"]
+(True, 3)
+>>> fmu_parameters(load_scene("thesis-scotch-yoke"))["link2.joint"]  # P: item 2
+2
+"""
+
+from __future__ import annotations
+
+from ..dynamics import observation_names
+from ..errors import SceneError
+from ..model import PRISMATIC, Mechanism
+from ..scene import Scene
+from ..simulate import DEFAULT_ATOL, DEFAULT_RTOL
+from .variables import ENUMERATION, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, EnumType, ModelSpec, Variable
+
+JOINT = EnumType("JointType", "which joint of a link's pair is real",
+                 (("R", "revolute (existence factors 0, 1)"), ("P", "prismatic slide (existence factors 1, 0)")))
+CLOSURE = EnumType("ClosureType", "the joint that closes the loop",
+                   (("revolute", "a point of the link pinned to a point"),
+                    ("prismatic", "a point of the link sliding on a line, the link's orientation held")))
+METHODS = ("exact", "penalty")
+INTEGRATORS = ("auto", "dop853", "rk45", "rk4")
+
+# output levels of the C model (mechanism_model.c): what computing one costs
+LEVEL_DRIVE, LEVEL_OBSERVE, LEVEL_REACTIONS = 1, 2, 3
+# outputs of the observation vector that the FMU does not publish (derived or the input itself)
+_UNPUBLISHED = {"E", "tau_drive", "P_drive"}
+
+# per-link fields in slot order (the C model addresses them as SLOT_LINKS + k * LINK_STRIDE + field)
+LINK_FIELDS = ("joint", "a", "p", "q", "m", "I", "damping")
+CLOSURE_FIELDS = ("type", "link", "to_link", "at_x", "at_y", "point_x", "point_y", "angle", "psi", "gain",
+                  "damping")
+GLOBALS = ("method", "integrator", "rtol", "atol", "max_step", "step", "gravity", "ground.a1", "ground.theta1",
+           "drive_joint", "load_joint", "drive.inertia")
+
+
+def _coordinate_unit(name: str, order: int) -> str:
+    base = "m" if name.startswith("B") else "rad"
+    return base + ("", "/s", "/s2")[order]
+
+
+def closure_prefix(n_closures: int, j: int) -> str:
+    """A closure's variable prefix: ``closure`` for the one closure, else ``closure[j]``."""
+    return "closure" if n_closures == 1 else f"closure[{j}]"
+
+
+def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
+    """Every parameter of a mechanism FMU that reproduces ``scene``.
+
+    What :func:`mechanism_spec` uses as start values, and what a master sets on an
+    FMU exported from another scene of the same shape to turn it into this one.
+    """
+    m: Mechanism = scene.mechanism
+    p: dict[str, float | int | str] = {
+        "method": scene.method, "gravity": m.gravity, "ground.a1": m.a1, "ground.theta1": m.theta1,
+        "drive_joint": m.drive or "", "load_joint": m.load or "", "drive.inertia": m.drive_inertia,
+    }
+    for k, link in enumerate(m.links):
+        p[f"link{k + 2}.joint"] = 2 if link.joint == PRISMATIC else 1
+        for f in LINK_FIELDS[1:]:
+            p[f"link{k + 2}.{f}"] = float(getattr(link, f))
+    for j, c in enumerate(m.closures):
+        pre = closure_prefix(len(m.closures), j)
+        p.update({f"{pre}.type": 2 if c.kind == "prismatic" else 1, f"{pre}.link": c.link,
+                  f"{pre}.to_link": c.to_link, f"{pre}.at_x": c.point[0], f"{pre}.at_y": c.point[1],
+                  f"{pre}.point_x": c.to_point[0], f"{pre}.point_y": c.to_point[1], f"{pre}.angle": c.angle,
+                  f"{pre}.psi": c.psi, f"{pre}.gain": c.gain, f"{pre}.damping": c.damping})
+    qd = m.S @ scene.initial_rates
+    for i, x in enumerate(m.coordinate_names):
+        p[f"initial.{x}"] = float(m.q_ref[i])
+        p[f"initial.{x}_d"] = float(qd[i])
+    return p
+
+
+STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fmu
+
+
+def same_shape(a: Mechanism, b: Mechanism) -> bool:
+    """Whether one mechanism FMU serves both (same number of links and of closures)."""
+    return (a.n_links, len(a.closures)) == (b.n_links, len(b.closures))
+
+
+def scene_fmu(scene: Scene, fmu_dir) -> tuple:
+    """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
+
+    ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
+    (three moving links, one closure: every four-link preset) through its
+    parameters.  A scene of another shape gets its own FMU, exported into
+    ``fmu_dir`` as ``Mechanism_<scene>.fmu``.
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        Every scene quantity, by FMU variable name (:func:`fmu_parameters`).
+    """
+    from pathlib import Path
+
+    from ..scene import load_scene
+
+    d = Path(fmu_dir)
+    if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
+        return d / "Mechanism.fmu", fmu_parameters(scene)
+    from .build import export, identifier_for
+
+    path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
+    export(scene, path)
+    return path, fmu_parameters(scene)
+
+
+def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
+    """The variables of a mechanism FMU with ``scene``'s shape and defaults."""
+    m = scene.mechanism
+    n, nc = m.n_links, len(m.closures)
+    if scene.method not in METHODS:
+        raise SceneError("method", f"must be one of {', '.join(METHODS)}, got {scene.method!r}")
+    start = fmu_parameters(scene)
+    names = m.coordinate_names
+    v: list[Variable] = []
+
+    def par(name, type_, text, unit=None, lo=None, hi=None, choices=(), enum=None):
+        v.append(Variable(name, type_, PARAMETER, text, start[name] if name in start else None, unit, lo, hi,
+                          choices, enum))
+
+    par("method", STRING, "closure method: exact (index-1 DAE, projected) | penalty (the thesis's "
+                          "spring-damper imaginary joint)", choices=METHODS)
+    start.update({"integrator": "auto", "rtol": DEFAULT_RTOL, "atol": DEFAULT_ATOL, "max_step": 0.0,
+                  "step": 1e-3})
+    par("integrator", STRING, "auto | dop853 | rk45 | rk4 (auto: dop853); radau and bdf exist only in the "
+                              "Python library", choices=INTEGRATORS)
+    par("rtol", REAL, "relative tolerance of the internal integration [-]", None, 0.0)
+    par("atol", REAL, "absolute tolerance of the internal integration [rad, m]", None, 0.0)
+    par("max_step", REAL, "largest internal step (0: no limit)", "s", 0.0)
+    par("step", REAL, "fixed internal step of rk4", "s", 0.0)
+    par("gravity", REAL, "gravity g, acting along -y", "m/s2", 0.0)
+    par("ground.a1", REAL, "ground vector length a1 (link 1)", "m", 0.0)
+    par("ground.theta1", REAL, "ground vector angle theta1", "rad")
+    coord_choices = ("",) + tuple(names)
+    par("drive_joint", STRING, "real joint the motor acts on (e.g. theta2; empty: none)", choices=coord_choices)
+    par("load_joint", STRING, "real joint the load acts on (empty: none)", choices=coord_choices)
+    par("drive.inertia", REAL, "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2 "
+                               "[kg m2, or kg on a slide]", None, 0.0)
+    link_text = {"a": ("link vector length", "m", 0.0), "p": ("mass centre along the link vector", "m", None),
+                 "q": ("mass centre across the link vector", "m", None), "m": ("mass (> 0)", "kg", 0.0),
+                 "I": ("centroidal moment of inertia", "kg.m2", 0.0),
+                 "damping": ("viscous damping of its real joint [N m s/rad or N s/m]", None, 0.0)}
+    for k in range(2, n + 2):
+        par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
+        for f in LINK_FIELDS[1:]:
+            text, unit, lo = link_text[f]
+            par(f"link{k}.{f}", REAL, f"link {k}: {text}", unit, lo)
+    for j in range(nc):
+        pre = closure_prefix(nc, j)
+        par(f"{pre}.type", ENUMERATION, "closing joint type (structural)", enum=CLOSURE)
+        par(f"{pre}.link", INTEGER, "link carrying the closing point (structural)", None, 2, n + 1)
+        par(f"{pre}.to_link", INTEGER, "link carrying the target point or line, 1: the ground (structural)",
+            None, 1, n + 1)
+        par(f"{pre}.at_x", REAL, "closing point on the link, along its vector", "m")
+        par(f"{pre}.at_y", REAL, "closing point on the link, across its vector", "m")
+        par(f"{pre}.point_x", REAL, "target point (or a point of the line) in to_link's frame, x", "m")
+        par(f"{pre}.point_y", REAL, "target point (or a point of the line) in to_link's frame, y", "m")
+        par(f"{pre}.angle", REAL, "prismatic: direction of the line in to_link's frame", "rad")
+        par(f"{pre}.psi", REAL, "prismatic: held orientation of the link relative to to_link", "rad")
+        par(f"{pre}.gain", REAL, "penalty closure stiffness G [N/m, N m/rad]", None, 0.0)
+        par(f"{pre}.damping", REAL, "penalty closure damping C [N s/m, N m s/rad]", None, 0.0)
+    for x in names:
+        par(f"initial.{x}", REAL, f"initial {x} (a guess for the coordinates assembly solves for)",
+            _coordinate_unit(x, 0))
+        par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)", _coordinate_unit(x, 1))
+    v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint [N m, or N on a slide]", 0.0))
+    v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint [N m, or N on a slide]", 0.0))
+
+    obs = observation_names(n)
+    index = {name: i for i, name in enumerate(obs)}
+    units = {"tip_x": "m", "tip_y": "m", "Fx": "N", "Fy": "N", "Mz": "N.m", "KE": "J", "PE": "J"}
+    texts = {"tip_x": "chain tip (the closing point of the last link), x", "tip_y": "chain tip, y",
+             "closure_error": "largest closure violation [m or rad]",
+             "Fx": "force the ground exerts on the last link at the closing joint, x",
+             "Fy": "force the ground exerts on the last link at the closing joint, y",
+             "Mz": "moment the ground exerts on the last link at the closing joint",
+             "KE": "kinetic energy", "PE": "potential energy (gravity, plus the penalty springs')"}
+    # published in today's order: state, dynamics, energy, reactions
+    order = ([*names, *(f"{x}_d" for x in names), "tip_x", "tip_y", "closure_error",
+              *(f"{x}_dd" for x in names), "Fx", "Fy", "Mz", "KE", "PE"]
+             + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
+    assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
+    for name in order:
+        base, _, suffix = name.partition("_")
+        if name in units or name == "closure_error":
+            unit, text, feed = units.get(name), texts[name], name in ("Fx", "Fy", "Mz")
+        elif name.startswith("R") and name[1].isdigit():
+            k = int(name[1:name.index("_")])
+            unit = "N.m" if suffix == "Mz" else "N"
+            text = f"{suffix[1:]}-component of the reaction link {k}'s predecessor exerts on link {k + 1} at its joint"
+            if suffix == "Mz":
+                text = f"moment link {k}'s predecessor exerts on link {k + 1} at its joint"
+            feed = True
+        else:
+            order_ = {"": 0, "d": 1, "dd": 2}[suffix]
+            unit = _coordinate_unit(base, order_)
+            text = (f"{base} (absolute)", f"rate of {base}", f"acceleration of {base}")[order_]
+            feed = order_ == 2
+        level = LEVEL_REACTIONS if name.startswith("R") and name[1].isdigit() else LEVEL_OBSERVE
+        v.append(Variable(name, REAL, OUTPUT, text, unit=unit, level=level, feedthrough=feed, slot=index[name]))
+    v.append(Variable("drive_angle", REAL, OUTPUT, "coordinate of the drive joint (relative) [rad or m]", level=LEVEL_DRIVE, slot=len(obs)))
+    v.append(Variable("drive_speed", REAL, OUTPUT, "rate of the drive joint [rad/s or m/s]",
+                      level=LEVEL_DRIVE, slot=len(obs) + 1))
+    # the first closure's force is Fx, Fy, Mz; a chain of several loops (a
+    # six-bar) publishes the others' as the library names them, closureJ_*
+    for j in range(1, nc):
+        for c, (what, unit) in enumerate((("force, x", "N"), ("force, y", "N"), ("moment", "N.m"))):
+            v.append(Variable(f"closure{j}_{('Fx', 'Fy', 'Mz')[c]}", REAL, OUTPUT,
+                              f"{what} closure[{j}] exerts on its closing link (world axes)", unit=unit,
+                              level=LEVEL_REACTIONS, feedthrough=True, slot=len(obs) + 2 + 3 * (j - 1) + c))
+
+    slot_order = [*GLOBALS]
+    slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]
+    slot_order += [f"{closure_prefix(nc, j)}.{f}" for j in range(nc) for f in CLOSURE_FIELDS]
+    slot_order += [f"initial.{x}" for x in names] + [f"initial.{x}_d" for x in names]
+    slot_order += ["motor_torque", "load_torque"]
+    defines = {"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
+               "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": len(obs)}
+    defines.update({f"SLOT_{g.upper().replace('.', '_')}": k for k, g in enumerate(GLOBALS)})
+    defines["SLOT_LINKS"] = len(GLOBALS)
+    defines["SLOT_CLOSURES"] = defines["SLOT_LINKS"] + n * len(LINK_FIELDS)
+    defines["SLOT_Q0"] = defines["SLOT_CLOSURES"] + nc * len(CLOSURE_FIELDS)
+    defines["SLOT_QD0"] = defines["SLOT_Q0"] + 2 * n
+    defines["SLOT_MOTOR_TORQUE"] = defines["SLOT_QD0"] + 2 * n
+    defines["SLOT_LOAD_TORQUE"] = defines["SLOT_MOTOR_TORQUE"] + 1
+    defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
+    defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
+    # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
+    defines["MODEL_DIRECTIONAL_DERIVATIVE"] = 1
+    return ModelSpec(identifier,
+                     f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
+                     f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
+                     tuple(v), "mechanism_model.c", defines, len(obs) + 2 + 3 * max(nc - 1, 0), tuple(slot_order),
+                     (JOINT, CLOSURE),
+                     ("kernel",))
