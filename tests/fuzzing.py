@@ -17,7 +17,8 @@ Profiles (``GRUBLER_FUZZ_PROFILE``): ``ci`` (the default: derandomized, a fixed
 number of examples per class, what ``pytest`` runs) and ``long`` (random, 25
 times the examples; ``python benchmarks/fuzz_long.py``).  With
 ``GRUBLER_FUZZ_REPORT=FILE`` the outcomes per class are written there as JSON at
-exit.  A new class (the FMU call sequences, for one) is a test that calls
+exit; with ``GRUBLER_FUZZ_LOG=FILE`` every example's command line, exit status and
+error line are appended there (JSON lines).  A new class (the FMU call sequences, for one) is a test that calls
 :func:`check_cli` or records through :func:`record` under its own class name.
 """
 
@@ -129,6 +130,10 @@ def check_cli(cls: str, argv: list[str], inputs: dict[str, bytes], outputs: tupl
         tempfile.tempdir = old_tmp
         shutil.rmtree(base, ignore_errors=True)
     record(cls, "exit 0" if code == 0 else "exit 2")
+    if os.environ.get("GRUBLER_FUZZ_LOG"):  # one line per example: what was run and what it got
+        with open(os.environ["GRUBLER_FUZZ_LOG"], "a") as fh:
+            fh.write(json.dumps({"class": cls, "argv": argv, "exit": code,
+                                 "error": text_err.strip().splitlines()[:1]}) + "\n")
     return code
 
 
