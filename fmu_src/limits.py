@@ -54,7 +54,7 @@ from .errors import InputError, LimitError
 MAX_MAGNITUDE = 1e12
 # Output budget: what an array, table or file a command writes may take.  It can
 # be raised for a big machine (GRUBLER_MAX_OUTPUT_BYTES, in bytes).
-MAX_OUTPUT_BYTES = int(float(os.environ.get("GRUBLER_MAX_OUTPUT_BYTES", 2 * 1024**3)))
+MAX_OUTPUT_BYTES = 2 * 1024**3
 MAX_TEXT_BYTES = 16 * 1024**2  # a scene or an SSD: kilobytes in practice
 MAX_TABLE_BYTES = 512 * 1024**2  # a run CSV
 MAX_TOML_DEPTH = 32  # a scene nests three tables deep
@@ -239,7 +239,10 @@ def check_size(count: float, bytes_each: float, what: str, option: str, budget: 
     Returns ``count`` as an int when it fits.  The message gives the estimate and
     the option that changes it.
     """
-    budget = MAX_OUTPUT_BYTES if budget is None else budget
+    if budget is None:  # the environment is input too: read through the same gate, when used
+        raw = os.environ.get("GRUBLER_MAX_OUTPUT_BYTES")
+        budget = MAX_OUTPUT_BYTES if raw is None else number(raw, "GRUBLER_MAX_OUTPUT_BYTES", low=1.0,
+                                                               magnitude=math.inf)
     if not math.isfinite(count) or count * bytes_each > budget:
         total = count * bytes_each
         raise LimitError(option, f"{what} would take {_size(total) if math.isfinite(total) else 'unbounded memory'}"

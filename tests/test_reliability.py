@@ -493,3 +493,12 @@ def test_a_run_the_integrator_cannot_finish_names_the_integration(capsys, monkey
     line = refused(capsys, "simulate", "thesis-fourbar", "--t-end", "400", "--torque", "-1589",
                    field="integration", reason="steps before t = 400 s")
     assert line.startswith("grubler: error: integration: ")
+
+
+def test_the_output_budget_can_be_raised_and_a_bad_one_is_named(capsys, monkeypatch):
+    monkeypatch.setenv("GRUBLER_MAX_OUTPUT_BYTES", "1000")
+    refused(capsys, "simulate", "thesis-fourbar", "--t-end", "0.1", field="--dt-out", reason="1 kB budget")
+    monkeypatch.setenv("GRUBLER_MAX_OUTPUT_BYTES", "lots")
+    refused(capsys, "simulate", "thesis-fourbar", "--t-end", "0.1", field="GRUBLER_MAX_OUTPUT_BYTES")
+    monkeypatch.setenv("GRUBLER_MAX_OUTPUT_BYTES", "1e15")
+    assert cli(capsys, "simulate", "thesis-fourbar", "--t-end", "0.1")[0] == 0
