@@ -726,8 +726,9 @@ def summary(sys) -> str:
     lines.append("poles (natural frequency, damping ratio):")
     wn, zeta, poles = control.damp(sys, doprint=False)
     for p, w, z in sorted(zip(poles, wn, zeta), key=lambda t: abs(t[0])):
-        lines.append(f"  {p.real:+.6g} {p.imag:+.6g}j   wn = {w:.6g} rad/s ({w / (2 * math.pi):.6g} Hz), "
-                     f"zeta = {z:.4g}")
+        # (+ 0.0 turns a negative zero, an undamped pole's, into a plain one)
+        lines.append(f"  {p.real + 0.0:+.6g} {p.imag + 0.0:+.6g}j   wn = {w:.6g} rad/s ({w / (2 * math.pi):.6g} Hz), "
+                     f"zeta = {z + 0.0:.4g}")
     for i, out in enumerate(sys.output_labels):
         for j, inp in enumerate(sys.input_labels):
             sub = sys[i, j]
