@@ -82,6 +82,24 @@ def clip(text: str, limit: int = MESSAGE_CHARS) -> str:
     return f"{text[:half]}...{text[-half:]} ({len(text)} characters)"
 
 
+def did_you_mean(word, choices) -> str:
+    """"; did you mean 'x'?" for the closest of ``choices`` to a misspelt ``word``, else "".
+
+    Examples
+    --------
+    >>> did_you_mean("thesis-forbar", ["thesis-fourbar", "oldham"])
+    "; did you mean 'thesis-fourbar'?"
+    >>> did_you_mean("zzz", ["thesis-fourbar"])
+    ''
+    """
+    import difflib
+
+    if not isinstance(word, str) or len(word) > PATH_CHARS:
+        return ""
+    close = difflib.get_close_matches(word, [str(c) for c in choices], n=1, cutoff=0.75)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
 def number(value, field: str, *, low: float | None = None, high: float | None = None, low_open: bool = False,
            integer: bool = False, magnitude: float = MAX_MAGNITUDE) -> float:
     """A finite number from outside (int, float or its text), or an InputError naming ``field``.

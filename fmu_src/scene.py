@@ -27,7 +27,7 @@ import numpy as np
 from .builders import BUILDERS
 from .dynamics import METHODS
 from .errors import InputError, SceneError
-from .limits import brief, number, parse_toml, read_text
+from .limits import brief, did_you_mean, number, parse_toml, read_text
 from .model import Closure, Link, Mechanism, coordinate_names
 
 _ANGLE = re.compile(
@@ -104,7 +104,8 @@ def _check_keys(table: dict, allowed: set, prefix: str):
     for key in table:
         if key not in allowed:
             where = f"{prefix}.{key}" if prefix else key
-            raise SceneError(where, f"unknown key; expected one of {', '.join(sorted(allowed))}")
+            raise SceneError(where, f"unknown key{did_you_mean(key, allowed)}; expected one of "
+                                    f"{', '.join(sorted(allowed))}")
 
 
 def _table(data: dict, key: str, prefix: str = "") -> dict:
@@ -307,9 +308,12 @@ def load_scene(source: str | Path) -> Scene:
         text, name = read_text(src, "scene"), Path(src).stem
     elif "\n" in src or "=" in src:
         text, name = src, ""
+    elif src.endswith(".toml") or "/" in src or "\\" in src:
+        # meant as a file: say so, rather than list presets
+        raise SceneError("scene", f"no such file: {brief(src)}")
     else:
-        raise SceneError("scene", f"{brief(src)} is neither a preset ({', '.join(preset_names()[:4])}, ...; "
-                                  "see `grubler presets`) nor a TOML file")
+        raise SceneError("scene", f"{brief(src)} is neither a preset nor a TOML file{did_you_mean(src, preset_names())} "
+                                  "(`grubler presets` lists the presets)")
     try:
         data = parse_toml(text, "scene")
     except InputError as exc:

@@ -36,6 +36,7 @@ from importlib import resources
 from pathlib import Path
 
 from grubler.errors import SceneError
+from grubler.limits import did_you_mean
 
 KE_KT_TOLERANCE = 0.02
 """Largest accepted relative mismatch between k_e and k_t (SI units)."""
@@ -521,4 +522,7 @@ def _read_spec(spec: str | Path) -> tuple[str, str]:
     entry = _data_dir().joinpath(f"{spec}.toml")
     if entry.is_file():
         return entry.read_text(), f"data set {spec!r}"
-    raise SceneError("motor", f"no data set named {spec!r} (known: {', '.join(list_motors())}) and no such file")
+    if spec.endswith(".toml") or "/" in spec or "\\" in spec:
+        raise SceneError("motor", f"no such file: {spec!r}")
+    raise SceneError("motor", f"no data set named {spec!r}{did_you_mean(spec, list_motors())} "
+                              f"(known: {', '.join(list_motors())})")

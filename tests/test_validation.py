@@ -205,3 +205,15 @@ def test_dotted_overrides_name_what_is_wrong():
     s = override(scene, {"initial.theta2_d": 2.0, "link3.a": 0.9, "gravity": 0.0})
     assert s.mechanism.links[1].a == 0.9 and s.mechanism.gravity == 0.0
     assert s.initial_rates[s.mechanism.free_index("theta2")] == 2.0
+
+
+def test_a_misspelt_name_gets_a_suggestion_and_a_missing_file_is_called_so():
+    from grubler.motors import load_motor
+
+    expect("thesis-forbar", "scene", "did you mean 'thesis-fourbar'")
+    expect("nodir/run.toml", "scene", "no such file")
+    with pytest.raises(SceneError, match="did you mean 'maxon-re40-148877'"):
+        load_motor("maxon-re40-14887")
+    with pytest.raises(SceneError, match="no such file"):
+        load_motor("nodir/motor.toml")
+    expect(scene_with("a = 0.8\nm = 2.0", "a = 0.8\nm = 2.0\ndampign = 0.1"), "link3.dampign", "did you mean 'damping'")
