@@ -93,7 +93,10 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
                                             binding.address(work))
     if status != binding.OK:
         names = model.free_names
-        held_txt = ", ".join(f"{names[i]} = {z0[i]:.6g}" for i in held) or "nothing"
+        # (a slide's coordinate is a length, a revolute's an angle)
+        held_txt = ", ".join(f"{names[i]} = {z0[i]:.6g} held ({'m' if names[i].startswith('B') else 'rad'})"
+                             for i in held) or "nothing held"
+        unit = "m" if all(c.kind == "revolute" for c in model.closures) else "m (or rad, for a held orientation)"
         why = explain_unclosable(model, z0, held)
         if not why and len(model.closures) > 1:
             # z holds the closest configuration reached: name the loop left open there
@@ -105,8 +108,8 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
             why = f"the loop left open is closure[{j}]'s (link{cl.link} to link{cl.to_link}; {others})"
         raise AssemblyError(
             field,
-            f"the loop cannot be closed with {held_txt} held: the closest the tip gets is "
-            f"{closest.value:.3g} from its closure{'; ' + why if why else ''}",
+            f"the loop cannot be closed with {held_txt}: the closest the tip gets is "
+            f"{closest.value:.3g} {unit} from its closure{'; ' + why if why else ''}",
         )
     return z, zd
 

@@ -18,7 +18,7 @@ import numpy as np
 from .analysis import classify
 from .assembly import assemble
 from . import limits
-from .errors import GrublerError, InputError
+from .errors import AssemblyError, GrublerError, InputError
 from .limits import number
 from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
@@ -67,6 +67,16 @@ def cmd_info(args) -> int:
     scene = load_scene(args.scene)
     m = scene.mechanism
     c = classify(m)
+    at = _at_drive_angle(m, args.at)
+    try:
+        assemble(at, at.z_from_q(at.q_ref), scene.initial_rates)
+    except AssemblyError:
+        # a loop that closes nowhere at this angle: its class would only mislead, the reason comes
+        # alone; one that closes on another branch than its sketch's gets the branches listed below
+        from .assembly import branches
+
+        if not (at.closures and at.drive and branches(at, at.z_from_q(at.q_ref))[0]):
+            raise
     print(f"scene      {scene.name}")
     if m.description:
         print(f"           {m.description}")
@@ -95,14 +105,7 @@ def cmd_info(args) -> int:
     print(f"drive      {m.drive or '-'}  torque {scene.torque:g}")
     if m.load:
         print(f"load       {m.load}  torque {scene.load_torque:g}")
-    if args.at is not None:
-        if not m.drive:
-            raise GrublerError("--at: this scene has no drive joint whose angle it could set")
-        from .scene import parse_angle_or_number
-
-        q_ref = list(m.q_ref)
-        q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(args.at, "--at")
-        m = m.replace(q_ref=tuple(q_ref))
+    m = at
     z0 = m.z_from_q(m.q_ref)
     if m.closures and m.drive:
         _print_branches(m, z0)
@@ -114,6 +117,19 @@ def cmd_info(args) -> int:
         print("           (closed from the scene's start: "
               + ", ".join(f"{n} {a:.6g} -> {b:.6g}" for n, a, b in moved) + ")")
     return 0
+
+
+def _at_drive_angle(m, at):
+    """The mechanism with its drive coordinate's start set to ``at`` (info's --at), or as it is."""
+    if at is None:
+        return m
+    if not m.drive:
+        raise GrublerError("--at: this scene has no drive joint whose angle it could set")
+    from .scene import parse_angle_or_number
+
+    q_ref = list(m.q_ref)
+    q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(at, "--at")
+    return m.replace(q_ref=tuple(q_ref))
 
 
 def _print_branches(m, z0) -> None:

@@ -457,6 +457,11 @@ def parse_axis(text: str) -> tuple[str, list]:
     if not eq or not name or not spec.strip():
         raise InputError("--set", f"{brief(text)}: write NAME=V1,V2,... or NAME=START:STOP:N")
     parts = spec.split(":")
+    if len(parts) not in (1, 3):
+        # 0.3:0.1, 0.1:0.3:5:2: a range, but not START:STOP:N
+        raise InputError(f"--set {clip(name)}", f"{brief(spec)} has {len(parts) - 1} colon(s): write a range as "
+                                                "START:STOP:N (N points, ends included, e.g. 0.1:0.3:5) or list "
+                                                "the values as V1,V2,...")
     if len(parts) == 3:
         try:
             a, b = number(parts[0], f"--set {clip(name)}"), number(parts[1], f"--set {clip(name)}")

@@ -217,3 +217,23 @@ def test_a_misspelt_name_gets_a_suggestion_and_a_missing_file_is_called_so():
     with pytest.raises(SceneError, match="no such file"):
         load_motor("nodir/motor.toml")
     expect(scene_with("a = 0.8\nm = 2.0", "a = 0.8\nm = 2.0\ndampign = 0.1"), "link3.dampign", "did you mean 'damping'")
+
+
+def test_info_on_a_loop_that_closes_nowhere_gives_the_reason_alone(capsys, tmp_path):
+    from grubler.cli import run
+
+    scene = tmp_path / "noclose.toml"
+    scene.write_text('[mechanism]\ntype = "four-bar"\nground = 1.0\ncrank = 0.8\ncoupler = 0.3\nrocker = 0.9\n'
+                     'crank_angle = "100 deg"\n')
+    assert run(["info", str(scene)]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""  # no Grashof class of a mechanism that cannot be assembled
+    assert "theta2 = 1.74533 held (rad)" in err and "0.152 m from its closure" in err
+
+
+def test_a_sweep_range_written_without_its_count_is_explained():
+    from grubler.errors import InputError
+    from grubler.sweep import parse_axis
+
+    with pytest.raises(InputError, match="START:STOP:N"):
+        parse_axis("link2.a=0.3:0.1")
