@@ -21,7 +21,7 @@ import resource
 import shutil
 import sys
 
-from fmi_child import instance, status  # beside this script
+from fmi_child import instance, report, status  # beside this script
 
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
 
@@ -357,11 +357,7 @@ def main() -> None:
     result = {"states": lambda: states(dist, extra), "sequence": lambda: sequence(dist), "every": lambda: every(dist),
               "reload": lambda: reload(dist, extra), "versions": lambda: versions(dist, extra),
               "cosim": lambda: cosim_other_build(extra)}[mode]()
-    with open(out_path, "w") as fh:
-        json.dump({"done": True, "result": result}, fh)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os._exit(0)
+    report(out_path, result)
 
 
 if __name__ == "__main__":

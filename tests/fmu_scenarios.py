@@ -10,15 +10,13 @@ not the exit code.
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
 
 import numpy as np
 from fmpy import extract, read_model_description
 
-from fmi_child import instance, status  # beside this script
+from fmi_child import instance, report, status  # beside this script
 
 
 class Runner:
@@ -144,11 +142,7 @@ def main() -> None:
     r = Runner(fmu)
     fn = globals()[f"scenario_{scenario}"]
     result = fn(r, fmu) if scenario == "simulate" else fn(r)
-    with open(out_path, "w") as fh:
-        json.dump({"done": True, "result": result}, fh)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os._exit(0)
+    report(out_path, result)
 
 
 if __name__ == "__main__":
