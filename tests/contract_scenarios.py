@@ -13,7 +13,6 @@ upstream issue 228).  Before its FMUs are loaded it never imports grubler (but i
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import pickle
