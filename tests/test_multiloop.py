@@ -64,6 +64,18 @@ def sketch_pose(ref, angles):
     return x
 
 
+
+def run_closed(sim, m, times):
+    """Absolute angles and total energy at each time, every output checked closed."""
+    angles, energies = [], []
+    for t in times:
+        sim.advance_to(t)
+        out = sim.outputs()
+        assert out["closure_error"] < 1e-10
+        angles.append(m.q_from_z(sim.z)[1::2])
+        energies.append(out["E"])
+    return np.array(angles), energies
+
 def test_six_bar_mobility_and_assembly():
     m = watt_six_bar()
     assert m.mobility == 1 == grubler.kutzbach_mobility(6, 7)
@@ -83,14 +95,7 @@ def test_six_bar_both_loops_move_and_agree_with_a_body_model():
     times = np.linspace(0.0, 5.0, 51)
     sim = Simulator(m, rtol=1e-11, atol=1e-11)
     ref_x, _ = ref.simulate(ref.close(sketch_pose(ref, SKETCH), hold=0), np.zeros(15), times)
-    angles, energies = [], []
-    for t in times:
-        sim.advance_to(t)
-        out = sim.outputs()
-        assert out["closure_error"] < 1e-10
-        angles.append(m.q_from_z(sim.z)[1::2])
-        energies.append(out["E"])
-    angles = np.array(angles)
+    angles, energies = run_closed(sim, m, times)
     # the second loop moves: theta5, theta6 swing by tenths of a radian, not 1e-14
     assert np.ptp(angles[:, 3]) > 0.05 and np.ptp(angles[:, 4]) > 0.3
     assert np.max(np.abs(angles - ref_x[:, 2::3])) < 1e-7
@@ -159,14 +164,7 @@ def test_an_eight_bar_is_data_too_and_agrees_with_the_body_model():
     times = np.linspace(0.0, 3.0, 31)
     ref_x, _ = ref.simulate(x0, np.zeros(21), times)
     sim = Simulator(m, rtol=1e-11, atol=1e-11)
-    angles, energies = [], []
-    for t in times:
-        sim.advance_to(t)
-        out = sim.outputs()
-        assert out["closure_error"] < 1e-10
-        angles.append(m.q_from_z(sim.z)[1::2])
-        energies.append(out["E"])
-    angles = np.array(angles)
+    angles, energies = run_closed(sim, m, times)
     assert np.ptp(angles[:, 5]) > 0.05 and np.ptp(angles[:, 6]) > 0.05  # the third loop moves
     assert np.max(np.abs(angles - ref_x[:, 2::3])) < 1e-7
     assert np.ptp(energies) < 1e-7 * max(1.0, abs(energies[0]))
