@@ -49,14 +49,14 @@ class Settings(ctypes.Structure):
     _fields_ = [("tableau", c_int), ("method", c_int), ("project", c_int), ("scale", c_double),
                 ("rtol", c_double), ("atol", c_double), ("h_max", c_double), ("h_fixed", c_double),
                 ("max_steps", c_long), ("tau_drive", c_double), ("tau_load", c_double), ("drive_fn", DRIVE_FN),
-                ("drive_ctx", c_void_p)]
+                ("drive_ctx", c_void_p), ("passage_log", c_void_p), ("passage_capacity", c_int)]
 
 
 class Clock(ctypes.Structure):
     """``grb_clock``: the integrator's state besides y and f."""
 
     _fields_ = [("t", c_double), ("h", c_double), ("have_f", c_int), ("steps", c_long), ("rejected", c_long),
-                ("evals", c_long)]
+                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double)]
 
 
 class Failure(ctypes.Structure):

@@ -278,16 +278,24 @@ static void closure_multipliers(grb_ws *w) {
     }
 }
 
+/* The chain's equations of motion without its closures, M zdd = Q - h: M into
+ * T[:, :N], Q - h into T[:, x0] (for the closures' solve below, and for the
+ * motion along an assembly branch near a change point, integrate.c). */
+void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load,
+                         grb_ws *w) {
+    GRB(chain)(md, z, zd, w);
+    mass_centres(md, w);
+    mass_matrix(md, w);
+    generalised_force(md, zd, tau_drive, tau_load, w, w->x0);
+}
+
 /* Joint accelerations (T's zdd column) and closure multipliers (R_LAM) at one
  * state.  0 (and nan accelerations) when the matrix to solve is singular. */
 int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                       real tau_load, grb_ws *w) {
     int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
-    GRB(chain)(md, z, zd, w);
-    mass_centres(md, w);
+    GRB(mass_and_force)(md, z, zd, tau_drive, tau_load, w);
     GRB(closure_rows)(md, zd, w);
-    mass_matrix(md, w);
-    generalised_force(md, zd, tau_drive, tau_load, w, x0);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) T_(w, i, a0 + j) = T_(w, i, j);
     if (m > 0 && method == GRB_PENALTY) {

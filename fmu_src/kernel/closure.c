@@ -224,3 +224,115 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     *closest = err;
     return GRB_OK;
 }
+
+/* Conditioning of the closure at z: the smallest over the largest singular
+ * value of its Jacobian (1 for an open chain).  It falls to zero where two
+ * assembly branches meet (a change point, a dead centre of the loop), which is
+ * where the passage logic of integrate.c takes over. */
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+    int n = w->n, m = w->m;
+    if (m == 0) return 1.0;
+    rows_at(md, z, w);
+    /* eigenvalues of the Gram matrix J J^T (m x m) are the squared singular values */
+    double *G = w->Q; /* Q's first m columns hold it, sym_eig its scratch */
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
+            G[r * w->qc + c] = g;
+        }
+    double lo, hi;
+    if (m == 2) {
+        double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
+        double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
+        hi = tr / 2.0 + disc;
+        lo = det / (hi > 0.0 ? hi : 1.0); /* the small root without cancellation */
+    } else {
+        grb_sym_eig(w->Q, w->qc, m);
+        lo = INFINITY;
+        hi = 0.0;
+        for (int i = 0; i < m; i++) {
+            double e = w->Q[i * w->qc + 3 * m];
+            lo = fmin(lo, e);
+            hi = fmax(hi, e);
+        }
+    }
+    if (!(hi > 0.0)) return 0.0;
+    return sqrt(fmax(lo, 0.0) / hi);
+}
+
+/* Orientation of the motion against the closure, for a mechanism of mobility
+ * one (N = M + 1): the determinant of J stacked on the direction of zd.  Along a
+ * branch it keeps its sign; it passes through zero where the branch crosses
+ * another (J loses rank and zd lies in its grown null space), so a step whose
+ * ends disagree in sign stepped across a change point (or the motion turned
+ * back: zd changed sign).  0 when it does not apply (other mobility, no motion). */
+double grb_branch_orientation(const grb_model *md, const double *y, grb_ws *w) {
+    int n = w->n, m = w->m;
+    if (m == 0 || n != m + 1) return 0.0;
+    const double *zd = y + n;
+    double speed = 0.0;
+    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
+    if (!(speed > 0.0)) return 0.0;
+    speed = sqrt(speed);
+    rows_at(md, y, w);
+    double *A = w->Q; /* n x n scratch: (m + 1)^2 <= m (3m + 1) */
+    for (int r = 0; r < m; r++)
+        for (int i = 0; i < n; i++) A[r * n + i] = J_(w, r, i);
+    for (int i = 0; i < n; i++) A[m * n + i] = zd[i] / speed;
+    double det = 1.0;
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
+        if (A[p * n + c] == 0.0) return 0.0;
+        if (p != c) {
+            for (int j = 0; j < n; j++) {
+                double t = A[c * n + j];
+                A[c * n + j] = A[p * n + j];
+                A[p * n + j] = t;
+            }
+            det = -det;
+        }
+        det *= A[c * n + c];
+        for (int r = c + 1; r < n; r++) {
+            double f = A[r * n + c] / A[c * n + c];
+            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
+        }
+    }
+    return det;
+}
+
+/* The point of an assembly branch where coordinate `held` has the value z[held]:
+ * Newton on the other coordinates from the guess in z, for as long as the
+ * violation still halves (to rounding: near a change point what is left of it
+ * would be amplified), and the branch's tangent there, dz/dz[held], into
+ * tangent (when not NULL).  Returns the violation left (inf when Newton did
+ * not converge to the scale's closure tolerance). */
+double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w) {
+    int n = w->n, m = w->m, dep[64], nd = 0;
+    if (n > 64 || held < 0 || held >= n) return INFINITY;
+    scratch s = scratch_of(w);
+    for (int i = 0; i < n; i++)
+        if (i != held) dep[nd++] = i;
+    double previous = INFINITY, err = INFINITY;
+    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
+        rows_at(md, z, w);
+        err = worst_violation(w);
+        if (!(err < 0.5 * previous) || err == 0.0) break;
+        previous = err;
+        for (int r = 0; r < m; r++) s.phi[r] = -R_(w, r, R_PHI);
+        solve_dependent(w, &s, dep, nd, s.phi, s.step);
+        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
+    }
+    rows_at(md, z, w);
+    err = worst_violation(w);
+    if (!(err <= POSITION_TOL * scale)) return INFINITY;
+    if (tangent) {
+        for (int r = 0; r < m; r++) s.b[r] = -J_(w, r, held);
+        solve_dependent(w, &s, dep, nd, s.b, s.x);
+        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
+        tangent[held] = 1.0;
+    }
+    return err;
+}

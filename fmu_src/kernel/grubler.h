@@ -165,6 +165,8 @@ typedef struct grb_settings {
     double tau_drive, tau_load;
     grb_drive_fn drive_fn;
     void *drive_ctx;
+    double *passage_log;      /* where the times of change-point passages go (NULL: nowhere) */
+    int passage_capacity;     /* its length; passage k goes to passage_log[k % capacity] */
 } grb_settings;
 
 /* The integrator's own state besides y and its derivative f (plain data). */
@@ -173,6 +175,8 @@ typedef struct grb_clock {
     double h;                 /* next step (0: the integrator picks one) */
     int have_f;               /* f holds ydot at (t, y) */
     long steps, rejected, evals;
+    long passages;            /* change points passed (see grb_advance) */
+    double kappa_seen;        /* best closure conditioning seen so far (0: none yet) */
 } grb_clock;
 
 /* Where and why an advance stopped. */
@@ -186,6 +190,17 @@ GRB_API size_t grb_stepper_size(int tableau, int n_states);
 /* Step the state equation from clock->t through the increasing times t_out,
  * recording the state at each into out (n_out x 2N).  All or nothing: y, f and
  * the clock change only when it returns GRB_OK; otherwise *why says where.
+ *
+ * Change points (DOP853 with the projection): where the closure's Jacobian
+ * loses rank, two assembly branches meet and the equations of motion are
+ * ill-conditioned, though the motion along its branch stays smooth.  A step
+ * that would enter that zone is shortened to end at its edge; the zone is then
+ * crossed in one step of a two-point Hermite-Obreschkoff formula, implicit in
+ * the state at the far edge, whose only evaluations are at the two
+ * well-conditioned edges; the far state, found by fixed-point iteration from a
+ * Taylor prediction and projected onto the closure, is the one on the branch
+ * the motion came along (continuity of position, velocity and acceleration).
+ * Each passage is counted in the clock and its time logged.
  * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
 GRB_API int grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
                         const double *t_out, int n_out, double *out, double *work, double *stepper,

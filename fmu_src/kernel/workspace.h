@@ -59,5 +59,32 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
                        real tau_load, grb_ws *w);
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w);
+double grb_branch_orientation(const grb_model *md, const double *y, grb_ws *w);
+double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
+/* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
+void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
+
+/* An assembly branch near a change point as a curve z(x) in one held
+ * coordinate x (chart.c): Chebyshev coefficients of z, dz/dx and d2z/dx2 over
+ * x in [lo, hi], and where in it the closure is worst conditioned. */
+#define CHART_NODES 16
+typedef struct grb_chart {
+    int n, active, held;
+    double lo, hi, mid, half;
+    double pinch, pinch_kappa;  /* x at the worst conditioning met, and that conditioning (relative) */
+    double pinch_step;          /* how far from pinch the worst lies (while the chart is built) */
+    double *c;                  /* 3 x CHART_NODES x n coefficients */
+    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes */
+    double *scratch;            /* 10 n */
+} grb_chart;
+size_t grb_chart_size(int n_links);
+void grb_chart_init(grb_chart *ch, int n_links, double *buffer);
+int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
+                    grb_chart *ch, grb_ws *w);
+int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz);
+int grb_chart_put(const grb_chart *ch, double *y);
+int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
+                  grb_ws *w, double *out);
 
 #endif

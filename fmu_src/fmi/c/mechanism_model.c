@@ -45,6 +45,8 @@ enum {
     P_H,                        /* the integrator's next step */
     P_HAVE_F,                   /* f holds ydot at (t, y) */
     P_STEPS, P_REJECTED, P_EVALS,
+    P_PASSAGES,                 /* change points passed */
+    P_KAPPA_SEEN,               /* the best closure conditioning the run has seen (grb_clock) */
     P_DRIVE_USED, P_LOAD_USED,  /* the efforts f was computed with */
     P_Y,                        /* y = (z, zd), 2N */
     P_F = P_Y + NS,             /* f = ydot, 2N */
@@ -62,6 +64,7 @@ typedef struct mech {
     int q_index[N];             /* index in q of each pair's real coordinate */
     double out[MODEL_N_OUTPUTS];
     double y_end[NS];
+    double passage_log[16];     /* times of the change points one step passed, for the log */
     int held[N];
     int n_hold;
     double scale;
@@ -294,6 +297,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->s.max_steps = GRB_FMU_MAX_STEPS;
     mm->s.drive_fn = NULL;
     mm->s.drive_ctx = NULL;
+    mm->s.passage_log = mm->passage_log;
+    mm->s.passage_capacity = (int)(sizeof mm->passage_log / sizeof mm->passage_log[0]);
     mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints */
     if (mm->n_hold < 0) BAD("closure: the closures over-constrain the chain (mobility %d)", mm->n_hold);
 
@@ -338,7 +343,7 @@ fmi2Status model_prepare(grb_instance *inst) {
         p[P_T] = inst->start_time;
         p[P_H] = 0.0;
         p[P_HAVE_F] = 0.0;
-        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = 0.0;
+        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = p[P_PASSAGES] = p[P_KAPPA_SEEN] = 0.0;
         p[P_DRIVE_USED] = p[P_LOAD_USED] = 0.0;
     }
     return fmi2OK;
@@ -429,7 +434,8 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     clock.t = t;
     clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;
-    clock.steps = clock.rejected = clock.evals = 0;
+    clock.steps = clock.rejected = clock.evals = clock.passages = 0;
+    clock.kappa_seen = p[P_KAPPA_SEEN];
     st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
     if (st != GRB_OK) {
         grb_log(inst, fmi2Discard, "step from t = %.12g s failed at t = %.12g s: %s (limit %g); the mechanism stays "
@@ -442,6 +448,17 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     p[P_STEPS] += (double)clock.steps;
     p[P_REJECTED] += (double)clock.rejected;
     p[P_EVALS] += (double)clock.evals;
+    p[P_KAPPA_SEEN] = clock.kappa_seen;
+    if (clock.passages > 0) {
+        /* the exact closure carried the motion through a change point on its
+         * branch: say when (the log keeps the last ones of a long step) */
+        long k, cap = mm->s.passage_capacity, first = clock.passages > cap ? clock.passages - cap : 0;
+        for (k = first; k < clock.passages; k++)
+            grb_log(inst, fmi2OK, "passed a change point (two assembly branches meet) at t = %.9g s, staying on "
+                    "the branch it came along (change point %.0f of the run)", mm->passage_log[k % cap],
+                    p[P_PASSAGES] + (double)(k + 1));
+        p[P_PASSAGES] += (double)clock.passages;
+    }
     inst->level = 0;
     return fmi2OK;
 }
