@@ -16,7 +16,7 @@ import math
 from typing import Callable
 
 from .errors import SceneError
-from .limits import brief
+from .limits import brief, did_you_mean
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
 BUILDER_DOCS: dict[str, str] = {}
@@ -37,8 +37,9 @@ class _Params:
         self.prefix = prefix
         unknown = set(params) - set(allowed) - {"type"}
         if unknown:
-            raise SceneError(f"{prefix}.{sorted(unknown)[0]}",
-                             f"unknown parameter; this builder takes {', '.join(allowed)}")
+            key = sorted(unknown)[0]
+            raise SceneError(f"{prefix}.{key}",
+                             f"unknown parameter{did_you_mean(key, allowed)}; this builder takes {', '.join(allowed)}")
         self.values = {k: params.get(k, v) for k, v in allowed.items()}
         for k, v in self.values.items():
             if v is None:
