@@ -144,7 +144,8 @@ def _parent(value, field: str, k: int) -> int:
         match = re.fullmatch(r"link(\d+)", text)
         value = int(match.group(1)) if match else value
     if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value < k:
-        earlier = "the ground" if k == 2 else f'the ground ("ground" or 1) or an earlier link ("link2" .. "link{k - 1}")'
+        earlier = ("the ground" if k == 2
+                   else f'the ground ("ground" or 1) or an earlier link ("link2" .. "link{k - 1}")')
         raise SceneError(f"{field}.parent", f"must name {earlier}: a link hangs from a predecessor, got {brief(value)}")
     return value
 

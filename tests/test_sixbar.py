@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 
 from planar_bodies import Bodies, Body, Pin, dyad
 
-SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii"]
+SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
 RHO = 1.0  # kg/m: the presets' bars
 
 
@@ -69,7 +69,16 @@ def joints(name, P, th, signs, near=None):
     A = np.array([math.cos(th), math.sin(th)])
     if name == "stephenson-ii":
         return triad(P, th, signs[0], near)
-    if name == "watt-ii":
+    if name == "stephenson-iii":
+        # the ground ternary's pivots; the floating ternary A-B-C rides on crank and rocker
+        w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"]), "O6": np.array(P["output_pivot"])}
+        w["A"] = P["crank"] * A
+        w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
+        if w["B"] is None:
+            return None
+        w["C"] = third(w["A"], w["B"], P["coupler_arm"], P["coupler_web"], P.get("coupler_side", "left"))
+        w["D"] = dyad(w["C"], w["O6"], P["link5"], P["link6"], signs[1])
+    elif name == "watt-ii":
         w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"]), "O6": np.array(P["output_pivot"])}
         w["A"] = P["crank"] * A
         w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
@@ -97,9 +106,11 @@ BODIES = {
     "watt-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")],
     "stephenson-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")],
     "stephenson-ii": [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")],
+    # a tree: links 4 (rocker) and 5 both hang from the floating ternary, link 3
+    "stephenson-iii": [("O2", "A"), ("A", "B", "C"), ("B", "O4"), ("C", "D"), ("D", "O6")],
 }
 GROUND = {"watt-ii": ("O2", "O4", "O6"), "watt-i": ("O2", "O4"), "stephenson-i": ("O2", "O4"),
-          "stephenson-ii": ("O2", "O6")}
+          "stephenson-ii": ("O2", "O6"), "stephenson-iii": ("O2", "O4", "O6")}
 
 
 def reference(name, w, damping=0.0):
@@ -237,13 +248,13 @@ def test_damped_six_bar_rests_where_the_potential_is_least_with_the_static_force
         assert np.allclose(dyn.lam[2 * j:2 * j + 2], f, atol=1e-6), (cl, dyn.lam, f)
         col = "F" if j == 0 else f"closure{j}_F"  # the Result's columns for every closure
         assert np.allclose([res[col + "x"][-1], res[col + "y"][-1]], f, atol=1e-6)
-    # every chain joint's reaction (the force of link k-1 on link k)
+    # every chain joint's reaction (the force of link k's predecessor on link k)
     reactions = res["R1_Fx"][-1], res["R1_Fy"][-1]
     r0 = next(i for i, p in enumerate(ref.pins) if p.i == 0 and p.j is None and p.a == "O2")
     assert np.allclose(reactions, lam[r0], atol=1e-6)
     for k in range(1, m.n_links):
-        joint = BODIES[name][k][0]
-        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, k - 1})
+        joint, pred = BODIES[name][k][0], m.parents[k] - 2
+        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, pred})
         f = lam[r] if ref.pins[r].i == k else -lam[r]
         assert np.allclose([res[f"R{k + 1}_Fx"][-1], res[f"R{k + 1}_Fy"][-1]], f, atol=1e-6)
 
@@ -268,12 +279,12 @@ def test_ternary_links_are_drawn_as_plates_and_the_chain_is_named(name):
     m = grubler.load_scene(name).mechanism
     z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
     geo = frame_geometry(m, z)
-    ternary_moving = 1 if name == "watt-ii" else 2  # watt-ii's other ternary is the ground
+    ternary_moving = 1 if name in ("watt-ii", "stephenson-iii") else 2  # their other ternary is the ground
     assert len(geo.plates) == ternary_moving and all(len(p) == 3 for p in geo.plates)
     c = grubler.classify(m)
     assert c.mobility == 1
     assert c.name == {"watt-i": "Watt I", "watt-ii": "Watt II", "stephenson-i": "Stephenson I",
-                      "stephenson-ii": "Stephenson II"}[name] + " six-bar"
+                      "stephenson-ii": "Stephenson II", "stephenson-iii": "Stephenson III"}[name] + " six-bar"
 
 
 def test_an_input_angle_that_cannot_close_names_the_loop_and_its_triangle():
@@ -371,3 +382,39 @@ def test_a_triad_that_cannot_close_names_the_loop_left_open():
     m = m.replace(closures=tuple(closures))
     with pytest.raises(grubler.AssemblyError, match=r"the loop left open is closure\[1\]'s \(link6 to link3"):
         grubler.assemble(m, m.z_from_q(m.q_ref))
+
+
+def stephenson_iii_against_bodies(method="exact", gain=1e4, rtol=1e-12):
+    """Library and body-model angles (from the start) over 2 s under a constant drive torque."""
+    name = "stephenson-iii"
+    scene, m, z = closed_library(name)
+    # start both from the closed configuration (the penalty run starts there too)
+    q = m.q_from_z(z)
+    scene = override(scene, {"closure.gain": gain, **{f"initial.theta{k}": float(q[2 * k - 3]) for k in range(2, 7)}})
+    ref, x0 = reference(name, world_of(name, m, z))
+    ref.torque = {0: 0.05}  # the drive: on the crank, from the ground
+    times = np.linspace(0.0, 2.0, 41)
+    ref_x, _ = ref.simulate(x0, np.zeros(ref.n), times)
+    res = grubler.simulate(scene, t_end=2.0, dt_out=0.05, torque=0.05, method=method, rtol=rtol, atol=rtol)
+    assert np.allclose(res.t, times)
+    lib = np.column_stack([res[f"theta{k}"] for k in range(2, 7)])
+    lib -= lib[0]  # the reference's bodies start at angle 0 (world axes at the sketch)
+    assert np.ptp(lib[:, 0]) > 1.0 and np.ptp(lib[:, 4]) > 0.3  # it turns, and the branch's loop moves
+    return np.max(np.abs(lib - ref_x[:, 2::3])), np.max(res["closure_error"])
+
+
+def test_stephenson_iii_follows_the_body_model_driven():
+    # the one inversion whose chain branches (links 4 and 5 both hang from the
+    # floating ternary, link 3) against bodies and pins, which know no chain
+    worst, closure = stephenson_iii_against_bodies()
+    assert closure < 1e-12
+    assert worst < 1e-9, worst
+
+
+def test_stephenson_iii_penalty_closes_on_the_body_model_as_its_springs_stiffen():
+    # the thesis's imaginary joint: each loop closed to force / G, so ten times
+    # the gain takes the trajectory ten times closer to the rigid reference
+    soft, soft_closure = stephenson_iii_against_bodies("penalty", 1e5, rtol=1e-10)
+    stiff, stiff_closure = stephenson_iii_against_bodies("penalty", 1e6, rtol=1e-10)
+    assert 1e-5 < stiff_closure < 1e-4 < soft_closure < 1e-3  # the springs' compliance, m
+    assert 5.0 < soft / stiff < 20.0 and stiff < 5e-3, (soft, stiff)

@@ -278,8 +278,8 @@ fmi2Status model_prepare(grb_instance *inst) {
         row[GRB_SC_GAIN] = closure_field(p, j, CF_GAIN);
         row[GRB_SC_DAMP] = closure_field(p, j, CF_DAMPING);
     }
-    st = grb_scene_tables(N, NC, mm->revolute, mm->parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1], p + SLOT_Q0, cf,
-                          mm->links, mm->closures);
+    st = grb_scene_tables(N, NC, mm->revolute, mm->parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
+                          p + SLOT_Q0, cf, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
     mm->m.n_links = N;
