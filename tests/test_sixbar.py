@@ -418,3 +418,32 @@ def test_stephenson_iii_penalty_closes_on_the_body_model_as_its_springs_stiffen(
     stiff, stiff_closure = stephenson_iii_against_bodies("penalty", 1e6, rtol=1e-10)
     assert 1e-5 < stiff_closure < 1e-4 < soft_closure < 1e-3  # the springs' compliance, m
     assert 5.0 < soft / stiff < 20.0 and stiff < 5e-3, (soft, stiff)
+
+
+def test_stephenson_iii_linearised_at_rest_swings_at_the_body_model_frequency():
+    # the minimal coordinates and their complex-step twin on a tree: at the rest
+    # position the linear model's stiffness over inertia is the reference's
+    # d2PE/dphi2 over the generalised mass v^T M v, v = dx/dphi along the
+    # closed configurations (phi the crank angle), by finite differences of the
+    # reference's own closure
+    name = "stephenson-iii"
+    sys = grubler.linearize(name, torque=0.0)
+    a21 = sys.A[1, 0]
+    op = sys.operating_point
+    m = grubler.load_scene(name).mechanism
+    ref, x_rest = reference(name, world_of(name, m, op.z))
+
+    def closed(dphi):
+        x = x_rest.copy()
+        x[2] += dphi  # body 0 is the crank
+        return ref.close(x, hold=0)
+
+    h = 1e-3
+    xs = [closed(k * h) for k in (-2, -1, 0, 1, 2)]
+    pe = [ref.potential(x) for x in xs]
+    stiffness = (-pe[0] + 16 * pe[1] - 30 * pe[2] + 16 * pe[3] - pe[4]) / (12 * h * h)
+    v = (xs[0] - 8 * xs[1] + 8 * xs[3] - xs[4]) / (12 * h)
+    inertia = v @ ref.mass() @ v
+    assert abs((pe[0] - 8 * pe[1] + 8 * pe[3] - pe[4]) / (12 * h)) < 1e-9  # the reference agrees it is at rest
+    assert stiffness > 0
+    assert abs(a21 + stiffness / inertia) < 1e-7 * stiffness / inertia, (a21, -stiffness / inertia)
