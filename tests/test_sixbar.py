@@ -447,3 +447,29 @@ def test_stephenson_iii_linearised_at_rest_swings_at_the_body_model_frequency():
     assert abs((pe[0] - 8 * pe[1] + 8 * pe[3] - pe[4]) / (12 * h)) < 1e-9  # the reference agrees it is at rest
     assert stiffness > 0
     assert abs(a21 + stiffness / inertia) < 1e-7 * stiffness / inertia, (a21, -stiffness / inertia)
+
+
+def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
+    from grubler.cli import main
+
+    assert main(["info", "stephenson-iii", "--at", "120 deg"]) == 0
+    out = capsys.readouterr().out
+    assert "Stephenson III six-bar (Stephenson chain)" in out and "mobility   1" in out
+    assert "ternary: link1 (ground), link3" in out and "chain      a tree" in out and "link5 on link3" in out
+    branches = [line for line in out.splitlines() if line.startswith("  [")]
+    assert len(branches) == 4 and sum("the default" in line for line in branches) == 1
+    # each listed branch is one of the reference's four dyad placements
+    P = params("stephenson-iii")
+    candidates = [joints("stephenson-iii", P, math.radians(120), s) for s in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
+    def off(angle, a, b):  # degrees between a listed angle and the direction a -> b
+        d = (angle - math.degrees(math.atan2(*(b - a)[::-1]))) % 360
+        return min(d, 360 - d)
+
+    found = set()
+    for line in branches:  # the rocker (link 4) runs B -> O4, link 6 D -> O6
+        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        miss = [max(off(angles["theta4"], w["B"], w["O4"]), off(angles["theta6"], w["D"], w["O6"]))
+                for w in candidates]
+        found.add(int(np.argmin(miss)))
+        assert min(miss) < 1e-3
+    assert found == {0, 1, 2, 3}
