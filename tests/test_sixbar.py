@@ -473,3 +473,20 @@ def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
         found.add(int(np.argmin(miss)))
         assert min(miss) < 1e-3
     assert found == {0, 1, 2, 3}
+
+
+def test_stephenson_iii_at_an_angle_that_cannot_close_names_the_branch_dyad(tmp_path, capsys):
+    from grubler.cli import main
+
+    dims = {"crank": 0.1, "coupler": 0.35, "coupler_arm": 0.2, "coupler_web": 0.25, "rocker": 0.25, "link5": 0.2,
+            "link6": 0.15, "rocker_pivot": [0.3, 0.0], "output_pivot": [0.3, 0.45]}
+    scene = tmp_path / "tight.toml"
+    scene.write_text('[mechanism]\ntype = "stephenson-iii"\ninput_angle = "30 deg"\n'
+                     + "".join(f"{k} = {v}\n" for k, v in dims.items()))
+    assert main(["info", str(scene)]) == 0
+    assert main(["info", str(scene), "--at", "240 deg"]) == 2
+    err = capsys.readouterr().err
+    # the dyad on the branch: link 5 hangs from the floating ternary (link 3), link 6 from the ground pivot
+    assert "link3-link5 (chain)" in err and "closure[1]" in err and "link5-link6" in err and "no triangle" in err
+    assert joints("stephenson-iii", dims, math.radians(240), (1, 1)) is None  # the reference's dyad agrees
+    assert joints("stephenson-iii", dims, math.radians(30), (1, 1)) is not None
