@@ -147,3 +147,27 @@ def test_a_loop_on_a_tree_counts_the_revolutes_on_its_tree_path():
     assert m.loop_pairs(4, 3) == [3, 4] and m.loop_pairs(4, 1) == [2, 4]
     with pytest.raises(grubler.SceneError, match=r"the loop from link 3 to link 4 has 1 revolute"):
         m.replace(closures=(grubler.Closure("prismatic", link=4, point=(0.3, 0.0), to_link=3, angle=0.3),))
+
+
+def test_a_tree_with_slides_on_its_branches_keeps_its_energy():
+    # prismatic pairs off a turning parent carry the Coriolis and centripetal
+    # terms of the parent's rotation (taken from the parent's row, not the
+    # previous link's): were they wrong, an undamped, undriven run would not
+    # keep its energy.  Link 3 slides across link 2's end, link 4 swings from
+    # link 2 beside it, link 5 swings from the slider, link 6 slides on link 4.
+    links = (Link("R", a=0.6, p=0.3, m=1.0, I=0.03), Link("P", a=0.0, m=0.4, I=0.002, parent=2),
+             Link("R", a=0.4, p=0.2, q=0.02, m=0.5, I=0.007, parent=2), Link("R", a=0.3, p=0.15, m=0.3, I=0.002, parent=3),
+             Link("P", a=0.1, p=0.05, m=0.2, I=0.001, parent=4))
+    q_ref = (0.0, -0.3, 0.05, -0.3, -0.15, -1.2, 0.0, -2.0, 0.1, -0.4)
+    m = Mechanism(links=links, q_ref=q_ref)
+    assert m.parents == (1, 2, 2, 3, 4)
+    sim = Simulator(m, zd0=np.array([1.5, 0.2, -1.0, 0.5, -0.3]), rtol=1e-11, atol=1e-11)
+    energies, slides = [], []
+    for t in np.linspace(0.0, 5.0, 101):
+        sim.advance_to(t)
+        out = sim.outputs(["state", "energy"])
+        energies.append(out["E"])
+        slides.append((out["B2"], out["B5"]))
+    slides = np.array(slides)
+    assert np.ptp(slides[:, 0]) > 0.05 and np.ptp(slides[:, 1]) > 0.05  # both slides move
+    assert np.ptp(energies) < 1e-8 * max(abs(e) for e in energies), np.ptp(energies)
