@@ -210,9 +210,10 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
         elif name.startswith("R") and name[1].isdigit():
             k = int(name[1:name.index("_")])
             unit = "N.m" if suffix == "Mz" else "N"
-            text = f"{suffix[1:]}-component of the reaction link {k}'s predecessor exerts on link {k + 1} at its joint"
+            # link k+1's predecessor: link k in a serial chain, its parent in a tree
+            text = f"{suffix[1:]}-component of the reaction link {k + 1}'s predecessor exerts on it at its joint"
             if suffix == "Mz":
-                text = f"moment link {k}'s predecessor exerts on link {k + 1} at its joint"
+                text = f"moment link {k + 1}'s predecessor exerts on it at its joint"
             feed = True
         else:
             order_ = {"": 0, "d": 1, "dd": 2}[suffix]
