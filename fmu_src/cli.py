@@ -94,6 +94,10 @@ def cmd_info(args) -> int:
         print(f"topology   {m.n_links + 1} links, {m.n_links + len(m.closures)} joints; ternary: "
               f"{', '.join(ternary) or 'none'}; loops closed by "
               + ", ".join(f"closure[{j}] (link{c.link} to link{c.to_link})" for j, c in enumerate(m.closures)))
+    if m.is_tree:  # the chain branches: say which link hangs from which
+        hangs = ", ".join(f"link{k + 2} on {'the ground' if pk == 1 else f'link{pk}'}"
+                          for k, pk in enumerate(m.parents) if pk != k + 1)
+        print(f"chain      a tree (a link hangs from another than the previous link): {hangs}")
     joints = ", ".join(f"link{k + 2}: {'R' if l.joint == 'R' else 'P'}" for k, l in enumerate(m.links))
     print(f"joints     {joints}; real coordinates {', '.join(m.free_names)}")
     if c.grashof:

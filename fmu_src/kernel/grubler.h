@@ -10,7 +10,9 @@
  *   - every function that can fail returns a grb_status.
  *
  * Coordinates: y = (z, zd), z the N real joint variables (a slide's B, or a
- * revolute's angle relative to its predecessor), in chain order.
+ * revolute's angle relative to its predecessor), in chain order.  The chain may
+ * branch: each link's predecessor is any earlier link or the ground (a tree),
+ * and a joint moves its own subtree.
  */
 #ifndef GRUBLER_H
 #define GRUBLER_H
@@ -42,10 +44,14 @@ typedef enum grb_status {
 /* Columns of the link table, one row per moving link (model.py's L_*):
  * mass, centroidal inertia, mass centre along and across the link vector, the
  * vector's length, the predecessor's vector length (a1 for link 2), joint
- * damping, 1 if the revolute is the real joint (0: the slide), and the locked
- * slide and absolute angle that the real joints add to (q_locked). */
+ * damping, 1 if the revolute is the real joint (0: the slide), the locked
+ * slide and absolute angle that the real joints add to (q_locked), and the
+ * predecessor (parent): the 0-based index of the moving link the pair hangs
+ * from, -1 the ground.  A serial chain has parent k - 1; any earlier link makes
+ * the chain a tree (a Stephenson III six-bar needs one).  The kernel trusts the
+ * table as grb_scene_tables builds it: -1 <= parent < k for row k. */
 enum { GRB_L_M, GRB_L_I, GRB_L_P, GRB_L_Q, GRB_L_A, GRB_L_APRED, GRB_L_DAMP, GRB_L_REV, GRB_L_SLIDE0,
-       GRB_L_THETA0, GRB_L_COLUMNS };
+       GRB_L_THETA0, GRB_L_PARENT, GRB_L_COLUMNS };
 /* Columns of the closure table, one row per closure: kind (0 revolute,
  * 1 prismatic), closing link and target link (0-based moving-link index, -1 the
  * ground), point, target point, line angle, held orientation psi, penalty gain
@@ -126,7 +132,7 @@ GRB_API int grb_evaluate(const grb_model *m, int method, const double *y, double
  * point (lx along, ly across the link vector) of moving link k, from a
  * workspace grb_evaluate filled. */
 GRB_API int grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
-/* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor on it) from a
+/* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor (parent) on it) from a
  * workspace grb_evaluate filled. */
 GRB_API int grb_joint_reactions(const grb_model *m, double *work, double *out);
 /* Inverse dynamics residual M zdd + h - Q at (z, zd) with no drive effort:

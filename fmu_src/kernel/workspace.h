@@ -18,9 +18,12 @@
 #include "real.h"
 
 /* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
- * bias acceleration, slide axis, slide and its rate, mass centre, its bias */
+ * bias acceleration, slide axis, slide and its rate, mass centre, its bias, and
+ * the sum of the real relative angles from the ground to the link (what the
+ * link's children add theirs to: kept rather than recomputed from the angle so
+ * that a serial chain's sums are the same floating-point numbers as before) */
 enum { K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX, K_CBY,
-       K_COLUMNS };
+       K_ZS, K_COLUMNS };
 /* constraint rows: violation, acceleration right side, solver columns b and
  * lambda, the line normal's component along this row's axis (prismatic) and
  * the closing point's */
@@ -37,6 +40,15 @@ void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
 
 #define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
 #define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
+/* the predecessor of link k: an earlier moving link, or -1 the ground */
+#define PARENT_(m, k) ((int)L_(m, k, GRB_L_PARENT))
+
+/* 1 when link j is link k or one of its predecessors (j's joint moves k): walk
+ * k's parents down to j.  Parents are earlier links, so the walk ends. */
+static inline int grb_on_path(const grb_model *md, int j, int k) {
+    while (k > j) k = PARENT_(md, k);
+    return k == j;
+}
 #define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
 #define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
 #define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])

@@ -61,6 +61,7 @@ typedef struct mech {
     double links[N * GRB_L_COLUMNS];
     double closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS];
     int revolute[N];
+    int parent[N];              /* each link's predecessor, 0-based (-1 the ground) */
     int q_index[N];             /* index in q of each pair's real coordinate */
     double out[MODEL_N_OUTPUTS];
     double y_end[NS];
@@ -101,6 +102,8 @@ void model_reset(grb_instance *inst) {
 
 static double link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
 static double closure_field(const double *p, int j, int f) { return p[SLOT_CLOSURES + j * CLOSURE_STRIDE + f]; }
+/* the predecessor of link k (thesis numbering, 2 .. N+1), thesis numbering (1 the ground) */
+static int parent_link(const double *p, int k) { return (int)link_field(p, k - 2, LF_PARENT); }
 
 static const char *coordinate_name(int index, char *buf, size_t size) {
     if (index % 2 == 0)
@@ -141,6 +144,10 @@ static fmi2Status validate(grb_instance *inst) {
     if (p[SLOT_GRAVITY] < 0) BAD("gravity: must be >= 0 (it acts along -y), got %g", p[SLOT_GRAVITY]);
     if (p[SLOT_GROUND_A1] < 0) BAD("ground.a1: length must be >= 0, got %g", p[SLOT_GROUND_A1]);
     for (i = 0; i < N; i++) {
+        /* the kernel walks parents towards the ground: each must be an earlier link */
+        if (parent_link(p, i + 2) < 1 || parent_link(p, i + 2) > i + 1)
+            BAD("link%d.parent: must be the ground (1) or an earlier link 2..%d (the chain's predecessor), got %d",
+                i + 2, i + 1, parent_link(p, i + 2));
         if (link_field(p, i, LF_A) < 0) BAD("link%d.a: length must be >= 0, got %g", i + 2, link_field(p, i, LF_A));
         if (!(link_field(p, i, LF_M) > 0)) BAD("link%d.m: mass must be positive, got %g", i + 2,
                                                link_field(p, i, LF_M));
@@ -157,11 +164,19 @@ static fmi2Status validate(grb_instance *inst) {
                                                      closure_field(p, j, CF_GAIN));
         if (closure_field(p, j, CF_DAMPING) < 0) BAD("%s.damping: penalty damping must be >= 0, got %g", name,
                                                      closure_field(p, j, CF_DAMPING));
-        /* a loop needs two revolutes to move (MODEL.md section 1) */
+        /* a loop needs two revolutes to move (MODEL.md section 1); its chain pairs are those on the tree path
+         * between the closure's links (Mechanism.loop_pairs) */
         lo = link < to ? link : to;
         hi = link < to ? to : link;
         nrev = (int)closure_field(p, j, CF_TYPE) == 1;
-        for (k = lo + 1; k <= hi; k++) nrev += (int)link_field(p, k - 2, LF_JOINT) == 1;
+        {
+            int a = lo, b = hi;
+            while (a != b) {
+                int *up = a > b ? &a : &b;
+                nrev += (int)link_field(p, *up - 2, LF_JOINT) == 1;
+                *up = parent_link(p, *up);
+            }
+        }
         if (nrev < 2)
             BAD("%s.type: the loop from link %d to link %d has %d revolute joint(s); a loop needs at least two "
                 "revolutes to move", name, lo, hi, nrev);
@@ -171,13 +186,13 @@ static fmi2Status validate(grb_instance *inst) {
         double axis[2 * N + 2 * (NC > 0 ? NC : 1)];
         int owner[2 * N + 2 * (NC > 0 ? NC : 1)], n_axes = 0, x, y;
         char field[2 * N + 2 * (NC > 0 ? NC : 1)][48];
-        double prev = p[SLOT_GROUND_THETA1];
         for (i = 0; i < N; i++) {
+            int pk = parent_link(p, i + 2);
+            double prev = pk == 1 ? p[SLOT_GROUND_THETA1] : p[SLOT_Q0 + 2 * pk - 3];
             double rel = p[SLOT_Q0 + 2 * i + 1] - prev;
-            prev = p[SLOT_Q0 + 2 * i + 1];
             if ((int)link_field(p, i, LF_JOINT) == 2) {
-                axis[n_axes] = (i == 0 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
-                owner[n_axes] = i + 1;
+                axis[n_axes] = (pk == 1 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
+                owner[n_axes] = pk;
                 snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
                 axis[n_axes] = M_PI / 2 - rel;
                 owner[n_axes] = i + 2;
@@ -244,6 +259,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     if (s != fmi2OK) return s;
     for (i = 0; i < N; i++) {
         mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
+        mm->parent[i] = parent_link(p, i + 2) - 2;
         lf[i * GRB_SL_COLUMNS + GRB_SL_A] = link_field(p, i, LF_A);
         lf[i * GRB_SL_COLUMNS + GRB_SL_P] = link_field(p, i, LF_P);
         lf[i * GRB_SL_COLUMNS + GRB_SL_Q] = link_field(p, i, LF_Q);
@@ -265,8 +281,8 @@ fmi2Status model_prepare(grb_instance *inst) {
         row[GRB_SC_GAIN] = closure_field(p, j, CF_GAIN);
         row[GRB_SC_DAMP] = closure_field(p, j, CF_DAMPING);
     }
-    st = grb_scene_tables(N, NC, mm->revolute, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1], p + SLOT_Q0, cf,
-                          mm->links, mm->closures);
+    st = grb_scene_tables(N, NC, mm->revolute, mm->parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
+                          p + SLOT_Q0, cf, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
     mm->m.n_links = N;
@@ -308,8 +324,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     {
         double *y = p + P_Y, *z = y, *zd = y + N, closest = 0.0;
         int n_held = 0;
-        grb_z_from_q(N, mm->revolute, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
-        grb_zd_from_qd(N, mm->revolute, p + SLOT_QD0, zd);
+        grb_z_from_q(N, mm->revolute, mm->parent, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
+        grb_zd_from_qd(N, mm->revolute, mm->parent, p + SLOT_QD0, zd);
         if (method == GRB_EXACT && NC > 0) {
             char names[256];
             size_t used = 0;
