@@ -87,6 +87,14 @@ def cmd_info(args) -> int:
         print(f"           {SIX_BAR_INVERSIONS[c.name.removesuffix(' six-bar')]}")
     print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
           f"j = {m.n_links + len(m.closures)})")
+    if m.closures:
+        from .assembly import freedom
+
+        free = freedom(m, m.z_from_q(m.q_ref))
+        if free > c.mobility:
+            print(f"           {free} by the closures' rank at the start: {free - c.mobility} of their "
+                  f"{m.n_constraints} equations {'is' if free - c.mobility == 1 else 'are'} redundant "
+                  f"(a linkage overconstrained by its design moves all the same)")
     if len(m.closures) > 1:
         from .analysis import joint_counts
 

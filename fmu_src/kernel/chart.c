@@ -189,7 +189,7 @@ static int refine_pinch(const grb_model *md, double scale, int held, double kapp
 int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
                     grb_chart *ch, grb_ws *w) {
     int n = w->n, m = w->m;
-    if (m == 0 || n != m + 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    if (m < n - 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
     double *z = ch->scratch, *t = ch->scratch + n, *z_lo = ch->scratch + 2 * n, *t_lo = ch->scratch + 3 * n;
     double *z_hi = ch->scratch + 4 * n, *t_hi = ch->scratch + 5 * n;
     const double *zd = y + n;

@@ -96,6 +96,14 @@ int grb_constraint(const grb_model *md, const double *z, double *phi, double *J,
     return GRB_OK;
 }
 
+int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
+    grb_ws w;
+    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    if (w.m > 64) return GRB_BAD_ARGUMENT;
+    *freedom = grb_closure_freedom(md, z, &w);
+    return GRB_OK;
+}
+
 int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
@@ -225,15 +233,11 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     return GRB_OK;
 }
 
-/* Conditioning of the closure at z: the smallest over the largest singular
- * value of its Jacobian (1 for an open chain).  It falls to zero where two
- * assembly branches meet (a change point, a dead centre of the loop), which is
- * where the passage logic of integrate.c takes over. */
-double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+/* Squared singular values of the closure Jacobian at z, largest first, into
+ * e (m of them): the eigenvalues of the Gram matrix J J^T. */
+static void squared_singular_values(const grb_model *md, const double *z, grb_ws *w, double *e) {
     int n = w->n, m = w->m;
-    if (m == 0) return 1.0;
     rows_at(md, z, w);
-    /* eigenvalues of the Gram matrix J J^T (m x m) are the squared singular values */
     double *G = w->Q; /* Q's first m columns hold it, sym_eig its scratch */
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
@@ -241,45 +245,106 @@ double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w)
             for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
             G[r * w->qc + c] = g;
         }
-    double lo, hi;
     if (m == 2) {
         double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
         double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
-        hi = tr / 2.0 + disc;
-        lo = det / (hi > 0.0 ? hi : 1.0); /* the small root without cancellation */
-    } else {
-        grb_sym_eig(w->Q, w->qc, m);
-        lo = INFINITY;
-        hi = 0.0;
-        for (int i = 0; i < m; i++) {
-            double e = w->Q[i * w->qc + 3 * m];
-            lo = fmin(lo, e);
-            hi = fmax(hi, e);
-        }
+        e[0] = tr / 2.0 + disc;
+        e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
+        return;
     }
-    if (!(hi > 0.0)) return 0.0;
-    return sqrt(fmax(lo, 0.0) / hi);
+    grb_sym_eig(w->Q, w->qc, m);
+    for (int i = 0; i < m; i++) e[i] = w->Q[i * w->qc + 3 * m];
+    for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
+        for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
+            double tmp = e[k];
+            e[k] = e[k - 1];
+            e[k - 1] = tmp;
+        }
+}
+
+/* Conditioning of the closure at z for a mechanism of mobility one: its
+ * Jacobian's (N - 1)-th singular value over its largest (1 for an open
+ * chain).  Redundant closure rows (a third coupling crank) add singular values
+ * that are zero everywhere; the (N - 1)-th is the one that falls to zero where
+ * two assembly branches meet (a change point, a dead centre of the loop),
+ * which is where the passage logic of integrate.c takes over. */
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+    int n = w->n, m = w->m;
+    double e[64];
+    if (m == 0) return 1.0;
+    if (m > 64) return 0.0;
+    squared_singular_values(md, z, w, e);
+    int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
+    if (k < 0) k = 0;
+    if (!(e[0] > 0.0)) return 0.0;
+    return sqrt(fmax(e[k], 0.0) / e[0]);
+}
+
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest).  With redundant rows
+ * this is less than N - M. */
+int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
+    int n = w->n, m = w->m, rank = 0;
+    double e[64];
+    if (m == 0) return n;
+    if (m > 64) return -1;
+    squared_singular_values(md, z, w, e);
+    for (int i = 0; i < m; i++)
+        if (e[i] > 1e-16 * e[0]) rank++;
+    return n - rank;
+}
+
+/* The N - 1 dominant directions of the closure rows at z (unit vectors of
+ * length M, the Gram matrix's leading eigenvectors) into basis, for
+ * grb_branch_orientation when redundant rows make J taller than N - 1. */
+int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis) {
+    int n = w->n, m = w->m, v0 = 2 * m, w0 = 3 * m, used[64] = {0};
+    if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
+    rows_at(md, z, w);
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
+            Q_(w, r, c) = g;
+        }
+    grb_sym_eig(w->Q, w->qc, m);
+    for (int b = 0; b < n - 1; b++) {
+        int best = -1;
+        for (int i = 0; i < m; i++)
+            if (!used[i] && (best < 0 || Q_(w, i, w0) > Q_(w, best, w0))) best = i;
+        used[best] = 1;
+        for (int r = 0; r < m; r++) basis[b * m + r] = Q_(w, r, v0 + best);
+    }
+    return GRB_OK;
 }
 
 /* Orientation of the motion against the closure, for a mechanism of mobility
- * one (N = M + 1): the determinant of J stacked on the direction of zd.  Along a
- * branch it keeps its sign; it passes through zero where the branch crosses
- * another (J loses rank and zd lies in its grown null space), so a step whose
- * ends disagree in sign stepped across a change point (or the motion turned
- * back: zd changed sign).  0 when it does not apply (other mobility, no motion). */
-double grb_branch_orientation(const grb_model *md, const double *y, grb_ws *w) {
+ * one: the determinant of the closure rows (J, or its rows along basis when
+ * redundant rows make it taller: see grb_closure_row_basis) stacked on the
+ * direction of zd.  Along a branch it keeps its sign; it passes through zero
+ * where the branch crosses another (J loses rank and zd lies in its grown null
+ * space), so a step whose ends disagree in sign stepped across a change point
+ * (or the motion turned back: zd changed sign).  0 when it does not apply. */
+double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w) {
     int n = w->n, m = w->m;
-    if (m == 0 || n != m + 1) return 0.0;
+    if (m == 0 || (basis ? m < n - 1 : n != m + 1)) return 0.0;
     const double *zd = y + n;
     double speed = 0.0;
     for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
     if (!(speed > 0.0)) return 0.0;
     speed = sqrt(speed);
     rows_at(md, y, w);
-    double *A = w->Q; /* n x n scratch: (m + 1)^2 <= m (3m + 1) */
-    for (int r = 0; r < m; r++)
-        for (int i = 0; i < n; i++) A[r * n + i] = J_(w, r, i);
-    for (int i = 0; i < n; i++) A[m * n + i] = zd[i] / speed;
+    double *A = w->Q; /* n x n scratch: n^2 <= (m + 1)^2 <= m (3m + 1) */
+    for (int r = 0; r < n - 1; r++)
+        for (int i = 0; i < n; i++) {
+            double v = 0.0;
+            if (basis)
+                for (int k = 0; k < m; k++) v += basis[r * m + k] * J_(w, k, i);
+            else
+                v = J_(w, r, i);
+            A[r * n + i] = v;
+        }
+    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
     double det = 1.0;
     for (int c = 0; c < n; c++) {
         int p = c;

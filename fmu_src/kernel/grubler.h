@@ -112,6 +112,12 @@ GRB_API int grb_project(const grb_model *m, double scale, double *y, double *wor
 GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
                          double *closest, double *work);
 
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest).  It exceeds the
+ * Grübler count N - 2C where closure rows are redundant (a third crank on a
+ * parallelogram's coupling rod); assembly holds that many coordinates. */
+GRB_API int grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
+
 /* Which coordinates assembly holds: the drive (if any), then, up to the
  * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
  * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */

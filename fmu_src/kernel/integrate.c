@@ -272,7 +272,8 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
      * has a continuous extension (DOP853), the closure is kept by projection
      * and the mechanism has one degree of freedom */
     grb_chart chart;
-    int passing = dense && st->project && md->n_closures > 0 && md->n_links == 2 * md->n_closures + 1;
+    int passing = dense && st->project && md->n_closures > 0 && grb_closure_freedom(md, y, &p.ws) == 1;
+    int square = md->n_links == 2 * md->n_closures + 1; /* no redundant closure rows */
     double kappa_seen = clock->kappa_seen;
     long passages = 0;
     if (passing) {
@@ -341,8 +342,13 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                         const double *vc = cur + N / 2, *vn = nw + N / 2;
                         double same_way = 0.0;
                         for (int r = 0; r < N / 2; r++) same_way += vc[r] * vn[r];
-                        int over = same_way > 0.0 && grb_branch_orientation(md, cur, &p.ws) *
-                                                             grb_branch_orientation(md, nw, &p.ws) <
+                        /* (with redundant rows, along the rows' dominant
+                         * directions at the step's start; the chart's buffer
+                         * is free while no chart is followed) */
+                        const double *basis = NULL;
+                        if (!square && grb_closure_row_basis(md, cur, &p.ws, chart.c) == GRB_OK) basis = chart.c;
+                        int over = same_way > 0.0 && grb_branch_orientation(md, cur, basis, &p.ws) *
+                                                             grb_branch_orientation(md, nw, basis, &p.ws) <
                                                          0.0;
                         double k_nw = conditioning(&p, &kappa_seen, nw);
                         if (over || k_nw < 0.5 * CONDITIONING_NEAR) {

@@ -72,7 +72,9 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
 double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w);
-double grb_branch_orientation(const grb_model *md, const double *y, grb_ws *w);
+int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w);
+int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis);
+double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w);
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
 /* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
