@@ -477,28 +477,27 @@ def all_cases() -> list[Case]:
 FINDINGS = """
 ## Findings
 
-**Change points are passed, on the branch the motion came along, with the energy kept.**
-`fourbar-change-point` (s + l = p + q) reaches the position where all its links lie in line at
-t = 0.571 s. Until issue 17 the run stopped there by name (before that check, it silently lost
-6.5 of its 6.6 J of kinetic energy on the other branch). Near a change point the exact closure now
-follows the branch as a chart in the crank angle ([model.md](model.md#change-points)): the preset
-runs its 10 s through 40 passages with the energy balance at 4e-9 of the kinetic energy and the
-loop closed to 7e-12 m, the same whether the run is one advance (dense output) or ten thousand
-1 ms advances as a co-simulation makes them (the chart is rebuilt at each; the two runs agree to
-1e-6 rad). The driven parallelogram (`fourbar-parallelogram`, 100 N m; it used to stop at
-t = 1.87 s, before one turn) passes 46 aligned positions in 3 s with its balance at 4e-10, and
-runs 20 s through 2107 of them (spinning up under the constant torque) with the balance at 9e-8 and
-the loop closed to 2e-10 m; `tests/test_change_points.py` checks its coupler stays parallel to 1e-9
-rad over 20 turns and its crank follows a separate one-degree-of-freedom model to 1e-8 rad. Ten random change-point
-four-bars (seed 20261122, 2 N m on the crank, advanced 10 ms at a time; every second one damped and
-advanced 1 ms at a time) all finish,
-passing 1 to 26 change points each; the undamped ones keep their energy balance to 6e-9. The cost is
-in rejected steps: a step that would run into the zone is cut back to its edge, so a quarter of the
-steps of a run through many passages are rejected ones (the preset's 10 s: 2143 steps, 463
-rejected), up to two thirds when every step is long enough to jump a whole zone (the parallelogram's
-20 s: 12230 steps, 7828 rejected); each chart costs some 50 to 100 branch points (Newton solves in
-the other coordinates, microseconds each in C). The wall times stay small (0.1 s for the preset's
-10 s, 2.7 s for the parallelogram's 20 s).
+**Change points are passed, on the branch the motion came along, with the energy kept.** `fourbar-
+change-point` (s + l = p + q) reaches the position where all its links lie in line at t = 0.571 s.
+Until issue 17 the run stopped there by name (before that check, it silently lost 6.5 of its 6.6 J
+of kinetic energy on the other branch). Near a change point the exact closure now follows the branch
+as a chart in the crank angle ([model.md](model.md#change-points)): the preset runs its 10 s through
+40 passages with the energy balance at 4e-9 of the kinetic energy and the loop closed to 7e-12 m,
+the same whether the run is one advance (dense output) or ten thousand 1 ms advances as a co-
+simulation makes them (the chart is rebuilt at each; the two runs agree to 1e-6 rad). The driven
+parallelogram (`fourbar-parallelogram`, 100 N m; it used to stop at t = 1.87 s, before one turn)
+passes 46 aligned positions in 3 s with its balance at 4e-10, and runs 20 s through 2107 of them
+(spinning up under the constant torque) with the balance at 6e-8 and the loop closed to 2e-10 m;
+`tests/test_change_points.py` checks its coupler stays parallel to 1e-9 rad over 20 turns and its
+crank follows a separate one-degree-of-freedom model to 1e-8 rad. Ten random change-point four-bars
+(seed 20261122, 2 N m on the crank, advanced 10 ms at a time; every second one damped and advanced 1
+ms at a time) all finish, passing 1 to 26 change points each; the undamped ones keep their energy
+balance to 6e-9. The cost is in rejected steps: a step that would run into the zone is cut back to
+its edge, so a quarter of the steps of a run through many passages are rejected ones (the preset's
+10 s: some 2100 steps, 460 rejected), up to two thirds when every step is long enough to jump a
+whole zone (the parallelogram's 20 s: some 12000 steps, 7800 rejected); each chart costs some 50 to
+100 branch points (Newton solves in the other coordinates, microseconds each in C). The wall times
+stay small (the table).
 
 **Penalty closure: cost grows like √G, accuracy like 1/G.** The closure error falls as 1/G
 (4.7 mm at 1e4 to 5.6 nm at 1e10) and E does not rise beyond round-off, but the spring rings at √(G/m) and its damper C
@@ -541,12 +540,15 @@ def random_summary(outcomes: list[Outcome]) -> str:
     worst_b = max((o.balance for o in undamped), default=math.nan)
     worst_d = max((o.balance for o in damped), default=math.nan)
     worst_r = max((o.rise for o in damped), default=math.nan)
+    # a driven run's E rises by the drive's work: its rise says nothing
+    driven = any(o.case.scene.get("drive", {}).get("torque") for o in outcomes)
+    rise = "— (driven)" if driven else f"{worst_r:.1e}"
     others = "; ".join(f"{o.case.name}: {o.message}" for o in outcomes if o.status != "finished")
     wall = sorted(o.wall for o in outcomes)
     return (f"| {outcomes[0].case.group} ×{len(outcomes)} | {outcomes[0].case.settings}, {outcomes[0].case.t_end:g} s "
             f"each | {wall[len(wall) // 2]:.1f} median, {wall[-1]:.1f} max | "
             f"{len(done)}/{len(outcomes)} finished{'; ' + others if others else ''} | {worst_c:.1e} | {worst_b:.1e} | "
-            f"{worst_d:.1e} | {worst_r:.1e} |")
+            f"{worst_d:.1e} | {rise} |")
 
 
 def exact_closing_force(t_end: float, dt_out: float = 0.01) -> np.ndarray:
