@@ -356,7 +356,10 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                              * about linearly towards a change point */
                             double k_cur = conditioning(&p, &kappa_seen, cur), frac = 0.5;
                             if (!over && k_cur > k_nw)
-                                frac = fmin(0.9, fmax(0.05, (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw)));
+                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
+                            else if (over) /* down to the pinch and up again */
+                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur + k_nw);
+                            frac = fmin(0.9, fmax(0.05, frac));
                             rejected_total++;
                             step *= frac;
                             clipped = 0;
