@@ -33,6 +33,7 @@ G_STANDARD = 9.81
 
 REVOLUTE = "R"
 PRISMATIC = "P"
+MAX_LINKS = 64  # moving links a chain may have: the kernel's GRB_MAX_LINKS
 
 
 @dataclass(frozen=True)
@@ -278,6 +279,9 @@ class Mechanism:
         n = len(self.links)
         if n < 1:
             raise SceneError("links", "a chain needs at least one moving link")
+        if n > MAX_LINKS:
+            raise SceneError("links", f"a chain has at most {MAX_LINKS} moving links (the kernel's GRB_MAX_LINKS), "
+                                      f"got {n}")
         q_ref = tuple(self.q_ref) if len(self.q_ref) else (0.0,) * (2 * n)
         if len(q_ref) != 2 * n:
             raise SceneError("initial", f"needs {2 * n} coordinates for {n} links, got {len(q_ref)}")

@@ -66,6 +66,7 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         /* the predecessor's frame; the ground's is its vector at theta1, at rest */
         int pk = PARENT_(md, k);
         real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
+        w->path[k] = (pk < 0 ? 0ull : w->path[pk]) | (1ull << k);
         if (pk < 0) {
             cp = RCOS(md->theta1);
             sp = RSIN(md->theta1);
@@ -135,7 +136,8 @@ void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, r
         J[j] = 0.0;
         J[n + j] = 0.0;
     }
-    for (int j = k; j >= 0; j = PARENT_(md, j)) {
+    for (int j = 0; j <= k; j++) {
+        if (!grb_on_path(w, j, k)) continue;
         if (L_(md, j, GRB_L_REV) != 0.0) {
             J[j] = -(ry - K_(w, j, K_OY));
             J[n + j] = rx - K_(w, j, K_OX);
@@ -204,8 +206,8 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
         R_(w, r + 1, R_GAMMA) = 0.0;
         for (int i = 0; i < n; i++) {
             /* a link's angle turns with the revolutes on its path from the ground */
-            real jwa = grb_on_path(md, i, ka) ? L_(md, i, GRB_L_REV) : 0.0;
-            real jwb = grb_on_path(md, i, kb) ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwa = ka >= 0 && grb_on_path(w, i, ka) ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwb = kb >= 0 && grb_on_path(w, i, kb) ? L_(md, i, GRB_L_REV) : 0.0;
             real jx = Jr[i], jy = Jr[n + i];
             /* d(normal)/d(theta_b) = -along */
             Jr[i] = nx * jx + ny * jy - d_along * jwb;
@@ -238,12 +240,14 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
         for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
-        for (int i = k; i >= 0; i = PARENT_(md, i)) {
+        unsigned long long path = w->path[k];
+        for (int i = 0; i <= k; i++) {
+            if (!((path >> i) & 1u)) continue;
             real wi = ik * L_(md, i, GRB_L_REV);
-            for (int j = k;; j = PARENT_(md, j)) { /* from k down to i: the path's part at or above i */
+            for (int j = i; j <= k; j++) {
+                if (!((path >> j) & 1u)) continue;
                 T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * L_(md, j, GRB_L_REV);
-                if (j == i) break;
             }
         }
     }
@@ -261,7 +265,8 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
         real mk = L_(md, k, GRB_L_M);
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
         real fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
-        for (int i = k; i >= 0; i = PARENT_(md, i)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        for (int i = 0; i <= k; i++)
+            if (grb_on_path(w, i, k)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
     if (md->drive >= 0) T_(w, md->drive, col) += tau_drive;
     if (md->load >= 0) T_(w, md->load, col) += tau_load;
@@ -420,7 +425,7 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
             ax += JC_(w, k, 0, i) * T_(w, i, dd);
             ay += JC_(w, k, 1, i) * T_(w, i, dd);
-            if (grb_on_path(md, i, k)) alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
+            if (grb_on_path(w, i, k)) alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
         }
         /* what the children's joints carry: their force, and its moment about O_k */
         real fnx = 0.0, fny = 0.0, nn = 0.0, nf = 0.0;

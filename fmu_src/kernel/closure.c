@@ -233,11 +233,10 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     return GRB_OK;
 }
 
-/* Squared singular values of the closure Jacobian at z, largest first, into
- * e (m of them): the eigenvalues of the Gram matrix J J^T. */
-static void squared_singular_values(const grb_model *md, const double *z, grb_ws *w, double *e) {
+/* Squared singular values of the closure Jacobian in w (rows_at), largest
+ * first, into e (m of them): the eigenvalues of the Gram matrix J J^T. */
+static void squared_singular_values(grb_ws *w, double *e) {
     int n = w->n, m = w->m;
-    rows_at(md, z, w);
     double *G = w->Q; /* Q's first m columns hold it, sym_eig its scratch */
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
@@ -268,16 +267,22 @@ static void squared_singular_values(const grb_model *md, const double *z, grb_ws
  * that are zero everywhere; the (N - 1)-th is the one that falls to zero where
  * two assembly branches meet (a change point, a dead centre of the loop),
  * which is where the passage logic of integrate.c takes over. */
-double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+static double conditioning_of_rows(grb_ws *w) {
     int n = w->n, m = w->m;
     double e[64];
     if (m == 0) return 1.0;
     if (m > 64) return 0.0;
-    squared_singular_values(md, z, w, e);
+    squared_singular_values(w, e);
     int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
     if (k < 0) k = 0;
     if (!(e[0] > 0.0)) return 0.0;
     return sqrt(fmax(e[k], 0.0) / e[0]);
+}
+
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+    if (w->m == 0) return 1.0;
+    rows_at(md, z, w);
+    return conditioning_of_rows(w);
 }
 
 /* Degrees of freedom the closures leave at z: N minus the rank of their
@@ -288,7 +293,8 @@ int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
     double e[64];
     if (m == 0) return n;
     if (m > 64) return -1;
-    squared_singular_values(md, z, w, e);
+    rows_at(md, z, w);
+    squared_singular_values(w, e);
     for (int i = 0; i < m; i++)
         if (e[i] > 1e-16 * e[0]) rank++;
     return n - rank;
@@ -325,15 +331,13 @@ int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, doubl
  * where the branch crosses another (J loses rank and zd lies in its grown null
  * space), so a step whose ends disagree in sign stepped across a change point
  * (or the motion turned back: zd changed sign).  0 when it does not apply. */
-double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w) {
+static double orientation_of_rows(grb_ws *w, const double *zd, const double *basis) {
     int n = w->n, m = w->m;
     if (m == 0 || (basis ? m < n - 1 : n != m + 1)) return 0.0;
-    const double *zd = y + n;
     double speed = 0.0;
     for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
     if (!(speed > 0.0)) return 0.0;
     speed = sqrt(speed);
-    rows_at(md, y, w);
     double *A = w->Q; /* n x n scratch: n^2 <= (m + 1)^2 <= m (3m + 1) */
     for (int r = 0; r < n - 1; r++)
         for (int i = 0; i < n; i++) {
@@ -366,6 +370,20 @@ double grb_branch_orientation(const grb_model *md, const double *y, const double
         }
     }
     return det;
+}
+
+double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w) {
+    rows_at(md, y, w);
+    return orientation_of_rows(w, y + w->n, basis);
+}
+
+/* Both at once, from one evaluation of the closure rows: what the integrator
+ * watches after every step near a change point. */
+void grb_closure_watch(const grb_model *md, const double *y, const double *basis, grb_ws *w, double *kappa,
+                       double *orientation) {
+    rows_at(md, y, w);
+    *orientation = orientation_of_rows(w, y + w->n, basis);
+    *kappa = conditioning_of_rows(w);
 }
 
 /* The point of an assembly branch where coordinate `held` has the value z[held]:

@@ -13,7 +13,7 @@ static int parent_of(const int *parent, int i) { return parent ? parent[i] : i -
 
 int grb_scene_parents_ok(int n, const int *parent) {
     int i;
-    if (n < 1) return GRB_BAD_ARGUMENT;
+    if (n < 1 || n > GRB_MAX_LINKS) return GRB_BAD_ARGUMENT;
     for (i = 0; i < n; i++)
         if (parent_of(parent, i) < -1 || parent_of(parent, i) >= i) return GRB_BAD_ARGUMENT;
     return GRB_OK;

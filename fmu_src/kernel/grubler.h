@@ -62,9 +62,13 @@ enum { GRB_CL_KIND, GRB_CL_LINK, GRB_CL_TO, GRB_CL_PX, GRB_CL_PY, GRB_CL_TX, GRB
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
 
+/* The most moving links a chain may have (the kinematic pass keeps each link's
+ * path from the ground as one bit per link). */
+#define GRB_MAX_LINKS 64
+
 /* The model: never changes during a run. */
 typedef struct grb_model {
-    int n_links;              /* N moving links (N real joints) */
+    int n_links;              /* N moving links (N real joints), 1 .. GRB_MAX_LINKS */
     int n_closures;           /* C closures, 2 constraint rows each */
     const double *links;      /* N x GRB_L_COLUMNS, row-major */
     const double *closures;   /* C x GRB_CL_COLUMNS, row-major */

@@ -74,12 +74,15 @@ static void rhs(problem *p, double t, const double *y, double *out) {
         grb_rhs(p->md, p->s->method, y, tau, p->s->tau_load, p->work, out);
 }
 
-/* The closure's conditioning at z relative to the best the run has seen
- * (which it updates). */
-static double conditioning(problem *p, double *kappa_seen, const double *z) {
-    double kappa = grb_closure_conditioning(p->md, z, &p->ws);
-    if (kappa > *kappa_seen) *kappa_seen = kappa;
-    return *kappa_seen > 0.0 ? kappa / *kappa_seen : 1.0;
+/* The closure's conditioning at y, relative to the best the run has seen (which
+ * it updates), and the branch orientation there, from one evaluation of the
+ * closure rows. */
+static void watch(problem *p, double *kappa_seen, const double *y, const double *basis, double *kappa,
+                  double *orientation) {
+    double k;
+    grb_closure_watch(p->md, y, basis, &p->ws, &k, orientation);
+    if (k > *kappa_seen) *kappa_seen = k;
+    *kappa = *kappa_seen > 0.0 ? k / *kappa_seen : 1.0;
 }
 
 /* Onto the closure: onto the chart while one is followed, else the projection. */
@@ -272,11 +275,16 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
      * has a continuous extension (DOP853), the closure is kept by projection
      * and the mechanism has one degree of freedom */
     grb_chart chart;
-    int passing = dense && st->project && md->n_closures > 0 && grb_closure_freedom(md, y, &p.ws) == 1;
-    int square = md->n_links == 2 * md->n_closures + 1; /* no redundant closure rows */
+    int square = md->n_links == 2 * md->n_closures + 1; /* mobility one, no redundant closure rows */
+    int passing = dense && st->project && md->n_closures > 0 &&
+                  (square || (md->n_links <= 2 * md->n_closures && grb_closure_freedom(md, y, &p.ws) == 1));
     double kappa_seen = clock->kappa_seen;
     long passages = 0;
     int uncharted = 0; /* near a zone where no chart could be made */
+    /* the current state's conditioning and orientation, kept from the step that
+     * ended there (the projection after it moves them by rounding only) */
+    double cur_kappa = 1.0, cur_orient = 0.0, nw_kappa = 1.0, nw_orient = 0.0;
+    int cur_watched = 0, nw_watched = 0;
     if (passing) {
         grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
         p.chart = &chart;
@@ -295,7 +303,9 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
         double t_target = dense ? t_out[last] : t_out[o];
         while (t_target - t > 1e-12 * fmax(1.0, fabs(t_target))) {
             if (passing && !chart.active) {
-                double k_cur = conditioning(&p, &kappa_seen, cur);
+                if (!cur_watched) watch(&p, &kappa_seen, cur, NULL, &cur_kappa, &cur_orient);
+                cur_watched = 1;
+                double k_cur = cur_kappa;
                 if (k_cur >= CONDITIONING_NEAR)
                     uncharted = 0;
                 else if (!uncharted) {
@@ -307,6 +317,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     if (grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws) == GRB_OK) {
                         grb_chart_put(&chart, cur);
                         have_f = 0;
+                        cur_watched = 0;
                     } else
                         uncharted = 1;
                 }
@@ -357,15 +368,19 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                          * directions at the step's start; the chart's buffer
                          * is free while no chart is followed) */
                         const double *basis = NULL;
-                        if (!square && grb_closure_row_basis(md, cur, &p.ws, chart.c) == GRB_OK) basis = chart.c;
-                        int over = same_way > 0.0 && grb_branch_orientation(md, cur, basis, &p.ws) *
-                                                             grb_branch_orientation(md, nw, basis, &p.ws) <
-                                                         0.0;
-                        double k_nw = conditioning(&p, &kappa_seen, nw);
+                        double o_cur = cur_orient;
+                        if (!square && grb_closure_row_basis(md, cur, &p.ws, chart.c) == GRB_OK) {
+                            basis = chart.c;
+                            o_cur = grb_branch_orientation(md, cur, basis, &p.ws);
+                        }
+                        watch(&p, &kappa_seen, nw, basis, &nw_kappa, &nw_orient);
+                        nw_watched = basis == NULL;
+                        int over = same_way > 0.0 && o_cur * nw_orient < 0.0;
+                        double k_nw = nw_kappa;
                         if (over || k_nw < 0.5 * CONDITIONING_NEAR) {
                             /* aim at the zone's edge: the conditioning falls
                              * about linearly towards a change point */
-                            double k_cur = conditioning(&p, &kappa_seen, cur), frac = 0.5;
+                            double k_cur = cur_kappa, frac = 0.5;
                             if (!over && k_cur > k_nw)
                                 frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
                             else if (over) /* down to the pinch and up again */
@@ -447,6 +462,11 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
             }
             t += step;
             memcpy(cur, nw, sizeof(double) * N);
+            /* what was watched at the step's end is the new current state's */
+            cur_watched = nw_watched && !chart.active;
+            cur_kappa = nw_kappa;
+            cur_orient = nw_orient;
+            nw_watched = 0;
             if (have_new_f) memcpy(der, ROW(Y, s), sizeof(double) * N);
             have_f = have_new_f;
             steps++;

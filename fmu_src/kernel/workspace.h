@@ -34,6 +34,10 @@ typedef struct grb_ws {
     int tc, qc;      /* columns of T and Q */
     int a0, x0, dd, vec, block; /* column offsets in T */
     real *K, *Jc, *J, *R, *T, *Q, *S;
+    /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
+     * the ground), set by the kinematic pass: the inner loops over a link's
+     * path test a bit instead of walking parents */
+    unsigned long long path[GRB_MAX_LINKS];
 } grb_ws;
 
 void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
@@ -43,12 +47,8 @@ void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
 /* the predecessor of link k: an earlier moving link, or -1 the ground */
 #define PARENT_(m, k) ((int)L_(m, k, GRB_L_PARENT))
 
-/* 1 when link j is link k or one of its predecessors (j's joint moves k): walk
- * k's parents down to j.  Parents are earlier links, so the walk ends. */
-static inline int grb_on_path(const grb_model *md, int j, int k) {
-    while (k > j) k = PARENT_(md, k);
-    return k == j;
-}
+/* 1 when link j is link k or one of its predecessors (j's joint moves k). */
+static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }
 #define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
 #define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
 #define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
@@ -75,6 +75,8 @@ double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w)
 int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w);
 int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis);
 double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w);
+void grb_closure_watch(const grb_model *md, const double *y, const double *basis, grb_ws *w, double *kappa,
+                       double *orientation);
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
 /* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
