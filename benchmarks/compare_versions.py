@@ -26,9 +26,22 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def load_old(commit: str):
     tmp = Path(tempfile.mkdtemp(prefix="grubler_old_"))
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "fmu_src"], check=True,
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "fmu_src", "motors"], check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
+    kernel = tmp / "fmu_src" / "kernel"
+    if kernel.is_dir():
+        # a C-kernel commit: its kernel built as setup.py builds it, and its binding
+        # pointed at that library instead of the installed grubler._kernel
+        sources = [str(c) for c in sorted(kernel.glob("*.c")) + sorted((tmp / "motors" / "kernel").glob("*.c"))
+                   if c.name != "_module.c"]
+        lib = tmp / "old_kernel.so"
+        subprocess.run(["cc", "-O2", "-std=c99", "-shared", "-fPIC", "-DGRB_SHARED=1", "-I", str(kernel),
+                        "-I", str(tmp / "motors" / "kernel"), *sources, "-o", str(lib), "-lm"], check=True)
+        binding = (tmp / "fmu_src" / "binding.py").read_text()
+        binding = binding.replace('spec = importlib.util.find_spec("grubler._kernel")',
+                                  f'spec = importlib.util.spec_from_file_location("old_kernel", {str(lib)!r})')
+        (tmp / "fmu_src" / "binding.py").write_text(binding)
     (tmp / "fmu_src").rename(tmp / "grubler_old")
     sys.path.insert(0, str(tmp))
     import grubler_old
