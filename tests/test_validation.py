@@ -238,3 +238,11 @@ def test_a_sweep_range_written_without_its_count_is_explained():
 
     with pytest.raises(InputError, match="START:STOP:N"):
         parse_axis("link2.a=0.3:0.1")
+
+
+def test_a_chain_longer_than_the_kernel_takes_is_refused_by_name():
+    # the kinematic pass keeps each link's path from the ground as one bit per link
+    text = "\n".join(f'[link{k}]\njoint = "R"\na = 0.1\nm = 1.0\nI = 0.01' for k in range(2, 67))
+    expect(text + '\n[closure]\ntype = "none"\n', "links", "at most 64 moving links", "got 65")
+    load_scene("\n".join(f'[link{k}]\njoint = "R"\na = 0.1\nm = 1.0\nI = 0.01' for k in range(2, 66))
+               + '\n[closure]\ntype = "none"\n')  # 64 links load
