@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import binding
-from .assembly import _scale, assemble, constraint, held_coordinates
+from .assembly import _scale, assemble, constraint, freedom, held_coordinates
 from .dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
 from .errors import SceneError
 from .model import Mechanism
@@ -123,11 +123,14 @@ class _Plant:
 
     def choose_independent(self, z: np.ndarray) -> None:
         m = self.model
-        if m.mobility < 1:
-            raise SceneError("closure", f"the mechanism has mobility {m.mobility}: nothing moves to linearise")
+        # the closures' rank, not the Grübler count: a redundant closure (a third
+        # crank on a parallelogram's rod) leaves a freedom the count does not see
+        free = freedom(m, z) if m.n_constraints else self.n
+        if free < 1:
+            raise SceneError("closure", f"the mechanism has mobility {free}: nothing moves to linearise")
         ind = sorted(held_coordinates(m, z)) if m.n_constraints else list(range(self.n))
-        if len(ind) + m.n_constraints != self.n:
-            raise SceneError("closure", f"the closures leave {self.n - m.n_constraints} freedoms but "
+        if len(ind) != free:
+            raise SceneError("closure", f"the closures leave {free} freedoms but "
                                         f"{len(ind)} independent coordinates were found")
         self.ind = np.array(ind, dtype=np.int32)
 

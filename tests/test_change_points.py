@@ -181,3 +181,18 @@ def test_a_joint_at_the_end_of_its_travel_is_no_change_point(name):
     res = grubler.simulate(name, t_end=10.0, dt_out=1e-3)
     assert res.stats["passages"] == []
     assert np.max(res["closure_error"]) < 1e-10
+
+
+def test_the_coupling_rod_linearises_as_its_one_degree_of_freedom_model():
+    # minimal coordinates with a redundant closure (the normal equations of the
+    # consistent, taller-than-square dependent block): the rod-and-cranks model
+    # 0.75 theta'' = tau - 1.75 g cos(theta) about its stable rest under 10 N m
+    from grubler.linearize import linearize
+
+    sys = linearize("coupling-rod")
+    theta = -math.acos(10.0 / (1.75 * G))
+    assert abs(math.remainder(sys.operating_point.z[0] - theta, 2 * math.pi)) < 1e-9
+    stiffness = 1.75 * G * math.sin(-theta)
+    poles = np.linalg.eigvals(sys.A)
+    assert np.allclose(sorted(np.abs(poles.imag)), [math.sqrt(stiffness / 0.75)] * 2, rtol=1e-9)
+    assert abs(float(np.real(sys.dcgain())) - 1.0 / stiffness) < 1e-9 / stiffness

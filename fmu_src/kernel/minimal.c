@@ -25,22 +25,42 @@ static int is_independent(int i, int n_ind, const int *ind) {
     return 0;
 }
 
-/* The dependent columns of the closure Jacobian into S (m x m, stride m + 1)
- * and rhs into S's last column; dep[c] is the c-th dependent coordinate. */
-static void dependent_block(const grb_ws *w, int n_ind, const int *ind) {
-    int n = w->n, m = w->m, c = 0;
-    for (int i = 0; i < n; i++) {
-        if (is_independent(i, n_ind, ind)) continue;
-        for (int r = 0; r < m; r++) w->S[r * (m + 1) + c] = J_(w, r, i);
-        c++;
+/* Solve J_dep x = b for the dependent coordinates' part x (b: m values, one
+ * per closure row), into S's last column (x[c] at S[c * (nd + 1) + nd]); dep
+ * are the coordinates not in ind.  With redundant closure rows (m > nd, a third
+ * crank on a parallelogram's rod) the consistent system is solved by its
+ * normal equations J_dep^T J_dep x = J_dep^T b, analytic like the square solve,
+ * so the complex build's derivatives stay exact.  0 when singular. */
+static int solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
+    int n = w->n, m = w->m, nd = n - n_ind;
+    int dep[GRB_MAX_LINKS], c = 0;
+    for (int i = 0; i < n; i++)
+        if (!is_independent(i, n_ind, ind)) dep[c++] = i;
+    if (m == nd) {
+        for (int r = 0; r < m; r++) {
+            for (int k = 0; k < nd; k++) w->S[r * (nd + 1) + k] = J_(w, r, dep[k]);
+            w->S[r * (nd + 1) + nd] = b[r];
+        }
+    } else {
+        for (int a = 0; a < nd; a++) {
+            for (int k = 0; k < nd; k++) {
+                real g = 0.0;
+                for (int r = 0; r < m; r++) g += J_(w, r, dep[a]) * J_(w, r, dep[k]);
+                w->S[a * (nd + 1) + k] = g;
+            }
+            real v = 0.0;
+            for (int r = 0; r < m; r++) v += J_(w, r, dep[a]) * b[r];
+            w->S[a * (nd + 1) + nd] = v;
+        }
     }
+    return GRB(lu_solve)(w->S, nd + 1, nd, 0, nd, 1);
 }
 
 static void scatter_dependent(const grb_ws *w, int n_ind, const int *ind, real *v) {
-    int n = w->n, m = w->m, c = 0;
+    int n = w->n, nd = n - n_ind, c = 0;
     for (int i = 0; i < n; i++) {
         if (is_independent(i, n_ind, ind)) continue;
-        v[i] += w->S[c * (m + 1) + m];
+        v[i] += w->S[c * (nd + 1) + nd];
         c++;
     }
 }
@@ -48,7 +68,7 @@ static void scatter_dependent(const grb_ws *w, int n_ind, const int *ind, real *
 int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
-    if (n_ind < 0 || n_ind + m != n || (n_ind > 0 && !ind)) return GRB_BAD_ARGUMENT;
+    if (n_ind < 0 || n_ind + m < n || n_ind > n || (n_ind > 0 && !ind) || n > GRB_MAX_LINKS) return GRB_BAD_ARGUMENT;
     for (int k = 0; k < n_ind; k++)
         if (ind[k] < 0 || ind[k] >= n || is_independent(ind[k], k, ind)) return GRB_BAD_ARGUMENT;
     if (m == 0) return GRB_OK; /* an open chain: every coordinate is independent */
@@ -68,9 +88,9 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         } else {
             polish++;
         }
-        dependent_block(w, n_ind, ind);
-        for (int r = 0; r < m; r++) w->S[r * (m + 1) + m] = -R_(w, r, R_PHI);
-        if (!GRB(lu_solve)(w->S, m + 1, m, 0, m, 1)) return GRB_SINGULAR;
+        real *b = w->S + n * (n + 1); /* after the system solve_dependent builds in S */
+        for (int r = 0; r < m; r++) b[r] = -R_(w, r, R_PHI);
+        if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
         scatter_dependent(w, n_ind, ind, z);
     }
     if (polish < MINIMAL_POLISH) return GRB_NOT_CLOSED;
@@ -78,13 +98,13 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
     for (int i = 0; i < n; i++) rest[i] = 0.0;
     GRB(chain)(md, z, rest, w);
     GRB(closure_rows)(md, rest, w);
-    dependent_block(w, n_ind, ind);
+    real *b = w->S + n * (n + 1);
     for (int r = 0; r < m; r++) {
         real s = 0.0;
         for (int k = 0; k < n_ind; k++) s -= J_(w, r, ind[k]) * zd[ind[k]];
-        w->S[r * (m + 1) + m] = s;
+        b[r] = s;
     }
-    if (!GRB(lu_solve)(w->S, m + 1, m, 0, m, 1)) return GRB_SINGULAR;
+    if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
     for (int i = 0; i < n; i++)
         if (!is_independent(i, n_ind, ind)) zd[i] = 0.0;
     scatter_dependent(w, n_ind, ind, zd);
