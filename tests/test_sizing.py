@@ -1,6 +1,7 @@
 """Motor sizing: hand arithmetic where it can be done, the thermal steady state against
 a brute-force integration, and rejections for the right reason."""
 
+import csv
 import math
 import tomllib
 from pathlib import Path
@@ -12,7 +13,8 @@ import scipy.integrate
 import grubler
 from grubler.inverse import drive_demand
 from grubler.motors import MotorData, load_motor
-from grubler.sizing import DutyCycle, assess, periodic_temperature, required_drive, size
+from grubler.controllers import Trajectory
+from grubler.sizing import Control, DutyCycle, assess, periodic_temperature, required_drive, size
 
 
 def toy_motor(**kw):
@@ -160,3 +162,59 @@ def test_a_data_set_that_traces_its_lines_must_trace_every_figure():
         load_motor(text.replace('max_speed_rpm = "line 23, Max. permissible speed (mechanical data)"\n', ""))
     with pytest.raises(grubler.SceneError, match="nominal_current_A: 3.5 A, but M_N / k_t"):
         load_motor(text.replace("nominal_current_A = 3.17", "nominal_current_A = 3.5"))
+
+
+def test_the_small_motors_are_chosen_for_a_cycle_they_fit():
+    m = grubler.load_scene("slider-crank").mechanism
+    start = float(m.z_from_q(m.q_ref)[m.free_index(m.drive)])
+    cycle = DutyCycle.constant_speed(2 * math.pi, start=start)
+    motors = [load_motor(n) for n in ("maxon-re25-118752", "maxon-re30-310007", "maxon-re40-148877")]
+    study = size(m, cycle, motors, ratios=[50, 75], supply_voltage=24.0, current_limit=3.0,
+                 control=Control.servo())
+    assert study.best.candidate.label == "maxon-re25-118752 x 50"
+    fitting = {a.candidate.motor.name for a in study.ranked}
+    assert {"maxon-re25-118752", "maxon-re30-310007"} <= fitting
+    # every limit checked, the speed and temperature ones included, and passed
+    assert set(study.best.margins) == {"peak current", "continuous torque", "speed", "voltage", "temperature rise",
+                                       "ambient"}
+    assert study.best.min_margin > 1.5
+    # an ambient beyond the motors' rated range rejects them all, for that reason
+    hot = size(m, cycle, motors[:1], ratios=[50], supply_voltage=24.0, current_limit=3.0, ambient=110.0)
+    assert not hot.ranked and "ambient: 110 degC is outside the motor's rated -30 to 100 degC" in \
+        hot.assessments[0].failures
+
+
+def test_rejected_rows_follow_the_ranked_ones_fewest_failures_first(tmp_path):
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    cycle = DutyCycle.constant_speed(2 * math.pi, n=200)
+    study = size(m, cycle, [load_motor("maxon-re40-148877")], ratios=[5, 10, 20, 35, 50, 75, 150],
+                 supply_voltage=48.0, current_limit=10.0)
+    rows = study.table()
+    ranks = [r["rank"] for r in rows]
+    n = len(study.ranked)
+    assert 0 < n < len(rows) and ranks == list(range(1, n + 1)) + ["rejected"] * (len(rows) - n)
+    assert all(r["feasible"] for r in rows[:n]) and not any(r["feasible"] for r in rows[n:])
+    assert [r["why_not"] for r in rows[:n]] == [""] * n and all(r["why_not"] for r in rows[n:])
+    order = [(len(a.failures), -a.min_margin) for a in study.rejected]
+    assert order == sorted(order) and order[0][0] < order[-1][0]
+    study.write_csv(tmp_path / "s.csv")
+    assert [r["rank"] for r in csv.DictReader(open(tmp_path / "s.csv"))] == [str(k) for k in ranks]
+
+
+def test_the_encoder_counts_are_what_the_loop_adds_to_the_current():
+    # the worked example's winner: without quantisation the servo's current is the ideal
+    # drive's; with the 14-bit encoder its derivative kicks (K Td / (Tf + Ts) per count,
+    # through the winding's resistance) raise the peak by about that much
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    start = float(m.z_from_q(m.q_ref)[m.free_index(m.drive)])
+    traj = Trajectory("trapezoid", distance=math.pi, v_max=2 * math.pi, a_max=20, dwell=0.5, repeat=2, reverse=True)
+    cycle = DutyCycle.from_trajectory(traj, 2 * (traj.move_time + 0.5), start=start)
+    servo = Control.servo()
+    exact = Control(servo.pid, {**servo.encoder, "counts_per_rev": 0})
+    candidate = [load_motor("maxon-re40-148866")]
+    ideal, smooth, counted = (size(m, cycle, candidate, [100], supply_voltage=48.0, current_limit=10.0, control=c)
+                              .assessments[0].needs["peak current"][0] for c in (None, exact, servo))
+    assert abs(smooth / ideal - 1) < 0.02
+    pid = servo.pid
+    kick = pid["K"] * pid["Td"] / (pid["Td"] / pid["N"] + pid["Ts"]) * 2 * math.pi / servo.encoder["counts_per_rev"]
+    assert 0.6 * kick / 0.317 < counted - ideal < 1.5 * kick / 0.317, (ideal, counted, kick / 0.317)
