@@ -323,6 +323,9 @@ def cmd_size(args) -> int:
                                                                if len(a.failures) > 1 else ""))
     if len(rejected) > shown:
         print(f"  ... {len(rejected) - shown} more rejected (the table has every reason)")
+    if any(a.closed_loop is not None and a.closed_loop.method == "bound" for a in study.assessments):
+        print("note: the cycle is too long to step the position loop over it: the current it adds is bounded "
+              "instead (grubler.sizing.quantisation_bound), which overstates it")
     if args.out:
         study.write_csv(args.out)
         print(f"wrote {args.out}")

@@ -148,6 +148,7 @@ class Assessment:
     needs: dict[str, tuple[float, float, str]]  # name -> (needed, limit, unit)
     ambient: float
     closed_loop: ClosedLoop | None = None  # the position loop's currents, when predicted with one
+    t: np.ndarray | None = None  # the cycle's sample instants (current, torque, speed, voltage)
 
     @property
     def feasible(self) -> bool:
@@ -170,6 +171,10 @@ class Assessment:
                 if math.isnan(need):
                     out.append(f"{k}: could not be computed for this cycle (not a number)")
                     continue
+                if self.closed_loop is not None and not self.closed_loop.stable and k == "peak current":
+                    out.append("peak current: the servo's position loop is unstable with this motor and ratio "
+                               "(its predicted current grows without bound)")
+                    continue
                 if k == "temperature rise" and math.isinf(need):
                     out.append(f"temperature rise: runaway (the winding's i² R(T) outgrows its cooling), "
                                f"limit {limit:.4g} {unit}")
@@ -187,18 +192,22 @@ class Assessment:
     def summary(self) -> dict[str, float | str]:
         """The study table's row for this candidate."""
         tq, w = self.motor_torque, self.motor_speed
-        i = self.closed_loop.current if self.closed_loop is not None else self.current
+        loop = self.closed_loop
+        i = loop.current if loop is not None else self.current
+        rms = loop.rms_current if loop is not None else _rms(i, self.t)
         kt = self.candidate.motor.torque_constant
         row = {"motor": self.candidate.motor.name, "ratio": self.candidate.ratio,
-               "peak_motor_torque": kt * float(np.max(np.abs(i))), "rms_motor_torque": kt * _rms(i),
+               "peak_motor_torque": kt * float(np.max(np.abs(i))), "rms_motor_torque": kt * rms,
                "peak_motor_speed": float(np.max(np.abs(w))), "mean_motor_speed": float(np.mean(np.abs(w))),
-               "peak_current": float(np.max(np.abs(i))), "rms_current": _rms(i),
+               "peak_current": float(np.max(np.abs(i))), "rms_current": rms,
                "peak_current_ideal_drive": float(np.max(np.abs(self.current))),
-               "rms_current_ideal_drive": _rms(self.current),
+               "rms_current_ideal_drive": _rms(self.current, self.t),
                "peak_voltage": self.needs["voltage"][0],
                "winding_temperature_max": float(np.max(self.temperature)),
                "temperature_rise": float(np.max(self.temperature) - self.ambient)}
         row.update({f"margin_{k.replace(' ', '_')}": v for k, v in self.margins.items()})
+        row["current_prediction"] = "perfect drive" if loop is None else (
+            f"position loop, {loop.method}" + ("" if loop.stable else ", unstable"))
         row["feasible"] = self.feasible
         row["binding"] = self.binding
         row["why_not"] = "; ".join(self.failures)
@@ -224,8 +233,13 @@ def sample_times(period: float, n: int, breakpoints=(), per_phase: int = 64) -> 
     return np.unique(np.concatenate(parts))
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.asarray(x) ** 2)))
+def _rms(x: np.ndarray, t: np.ndarray | None = None) -> float:
+    """Root mean square; over time when the sample instants ``t`` are given (they need not be even)."""
+    x = np.asarray(x, float)
+    if t is None:
+        return float(np.sqrt(np.mean(x**2)))
+    x2 = x**2
+    return float(np.sqrt(np.sum(0.5 * (x2[1:] + x2[:-1]) * np.diff(t)) / (t[-1] - t[0])))
 
 
 def required_drive(model: Mechanism, cycle: DutyCycle) -> DriveDemand:
@@ -281,7 +295,55 @@ class ClosedLoop:
     extra_voltage: np.ndarray  # V: the loop's voltage beyond the ideal drive's
     tracking_error: np.ndarray  # rad (m on a slide)
     ideal_current: np.ndarray  # A, at the same instants
+    period: float  # s, of the cycle
     control: Control | None = None  # the loop that made them
+    method: str = "simulated"  # or "bound" (quantisation_bound: too long a cycle to step)
+    stable: bool = True  # False: the loop diverges with this motor and ratio
+
+    @property
+    def rms_current(self) -> float:
+        """RMS over the period, weighted by time (a shortened rest has few samples)."""
+        return _rms(np.append(self.current, self.current[0]), np.append(self.t, self.t[0] + self.period))
+
+
+LOOP_SAMPLES = 400_000
+"""Most controller samples :func:`closed_loop_current` steps (all periods, long rests shortened)."""
+
+
+def _rest_stretches(cycle: DutyCycle, settle: float) -> list[tuple[float, float]]:
+    """The phases ``(a, b)`` a loop at rest need not be stepped through: each rest of the drive (speed and
+    acceleration exactly 0) longer than ``settle``, but for its first ``settle`` seconds."""
+    still = (cycle.velocity == 0.0) & (cycle.acceleration == 0.0)
+    t = cycle.t - cycle.t[0]
+    out, k = [], 0
+    while k < len(t):
+        if still[k]:
+            j = k
+            while j + 1 < len(t) and still[j + 1]:
+                j += 1
+            if t[j] - t[k] > settle:
+                out.append((float(t[k]) + settle, float(t[j])))
+            k = j + 1
+        else:
+            k += 1
+    return out
+
+
+def _sample_times(period: float, periods: int, Ts: float, skip: list[tuple[float, float]]) -> np.ndarray | None:
+    """The controller's instants ``k Ts`` over ``periods`` periods, leaving out the phases in ``skip``.
+
+    None when there would be more than ``LOOP_SAMPLES`` of them.
+    """
+    ranges, lo = [], 0.0
+    for a, b in skip:
+        ranges.append((lo, a))
+        lo = b
+    ranges.append((lo, period))
+    spans = [(p * period + a, p * period + b) for p in range(periods) for a, b in ranges]
+    counts = [max(0.0, math.ceil(hi / Ts) - math.ceil(lo / Ts)) for lo, hi in spans]
+    if not sum(counts) <= LOOP_SAMPLES:
+        return None
+    return np.concatenate([np.arange(math.ceil(lo / Ts), math.ceil(hi / Ts)) * Ts for lo, hi in spans])
 
 
 def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand, inertia: np.ndarray,
@@ -306,7 +368,12 @@ def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand,
 
     The winding is at ambient (its resistance is lowest, the kicks largest); the
     drive's current limit and the motor's friction changes are left out.  The
-    first ``periods - 1`` periods settle the integral and are dropped.
+    first ``periods - 1`` periods settle the integral and are dropped.  A rest
+    longer than the loop's settling time ``10 max(Ti, Td, Ts)`` is shortened to
+    it (the loop is still there, its state kept).  A cycle that would still take
+    more than ``LOOP_SAMPLES`` samples gets a bound instead
+    (:func:`quantisation_bound`, ``method`` says which).  A loop that diverges
+    gives an infinite current (``stable`` False).
     """
     from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
     from scipy.interpolate import CubicHermiteSpline
@@ -322,27 +389,38 @@ def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand,
                                         f"against the PID's {Ts:g} s")
     if not (isinstance(periods, int) and periods >= 2):
         raise SceneError("periods", f"must be a whole number >= 2 (one to settle, one to judge), got {periods!r}")
-    period = cycle.period
-    n = check_count(math.ceil(periods * period / Ts), MAX_SAMPLES, "controller samples of the duty cycle",
-                    "the cycle's period or the controller's sample time")
-    t = np.arange(n + 1) * Ts
-    turns, phase = np.divmod(t, period)
-    lap = cycle.position[-1] - cycle.position[0]  # a constant-speed cycle gains a turn each period
-    t0 = cycle.t[0]
-    position = CubicHermiteSpline(cycle.t - t0, cycle.position, cycle.velocity)
-    mid = (phase + 0.5 * Ts) % period
+    period, t0 = cycle.period, cycle.t[0]
 
     def at(x, values):
         return np.interp(x, cycle.t - t0, values)
 
-    reference = position(phase) + turns * lap
-    J = at(phase + 0.5 * Ts, inertia) + motor.reflected_inertia
     tau = demand.torque + motor.reflected_inertia * cycle.acceleration  # at the drive joint, rotor included
     w = N * cycle.velocity
     # d tau / d i through the gearbox in the direction of power flow (the motor model's own inverse)
     step = 1e-6 * max(1.0, float(np.max(np.abs(tau))))
-    gain = step / (current_for_torque(motor, tau + step, w) - ideal_current)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gain = step / (current_for_torque(motor, tau + step, w) - ideal_current)
     R, L, ke = data.resistance_at(data.reference_temperature), data.inductance, data.back_emf_constant
+    J_cycle = inertia + motor.reflected_inertia
+    plant = _Winding(R, L, ke * N, Ts)
+    settle = 10.0 * max(pid.Ti, pid.Td, Ts)
+    skipped = _rest_stretches(cycle, settle)
+    t = _sample_times(period, periods, Ts, skipped)
+    if not np.all(np.isfinite(gain)):  # the gearbox model gives no torque for a current change
+        nan = np.full_like(cycle.t, np.nan)
+        return ClosedLoop(cycle.t - t0, nan, nan, nan, ideal_current, period, control, "not computed", False)
+    if t is None:  # too long a cycle to step: the bound, at the ideal peak's sample
+        k = int(np.argmax(np.abs(ideal_current)))
+        bound = quantisation_bound(control, R, L, ke * N, float(gain[k]), float(J_cycle[k]))
+        tc = cycle.t - t0
+        extra = np.full_like(tc, bound)
+        return ClosedLoop(tc, np.sign(ideal_current) * (np.abs(ideal_current) + bound), extra * R,
+                          np.zeros_like(tc), ideal_current, period, control, "bound", math.isfinite(bound))
+    turns, phase = np.divmod(t, period)
+    lap = cycle.position[-1] - cycle.position[0]  # a constant-speed cycle gains a turn each period
+    position = CubicHermiteSpline(cycle.t - t0, cycle.position, cycle.velocity)
+    mid = (phase + 0.5 * Ts) % period
+    reference = position(phase) + turns * lap
     ideal_voltage = R * ideal_current + ke * w + L * np.gradient(ideal_current, cycle.t)
     u_ideal = at(mid, ideal_voltage)
     if control.feedforward:
@@ -352,28 +430,83 @@ def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand,
         u_ff = at(phase, ct.motor(tau, cycle.velocity)[1])
     else:
         u_ff = np.zeros_like(t)
-    g = at(mid, gain)
-    tau_e = L / R
-    a = math.exp(-Ts / tau_e) if tau_e > 0 else 0.0
-    mean = (1.0 - a) * tau_e / Ts if tau_e > 0 else 0.0  # the mean of e^(-s/tau_e) over a step
-    kN = ke * N
+    g_over_J = at(mid, gain) / at(mid, J_cycle)
+    n = len(t)
     e = ed = di = 0.0
     extra, dis, errs = np.empty(n), np.empty(n), np.empty(n)
+    stable = True
     for k in range(n):
         y = enc.update(float(t[k]), {"position": float(reference[k] + e)})["measured_position"]
         du = pid.compute(float(reference[k]), y, float(u_ff[k])) - u_ideal[k]
-        target = (du - kN * ed) / R  # the extra current the step's voltage heads for, speed held
-        avg = target + (di - target) * mean
-        di = target + (di - target) * a
-        ed += Ts * g[k] * avg / J[k]
+        di, avg = plant.step(di, du, ed)
+        ed += Ts * g_over_J[k] * avg
         e += Ts * ed
         extra[k], dis[k], errs[k] = du, di, e
-    # outputs at the end of each step, t[1:]; keep the last period, by phase
-    last = t[1:] > t[-1] - period
-    order = np.argsort(phase[1:][last])
-    tl = phase[1:][last][order]
+        if not abs(e) < 1e3:  # diverged (or NaN): the loop is unstable with this motor and ratio
+            stable = False
+            dis[:], extra[:], errs[:] = math.inf, math.inf, math.inf
+            break
+    # outputs at the end of each step; keep the last period, by phase
+    t_end = t + Ts
+    last = t_end > periods * period - period
+    ph = (t_end[last] - (periods - 1) * period)
+    # a shortened rest is bridged by the ideal (holding) current at its ends: the loop is at rest there
+    # (the hunting between two counts that a PID with integral keeps up is left out of it)
+    bridge = np.array([x for a, b in skipped for x in (a, min(b, period * (1 - 1e-12)))])
+    tl = np.concatenate([ph, bridge])
+    order = np.argsort(tl)
+    tl = tl[order]
     i_ideal = at(tl, ideal_current)
-    return ClosedLoop(tl, i_ideal + dis[last][order], extra[last][order], errs[last][order], i_ideal, control)
+    dis = np.concatenate([dis[last], np.zeros_like(bridge)])[order]
+    extra = np.concatenate([extra[last], np.zeros_like(bridge)])[order]
+    errs = np.concatenate([errs[last], np.full_like(bridge, np.nan)])[order]
+    held = np.maximum.accumulate(np.where(np.isnan(errs), 0, np.arange(len(errs))))
+    errs = errs[held]  # the tracking error held over a shortened rest
+    return ClosedLoop(tl, i_ideal + dis, extra, errs, i_ideal, period, control, "simulated", stable)
+
+
+class _Winding:
+    """The extra current's step over one sample: voltage ``du`` held, back-EMF ``c ed`` held (exact)."""
+
+    def __init__(self, R: float, L: float, c: float, Ts: float):
+        self.R, self.c = R, c
+        tau_e = L / R
+        self.a = math.exp(-Ts / tau_e) if tau_e > 0 else 0.0
+        self.mean = (1.0 - self.a) * tau_e / Ts if tau_e > 0 else 0.0  # mean of e^(-s/tau_e) over the step
+
+    def step(self, di: float, du: float, ed: float) -> tuple[float, float]:
+        """The current at the step's end, and its mean over the step."""
+        target = (du - self.c * ed) / self.R  # where the step's voltage drives it, speed held
+        return target + (di - target) * self.a, target + (di - target) * self.mean
+
+
+def quantisation_bound(control: Control, R: float, L: float, c: float, gain: float, J: float) -> float:
+    """Largest extra current the encoder's quantisation can cause, A (a bound, for any motion).
+
+    The quantisation error of a reading is in ``[0, q)``, ``q`` one count; its
+    mean is taken up by the integral, the rest is within ``±q/2``.  The loop is
+    linear, so the extra current is at most the l1 norm of its response to a
+    one-count measurement impulse times ``q/2`` (the worst sign pattern of the
+    errors).  The response is stepped from rest on the reduced model of
+    :func:`closed_loop_current` (winding ``R``, ``L``, back-EMF ``c``, torque per
+    current ``gain``, inertia ``J``) for ``20 max(Ti, Td, Ts)``.
+    """
+    from grubler.controllers import PID, Encoder
+
+    pid, q = PID(**{**control.pid, "u_min": -1e300, "u_max": 1e300}), Encoder(**control.encoder).resolution
+    if q == 0:
+        return 0.0
+    Ts = pid.Ts
+    plant = _Winding(R, L, c, Ts)
+    e = ed = di = 0.0
+    total = 0.0
+    for k in range(math.ceil(20.0 * max(pid.Ti, pid.Td, Ts) / Ts)):
+        du = pid.compute(0.0, e + (q if k == 0 else 0.0))
+        di, avg = plant.step(di, du, ed)
+        ed += Ts * gain * avg / J
+        e += Ts * ed
+        total += abs(di)
+    return total / 2.0 if math.isfinite(total) else math.inf
 
 
 def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: float) -> np.ndarray:
@@ -458,7 +591,8 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
     unknown = math.nan
     needs["peak current"] = (float(np.max(np.abs(i_need))), i_limit, "A")
     if data.nominal_torque:  # without it, the thermal check below is the continuous one
-        needs["continuous torque"] = (data.torque_constant * _rms(i_need), data.nominal_torque, "N m")
+        rms = _rms(i_need, cycle.t) if loop is None else loop.rms_current
+        needs["continuous torque"] = (data.torque_constant * rms, data.nominal_torque, "N m")
     needs["speed"] = (float(np.max(np.abs(w))), data.max_speed or data.no_load_speed or unknown, "rad/s")
     needs["voltage"] = (float(np.max(np.abs(v_need))), candidate.supply_voltage, "V")
     t_max = data.max_winding_temperature
@@ -473,7 +607,7 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
         margins["ambient"] = math.inf if inside else 0.0
     # a need that could not be computed (NaN) fails like an unknown limit: never "fits" by
     # way of a comparison that is false
-    return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient, loop)
+    return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient, loop, cycle.t)
 
 
 @dataclass

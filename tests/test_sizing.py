@@ -218,3 +218,46 @@ def test_the_encoder_counts_are_what_the_loop_adds_to_the_current():
     pid = servo.pid
     kick = pid["K"] * pid["Td"] / (pid["Td"] / pid["N"] + pid["Ts"]) * 2 * math.pi / servo.encoder["counts_per_rev"]
     assert 0.6 * kick / 0.317 < counted - ideal < 1.5 * kick / 0.317, (ideal, counted, kick / 0.317)
+
+
+def fourbar_move(dwell):
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    start = float(m.z_from_q(m.q_ref)[m.free_index(m.drive)])
+    traj = Trajectory("trapezoid", distance=math.pi, v_max=2 * math.pi, a_max=20, dwell=dwell, repeat=2, reverse=True)
+    return m, DutyCycle.from_trajectory(traj, 2 * (traj.move_time + dwell), start=start)
+
+
+def test_a_long_rest_is_shortened_not_stepped_and_the_move_is_judged_the_same():
+    # half a second of rest or an hour: the loop settles within 10 Ti = 2 s, the moves are the same
+    motor = [load_motor("maxon-re40-148866")]
+    short, long = (size(*fourbar_move(dwell), motor, [100], supply_voltage=48.0, current_limit=10.0,
+                        control=Control.servo()).assessments[0] for dwell in (0.5, 3600.0))
+    assert long.closed_loop.method == "simulated" and len(long.closed_loop.t) < 20_000  # not 3.6 million
+    assert abs(long.needs["peak current"][0] / short.needs["peak current"][0] - 1) < 0.05
+    # an hour at rest at each end, holding the crank: the RMS current is the holding currents', weighted by time
+    there, back = (long.current[np.argmin(np.abs(long.t - t))] for t in (1800.0, long.t[-1] - 1800.0))
+    assert abs(long.closed_loop.rms_current / math.sqrt((there**2 + back**2) / 2) - 1) < 0.01
+
+
+def test_the_bound_for_cycles_too_long_to_step_bounds_the_stepped_loop(monkeypatch):
+    from grubler import sizing
+
+    m, cycle = fourbar_move(0.5)
+    motor = [load_motor("maxon-re40-148866")]
+    stepped = size(m, cycle, motor, [100], supply_voltage=48.0, current_limit=10.0, control=Control.servo())
+    monkeypatch.setattr(sizing, "LOOP_SAMPLES", 10)
+    bounded = size(m, cycle, motor, [100], supply_voltage=48.0, current_limit=10.0, control=Control.servo())
+    s, b = stepped.assessments[0], bounded.assessments[0]
+    assert b.closed_loop.method == "bound"
+    ideal = float(np.max(np.abs(s.current)))
+    assert b.needs["peak current"][0] > s.needs["peak current"][0] > ideal
+
+
+def test_a_loop_that_diverges_is_reported_not_ranked():
+    m, cycle = fourbar_move(0.5)
+    servo = Control.servo()
+    wild = Control({**servo.pid, "K": 1e6, "u_min": -1e300, "u_max": 1e300}, servo.encoder)
+    (a,) = size(m, cycle, [load_motor("maxon-re40-148866")], [100], supply_voltage=48.0, current_limit=10.0,
+                control=wild).assessments
+    assert not a.closed_loop.stable and not a.feasible
+    assert "peak current: the servo's position loop is unstable with this motor and ratio" in a.failures[0]
