@@ -54,27 +54,29 @@ def frame_geometry(model: Mechanism, z: np.ndarray) -> FrameGeometry:
     kin = chain_kinematics(model, z, np.zeros(model.n_links))
     geo = FrameGeometry()
     n = model.n_links
-    # where each link's vector ends: the next link hangs off there (plus its slide)
+    parent = [pk - 2 for pk in model.parents]  # each link's predecessor, -1 the ground
+    # where each link's vector ends: its children hang off there (plus their slides)
     ends = []
     for k, link in enumerate(model.links):
         end, _, _ = point_on_link(kin, k, (link.a, 0.0))
         ends.append(end)
         geo.bars.append((kin.origin[k].copy(), end))
-        if k + 1 < n and not np.allclose(end, kin.origin[k + 1]):
-            geo.bars.append((end, kin.origin[k + 1].copy()))  # the slide's offset along the axis
+        for c in range(k + 1, n):
+            if parent[c] == k and not np.allclose(end, kin.origin[c]):
+                geo.bars.append((end, kin.origin[c].copy()))  # the slide's offset along the axis
     ground_end = np.array([model.a1 * math.cos(model.theta1), model.a1 * math.sin(model.theta1)])
     for k, link in enumerate(model.links):
         axis_angle = math.atan2(kin.axis[k][1], kin.axis[k][0])
         if link.joint == PRISMATIC:
-            base = ground_end if k == 0 else ends[k - 1]
-            geo.guides.append((base, axis_angle, k == 0))
+            base = ground_end if parent[k] < 0 else ends[parent[k]]
+            geo.guides.append((base, axis_angle, parent[k] < 0))
             geo.blocks.append((kin.origin[k].copy(), axis_angle))
         else:
             geo.joints.append(kin.origin[k].copy())
-            if k == 0:
-                geo.fixed.append(kin.origin[0].copy())
-    # a link with three or more joints (its own, its successor's, closures' points) is a plate
-    corners: list[list] = [[kin.origin[k].copy()] + ([kin.origin[k + 1].copy()] if k + 1 < n else [])
+            if parent[k] < 0:
+                geo.fixed.append(kin.origin[k].copy())
+    # a link with three or more joints (its own, its children's, closures' points) is a plate
+    corners: list[list] = [[kin.origin[k].copy()] + [kin.origin[c].copy() for c in range(n) if parent[c] == k]
                            for k in range(n)]
     for cl in model.closures:
         corners[cl.link - 2].append(point_on_link(kin, cl.link - 2, cl.point)[0])
