@@ -125,18 +125,22 @@ class ComputedTorque(Law):
         """Torque at the drive joint for that motion, N m (N on a slide)."""
         return float(self.demand(position, velocity, acceleration).torque[0])
 
-    def motor(self, tau: float, velocity: float) -> tuple[float, float]:
-        """Motor torque and voltage feedforward for a drive torque and drive velocity."""
+    def motor(self, tau, velocity):
+        """Motor torque and voltage feedforward for a drive torque and drive velocity.
+
+        Elementwise over arrays: motor sizing predicts what this feedforward
+        leaves to the PID over a whole duty cycle with this same computation.
+        """
         n, eta = self.gear_ratio, self.efficiency
-        motoring = tau * velocity >= 0
-        tau_m = tau / (n * eta) if motoring else tau * eta / n
-        voltage = self.R * tau_m / self.k_t + self.k_e * n * velocity if self.k_t > 0 else 0.0
-        return tau_m, voltage
+        tau, velocity = np.asarray(tau, float), np.asarray(velocity, float)
+        tau_m = np.where(tau * velocity >= 0, tau / (n * eta), tau * eta / n)  # motoring, else braking
+        voltage = self.R * tau_m / self.k_t + self.k_e * n * velocity if self.k_t > 0 else np.zeros_like(tau_m)
+        return tau_m[()], voltage[()]
 
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
         tau = self.drive_torque(inputs["position"], inputs["velocity"], inputs["acceleration"])
         tau_m, voltage = self.motor(tau, inputs["velocity"])
-        return {"torque": tau, "motor_torque": tau_m, "voltage": voltage}
+        return {"torque": tau, "motor_torque": float(tau_m), "voltage": float(voltage)}
 
     def get_state(self):
         return self.z.copy()  # the model is constant: only the warm start moves

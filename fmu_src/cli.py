@@ -293,7 +293,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_size(args) -> int:
     from .motors import list_motors, load_motor
-    from .sizing import DutyCycle, size
+    from .sizing import Control, DutyCycle, size
     from .sweep import parse_axis
 
     scene = load_scene(args.scene)
@@ -317,23 +317,32 @@ def cmd_size(args) -> int:
         trajectory = {"kind": "constant", "speed": args.speed}
     names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
     _, ratios = parse_axis(f"ratios={args.ratios}")
+    # the currents are predicted under the servo's own position loop, the one --check co-simulates
     study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
-                 supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient)
+                 supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient,
+                 control=Control.servo())
     d = study.demand
     print(f"{scene.name}, {cycle.name}: drive joint torque {d.torque.min():.4g} to {d.torque.max():.4g} N m, "
           f"speed up to {abs(d.velocity).max():.4g} rad/s (period {cycle.period:.4g} s)")
-    print(f"{len(study.ranked)} of {len(study.assessments)} motor x ratio combinations fit; best first:")
+    print(f"{len(study.ranked)} of {len(study.assessments)} motor x ratio combinations fit; best first "
+          "(currents under the servo's PID, encoder and feedforward):")
     for k, a in enumerate(study.ranked[:10]):
         r = a.summary()
         print(f"  {k + 1:2d}. {a.candidate.label:<26} margin {a.min_margin:5.2f} ({a.binding}); peak "
               f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, {r['peak_motor_speed'] * 30 / math.pi:.0f} rpm, "
               f"winding +{r['temperature_rise']:.3g} K")
-    rejected = [a for a in study.assessments if not a.feasible]
-    for a in rejected[: 10 if args.verbose else 5]:
+    if len(study.ranked) > 10:
+        print(f"  ... {len(study.ranked) - 10} more that fit (the table ranks them all)")
+    rejected = study.rejected  # after the ranked ones: fewest broken limits first
+    shown = 10 if args.verbose else 5
+    for a in rejected[:shown]:
         print(f"  x  {a.candidate.label:<26} {a.failures[0]}" + (f" (+{len(a.failures) - 1} more)"
                                                                if len(a.failures) > 1 else ""))
-    if len(rejected) > 5 and not args.verbose:
-        print(f"  ... {len(rejected) - 5} more rejected (the table has every reason)")
+    if len(rejected) > shown:
+        print(f"  ... {len(rejected) - shown} more rejected (the table has every reason)")
+    if any(a.closed_loop is not None and a.closed_loop.method == "bound" for a in study.assessments):
+        print("note: the cycle is too long to step the position loop over it: the current it adds is bounded "
+              "instead (grubler.sizing.quantisation_bound), which overstates it")
     if args.out:
         study.write_csv(args.out)
         print(f"wrote {args.out}")
@@ -345,11 +354,9 @@ def cmd_size(args) -> int:
 
         chk = closed_loop_check(study.best, cycle, args.scene, trajectory, args.check,
                                 load_joint=model.load if args.load_torque else None, load_torque=args.load_torque)
-        print(f"closed-loop check of {study.best.candidate.label} (co-simulated with feedforward, "
-              f"after the first period): peak current {chk['cosim_peak_current']:.3g} A "
-              f"(predicted {chk['predicted_peak_current']:.3g}), RMS {chk['cosim_rms_current']:.3g} A "
-              f"(predicted {chk['predicted_rms_current']:.3g}), tracking within "
-              f"{chk['max_tracking_error']:.2g} rad")
+        print("\n".join(chk.lines()))
+    elif args.check:
+        print("no combination fits: nothing to co-simulate (--check)")
     return 0
 
 

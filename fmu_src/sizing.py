@@ -20,8 +20,15 @@ gearbox and winding are algebraic:
   the candidate is not called feasible on it (without a nominal torque, the
   thermal check stands for the continuous one).
 
+With a :class:`Control` (the servo's PID, encoder and feedforward, as
+``grubler size`` uses) the current is not the perfect drive's but the position
+loop's: :func:`closed_loop_current` adds what the PID does on top of the ideal
+trajectory's torque (chiefly its derivative's kicks at every encoder count), and
+the peak current, RMS torque, voltage and temperature are judged on that.
+
 Feasible combinations are ranked by their smallest margin (most headroom
-first); the others say which limit they break and by how much.
+first); the others follow, fewest broken limits first, each saying which limits
+it breaks and by how much.
 
 Examples
 --------
@@ -140,6 +147,8 @@ class Assessment:
     margins: dict[str, float]
     needs: dict[str, tuple[float, float, str]]  # name -> (needed, limit, unit)
     ambient: float
+    closed_loop: ClosedLoop | None = None  # the position loop's currents, when predicted with one
+    t: np.ndarray | None = None  # the cycle's sample instants (current, torque, speed, voltage)
 
     @property
     def feasible(self) -> bool:
@@ -162,6 +171,19 @@ class Assessment:
                 if math.isnan(need):
                     out.append(f"{k}: could not be computed for this cycle (not a number)")
                     continue
+                if self.closed_loop is not None and not self.closed_loop.stable and k == "peak current":
+                    out.append("peak current: the servo's position loop is unstable with this motor and ratio "
+                               "(its predicted current grows without bound)")
+                    continue
+                if k == "temperature rise" and math.isinf(need):
+                    out.append(f"temperature rise: runaway (the winding's i² R(T) outgrows its cooling), "
+                               f"limit {limit:.4g} {unit}")
+                    continue
+                if k == "ambient":
+                    lo, hi = self.candidate.motor.min_ambient_temperature, self.candidate.motor.max_ambient_temperature
+                    out.append(f"ambient: {need:.4g} degC is outside the motor's rated "
+                               f"{'-inf' if lo is None else f'{lo:g}'} to {'inf' if hi is None else f'{hi:g}'} degC")
+                    continue
                 out.append(f"{k}: needs {need:.4g} {unit}, " + (
                     "the data set gives no limit to check it against" if math.isnan(limit)
                     else f"limit {limit:.4g} {unit}"))
@@ -170,14 +192,22 @@ class Assessment:
     def summary(self) -> dict[str, float | str]:
         """The study table's row for this candidate."""
         tq, w = self.motor_torque, self.motor_speed
+        loop = self.closed_loop
+        i = loop.current if loop is not None else self.current
+        rms = loop.rms_current if loop is not None else _rms(i, self.t)
+        kt = self.candidate.motor.torque_constant
         row = {"motor": self.candidate.motor.name, "ratio": self.candidate.ratio,
-               "peak_motor_torque": float(np.max(np.abs(tq))), "rms_motor_torque": _rms(tq),
+               "peak_motor_torque": kt * float(np.max(np.abs(i))), "rms_motor_torque": kt * rms,
                "peak_motor_speed": float(np.max(np.abs(w))), "mean_motor_speed": float(np.mean(np.abs(w))),
-               "peak_current": float(np.max(np.abs(self.current))), "rms_current": _rms(self.current),
-               "peak_voltage": float(np.max(np.abs(self.voltage))),
+               "peak_current": float(np.max(np.abs(i))), "rms_current": rms,
+               "peak_current_ideal_drive": float(np.max(np.abs(self.current))),
+               "rms_current_ideal_drive": _rms(self.current, self.t),
+               "peak_voltage": self.needs["voltage"][0],
                "winding_temperature_max": float(np.max(self.temperature)),
                "temperature_rise": float(np.max(self.temperature) - self.ambient)}
         row.update({f"margin_{k.replace(' ', '_')}": v for k, v in self.margins.items()})
+        row["current_prediction"] = "perfect drive" if loop is None else (
+            f"position loop, {loop.method}" + ("" if loop.stable else ", unstable"))
         row["feasible"] = self.feasible
         row["binding"] = self.binding
         row["why_not"] = "; ".join(self.failures)
@@ -203,14 +233,280 @@ def sample_times(period: float, n: int, breakpoints=(), per_phase: int = 64) -> 
     return np.unique(np.concatenate(parts))
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.asarray(x) ** 2)))
+def _rms(x: np.ndarray, t: np.ndarray | None = None) -> float:
+    """Root mean square; over time when the sample instants ``t`` are given (they need not be even)."""
+    x = np.asarray(x, float)
+    if t is None:
+        return float(np.sqrt(np.mean(x**2)))
+    x2 = x**2
+    return float(np.sqrt(np.sum(0.5 * (x2[1:] + x2[:-1]) * np.diff(t)) / (t[-1] - t[0])))
 
 
 def required_drive(model: Mechanism, cycle: DutyCycle) -> DriveDemand:
     """The drive joint's torque over the cycle, without any motor's rotor inertia."""
     return drive_demand(model.replace(drive_inertia=0.0), cycle.position, cycle.velocity, cycle.acceleration,
                         cycle.load)
+
+
+def drive_inertia(model: Mechanism, cycle: DutyCycle, demand: DriveDemand) -> np.ndarray:
+    """The mechanism's inertia at the drive joint along the cycle, kg m2 (kg on a slide).
+
+    The drive effort is linear in the drive's acceleration at a given position
+    and speed (the dependent accelerations are), so one more inverse-dynamics
+    pass with the acceleration raised by 1 gives ``M_eff = tau(a + 1) - tau(a)``.
+    """
+    more = drive_demand(model.replace(drive_inertia=0.0), cycle.position, cycle.velocity, cycle.acceleration + 1.0,
+                        cycle.load)
+    return more.torque - demand.torque
+
+
+@dataclass(frozen=True)
+class Control:
+    """The position loop that drives the motor: PID and encoder parameters, feedforward.
+
+    The prediction (:func:`closed_loop_current`) and the co-simulated check
+    (:func:`closed_loop_check`) both take the controller from here, so they
+    judge the same servo.  :meth:`servo` is the servo co-simulation's own
+    (:class:`grubler.servo.ServoDesign`'s PID and encoder) with feedforward.
+    """
+
+    pid: dict
+    encoder: dict
+    feedforward: bool = True
+
+    @classmethod
+    def servo(cls) -> "Control":
+        from .servo import ServoDesign
+
+        d = ServoDesign()
+        return cls(dict(d.pid), dict(d.encoder), True)
+
+
+@dataclass
+class ClosedLoop:
+    """What the position loop makes of one candidate's cycle (:func:`closed_loop_current`).
+
+    Samples at the controller's sample instants over the last simulated period,
+    sorted by their phase in the cycle (``t`` from 0 to the period).
+    """
+
+    t: np.ndarray
+    current: np.ndarray  # A: the ideal current plus what the loop adds
+    extra_voltage: np.ndarray  # V: the loop's voltage beyond the ideal drive's
+    tracking_error: np.ndarray  # rad (m on a slide)
+    ideal_current: np.ndarray  # A, at the same instants
+    period: float  # s, of the cycle
+    control: Control | None = None  # the loop that made them
+    method: str = "simulated"  # or "bound" (quantisation_bound: too long a cycle to step)
+    stable: bool = True  # False: the loop diverges with this motor and ratio
+
+    @property
+    def rms_current(self) -> float:
+        """RMS over the period, weighted by time (a shortened rest has few samples)."""
+        return _rms(np.append(self.current, self.current[0]), np.append(self.t, self.t[0] + self.period))
+
+
+LOOP_SAMPLES = 400_000
+"""Most controller samples :func:`closed_loop_current` steps (all periods, long rests shortened)."""
+
+
+def _rest_stretches(cycle: DutyCycle, settle: float) -> list[tuple[float, float]]:
+    """The phases ``(a, b)`` a loop at rest need not be stepped through: each rest of the drive (speed and
+    acceleration exactly 0) longer than ``settle``, but for its first ``settle`` seconds."""
+    still = (cycle.velocity == 0.0) & (cycle.acceleration == 0.0)
+    t = cycle.t - cycle.t[0]
+    out, k = [], 0
+    while k < len(t):
+        if still[k]:
+            j = k
+            while j + 1 < len(t) and still[j + 1]:
+                j += 1
+            if t[j] - t[k] > settle:
+                out.append((float(t[k]) + settle, float(t[j])))
+            k = j + 1
+        else:
+            k += 1
+    return out
+
+
+def _sample_times(period: float, periods: int, Ts: float, skip: list[tuple[float, float]]) -> np.ndarray | None:
+    """The controller's instants ``k Ts`` over ``periods`` periods, leaving out the phases in ``skip``.
+
+    None when there would be more than ``LOOP_SAMPLES`` of them.
+    """
+    ranges, lo = [], 0.0
+    for a, b in skip:
+        ranges.append((lo, a))
+        lo = b
+    ranges.append((lo, period))
+    spans = [(p * period + a, p * period + b) for p in range(periods) for a, b in ranges]
+    counts = [max(0.0, math.ceil(hi / Ts) - math.ceil(lo / Ts)) for lo, hi in spans]
+    if not sum(counts) <= LOOP_SAMPLES:
+        return None
+    return np.concatenate([np.arange(math.ceil(lo / Ts), math.ceil(hi / Ts)) * Ts for lo, hi in spans])
+
+
+def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand, inertia: np.ndarray,
+                        candidate: Candidate, ideal_current: np.ndarray, control: Control,
+                        periods: int = 2) -> ClosedLoop:
+    """The winding current under the position loop: the ideal drive's plus the loop's reaction.
+
+    A reduced closed-loop model of the drive joint alone, linear about the ideal
+    cycle (the perfect drive the rest of the study assumes), stepped at the
+    controller's sample time with the project's own :class:`~grubler.controllers.PID`
+    and :class:`~grubler.controllers.Encoder` laws and the
+    :class:`~grubler.controllers.ComputedTorque` feedforward's voltage formula:
+
+    - the encoder reads the drive at ``reference + e`` (its quantisation is what
+      makes the PID's derivative kick by ``K Td / (Tf + Ts)`` per count);
+    - the voltage beyond the ideal drive's, ``du = PID + feedforward - (R i + k_e N w
+      + L di/dt)`` (ideal, at mid-step: the held voltage's lag is a mismatch too),
+      drives the extra current ``L d(di)/dt = du - R di - k_e N de/dt`` over the
+      step with the speed held, as the co-simulation's motor does;
+    - the extra torque ``(d tau/d i) di`` accelerates the drive joint's inertia
+      (the mechanism's along the cycle plus J_rotor N²): ``M_eff e'' = (d tau/d i) di``.
+
+    The winding is at ambient (its resistance is lowest, the kicks largest); the
+    drive's current limit and the motor's friction changes are left out.  The
+    first ``periods - 1`` periods settle the integral and are dropped.  A rest
+    longer than the loop's settling time ``10 max(Ti, Td, Ts)`` is shortened to
+    it (the loop is still there, its state kept).  A cycle that would still take
+    more than ``LOOP_SAMPLES`` samples gets a bound instead
+    (:func:`quantisation_bound`, ``method`` says which).  A loop that diverges
+    gives an infinite current (``stable`` False).
+    """
+    from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
+    from scipy.interpolate import CubicHermiteSpline
+
+    from grubler.controllers import PID, ComputedTorque, Encoder
+
+    data, N = candidate.motor, candidate.ratio
+    motor = DCMotor(data, Gearbox(N, candidate.efficiency), Drive(candidate.supply_voltage, candidate.current_limit))
+    pid, enc = PID(**control.pid), Encoder(**control.encoder)
+    Ts = pid.Ts
+    if abs(enc.Ts - Ts) > 1e-12 * Ts:
+        raise SceneError("encoder.Ts", f"the prediction samples encoder and PID together: {enc.Ts:g} s "
+                                        f"against the PID's {Ts:g} s")
+    if not (isinstance(periods, int) and periods >= 2):
+        raise SceneError("periods", f"must be a whole number >= 2 (one to settle, one to judge), got {periods!r}")
+    period, t0 = cycle.period, cycle.t[0]
+
+    def at(x, values):
+        return np.interp(x, cycle.t - t0, values)
+
+    tau = demand.torque + motor.reflected_inertia * cycle.acceleration  # at the drive joint, rotor included
+    w = N * cycle.velocity
+    # d tau / d i through the gearbox in the direction of power flow (the motor model's own inverse)
+    step = 1e-6 * max(1.0, float(np.max(np.abs(tau))))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gain = step / (current_for_torque(motor, tau + step, w) - ideal_current)
+    R, L, ke = data.resistance_at(data.reference_temperature), data.inductance, data.back_emf_constant
+    J_cycle = inertia + motor.reflected_inertia
+    plant = _Winding(R, L, ke * N, Ts)
+    settle = 10.0 * max(pid.Ti, pid.Td, Ts)
+    skipped = _rest_stretches(cycle, settle)
+    t = _sample_times(period, periods, Ts, skipped)
+    if not np.all(np.isfinite(gain)):  # the gearbox model gives no torque for a current change
+        nan = np.full_like(cycle.t, np.nan)
+        return ClosedLoop(cycle.t - t0, nan, nan, nan, ideal_current, period, control, "not computed", False)
+    if t is None:  # too long a cycle to step: the bound, at the ideal peak's sample
+        k = int(np.argmax(np.abs(ideal_current)))
+        bound = quantisation_bound(control, R, L, ke * N, float(gain[k]), float(J_cycle[k]))
+        tc = cycle.t - t0
+        extra = np.full_like(tc, bound)
+        return ClosedLoop(tc, np.sign(ideal_current) * (np.abs(ideal_current) + bound), extra * R,
+                          np.zeros_like(tc), ideal_current, period, control, "bound", math.isfinite(bound))
+    turns, phase = np.divmod(t, period)
+    lap = cycle.position[-1] - cycle.position[0]  # a constant-speed cycle gains a turn each period
+    position = CubicHermiteSpline(cycle.t - t0, cycle.position, cycle.velocity)
+    mid = (phase + 0.5 * Ts) % period
+    reference = position(phase) + turns * lap
+    ideal_voltage = R * ideal_current + ke * w + L * np.gradient(ideal_current, cycle.t)
+    u_ideal = at(mid, ideal_voltage)
+    if control.feedforward:
+        ct = ComputedTorque(model, drive_inertia=motor.reflected_inertia, gear_ratio=N,
+                            efficiency=candidate.efficiency, R=data.resistance, k_t=data.torque_constant,
+                            k_e=data.back_emf_constant, Ts=Ts)
+        u_ff = at(phase, ct.motor(tau, cycle.velocity)[1])
+    else:
+        u_ff = np.zeros_like(t)
+    g_over_J = at(mid, gain) / at(mid, J_cycle)
+    n = len(t)
+    e = ed = di = 0.0
+    extra, dis, errs = np.empty(n), np.empty(n), np.empty(n)
+    stable = True
+    for k in range(n):
+        y = enc.update(float(t[k]), {"position": float(reference[k] + e)})["measured_position"]
+        du = pid.compute(float(reference[k]), y, float(u_ff[k])) - u_ideal[k]
+        di, avg = plant.step(di, du, ed)
+        ed += Ts * g_over_J[k] * avg
+        e += Ts * ed
+        extra[k], dis[k], errs[k] = du, di, e
+        if not abs(e) < 1e3:  # diverged (or NaN): the loop is unstable with this motor and ratio
+            stable = False
+            dis[:], extra[:], errs[:] = math.inf, math.inf, math.inf
+            break
+    # outputs at the end of each step; keep the last period, by phase
+    t_end = t + Ts
+    last = t_end > periods * period - period
+    ph = (t_end[last] - (periods - 1) * period)
+    # a shortened rest is bridged by the ideal (holding) current at its ends: the loop is at rest there
+    # (the hunting between two counts that a PID with integral keeps up is left out of it)
+    bridge = np.array([x for a, b in skipped for x in (a, min(b, period * (1 - 1e-12)))])
+    tl = np.concatenate([ph, bridge])
+    order = np.argsort(tl)
+    tl = tl[order]
+    i_ideal = at(tl, ideal_current)
+    dis = np.concatenate([dis[last], np.zeros_like(bridge)])[order]
+    extra = np.concatenate([extra[last], np.zeros_like(bridge)])[order]
+    errs = np.concatenate([errs[last], np.full_like(bridge, np.nan)])[order]
+    held = np.maximum.accumulate(np.where(np.isnan(errs), 0, np.arange(len(errs))))
+    errs = errs[held]  # the tracking error held over a shortened rest
+    return ClosedLoop(tl, i_ideal + dis, extra, errs, i_ideal, period, control, "simulated", stable)
+
+
+class _Winding:
+    """The extra current's step over one sample: voltage ``du`` held, back-EMF ``c ed`` held (exact)."""
+
+    def __init__(self, R: float, L: float, c: float, Ts: float):
+        self.R, self.c = R, c
+        tau_e = L / R
+        self.a = math.exp(-Ts / tau_e) if tau_e > 0 else 0.0
+        self.mean = (1.0 - self.a) * tau_e / Ts if tau_e > 0 else 0.0  # mean of e^(-s/tau_e) over the step
+
+    def step(self, di: float, du: float, ed: float) -> tuple[float, float]:
+        """The current at the step's end, and its mean over the step."""
+        target = (du - self.c * ed) / self.R  # where the step's voltage drives it, speed held
+        return target + (di - target) * self.a, target + (di - target) * self.mean
+
+
+def quantisation_bound(control: Control, R: float, L: float, c: float, gain: float, J: float) -> float:
+    """Largest extra current the encoder's quantisation can cause, A (a bound, for any motion).
+
+    The quantisation error of a reading is in ``[0, q)``, ``q`` one count; its
+    mean is taken up by the integral, the rest is within ``±q/2``.  The loop is
+    linear, so the extra current is at most the l1 norm of its response to a
+    one-count measurement impulse times ``q/2`` (the worst sign pattern of the
+    errors).  The response is stepped from rest on the reduced model of
+    :func:`closed_loop_current` (winding ``R``, ``L``, back-EMF ``c``, torque per
+    current ``gain``, inertia ``J``) for ``20 max(Ti, Td, Ts)``.
+    """
+    from grubler.controllers import PID, Encoder
+
+    pid, q = PID(**{**control.pid, "u_min": -1e300, "u_max": 1e300}), Encoder(**control.encoder).resolution
+    if q == 0:
+        return 0.0
+    Ts = pid.Ts
+    plant = _Winding(R, L, c, Ts)
+    e = ed = di = 0.0
+    total = 0.0
+    for k in range(math.ceil(20.0 * max(pid.Ti, pid.Td, Ts) / Ts)):
+        du = pid.compute(0.0, e + (q if k == 0 else 0.0))
+        di, avg = plant.step(di, du, ed)
+        ed += Ts * gain * avg / J
+        e += Ts * ed
+        total += abs(di)
+    return total / 2.0 if math.isfinite(total) else math.inf
 
 
 def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: float) -> np.ndarray:
@@ -243,8 +539,16 @@ def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: floa
     return temps
 
 
-def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient: float = 25.0) -> Assessment:
-    """Motor-side needs and margins of one candidate (see the module's notes)."""
+def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient: float = 25.0,
+           control: Control | None = None, model: Mechanism | None = None,
+           inertia: np.ndarray | None = None) -> Assessment:
+    """Motor-side needs and margins of one candidate (see the module's notes).
+
+    With a ``control`` (and the ``model``; ``inertia`` from :func:`drive_inertia`,
+    computed when not given) the currents are the position loop's
+    (:func:`closed_loop_current`): peak current, RMS torque, voltage and winding
+    temperature are judged on them.  Without, on the ideal drive's.
+    """
     from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
 
     data = candidate.motor
@@ -254,7 +558,19 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
     torque = demand.torque + motor.reflected_inertia * cycle.acceleration
     w = N * cycle.velocity
     i = current_for_torque(motor, torque, w)
-    temps = periodic_temperature(cycle.t, i, data, ambient)
+    loop = None
+    if control is not None:
+        if model is None:
+            raise SceneError("model", "the closed-loop prediction needs the mechanism")
+        if inertia is None:
+            inertia = drive_inertia(model, cycle, demand)
+        loop = closed_loop_current(model, cycle, demand, inertia, candidate, i, control)
+        # the thermal cycle over the loop's samples, closed at one period
+        t_heat = np.append(loop.t, loop.t[0] + cycle.period)
+        i_heat = np.append(loop.current, loop.current[0])
+    else:
+        t_heat, i_heat = cycle.t, i
+    temps = periodic_temperature(t_heat, i_heat, data, ambient)
     hot = float(np.max(temps))
     # the voltage at the hottest winding the motor may reach (a runaway is the
     # temperature's failure, not the voltage's)
@@ -263,24 +579,35 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
     didt = np.gradient(i, cycle.t)
     v = R_hot * i + data.back_emf_constant * w + data.inductance * didt
     tau_m = data.torque_constant * i  # electromagnetic torque: what the winding must make
+    if loop is None:
+        i_need, v_need = i, v
+    else:  # the loop's voltage rides on the ideal drive's
+        i_need, v_need = loop.current, np.interp(loop.t, cycle.t - cycle.t[0], v) + loop.extra_voltage
     needs: dict[str, tuple[float, float, str]] = {}
     stall_current = candidate.supply_voltage / data.resistance
     i_limit = min(candidate.current_limit, stall_current)
     # a limit the datasheet does not give cannot be checked: its margin is 0
     # (not feasible) and the reason says so, rather than passing unchecked
     unknown = math.nan
-    needs["peak current"] = (float(np.max(np.abs(i))), i_limit, "A")
+    needs["peak current"] = (float(np.max(np.abs(i_need))), i_limit, "A")
     if data.nominal_torque:  # without it, the thermal check below is the continuous one
-        needs["continuous torque"] = (_rms(tau_m), data.nominal_torque, "N m")
+        rms = _rms(i_need, cycle.t) if loop is None else loop.rms_current
+        needs["continuous torque"] = (data.torque_constant * rms, data.nominal_torque, "N m")
     needs["speed"] = (float(np.max(np.abs(w))), data.max_speed or data.no_load_speed or unknown, "rad/s")
-    needs["voltage"] = (float(np.max(np.abs(v))), candidate.supply_voltage, "V")
+    needs["voltage"] = (float(np.max(np.abs(v_need))), candidate.supply_voltage, "V")
     t_max = data.max_winding_temperature
     needs["temperature rise"] = (hot - ambient, unknown if t_max is None else t_max - ambient, "K")
-    # a need that could not be computed (NaN) fails like an unknown limit: never "fits" by
-    # way of a comparison that is false
     margins = {k: (0.0 if math.isnan(lim) or math.isnan(need) else lim / need if need > 0 else math.inf)
                for k, (need, lim, _) in needs.items()}
-    return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient)
+    lo, hi = data.min_ambient_temperature, data.max_ambient_temperature
+    if lo is not None or hi is not None:  # the motor's rated surroundings: in or out, no ratio
+        inside = (lo is None or ambient >= lo) and (hi is None or ambient <= hi)
+        needs["ambient"] = (ambient, hi if hi is not None and ambient > (lo if lo is not None else -math.inf)
+                            else lo, "degC")
+        margins["ambient"] = math.inf if inside else 0.0
+    # a need that could not be computed (NaN) fails like an unknown limit: never "fits" by
+    # way of a comparison that is false
+    return Assessment(candidate, tau_m, w, i, v, temps, margins, needs, ambient, loop, cycle.t)
 
 
 @dataclass
@@ -296,9 +623,16 @@ class SizingStudy:
     def best(self) -> Assessment | None:
         return self.ranked[0] if self.ranked else None
 
+    @property
+    def rejected(self) -> list[Assessment]:
+        """The combinations that break a limit: fewest broken limits first, then the closest to fitting."""
+        return sorted((a for a in self.assessments if not a.feasible),
+                      key=lambda a: (len(a.failures), -a.min_margin))
+
     def table(self) -> list[dict]:
-        rank = {id(a): k + 1 for k, a in enumerate(self.ranked)}
-        return [{"rank": rank.get(id(a), ""), **a.summary()} for a in self.assessments]
+        """One row per combination: the ranked ones (rank 1, 2, ...), then the rejected ones with their reasons."""
+        return ([{"rank": k + 1, **a.summary()} for k, a in enumerate(self.ranked)]
+                + [{"rank": "rejected", **a.summary()} for a in self.rejected])
 
     def write_csv(self, path) -> None:
         import csv
@@ -332,7 +666,12 @@ class SizingStudy:
             c, d = pick.candidate, pick.candidate.motor
             w = np.abs(pick.motor_speed)
             ax.plot(pick.motor_speed * 30 / math.pi, pick.motor_torque * 1e3, ".", ms=2,
-                    label=f"cycle at {c.ratio:g}:1")
+                    label=f"cycle at {c.ratio:g}:1, ideal drive")
+            loop = pick.closed_loop
+            if loop is not None:  # what the margins judge: the torque the loop's current makes
+                speed = np.interp(loop.t, self.cycle.t - self.cycle.t[0], pick.motor_speed)
+                ax.plot(speed * 30 / math.pi, d.torque_constant * loop.current * 1e3, ".", ms=1, color="tab:red",
+                        alpha=0.25, zorder=1, label="with the servo's PID and encoder")
             w_top = (d.max_speed or d.no_load_speed or float(np.max(w)) * 1.2)
             ws = np.linspace(-w_top, w_top, 200)
             # what the supply and the current limit allow: back-EMF eats the voltage
@@ -349,7 +688,10 @@ class SizingStudy:
                                 color="tab:green", alpha=0.2, label="continuous (nominal torque)")
             ax.set_xlabel("motor speed [rpm]")
             ax.set_ylabel("motor torque [mN m]")
-            ax.set_title(f"{name}: {'fits' if pick.feasible else 'fails: ' + pick.binding}", fontsize=9)
+            verdict = "fits" if pick.feasible else "fails on " + ", ".join(
+                k for k, v in pick.margins.items() if v < 1.0)
+            ax.set_title(f"{name} at {c.ratio:g}:1\n{verdict} (smallest margin {pick.min_margin:.2f}, "
+                         f"{pick.binding})", fontsize=9)
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, loc="upper right")
         ax = axes.flat[n - 1]
@@ -372,7 +714,7 @@ class SizingStudy:
 
 def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float = 0.9,
          supply_voltage: float | None = None, current_limit: float = math.inf,
-         ambient: float = 25.0) -> SizingStudy:
+         ambient: float = 25.0, control: Control | None = None) -> SizingStudy:
     """Assess every motor at every gear ratio and rank the feasible ones.
 
     Parameters
@@ -392,6 +734,10 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
         The drive's current limit, A.
     ambient : float
         Ambient temperature, degC.
+    control : Control, optional
+        The position loop that will drive the motor (e.g. :meth:`Control.servo`,
+        what ``grubler size`` and its ``--check`` use): the currents are then
+        predicted with it (:func:`closed_loop_current`).  Default: a perfect drive.
 
     Returns
     -------
@@ -406,6 +752,7 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
     check_size(len(motors) * len(ratios) * len(cycle.t), 6 * 8, "the study's arrays",
                "ratios or motors (--ratios, --motors)")
     demand = required_drive(model, cycle)
+    inertia = drive_inertia(model, cycle, demand) if control is not None else None
     assessments = []
     for data in motors:
         supply = supply_voltage if supply_voltage is not None else data.nominal_voltage
@@ -413,46 +760,132 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
             raise SceneError("supply_voltage", f"{data.name} has no nominal voltage: give the supply voltage")
         for ratio in ratios:  # assess builds the motor, whose gearbox and drive name a bad field
             assessments.append(assess(demand, cycle, Candidate(data, ratio, efficiency, supply, current_limit),
-                                      ambient))
+                                      ambient, control, model, inertia))
     ranked = sorted((a for a in assessments if a.feasible), key=lambda a: -a.min_margin)
     return SizingStudy(demand, cycle, assessments, ranked)
 
 
+@dataclass
+class CheckRow:
+    """One limit in a closed-loop check: what was predicted, what the co-simulation needed, the verdict."""
+
+    limit: str
+    unit: str
+    predicted: float
+    cosimulated: float
+    allowed: float  # NaN: the data set gives no limit
+
+    @property
+    def difference(self) -> float:
+        """(predicted - co-simulated) / co-simulated, in %."""
+        return 100.0 * (self.predicted - self.cosimulated) / self.cosimulated if self.cosimulated else math.nan
+
+    @property
+    def margin(self) -> float:
+        """Limit over the co-simulated need (0 when the limit is unknown)."""
+        if math.isnan(self.allowed):
+            return 0.0
+        return self.allowed / self.cosimulated if self.cosimulated > 0 else math.inf
+
+    @property
+    def fits(self) -> bool:
+        return self.margin >= 1.0
+
+
+@dataclass
+class CheckResult:
+    """The co-simulated check of one candidate (:func:`closed_loop_check`)."""
+
+    label: str
+    rows: list[CheckRow]
+    max_tracking_error: float  # rad (m on a slide)
+    periods: int
+    ideal_peak_current: float  # A: a perfect drive's, the prediction without the position loop
+
+    def row(self, limit: str) -> CheckRow:
+        return next(r for r in self.rows if r.limit == limit)
+
+    @property
+    def fits(self) -> bool:
+        return all(r.fits for r in self.rows)
+
+    def lines(self) -> list[str]:
+        """The verdict as printed by ``grubler size --check``."""
+        out = [f"closed-loop check of {self.label} (servo co-simulation with feedforward, PID and encoder; "
+               f"the last {self.periods - 1} of {self.periods} periods):",
+               f"  {'limit':<22}{'predicted':>13}{'co-simulated':>15}{'difference':>12}{'limit':>13}{'margin':>8}"
+               "  verdict"]
+        for r in self.rows:
+            lim = "none given" if math.isnan(r.allowed) else f"{r.allowed:.5g} {r.unit}"
+            out.append(f"  {r.limit:<22}{f'{r.predicted:.4g} {r.unit}':>13}{f'{r.cosimulated:.4g} {r.unit}':>15}"
+                       f"{f'{r.difference:+.1f} %':>12}{lim:>13}{r.margin:8.2f}  {'fits' if r.fits else 'FAILS'}")
+        peak = self.row("peak current").cosimulated
+        out.append(f"  a perfect drive (no position loop) would need {self.ideal_peak_current:.4g} A peak "
+                   f"({100 * (self.ideal_peak_current - peak) / peak:+.1f} %)")
+        out.append(f"  {'fits' if self.fits else 'does not fit'} in closed loop; tracking within "
+                   f"{self.max_tracking_error:.2g} rad")
+        return out
+
+
 def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, trajectory: dict, fmu_dir,
                       periods: int = 3, load_joint: str | None = None, load_torque: float = 0.0,
-                      step: float = 1e-3) -> dict[str, float]:
-    """Run a candidate in the servo co-simulation and compare it with its prediction.
+                      step: float = 1e-3) -> CheckResult:
+    """Run a candidate in the servo co-simulation and judge it on every limit.
 
     The servo (:mod:`grubler.servo`) follows ``trajectory`` (Trajectory FMU
-    parameters describing the same duty cycle) with computed-torque
-    feedforward, so that the PID only trims; the first period is the start-up
-    and is left out.
+    parameters describing the same duty cycle) with the controller the
+    prediction used (the assessment's :class:`Control`, else
+    :meth:`Control.servo`); the first period is the start-up and is left out.
+    The winding temperature is the periodic steady state of the thermal model
+    under the co-simulated current of the last period (a few periods of
+    co-simulation are far shorter than the thermal time constant).
 
     Returns
     -------
-    dict
-        ``peak_current`` and ``rms_current`` predicted and co-simulated (A), and
-        ``max_tracking_error`` (rad) of the co-simulation.
+    CheckResult
+        Per limit (peak current, continuous torque, speed, voltage, winding
+        temperature rise): predicted, co-simulated, their difference, margin
+        and verdict.
     """
     from .cosim import run
     from .servo import ServoDesign, servo_system
 
     c = assessment.candidate
-    design = ServoDesign(scene=scene, motor=c.motor.name, gear_ratio=c.ratio, gear_efficiency=c.efficiency,
+    data = c.motor
+    control = assessment.closed_loop.control if assessment.closed_loop is not None else Control.servo()
+    design = ServoDesign(scene=scene, motor=data.name, gear_ratio=c.ratio, gear_efficiency=c.efficiency,
                          supply_voltage=c.supply_voltage,
                          current_limit=c.current_limit,  # inf: none (servo_system spells it 0 for the FMU)
-                         trajectory=dict(trajectory), feedforward=True, load_joint=load_joint,
+                         trajectory=dict(trajectory), pid=dict(control.pid), encoder=dict(control.encoder),
+                         feedforward=control.feedforward, load_joint=load_joint,
                          load_torque=load_torque, t_end=periods * cycle.period, step=step)
     res = run(servo_system(design, fmu_dir, name="sizing_check"),
-              record=["motor.current", "mechanism.drive_angle", "trajectory.position"])
+              record=["motor.current", "mechanism.drive_angle", "trajectory.position", "mechanism.drive_speed",
+                      "motor.terminal_voltage"])
     late = res.t >= res.t[0] + cycle.period
     i = res["motor.current"][late]
     err = res["mechanism.drive_angle"][late] - res["trajectory.position"][late]
-    return {"predicted_peak_current": float(np.max(np.abs(assessment.current))),
-            "cosim_peak_current": float(np.max(np.abs(i))),
-            "predicted_rms_current": _rms(assessment.current), "cosim_rms_current": _rms(i),
-            "max_tracking_error": float(np.max(np.abs(err)))}
+    last = res.t >= res.t[-1] - cycle.period * (1 - 1e-9)
+    t_heat = np.append(res.t[last], res.t[last][0] + cycle.period)
+    i_heat = np.append(res["motor.current"][last], res["motor.current"][last][0])
+    rise = float(np.max(periodic_temperature(t_heat, i_heat, data, assessment.ambient))) - assessment.ambient
+    needs = assessment.needs
+    cosim = {"peak current": float(np.max(np.abs(i))),
+             "continuous torque": data.torque_constant * _rms(i),
+             "speed": c.ratio * float(np.max(np.abs(res["mechanism.drive_speed"][late]))),
+             "voltage": float(np.max(np.abs(res["motor.terminal_voltage"][late]))),
+             "temperature rise": rise}
+    units = {"speed": "rpm"}
+    rows = []
+    for k, value in cosim.items():
+        if k not in needs:  # no nominal torque: the temperature rise is the continuous check
+            continue
+        need, allowed, unit = needs[k]
+        scale = 30.0 / math.pi if k == "speed" else 1.0  # speeds shown in rpm
+        rows.append(CheckRow(k, units.get(k, unit), need * scale, value * scale, allowed * scale))
+    return CheckResult(c.label, rows, float(np.max(np.abs(err))), periods, float(np.max(np.abs(assessment.current))))
 
 
-__all__ = ["DutyCycle", "Candidate", "Assessment", "SizingStudy", "required_drive", "assess", "size",
-           "periodic_temperature", "closed_loop_check"]
+__all__ = ["DutyCycle", "Candidate", "Assessment", "SizingStudy", "Control", "ClosedLoop", "CheckRow", "CheckResult",
+           "required_drive", "drive_inertia", "closed_loop_current", "assess", "size", "periodic_temperature",
+           "closed_loop_check"]

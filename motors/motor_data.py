@@ -47,6 +47,10 @@ STALL_TOLERANCE = 0.05
 NO_LOAD_TOLERANCE = 0.03
 """Largest accepted relative mismatch between a stated no-load speed and k_n (U - R I_0)."""
 
+NOMINAL_TOLERANCE = 0.03
+"""Largest accepted relative mismatch between a stated nominal current and M_N / k_t + I_0, and
+between a stated speed/torque gradient (or mechanical time constant) and R / k_t² (J R / k_t²)."""
+
 RPM = math.pi / 30.0  # rad/s per rpm
 
 
@@ -111,10 +115,11 @@ class MotorData:
     notes : str
         Which fields were derived, and how.
     nominal_voltage, nominal_torque, nominal_speed, no_load_speed, stall_torque, \
-max_speed, max_winding_temperature : float or None
-        Datasheet figures for sizing [V, N m, rad/s, rad/s, N m, rad/s, degC];
-        None where the datasheet gives none.  ``nominal_torque`` is the maximum
-        continuous torque.
+max_speed, max_winding_temperature, nominal_current, min_ambient_temperature, max_ambient_temperature : \
+float or None
+        Datasheet figures for sizing [V, N m, rad/s, rad/s, N m, rad/s, degC, A,
+        degC, degC]; None where the datasheet gives none.  ``nominal_torque`` is
+        the maximum continuous torque, ``nominal_current`` its current.
 
     Examples
     --------
@@ -149,6 +154,9 @@ max_speed, max_winding_temperature : float or None
     stall_torque: float | None = None
     max_speed: float | None = None
     max_winding_temperature: float | None = None
+    nominal_current: float | None = None
+    min_ambient_temperature: float | None = None
+    max_ambient_temperature: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name.strip():
@@ -160,15 +168,19 @@ max_speed, max_winding_temperature : float or None
             object.__setattr__(self, f, check_number(f, getattr(self, f)))
         for f in ("viscous_friction", "coulomb_friction", "temperature_coefficient"):
             object.__setattr__(self, f, check_number(f, getattr(self, f), positive=False))
-        for f in ("reference_temperature", "max_winding_temperature"):  # degC: any sign
+        for f in ("reference_temperature", "max_winding_temperature", "min_ambient_temperature",
+                  "max_ambient_temperature"):  # degC: any sign
             t = getattr(self, f)
-            if t is None and f == "max_winding_temperature":
+            if t is None and f != "reference_temperature":
                 continue
             if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
                 raise SceneError(f, f"must be a finite number, got {t!r}")
             object.__setattr__(self, f, float(t))
+        lo, hi = self.min_ambient_temperature, self.max_ambient_temperature
+        if lo is not None and hi is not None and not lo < hi:
+            raise SceneError("max_ambient_temperature", f"must exceed min_ambient_temperature = {lo:g}, got {hi:g}")
         for f in ("nominal_voltage", "nominal_torque", "nominal_speed", "no_load_speed", "stall_torque",
-                  "max_speed"):
+                  "max_speed", "nominal_current"):
             object.__setattr__(self, f, check_number(f, getattr(self, f), optional=True))
         mismatch = self.back_emf_constant / self.torque_constant - 1.0
         if abs(mismatch) > KE_KT_TOLERANCE:
@@ -230,6 +242,10 @@ max_speed, max_winding_temperature : float or None
         no_load_speed_rpm: float | None = None, nominal_speed_rpm: float | None = None,
         nominal_torque_mNm: float | None = None, stall_torque_mNm: float | None = None,
         max_speed_rpm: float | None = None, max_winding_temperature_degC: float | None = None,
+        nominal_current_A: float | None = None, stall_current_A: float | None = None,
+        max_efficiency_percent: float | None = None, speed_torque_gradient_rpm_per_mNm: float | None = None,
+        mechanical_time_constant_ms: float | None = None,
+        ambient_temperature_min_degC: float | None = None, ambient_temperature_max_degC: float | None = None,
         temperature_coefficient_per_K: float = 0.0039, reference_temperature_degC: float = 25.0,
         smoothing_speed_rad_per_s: float = 10.0, notes: str = "",
     ) -> "MotorData":
@@ -268,6 +284,16 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
             Max. continuous and stall torque [mNm]; the stall torque is checked
             against k_t U / R - friction.
         max_winding_temperature_degC : float, optional
+        nominal_current_A : float, optional
+            Max. continuous current [A]; checked against M_N / k_t + I_0.
+        stall_current_A : float, optional
+            Starting current [A]; checked against U / R.
+        max_efficiency_percent : float, optional
+            Kept for the record (range 0 to 100).
+        speed_torque_gradient_rpm_per_mNm, mechanical_time_constant_ms : float, optional
+            Checked against R / k_t² and J R / k_t² (not used otherwise).
+        ambient_temperature_min_degC, ambient_temperature_max_degC : float, optional
+            The ambient temperature range the motor is rated for.
         temperature_coefficient_per_K, reference_temperature_degC : float
             Copper's 0.0039 /K, and the datasheet's 25 degC.
         smoothing_speed_rad_per_s : float
@@ -370,12 +396,37 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
                 raise SceneError("no_load_speed_rpm",
                                  f"{no_load_speed_rpm:g} rpm, but k_n (U - R I_0) = {expected / RPM:.5g} rpm "
                                  f"(more than {100 * NO_LOAD_TOLERANCE:g} % apart: a mistyped figure?)")
+        i_nom = check_number("nominal_current_A", nominal_current_A, optional=True)
+        checks = []  # (field, stated, expected, what the expectation is)
+        if i_nom is not None and m_nom is not None:
+            checks.append(("nominal_current_A", i_nom, m_nom / kt + i0, "M_N / k_t + I_0", "A"))
+        i_stall = check_number("stall_current_A", stall_current_A, optional=True)
+        if i_stall is not None and U is not None:
+            checks.append(("stall_current_A", i_stall, U / R, "U / R", "A"))
+        grad = check_number("speed_torque_gradient_rpm_per_mNm", speed_torque_gradient_rpm_per_mNm, optional=True)
+        if grad is not None:  # R / k_t² in rad/s per N m, stated in rpm per mNm
+            checks.append(("speed_torque_gradient_rpm_per_mNm", grad, R / (kt * ke) / RPM * 1e-3, "R / (k_t k_e)",
+                           "rpm/mNm"))
+        tau_mech = check_number("mechanical_time_constant_ms", mechanical_time_constant_ms, optional=True)
+        if tau_mech is not None:
+            checks.append(("mechanical_time_constant_ms", tau_mech, J * R / (kt * ke) * 1e3, "J R / (k_t k_e)", "ms"))
+        for field, stated, expected, what, unit in checks:
+            if abs(stated / expected - 1.0) > NOMINAL_TOLERANCE:
+                raise SceneError(field, f"{stated:g} {unit}, but {what} = {expected:.4g} {unit} (more than "
+                                        f"{100 * NOMINAL_TOLERANCE:g} % apart: a mistyped figure?)")
+        eff = check_number("max_efficiency_percent", max_efficiency_percent, optional=True)
+        if eff is not None and eff > 100:
+            raise SceneError("max_efficiency_percent", f"must be at most 100, got {eff:g}")
+        if n_nom is not None and n0 is not None and n_nom > n0:
+            raise SceneError("nominal_speed_rpm", f"{nominal_speed_rpm:g} rpm exceeds the no-load speed")
         if m_nom is not None and m_stall is not None and m_nom > m_stall:
             raise SceneError("nominal_torque_mNm", f"{nominal_torque_mNm:g} mNm exceeds the stall torque")
         smoothing = check_number("smoothing_speed_rad_per_s", smoothing_speed_rad_per_s)
         alpha = check_number("temperature_coefficient_per_K", temperature_coefficient_per_K, positive=False)
         for field, t in (("reference_temperature_degC", reference_temperature_degC),
-                         ("max_winding_temperature_degC", max_winding_temperature_degC)):
+                         ("max_winding_temperature_degC", max_winding_temperature_degC),
+                         ("ambient_temperature_min_degC", ambient_temperature_min_degC),
+                         ("ambient_temperature_max_degC", ambient_temperature_max_degC)):
             if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t)):
                 raise SceneError(field, f"must be a finite number, got {t!r}")
         all_notes = "; ".join([s for s in (notes.strip(),) if s] + derived)
@@ -385,7 +436,9 @@ thermal_time_constant_winding_s, thermal_time_constant_motor_s : float, optional
                    thermal_time_constant=tau_th, temperature_coefficient=alpha,
                    reference_temperature=reference_temperature_degC, notes=all_notes, nominal_voltage=U,
                    nominal_torque=m_nom, nominal_speed=n_nom, no_load_speed=n0, stall_torque=m_stall,
-                   max_speed=n_max, max_winding_temperature=max_winding_temperature_degC)
+                   max_speed=n_max, max_winding_temperature=max_winding_temperature_degC,
+                   nominal_current=i_nom, min_ambient_temperature=ambient_temperature_min_degC,
+                   max_ambient_temperature=ambient_temperature_max_degC)
 
 
 def two_node_slow_time_constant(r1: float, r2: float, tau_w: float, tau_m: float) -> float:
@@ -418,10 +471,12 @@ _DATASHEET_KEYS = {
     "thermal_resistance_winding_housing_K_per_W", "thermal_resistance_housing_ambient_K_per_W",
     "thermal_time_constant_winding_s", "thermal_time_constant_motor_s", "no_load_speed_rpm",
     "nominal_speed_rpm", "nominal_torque_mNm", "stall_torque_mNm", "max_speed_rpm",
-    "max_winding_temperature_degC",
+    "max_winding_temperature_degC", "nominal_current_A", "stall_current_A", "max_efficiency_percent",
+    "speed_torque_gradient_rpm_per_mNm", "mechanical_time_constant_ms", "ambient_temperature_min_degC",
+    "ambient_temperature_max_degC",
 }
 _MODEL_KEYS = {"temperature_coefficient_per_K", "reference_temperature_degC", "smoothing_speed_rad_per_s"}
-_SOURCE_KEYS = {"manufacturer", "series", "part_number", "document", "notes"}
+_SOURCE_KEYS = {"manufacturer", "series", "part_number", "document", "notes", "lines"}
 
 
 def _data_dir():
@@ -443,8 +498,10 @@ def load_motor(spec: str | Path) -> MotorData:
     """A motor data set: a shipped name, a path to a TOML file, or TOML text.
 
     A file has a top-level ``name``, a ``[source]`` table (manufacturer, series,
-    part_number, document, notes) and a ``[datasheet]`` table whose keys are
-    :meth:`MotorData.from_datasheet`'s datasheet-unit arguments; an optional
+    part_number, document, notes; optionally ``[source.lines]``, where on the
+    datasheet each figure stands, then for every figure) and a ``[datasheet]``
+    table whose keys are :meth:`MotorData.from_datasheet`'s datasheet-unit
+    arguments; an optional
     ``[model]`` table sets the modelling choices (temperature_coefficient_per_K,
     reference_temperature_degC, smoothing_speed_rad_per_s).
 
@@ -494,6 +551,18 @@ def load_motor(spec: str | Path) -> MotorData:
         for key in table:
             if key not in allowed:
                 raise SceneError(f"{tname}.{key}", f"unknown key (known: {', '.join(sorted(allowed))})")
+    lines = src.get("lines")
+    if lines is not None:  # where on the datasheet each figure stands: every figure, and only figures
+        if not isinstance(lines, dict):
+            raise SceneError("source.lines", "must be a table: datasheet key = \"line and label on the sheet\"")
+        for key, where_on in lines.items():
+            if key not in sheet:
+                raise SceneError(f"source.lines.{key}", "names no figure of the [datasheet] table")
+            if not isinstance(where_on, str) or not where_on.strip():
+                raise SceneError(f"source.lines.{key}", "must say where on the datasheet the figure stands")
+        for key in sheet:
+            if key not in lines:
+                raise SceneError(f"source.lines.{key}", f"is missing: {where} traces its figures, this one too")
     if not src.get("document"):
         raise SceneError("source.document", f"{where} must name the document its figures come from")
     source = ", ".join(str(src[k]) for k in ("manufacturer", "series", "part_number", "document") if src.get(k))

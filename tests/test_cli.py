@@ -93,8 +93,10 @@ def test_size_ranks_motors_and_says_why_others_fail(capsys, tmp_path):
     assert code == 0
     assert "1 of 2 motor x ratio combinations fit" in text
     assert "1. maxon-re40-148877 x 50" in text
-    assert "x  maxon-re40-148877 x 10     peak current: needs 13.47 A, limit 10 A" in text
-    rows = list(csv.DictReader(open(tmp_path / "s.csv")))
-    assert [r["feasible"] for r in rows] == ["False", "True"]
+    # the current under the servo's loop (13.47 A for a perfect drive)
+    assert "x  maxon-re40-148877 x 10     peak current: needs 13.84 A, limit 10 A" in text
+    rows = list(csv.DictReader(open(tmp_path / "s.csv")))  # ranked first, the rejected after
+    assert [(r["rank"], r["ratio"], r["feasible"]) for r in rows] == [("1", "50.0", "True"),
+                                                                      ("rejected", "10.0", "False")]
     code, _, err = run(capsys, "size", "thesis-fourbar", "--motors", "no-such-motor")
     assert code == 2 and "no-such-motor" in err
