@@ -174,22 +174,30 @@ def cmd_simulate(args) -> int:
 
 def cmd_animate(args) -> int:
     from .animation import animate, check_frames
+    from .runs import check_fits, read_run, select_signals
 
+    n_signals = len(args.signals.split(",")) if args.signals else 0
     if args.source.endswith(".csv"):
         if not args.scene:
             raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "
                                         "(a preset or TOML file) to draw it")
         scene = load_scene(args.scene)
-        cols = read_run_csv(args.source, scene.mechanism)
+        raw, cols = read_run(args.source, scene.mechanism)
+        check_fits(scene.mechanism, cols, args.source)
         t, zs = cols["t"], coordinates(cols, scene.mechanism)
+        series = raw
     else:
         scene = load_scene(args.source)
-        check_frames(args.t_end or scene.t_end, args.fps, args.speed)  # before simulating for them
+        check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
         t, zs = res.t, res.z
+        series = {c: None for c in output_columns(res.model, ["state", "dynamics", "energy"])}
+        if args.signals:  # computed only when asked for
+            series = {c: res[c] for c in series}
+    signals = select_signals(args.signals, series) if args.signals else None
     out = args.out or f"{scene.name or 'mechanism'}.gif"
     n = animate(scene.mechanism, t, zs, out, fps=args.fps, speed=args.speed, trace=args.trace,
-                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "))
+                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "), signals=signals)
     print(f"wrote {out}: {n} frames, {t[-1] - t[0]:g} s of motion")
     return 0
 
@@ -413,7 +421,12 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--fps", type=_number("--fps", low=0.01, high=100.0), default=25.0,
                    help="frames per second of film, 0.01 to 100 (a GIF frame lasts 10 ms to 655 s)")
     a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
-    a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0)")
+    a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0), drawn on its link "
+                                   "as a plate")
+    a.add_argument("--signals", metavar="NAMES",
+                   help="up to 4 columns to plot under the mechanism with a moving cursor, comma-separated, "
+                        "as the CSV names them (e.g. mechanism.theta2,motor.current) or, for a scene, "
+                        "simulate's columns (e.g. theta2,tau_drive,E)")
     a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
