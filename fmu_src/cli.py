@@ -204,12 +204,15 @@ def cmd_animate(args) -> int:
 
 def cmd_report(args) -> int:
     from .report import write_report
+    from .runs import check_fits, mechanism_prefix, read_run
 
     model = load_scene(args.scene).mechanism if args.scene else None
-    columns = read_run_csv(args.csv, model)
-    title = f"{args.scene or args.csv}: run report"
-    write_report(columns, args.out, title, model)
-    print(f"wrote {args.out}")
+    raw, columns = read_run(args.csv, model)
+    if model is not None:
+        check_fits(model, columns, args.csv)
+    outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
+                        cosim=mechanism_prefix(list(raw)) is not None)
+    print(f"wrote {', '.join(outs)}")
     return 0
 
 
@@ -432,8 +435,11 @@ def build_parser() -> argparse.ArgumentParser:
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
-    r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
-    r.add_argument("--out", type=_output("--out", "figure"), default="report.png", help="report.png or report.pdf")
+    r.add_argument("--scene", help="the scene it came from: titles the page and draws the mechanism (refused if its "
+                                   "geometry does not close the recorded loop)")
+    r.add_argument("--out", type=_output("--out", "figure"), action="append",
+                   help="the page, in the format of its suffix: report.png (default) or report.pdf; "
+                        "give --out twice for both")
     r.set_defaults(func=cmd_report)
     w = sub.add_parser("sweep", help="run a scene over a grid of parameters, in parallel or on Dask")
     w.add_argument("scene", help="preset name or TOML file")

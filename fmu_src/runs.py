@@ -125,8 +125,8 @@ def read_run(path: str, model: Mechanism | None = None, field: str = "csv"):
     if model is not None:
         missing = [n for n in model.coordinate_names if n not in cols]
         if missing:
-            raise InputError(field, f"{brief(str(path), PATH_CHARS)}: missing columns {', '.join(missing)} "
-                                    "(is it a run of this scene?)")
+            raise InputError("--scene", f"{model.name or 'the scene'} does not fit {brief(str(path), PATH_CHARS)}: "
+                                        f"it has no columns {', '.join(missing)}, which a run of this scene has")
     return raw, cols
 
 

@@ -125,27 +125,6 @@ def test_mp4_without_ffmpeg_says_so(tmp_path, capsys):
     assert "ffmpeg" in capsys.readouterr().err
 
 
-def test_report_page_and_its_key_numbers(tmp_path, capsys):
-    from grubler.report import energy_balance, key_numbers
-
-    csv, png = tmp_path / "run.csv", tmp_path / "report.png"
-    assert main(["simulate", "fourbar-crank-rocker", "--t-end", "2", "--dt-out", "0.002", "--csv", str(csv)]) == 0
-    assert main(["report", str(csv), "--scene", "fourbar-crank-rocker", "--out", str(png)]) == 0
-    assert png.stat().st_size > 30_000
-    data = np.genfromtxt(csv, delimiter=",", names=True)
-    cols = {n: data[n] for n in data.dtype.names}
-    model = grubler.load_scene("fourbar-crank-rocker").mechanism
-    numbers = dict(key_numbers(cols, "theta2", model))
-    assert numbers["peak |drive torque|"] == "2 N m"  # the preset's constant torque
-    peak_force = max(np.hypot(fx, fy) for fx, fy in zip(data["Fx"], data["Fy"]))
-    assert numbers["peak closing-joint force"] == f"{peak_force:.4g} N"
-    # the drive works against gravity and damping: E alone changes, the balance does not
-    assert np.ptp(cols["E"]) > 1.0
-    assert np.max(np.abs(energy_balance(cols, model))) < 1e-3
-    assert main(["report", str(csv), "--out", str(tmp_path / "r.pdf")]) == 0
-    assert (tmp_path / "r.pdf").read_bytes()[:4] == b"%PDF"
-
-
 # -- the film: every point of every frame from one kernel call, a traced point on its plate,
 # -- the signals' cursor where the frame's time is -------------------------------------------
 from grubler.animation import PLATE_COLOUR, CURSOR_COLOUR, Sketch, _Film, frame_rows  # noqa: E402
