@@ -492,7 +492,10 @@ class _Film:
         if geo.trace is not None:
             c = px(geo.trace)
             d.ellipse([c[0] - 5, c[1] - 5, c[0] + 5, c[1] + 5], fill=ink["trace"], outline=ink["black"])
-        d.text(self.label_at, f"t = {self.t[row]:.2f} s", fill=ink["black"], font=self.font)
+        label = f"t = {self.t[row]:.2f} s"
+        box = d.textbbox(self.label_at, label, font=self.font)
+        d.rectangle([box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3], fill=ink["white"])  # off the grid lines
+        d.text(self.label_at, label, fill=ink["black"], font=self.font)
         for sax, y_top, y_bottom, values in self.strip_px:
             cx, cy = sax.transData.transform((self.t[row], values[row]))
             cy = self.size[1] - cy
