@@ -173,10 +173,9 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .animation import animate, check_frames
-    from .runs import check_fits, read_run, select_signals
+    from .animation import MAX_SIGNALS, animate, check_frames
+    from .runs import check_fits, read_run, select_signals, signal_names
 
-    n_signals = len(args.signals.split(",")) if args.signals else 0
     if args.source.endswith(".csv"):
         if not args.scene:
             raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "
@@ -188,13 +187,13 @@ def cmd_animate(args) -> int:
         series = raw
     else:
         scene = load_scene(args.source)
+        available = output_columns(scene.mechanism, ["state", "dynamics", "energy"])
+        n_signals = len(signal_names(args.signals, available, limit=MAX_SIGNALS)) if args.signals else 0
         check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
         t, zs = res.t, res.z
-        series = {c: None for c in output_columns(res.model, ["state", "dynamics", "energy"])}
-        if args.signals:  # computed only when asked for
-            series = {c: res[c] for c in series}
-    signals = select_signals(args.signals, series) if args.signals else None
+        series = {c: res[c] for c in available} if args.signals else {}
+    signals = select_signals(args.signals, series, limit=MAX_SIGNALS) if args.signals else None
     out = args.out or f"{scene.name or 'mechanism'}.gif"
     n = animate(scene.mechanism, t, zs, out, fps=args.fps, speed=args.speed, trace=args.trace,
                 title=f"{scene.name}: {scene.mechanism.kind}".strip(": "), signals=signals)

@@ -157,21 +157,26 @@ def column_unit(name: str, names) -> str:
         return ""
 
 
-def select_signals(spec: str, columns: dict[str, np.ndarray], field: str = "--signals"):
-    """``(label with unit, values)`` of the comma-separated column names in ``spec``.
-
-    A name that is not a column is refused with the closest one suggested.
-    """
+def signal_names(spec: str, available, field: str = "--signals", limit: int | None = None) -> list[str]:
+    """The comma-separated column names of ``spec``, each one of ``available`` (else refused, with a suggestion)."""
     from .limits import did_you_mean
 
     names = [n.strip() for n in spec.split(",") if n.strip()]
     if not names:
         raise InputError(field, "expected column names separated by commas, e.g. theta2,tau_drive")
-    out = []
+    if limit is not None and len(names) > limit:
+        raise InputError(field, f"at most {limit} signals fit under the mechanism, got {len(names)}")
+    choices = [c for c in available if c != "t"]
     for name in names:
-        if name == "t" or name not in columns:
-            hint = did_you_mean(name, [c for c in columns if c != "t"])
-            raise InputError(field, f"no column {brief(name)} in the run{hint}")
+        if name not in choices:
+            raise InputError(field, f"no column {brief(name)} in the run{did_you_mean(name, choices)}")
+    return names
+
+
+def select_signals(spec: str, columns: dict[str, np.ndarray], field: str = "--signals", limit: int | None = None):
+    """``(label with unit, values)`` of the comma-separated column names in ``spec`` (see :func:`signal_names`)."""
+    out = []
+    for name in signal_names(spec, list(columns), field, limit):
         unit = column_unit(name, list(columns))
         out.append((f"{name} [{unit}]" if unit else name, columns[name]))
     return out
@@ -231,4 +236,4 @@ def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: 
 
 
 __all__ = ["check_fits", "read_run", "read_run_csv", "read_table", "run_columns", "mechanism_prefix", "coordinates",
-           "column_unit", "select_signals"]
+           "column_unit", "select_signals", "signal_names"]

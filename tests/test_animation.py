@@ -205,6 +205,9 @@ def test_animate_cli_signals_frames_and_a_scene_that_does_not_fit(tmp_path, caps
     assert main(["animate", str(csv), "--scene", "thesis-fourbar", "--out", str(gif),
                  "--signals", "theta2,theta3,theta4,E,KE"]) == 2
     assert "at most 4" in capsys.readouterr().err
+    # from a scene, the names are checked before anything is simulated (a million seconds would be refused too)
+    assert main(["animate", "thesis-fourbar", "--t-end", "1e6", "--out", str(gif), "--signals", "tau_driv"]) == 2
+    assert "--signals: no column 'tau_driv' in the run; did you mean 'tau_drive'?" in capsys.readouterr().err
     assert main(["animate", str(csv), "--scene", "thesis-slider-crank", "--out", str(gif)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--scene: thesis-slider-crank does not fit" in err
