@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import shutil
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import matplotlib
 
@@ -355,8 +356,13 @@ def _mp4(frames, out: str, fps: float, size) -> None:
         for im in frames:
             proc.stdin.write(im.convert("RGB").tobytes())
         proc.stdin.close()
-    except BrokenPipeError:
+    except BrokenPipeError:  # ffmpeg stopped: its message says why
         pass
+    except BaseException:  # no frames to finish the film with: no half a film either
+        proc.kill()
+        proc.wait()
+        Path(out).unlink(missing_ok=True)
+        raise
     err = proc.stderr.read().decode(errors="replace").strip()
     if proc.wait() != 0:
         raise SceneError("--out", f"ffmpeg failed writing {brief(out)}: {brief(err, 200) if err else 'no message'}")

@@ -61,7 +61,7 @@ def test_no_two_texts_of_the_page_overlap_and_the_title_is_the_scene(runs, prese
     raw, cols = read_run(str(runs[preset]), model)
     fig = report_figure(cols, model, source=str(runs[preset]))
     assert overlapping_texts(fig) == []
-    title = fig.subfigs[0]._suptitle.get_text()
+    title = fig.subfigs[0].get_suptitle()
     assert title == (preset if with_scene else f"{preset}.csv")  # the file's name, never its path
     texts = [t.get_text() for t in fig.findobj(Text)]
     assert not any(str(runs[preset].parent) in t for t in texts)
