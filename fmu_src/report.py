@@ -17,6 +17,8 @@ import numpy as np
 from .model import Mechanism
 
 RPM = 60.0 / (2.0 * math.pi)  # rpm per rad/s
+PAGE = (11.69, 8.27)  # inches: A4 landscape
+LEFT_SHARE, TABLE_SHARE = 0.36, 0.5  # of the page's width: the left column; of its height: the table
 BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
 
 
@@ -211,12 +213,12 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     drive = model.drive if model is not None else next((c for c in ("theta2", "B1") if c in columns), None)
     panels = _panels(columns, drive, model, cosim)
     title, subtitle = _title(model, source, cosim)
-    fig = plt.figure(figsize=(11.69, 8.27), layout="constrained")  # A4 landscape
+    fig = plt.figure(figsize=PAGE, layout="constrained")
     fig.get_layout_engine().set(w_pad=0.06, h_pad=0.06, wspace=0.04, hspace=0.04)
-    left, right = fig.subfigures(1, 2, width_ratios=[0.36, 0.64], wspace=0.02)
+    left, right = fig.subfigures(1, 2, width_ratios=[LEFT_SHARE, 1 - LEFT_SHARE], wspace=0.02)
     left.suptitle(title, x=0.02, ha="left", fontsize=17, fontweight="bold")
     # the table and the mechanism share the left column; without a scene the last panel takes its place
-    table_fig, low_fig = left.subfigures(2, 1, height_ratios=[0.5, 0.5], hspace=0.02)
+    table_fig, low_fig = left.subfigures(2, 1, height_ratios=[TABLE_SHARE, 1 - TABLE_SHARE], hspace=0.02)
     _table(table_fig, subtitle, key_numbers(columns, drive, model, cosim))
     if model is not None:
         _instants(low_fig, model, columns, Drawer, Sketch)
@@ -286,7 +288,7 @@ def _instants(fig, model: Mechanism, columns, Drawer, Sketch) -> None:
     xlim, ylim = _view(sketch.drawn_points(pos).reshape(-1, 2))
     # the grid that draws the mechanism largest in the space there is: 2 x 2, or
     # one column of four for a flat one (a slider-crank), one row for a tall one
-    w, h = fig.figure.get_size_inches() * np.array([0.36, 0.5])  # the page's; this column's share
+    w, h = PAGE[0] * LEFT_SHARE, PAGE[1] * (1 - TABLE_SHARE)
     xs, ys = xlim[1] - xlim[0], ylim[1] - ylim[0]
     rows, cols = max([(2, 2), (4, 1), (1, 4)], key=lambda rc: min((w / rc[1] - 0.7) / xs, (h / rc[0] - 0.6) / ys))
     axes = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)

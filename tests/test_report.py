@@ -16,7 +16,7 @@ from matplotlib.text import Text  # noqa: E402
 
 import grubler  # noqa: E402
 from grubler.cli import main  # noqa: E402
-from grubler.report import energy_balance, key_numbers, report_figure  # noqa: E402
+from grubler.report import PAGE, energy_balance, key_numbers, report_figure  # noqa: E402
 from grubler.runs import read_run  # noqa: E402
 
 
@@ -128,7 +128,7 @@ def test_report_cli_writes_png_and_pdf_and_refuses_a_scene_that_does_not_fit(run
     assert data[:5] == b"%PDF-" and data.rstrip().endswith(b"%%EOF") and b"/Type /Page" in data
     from PIL import Image
 
-    assert Image.open(png).size == (int(11.69 * 110), int(8.27 * 110))  # A4 landscape at 110 dpi
+    assert Image.open(png).size == (int(PAGE[0] * 110), int(PAGE[1] * 110))  # A4 landscape at 110 dpi
     capsys.readouterr()
     for wrong in ("thesis-slider-crank", "watt-ii"):
         assert main(["report", csv, "--scene", wrong, "--out", str(tmp_path / "x.png")]) == 2
