@@ -268,8 +268,11 @@ _BAR, _JOINT, _BLOCK = 7, 8, 8  # pixels: link width, joint radius, block half-h
 PLATE_COLOUR = "#9fbad6"  # a plate's fill: the link colour, lightened
 CURSOR_COLOUR = "#d62728"
 # the palette entries every frame draws with; the rest of the 256 come from the background
+# ("clear" is never drawn: the GIF writer marks a frame's unchanged pixels with it, transparent, so
+# a frame stores only what moved, not the rectangle around everything that did)
 _INKS = {"white": "#ffffff", "black": "#000000", "link": LINK_COLOUR, "plate": PLATE_COLOUR, "joint": JOINT_COLOUR,
-         "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR}
+         "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR,
+         "clear": "#ff00ff"}
 
 
 def frame_size(n_signals: int = 0, size=FRAME_SIZE) -> tuple[int, int]:
@@ -339,7 +342,7 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: floa
     if out.endswith(".gif"):
         first = next(frames)
         first.save(out, save_all=True, append_images=frames, duration=round(1000.0 / fps), loop=0,
-                   optimize=False)
+                   optimize=True, transparency=film.ink["clear"])
     else:
         _mp4(frames, out, fps, film.size)
     return len(rows)
@@ -368,15 +371,20 @@ def _mp4(frames, out: str, fps: float, size) -> None:
         raise SceneError("--out", f"ffmpeg failed writing {brief(out)}: {brief(err, 200) if err else 'no message'}")
 
 
-def _to_palette(rgb: np.ndarray, palette: list[int]):
-    """An RGB picture as a palette image, each colour its nearest entry (exactly, unlike Pillow's cached lookup)."""
+def _to_palette(rgb: np.ndarray, palette: list[int], never: int):
+    """An RGB picture as a palette image, each colour its nearest entry but ``never``.
+
+    Exact, unlike Pillow's cached lookup, which turns white into a near-white.
+    """
     from PIL import Image
 
     packed = (rgb[..., 0].astype(np.int32) << 16) | (rgb[..., 1].astype(np.int32) << 8) | rgb[..., 2]
     colours, inverse = np.unique(packed.ravel(), return_inverse=True)
     c = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], axis=1).astype(np.int32)
     pal = np.asarray(palette, dtype=np.int32).reshape(256, 3)
-    nearest = np.argmin(((c[:, None, :] - pal[None, :, :]) ** 2).sum(axis=2), axis=1).astype(np.uint8)
+    distance = ((c[:, None, :] - pal[None, :, :]) ** 2).sum(axis=2)
+    distance[:, never] = np.iinfo(np.int32).max
+    nearest = np.argmin(distance, axis=1).astype(np.uint8)
     im = Image.fromarray(nearest[inverse].reshape(packed.shape), mode="P")
     im.putpalette(palette)
     return im
@@ -448,7 +456,7 @@ class _Film:
         rest = rgb.quantize(colors=256 - len(inks), method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
         palette = [c for k in inks for c in _rgb(_INKS[k])] + rest.getpalette()[: 3 * (256 - len(inks))]
         palette += [0] * (768 - len(palette))
-        self.base = _to_palette(np.asarray(rgb), palette)
+        self.base = _to_palette(np.asarray(rgb), palette, never=self.ink["clear"])
         self.traced = 0
         font_path = f"{matplotlib.get_data_path()}/fonts/ttf/DejaVuSans.ttf"
         self.font = ImageFont.truetype(font_path, int(round(FONT_SIZE * 100 / 72)))

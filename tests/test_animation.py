@@ -231,3 +231,26 @@ def test_mp4_frames_go_to_ffmpeg_whole(tmp_path, monkeypatch):
     animate(res.model, res.t, res.z, str(tmp_path / "same.gif"), fps=10)  # the same frames, to know their size
     w, h = Image.open(tmp_path / "same.gif").size
     assert int(out.read_text().split()[0]) == n * w * h * 3
+
+
+def test_the_gif_decodes_to_the_frames_drawn_though_it_stores_only_what_moved(tmp_path):
+    from PIL import Image
+    from grubler.animation import animate, trace_path, trace_point
+
+    res = grubler.simulate("thesis-fourbar", t_end=1.0, dt_out=0.01, torque=3.0)
+    m = res.model
+    signals = [("theta2 [rad]", res["theta2"])]
+    out = tmp_path / "a.gif"
+    n = animate(m, res.t, res.z, str(out), fps=10, trace="link3:0.4,0.1", signals=signals)
+    # the same film drawn again, frame by frame
+    point = trace_point("link3:0.4,0.1", m)
+    sketch = Sketch(m, point)
+    rows = frame_rows(res.t, 10, 1.0)
+    film = _Film(m, sketch, sketch.positions(res.z[rows]), trace_path(m, res.z, point), res.t, signals, "",
+                 (960, 720))
+    gif = Image.open(out)
+    assert gif.n_frames == n == len(rows)
+    for f, row in enumerate(rows):
+        want = np.asarray(film.frame(f, row).convert("RGB"))
+        gif.seek(f)
+        assert np.array_equal(np.asarray(gif.convert("RGB")), want), f
