@@ -248,19 +248,20 @@ class Joint:
 def link_graph(model: "Mechanism") -> list[Joint]:
     """Every joint of the mechanism as an edge between two bodies.
 
-    The chain's pairs join link k-1 and link k at link k's origin (its
-    predecessor's point (a, B)); each closure joins its two links at its points.
+    The chain's pairs join link k to its predecessor (link k-1 in a serial
+    chain, any earlier link or the ground in a tree) at link k's origin, the
+    predecessor's point (a, B); each closure joins its two links at its points.
     """
     q = model.q_ref
     out = []
-    for k, link in enumerate(model.links):
+    for k, (link, pred) in enumerate(zip(model.links, model.parents)):
         body = k + 2
-        if k == 0:
+        if pred == 1:
             c, s = math.cos(model.theta1), math.sin(model.theta1)
-            at_pred = (model.a1 * c - q[0] * s, model.a1 * s + q[0] * c)
+            at_pred = (model.a1 * c - q[2 * k] * s, model.a1 * s + q[2 * k] * c)
         else:
-            at_pred = (model.links[k - 1].a, q[2 * k])
-        out.append(Joint(body - 1, body, link.joint, at_pred, (0.0, 0.0), f"link{body - 1}-link{body} (chain)"))
+            at_pred = (model.links[pred - 2].a, q[2 * k])
+        out.append(Joint(pred, body, link.joint, at_pred, (0.0, 0.0), f"link{pred}-link{body} (chain)"))
     for j, cl in enumerate(model.closures):
         name = "closure" if len(model.closures) == 1 else f"closure[{j}]"
         out.append(Joint(cl.link, cl.to_link, "R" if cl.kind == "revolute" else "P", tuple(cl.point),

@@ -103,24 +103,27 @@ class Sketch:
     def geometry(self, pos: np.ndarray) -> FrameGeometry:
         """The drawing primitives at one instant, from that row of :meth:`positions`."""
         m, n = self.model, self.model.n_links
+        parent = [pk - 2 for pk in m.parents]  # each link's predecessor (the chain may branch), -1 the ground
         geo = FrameGeometry()
         O, E = [pos[i] for i in self.origin], [pos[i] for i in self.end]
         for k in range(n):
             geo.bars.append((O[k], E[k]))
-            if k + 1 < n and np.linalg.norm(E[k] - O[k + 1]) > 1e-9:
-                geo.bars.append((E[k], O[k + 1]))  # the slide's offset along the axis
+            for c in range(k + 1, n):  # its children hang off its end, moved along their slides
+                if parent[c] == k and np.linalg.norm(E[k] - O[c]) > 1e-9:
+                    geo.bars.append((E[k], O[c]))
         for k, link in enumerate(m.links):
-            if link.joint == PRISMATIC:
-                axis = m.theta1 + math.pi / 2 if k == 0 else self._angle(pos, self.origin[k - 1], self.across[k - 1])
-                geo.guides.append((pos[self.ground_end] if k == 0 else E[k - 1], axis, k == 0))
+            p = parent[k]
+            if link.joint == PRISMATIC:  # the slide's axis is e_perp of its predecessor
+                axis = m.theta1 + math.pi / 2 if p < 0 else self._angle(pos, self.origin[p], self.across[p])
+                geo.guides.append((pos[self.ground_end] if p < 0 else E[p], axis, p < 0))
                 geo.blocks.append((O[k], axis))
             else:
                 geo.joints.append(O[k])
-                if k == 0:
-                    geo.fixed.append(O[0])
-        # a link with three or more corners (its joint, its successor's, closures'
+                if p < 0:
+                    geo.fixed.append(O[k])
+        # a link with three or more corners (its joint, its children's, closures'
         # points, a traced point) is a rigid plate
-        corners: list[list] = [[O[k]] + ([O[k + 1]] if k + 1 < n else []) for k in range(n)]
+        corners: list[list] = [[O[k]] + [O[c] for c in range(n) if parent[c] == k] for k in range(n)]
         for j, cl in enumerate(m.closures):
             corners[cl.link - 2].append(pos[self.closure_a[j]])
             if cl.to_link > 1:

@@ -45,14 +45,32 @@ def constraint(model: Mechanism, z: np.ndarray, zd: np.ndarray | None = None):
     return phi, J
 
 
+def freedom(model: Mechanism, z: np.ndarray) -> int:
+    """Degrees of freedom the closures leave at ``z``: the number of coordinates
+    less the rank of the closure Jacobian.
+
+    It is the Grübler/Kutzbach mobility unless closure rows are redundant, as
+    with a third crank on a parallelogram's coupling rod (count 0, freedom 1).
+    """
+    z = np.ascontiguousarray(z, dtype=float)
+    out = ctypes.c_int(0)
+    work = binding.work(model.n_links, len(model.closures))  # (held: the kernel writes into it)
+    binding.library().grb_freedom(model.arrays.c, binding.address(z), binding.address(work), ctypes.byref(out))
+    return int(out.value)
+
+
 def held_coordinates(model: Mechanism, z: np.ndarray) -> list[int]:
-    """Indices in z that assembly keeps at their given values."""
+    """Indices in z that assembly keeps at their given values: as many as the
+    closures leave free (:func:`freedom`), at least the drive, the drive first."""
     n = model.n_links
     z = np.ascontiguousarray(z, dtype=float)
     held = np.zeros(max(n, 1), dtype=np.int32)
     count = ctypes.c_int(0)
     work = binding.work(n, len(model.closures))
-    binding.library().grb_held_coordinates(model.arrays.c, max(model.mobility, 0), binding.address(z),
+    # (a sketch that does not close shows no redundancy: the drive is held all
+    # the same, as the motion's own coordinate)
+    n_hold = max(model.mobility, freedom(model, z) if model.closures else 0, 1 if model.drive else 0)
+    binding.library().grb_held_coordinates(model.arrays.c, n_hold, binding.address(z),
                                            binding.address(held), ctypes.byref(count),
                                            binding.address(work))
     return [int(i) for i in held[:count.value]]

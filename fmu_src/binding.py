@@ -49,14 +49,14 @@ class Settings(ctypes.Structure):
     _fields_ = [("tableau", c_int), ("method", c_int), ("project", c_int), ("scale", c_double),
                 ("rtol", c_double), ("atol", c_double), ("h_max", c_double), ("h_fixed", c_double),
                 ("max_steps", c_long), ("tau_drive", c_double), ("tau_load", c_double), ("drive_fn", DRIVE_FN),
-                ("drive_ctx", c_void_p)]
+                ("drive_ctx", c_void_p), ("passage_log", c_void_p), ("passage_capacity", c_int)]
 
 
 class Clock(ctypes.Structure):
     """``grb_clock``: the integrator's state besides y and f."""
 
     _fields_ = [("t", c_double), ("h", c_double), ("have_f", c_int), ("steps", c_long), ("rejected", c_long),
-                ("evals", c_long)]
+                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double)]
 
 
 class Failure(ctypes.Structure):
@@ -90,6 +90,7 @@ _SIGNATURES = {
     "grb_constraint": (c_int, [_M, _P, _P, _P, _P]),
     "grb_project": (c_int, [_M, c_double, _P, _P]),
     "grb_held_coordinates": (c_int, [_M, c_int, _P, _P, POINTER(c_int), _P]),
+    "grb_freedom": (c_int, [_M, _P, _P, POINTER(c_int)]),
     "grb_assemble": (c_int, [_M, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
     "grb_advance": (c_int, [_M, POINTER(Settings), POINTER(Clock), _P, _P, _P, c_int, _P, _P, _P,
                             POINTER(Failure)]),
@@ -101,7 +102,7 @@ _SIGNATURES = {
     "grb_cs_observe_at": (c_int, [_M, c_int, _P, _P, c_int, _P, _P]),
     "grb_cs_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
-    "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, c_double, c_double, _P, _P, _P, _P]),
+    "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, _P, c_double, c_double, _P, _P, _P, _P]),
 }
 
 
@@ -133,26 +134,29 @@ def model_struct(links: np.ndarray, closures: np.ndarray, theta1: float, gravity
                  float(theta1), float(gravity), int(drive), int(load), float(drive_inertia))
 
 
-def scene_tables(revolute: np.ndarray, link_fields: np.ndarray, a1: float, theta1: float, q_ref: np.ndarray,
-                 closure_fields: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def scene_tables(revolute: np.ndarray, parent: np.ndarray, link_fields: np.ndarray, a1: float, theta1: float,
+                 q_ref: np.ndarray, closure_fields: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """grb_scene_tables (grb_scene.h): the link and closure tables of a scene.
 
     The native mechanism FMU builds its tables with the same C function.
-    ``revolute`` (int32, one per link), ``link_fields`` (N x 6: a, p, q, m, I,
-    damping), ``q_ref`` (2N absolute coordinates), ``closure_fields`` (C x 11:
-    kind, link and to_link in thesis numbering, point, to_point, angle, psi,
-    gain, damping).
+    ``revolute`` (int32, one per link), ``parent`` (int32, each link's
+    predecessor as a 0-based moving-link index, -1 the ground), ``link_fields``
+    (N x 6: a, p, q, m, I, damping), ``q_ref`` (2N absolute coordinates),
+    ``closure_fields`` (C x 11: kind, link and to_link in thesis numbering,
+    point, to_point, angle, psi, gain, damping).
     """
     n, nc = link_fields.shape[0], closure_fields.shape[0]
     rev = np.ascontiguousarray(revolute, dtype=np.int32)
+    par = np.ascontiguousarray(parent, dtype=np.int32)
     fields = np.ascontiguousarray(link_fields, dtype=float)
     q = np.ascontiguousarray(q_ref, dtype=float)
     cf = np.ascontiguousarray(closure_fields, dtype=float)
-    links, closures = np.zeros((n, 10)), np.zeros((nc, 11))
-    status = library().grb_scene_tables(n, nc, address(rev), address(fields), float(a1), float(theta1), address(q),
-                                        address(cf) if nc else None, address(links), address(closures) if nc else None)
+    links, closures = np.zeros((n, 11)), np.zeros((nc, 11))
+    status = library().grb_scene_tables(n, nc, address(rev), address(par), address(fields), float(a1), float(theta1),
+                                        address(q), address(cf) if nc else None, address(links),
+                                        address(closures) if nc else None)
     if status != OK:
-        raise ValueError("closure: a link number is out of range")
+        raise ValueError("closure or parent: a link number is out of range")
     return links, closures
 
 

@@ -16,7 +16,7 @@ import math
 from typing import Callable
 
 from .errors import SceneError
-from .limits import brief
+from .limits import brief, did_you_mean
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
 BUILDER_DOCS: dict[str, str] = {}
@@ -37,8 +37,9 @@ class _Params:
         self.prefix = prefix
         unknown = set(params) - set(allowed) - {"type"}
         if unknown:
-            raise SceneError(f"{prefix}.{sorted(unknown)[0]}",
-                             f"unknown parameter; this builder takes {', '.join(allowed)}")
+            key = sorted(unknown)[0]
+            raise SceneError(f"{prefix}.{key}",
+                             f"unknown parameter{did_you_mean(key, allowed)}; this builder takes {', '.join(allowed)}")
         self.values = {k: params.get(k, v) for k, v in allowed.items()}
         for k, v in self.values.items():
             if v is None:
@@ -279,11 +280,13 @@ def conchoidal(params: dict, prefix: str) -> dict:
 
 
 # -- six-link chains ----------------------------------------------------------------
-# A six-bar is five moving links in series from the ground and two closures.  The
-# builders below take what a designer dimensions (pivot positions, pin-to-pin
-# lengths, each ternary link's triangle by its three sides) and lay the chain
-# through the links; a ternary link is a link of the chain whose third joint is a
-# point in its frame that a closure attaches to.
+# A six-bar is five moving links from the ground and two closures: in series, or
+# branching where no path from the ground passes through every link (Stephenson
+# III).  The builders below take what a designer dimensions (pivot positions,
+# pin-to-pin lengths, each ternary link's triangle by its three sides) and lay the
+# chain through the links; a ternary link is a link of the chain whose third joint
+# is a point in its frame that a closure attaches to, or that a second child
+# hangs from.
 
 def _circles(p, q, r_p: float, r_q: float, sign: int, what: str, prefix: str):
     """Where a link of length r_p from p meets one of length r_q from q (sign: left/right of p -> q)."""
@@ -319,39 +322,61 @@ def _plate(points, rho: float) -> dict:
     return {"m": m, "p": cx, "q": cy, "I": inertia}
 
 
-def _six_link_chain(world: dict, chain: list, closures: list, rho: float) -> dict:
+def _six_link_chain(world: dict, chain: list, closures: list, rho: float, parents: list | None = None) -> dict:
     """Links, closures and the initial angles of a chain laid through joint positions.
 
     ``world``: joint name -> position at the sketch; ``chain``: per moving link
-    (in series from the ground) its joint, the joint its vector points at, and
-    its other joints; ``closures``: (joint, link carrying it, link it is pinned
-    to; 1 is the ground).  The next link's joint is the first joint of its entry:
-    when that is not where the vector points (a ternary crank whose angle is the
-    designer's input angle), it sits at (a, B) in this link's frame, a the
-    distance along the vector and B the locked slide across it; should it lie
-    behind the joint (a < 0), the vector points at it instead.
+    (in chain order from the ground) its joint, the joint its vector points at,
+    and its other joints; ``closures``: (joint, link carrying it, link it is
+    pinned to; 1 is the ground); ``parents``: each link's predecessor (thesis
+    numbering, 1 the ground), None for the serial chain.  A child's joint is the
+    first joint of its entry: when that is not where the vector points (a
+    ternary crank whose angle is the designer's input angle), it sits at (a, B)
+    in this link's frame, a the distance along the vector and B the locked slide
+    across it; should it lie behind the joint (a < 0), the vector points at it
+    instead.  A link with two children carries both on the line across its
+    vector's end: the vector points at the foot of the perpendicular from the
+    link's joint to the line through the children's joints.
     """
+    n = len(chain)
+    parents = list(parents) if parents else [k + 1 for k in range(n)]
     links, frames, initial = [], [], {}
     for k, (origin, to, *extra) in enumerate(chain):
-        nxt = chain[k + 1][0] if k + 1 < len(chain) else to
+        kids = [c for c in range(n) if parents[c] == k + 2]
+        if len(kids) > 2:
+            raise ValueError(f"link{k + 2}: at most two links hang from one link")  # builders' own data
+        nxt = chain[kids[0]][0] if kids else to
         names = (origin, to, *extra)
         o = world[origin]
 
-        def frame(toward):
-            t = world[toward]
-            th = math.atan2(t[1] - o[1], t[0] - o[0])
+        def frame(th):
             c, s = math.cos(th), math.sin(th)
             return th, {n: ((world[n][0] - o[0]) * c + (world[n][1] - o[1]) * s,
                             -(world[n][0] - o[0]) * s + (world[n][1] - o[1]) * c) for n in names}
 
-        th, local = frame(to)
-        if local[nxt][0] < 0:
-            th, local = frame(nxt)
+        def toward(name):
+            return math.atan2(world[name][1] - o[1], world[name][0] - o[0])
+
+        if len(kids) == 2:
+            p1, p2 = world[chain[kids[0]][0]], world[chain[kids[1]][0]]
+            ux, uy = p2[0] - p1[0], p2[1] - p1[1]
+            t = ((o[0] - p1[0]) * ux + (o[1] - p1[1]) * uy) / (ux * ux + uy * uy)
+            fx, fy = p1[0] + t * ux - o[0], p1[1] + t * uy - o[1]  # the foot, from the joint
+            on_line = math.hypot(fx, fy) <= 1e-12 * math.hypot(ux, uy)
+            th, local = frame(math.atan2(uy, ux) - math.pi / 2 if on_line else math.atan2(fy, fx))
+        else:
+            th, local = frame(toward(to))
+            if local[nxt][0] < 0:
+                th, local = frame(toward(nxt))
         frames.append(local)
         links.append({"joint": "R", "a": local[nxt][0], **_plate([local[x] for x in names], rho)})
+        if parents[k] != k + 1:
+            links[-1]["parent"] = parents[k]
         initial[f"theta{k + 2}"] = th
-        if k + 1 < len(chain) and abs(local[nxt][1]) > 1e-12 * max(1.0, abs(local[nxt][0])):
-            initial[f"B{k + 2}"] = local[nxt][1]
+        for c in kids:
+            at = local[chain[c][0]]
+            if abs(at[1]) > 1e-12 * max(1.0, abs(at[0])):
+                initial[f"B{c + 1}"] = at[1]
     out = []
     for joint, link, to_link in closures:
         d = {"type": "revolute", "link": link, "at": list(frames[link - 2][joint]), "to_link": to_link}
@@ -519,3 +544,30 @@ def stephenson_ii(params: dict, prefix: str) -> dict:
     place(min(roots, key=lambda a: abs(a - phi)))
     chain = [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")]
     return _six_link_chain(w, chain, [("O6", 5, 1), ("Q", 6, 3)], p.positive("mass_per_length"))
+
+
+@builder("stephenson-iii", "Stephenson III (ground ternary): a crank O2A from the origin and a rocker BO4 at "
+                           "rocker_pivot O4 carry a floating ternary [coupler (AB), coupler_arm (AC), coupler_web "
+                           "(BC), coupler_side]; its third joint C drives the dyad link5 CD, link6 DO6 to "
+                           "output_pivot O6 (the ground ternary O2-O4-O6 by its pivots); branches branch1, branch2")
+def stephenson_iii(params: dict, prefix: str) -> dict:
+    p = _Params(params, prefix, {"crank": None, "coupler": None, "coupler_arm": None, "coupler_web": None,
+                                 "coupler_side": "left", "rocker": None, "link5": None, "link6": None,
+                                 "rocker_pivot": None, "output_pivot": None, "branch1": "open", "branch2": "open",
+                                 **_SIX})
+    L = {k: p.length(k) for k in ("crank", "coupler", "coupler_arm", "coupler_web", "rocker", "link5", "link6")}
+    th = p.angle("input_angle")
+    w = {"O2": (0.0, 0.0), "O4": _point(p, "rocker_pivot"), "O6": _point(p, "output_pivot")}
+    w["A"] = (L["crank"] * math.cos(th), L["crank"] * math.sin(th))
+    w["B"] = _circles(w["A"], w["O4"], L["coupler"], L["rocker"], _branch(p, "branch1"),
+                      "loop 1 (crank, coupler, rocker): triangle A-B-O4", prefix)
+    w["C"] = _triangle(w["A"], w["B"], L["coupler_arm"], L["coupler_web"], _side(p, "coupler_side"),
+                       "the coupler's triangle A-B-C", prefix, "coupler_web")
+    w["D"] = _circles(w["C"], w["O6"], L["link5"], L["link6"], _branch(p, "branch2"),
+                      "loop 2 (coupler arm, link5, link6): triangle C-D-O6", prefix)
+    # no path from the ground passes through all five links: the chain branches
+    # at the floating ternary (link 3), which carries the rocker (link 4) at B and
+    # the dyad (links 5, 6) at C; both loops close on the ground pivots
+    chain = [("O2", "A"), ("A", "B", "C"), ("B", "O4"), ("C", "D"), ("D", "O6")]
+    return _six_link_chain(w, chain, [("O4", 4, 1), ("O6", 6, 1)], p.positive("mass_per_length"),
+                           parents=[1, 2, 3, 3, 5])

@@ -87,6 +87,14 @@ def cmd_info(args) -> int:
         print(f"           {SIX_BAR_INVERSIONS[c.name.removesuffix(' six-bar')]}")
     print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
           f"j = {m.n_links + len(m.closures)})")
+    if m.closures:
+        from .assembly import freedom
+
+        free = freedom(m, m.z_from_q(m.q_ref))
+        if free > c.mobility:
+            print(f"           {free} by the closures' rank at the start: {free - c.mobility} of their "
+                  f"{m.n_constraints} equations {'is' if free - c.mobility == 1 else 'are'} redundant "
+                  f"(a linkage overconstrained by its design moves all the same)")
     if len(m.closures) > 1:
         from .analysis import joint_counts
 
@@ -94,6 +102,10 @@ def cmd_info(args) -> int:
         print(f"topology   {m.n_links + 1} links, {m.n_links + len(m.closures)} joints; ternary: "
               f"{', '.join(ternary) or 'none'}; loops closed by "
               + ", ".join(f"closure[{j}] (link{c.link} to link{c.to_link})" for j, c in enumerate(m.closures)))
+    if m.is_tree:  # the chain branches: say which link hangs from which
+        hangs = ", ".join(f"link{k + 2} on {'the ground' if pk == 1 else f'link{pk}'}"
+                          for k, pk in enumerate(m.parents) if pk != k + 1)
+        print(f"chain      a tree (a link hangs from another than the previous link): {hangs}")
     joints = ", ".join(f"link{k + 2}: {'R' if l.joint == 'R' else 'P'}" for k, l in enumerate(m.links))
     print(f"joints     {joints}; real coordinates {', '.join(m.free_names)}")
     if c.grashof:
@@ -164,6 +176,11 @@ def cmd_simulate(args) -> int:
     print(f"{scene.name}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
           f"{res.stats['steps']} steps, {res.stats['rhs_evals']} RHS evaluations")
     print(f"max closure error {np.max(res['closure_error']):.3g}; energy {e[0]:.9g} J -> {e[-1]:.9g} J")
+    passages = res.stats.get("passages", [])
+    if passages:
+        shown = ", ".join(f"{t:.4f}" for t in passages[:8]) + (", ..." if len(passages) > 8 else "")
+        print(f"passed {len(passages)} change point{'s' if len(passages) > 1 else ''} (two assembly branches meet), "
+              f"each on the branch it came along, at t = {shown} s")
     if not args.csv and not args.plot:
         cols = output_columns(res.model, ["state"])[: 1 + 2 * res.model.n_links]
         print("  ".join(f"{c:>12}" for c in cols))

@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import GrublerError, InputError
-from .limits import MAX_STEPS, brief, clip, check_count, check_size, extract_zip, remove_temp_dir, temp_dir
+from .limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
+                     temp_dir)
 from .ssp import System, SystemDescriptionError, read
 
 GAUSS_SEIDEL = "gauss-seidel"
@@ -144,6 +145,11 @@ def units_compatible(a: str, b: str) -> bool:
 
 
 # -- checking and ordering -----------------------------------------------------------
+def _settable(itf: FmuInterface) -> list[str]:
+    """The variables a system file may set on this FMU."""
+    return [k for k, v in itf.ports.items() if v.causality in ("parameter", "input")]
+
+
 def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
     """Every reason the system cannot run, one line each (empty: it can)."""
     problems = []
@@ -156,13 +162,14 @@ def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
             port = itf.ports.get(p)
             if port is None:
                 ours = (getattr(itf.model_description, "generationTool", "") or "").startswith("grubler")
-                hint = _RETIRED.get(p, "") if ours else ""
+                hint = (_RETIRED.get(p, "") if ours else "") or did_you_mean(p, _settable(itf))
                 problems.append(f"parameter {name}.{p}: {itf.path.name} has no variable {p!r}{hint}")
             elif port.causality not in ("parameter", "input"):
                 problems.append(f"parameter {name}.{p}: it is an {port.causality}, not a parameter")
         for c, unit in comp.units.items():
             if c not in itf.ports:
-                problems.append(f"connector {name}.{c}: {itf.path.name} has no variable {c!r}")
+                problems.append(f"connector {name}.{c}: {itf.path.name} has no variable "
+                                f"{c!r}{did_you_mean(c, itf.ports)}")
     for c in system.connections:
         ends = []
         for elem, conn, want, role in ((c.start_element, c.start_connector, ("output",), "start"),
@@ -174,8 +181,9 @@ def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
             itf = interfaces.get(elem)
             port = itf.ports.get(conn) if itf else None
             if itf is not None and port is None:
+                choices = [k for k, v in itf.ports.items() if v.causality in want]
                 problems.append(f"dangling connection {c.start} -> {c.end}: {elem} ({itf.path.name}) "
-                                f"has no variable {conn!r}")
+                                f"has no variable {conn!r}{did_you_mean(conn, choices)}")
             elif port is not None and port.causality not in want:
                 problems.append(f"connection {c.start} -> {c.end}: {elem}.{conn} is a {port.causality}, "
                                 f"the {role} of a connection must be an {want[0]}")

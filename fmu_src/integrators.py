@@ -44,6 +44,7 @@ EXPLICIT = tuple(binding.TABLEAU_CODE)
 IMPLICIT = ("radau", "bdf")
 METHODS = EXPLICIT + IMPLICIT
 _advance_fn = binding.library().grb_advance
+PASSAGE_LOG = 256  # change-point passages one advance can report
 
 
 @dataclass
@@ -158,6 +159,7 @@ class Integrator:
     n_steps: int = 0
     n_rejected: int = 0
     n_evals: int = 0
+    passages: list = field(default_factory=list)  # times of the change points the motion crossed, s
     _explicit: bool = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -180,6 +182,9 @@ class Integrator:
                 scale=float(ode.scale), rtol=float(self.rtol), atol=float(self.atol), h_max=float(self.h_max),
                 h_fixed=float(self.h) if self.method == "rk4" else 0.0)
             self._stepper = np.zeros(binding.library().grb_stepper_size(binding.TABLEAU_CODE[self.method], n))
+            self._passage_log = np.zeros(PASSAGE_LOG)
+            self._settings.passage_log = binding.address(self._passage_log)
+            self._settings.passage_capacity = PASSAGE_LOG
             self._ybuf, self._fbuf = np.zeros(n), np.zeros(n)
             self._t1, self._out1 = np.zeros(1), np.zeros((1, n))  # advance_to's target and result
             # the addresses of buffers that live as long as the integrator, taken
@@ -209,12 +214,16 @@ class Integrator:
         kernel writes into buffers of its own).
         """
         return {"t": self.t, "y": self.y, "h": self.h, "f": self.f,
-                "counts": (self.n_steps, self.n_rejected, self.n_evals)}
+                "counts": (self.n_steps, self.n_rejected, self.n_evals), "passages": list(self.passages),
+                "kappa_seen": self._clock.kappa_seen if self._explicit else 0.0}
 
     def restore(self, snap: dict) -> None:
         self.t, self.y, self.h = snap["t"], snap["y"].copy(), snap["h"]
         self.f = None if snap["f"] is None else snap["f"].copy()
         self.n_steps, self.n_rejected, self.n_evals = snap["counts"]
+        self.passages = list(snap["passages"])
+        if self._explicit:
+            self._clock.kappa_seen = snap["kappa_seen"]
 
     def reset_derivative(self) -> None:
         """Forget the cached derivative (after an input changed)."""
@@ -318,7 +327,7 @@ class Integrator:
         ode, st, clock, n = self.ode, self._settings, self._clock, self.y.size
         st.tau_drive, st.tau_load, st.max_steps = float(ode.drive), float(ode.load), int(max_steps)
         clock.t, clock.h, clock.have_f = self.t, self.h if self.method != "rk4" else 0.0, self.f is not None
-        clock.steps = clock.rejected = clock.evals = 0
+        clock.steps = clock.rejected = clock.evals = clock.passages = 0
         self._ybuf[:] = self.y
         if self.f is not None:
             self._fbuf[:] = self.f
@@ -342,6 +351,9 @@ class Integrator:
         self.n_steps += clock.steps
         self.n_rejected += clock.rejected
         self.n_evals += clock.evals
+        # (a ring: an advance with more passages than it holds keeps the last ones)
+        self.passages += [float(self._passage_log[k % PASSAGE_LOG])
+                          for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out
 
 

@@ -1,7 +1,8 @@
 """The mechanism model: geometry, inertia, joints and closures, immutable.
 
 A generalised planar open chain (MODEL.md section 2): ground (link 1) and moving
-links 2 .. N+1 in series.  Between a link and its predecessor sit two joints in
+links 2 .. N+1, in series unless a link names another predecessor (an earlier
+link or the ground: the chain is then a tree).  Between a link and its predecessor sit two joints in
 series, a slide ``B`` along an axis fixed in the predecessor (perpendicular to its
 vector) and a revolute ``theta``; the existence factors say which one is real.  The
 fictitious one is locked: a locked slide keeps its value, a locked revolute keeps
@@ -53,6 +54,13 @@ class Link:
         Centroidal moment of inertia, kg m^2 (>= 0).
     damping : float
         Viscous damping of the real joint, N m s/rad or N s/m (>= 0).
+    parent : int or None
+        The predecessor this link's joint pair hangs from, thesis numbering:
+        1 the ground, or an earlier moving link.  None (the default) is the
+        previous link, a serial chain.  The pair sits at the predecessor's
+        point (a, B) as in the serial chain, so two links hanging from one
+        predecessor differ in their slide B: a ternary link carries its two
+        children on the line across its vector's end.
     """
 
     joint: str
@@ -62,6 +70,7 @@ class Link:
     m: float = 1.0
     I: float = 0.0
     damping: float = 0.0
+    parent: int | None = None
 
     @property
     def existence(self) -> tuple[int, int]:
@@ -110,7 +119,7 @@ class Closure:
 
 
 # columns of the link table (ModelArrays.links), one row per moving link
-L_M, L_I, L_P, L_Q, L_A, L_APRED, L_DAMP, L_REV, L_SLIDE0, L_THETA0 = range(10)
+L_M, L_I, L_P, L_Q, L_A, L_APRED, L_DAMP, L_REV, L_SLIDE0, L_THETA0, L_PARENT = range(11)
 # columns of the closure table (ModelArrays.closures), one row per closure
 (CL_KIND, CL_LINK, CL_TO, CL_PX, CL_PY, CL_TX, CL_TY, CL_ANGLE, CL_PSI, CL_GAIN,
  CL_DAMP) = range(11)
@@ -122,15 +131,16 @@ class ModelArrays:
     """The model's numbers as two tables, built once: what the compiled kernel reads.
 
     ``links`` has one row per moving link: m, I, p, q, a, the predecessor's vector
-    length (a1 for link 2), damping, 1.0 if the revolute is the real joint, and the
-    locked slide and absolute angle (``q_locked``) the real joints add to.
+    length (a1 for link 2), damping, 1.0 if the revolute is the real joint, the
+    locked slide and absolute angle (``q_locked``) the real joints add to, and the
+    predecessor as a 0-based moving-link index (-1 the ground).
     ``closures`` has one row per closure: kind (0 revolute, 1 prismatic), the
     closing link and the target link as 0-based moving-link indices (-1 for the
     ground), point, to_point, angle, psi, penalty gain and damping.  The other
     fields are views of these columns.
     """
 
-    links: np.ndarray  # (N, 10) float
+    links: np.ndarray  # (N, 11) float
     closures: np.ndarray  # (C, 11) float
     m: np.ndarray
     I: np.ndarray
@@ -174,8 +184,9 @@ class ModelArrays:
         cfields = np.array([(PRISMATIC_CLOSURE if c.kind == "prismatic" else REVOLUTE_CLOSURE, c.link, c.to_link,
                              *c.point, *c.to_point, c.angle, c.psi, c.gain, c.damping) for c in model.closures],
                            dtype=float).reshape(len(model.closures), 11)
-        L, C = binding.scene_tables(revolute, fields, model.a1, model.theta1, np.array(model.q_ref, dtype=float),
-                                    cfields)
+        parent = np.array([pk - 2 for pk in model.parents], dtype=np.int32)
+        L, C = binding.scene_tables(revolute, parent, fields, model.a1, model.theta1,
+                                    np.array(model.q_ref, dtype=float), cfields)
         L.setflags(write=False)
         C.setflags(write=False)
         drive = -1 if model.drive is None else model.free_index(model.drive)
@@ -308,6 +319,13 @@ class Mechanism:
             m = _finite(f"{f}.m", link.m)
             inertia = _finite(f"{f}.I", link.I)
             c = _finite(f"{f}.damping", link.damping)
+            if link.parent is not None:
+                pk = link.parent
+                if isinstance(pk, np.integer):
+                    pk = int(pk)
+                if isinstance(pk, bool) or not isinstance(pk, int) or not 1 <= pk <= i + 1:
+                    raise SceneError(f"{f}.parent", f"must be the ground (1) or an earlier link 2..{i + 1} "
+                                                    f"(the chain's predecessor), got {pk!r}")
             if a < 0:
                 raise SceneError(f"{f}.a", f"length must be >= 0, got {a}")
             if m <= 0:
@@ -345,19 +363,20 @@ class Mechanism:
         # with parallel axes add a redundant freedom (MODEL.md section 1).
         n = len(self.links)
         rel = self.relative_from_absolute(self.q_ref)
+        parents = self.parents
         # axis directions measured in the frame of the link that carries them:
         # across a prismatic pair the relative angle is locked, so these are fixed
         axes: dict[int, list[tuple[float, str]]] = {k: [] for k in range(1, n + 2)}
         ground_angle = self.theta1
         for i, link in enumerate(self.links):
             if link.joint == PRISMATIC:
-                pred = ground_angle if i == 0 else 0.0
-                axes[i + 1].append((pred + math.pi / 2, f"link{i + 2}.joint"))
+                pred = ground_angle if parents[i] == 1 else 0.0
+                axes[parents[i]].append((pred + math.pi / 2, f"link{i + 2}.joint"))
                 axes[i + 2].append((math.pi / 2 - rel[2 * i + 1], f"link{i + 2}.joint"))
         for j, cl in enumerate(self.closures):
             f = "closure" if len(self.closures) == 1 else f"closure[{j}]"
             lo, hi = sorted((cl.link, cl.to_link))
-            n_revolute = sum(self.links[k - 2].joint == REVOLUTE for k in range(lo + 1, hi + 1))
+            n_revolute = sum(self.links[k - 2].joint == REVOLUTE for k in self.loop_pairs(cl.link, cl.to_link))
             n_revolute += cl.kind == "revolute"
             if n_revolute < 2:
                 raise SceneError(
@@ -387,19 +406,26 @@ class Mechanism:
         free = tuple(2 * i + (1 if link.joint == REVOLUTE else 0) for i, link in enumerate(self.links))
         S = np.zeros((2 * n, n))
         q_locked = np.zeros(2 * n)
-        # theta_{k+1} = theta_k + phi_{k+1}: a relative angle moves every later angle
+        # theta_k = theta_parent + phi_k: a relative angle moves every angle of its subtree
         rel = self.relative_from_absolute(self.q_ref)
         for i, link in enumerate(self.links):
             if link.joint == PRISMATIC:
                 S[2 * i, i] = 1.0
             else:
-                S[2 * i + 1 :: 2, i] = 1.0
+                for k in range(i, n):
+                    if i + 2 in self.path_to_ground(k + 2):
+                        S[2 * k + 1, i] = 1.0
         # locked part: slides keep value, revolutes keep relative angle
         locked_rel = np.array(rel, dtype=float)
         for i, link in enumerate(self.links):
             locked_rel[free[i]] = 0.0
         q_locked[0::2] = locked_rel[0::2]
-        q_locked[1::2] = self.theta1 + np.cumsum(locked_rel[1::2])
+        # the locked relative angles summed from the ground, in the kernel's order (grb_scene_tables)
+        locked = np.zeros(n)
+        for i in range(n):
+            pk = self.parents[i]
+            locked[i] = (0.0 if pk == 1 else locked[pk - 2]) + locked_rel[2 * i + 1]
+        q_locked[1::2] = locked + self.theta1
         object.__setattr__(self, "_S", S)
         object.__setattr__(self, "_q_locked", q_locked)
         object.__setattr__(self, "_free", free)
@@ -408,11 +434,37 @@ class Mechanism:
         """Joint variables (slides and relative angles) from absolute coordinates."""
         q = list(q)
         rel = list(q)
-        prev = self.theta1
-        for i in range(len(self.links)):
-            rel[2 * i + 1] = q[2 * i + 1] - prev
-            prev = q[2 * i + 1]
+        for i, pk in enumerate(self.parents):
+            rel[2 * i + 1] = q[2 * i + 1] - (self.theta1 if pk == 1 else q[2 * pk - 3])
         return rel
+
+    @property
+    def parents(self) -> tuple[int, ...]:
+        """Each moving link's predecessor, thesis numbering (1 the ground)."""
+        return tuple(k + 1 if link.parent is None else int(link.parent) for k, link in enumerate(self.links))
+
+    @property
+    def is_tree(self) -> bool:
+        """Whether some link hangs from another than the previous link (the chain branches)."""
+        return any(pk != k + 1 for k, pk in enumerate(self.parents))
+
+    def path_to_ground(self, link: int) -> list[int]:
+        """The links from ``link`` (thesis numbering) down to the ground's child: whose joints move it."""
+        path, parents = [], self.parents
+        while link > 1:
+            path.append(link)
+            link = parents[link - 2]
+        return path
+
+    def loop_pairs(self, a: int, b: int) -> list[int]:
+        """The chain's joint pairs (by the link they attach) on the tree path between links ``a`` and ``b``.
+
+        With a closure between ``a`` and ``b`` they make its loop: in a serial
+        chain, the pairs of links lo+1 .. hi.
+        """
+        pa, pb = self.path_to_ground(a), self.path_to_ground(b)
+        common = set(pa) & set(pb)
+        return sorted(k for k in pa + pb if k not in common)
 
     @property
     def n_links(self) -> int:
@@ -476,10 +528,8 @@ class Mechanism:
         """Real joint rates from absolute coordinate rates (ground fixed)."""
         qd = list(qd)
         rel = list(qd)
-        prev = 0.0
-        for i in range(len(self.links)):
-            rel[2 * i + 1] = qd[2 * i + 1] - prev
-            prev = qd[2 * i + 1]
+        for i, pk in enumerate(self.parents):
+            rel[2 * i + 1] = qd[2 * i + 1] - (0.0 if pk == 1 else qd[2 * pk - 3])
         return np.array([rel[i] for i in self._free])
 
     def joint_is_revolute(self) -> np.ndarray:

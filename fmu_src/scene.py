@@ -96,7 +96,7 @@ class Scene:
 
 _TOP = {"name", "description", "kind", "gravity", "mechanism", "ground", "closure", "drive", "load",
         "initial", "simulate"}
-_LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping"}
+_LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping", "parent"}
 _CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain", "damping"}
 
 
@@ -135,6 +135,21 @@ def _joint(d: dict, field: str) -> str:
     return j
 
 
+def _parent(value, field: str, k: int) -> int:
+    """A link's predecessor (thesis numbering, 1 the ground) from "ground", "linkJ" or the number J."""
+    if isinstance(value, str):
+        text = value.strip()
+        if text == "ground":
+            return 1
+        match = re.fullmatch(r"link(\d+)", text)
+        value = int(match.group(1)) if match else value
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value < k:
+        earlier = ("the ground" if k == 2
+                   else f'the ground ("ground" or 1) or an earlier link ("link2" .. "link{k - 1}")')
+        raise SceneError(f"{field}.parent", f"must name {earlier}: a link hangs from a predecessor, got {brief(value)}")
+    return value
+
+
 def scene_from_dict(data: dict, name: str = "") -> Scene:
     """Build a Scene from parsed TOML (see docs/scenes.md)."""
     data = dict(data)
@@ -170,7 +185,8 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         if "a" not in d:
             raise SceneError(f"{f}.a", "is required (the link length, m)")
         num = {k: parse_angle_or_number(d[k], f"{f}.{k}") for k in ("a", "p", "q", "m", "I", "damping") if k in d}
-        links.append(Link(joint=_joint(d, f), **num))
+        parent = _parent(d["parent"], f, i + 2) if "parent" in d else None
+        links.append(Link(joint=_joint(d, f), **num, parent=parent))
     n = len(links)
     ground = dict(built.get("ground", {}))
     ground.update(_table(data, "ground"))

@@ -295,7 +295,8 @@ class Simulator:
     @property
     def stats(self) -> dict[str, int]:
         i = self._integ
-        return {"steps": i.n_steps, "rejected": i.n_rejected, "rhs_evals": i.n_evals}
+        return {"steps": i.n_steps, "rejected": i.n_rejected, "rhs_evals": i.n_evals,
+                "passages": list(i.passages)}
 
 
 @dataclass

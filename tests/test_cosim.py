@@ -69,7 +69,7 @@ def test_an_ssd_round_trips_and_fmpy_reads_it(mechanism_fmu, tmp_path):
 
 def test_bad_systems_are_reported_by_name_before_anything_runs(mechanism_fmu):
     s = ssp.System("bad")
-    s.add("a", mechanism_fmu, **{"link9.m": 1.0, "theta2": 0.3})
+    s.add("a", mechanism_fmu, **{"link9.m": 1.0, "theta2": 0.3, "link2.mas": 1.0})
     s.add("b", mechanism_fmu)
     s.connect("a.theta2", "ghost.motor_torque")  # no such component
     s.connect("a.no_such_output", "b.motor_torque")  # no such variable
@@ -85,7 +85,9 @@ def test_bad_systems_are_reported_by_name_before_anything_runs(mechanism_fmu):
                      "unit mismatch a.drive_speed -> b.load_torque: [rad/s or m/s] to [N m, or N on a slide]",
                      "input b.load_torque is fed twice",
                      "parameter a.link9.m: Mechanism.fmu has no variable 'link9.m'",
-                     "parameter a.theta2: it is an output, not a parameter"):
+                     "parameter a.theta2: it is an output, not a parameter",
+                     "parameter a.link2.mas: Mechanism.fmu has no variable 'link2.mas'; did you mean 'link2.m'?",
+                     "has no variable 'no_such_output'"):
         assert expected in msg, expected
     missing = ssp.System("missing")
     missing.add("m", "/nonexistent/Mechanism.fmu")

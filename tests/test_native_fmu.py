@@ -253,14 +253,16 @@ def test_value_references_agree_between_binary_and_description(host, built, name
 def test_the_library_and_the_fmu_build_the_same_tables_as_the_model_locks_coordinates():
     # grb_scene_tables (C) builds the kernel's tables for the library and the FMU
     # alike; the locked coordinates must be the Python model's own (q_from_z uses them)
-    from grubler.model import L_APRED, L_SLIDE0, L_THETA0
+    from grubler.model import L_APRED, L_PARENT, L_SLIDE0, L_THETA0
 
     for preset in grubler.scene.preset_names():
         m = grubler.load_scene(preset).mechanism
         L = m.arrays.links
         assert np.array_equal(L[:, L_SLIDE0], m._q_locked[0::2]), preset
         assert np.array_equal(L[:, L_THETA0], m._q_locked[1::2]), preset
-        assert np.array_equal(L[:, L_APRED], [m.a1] + [link.a for link in m.links[:-1]]), preset
+        # each link's predecessor: the previous link, or any earlier one in a tree (stephenson-iii)
+        assert np.array_equal(L[:, L_APRED], [m.a1 if pk == 1 else m.links[pk - 2].a for pk in m.parents]), preset
+        assert np.array_equal(L[:, L_PARENT], np.array(m.parents) - 2), preset
 
 
 # -- physics: what the library computes ---------------------------------------------
@@ -814,3 +816,46 @@ def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
 def test_fmi_headers_come_from_fmpy(unzipped):
     for name in FMI_HEADERS:
         assert (unzipped / "sources" / name).read_bytes() == (fmi_headers_dir() / name).read_bytes()
+
+
+# -- a branching chain: the predecessor of each link is a parameter -------------------
+
+@pytest.fixture(scope="session")
+def tree_fmu(host, tmp_path_factory):
+    """The stephenson-iii scene exported (its links 4 and 5 hang from link 3), unzipped, in the host."""
+    from fmpy import read_model_description
+
+    from grubler.fmi.build import export
+
+    d = tmp_path_factory.mktemp("tree")
+    path = d / "Stephenson3.fmu"
+    export(grubler.load_scene("stephenson-iii"), path)
+    zipfile.ZipFile(path).extractall(d / "unzipped")
+    desc = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in desc.modelVariables}
+    return Host(host, d / "unzipped" / "binaries" / "linux64" / "Stephenson3.so", desc.guid, vr), desc
+
+
+def test_a_tree_scene_runs_in_the_c_host_like_the_library(tree_fmu):
+    native, md = tree_fmu
+    start = {v.name: v.start for v in md.modelVariables if v.name.endswith(".parent")}
+    assert start == {"link2.parent": "1", "link3.parent": "2", "link4.parent": "3", "link5.parent": "3",
+                     "link6.parent": "5"}
+    names = ("theta2", "theta4", "theta5", "theta6_d", "theta5_dd", "closure_error", "Fx", "closure1_Fy",
+             "R4_Fx", "R3_Mz", "KE", "PE")
+    t = native.run(native.start(md=md) + [f"setr {native.vr['motor_torque']} 0.05",
+                                          native.run_steps(0.0, 0.01, 100, *names)])
+    assert t.statuses("run") == [OK], t.logs
+    lib = library_steps("stephenson-iii", 0.01, 100, names, torque=0.05)
+    np.testing.assert_allclose(t.rows(), lib, rtol=0, atol=MATCH)
+    assert np.ptp(t.rows()[:, 3]) > 0.1  # the branch's loop moves
+
+
+def test_a_parent_that_is_not_an_earlier_link_is_refused_with_its_name(tree_fmu):
+    native, md = tree_fmu
+    # the kernel walks each link's parents to the ground: link 5 hanging from itself would never get there
+    t = native.run(native.start({"link5.parent": 5}, md=md))
+    assert t.statuses("seti") == [ERROR] and t.statuses("exit") == [ERROR]
+    assert t.logged("link5.parent must be in 1 .. 4, got 5"), t.logs
+    t = native.run(native.start({"link5.parent": 1}, md=md) + [native.run_steps(0.0, 0.01, 2, "theta5")])
+    assert t.statuses("exit") == [OK]  # a legal other tree: link 5 on the ground, its dyad then a four-bar

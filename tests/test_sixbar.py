@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 
 from planar_bodies import Bodies, Body, Pin, dyad
 
-SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii"]
+SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
 RHO = 1.0  # kg/m: the presets' bars
 
 
@@ -69,7 +69,16 @@ def joints(name, P, th, signs, near=None):
     A = np.array([math.cos(th), math.sin(th)])
     if name == "stephenson-ii":
         return triad(P, th, signs[0], near)
-    if name == "watt-ii":
+    if name == "stephenson-iii":
+        # the ground ternary's pivots; the floating ternary A-B-C rides on crank and rocker
+        w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"]), "O6": np.array(P["output_pivot"])}
+        w["A"] = P["crank"] * A
+        w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
+        if w["B"] is None:
+            return None
+        w["C"] = third(w["A"], w["B"], P["coupler_arm"], P["coupler_web"], P.get("coupler_side", "left"))
+        w["D"] = dyad(w["C"], w["O6"], P["link5"], P["link6"], signs[1])
+    elif name == "watt-ii":
         w = {"O2": np.zeros(2), "O4": np.array(P["rocker_pivot"]), "O6": np.array(P["output_pivot"])}
         w["A"] = P["crank"] * A
         w["B"] = dyad(w["A"], w["O4"], P["coupler"], P["rocker"], signs[0])
@@ -97,9 +106,11 @@ BODIES = {
     "watt-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "A"), ("B", "O4")],
     "stephenson-i": [("O2", "C", "A"), ("C", "D"), ("D", "E"), ("E", "B", "O4"), ("B", "A")],
     "stephenson-ii": [("O2", "E"), ("E", "P", "Q"), ("P", "R"), ("R", "S", "O6"), ("S", "Q")],
+    # a tree: links 4 (rocker) and 5 both hang from the floating ternary, link 3
+    "stephenson-iii": [("O2", "A"), ("A", "B", "C"), ("B", "O4"), ("C", "D"), ("D", "O6")],
 }
 GROUND = {"watt-ii": ("O2", "O4", "O6"), "watt-i": ("O2", "O4"), "stephenson-i": ("O2", "O4"),
-          "stephenson-ii": ("O2", "O6")}
+          "stephenson-ii": ("O2", "O6"), "stephenson-iii": ("O2", "O4", "O6")}
 
 
 def reference(name, w, damping=0.0):
@@ -237,13 +248,13 @@ def test_damped_six_bar_rests_where_the_potential_is_least_with_the_static_force
         assert np.allclose(dyn.lam[2 * j:2 * j + 2], f, atol=1e-6), (cl, dyn.lam, f)
         col = "F" if j == 0 else f"closure{j}_F"  # the Result's columns for every closure
         assert np.allclose([res[col + "x"][-1], res[col + "y"][-1]], f, atol=1e-6)
-    # every chain joint's reaction (the force of link k-1 on link k)
+    # every chain joint's reaction (the force of link k's predecessor on link k)
     reactions = res["R1_Fx"][-1], res["R1_Fy"][-1]
     r0 = next(i for i, p in enumerate(ref.pins) if p.i == 0 and p.j is None and p.a == "O2")
     assert np.allclose(reactions, lam[r0], atol=1e-6)
     for k in range(1, m.n_links):
-        joint = BODIES[name][k][0]
-        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, k - 1})
+        joint, pred = BODIES[name][k][0], m.parents[k] - 2
+        r = next(i for i, p in enumerate(ref.pins) if p.a == joint and {p.i, p.j} == {k, pred})
         f = lam[r] if ref.pins[r].i == k else -lam[r]
         assert np.allclose([res[f"R{k + 1}_Fx"][-1], res[f"R{k + 1}_Fy"][-1]], f, atol=1e-6)
 
@@ -268,12 +279,12 @@ def test_ternary_links_are_drawn_as_plates_and_the_chain_is_named(name):
     m = grubler.load_scene(name).mechanism
     z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
     geo = frame_geometry(m, z)
-    ternary_moving = 1 if name == "watt-ii" else 2  # watt-ii's other ternary is the ground
+    ternary_moving = 1 if name in ("watt-ii", "stephenson-iii") else 2  # their other ternary is the ground
     assert len(geo.plates) == ternary_moving and all(len(p) == 3 for p in geo.plates)
     c = grubler.classify(m)
     assert c.mobility == 1
     assert c.name == {"watt-i": "Watt I", "watt-ii": "Watt II", "stephenson-i": "Stephenson I",
-                      "stephenson-ii": "Stephenson II"}[name] + " six-bar"
+                      "stephenson-ii": "Stephenson II", "stephenson-iii": "Stephenson III"}[name] + " six-bar"
 
 
 def test_an_input_angle_that_cannot_close_names_the_loop_and_its_triangle():
@@ -371,3 +382,111 @@ def test_a_triad_that_cannot_close_names_the_loop_left_open():
     m = m.replace(closures=tuple(closures))
     with pytest.raises(grubler.AssemblyError, match=r"the loop left open is closure\[1\]'s \(link6 to link3"):
         grubler.assemble(m, m.z_from_q(m.q_ref))
+
+
+def stephenson_iii_against_bodies(method="exact", gain=1e4, rtol=1e-12):
+    """Library and body-model angles (from the start) over 2 s under a constant drive torque."""
+    name = "stephenson-iii"
+    scene, m, z = closed_library(name)
+    # start both from the closed configuration (the penalty run starts there too)
+    q = m.q_from_z(z)
+    scene = override(scene, {"closure.gain": gain, **{f"initial.theta{k}": float(q[2 * k - 3]) for k in range(2, 7)}})
+    ref, x0 = reference(name, world_of(name, m, z))
+    ref.torque = {0: 0.05}  # the drive: on the crank, from the ground
+    times = np.linspace(0.0, 2.0, 41)
+    ref_x, _ = ref.simulate(x0, np.zeros(ref.n), times)
+    res = grubler.simulate(scene, t_end=2.0, dt_out=0.05, torque=0.05, method=method, rtol=rtol, atol=rtol)
+    assert np.allclose(res.t, times)
+    lib = np.column_stack([res[f"theta{k}"] for k in range(2, 7)])
+    lib -= lib[0]  # the reference's bodies start at angle 0 (world axes at the sketch)
+    assert np.ptp(lib[:, 0]) > 1.0 and np.ptp(lib[:, 4]) > 0.3  # it turns, and the branch's loop moves
+    return np.max(np.abs(lib - ref_x[:, 2::3])), np.max(res["closure_error"])
+
+
+def test_stephenson_iii_follows_the_body_model_driven():
+    # the one inversion whose chain branches (links 4 and 5 both hang from the
+    # floating ternary, link 3) against bodies and pins, which know no chain
+    worst, closure = stephenson_iii_against_bodies()
+    assert closure < 1e-12
+    assert worst < 1e-9, worst
+
+
+def test_stephenson_iii_penalty_closes_on_the_body_model_as_its_springs_stiffen():
+    # the thesis's imaginary joint: each loop closed to force / G, so ten times
+    # the gain takes the trajectory ten times closer to the rigid reference
+    soft, soft_closure = stephenson_iii_against_bodies("penalty", 1e5, rtol=1e-10)
+    stiff, stiff_closure = stephenson_iii_against_bodies("penalty", 1e6, rtol=1e-10)
+    assert 1e-5 < stiff_closure < 1e-4 < soft_closure < 1e-3  # the springs' compliance, m
+    assert 5.0 < soft / stiff < 20.0 and stiff < 5e-3, (soft, stiff)
+
+
+def test_stephenson_iii_linearised_at_rest_swings_at_the_body_model_frequency():
+    # the minimal coordinates and their complex-step twin on a tree: at the rest
+    # position the linear model's stiffness over inertia is the reference's
+    # d2PE/dphi2 over the generalised mass v^T M v, v = dx/dphi along the
+    # closed configurations (phi the crank angle), by finite differences of the
+    # reference's own closure
+    name = "stephenson-iii"
+    sys = grubler.linearize(name, torque=0.0)
+    a21 = sys.A[1, 0]
+    op = sys.operating_point
+    m = grubler.load_scene(name).mechanism
+    ref, x_rest = reference(name, world_of(name, m, op.z))
+
+    def closed(dphi):
+        x = x_rest.copy()
+        x[2] += dphi  # body 0 is the crank
+        return ref.close(x, hold=0)
+
+    h = 1e-3
+    xs = [closed(k * h) for k in (-2, -1, 0, 1, 2)]
+    pe = [ref.potential(x) for x in xs]
+    stiffness = (-pe[0] + 16 * pe[1] - 30 * pe[2] + 16 * pe[3] - pe[4]) / (12 * h * h)
+    v = (xs[0] - 8 * xs[1] + 8 * xs[3] - xs[4]) / (12 * h)
+    inertia = v @ ref.mass() @ v
+    assert abs((pe[0] - 8 * pe[1] + 8 * pe[3] - pe[4]) / (12 * h)) < 1e-9  # the reference agrees it is at rest
+    assert stiffness > 0
+    assert abs(a21 + stiffness / inertia) < 1e-7 * stiffness / inertia, (a21, -stiffness / inertia)
+
+
+def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
+    from grubler.cli import main
+
+    assert main(["info", "stephenson-iii", "--at", "120 deg"]) == 0
+    out = capsys.readouterr().out
+    assert "Stephenson III six-bar (Stephenson chain)" in out and "mobility   1" in out
+    assert "ternary: link1 (ground), link3" in out and "chain      a tree" in out and "link5 on link3" in out
+    branches = [line for line in out.splitlines() if line.startswith("  [")]
+    assert len(branches) == 4 and sum("the default" in line for line in branches) == 1
+    # each listed branch is one of the reference's four dyad placements
+    P = params("stephenson-iii")
+    candidates = [joints("stephenson-iii", P, math.radians(120), s) for s in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
+    def off(angle, a, b):  # degrees between a listed angle and the direction a -> b
+        d = (angle - math.degrees(math.atan2(*(b - a)[::-1]))) % 360
+        return min(d, 360 - d)
+
+    found = set()
+    for line in branches:  # the rocker (link 4) runs B -> O4, link 6 D -> O6
+        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        miss = [max(off(angles["theta4"], w["B"], w["O4"]), off(angles["theta6"], w["D"], w["O6"]))
+                for w in candidates]
+        found.add(int(np.argmin(miss)))
+        assert min(miss) < 1e-3
+    assert found == {0, 1, 2, 3}
+
+
+def test_stephenson_iii_at_an_angle_that_cannot_close_names_the_branch_dyad(tmp_path, capsys):
+    from grubler.cli import main
+
+    dims = {"crank": 0.1, "coupler": 0.35, "coupler_arm": 0.2, "coupler_web": 0.25, "rocker": 0.25, "link5": 0.2,
+            "link6": 0.15, "rocker_pivot": [0.3, 0.0], "output_pivot": [0.3, 0.45]}
+    scene = tmp_path / "tight.toml"
+    scene.write_text('[mechanism]\ntype = "stephenson-iii"\ninput_angle = "30 deg"\n'
+                     + "".join(f"{k} = {v}\n" for k, v in dims.items()))
+    assert main(["info", str(scene)]) == 0
+    assert main(["info", str(scene), "--at", "240 deg"]) == 2
+    err = capsys.readouterr().err
+    # the dyad on the branch: link 5 hangs from the floating ternary (link 3), link 6 from the ground pivot
+    assert "link3-link5 (chain)" in err and "closure[1]" in err and "link5-link6" in err and "no triangle" in err
+    assert joints("stephenson-iii", dims, math.radians(240), (1, 1)) is None  # the reference's dyad agrees
+    assert joints("stephenson-iii", dims, math.radians(30), (1, 1)) is not None

@@ -12,7 +12,7 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from grubler.fmi.build import export  # noqa: E402
 
-SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii"]
+SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
 
 
 @pytest.mark.parametrize("name", SIX)

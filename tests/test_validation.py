@@ -65,6 +65,7 @@ def test_builder_lengths_must_be_positive():
     text = '[mechanism]\ntype = "four-bar"\nground = 1.0\ncrank = 0.0\ncoupler = 0.8\nrocker = 0.6\n'
     expect(text, "mechanism.crank", "length must be positive")
     expect(text.replace("crank = 0.0\n", ""), "mechanism.crank", "required")
+    expect(text.replace("crank = 0.0", "crankk = 0.3"), "mechanism.crankk", "did you mean 'crank'?")
 
 
 def test_existence_factor_pair_must_be_exactly_one_real_joint():

@@ -5,6 +5,13 @@ links and points included, so one exported FMU can be re-tuned into any
 mechanism with the same number of links and closures (the eight inversions of a
 four-link chain are one FMU).  Parameters default to the scene's values.
 
+Each link's predecessor is a parameter too (``linkK.parent``, structural, 1 the
+ground), like a closure's links: the chain's topology is data the kernel reads,
+so a tree (the Stephenson III six-bar) needs no other FMU than a serial chain
+of its size.  Those parameters come last in the variable list, so that the
+value references of every other variable stay what they were before the chain
+could branch.
+
 Examples
 --------
 >>> from grubler.scene import load_scene
@@ -38,7 +45,7 @@ LEVEL_DRIVE, LEVEL_OBSERVE, LEVEL_REACTIONS = 1, 2, 3
 _UNPUBLISHED = {"E", "tau_drive", "P_drive"}
 
 # per-link fields in slot order (the C model addresses them as SLOT_LINKS + k * LINK_STRIDE + field)
-LINK_FIELDS = ("joint", "a", "p", "q", "m", "I", "damping")
+LINK_FIELDS = ("joint", "a", "p", "q", "m", "I", "damping", "parent")
 CLOSURE_FIELDS = ("type", "link", "to_link", "at_x", "at_y", "point_x", "point_y", "angle", "psi", "gain",
                   "damping")
 GLOBALS = ("method", "integrator", "rtol", "atol", "max_step", "step", "gravity", "ground.a1", "ground.theta1",
@@ -68,8 +75,9 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
     }
     for k, link in enumerate(m.links):
         p[f"link{k + 2}.joint"] = 2 if link.joint == PRISMATIC else 1
-        for f in LINK_FIELDS[1:]:
+        for f in LINK_FIELDS[1:-1]:
             p[f"link{k + 2}.{f}"] = float(getattr(link, f))
+        p[f"link{k + 2}.parent"] = m.parents[k]
     for j, c in enumerate(m.closures):
         pre = closure_prefix(len(m.closures), j)
         p.update({f"{pre}.type": 2 if c.kind == "prismatic" else 1, f"{pre}.link": c.link,
@@ -157,7 +165,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
                  "damping": ("viscous damping of its real joint [N m s/rad or N s/m]", None, 0.0)}
     for k in range(2, n + 2):
         par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
-        for f in LINK_FIELDS[1:]:
+        for f in LINK_FIELDS[1:-1]:
             text, unit, lo = link_text[f]
             par(f"link{k}.{f}", REAL, f"link {k}: {text}", unit, lo)
     for j in range(nc):
@@ -202,9 +210,10 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
         elif name.startswith("R") and name[1].isdigit():
             k = int(name[1:name.index("_")])
             unit = "N.m" if suffix == "Mz" else "N"
-            text = f"{suffix[1:]}-component of the reaction link {k}'s predecessor exerts on link {k + 1} at its joint"
+            # link k+1's predecessor: link k in a serial chain, its parent in a tree
+            text = f"{suffix[1:]}-component of the reaction link {k + 1}'s predecessor exerts on it at its joint"
             if suffix == "Mz":
-                text = f"moment link {k}'s predecessor exerts on link {k + 1} at its joint"
+                text = f"moment link {k + 1}'s predecessor exerts on it at its joint"
             feed = True
         else:
             order_ = {"": 0, "d": 1, "dd": 2}[suffix]
@@ -223,6 +232,9 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
             v.append(Variable(f"closure{j}_{('Fx', 'Fy', 'Mz')[c]}", REAL, OUTPUT,
                               f"{what} closure[{j}] exerts on its closing link (world axes)", unit=unit,
                               level=LEVEL_REACTIONS, feedthrough=True, slot=len(obs) + 2 + 3 * (j - 1) + c))
+    for k in range(2, n + 2):  # last: the value references above are those of an FMU before trees
+        par(f"link{k}.parent", INTEGER, f"link {k}: the link its joint pair hangs from, 1: the ground "
+                                        "(structural; the previous link for a serial chain)", None, 1, k - 1)
 
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]

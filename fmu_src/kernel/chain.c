@@ -57,13 +57,30 @@ void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
     w->S = buffer + off[6];
 }
 
-/* Recursive pass from ground to tip (MODEL.md section 2) into K. */
+/* Recursive pass from ground to tip (MODEL.md section 2) into K.  Each link
+ * starts from its predecessor's row (parents come first), so a branching chain
+ * costs no more than a serial one. */
 void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     int n = md->n_links;
-    /* the predecessor's frame; link 2's predecessor is the ground vector */
-    real cp = RCOS(md->theta1), sp = RSIN(md->theta1), wp = 0.0;
-    real z_sum = 0.0, w_sum = 0.0, ox = 0.0, oy = 0.0, bx = 0.0, by = 0.0;
     for (int k = 0; k < n; k++) {
+        /* the predecessor's frame; the ground's is its vector at theta1, at rest */
+        int pk = PARENT_(md, k);
+        real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
+        if (pk < 0) {
+            cp = RCOS(md->theta1);
+            sp = RSIN(md->theta1);
+            wp = z_sum = w_sum = ox = oy = bx = by = 0.0;
+        } else {
+            const real *prow = w->K + pk * K_COLUMNS;
+            cp = prow[K_COS];
+            sp = prow[K_SIN];
+            wp = w_sum = prow[K_OM];
+            z_sum = prow[K_ZS];
+            ox = prow[K_OX];
+            oy = prow[K_OY];
+            bx = prow[K_BX];
+            by = prow[K_BY];
+        }
         real slide, rate;
         if (L_(md, k, GRB_L_REV) != 0.0) {
             z_sum += z[k];
@@ -100,26 +117,26 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         row[K_AY] = ay;
         row[K_SLIDE] = slide;
         row[K_RATE] = rate;
-        cp = c;
-        sp = s;
-        wp = w_sum;
+        row[K_ZS] = z_sum;
     }
 }
 
 /* Position r[0..1] and bias acceleration r[2..3] of the point (lx along, ly
  * across the link vector) of moving link k; its Jacobian (rdot = J zd) into the
  * two rows of J (row stride N).  A revolute at O_j moves the point with
- * k x (r - O_j), a slide along its axis. */
+ * k x (r - O_j), a slide along its axis; only the joints on the path from the
+ * ground to link k move it (in a serial chain, every joint up to k). */
 void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r) {
     int n = md->n_links;
     real c = K_(w, k, K_COS), s = K_(w, k, K_SIN);
     real armx = lx * c - ly * s, army = lx * s + ly * c;
     real rx = K_(w, k, K_OX) + armx, ry = K_(w, k, K_OY) + army;
     for (int j = 0; j < n; j++) {
-        if (j > k) {
-            J[j] = 0.0;
-            J[n + j] = 0.0;
-        } else if (L_(md, j, GRB_L_REV) != 0.0) {
+        J[j] = 0.0;
+        J[n + j] = 0.0;
+    }
+    for (int j = k; j >= 0; j = PARENT_(md, j)) {
+        if (L_(md, j, GRB_L_REV) != 0.0) {
             J[j] = -(ry - K_(w, j, K_OY));
             J[n + j] = rx - K_(w, j, K_OX);
         } else {
@@ -186,8 +203,9 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
         R_(w, r + 1, R_PHI) = K_(w, ka, K_TH) - thb - CL_(md, j, GRB_CL_PSI);
         R_(w, r + 1, R_GAMMA) = 0.0;
         for (int i = 0; i < n; i++) {
-            real jwa = i <= ka ? L_(md, i, GRB_L_REV) : 0.0;
-            real jwb = i <= kb ? L_(md, i, GRB_L_REV) : 0.0;
+            /* a link's angle turns with the revolutes on its path from the ground */
+            real jwa = grb_on_path(md, i, ka) ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwb = grb_on_path(md, i, kb) ? L_(md, i, GRB_L_REV) : 0.0;
             real jx = Jr[i], jy = Jr[n + i];
             /* d(normal)/d(theta_b) = -along */
             Jr[i] = nx * jx + ny * jy - d_along * jwb;
@@ -210,18 +228,23 @@ static void mass_centres(const grb_model *md, grb_ws *w) {
     }
 }
 
-/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia) into T[:, :N]. */
+/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia) into T[:, :N].
+ * Link k adds to the entries (i, j) of the joints on its path from the ground
+ * (the others' Jacobian columns are zero), i <= j; each entry gets one term per
+ * link, in link order, whatever order the path is walked in. */
 static void mass_matrix(const grb_model *md, grb_ws *w) {
     int n = md->n_links;
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
-        for (int i = 0; i <= k; i++) {
+        for (int i = k; i >= 0; i = PARENT_(md, i)) {
             real wi = ik * L_(md, i, GRB_L_REV);
-            for (int j = i; j <= k; j++)
+            for (int j = k;; j = PARENT_(md, j)) { /* from k down to i: the path's part at or above i */
                 T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * L_(md, j, GRB_L_REV);
+                if (j == i) break;
+            }
         }
     }
     for (int i = 0; i < n; i++)
@@ -238,7 +261,7 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
         real mk = L_(md, k, GRB_L_M);
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
         real fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
-        for (int i = 0; i <= k; i++) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        for (int i = k; i >= 0; i = PARENT_(md, i)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
     if (md->drive >= 0) T_(w, md->drive, col) += tau_drive;
     if (md->load >= 0) T_(w, md->load, col) += tau_load;
@@ -278,16 +301,24 @@ static void closure_multipliers(grb_ws *w) {
     }
 }
 
+/* The chain's equations of motion without its closures, M zdd = Q - h: M into
+ * T[:, :N], Q - h into T[:, x0] (for the closures' solve below, and for the
+ * motion along an assembly branch near a change point, integrate.c). */
+void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load,
+                         grb_ws *w) {
+    GRB(chain)(md, z, zd, w);
+    mass_centres(md, w);
+    mass_matrix(md, w);
+    generalised_force(md, zd, tau_drive, tau_load, w, w->x0);
+}
+
 /* Joint accelerations (T's zdd column) and closure multipliers (R_LAM) at one
  * state.  0 (and nan accelerations) when the matrix to solve is singular. */
 int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                       real tau_load, grb_ws *w) {
     int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
-    GRB(chain)(md, z, zd, w);
-    mass_centres(md, w);
+    GRB(mass_and_force)(md, z, zd, tau_drive, tau_load, w);
     GRB(closure_rows)(md, zd, w);
-    mass_matrix(md, w);
-    generalised_force(md, zd, tau_drive, tau_load, w, x0);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) T_(w, i, a0 + j) = T_(w, i, j);
     if (m > 0 && method == GRB_PENALTY) {
@@ -354,8 +385,10 @@ int GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, rea
 }
 
 /* Force and moment each link's predecessor exerts on it, after
- * grb_accelerations: Newton-Euler from the tip back to the ground.  out[3k ..
- * 3k+2] is (Fx, Fy, Mz) for the joint pair of link k+2, at its point O_{k+2}. */
+ * grb_accelerations: Newton-Euler from the tips back to the ground.  out[3k ..
+ * 3k+2] is (Fx, Fy, Mz) for the joint pair of link k+2, at its point O_{k+2}.
+ * Children come after their parent, so a link's children are done when it is;
+ * it carries what they exert (in a serial chain, its one successor's). */
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     int n = md->n_links, dd = w->dd;
     for (int i = 0; i < 3 * n; i++) out[i] = 0.0;
@@ -382,29 +415,30 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
             out[3 * k + 2] += sign * (mz + (px - K_(w, k, K_OX)) * fy - (py - K_(w, k, K_OY)) * fx);
         }
     }
-    real fnx = 0.0, fny = 0.0, nn = 0.0;
     for (int k = n - 1; k >= 0; k--) {
         real ax = K_(w, k, K_CBX), ay = K_(w, k, K_CBY), alpha = 0.0;
-        for (int i = 0; i <= k; i++) {
+        for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
             ax += JC_(w, k, 0, i) * T_(w, i, dd);
             ay += JC_(w, k, 1, i) * T_(w, i, dd);
-            alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
+            if (grb_on_path(md, i, k)) alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
+        }
+        /* what the children's joints carry: their force, and its moment about O_k */
+        real fnx = 0.0, fny = 0.0, nn = 0.0, nf = 0.0;
+        for (int c = k + 1; c < n; c++) {
+            if (PARENT_(md, c) != k) continue;
+            real nx = K_(w, c, K_OX) - K_(w, k, K_OX), ny = K_(w, c, K_OY) - K_(w, k, K_OY);
+            fnx += out[3 * c];
+            fny += out[3 * c + 1];
+            nn += out[3 * c + 2];
+            nf += nx * out[3 * c + 1] - ny * out[3 * c];
         }
         real ix = L_(md, k, GRB_L_M) * ax, iy = L_(md, k, GRB_L_M) * (ay + md->gravity); /* m (a - g) */
         real fx = ix - out[3 * k] + fnx, fy = iy - out[3 * k + 1] + fny;
         real cx = K_(w, k, K_CX) - K_(w, k, K_OX), cy = K_(w, k, K_CY) - K_(w, k, K_OY);
-        real nx = 0.0, ny = 0.0;
-        if (k + 1 < n) {
-            nx = K_(w, k + 1, K_OX) - K_(w, k, K_OX);
-            ny = K_(w, k + 1, K_OY) - K_(w, k, K_OY);
-        }
-        real mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + (nx * fny - ny * fnx) - out[3 * k + 2];
+        real mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + nf - out[3 * k + 2];
         out[3 * k] = fx;
         out[3 * k + 1] = fy;
         out[3 * k + 2] = mz;
-        fnx = fx;
-        fny = fy;
-        nn = mz;
     }
 }
 
@@ -416,9 +450,10 @@ int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive,
     const real *zd = y + n;
     int ok = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     int dd = w->dd;
-    real acc = 0.0;
     for (int k = 0; k < n; k++) {
-        int revolute = L_(md, k, GRB_L_REV) != 0.0;
+        int revolute = L_(md, k, GRB_L_REV) != 0.0, pk = PARENT_(md, k);
+        /* a link's angular acceleration: its predecessor's plus its own revolute's */
+        real acc = pk >= 0 ? out[4 * n + 2 * pk + 1] : 0.0;
         out[2 * k] = K_(w, k, K_SLIDE);
         out[2 * k + 1] = K_(w, k, K_TH);
         out[2 * n + 2 * k] = K_(w, k, K_RATE);

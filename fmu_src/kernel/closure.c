@@ -96,6 +96,14 @@ int grb_constraint(const grb_model *md, const double *z, double *phi, double *J,
     return GRB_OK;
 }
 
+int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
+    grb_ws w;
+    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    if (w.m > 64) return GRB_BAD_ARGUMENT;
+    *freedom = grb_closure_freedom(md, z, &w);
+    return GRB_OK;
+}
+
 int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
@@ -223,4 +231,173 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     for (int c = 0; c < nd; c++) zd[dep[c]] = s.x[c];
     *closest = err;
     return GRB_OK;
+}
+
+/* Squared singular values of the closure Jacobian at z, largest first, into
+ * e (m of them): the eigenvalues of the Gram matrix J J^T. */
+static void squared_singular_values(const grb_model *md, const double *z, grb_ws *w, double *e) {
+    int n = w->n, m = w->m;
+    rows_at(md, z, w);
+    double *G = w->Q; /* Q's first m columns hold it, sym_eig its scratch */
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
+            G[r * w->qc + c] = g;
+        }
+    if (m == 2) {
+        double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
+        double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
+        e[0] = tr / 2.0 + disc;
+        e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
+        return;
+    }
+    grb_sym_eig(w->Q, w->qc, m);
+    for (int i = 0; i < m; i++) e[i] = w->Q[i * w->qc + 3 * m];
+    for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
+        for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
+            double tmp = e[k];
+            e[k] = e[k - 1];
+            e[k - 1] = tmp;
+        }
+}
+
+/* Conditioning of the closure at z for a mechanism of mobility one: its
+ * Jacobian's (N - 1)-th singular value over its largest (1 for an open
+ * chain).  Redundant closure rows (a third coupling crank) add singular values
+ * that are zero everywhere; the (N - 1)-th is the one that falls to zero where
+ * two assembly branches meet (a change point, a dead centre of the loop),
+ * which is where the passage logic of integrate.c takes over. */
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w) {
+    int n = w->n, m = w->m;
+    double e[64];
+    if (m == 0) return 1.0;
+    if (m > 64) return 0.0;
+    squared_singular_values(md, z, w, e);
+    int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
+    if (k < 0) k = 0;
+    if (!(e[0] > 0.0)) return 0.0;
+    return sqrt(fmax(e[k], 0.0) / e[0]);
+}
+
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest).  With redundant rows
+ * this is less than N - M. */
+int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
+    int n = w->n, m = w->m, rank = 0;
+    double e[64];
+    if (m == 0) return n;
+    if (m > 64) return -1;
+    squared_singular_values(md, z, w, e);
+    for (int i = 0; i < m; i++)
+        if (e[i] > 1e-16 * e[0]) rank++;
+    return n - rank;
+}
+
+/* The N - 1 dominant directions of the closure rows at z (unit vectors of
+ * length M, the Gram matrix's leading eigenvectors) into basis, for
+ * grb_branch_orientation when redundant rows make J taller than N - 1. */
+int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis) {
+    int n = w->n, m = w->m, v0 = 2 * m, w0 = 3 * m, used[64] = {0};
+    if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
+    rows_at(md, z, w);
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
+            Q_(w, r, c) = g;
+        }
+    grb_sym_eig(w->Q, w->qc, m);
+    for (int b = 0; b < n - 1; b++) {
+        int best = -1;
+        for (int i = 0; i < m; i++)
+            if (!used[i] && (best < 0 || Q_(w, i, w0) > Q_(w, best, w0))) best = i;
+        used[best] = 1;
+        for (int r = 0; r < m; r++) basis[b * m + r] = Q_(w, r, v0 + best);
+    }
+    return GRB_OK;
+}
+
+/* Orientation of the motion against the closure, for a mechanism of mobility
+ * one: the determinant of the closure rows (J, or its rows along basis when
+ * redundant rows make it taller: see grb_closure_row_basis) stacked on the
+ * direction of zd.  Along a branch it keeps its sign; it passes through zero
+ * where the branch crosses another (J loses rank and zd lies in its grown null
+ * space), so a step whose ends disagree in sign stepped across a change point
+ * (or the motion turned back: zd changed sign).  0 when it does not apply. */
+double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w) {
+    int n = w->n, m = w->m;
+    if (m == 0 || (basis ? m < n - 1 : n != m + 1)) return 0.0;
+    const double *zd = y + n;
+    double speed = 0.0;
+    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
+    if (!(speed > 0.0)) return 0.0;
+    speed = sqrt(speed);
+    rows_at(md, y, w);
+    double *A = w->Q; /* n x n scratch: n^2 <= (m + 1)^2 <= m (3m + 1) */
+    for (int r = 0; r < n - 1; r++)
+        for (int i = 0; i < n; i++) {
+            double v = 0.0;
+            if (basis)
+                for (int k = 0; k < m; k++) v += basis[r * m + k] * J_(w, k, i);
+            else
+                v = J_(w, r, i);
+            A[r * n + i] = v;
+        }
+    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
+    double det = 1.0;
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
+        if (A[p * n + c] == 0.0) return 0.0;
+        if (p != c) {
+            for (int j = 0; j < n; j++) {
+                double t = A[c * n + j];
+                A[c * n + j] = A[p * n + j];
+                A[p * n + j] = t;
+            }
+            det = -det;
+        }
+        det *= A[c * n + c];
+        for (int r = c + 1; r < n; r++) {
+            double f = A[r * n + c] / A[c * n + c];
+            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
+        }
+    }
+    return det;
+}
+
+/* The point of an assembly branch where coordinate `held` has the value z[held]:
+ * Newton on the other coordinates from the guess in z, for as long as the
+ * violation still halves (to rounding: near a change point what is left of it
+ * would be amplified), and the branch's tangent there, dz/dz[held], into
+ * tangent (when not NULL).  Returns the violation left (inf when Newton did
+ * not converge to the scale's closure tolerance). */
+double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w) {
+    int n = w->n, m = w->m, dep[64], nd = 0;
+    if (n > 64 || held < 0 || held >= n) return INFINITY;
+    scratch s = scratch_of(w);
+    for (int i = 0; i < n; i++)
+        if (i != held) dep[nd++] = i;
+    double previous = INFINITY, err = INFINITY;
+    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
+        rows_at(md, z, w);
+        err = worst_violation(w);
+        if (!(err < 0.5 * previous) || err == 0.0) break;
+        previous = err;
+        for (int r = 0; r < m; r++) s.phi[r] = -R_(w, r, R_PHI);
+        solve_dependent(w, &s, dep, nd, s.phi, s.step);
+        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
+    }
+    rows_at(md, z, w);
+    err = worst_violation(w);
+    if (!(err <= POSITION_TOL * scale)) return INFINITY;
+    if (tangent) {
+        for (int r = 0; r < m; r++) s.b[r] = -J_(w, r, held);
+        solve_dependent(w, &s, dep, nd, s.b, s.x);
+        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
+        tangent[held] = 1.0;
+    }
+    return err;
 }

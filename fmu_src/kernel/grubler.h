@@ -10,7 +10,9 @@
  *   - every function that can fail returns a grb_status.
  *
  * Coordinates: y = (z, zd), z the N real joint variables (a slide's B, or a
- * revolute's angle relative to its predecessor), in chain order.
+ * revolute's angle relative to its predecessor), in chain order.  The chain may
+ * branch: each link's predecessor is any earlier link or the ground (a tree),
+ * and a joint moves its own subtree.
  */
 #ifndef GRUBLER_H
 #define GRUBLER_H
@@ -42,10 +44,14 @@ typedef enum grb_status {
 /* Columns of the link table, one row per moving link (model.py's L_*):
  * mass, centroidal inertia, mass centre along and across the link vector, the
  * vector's length, the predecessor's vector length (a1 for link 2), joint
- * damping, 1 if the revolute is the real joint (0: the slide), and the locked
- * slide and absolute angle that the real joints add to (q_locked). */
+ * damping, 1 if the revolute is the real joint (0: the slide), the locked
+ * slide and absolute angle that the real joints add to (q_locked), and the
+ * predecessor (parent): the 0-based index of the moving link the pair hangs
+ * from, -1 the ground.  A serial chain has parent k - 1; any earlier link makes
+ * the chain a tree (a Stephenson III six-bar needs one).  The kernel trusts the
+ * table as grb_scene_tables builds it: -1 <= parent < k for row k. */
 enum { GRB_L_M, GRB_L_I, GRB_L_P, GRB_L_Q, GRB_L_A, GRB_L_APRED, GRB_L_DAMP, GRB_L_REV, GRB_L_SLIDE0,
-       GRB_L_THETA0, GRB_L_COLUMNS };
+       GRB_L_THETA0, GRB_L_PARENT, GRB_L_COLUMNS };
 /* Columns of the closure table, one row per closure: kind (0 revolute,
  * 1 prismatic), closing link and target link (0-based moving-link index, -1 the
  * ground), point, target point, line angle, held orientation psi, penalty gain
@@ -114,6 +120,12 @@ GRB_API int grb_project(const grb_model *m, double scale, double *y, double *wor
 GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
                          double *closest, double *work);
 
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest).  It exceeds the
+ * Grübler count N - 2C where closure rows are redundant (a third crank on a
+ * parallelogram's coupling rod); assembly holds that many coordinates. */
+GRB_API int grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
+
 /* Which coordinates assembly holds: the drive (if any), then, up to the
  * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
  * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */
@@ -134,7 +146,7 @@ GRB_API int grb_evaluate(const grb_model *m, int method, const double *y, double
  * point (lx along, ly across the link vector) of moving link k, from a
  * workspace grb_evaluate filled. */
 GRB_API int grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
-/* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor on it) from a
+/* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor (parent) on it) from a
  * workspace grb_evaluate filled. */
 GRB_API int grb_joint_reactions(const grb_model *m, double *work, double *out);
 /* Inverse dynamics residual M zdd + h - Q at (z, zd) with no drive effort:
@@ -173,6 +185,8 @@ typedef struct grb_settings {
     double tau_drive, tau_load;
     grb_drive_fn drive_fn;
     void *drive_ctx;
+    double *passage_log;      /* where the times of change-point passages go (NULL: nowhere) */
+    int passage_capacity;     /* its length; passage k goes to passage_log[k % capacity] */
 } grb_settings;
 
 /* The integrator's own state besides y and its derivative f (plain data). */
@@ -181,6 +195,8 @@ typedef struct grb_clock {
     double h;                 /* next step (0: the integrator picks one) */
     int have_f;               /* f holds ydot at (t, y) */
     long steps, rejected, evals;
+    long passages;            /* change points passed (see grb_advance) */
+    double kappa_seen;        /* best closure conditioning seen so far (0: none yet) */
 } grb_clock;
 
 /* Where and why an advance stopped. */
@@ -194,6 +210,17 @@ GRB_API size_t grb_stepper_size(int tableau, int n_states);
 /* Step the state equation from clock->t through the increasing times t_out,
  * recording the state at each into out (n_out x 2N).  All or nothing: y, f and
  * the clock change only when it returns GRB_OK; otherwise *why says where.
+ *
+ * Change points (DOP853 with the projection): where the closure's Jacobian
+ * loses rank, two assembly branches meet and the equations of motion are
+ * ill-conditioned, though the motion along its branch stays smooth.  A step
+ * that would enter that zone is shortened to end at its edge; the zone is then
+ * crossed in one step of a two-point Hermite-Obreschkoff formula, implicit in
+ * the state at the far edge, whose only evaluations are at the two
+ * well-conditioned edges; the far state, found by fixed-point iteration from a
+ * Taylor prediction and projected onto the closure, is the one on the branch
+ * the motion came along (continuity of position, velocity and acceleration).
+ * Each passage is counted in the clock and its time logged.
  * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
 GRB_API int grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
                         const double *t_out, int n_out, double *out, double *work, double *stepper,

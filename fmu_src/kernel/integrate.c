@@ -20,12 +20,21 @@
 /* fraction of the joint speeds one projection may remove before the step is
  * taken for a jump between assembly branches (a change point) */
 #define BRANCH_JUMP 1e-2
+/* Closure conditioning (smallest over largest singular value of its Jacobian,
+ * relative to the best the run has seen: a chain of very unequal lengths is
+ * ill-conditioned everywhere, and that is no change point) below which the
+ * motion is followed on its branch's chart (chart.c), and below which the
+ * chart's worst point counts as a change point passed */
+#define CONDITIONING_NEAR 1e-1
+#define CONDITIONING_PINCH 1e-2
+/* the chart's rows in the stepper table (2n doubles each) */
+#define CHART_ROWS ((5 * CHART_NODES + 10 + 1) / 2)
 
 /* rows of the stepper table after the s + 1 stage derivatives and the dense
  * stages: stage state, proposed state, projected state, current state, current
- * derivative */
+ * derivative, then the change-point chart */
 typedef struct rows {
-    int stage, new_, proj, cur, der, count;
+    int stage, new_, proj, cur, der, chart, count;
 } rows;
 
 static rows rows_of(const grb_tableau_data *tab) {
@@ -36,7 +45,8 @@ static rows rows_of(const grb_tableau_data *tab) {
     r.proj = k + 2;
     r.cur = k + 3;
     r.der = k + 4;
-    r.count = k + 5;
+    r.chart = k + 5;
+    r.count = k + 5 + CHART_ROWS;
     return r;
 }
 
@@ -53,11 +63,31 @@ typedef struct problem {
     grb_ws ws;
     double *work;
     int N; /* states, 2n */
+    grb_chart *chart; /* the branch followed near a change point, when active */
 } problem;
 
 static void rhs(problem *p, double t, const double *y, double *out) {
     double tau = p->s->drive_fn ? p->s->drive_fn(p->s->drive_ctx, t) : p->s->tau_drive;
-    grb_rhs(p->md, p->s->method, y, tau, p->s->tau_load, p->work, out);
+    if (p->chart && p->chart->active)
+        grb_chart_rhs(p->md, p->chart, y, tau, p->s->tau_load, &p->ws, out);
+    else
+        grb_rhs(p->md, p->s->method, y, tau, p->s->tau_load, p->work, out);
+}
+
+/* The closure's conditioning at z relative to the best the run has seen
+ * (which it updates). */
+static double conditioning(problem *p, double *kappa_seen, const double *z) {
+    double kappa = grb_closure_conditioning(p->md, z, &p->ws);
+    if (kappa > *kappa_seen) *kappa_seen = kappa;
+    return *kappa_seen > 0.0 ? kappa / *kappa_seen : 1.0;
+}
+
+/* Onto the closure: onto the chart while one is followed, else the projection. */
+static void put_on_closure(problem *p, double *y) {
+    if (p->chart && p->chart->active)
+        grb_chart_put(p->chart, y);
+    else
+        grb_project_ws(p->md, p->s->scale, y, &p->ws);
 }
 
 static int all_finite(const double *x, int n) {
@@ -194,6 +224,25 @@ static void interpolate(const grb_tableau_data *tab, double x, double h, const d
     }
 }
 
+/* Where in [0, 1] the cubic Hermite curve through (x0, slope d0) and (x1,
+ * slope d1) reaches x: the time of a passage within its step, to the step's
+ * fourth power (x lies between x0 and x1). */
+static double crossing(double x0, double d0, double x1, double d1, double x) {
+    double u = (x - x0) / (x1 - x0);
+    for (int it = 0; it < 20; it++) {
+        double h00 = (1 + 2 * u) * (1 - u) * (1 - u), h10 = u * (1 - u) * (1 - u), h01 = u * u * (3 - 2 * u),
+               h11 = u * u * (u - 1);
+        double f = h00 * x0 + h10 * d0 + h01 * x1 + h11 * d1 - x;
+        double df = (6 * u * u - 6 * u) * x0 + (3 * u * u - 4 * u + 1) * d0 + (6 * u - 6 * u * u) * x1 +
+                    (3 * u * u - 2 * u) * d1;
+        if (!(df != 0.0)) break;
+        double du = f / df;
+        u = fmin(1.0, fmax(0.0, u - du));
+        if (fabs(du) < 1e-15) break;
+    }
+    return u;
+}
+
 static int fail(grb_failure *why, int status, double where, double limit) {
     if (why) {
         why->where = where;
@@ -214,11 +263,23 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
         double lo = i ? t_out[i - 1] : clock->t - 1e-12 * fmax(1.0, fabs(clock->t));
         if (!isfinite(t_out[i]) || !(t_out[i] >= lo)) return fail(why, GRB_BAD_ARGUMENT, t_out[i], 0.0);
     }
-    problem p = {md, st, {0}, work, 2 * md->n_links};
+    problem p = {md, st, {0}, work, 2 * md->n_links, NULL};
     grb_ws_init(&p.ws, md->n_links, md->n_closures, work);
     int N = p.N, s = tab->stages, dense = tab->dense_stages > 0;
     rows rw = rows_of(tab);
     double *Y = stepper;
+    /* change points are followed on a chart of their branch where the motion
+     * has a continuous extension (DOP853), the closure is kept by projection
+     * and the mechanism has one degree of freedom */
+    grb_chart chart;
+    int passing = dense && st->project && md->n_closures > 0 && grb_closure_freedom(md, y, &p.ws) == 1;
+    int square = md->n_links == 2 * md->n_closures + 1; /* no redundant closure rows */
+    double kappa_seen = clock->kappa_seen;
+    long passages = 0;
+    if (passing) {
+        grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
+        p.chart = &chart;
+    }
     double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *nw = ROW(Y, rw.new_), *proj = ROW(Y, rw.proj);
     memcpy(cur, y, sizeof(double) * N);
     int have_f = clock->have_f;
@@ -232,6 +293,13 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
          * others are interpolated; without, each time is a step's end */
         double t_target = dense ? t_out[last] : t_out[o];
         while (t_target - t > 1e-12 * fmax(1.0, fabs(t_target))) {
+            if (passing && !chart.active && conditioning(&p, &kappa_seen, cur) < CONDITIONING_NEAR) {
+                /* near a change point: from here on along the branch's chart */
+                int status = grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws);
+                if (status != GRB_OK) return fail(why, GRB_BRANCH_JUMP, t, 1.0);
+                grb_chart_put(&chart, cur);
+                have_f = 0;
+            }
             if (!have_f) {
                 rhs(&p, t, cur, der);
                 evals++;
@@ -252,6 +320,13 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     evals++;
                 }
                 double proposed = fmin(h, st->h_max);
+                if (passing && chart.active) {
+                    /* on a chart, a step ends a little past its far end at most
+                     * (its stages may read the chart only a little beyond) */
+                    double xd = cur[N / 2 + chart.held], x = cur[chart.held];
+                    double room = (xd > 0.0 ? chart.hi - x : x - chart.lo) + 0.02 * chart.half;
+                    if (room > 0.0 && fabs(xd) * proposed > room) proposed = room / fabs(xd);
+                }
                 step = fmin(proposed, t_target - t);
                 int clipped = step < proposed, rejected = 0;
                 double h_min = 1e-13 * fmax(1.0, fabs(t)), err;
@@ -259,6 +334,35 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     /* (a nan step fails this test too: no endless rejection loop) */
                     if (!(step >= h_min)) return fail(why, GRB_STEP_UNDERFLOW, t, h_min);
                     err = try_step(tab, &p, t, step, Y, &evals);
+                    if (err <= 1.0 && passing && !chart.active) {
+                        /* a step that ends deep in a change point's zone, or
+                         * steps over one (the branch orientation flips while
+                         * the motion goes on the same way), is shortened so
+                         * that the chart takes over at its edge */
+                        const double *vc = cur + N / 2, *vn = nw + N / 2;
+                        double same_way = 0.0;
+                        for (int r = 0; r < N / 2; r++) same_way += vc[r] * vn[r];
+                        /* (with redundant rows, along the rows' dominant
+                         * directions at the step's start; the chart's buffer
+                         * is free while no chart is followed) */
+                        const double *basis = NULL;
+                        if (!square && grb_closure_row_basis(md, cur, &p.ws, chart.c) == GRB_OK) basis = chart.c;
+                        int over = same_way > 0.0 && grb_branch_orientation(md, cur, basis, &p.ws) *
+                                                             grb_branch_orientation(md, nw, basis, &p.ws) <
+                                                         0.0;
+                        double k_nw = conditioning(&p, &kappa_seen, nw);
+                        if (over || k_nw < 0.5 * CONDITIONING_NEAR) {
+                            /* aim at the zone's edge: the conditioning falls
+                             * about linearly towards a change point */
+                            double k_cur = conditioning(&p, &kappa_seen, cur), frac = 0.5;
+                            if (!over && k_cur > k_nw)
+                                frac = fmin(0.9, fmax(0.05, (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw)));
+                            rejected_total++;
+                            step *= frac;
+                            clipped = 0;
+                            continue;
+                        }
+                    }
                     if (err <= 1.0) break;
                     rejected_total++;
                     rejected = 1;
@@ -279,12 +383,26 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     while (o < last && t_out[o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
                         double *row = out + (size_t)o * N;
                         interpolate(tab, (t_out[o] - t) / step, step, Y, N, row);
-                        if (st->project) grb_project_ws(md, st->scale, row, &p.ws);
+                        if (st->project) put_on_closure(&p, row);
                         o++;
                     }
                 }
             }
-            if (st->project && md->n_closures > 0) {
+            if (passing && chart.active) {
+                /* on the chart: the new state is put on it exactly; a passage is
+                 * the motion crossing the chart's pinch */
+                int held = chart.held;
+                if (chart.pinch_kappa < CONDITIONING_PINCH && (cur[held] - chart.pinch) * (nw[held] - chart.pinch) < 0.0) {
+                    double at = t + step * crossing(cur[held], step * cur[N / 2 + held], nw[held],
+                                                    step * nw[N / 2 + held], chart.pinch);
+                    if (st->passage_log && st->passage_capacity > 0)
+                        st->passage_log[(clock->passages + passages) % st->passage_capacity] = at;
+                    passages++;
+                }
+                if (!grb_chart_put(&chart, nw)) return fail(why, GRB_BRANCH_JUMP, t, 1.0);
+                have_new_f = 0;
+                if (nw[held] < chart.lo || nw[held] > chart.hi) chart.active = 0; /* off the chart: well conditioned */
+            } else if (st->project && md->n_closures > 0) {
                 memcpy(proj, nw, sizeof(double) * N);
                 grb_project_ws(md, st->scale, proj, &p.ws);
                 /* a step's correction is of the order of the tolerance; one that
@@ -337,5 +455,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     clock->steps += steps;
     clock->rejected += rejected_total;
     clock->evals += evals;
+    clock->passages += passages;
+    clock->kappa_seen = kappa_seen;
     return GRB_OK;
 }

@@ -18,9 +18,12 @@
 #include "real.h"
 
 /* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
- * bias acceleration, slide axis, slide and its rate, mass centre, its bias */
+ * bias acceleration, slide axis, slide and its rate, mass centre, its bias, and
+ * the sum of the real relative angles from the ground to the link (what the
+ * link's children add theirs to: kept rather than recomputed from the angle so
+ * that a serial chain's sums are the same floating-point numbers as before) */
 enum { K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX, K_CBY,
-       K_COLUMNS };
+       K_ZS, K_COLUMNS };
 /* constraint rows: violation, acceleration right side, solver columns b and
  * lambda, the line normal's component along this row's axis (prismatic) and
  * the closing point's */
@@ -37,6 +40,15 @@ void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
 
 #define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
 #define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
+/* the predecessor of link k: an earlier moving link, or -1 the ground */
+#define PARENT_(m, k) ((int)L_(m, k, GRB_L_PARENT))
+
+/* 1 when link j is link k or one of its predecessors (j's joint moves k): walk
+ * k's parents down to j.  Parents are earlier links, so the walk ends. */
+static inline int grb_on_path(const grb_model *md, int j, int k) {
+    while (k > j) k = PARENT_(md, k);
+    return k == j;
+}
 #define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
 #define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
 #define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
@@ -59,5 +71,34 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
                        real tau_load, grb_ws *w);
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
+double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w);
+int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w);
+int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis);
+double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w);
+double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
+/* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
+void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
+
+/* An assembly branch near a change point as a curve z(x) in one held
+ * coordinate x (chart.c): Chebyshev coefficients of z, dz/dx and d2z/dx2 over
+ * x in [lo, hi], and where in it the closure is worst conditioned. */
+#define CHART_NODES 16
+typedef struct grb_chart {
+    int n, active, held;
+    double lo, hi, mid, half;
+    double pinch, pinch_kappa;  /* x at the worst conditioning met, and that conditioning (relative) */
+    double pinch_step;          /* how far from pinch the worst lies (while the chart is built) */
+    double *c;                  /* 3 x CHART_NODES x n coefficients */
+    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes */
+    double *scratch;            /* 10 n */
+} grb_chart;
+size_t grb_chart_size(int n_links);
+void grb_chart_init(grb_chart *ch, int n_links, double *buffer);
+int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
+                    grb_chart *ch, grb_ws *w);
+int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz);
+int grb_chart_put(const grb_chart *ch, double *y);
+int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
+                  grb_ws *w, double *out);
 
 #endif

@@ -45,6 +45,8 @@ enum {
     P_H,                        /* the integrator's next step */
     P_HAVE_F,                   /* f holds ydot at (t, y) */
     P_STEPS, P_REJECTED, P_EVALS,
+    P_PASSAGES,                 /* change points passed */
+    P_KAPPA_SEEN,               /* the best closure conditioning the run has seen (grb_clock) */
     P_DRIVE_USED, P_LOAD_USED,  /* the efforts f was computed with */
     P_Y,                        /* y = (z, zd), 2N */
     P_F = P_Y + NS,             /* f = ydot, 2N */
@@ -59,9 +61,11 @@ typedef struct mech {
     double links[N * GRB_L_COLUMNS];
     double closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS];
     int revolute[N];
+    int parent[N];              /* each link's predecessor, 0-based (-1 the ground) */
     int q_index[N];             /* index in q of each pair's real coordinate */
     double out[MODEL_N_OUTPUTS];
     double y_end[NS];
+    double passage_log[16];     /* times of the change points one step passed, for the log */
     int held[N];
     int n_hold;
     double scale;
@@ -98,6 +102,8 @@ void model_reset(grb_instance *inst) {
 
 static double link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
 static double closure_field(const double *p, int j, int f) { return p[SLOT_CLOSURES + j * CLOSURE_STRIDE + f]; }
+/* the predecessor of link k (thesis numbering, 2 .. N+1), thesis numbering (1 the ground) */
+static int parent_link(const double *p, int k) { return (int)link_field(p, k - 2, LF_PARENT); }
 
 static const char *coordinate_name(int index, char *buf, size_t size) {
     if (index % 2 == 0)
@@ -138,6 +144,10 @@ static fmi2Status validate(grb_instance *inst) {
     if (p[SLOT_GRAVITY] < 0) BAD("gravity: must be >= 0 (it acts along -y), got %g", p[SLOT_GRAVITY]);
     if (p[SLOT_GROUND_A1] < 0) BAD("ground.a1: length must be >= 0, got %g", p[SLOT_GROUND_A1]);
     for (i = 0; i < N; i++) {
+        /* the kernel walks parents towards the ground: each must be an earlier link */
+        if (parent_link(p, i + 2) < 1 || parent_link(p, i + 2) > i + 1)
+            BAD("link%d.parent: must be the ground (1) or an earlier link 2..%d (the chain's predecessor), got %d",
+                i + 2, i + 1, parent_link(p, i + 2));
         if (link_field(p, i, LF_A) < 0) BAD("link%d.a: length must be >= 0, got %g", i + 2, link_field(p, i, LF_A));
         if (!(link_field(p, i, LF_M) > 0)) BAD("link%d.m: mass must be positive, got %g", i + 2,
                                                link_field(p, i, LF_M));
@@ -154,11 +164,19 @@ static fmi2Status validate(grb_instance *inst) {
                                                      closure_field(p, j, CF_GAIN));
         if (closure_field(p, j, CF_DAMPING) < 0) BAD("%s.damping: penalty damping must be >= 0, got %g", name,
                                                      closure_field(p, j, CF_DAMPING));
-        /* a loop needs two revolutes to move (MODEL.md section 1) */
+        /* a loop needs two revolutes to move (MODEL.md section 1); its chain pairs are those on the tree path
+         * between the closure's links (Mechanism.loop_pairs) */
         lo = link < to ? link : to;
         hi = link < to ? to : link;
         nrev = (int)closure_field(p, j, CF_TYPE) == 1;
-        for (k = lo + 1; k <= hi; k++) nrev += (int)link_field(p, k - 2, LF_JOINT) == 1;
+        {
+            int a = lo, b = hi;
+            while (a != b) {
+                int *up = a > b ? &a : &b;
+                nrev += (int)link_field(p, *up - 2, LF_JOINT) == 1;
+                *up = parent_link(p, *up);
+            }
+        }
         if (nrev < 2)
             BAD("%s.type: the loop from link %d to link %d has %d revolute joint(s); a loop needs at least two "
                 "revolutes to move", name, lo, hi, nrev);
@@ -168,13 +186,13 @@ static fmi2Status validate(grb_instance *inst) {
         double axis[2 * N + 2 * (NC > 0 ? NC : 1)];
         int owner[2 * N + 2 * (NC > 0 ? NC : 1)], n_axes = 0, x, y;
         char field[2 * N + 2 * (NC > 0 ? NC : 1)][48];
-        double prev = p[SLOT_GROUND_THETA1];
         for (i = 0; i < N; i++) {
+            int pk = parent_link(p, i + 2);
+            double prev = pk == 1 ? p[SLOT_GROUND_THETA1] : p[SLOT_Q0 + 2 * pk - 3];
             double rel = p[SLOT_Q0 + 2 * i + 1] - prev;
-            prev = p[SLOT_Q0 + 2 * i + 1];
             if ((int)link_field(p, i, LF_JOINT) == 2) {
-                axis[n_axes] = (i == 0 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
-                owner[n_axes] = i + 1;
+                axis[n_axes] = (pk == 1 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
+                owner[n_axes] = pk;
                 snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
                 axis[n_axes] = M_PI / 2 - rel;
                 owner[n_axes] = i + 2;
@@ -241,6 +259,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     if (s != fmi2OK) return s;
     for (i = 0; i < N; i++) {
         mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
+        mm->parent[i] = parent_link(p, i + 2) - 2;
         lf[i * GRB_SL_COLUMNS + GRB_SL_A] = link_field(p, i, LF_A);
         lf[i * GRB_SL_COLUMNS + GRB_SL_P] = link_field(p, i, LF_P);
         lf[i * GRB_SL_COLUMNS + GRB_SL_Q] = link_field(p, i, LF_Q);
@@ -262,8 +281,8 @@ fmi2Status model_prepare(grb_instance *inst) {
         row[GRB_SC_GAIN] = closure_field(p, j, CF_GAIN);
         row[GRB_SC_DAMP] = closure_field(p, j, CF_DAMPING);
     }
-    st = grb_scene_tables(N, NC, mm->revolute, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1], p + SLOT_Q0, cf,
-                          mm->links, mm->closures);
+    st = grb_scene_tables(N, NC, mm->revolute, mm->parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
+                          p + SLOT_Q0, cf, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
     mm->m.n_links = N;
@@ -294,6 +313,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->s.max_steps = GRB_FMU_MAX_STEPS;
     mm->s.drive_fn = NULL;
     mm->s.drive_ctx = NULL;
+    mm->s.passage_log = mm->passage_log;
+    mm->s.passage_capacity = (int)(sizeof mm->passage_log / sizeof mm->passage_log[0]);
     mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints */
     if (mm->n_hold < 0) BAD("closure: the closures over-constrain the chain (mobility %d)", mm->n_hold);
 
@@ -303,11 +324,15 @@ fmi2Status model_prepare(grb_instance *inst) {
     {
         double *y = p + P_Y, *z = y, *zd = y + N, closest = 0.0;
         int n_held = 0;
-        grb_z_from_q(N, mm->revolute, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
-        grb_zd_from_qd(N, mm->revolute, p + SLOT_QD0, zd);
+        grb_z_from_q(N, mm->revolute, mm->parent, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
+        grb_zd_from_qd(N, mm->revolute, mm->parent, p + SLOT_QD0, zd);
         if (method == GRB_EXACT && NC > 0) {
             char names[256];
             size_t used = 0;
+            int freedom = mm->n_hold;
+            /* redundant closure rows leave more freedom than the Grübler count */
+            if (grb_freedom(&mm->m, z, mm->work, &freedom) == GRB_OK && freedom > mm->n_hold) mm->n_hold = freedom;
+            if (mm->m.drive >= 0 && mm->n_hold < 1) mm->n_hold = 1; /* the drive, whatever the sketch */
             st = grb_held_coordinates(&mm->m, mm->n_hold, z, mm->held, &n_held, mm->work);
             if (st != GRB_OK) BAD("initial: cannot choose the coordinates to hold (%s)", status_text(st));
             names[0] = '\0';
@@ -338,7 +363,7 @@ fmi2Status model_prepare(grb_instance *inst) {
         p[P_T] = inst->start_time;
         p[P_H] = 0.0;
         p[P_HAVE_F] = 0.0;
-        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = 0.0;
+        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = p[P_PASSAGES] = p[P_KAPPA_SEEN] = 0.0;
         p[P_DRIVE_USED] = p[P_LOAD_USED] = 0.0;
     }
     return fmi2OK;
@@ -429,7 +454,8 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     clock.t = t;
     clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;
-    clock.steps = clock.rejected = clock.evals = 0;
+    clock.steps = clock.rejected = clock.evals = clock.passages = 0;
+    clock.kappa_seen = p[P_KAPPA_SEEN];
     st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
     if (st != GRB_OK) {
         grb_log(inst, fmi2Discard, "step from t = %.12g s failed at t = %.12g s: %s (limit %g); the mechanism stays "
@@ -442,6 +468,17 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     p[P_STEPS] += (double)clock.steps;
     p[P_REJECTED] += (double)clock.rejected;
     p[P_EVALS] += (double)clock.evals;
+    p[P_KAPPA_SEEN] = clock.kappa_seen;
+    if (clock.passages > 0) {
+        /* the exact closure carried the motion through a change point on its
+         * branch: say when (the log keeps the last ones of a long step) */
+        long k, cap = mm->s.passage_capacity, first = clock.passages > cap ? clock.passages - cap : 0;
+        for (k = first; k < clock.passages; k++)
+            grb_log(inst, fmi2OK, "passed a change point (two assembly branches meet) at t = %.9g s, staying on "
+                    "the branch it came along (change point %.0f of the run)", mm->passage_log[k % cap],
+                    p[P_PASSAGES] + (double)(k + 1));
+        p[P_PASSAGES] += (double)clock.passages;
+    }
     inst->level = 0;
     return fmi2OK;
 }

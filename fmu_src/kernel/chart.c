@@ -1,0 +1,332 @@
+/* The motion near a change point, along its assembly branch.
+ *
+ * Where two assembly branches meet (a change point: a parallelogram's links
+ * aligned, a change-point four-bar's links collinear) the closure's Jacobian
+ * loses rank.  The branch itself stays a smooth curve through that position,
+ * but the equations of motion in all coordinates with closure multipliers are
+ * ill-conditioned near it: what is left of a closure violation comes back in
+ * the accelerations amplified by about 1/sigma^3 (sigma: the Jacobian's small
+ * singular value), and the projection cannot tell the branches apart.
+ *
+ * For a mechanism of mobility one the branch is a curve z(x) in one held
+ * coordinate x (the drive, or the fastest-moving joint).  Near a change point
+ * the integrator switches to that curve: a chart, the Chebyshev interpolant of
+ * z(x) through branch points solved to rounding at Chebyshev nodes around the
+ * pinch, reached by continuation from where the motion is (so the chart is the
+ * branch the motion came along).  On the chart the motion is the one degree of
+ * freedom's Lagrange equation,
+ *     (t' M t) x'' = t' (Q - h) - x'^2 t' M t_x,     zd = t x',
+ * with t = dz/dx and t_x = d2z/dx2 from the chart: no division by sigma, and
+ * the state after each step is put on the chart exactly. */
+#include <math.h>
+#include <string.h>
+
+#include "workspace.h"
+
+#define MARCH_STEPS 2000       /* continuation steps at most, each way */
+#define MARCH_FIRST 1e-3       /* first continuation step, rad (or m per the scale) */
+#define MARCH_SMALLEST 1e-10   /* below it the continuation gives up */
+#define CHART_CHECK 1e-9       /* chart against a fresh branch point, relative to the scale */
+#define CHART_REACH 0.05       /* how far past its range (in half widths) the chart may be read */
+#define MARCH_LONGEST 0.1      /* longest continuation step, rad (or m per the scale) */
+#define PINCH_AVOID 1e-5       /* conditioning (relative) below which no continuation step ends */
+#define PI 3.14159265358979323846
+
+size_t grb_chart_size(int n_links) { return (size_t)(5 * CHART_NODES + 10) * (size_t)n_links; }
+
+void grb_chart_init(grb_chart *ch, int n_links, double *buffer) {
+    memset(ch, 0, sizeof *ch);
+    ch->n = n_links;
+    ch->c = buffer;
+    ch->values = buffer + 3 * CHART_NODES * n_links;
+    ch->scratch = buffer + 5 * CHART_NODES * n_links;
+}
+
+/* Chebyshev polynomials T_0 .. T_{N-1} at u */
+static void chebyshev(double u, double *T) {
+    T[0] = 1.0;
+    T[1] = u;
+    for (int k = 2; k < CHART_NODES; k++) T[k] = 2.0 * u * T[k - 1] - T[k - 2];
+}
+
+/* Coefficients c (CHART_NODES x n) of sum_k c_k T_k(u) through the values
+ * (CHART_NODES x n) at the Chebyshev nodes u_j = cos(pi (j + 1/2) / N). */
+static void chebyshev_fit(const double *values, int n, double *c) {
+    double T[CHART_NODES];
+    for (int i = 0; i < CHART_NODES * n; i++) c[i] = 0.0;
+    for (int j = 0; j < CHART_NODES; j++) {
+        chebyshev(cos(PI * (j + 0.5) / CHART_NODES), T);
+        for (int k = 0; k < CHART_NODES; k++) {
+            double wk = (k == 0 ? 1.0 : 2.0) / CHART_NODES;
+            for (int i = 0; i < n; i++) c[k * n + i] += wk * T[k] * values[j * n + i];
+        }
+    }
+}
+
+/* The derivative's coefficients d of the series c, for x = mid + half u. */
+static void chebyshev_derivative(const double *c, int n, double half, double *d) {
+    for (int i = 0; i < n; i++) {
+        /* d_{k-1} = d_{k+1} + 2 k c_k, with d_0 halved for the plain sum */
+        double d_next = 0.0, d_here = 0.0;
+        d[(CHART_NODES - 1) * n + i] = 0.0;
+        for (int k = CHART_NODES - 1; k >= 1; k--) {
+            double d_prev = d_next + 2.0 * k * c[k * n + i];
+            d_next = d_here;
+            d_here = d_prev;
+            d[(k - 1) * n + i] = d_prev;
+        }
+        d[i] *= 0.5;
+        for (int k = 0; k < CHART_NODES; k++) d[k * n + i] /= half;
+    }
+}
+
+/* One continuation step: from the branch point z (tangent t) at x to the one
+ * at x + dx, predicted along the tangent.  The correction must be small
+ * against the move, or the step is refused (0: it may have left the branch).
+ * A point whose closure conditioning is below kappa_floor is refused too (2):
+ * right at the pinch a branch point is known only to the rounding of the
+ * closure over sigma, too coarse to continue from. */
+static int continue_to(const grb_model *md, double scale, int held, double dx, double kappa_floor, double *z,
+                       double *t, double *trial, double *t_new, grb_ws *w) {
+    int n = w->n;
+    double move = 0.0, corr = 0.0;
+    for (int i = 0; i < n; i++) {
+        trial[i] = z[i] + dx * t[i];
+        move = fmax(move, fabs(dx * t[i]));
+    }
+    double predicted[64];
+    memcpy(predicted, trial, sizeof(double) * n);
+    if (!isfinite(grb_branch_point(md, held, scale, trial, t_new, w))) return 0;
+    for (int i = 0; i < n; i++) corr = fmax(corr, fabs(trial[i] - predicted[i]));
+    if (!(corr <= 1e-2 * move + 1e-13 * scale)) return 0;
+    if (kappa_floor > 0.0 && grb_closure_conditioning(md, trial, w) < kappa_floor) return 2;
+    memcpy(z, trial, sizeof(double) * n);
+    memcpy(t, t_new, sizeof(double) * n);
+    return 1;
+}
+
+/* Continue along the branch from (z, t) at x towards direction d (+1/-1)
+ * until the closure is conditioned at least `near` (relative to kappa_ref) and
+ * getting better, or up to x = target when target is finite.  Tracks the
+ * pinch (the worst conditioning met).  z, t end at the last point. */
+static int march(const grb_model *md, double scale, int held, double d, double target, double kappa_ref,
+                 double near, double *z, double *t, grb_chart *ch, grb_ws *w, int track) {
+    int n = w->n;
+    double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n;
+    double unit = L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
+    double last = grb_closure_conditioning(md, z, w) / kappa_ref;
+    for (int k = 0; k < MARCH_STEPS; k++) {
+        double floor = PINCH_AVOID * kappa_ref;
+        if (isfinite(target)) {
+            double left = d * (target - z[held]);
+            if (left <= 1e-14 * fmax(1.0, fabs(target))) return 1;
+            if (dx >= left) {
+                dx = left;
+                floor = 0.0; /* the target itself: wherever it is */
+            }
+        }
+        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, w);
+        if (status == 2) {
+            dx *= 2.5; /* over the pinch rather than onto it */
+            continue;
+        }
+        if (!status) {
+            dx *= 0.25;
+            if (dx < MARCH_SMALLEST) return 0;
+            k--;
+            continue;
+        }
+        double kappa = grb_closure_conditioning(md, z, w) / kappa_ref;
+        if (track && kappa < ch->pinch_kappa) {
+            /* the worst point so far, its step and its branch point: the
+             * pinch lies within a step of it */
+            ch->pinch_kappa = kappa;
+            ch->pinch = z[held];
+            ch->pinch_step = 1.5 * dx;
+            memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
+            memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
+        }
+        if (!isfinite(target) && kappa >= near && kappa > last) return 1;
+        last = kappa;
+        dx = fmin(1.5 * dx, MARCH_LONGEST * unit);
+    }
+    return !isfinite(target) ? 0 : 1;
+}
+
+/* The pinch to rounding: the worst conditioning along the branch, by golden
+ * section over branch points within a continuation step of the worst one the
+ * continuation met (its steps only bracket it). */
+static int refine_pinch(const grb_model *md, double scale, int held, double kappa_ref, grb_chart *ch, grb_ws *w) {
+    int n = w->n;
+    const double *zp = ch->scratch + 8 * n, *tp = ch->scratch + 9 * n;
+    double *z = ch->scratch + 4 * n, *t = ch->scratch + 5 * n, x0 = ch->pinch, g = 0.5 * (sqrt(5.0) - 1.0);
+    double a = x0 - ch->pinch_step, b = x0 + ch->pinch_step, k[2] = {INFINITY, INFINITY}, x[2];
+    /* (to 1e-7 of the bracket: closer in, branch points are ill-conditioned) */
+    for (int it = 0; it < 100 && b - a > 1e-7 * ch->pinch_step; it++) {
+        x[0] = b - g * (b - a);
+        x[1] = a + g * (b - a);
+        for (int e = 0; e < 2; e++) {
+            /* the branch point at x[e], by continuation from the worst one */
+            memcpy(z, zp, sizeof(double) * n);
+            memcpy(t, tp, sizeof(double) * n);
+            if (!march(md, scale, held, x[e] > x0 ? 1.0 : -1.0, x[e], kappa_ref, 1.0, z, t, ch, w, 0)) {
+                it = 100; /* as close as a branch point can be had: the bracket stands */
+                break;
+            }
+            k[e] = grb_closure_conditioning(md, z, w);
+        }
+        if (it == 100) break;
+        if (k[0] < k[1])
+            b = x[1];
+        else
+            a = x[0];
+    }
+    ch->pinch = 0.5 * (a + b);
+    if (isfinite(k[0]) && isfinite(k[1])) ch->pinch_kappa = fmin(ch->pinch_kappa, fmin(k[0], k[1]) / kappa_ref);
+    return 1;
+}
+
+int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
+                    grb_chart *ch, grb_ws *w) {
+    int n = w->n, m = w->m;
+    if (m < n - 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    double *z = ch->scratch, *t = ch->scratch + n, *z_lo = ch->scratch + 2 * n, *t_lo = ch->scratch + 3 * n;
+    double *z_hi = ch->scratch + 4 * n, *t_hi = ch->scratch + 5 * n;
+    const double *zd = y + n;
+    /* the held coordinate: the drive, or the joint moving fastest */
+    int held = md->drive;
+    if (held < 0) {
+        held = 0;
+        for (int i = 1; i < n; i++)
+            if (fabs(zd[i]) > fabs(zd[held])) held = i;
+    }
+    ch->active = 0;
+    ch->held = held;
+    ch->pinch = y[held];
+    ch->pinch_kappa = grb_closure_conditioning(md, y, w) / kappa_ref;
+    memcpy(z, y, sizeof(double) * n);
+    if (!isfinite(grb_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
+    /* (the pinch may lie within the first continuation step either way) */
+    ch->pinch_step = 1.5 * MARCH_FIRST * (L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale);
+    memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
+    memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
+    /* both ways from here to where the closure is well conditioned again */
+    memcpy(z_lo, z, sizeof(double) * n);
+    memcpy(t_lo, t, sizeof(double) * n);
+    memcpy(z_hi, z, sizeof(double) * n);
+    memcpy(t_hi, t, sizeof(double) * n);
+    if (!march(md, scale, held, -1.0, INFINITY, kappa_ref, near, z_lo, t_lo, ch, w, 1) ||
+        !march(md, scale, held, +1.0, INFINITY, kappa_ref, near, z_hi, t_hi, ch, w, 1))
+        return GRB_BRANCH_JUMP;
+    double lo = z_lo[held], hi = z_hi[held];
+    if (!refine_pinch(md, scale, held, kappa_ref, ch, w)) return GRB_BRANCH_JUMP;
+    /* no node near the pinch, where a branch point's tangent is least accurate */
+    double width = hi - lo, mid = 0.5 * (lo + hi), half = 0.5 * width;
+    for (int j = 0, moves = 0; j < CHART_NODES && moves < 100; j++) {
+        double node = mid + half * cos(PI * (j + 0.5) / CHART_NODES);
+        if (fabs(node - ch->pinch) < 0.01 * width) {
+            moves++;
+            hi += 3e-3 * width;
+            mid = 0.5 * (lo + hi);
+            half = 0.5 * (hi - lo);
+            j = -1;
+        }
+    }
+    /* branch points and tangents at the nodes, in increasing x from the low
+     * end (the last node first: cos decreases with j) */
+    double *values = ch->values, *tangents = ch->values + CHART_NODES * n;
+    memcpy(z, z_lo, sizeof(double) * n);
+    memcpy(t, t_lo, sizeof(double) * n);
+    for (int j = CHART_NODES - 1; j >= 0; j--) {
+        double node = mid + half * cos(PI * (j + 0.5) / CHART_NODES);
+        if (!march(md, scale, held, +1.0, node, kappa_ref, near, z, t, ch, w, 0)) return GRB_BRANCH_JUMP;
+        z[held] = node;
+        memcpy(values + j * n, z, sizeof(double) * n);
+        memcpy(tangents + j * n, t, sizeof(double) * n);
+    }
+    /* z(x) and its tangent dz/dx each through its own node values, the
+     * curvature as the tangent's derivative: differentiating z's interpolant
+     * twice would amplify the values' rounding by N^4 / half^2 */
+    chebyshev_fit(values, n, ch->c);
+    chebyshev_fit(tangents, n, ch->c + CHART_NODES * n);
+    chebyshev_derivative(ch->c + CHART_NODES * n, n, half, ch->c + 2 * CHART_NODES * n);
+    ch->lo = lo;
+    ch->hi = hi;
+    ch->mid = mid;
+    ch->half = half;
+    /* the chart against fresh branch points and tangents halfway between
+     * nodes (away from the pinch, where a fresh one would be the less exact) */
+    double *check = ch->scratch + 4 * n, *dz = ch->scratch + 5 * n, t_max = 0.0;
+    for (int j = 0; j < CHART_NODES * n; j++) t_max = fmax(t_max, fabs(ch->values[CHART_NODES * n + j]));
+    for (int j = 1; j < CHART_NODES; j++) {
+        double x = mid + half * cos(PI * j / CHART_NODES);
+        if (fabs(x - ch->pinch) < 0.02 * (hi - lo)) continue;
+        grb_chart_eval(ch, x, check, dz, NULL);
+        check[held] = x;
+        memcpy(z, check, sizeof(double) * n);
+        if (!isfinite(grb_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
+        for (int i = 0; i < n; i++)
+            if (!(fabs(z[i] - check[i]) <= CHART_CHECK * scale) || !(fabs(t[i] - dz[i]) <= 1e-7 * t_max))
+                return GRB_BRANCH_JUMP;
+    }
+    ch->active = 1;
+    return GRB_OK;
+}
+
+int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
+    int n = ch->n;
+    double u = (x - ch->mid) / ch->half, T[CHART_NODES];
+    if (!(fabs(u) <= 1.0 + CHART_REACH)) return 0;
+    chebyshev(u, T);
+    double *out[3] = {z, dz, ddz};
+    for (int level = 0; level < 3; level++) {
+        if (!out[level]) continue;
+        const double *c = ch->c + level * CHART_NODES * n;
+        for (int i = 0; i < n; i++) {
+            double v = 0.0;
+            for (int k = CHART_NODES - 1; k >= 0; k--) v += c[k * n + i] * T[k];
+            out[level][i] = v;
+        }
+    }
+    return 1;
+}
+
+int grb_chart_put(const grb_chart *ch, double *y) {
+    int n = ch->n;
+    double x = y[ch->held], xd = y[n + ch->held];
+    if (!grb_chart_eval(ch, x, y, y + n, NULL)) return 0;
+    for (int i = 0; i < n; i++) y[n + i] *= xd;
+    y[ch->held] = x;
+    y[n + ch->held] = xd;
+    return 1;
+}
+
+int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
+                  grb_ws *w, double *out) {
+    int n = ch->n, held = ch->held, x0 = w->x0;
+    double *z = ch->scratch, *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
+    double x = y[held], xd = y[n + held];
+    if (!grb_chart_eval(ch, x, z, t, tx)) {
+        for (int i = 0; i < 2 * n; i++) out[i] = NAN;
+        return 0;
+    }
+    z[held] = x;
+    t[held] = 1.0;
+    tx[held] = 0.0;
+    for (int i = 0; i < n; i++) out[i] = t[i] * xd;
+    GRB(mass_and_force)(md, z, out, tau_drive, tau_load, w);
+    double mass = 0.0, force = 0.0, bias = 0.0;
+    for (int i = 0; i < n; i++) {
+        double mt = 0.0, mtx = 0.0;
+        for (int j = 0; j < n; j++) {
+            mt += T_(w, i, j) * t[j];
+            mtx += T_(w, i, j) * tx[j];
+        }
+        mass += t[i] * mt;
+        bias += t[i] * mtx;
+        force += t[i] * T_(w, i, x0);
+    }
+    double xdd = (force - xd * xd * bias) / mass;
+    for (int i = 0; i < n; i++) out[n + i] = t[i] * xdd + tx[i] * xd * xd;
+    return isfinite(xdd);
+}
