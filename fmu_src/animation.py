@@ -80,7 +80,7 @@ class Sketch:
         self.trace_link = trace[0] if trace else None
         self.trace = self._add(trace[0], *trace[1]) if trace else None
         self.n_drawn = len(self.link)
-        self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): the next slide's axis
+        self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
 
     def _add(self, k: int, u: float, v: float) -> int:

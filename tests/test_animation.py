@@ -254,3 +254,34 @@ def test_the_gif_decodes_to_the_frames_drawn_though_it_stores_only_what_moved(tm
         want = np.asarray(film.frame(f, row).convert("RGB"))
         gif.seek(f)
         assert np.array_equal(np.asarray(gif.convert("RGB")), want), f
+
+
+def test_a_branching_chain_is_drawn_from_each_links_parent():
+    """The Y tree of test_tree: joints placed by hand from each link's parent, link 2 a plate of three joints."""
+    from grubler import Link, Mechanism
+
+    # link: (parent, a); each pair's slide across its parent's vector end; absolute angles
+    Y = {2: (1, 0.5), 3: (2, 0.4), 4: (2, 0.3), 5: (1, 0.45), 6: (4, 0.35)}
+    B = {2: 0.0, 3: 0.0, 4: 0.2, 5: 0.3, 6: 0.0}
+    ANGLES = {2: -1.0, 3: -2.1, 4: -0.5, 5: -1.8, 6: 0.2}
+    m = Mechanism(links=tuple(Link("R", a=a, m=1.0, I=0.01, parent=p) for p, a in Y.values()),
+                  q_ref=tuple(v for k in Y for v in (B[k], ANGLES[k])), name="Y")
+    z = m.z_from_q(m.q_ref)
+
+    def rot(a):
+        return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+
+    joint = {}
+    for k, (p, _) in Y.items():
+        joint[k] = np.array([0.0, B[k]]) if p == 1 else joint[p] + rot(ANGLES[p]) @ np.array([Y[p][1], B[k]])
+    got = link_points(m, z[None, :], [k - 2 for k in Y] * 2, [(0.0, 0.0)] * 5 + [(0.1, -0.05)] * 5)[0]
+    for i, k in enumerate(Y):
+        assert np.allclose(got[i], joint[k], atol=1e-12)
+        assert np.allclose(got[5 + i], joint[k] + rot(ANGLES[k]) @ np.array([0.1, -0.05]), atol=1e-12)
+    geo = frame_geometry(m, z)
+    (plate,) = geo.plates  # link 2 carries links 3 and 4: its own joint and theirs
+    assert sorted(map(tuple, np.round(plate, 12))) == sorted(tuple(np.round(joint[k], 12)) for k in (2, 3, 4))
+    # the two links on the ground have their pivots hatched; link 4's offset from link 2's end is a bar
+    assert sorted(map(tuple, np.round(geo.fixed, 12))) == sorted(tuple(np.round(joint[k], 12)) for k in (2, 5))
+    end2 = joint[2] + rot(ANGLES[2]) @ np.array([0.5, 0.0])
+    assert any(np.allclose(a, end2) and np.allclose(b, joint[4]) for a, b in geo.bars)
