@@ -73,13 +73,12 @@ class Sketch:
         n = model.n_links
         self.origin = [self._add(k, 0.0, 0.0) for k in range(n)]
         self.end = [self._add(k, lk.a, 0.0) for k, lk in enumerate(model.links)]
-        self.drawn = len(self.link)  # points before this one are drawn; the directions after are not
         self.ground_end = self._add(-1, model.a1 * math.cos(model.theta1), model.a1 * math.sin(model.theta1))
         self.closure_a = [self._add(cl.link - 2, *cl.point) for cl in model.closures]
         self.closure_b = [self._add(cl.to_link - 2 if cl.to_link > 1 else -1, *cl.to_point) for cl in model.closures]
         self.trace_link = trace[0] if trace else None
         self.trace = self._add(trace[0], *trace[1]) if trace else None
-        self.n_drawn = len(self.link)
+        self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
         self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
 
