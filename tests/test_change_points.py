@@ -170,3 +170,14 @@ def test_a_third_crank_keeps_the_parallelogram_as_data():
     passages = np.array(sim.stats["passages"])
     assert len(passages) == len(aligned)
     assert np.max(np.abs(passages - aligned)) < 1e-5
+
+
+@pytest.mark.parametrize("name", ["conchoidal", "thesis-conchoidal"])
+def test_a_joint_at_the_end_of_its_travel_is_no_change_point(name):
+    # the conchoidal crank comes to rest near -pi, where the closure is
+    # ill-conditioned but no other branch crosses: the crank is no coordinate
+    # along the branch there and no chart is made; the run goes on as before
+    # (it used to stop there at t = 6.57 s for want of a chart)
+    res = grubler.simulate(name, t_end=10.0, dt_out=1e-3)
+    assert res.stats["passages"] == []
+    assert np.max(res["closure_error"]) < 1e-10

@@ -186,20 +186,14 @@ static int refine_pinch(const grb_model *md, double scale, int held, double kapp
     return 1;
 }
 
-int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
+/* The chart in one held coordinate (GRB_BRANCH_JUMP when the branch is not a
+ * curve in it here: it folds back in that coordinate, or the chart fails its
+ * check). */
+static int build_on(const grb_model *md, double scale, const double *y, double kappa_ref, double near, int held,
                     grb_chart *ch, grb_ws *w) {
-    int n = w->n, m = w->m;
-    if (m < n - 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    int n = w->n;
     double *z = ch->scratch, *t = ch->scratch + n, *z_lo = ch->scratch + 2 * n, *t_lo = ch->scratch + 3 * n;
     double *z_hi = ch->scratch + 4 * n, *t_hi = ch->scratch + 5 * n;
-    const double *zd = y + n;
-    /* the held coordinate: the drive, or the joint moving fastest */
-    int held = md->drive;
-    if (held < 0) {
-        held = 0;
-        for (int i = 1; i < n; i++)
-            if (fabs(zd[i]) > fabs(zd[held])) held = i;
-    }
     ch->active = 0;
     ch->held = held;
     ch->pinch = y[held];
@@ -271,6 +265,25 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
     }
     ch->active = 1;
     return GRB_OK;
+}
+
+int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
+                    grb_chart *ch, grb_ws *w) {
+    int n = w->n, m = w->m, tried[64] = {0};
+    if (m < n - 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    /* held: the drive first, then the joints by how fast they move (a joint
+     * at a limit of its travel is no coordinate along the branch there) */
+    for (int attempt = 0; attempt < n; attempt++) {
+        int held = -1;
+        if (attempt == 0 && md->drive >= 0)
+            held = md->drive;
+        else
+            for (int i = 0; i < n; i++)
+                if (!tried[i] && (held < 0 || fabs(y[n + i]) > fabs(y[n + held]))) held = i;
+        tried[held] = 1;
+        if (build_on(md, scale, y, kappa_ref, near, held, ch, w) == GRB_OK) return GRB_OK;
+    }
+    return GRB_BRANCH_JUMP;
 }
 
 int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {

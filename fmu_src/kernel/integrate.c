@@ -276,6 +276,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     int square = md->n_links == 2 * md->n_closures + 1; /* no redundant closure rows */
     double kappa_seen = clock->kappa_seen;
     long passages = 0;
+    int uncharted = 0; /* near a zone where no chart could be made */
     if (passing) {
         grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
         p.chart = &chart;
@@ -293,12 +294,22 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
          * others are interpolated; without, each time is a step's end */
         double t_target = dense ? t_out[last] : t_out[o];
         while (t_target - t > 1e-12 * fmax(1.0, fabs(t_target))) {
-            if (passing && !chart.active && conditioning(&p, &kappa_seen, cur) < CONDITIONING_NEAR) {
-                /* near a change point: from here on along the branch's chart */
-                int status = grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws);
-                if (status != GRB_OK) return fail(why, GRB_BRANCH_JUMP, t, 1.0);
-                grb_chart_put(&chart, cur);
-                have_f = 0;
+            if (passing && !chart.active) {
+                double k_cur = conditioning(&p, &kappa_seen, cur);
+                if (k_cur >= CONDITIONING_NEAR)
+                    uncharted = 0;
+                else if (!uncharted) {
+                    /* near a change point: from here on along the branch's chart.
+                     * Where none can be made (the closure is ill-conditioned
+                     * but no branch crosses: a joint at a limit of its travel)
+                     * the ordinary steps go on, watched by the projection,
+                     * until the conditioning recovers. */
+                    if (grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws) == GRB_OK) {
+                        grb_chart_put(&chart, cur);
+                        have_f = 0;
+                    } else
+                        uncharted = 1;
+                }
             }
             if (!have_f) {
                 rhs(&p, t, cur, der);
@@ -334,7 +345,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     /* (a nan step fails this test too: no endless rejection loop) */
                     if (!(step >= h_min)) return fail(why, GRB_STEP_UNDERFLOW, t, h_min);
                     err = try_step(tab, &p, t, step, Y, &evals);
-                    if (err <= 1.0 && passing && !chart.active) {
+                    if (err <= 1.0 && passing && !chart.active && !uncharted) {
                         /* a step that ends deep in a change point's zone, or
                          * steps over one (the branch orientation flips while
                          * the motion goes on the same way), is shortened so
@@ -356,7 +367,10 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                              * about linearly towards a change point */
                             double k_cur = conditioning(&p, &kappa_seen, cur), frac = 0.5;
                             if (!over && k_cur > k_nw)
-                                frac = fmin(0.9, fmax(0.05, (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw)));
+                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
+                            else if (over) /* down to the pinch and up again */
+                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur + k_nw);
+                            frac = fmin(0.9, fmax(0.05, frac));
                             rejected_total++;
                             step *= frac;
                             clipped = 0;
