@@ -1,10 +1,18 @@
 """Drawing a mechanism to scale, and animating a trajectory.
 
-The geometry of a frame comes from the same kinematics the simulator integrates
-(:func:`grubler.kinematics.chain_kinematics`); this module only decides how each
-part looks: links as bars, revolute joints as circles, prismatic joints as a block
-on its guide with the guide's axis drawn, fixed pivots hatched.  The view is fitted
-once to every point of the whole motion, so nothing is clipped and nothing jumps.
+The geometry of a frame comes from the same kinematics the simulator integrates:
+the points a drawing needs are fixed to links (:class:`Sketch`), and one kernel
+call (:func:`grubler.kinematics.link_points`) places them at every instant.  This
+module only decides how each part looks: links as bars, a link with three or
+more joints (or a traced point off its line) as a filled plate, revolute joints
+as circles, prismatic joints as a block on its guide with the guide's axis drawn,
+fixed pivots hatched.  The view is fitted once to every point of the whole
+motion, so nothing is clipped and nothing jumps.
+
+A film's still parts (axes, grid, ground, the signals' curves) are drawn once by
+matplotlib; each frame is that picture, in a fixed 256-colour palette, with the
+moving parts drawn over it by Pillow, which writes the GIF with no per-frame
+colour quantisation.
 """
 
 from __future__ import annotations
@@ -12,18 +20,18 @@ from __future__ import annotations
 import math
 import shutil
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib import animation as mpl_animation  # noqa: E402
 from matplotlib.patches import Circle, Polygon  # noqa: E402
 
 from .errors import InputError, SceneError  # noqa: E402
 from .limits import brief, check_size, number  # noqa: E402
-from .kinematics import chain_kinematics, point_on_link  # noqa: E402
+from .kinematics import link_points  # noqa: E402
 from .model import PRISMATIC, Mechanism  # noqa: E402
 
 LINK_COLOUR = "#1f4e79"
@@ -42,66 +50,111 @@ class FrameGeometry:
     fixed: list = field(default_factory=list)  # ground pivots (hatched)
     blocks: list = field(default_factory=list)  # (centre, axis angle)
     guides: list = field(default_factory=list)  # (point, axis angle, fixed?)
-    plates: list = field(default_factory=list)  # ternary (or higher) links: their joints' corners
+    plates: list = field(default_factory=list)  # links with three or more corners: their corners, in order
+    trace: np.ndarray | None = None  # the traced point, if any
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
         return np.array(pts, dtype=float).reshape(-1, 2)
 
 
-def frame_geometry(model: Mechanism, z: np.ndarray) -> FrameGeometry:
-    """Drawing primitives of the mechanism at joint coordinates ``z``."""
-    kin = chain_kinematics(model, z, np.zeros(model.n_links))
-    geo = FrameGeometry()
-    n = model.n_links
-    parent = [pk - 2 for pk in model.parents]  # each link's predecessor, -1 the ground
-    # where each link's vector ends: its children hang off there (plus their slides)
-    ends = []
-    for k, link in enumerate(model.links):
-        end, _, _ = point_on_link(kin, k, (link.a, 0.0))
-        ends.append(end)
-        geo.bars.append((kin.origin[k].copy(), end))
-        for c in range(k + 1, n):
-            if parent[c] == k and not np.allclose(end, kin.origin[c]):
-                geo.bars.append((end, kin.origin[c].copy()))  # the slide's offset along the axis
-    ground_end = np.array([model.a1 * math.cos(model.theta1), model.a1 * math.sin(model.theta1)])
-    for k, link in enumerate(model.links):
-        axis_angle = math.atan2(kin.axis[k][1], kin.axis[k][0])
-        if link.joint == PRISMATIC:
-            base = ground_end if parent[k] < 0 else ends[parent[k]]
-            geo.guides.append((base, axis_angle, parent[k] < 0))
-            geo.blocks.append((kin.origin[k].copy(), axis_angle))
-        else:
-            geo.joints.append(kin.origin[k].copy())
-            if parent[k] < 0:
-                geo.fixed.append(kin.origin[k].copy())
-    # a link with three or more joints (its own, its children's, closures' points) is a plate
-    corners: list[list] = [[kin.origin[k].copy()] + [kin.origin[c].copy() for c in range(n) if parent[c] == k]
-                           for k in range(n)]
-    for cl in model.closures:
-        corners[cl.link - 2].append(point_on_link(kin, cl.link - 2, cl.point)[0])
-        if cl.to_link > 1:
-            corners[cl.to_link - 2].append(point_on_link(kin, cl.to_link - 2, cl.to_point)[0])
-    for pts in corners:
-        distinct = [p for i, p in enumerate(pts) if all(np.linalg.norm(p - q) > 1e-9 for q in pts[:i])]
-        if len(distinct) >= 3:
-            c = np.mean(distinct, axis=0)
-            geo.plates.append(sorted(distinct, key=lambda p: math.atan2(p[1] - c[1], p[0] - c[0])))
-    for cl in model.closures:
-        a_pt, _, _ = point_on_link(kin, cl.link - 2, cl.point)
-        if cl.kind == "revolute":
-            geo.joints.append(a_pt)
-            if cl.to_link == 1:
-                geo.fixed.append(np.asarray(cl.to_point, float))
-        else:
-            base_angle = 0.0 if cl.to_link == 1 else kin.theta[cl.to_link - 2]
-            if cl.to_link == 1:
-                origin = np.asarray(cl.to_point, float)
+class Sketch:
+    """Which points of which links a drawing of ``model`` needs, and how they make a frame.
+
+    The points (joint centres, link ends, closure points, a traced point, and
+    two unit directions per link for the slide axes) are fixed to their links,
+    so one kernel call (:func:`grubler.kinematics.link_points`) places them at
+    every instant of a trajectory; :meth:`geometry` turns one instant's
+    positions into the drawing primitives.
+    """
+
+    def __init__(self, model: Mechanism, trace=None):
+        self.model, self.link, self.local = model, [], []
+        n = model.n_links
+        self.origin = [self._add(k, 0.0, 0.0) for k in range(n)]
+        self.end = [self._add(k, lk.a, 0.0) for k, lk in enumerate(model.links)]
+        self.ground_end = self._add(-1, model.a1 * math.cos(model.theta1), model.a1 * math.sin(model.theta1))
+        self.closure_a = [self._add(cl.link - 2, *cl.point) for cl in model.closures]
+        self.closure_b = [self._add(cl.to_link - 2 if cl.to_link > 1 else -1, *cl.to_point) for cl in model.closures]
+        self.trace_link = trace[0] if trace else None
+        self.trace = self._add(trace[0], *trace[1]) if trace else None
+        self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
+        self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
+        self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
+
+    def _add(self, k: int, u: float, v: float) -> int:
+        self.link.append(int(k))
+        self.local.append((float(u), float(v)))
+        return len(self.link) - 1
+
+    def positions(self, zs: np.ndarray) -> np.ndarray:
+        """Every point at every row of ``zs``: (rows, points, 2)."""
+        return link_points(self.model, zs, self.link, self.local)
+
+    def drawn_points(self, pos: np.ndarray) -> np.ndarray:
+        """The points a frame draws (not the helper directions), (..., k, 2)."""
+        return pos[..., : self.n_drawn, :]
+
+    def _angle(self, pos, frm: int, to: int) -> float:
+        d = pos[to] - pos[frm]
+        return math.atan2(d[1], d[0])
+
+    def geometry(self, pos: np.ndarray) -> FrameGeometry:
+        """The drawing primitives at one instant, from that row of :meth:`positions`."""
+        m, n = self.model, self.model.n_links
+        parent = [pk - 2 for pk in m.parents]  # each link's predecessor (the chain may branch), -1 the ground
+        geo = FrameGeometry()
+        O, E = [pos[i] for i in self.origin], [pos[i] for i in self.end]
+        for k in range(n):
+            geo.bars.append((O[k], E[k]))
+            for c in range(k + 1, n):  # its children hang off its end, moved along their slides
+                if parent[c] == k and np.linalg.norm(E[k] - O[c]) > 1e-9:
+                    geo.bars.append((E[k], O[c]))
+        for k, link in enumerate(m.links):
+            p = parent[k]
+            if link.joint == PRISMATIC:  # the slide's axis is e_perp of its predecessor
+                axis = m.theta1 + math.pi / 2 if p < 0 else self._angle(pos, self.origin[p], self.across[p])
+                geo.guides.append((pos[self.ground_end] if p < 0 else E[p], axis, p < 0))
+                geo.blocks.append((O[k], axis))
             else:
-                origin, _, _ = point_on_link(kin, cl.to_link - 2, cl.to_point)
-            geo.guides.append((origin, base_angle + cl.angle, cl.to_link == 1))
-            geo.blocks.append((a_pt, base_angle + cl.angle))
-    return geo
+                geo.joints.append(O[k])
+                if p < 0:
+                    geo.fixed.append(O[k])
+        # a link with three or more corners (its joint, its children's, closures'
+        # points, a traced point) is a rigid plate
+        corners: list[list] = [[O[k]] + [O[c] for c in range(n) if parent[c] == k] for k in range(n)]
+        for j, cl in enumerate(m.closures):
+            corners[cl.link - 2].append(pos[self.closure_a[j]])
+            if cl.to_link > 1:
+                corners[cl.to_link - 2].append(pos[self.closure_b[j]])
+        if self.trace is not None:
+            geo.trace = pos[self.trace]
+            corners[self.trace_link].append(geo.trace)
+        for k, pts in enumerate(corners):
+            distinct = [p for i, p in enumerate(pts) if all(np.linalg.norm(p - q) > 1e-9 for q in pts[:i])]
+            if len(distinct) >= 3:
+                c = np.mean(distinct, axis=0)
+                geo.plates.append(sorted(distinct, key=lambda p: math.atan2(p[1] - c[1], p[0] - c[0])))
+            elif len(distinct) == 2 and k == self.trace_link:
+                geo.bars.append((distinct[0], distinct[1]))  # a traced point off a link's only joint
+        for j, cl in enumerate(m.closures):
+            a_pt, b_pt = pos[self.closure_a[j]], pos[self.closure_b[j]]
+            if cl.kind == "revolute":
+                geo.joints.append(a_pt)
+                if cl.to_link == 1:
+                    geo.fixed.append(b_pt)
+            else:
+                k = cl.to_link - 2
+                base = 0.0 if cl.to_link == 1 else self._angle(pos, self.origin[k], self.along[k])
+                geo.guides.append((b_pt, base + cl.angle, cl.to_link == 1))
+                geo.blocks.append((a_pt, base + cl.angle))
+        return geo
+
+
+def frame_geometry(model: Mechanism, z: np.ndarray, trace=None) -> FrameGeometry:
+    """Drawing primitives of the mechanism at joint coordinates ``z`` (``trace``: see :func:`trace_point`)."""
+    sketch = Sketch(model, trace)
+    return sketch.geometry(sketch.positions(np.asarray(z, dtype=float)[None, :])[0])
 
 
 def trace_point(spec: str | None, model: Mechanism):
@@ -124,17 +177,20 @@ def trace_point(spec: str | None, model: Mechanism):
 
 
 def trace_path(model: Mechanism, zs: np.ndarray, point) -> np.ndarray:
-    """World positions of a link point along a trajectory."""
+    """World positions of a link point along a trajectory, (rows, 2)."""
     k, local = point
-    zero = np.zeros(model.n_links)
-    return np.array([point_on_link(chain_kinematics(model, z, zero), k, local)[0] for z in zs])
+    return link_points(model, zs, [k], [local])[:, 0, :]
 
 
 def fit_view(model: Mechanism, zs: np.ndarray, extra: np.ndarray | None = None, margin: float = 0.08):
     """Axis limits holding every point of the motion, equal scale, with a margin."""
-    pts = [frame_geometry(model, z).points() for z in zs]
-    allp = np.vstack(pts + ([extra] if extra is not None and len(extra) else []))
-    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    sketch = Sketch(model)
+    pts = sketch.drawn_points(sketch.positions(zs)).reshape(-1, 2)
+    return _view(pts if extra is None or not len(extra) else np.vstack([pts, extra]), margin)
+
+
+def _view(points: np.ndarray, margin: float = 0.08):
+    lo, hi = points.min(axis=0), points.max(axis=0)
     span = max(float(np.max(hi - lo)), 1e-3)
     pad = margin * span + 0.05 * span
     return (lo[0] - pad, hi[0] + pad), (lo[1] - pad, hi[1] + pad)
@@ -184,6 +240,8 @@ class Drawer:
             A.append(self._hatch(p - np.array([0.0, 1.6 * r]), 0.0))
         for c in geo.joints:
             A.append(ax.add_patch(Circle(c, r, fc="white", ec=JOINT_COLOUR, lw=2.0, zorder=4)))
+        if geo.trace is not None:
+            A.append(ax.add_patch(Circle(geo.trace, 0.5 * r, fc=TRACE_COLOUR, ec="black", lw=0.8, zorder=5)))
         if label:
             A.append(ax.text(0.02, 0.97, label, transform=ax.transAxes, va="top", fontsize=10, family="monospace"))
 
@@ -204,21 +262,66 @@ class Drawer:
         return line
 
 
-def check_frames(duration: float, fps: float, speed: float, size=(6.4, 5.2), dpi: int = 80) -> int:
+FRAME_SIZE = (960, 720)  # pixels of a film frame without signal strips
+STRIP_HEIGHT = 130  # pixels each signal strip adds under the mechanism
+MAX_SIGNALS = 4
+FONT_SIZE = 13  # points at 100 dpi: the film's axes, ticks and labels
+_BAR, _JOINT, _BLOCK = 7, 8, 8  # pixels: link width, joint radius, block half-height
+PLATE_COLOUR = "#9fbad6"  # a plate's fill: the link colour, lightened
+CURSOR_COLOUR = "#d62728"
+# the palette entries every frame draws with; the rest of the 256 come from the background
+# ("clear" is never drawn: the GIF writer marks a frame's unchanged pixels with it, transparent, so
+# a frame stores only what moved, not the rectangle around everything that did)
+_INKS = {"white": "#ffffff", "black": "#000000", "link": LINK_COLOUR, "plate": PLATE_COLOUR, "joint": JOINT_COLOUR,
+         "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR,
+         "clear": "#ff00ff"}
+
+
+def frame_size(n_signals: int = 0, size=FRAME_SIZE) -> tuple[int, int]:
+    """Pixels (width, height) of a film frame with ``n_signals`` strips under the mechanism."""
+    return int(size[0]), int(size[1] + (STRIP_HEIGHT * n_signals + 50 if n_signals else 0))
+
+
+def check_frames(duration: float, fps: float, speed: float, n_signals: int = 0, size=FRAME_SIZE) -> int:
     """The frame count of ``duration`` seconds of motion, refused past the output budget.
 
-    The GIF writer holds every frame in memory (RGBA at the figure's size).
+    The GIF writer holds every frame (a byte a pixel) and the part of it that
+    changed; an MP4 is piped out frame by frame.
     """
-    return check_size(duration * fps / speed + 1, 4 * size[0] * size[1] * dpi * dpi, "the animation's frames",
+    w, h = frame_size(n_signals, size)
+    return check_size(duration * fps / speed + 1, 2 * w * h, "the animation's frames",
                       "--fps, --speed or the run's length")
 
 
-def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int = 25, speed: float = 1.0,
-            trace: str | None = None, title: str = "", size=(6.4, 5.2), dpi: int = 80) -> int:
-    """Write a GIF (or MP4 with ffmpeg) of a trajectory; returns the frame count.
+def frame_rows(t: np.ndarray, fps: float, speed: float) -> np.ndarray:
+    """The record's row shown in each frame: the last at or before the frame's time."""
+    times = np.arange(t[0], t[-1] + 1e-12, speed / fps)
+    return np.clip(np.searchsorted(t, times + 1e-12 * max(1.0, abs(t[-1])), side="right") - 1, 0, len(t) - 1)
+
+
+def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: float = 25, speed: float = 1.0,
+            trace: str | None = None, title: str = "", signals=None, size=FRAME_SIZE) -> int:
+    """Write a GIF (or an MP4, with ffmpeg) of a trajectory; returns the frame count.
 
     Frames are taken at ``speed`` seconds of motion per second of film, ``fps``
-    frames per second.
+    frames per second, each showing the record's row at or before its time.
+    What does not move (axes, grid, ground, the signals' curves) is drawn once
+    by matplotlib; each frame is that picture with the mechanism, the trace so
+    far and the signals' cursor drawn over it in a fixed palette (Pillow).
+
+    Parameters
+    ----------
+    model : Mechanism
+    t : ndarray (rows,)
+    zs : ndarray (rows, N)
+        Real joint coordinates at ``t``.
+    out : str
+        ``.gif`` or ``.mp4``.
+    trace : str, optional
+        A point to trace (:func:`trace_point`): drawn on its link as a plate.
+    signals : list of (label, ndarray), optional
+        Series at ``t`` to draw in strips under the mechanism with a cursor at
+        the frame's time (at most :data:`MAX_SIGNALS`).
     """
     if not (0.01 <= fps <= 100.0 and speed > 0):  # a GIF frame lasts 10 ms to 655 s
         raise SceneError("--fps/--speed", f"fps must be 0.01 to 100 and speed positive, got {fps:g}, {speed:g}")
@@ -226,28 +329,207 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: int 
         raise SceneError("--out", "MP4 needs ffmpeg on the PATH (apt-get install ffmpeg); write a .gif instead")
     if not (out.endswith(".gif") or out.endswith(".mp4")):
         raise SceneError("--out", f"expected a .gif or .mp4 file name, got {out!r}")
-    check_frames(t[-1] - t[0], fps, speed, size, dpi)
-    times = np.arange(t[0], t[-1] + 1e-12, speed / fps)
-    idx = np.clip(np.searchsorted(t, times - 1e-12), 0, len(t) - 1)
+    signals = list(signals or [])
+    if len(signals) > MAX_SIGNALS:
+        raise InputError("--signals", f"at most {MAX_SIGNALS} signals fit under the mechanism, got {len(signals)}")
+    t, zs = np.asarray(t, dtype=float), np.asarray(zs, dtype=float)
+    check_frames(t[-1] - t[0], fps, speed, len(signals), size)
+    rows = frame_rows(t, fps, speed)
     point = trace_point(trace, model)
-    path = trace_path(model, zs, point) if point else None
-    xlim, ylim = fit_view(model, zs, path)
-    fig, ax = plt.subplots(figsize=size, dpi=dpi)
-    ax.grid(True, alpha=0.25)
-    if title:
-        ax.set_title(title, fontsize=10)
-    drawer = Drawer(ax, model, xlim, ylim)
-    (trace_line,) = ax.plot([], [], "-", color=TRACE_COLOUR, lw=1.2, zorder=1)
+    sketch = Sketch(model, point)
+    pos = sketch.positions(zs[rows])  # every point of every frame: one kernel call
+    path = trace_path(model, zs, point) if point else None  # at every row of the record
+    film = _Film(model, sketch, pos, path, t, signals, title, size)
+    frames = (film.frame(f, r) for f, r in enumerate(rows))
+    if out.endswith(".gif"):
+        first = next(frames)
+        first.save(out, save_all=True, append_images=frames, duration=round(1000.0 / fps), loop=0,
+                   optimize=True, transparency=film.ink["clear"])
+    else:
+        _mp4(frames, out, fps, film.size)
+    return len(rows)
 
-    def update(i):
-        j = idx[i]
-        drawer.draw(frame_geometry(model, zs[j]), f"t = {t[j]:7.3f} s")
-        if path is not None:
-            trace_line.set_data(path[: j + 1, 0], path[: j + 1, 1])
-        return drawer.artists
 
-    writer = mpl_animation.PillowWriter(fps=fps) if out.endswith(".gif") else mpl_animation.FFMpegWriter(fps=fps)
-    anim = mpl_animation.FuncAnimation(fig, update, frames=len(idx), blit=False)
-    anim.save(out, writer=writer)
-    plt.close(fig)
-    return len(idx)
+def _mp4(frames, out: str, fps: float, size) -> None:
+    """Pipe RGB frames to ffmpeg (H.264, yuv420p: what players take)."""
+    import subprocess
+
+    cmd = ["ffmpeg", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{size[0]}x{size[1]}",
+           "-r", f"{fps:g}", "-i", "-", "-an", "-vcodec", "libx264", "-pix_fmt", "yuv420p", out]
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        for im in frames:
+            proc.stdin.write(im.convert("RGB").tobytes())
+        proc.stdin.close()
+    except BrokenPipeError:  # ffmpeg stopped: its message says why
+        pass
+    except BaseException:  # no frames to finish the film with: no half a film either
+        proc.kill()
+        proc.wait()
+        Path(out).unlink(missing_ok=True)
+        raise
+    err = proc.stderr.read().decode(errors="replace").strip()
+    if proc.wait() != 0:
+        raise SceneError("--out", f"ffmpeg failed writing {brief(out)}: {brief(err, 200) if err else 'no message'}")
+
+
+def _to_palette(rgb: np.ndarray, palette: list[int], never: int):
+    """An RGB picture as a palette image, each colour its nearest entry but ``never``.
+
+    Exact, unlike Pillow's cached lookup, which turns white into a near-white.
+    """
+    from PIL import Image
+
+    packed = (rgb[..., 0].astype(np.int32) << 16) | (rgb[..., 1].astype(np.int32) << 8) | rgb[..., 2]
+    colours, inverse = np.unique(packed.ravel(), return_inverse=True)
+    c = np.stack([colours >> 16, (colours >> 8) & 255, colours & 255], axis=1).astype(np.int32)
+    pal = np.asarray(palette, dtype=np.int32).reshape(256, 3)
+    distance = ((c[:, None, :] - pal[None, :, :]) ** 2).sum(axis=2)
+    distance[:, never] = np.iinfo(np.int32).max
+    nearest = np.argmin(distance, axis=1).astype(np.uint8)
+    im = Image.fromarray(nearest[inverse].reshape(packed.shape), mode="P")
+    im.putpalette(palette)
+    return im
+
+
+def _rgb(colour: str) -> tuple[int, int, int]:
+    return tuple(int(round(255 * c)) for c in matplotlib.colors.to_rgb(colour))
+
+
+class _Film:
+    """The still background (matplotlib, once) and the frames drawn over it (Pillow)."""
+
+    def __init__(self, model: Mechanism, sketch: Sketch, pos: np.ndarray, path, t: np.ndarray, signals, title: str,
+                 size):
+        from PIL import Image, ImageFont
+
+        self.sketch, self.pos, self.path, self.t, self.signals = sketch, pos, path, t, signals
+        drawn = sketch.drawn_points(pos).reshape(-1, 2)
+        xlim, ylim = _view(drawn if path is None else np.vstack([drawn, path]))
+        top, bottom, left, right = 40, 55, 80, 25
+        # the mechanism's panel as tall as its view needs at the frame's width (a
+        # slider-crank is wide and flat), at most the frame's height
+        width = size[0] - left - right
+        tall = width * (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
+        mech_h = int(round(min(max(tall, 0.4 * width), size[1] - top - bottom))) + top + bottom
+        w, h = frame_size(len(signals), (size[0], mech_h))
+        self.size = w, h
+        with plt.rc_context({"font.size": FONT_SIZE}):
+            fig = plt.figure(figsize=(w / 100, h / 100), dpi=100)
+            ax = fig.add_axes([left / w, 1 - (mech_h - bottom) / h, 1 - (left + right) / w,
+                               (mech_h - bottom - top) / h])
+            ax.grid(True, alpha=0.25)
+            if title:
+                fig.suptitle(title, y=1 - 8 / h, va="top", fontsize=FONT_SIZE + 2)
+            drawer = Drawer(ax, model, xlim, ylim)
+            ax.apply_aspect()
+            self.ax = ax
+            self.scale = self._px(np.array([[1.0, 0.0]]))[0, 0] - self._px(np.array([[0.0, 0.0]]))[0, 0]
+            drawer.r = _JOINT / self.scale
+            geo0 = sketch.geometry(pos[0])
+            static = FrameGeometry(guides=[g for g in geo0.guides if g[2]], fixed=geo0.fixed)
+            drawer.draw(static)
+            self.strips = []
+            for i, (label, values) in enumerate(signals):
+                y0 = mech_h + i * STRIP_HEIGHT + 25
+                sax = fig.add_axes([left / w, 1 - (y0 + STRIP_HEIGHT - 30) / h, 1 - (left + right) / w,
+                                    (STRIP_HEIGHT - 30) / h])
+                _plot_signal(sax, t, np.asarray(values, dtype=float))
+                sax.set_title(label, loc="left", fontsize=FONT_SIZE, pad=3)
+                sax.grid(True, alpha=0.3)
+                sax.set_xlim(t[0], t[-1])
+                if i < len(signals) - 1:
+                    sax.tick_params(labelbottom=False)
+                else:
+                    sax.set_xlabel("t [s]")
+                self.strips.append(sax)
+            fig.canvas.draw()
+            rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy())
+            # strip geometry in pixels: cursor x of each frame, the curve's value as a dot
+            self.strip_px = []
+            for sax, (_, values) in zip(self.strips, signals):
+                bb = sax.get_window_extent()
+                self.strip_px.append((sax, h - bb.y1, h - bb.y0, np.asarray(values, dtype=float)))
+            self.path_px = None if path is None else self._px(path)
+            self.pos_px = self._px(pos.reshape(-1, 2)).reshape(pos.shape)
+            plt.close(fig)
+        inks = list(_INKS)
+        self.ink = {k: i for i, k in enumerate(inks)}
+        rest = rgb.quantize(colors=256 - len(inks), method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+        palette = [c for k in inks for c in _rgb(_INKS[k])] + rest.getpalette()[: 3 * (256 - len(inks))]
+        palette += [0] * (768 - len(palette))
+        self.base = _to_palette(np.asarray(rgb), palette, never=self.ink["clear"])
+        self.traced = 0
+        font_path = f"{matplotlib.get_data_path()}/fonts/ttf/DejaVuSans.ttf"
+        self.font = ImageFont.truetype(font_path, int(round(FONT_SIZE * 100 / 72)))
+        bb = ax.get_window_extent()
+        self.label_at = (bb.x0 + 10, h - bb.y1 + 8)
+
+    def _px(self, xy: np.ndarray) -> np.ndarray:
+        """World (m) to frame pixels (x right, y down)."""
+        d = self.ax.transData.transform(xy)
+        d[:, 1] = self.size[1] - d[:, 1]
+        return d
+
+    def frame(self, f: int, row: int):
+        """Frame ``f``, showing the record's row ``row``."""
+        from PIL import ImageDraw
+
+        ink = self.ink
+        if self.path_px is not None and row > self.traced:  # the trace grows on the base, under every later frame
+            seg = self.path_px[self.traced: row + 1]
+            ImageDraw.Draw(self.base).line([tuple(p) for p in seg], fill=ink["trace"], width=2)
+            self.traced = row
+        im = self.base.copy()
+        d = ImageDraw.Draw(im)
+        geo = self.sketch.geometry(self.pos[f])
+        px = self._map
+        for p, angle, fixed in geo.guides:
+            if not fixed:
+                c, u = px(p), np.array([math.cos(angle), -math.sin(angle)]) * 2 * self.size[0]
+                d.line([tuple(c - u), tuple(c + u)], fill=ink["guide"], width=1)
+        for corners in geo.plates:
+            d.polygon([tuple(px(c)) for c in corners], fill=ink["plate"], outline=ink["link"], width=3)
+        for p0, p1 in geo.bars:
+            a, b = px(p0), px(p1)
+            d.line([tuple(a), tuple(b)], fill=ink["link"], width=_BAR)
+            for c in (a, b):  # round caps
+                d.ellipse([c[0] - _BAR / 2, c[1] - _BAR / 2, c[0] + _BAR / 2, c[1] + _BAR / 2], fill=ink["link"])
+        for c, angle in geo.blocks:
+            c = px(c)
+            u = np.array([math.cos(angle), -math.sin(angle)])
+            v = np.array([-u[1], u[0]])
+            pts = [c + 1.7 * _BLOCK * u * sx + _BLOCK * v * sy for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))]
+            d.polygon([tuple(q) for q in pts], fill=ink["block"], outline=ink["black"], width=1)
+        for c in geo.joints:
+            c = px(c)
+            d.ellipse([c[0] - _JOINT, c[1] - _JOINT, c[0] + _JOINT, c[1] + _JOINT], fill=ink["white"],
+                      outline=ink["joint"], width=3)
+        if geo.trace is not None:
+            c = px(geo.trace)
+            d.ellipse([c[0] - 5, c[1] - 5, c[0] + 5, c[1] + 5], fill=ink["trace"], outline=ink["black"])
+        label = f"t = {self.t[row]:.2f} s"
+        box = d.textbbox(self.label_at, label, font=self.font)
+        d.rectangle([box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3], fill=ink["white"])  # off the grid lines
+        d.text(self.label_at, label, fill=ink["black"], font=self.font)
+        for sax, y_top, y_bottom, values in self.strip_px:
+            cx, cy = sax.transData.transform((self.t[row], values[row]))
+            cy = self.size[1] - cy
+            d.line([(cx, y_top), (cx, y_bottom)], fill=ink["cursor"], width=2)
+            d.ellipse([cx - 5, cy - 5, cx + 5, cy + 5], fill=ink["cursor"])
+        return im
+
+    def _map(self, p) -> np.ndarray:
+        return self._px(np.asarray(p, dtype=float).reshape(1, 2))[0]
+
+
+def _plot_signal(ax, t: np.ndarray, values: np.ndarray) -> None:
+    """A strip's curve: as it is, or its min/max band and mean where denser than the strip can show."""
+    from .plotting import ENVELOPE_BINS, envelope
+
+    if len(t) > 2 * ENVELOPE_BINS:
+        tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)
+        (line,) = ax.plot(tb, mean, lw=1.2)
+        ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
+    else:
+        ax.plot(t, values, lw=1.2)

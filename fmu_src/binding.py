@@ -84,6 +84,7 @@ _SIGNATURES = {
     "grb_observe": (c_int, [_M, c_int, _P, c_double, c_double, c_int, _P, _P]),
     "grb_observe_rows": (c_int, [_M, c_int, c_int, _P, _P, c_double, c_double, c_int, _P, _P]),
     "grb_point_on_link": (c_int, [_M, _P, c_int, c_double, c_double, _P, _P]),
+    "grb_link_points_rows": (c_int, [_M, c_int, _P, c_int, _P, _P, _P, _P]),
     "grb_joint_reactions": (c_int, [_M, _P, _P]),
     "grb_inverse_residual": (c_int, [_M, _P, _P, c_double, _P, _P]),
     "grb_constraint": (c_int, [_M, _P, _P, _P, _P]),

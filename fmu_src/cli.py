@@ -190,35 +190,45 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .animation import animate, check_frames
+    from .animation import MAX_SIGNALS, animate, check_frames
+    from .runs import check_fits, read_run, select_signals, signal_names
 
     if args.source.endswith(".csv"):
         if not args.scene:
             raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "
                                         "(a preset or TOML file) to draw it")
         scene = load_scene(args.scene)
-        cols = read_run_csv(args.source, scene.mechanism)
+        raw, cols = read_run(args.source, scene.mechanism)
+        check_fits(scene.mechanism, cols, args.source)
         t, zs = cols["t"], coordinates(cols, scene.mechanism)
+        series = raw
     else:
         scene = load_scene(args.source)
-        check_frames(args.t_end or scene.t_end, args.fps, args.speed)  # before simulating for them
+        available = output_columns(scene.mechanism, ["state", "dynamics", "energy"])
+        n_signals = len(signal_names(args.signals, available, limit=MAX_SIGNALS)) if args.signals else 0
+        check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
         t, zs = res.t, res.z
+        series = {c: res[c] for c in available} if args.signals else {}
+    signals = select_signals(args.signals, series, limit=MAX_SIGNALS) if args.signals else None
     out = args.out or f"{scene.name or 'mechanism'}.gif"
     n = animate(scene.mechanism, t, zs, out, fps=args.fps, speed=args.speed, trace=args.trace,
-                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "))
+                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "), signals=signals)
     print(f"wrote {out}: {n} frames, {t[-1] - t[0]:g} s of motion")
     return 0
 
 
 def cmd_report(args) -> int:
     from .report import write_report
+    from .runs import check_fits, mechanism_prefix, read_run
 
     model = load_scene(args.scene).mechanism if args.scene else None
-    columns = read_run_csv(args.csv, model)
-    title = f"{args.scene or args.csv}: run report"
-    write_report(columns, args.out, title, model)
-    print(f"wrote {args.out}")
+    raw, columns = read_run(args.csv, model)
+    if model is not None:
+        check_fits(model, columns, args.csv)
+    outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
+                        cosim=mechanism_prefix(list(raw)) is not None)
+    print(f"wrote {', '.join(outs)}")
     return 0
 
 
@@ -437,14 +447,22 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--fps", type=_number("--fps", low=0.01, high=100.0), default=25.0,
                    help="frames per second of film, 0.01 to 100 (a GIF frame lasts 10 ms to 655 s)")
     a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
-    a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0)")
+    a.add_argument("--trace", help="trace a point: 'tip' or 'linkK:u,v' (e.g. link3:0.4,0), drawn on its link "
+                                   "as a plate")
+    a.add_argument("--signals", metavar="NAMES",
+                   help="up to 4 columns to plot under the mechanism with a moving cursor, comma-separated, "
+                        "as the CSV names them (e.g. mechanism.theta2,motor.current) or, for a scene, "
+                        "simulate's columns (e.g. theta2,tau_drive,E)")
     a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
-    r.add_argument("--scene", help="the scene it came from, to draw the mechanism")
-    r.add_argument("--out", type=_output("--out", "figure"), default="report.png", help="report.png or report.pdf")
+    r.add_argument("--scene", help="the scene it came from: titles the page and draws the mechanism (refused if its "
+                                   "geometry does not close the recorded loop)")
+    r.add_argument("--out", type=_output("--out", "figure"), action="append",
+                   help="the page, in the format of its suffix: report.png (default) or report.pdf; "
+                        "give --out twice for both")
     r.set_defaults(func=cmd_report)
     w = sub.add_parser("sweep", help="run a scene over a grid of parameters, in parallel or on Dask")
     w.add_argument("scene", help="preset name or TOML file")

@@ -184,3 +184,46 @@ class ClosureKinematics:
 def closure_kinematics(model: Mechanism, kin: ChainKinematics) -> ClosureKinematics:
     """Constraint rows of every closure (MODEL.md section 3), any link pair."""
     return ClosureKinematics.of(model, kin.tables)
+
+
+def link_points(model: Mechanism, zs: np.ndarray, link, local) -> np.ndarray:
+    """World positions of points fixed to links, at every row of a trajectory, in one kernel call.
+
+    Parameters
+    ----------
+    model : Mechanism
+    zs : ndarray (rows, N)
+        Real joint coordinates, one row per instant.
+    link : sequence of int
+        Per point, its moving link index, 0-based (thesis link k+2), or -1 for
+        the ground, whose frame is the world's.
+    local : sequence of (float, float)
+        Per point, along and across its link's vector, m (world coordinates on
+        the ground).
+
+    Returns
+    -------
+    ndarray (rows, points, 2)
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> m = load_scene("thesis-fourbar").mechanism
+    >>> z = m.z_from_q(m.q_ref)
+    >>> link_points(m, [z, z], [0, -1], [(0.2, 0.0), (1.0, 0.0)]).round(6).tolist()
+    [[[0.2, 0.0], [1.0, 0.0]], [[0.2, 0.0], [1.0, 0.0]]]
+    """
+    n = model.n_links
+    zs = np.asarray(zs, dtype=float).reshape(-1, n)
+    links = np.ascontiguousarray(link, dtype=np.int32).reshape(-1)
+    loc = np.ascontiguousarray(local, dtype=float).reshape(-1, 2)
+    if loc.shape[0] != links.shape[0]:
+        raise ValueError(f"{links.shape[0]} links for {loc.shape[0]} points")
+    y = np.ascontiguousarray(np.hstack([zs, np.zeros_like(zs)]))
+    out, work = np.empty((zs.shape[0], links.shape[0], 2)), binding.work(n, len(model.closures))
+    status = binding.library().grb_link_points_rows(
+        model.arrays.c, zs.shape[0], binding.address(y), links.shape[0], binding.address(links),
+        binding.address(loc), binding.address(work), binding.address(out))
+    if status != binding.OK:
+        raise IndexError(f"a link index out of range -1..{n - 1}: {links.tolist()}")
+    return out

@@ -9,7 +9,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np  # noqa: E402
-import scipy.integrate  # noqa: E402
 
 from .simulate import Result, unit_of  # noqa: E402
 
@@ -18,7 +17,7 @@ from .simulate import Result, unit_of  # noqa: E402
 # bins plus the bins' means: a 1 kHz record of a chattering current on a
 # 10-inch axis would otherwise be a solid band of zig-zags (chatter), and a
 # subsample of it would alias.
-_ENVELOPE_BINS = 500
+ENVELOPE_BINS = 500
 
 
 def _all_zero(values) -> bool:
@@ -89,6 +88,8 @@ def result_figure(res: Result):
     for c, words in (("KE", "kinetic KE"), ("PE", "potential PE"), ("E", "total E = KE + PE")):
         ax.plot(res.t, res[c], label=words)
     if "P_drive" in res.columns and not _all_zero(res["P_drive"]):
+        import scipy.integrate  # here: a second of imports that the film's strips do not need
+
         work = scipy.integrate.cumulative_trapezoid(res["P_drive"], res.t, initial=0.0)
         ax.plot(res.t, work, "--", label="work done by the drive")
         ax.plot(res.t, res["E"][0] + work, ":", color="0.3", label="E(0) + drive work (E without losses)")
@@ -105,7 +106,7 @@ def result_figure(res: Result):
     return fig
 
 
-def _envelope(t, values, bins: int):
+def envelope(t, values, bins: int):
     """Per-bin time, min, max and mean of a dense series (bins of equal sample count)."""
     edges = np.linspace(0, len(t), bins + 1).astype(int)
     idx = edges[:-1]
@@ -141,7 +142,7 @@ def panels_figure(t, panels, title: str = ""):
     t = np.asarray(t, dtype=float)
     n = max(len(panels), 1)
     fig, axes = plt.subplots(n, 1, figsize=(12, 1.9 * n + 1.0), sharex=True, squeeze=False)
-    dense = len(t) > 2 * _ENVELOPE_BINS
+    dense = len(t) > 2 * ENVELOPE_BINS
     for ax, (name, lines) in zip(axes[:, 0], panels):
         merged: list[tuple[str, np.ndarray, str]] = []
         for label, values, unit in lines:
@@ -155,7 +156,7 @@ def panels_figure(t, panels, title: str = ""):
         units = sorted({u for _, _, u in merged if u})
         for label, values, _unit in merged:
             if dense:
-                tb, lo, hi, mean = _envelope(t, values, _ENVELOPE_BINS)
+                tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)
                 (line,) = ax.plot(tb, mean, label=textwrap.fill(label, 28), lw=1.1)
                 ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
             else:
@@ -168,7 +169,7 @@ def panels_figure(t, panels, title: str = ""):
         ax.grid(True, alpha=0.3)
     xlabel = "t [s]"
     if dense:
-        width = (t[-1] - t[0]) / _ENVELOPE_BINS
+        width = (t[-1] - t[0]) / ENVELOPE_BINS
         xlabel += f"    (line: mean, band: min to max over each {width * 1e3:.3g} ms)"
     axes[-1, 0].set_xlabel(xlabel)
     if title:

@@ -1,20 +1,35 @@
-"""A one-page run report: the plots a user looks at first, the mechanism at a few
-instants, and the run's key numbers."""
+"""A one-page run report that reads like a datasheet.
+
+The page has the run's name as its title, a table of key numbers with their
+units, the run's quantities against time (one quantity per axis, dense records
+drawn as their min/max band), and, given the scene, the mechanism at four
+instants.  The layout is matplotlib's constrained layout: no label, tick or
+title overlaps another (tests/test_report.py checks every pair of text boxes).
+"""
 
 from __future__ import annotations
 
+import math
+import os
+
 import numpy as np
 
-from .animation import Drawer, fit_view, frame_geometry
 from .model import Mechanism
-from .simulate import unit_of
+
+RPM = 60.0 / (2.0 * math.pi)  # rpm per rad/s
+PAGE = (11.69, 8.27)  # inches: A4 landscape
+LEFT_SHARE, TABLE_SHARE = 0.36, 0.5  # of the page's width: the left column; of its height: the table
+BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
 
 
 def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
     """E(t) - E(0) minus the drive's work plus what the joint dampers took (J).
 
     Zero for an exact run: what is left is integration error (and the trapezoid
-    rule's error on the output grid for the work).
+    rule's error on the output grid for the work).  In a co-simulation the drive
+    torque is held over each communication step, which the trapezoid rule over
+    the record does not know: there the remainder is the coupling's, not the
+    mechanism's (see :func:`residue_name`).
     """
     t = columns["t"]
     qd = np.column_stack([columns[f"{n}_d"] for n in model.coordinate_names])
@@ -25,101 +40,275 @@ def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarr
     return e - e[0] - work
 
 
-def key_numbers(columns: dict[str, np.ndarray], drive: str | None,
-                model: Mechanism | None = None) -> list[tuple[str, str]]:
-    """The figures a reader wants from a run, as (label, value) pairs."""
+def residue_name(cosim: bool) -> str:
+    """What :func:`energy_balance` measures, in words, for a simulate or a cosim record."""
+    return "coupling residue" if cosim else "energy balance error"
+
+
+def _drive_units(drive: str | None) -> tuple[str, str, str]:
+    """(coordinate, speed, effort) units of a drive coordinate: a slide's are m, m/s, N."""
+    if drive and drive.startswith("B"):
+        return "m", "m/s", "N"
+    return "rad", "rad/s", "N m"
+
+
+def _closure_unit(model: Mechanism | None) -> str:
+    if model is not None and all(cl.kind == "revolute" for cl in model.closures):
+        return "m"
+    return "m, rad (norm)"
+
+
+def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechanism | None = None,
+                cosim: bool = False) -> list[tuple[str, str]]:
+    """The figures a reader wants from a run, as (label, value with unit) pairs."""
     t = columns["t"]
-    out = [("duration", f"{t[-1] - t[0]:.4g} s ({len(t)} points)")]
+    unit, speed_unit, effort_unit = _drive_units(drive)
+    out = [("duration", f"{t[-1] - t[0]:.4g} s, {len(t)} samples")]
+    if len(t) > 1:
+        dt = np.diff(t)
+        out.append(("sample interval", f"{np.median(dt) * 1e3:.4g} ms"))
     if drive:
-        out.append(("drive", drive))
+        kind = "slide" if unit == "m" else "revolute"
+        out.append(("drive", f"{drive} ({kind})"))
+        if drive in columns:
+            q = columns[drive]
+            out.append(("drive travel (min to max)", f"{q.min():.4g} to {q.max():.4g} {unit}"))
+    if drive and f"{drive}_d" in columns:
+        w = float(np.max(np.abs(columns[f"{drive}_d"])))
+        rpm = f" ({w * RPM:.4g} rpm)" if unit == "rad" else ""
+        out.append(("peak |drive speed|", f"{w:.4g} {speed_unit}{rpm}"))
     if "tau_drive" in columns:
         tau = columns["tau_drive"]
-        out.append(("peak |drive torque|", f"{np.max(np.abs(tau)):.4g} N m"))
-        out.append(("RMS drive torque", f"{np.sqrt(np.mean(tau**2)):.4g} N m"))
-    if drive and f"{drive}_d" in columns:
-        out.append(("peak |drive speed|", f"{np.max(np.abs(columns[f'{drive}_d'])):.4g} /s"))
+        out.append(("peak |drive torque|", f"{np.max(np.abs(tau)):.4g} {effort_unit}"))
+        out.append(("RMS drive torque", f"{np.sqrt(np.mean(tau**2)):.4g} {effort_unit}"))
     if "current" in columns:
-        out.append(("peak |motor current|", f"{np.max(np.abs(columns['current'])):.4g} A"))
+        i = columns["current"]
+        out.append(("peak |motor current|", f"{np.max(np.abs(i)):.4g} A"))
+        out.append(("RMS motor current", f"{np.sqrt(np.mean(i**2)):.4g} A"))
     if "voltage" in columns:
         out.append(("peak |motor voltage|", f"{np.max(np.abs(columns['voltage'])):.4g} V"))
     if "Fx" in columns and "Fy" in columns:
         out.append(("peak closing-joint force", f"{np.max(np.hypot(columns['Fx'], columns['Fy'])):.4g} N"))
     if "E" in columns:
         e = columns["E"]
-        out.append(("energy E(end) - E(0)", f"{e[-1] - e[0]:.4g} J (range {np.ptp(e):.3g} J)"))
+        out.append(("energy change E(end) - E(0)", f"{e[-1] - e[0]:.4g} J"))
+        out.append(("energy range (max - min)", f"{np.ptp(e):.4g} J"))
         if model is not None and all(f"{n}_d" in columns for n in model.coordinate_names):
             bal = energy_balance(columns, model)
-            out.append(("energy balance (drift)", f"max {np.max(np.abs(bal)):.3g} J"))
+            out.append((f"max |{residue_name(cosim)}|", f"{np.max(np.abs(bal)):.3g} J"))
     if "closure_error" in columns:
-        out.append(("max closure error", f"{np.max(columns['closure_error']):.3g} m or rad"))
+        out.append(("max closure violation", f"{np.max(np.abs(columns['closure_error'])):.3g} "
+                                             f"{_closure_unit(model)}"))
     return out
 
 
-def write_report(columns: dict[str, np.ndarray], out: str, title: str = "",
-                 model: Mechanism | None = None) -> None:
-    """Write the report page (PNG or PDF, by the file name).
+def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[str, np.ndarray, str]], str, str]]:
+    """(axis label with unit, [(legend, values, colour)], scale, note) of each quantity there is."""
+    unit, speed_unit, effort_unit = _drive_units(drive)
+    panels = []
+    if drive and drive in columns:
+        panels.append((f"drive {drive} [{unit}]", [("", columns[drive], BLUE)], "linear", ""))
+    if drive and f"{drive}_d" in columns:
+        panels.append((f"drive speed [{speed_unit}]", [("", columns[f"{drive}_d"], BLUE)], "linear", ""))
+    if "tau_drive" in columns and np.ptp(columns["tau_drive"]) > 0.0:  # a constant one is in the table
+        panels.append((f"drive torque [{effort_unit}]", [("", columns["tau_drive"], BLUE)], "linear", ""))
+    if "current" in columns:
+        panels.append(("motor current [A]", [("", columns["current"], BLUE)], "linear", ""))
+    if "voltage" in columns:
+        panels.append(("motor voltage [V]", [("", columns["voltage"], BLUE)], "linear", ""))
+    if "Fx" in columns and "Fy" in columns:
+        panels.append(("closing-joint force [N]", [("", np.hypot(columns["Fx"], columns["Fy"]), BLUE)], "linear", ""))
+    if "E" in columns:
+        lines = [(w, columns[c], col) for c, w, col in (("KE", "kinetic", ORANGE), ("PE", "potential", GREEN))
+                 if c in columns]
+        panels.append(("energy [J]", lines + [("total E", columns["E"], BLUE)], "linear", ""))
+        if model is not None and all(f"{n}_d" in columns for n in model.coordinate_names):
+            # in a co-simulation the torque is held over each communication step, which the
+            # trapezoid rule over the record does not know: the remainder is the coupling's
+            note = ("E - E(0) - work of the recorded torque;\nthe master held it over each step" if cosim
+                    else "E - E(0) - drive work + damper losses")
+            panels.append((f"{residue_name(cosim)} [J]", [("", energy_balance(columns, model), BLUE)], "linear", note))
+    if "closure_error" in columns:
+        panels.append((f"closure violation [{_closure_unit(model)}]",
+                       [("", np.abs(columns["closure_error"]), BLUE)], "log", ""))
+    return panels
+
+
+def _draw_panel(ax, t, lines, scale: str) -> str:
+    """One quantity against time; returns a note for the axis title ('' if none)."""
+    from .plotting import ENVELOPE_BINS, envelope
+
+    dense = len(t) > 2 * ENVELOPE_BINS
+    note = ""
+    for label, values, colour in lines:
+        values = np.asarray(values, dtype=float)
+        if scale == "log":
+            keep = values > 0  # exact zeros have no logarithm: left out, and counted
+            if not keep.any():
+                ax.plot(t, values, color=colour, lw=1.0)
+                return "exactly 0 throughout"
+            ax.semilogy(t[keep], values[keep], ".", ms=1.5, color=colour)
+            zeros = int((~keep).sum())
+            if zeros:
+                note = f"0 at {zeros} of {len(values)} samples"
+            continue
+        if dense:
+            tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)
+            ax.plot(tb, mean, color=colour, lw=1.0, label=label or None)
+            ax.fill_between(tb, lo, hi, color=colour, alpha=0.3, lw=0)
+        else:
+            ax.plot(t, values, color=colour, lw=1.1, label=label or None)
+    if any(label for label, _, _ in lines):
+        ax.legend(fontsize=7, loc="best", frameon=True, framealpha=0.8, borderpad=0.3, handlelength=1.2,
+                  labelspacing=0.2)
+    return note
+
+
+def _label_panel(ax, ylabel: str, note: str, bottom: bool) -> None:
+    ax.set_ylabel(ylabel, fontsize=9)
+    ax.tick_params(labelsize=8)
+    ax.grid(True, alpha=0.3)
+    if note:
+        ax.set_title(note, fontsize=8, loc="right", color=GREY)
+    if bottom:
+        ax.set_xlabel("t [s]", fontsize=9)
+    else:
+        ax.tick_params(labelbottom=False)
+
+
+def _title(model: Mechanism | None, source: str, cosim: bool) -> tuple[str, str]:
+    name = os.path.basename(source)
+    what = "co-simulation record" if cosim else "simulation record"
+    if model is not None:
+        kind = f"{model.kind}, " if model.kind else ""
+        return model.name or name, f"{kind}{what} {name}"
+    return name, f"{what} (no --scene: the mechanism is not drawn)"
+
+
+def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None, source: str = "run.csv",
+                  cosim: bool = False):
+    """The report page as a matplotlib figure (A4 landscape).
 
     Parameters
     ----------
     columns : dict of str to ndarray
         A run's columns in simulate vocabulary (``t`` required; see
-        :func:`grubler.runs.read_run_csv`, which also reads cosim CSVs).
-    out : str
-        Output file; ``.pdf`` writes a PDF, anything else a PNG.
+        :func:`grubler.runs.read_run`, which also reads cosim CSVs).
     model : Mechanism, optional
-        The mechanism, to draw it at four instants.
+        The mechanism the run is of: its name titles the page, and it is drawn
+        at four instants.  Check that it fits first (:func:`grubler.runs.check_fits`).
+    source : str
+        The CSV's path (its file name is quoted under the title).
+    cosim : bool
+        A co-simulation's record: the energy remainder is named a coupling residue.
     """
+    import matplotlib
+
+    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from .animation import Drawer, Sketch
 
     t = columns["t"]
     drive = model.drive if model is not None else next((c for c in ("theta2", "B1") if c in columns), None)
-    fig = plt.figure(figsize=(11.7, 8.3))
-    gs = fig.add_gridspec(3, 4, height_ratios=[1, 1, 1.15], hspace=0.45, wspace=0.35)
-
-    def panel(pos, names, ylabel):
-        ax = fig.add_subplot(pos)
-        for n in names:
-            if n in columns:
-                ax.plot(t, columns[n], label=n, lw=1.2)
-        ax.set_ylabel(ylabel, fontsize=9)
-        ax.set_xlabel("t [s]", fontsize=9)
-        ax.grid(True, alpha=0.3)
-        ax.tick_params(labelsize=8)
-        if sum(n in columns for n in names) > 1:  # a legend only for the lines there are
-            ax.legend(fontsize=7)
-        return ax
-
-    if drive:
-        panel(gs[0, 0], [drive], f"drive {drive} [{unit_of(drive)}]")
-        panel(gs[0, 1], [f"{drive}_d"], f"drive speed [{unit_of(drive + '_d')}]")
-    motor = [c for c in ("current", "voltage") if c in columns]
-    panel(gs[0, 2], ["tau_drive"] + motor,
-          "drive torque [N m]" + "".join(f" / {c} [{'A' if c == 'current' else 'V'}]" for c in motor))
-    panel(gs[1, 0], ["Fx", "Fy", "Mz"], "closing-joint force [N, N m]")
-    panel(gs[1, 1], ["KE", "PE", "E"], "energy [J]")
-    ax = panel(gs[1, 2], [], "closure violation [m or rad]")
-    if "closure_error" in columns:
-        ax.semilogy(t, np.abs(columns["closure_error"]) + 1e-18, lw=1.0)
-    text = fig.add_subplot(gs[0:2, 3])
-    text.axis("off")
-    lines = [f"{k}: {v}" for k, v in key_numbers(columns, drive, model)]
-    text.text(0.0, 1.0, "Key numbers\n\n" + "\n".join(lines), va="top", fontsize=8.5, family="monospace",
-              wrap=True)
+    panels = _panels(columns, drive, model, cosim)
+    title, subtitle = _title(model, source, cosim)
+    fig = plt.figure(figsize=PAGE, layout="constrained")
+    fig.get_layout_engine().set(w_pad=0.06, h_pad=0.06, wspace=0.04, hspace=0.04)
+    left, right = fig.subfigures(1, 2, width_ratios=[LEFT_SHARE, 1 - LEFT_SHARE], wspace=0.02)
+    left.suptitle(title, x=0.02, ha="left", fontsize=17, fontweight="bold")
+    # the table and the mechanism share the left column; without a scene the last panel takes its place
+    table_fig, low_fig = left.subfigures(2, 1, height_ratios=[TABLE_SHARE, 1 - TABLE_SHARE], hspace=0.02)
+    _table(table_fig, subtitle, key_numbers(columns, drive, model, cosim))
     if model is not None:
-        names = model.coordinate_names
-        q = np.column_stack([columns[n] for n in names])
-        zs = np.array([model.z_from_q(row) for row in q])
-        xlim, ylim = fit_view(model, zs)
-        for j, i in enumerate(np.linspace(0, len(t) - 1, 4).astype(int)):
-            ax = fig.add_subplot(gs[2, j])
-            Drawer(ax, model, xlim, ylim).draw(frame_geometry(model, zs[i]), f"t = {t[i]:.3g} s")
-            ax.tick_params(labelsize=7)
-            ax.xaxis.label.set_size(8)
-            ax.yaxis.label.set_size(8)
-    else:
-        ax = fig.add_subplot(gs[2, :])
-        ax.axis("off")
-        ax.text(0.5, 0.5, "(pass --scene to draw the mechanism at four instants)", ha="center", fontsize=10)
-    fig.suptitle(title or "grubler run report", fontsize=12)
-    fig.savefig(out, dpi=100)
+        _instants(low_fig, model, columns, Drawer, Sketch)
+    elif panels:
+        ylabel, lines, scale, note = panels.pop()
+        ax = low_fig.add_subplot()
+        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note, bottom=True)
+        if len(t) > 1:
+            ax.set_xlim(t[0], t[-1])
+    ncols = 3 if len(panels) > 8 else 2
+    nrows = max(1, math.ceil(len(panels) / ncols))
+    gs = right.add_gridspec(nrows, ncols)
+    first = None
+    for k, (ylabel, lines, scale, note) in enumerate(panels):
+        r, c = divmod(k, ncols)
+        span = ncols - c if k == len(panels) - 1 else 1  # the last panel takes the rest of its row
+        ax = right.add_subplot(gs[r, c:c + span], sharex=first)
+        first = first or ax
+        # the last panel spans the rest of its row: only the bottom row has a time axis
+        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note, bottom=r == nrows - 1)
+    if first is None:
+        right.text(0.5, 0.5, "the record has no column the report plots against time", ha="center", fontsize=11,
+                   color=GREY)
+    elif len(t) > 1:
+        first.set_xlim(t[0], t[-1])
+    from .plotting import ENVELOPE_BINS
+
+    if len(t) > 2 * ENVELOPE_BINS:
+        right.suptitle(f"dense records: line = mean, band = min to max over {(t[-1] - t[0]) / ENVELOPE_BINS * 1e3:.3g}"
+                       " ms bins", fontsize=8, color=GREY, x=0.99, ha="right")
+    return fig
+
+
+def _table(fig, subtitle: str, rows: list[tuple[str, str]]) -> None:
+    """The key numbers as a two-column table: labels left, values right-aligned."""
+    ax = fig.add_subplot()
+    ax.axis("off")
+    ax.set_title(subtitle, fontsize=9, loc="left", color=GREY)
+    n = len(rows) + 1
+    step = 1.0 / max(n, 12)  # the same row height for short tables
+    ax.text(0.0, 1.0, "key numbers", fontsize=10, fontweight="bold", va="top", transform=ax.transAxes)
+    ax.plot([0.0, 1.0], [1.0 - 0.85 * step] * 2, color=GREY, lw=0.6, transform=ax.transAxes)
+    for i, (label, value) in enumerate(rows, start=1):
+        y = 1.0 - (i + 0.1) * step
+        if i % 2:
+            ax.add_patch(_band(ax, y, step))
+        ax.text(0.01, y, label, fontsize=9, va="top", transform=ax.transAxes)
+        ax.text(0.99, y, value, fontsize=9, va="top", ha="right", transform=ax.transAxes, family="DejaVu Sans Mono")
+
+
+def _band(ax, y: float, step: float):
+    """A light band behind every other row, so the eye follows a row across."""
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((0.0, y - 0.9 * step), 1.0, step, transform=ax.transAxes, color="0.94", lw=0, zorder=0)
+
+
+def _instants(fig, model: Mechanism, columns, Drawer, Sketch) -> None:
+    """The mechanism at four instants spread over the run, one view for all."""
+    from .animation import _view
+    from .runs import coordinates
+
+    t = columns["t"]
+    zs = coordinates(columns, model)
+    sketch = Sketch(model)
+    pos = sketch.positions(zs)
+    xlim, ylim = _view(sketch.drawn_points(pos).reshape(-1, 2))
+    # the grid that draws the mechanism largest in the space there is: 2 x 2, or
+    # one column of four for a flat one (a slider-crank), one row for a tall one
+    w, h = PAGE[0] * LEFT_SHARE, PAGE[1] * (1 - TABLE_SHARE)
+    xs, ys = xlim[1] - xlim[0], ylim[1] - ylim[0]
+    rows, cols = max([(2, 2), (4, 1), (1, 4)], key=lambda rc: min((w / rc[1] - 0.7) / xs, (h / rc[0] - 0.6) / ys))
+    axes = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
+    for ax, i in zip(axes.flat, np.linspace(0, len(t) - 1, 4).astype(int)):
+        Drawer(ax, model, xlim, ylim).draw(sketch.geometry(pos[i]))
+        ax.set_title(f"t = {t[i]:.3g} s", fontsize=9, loc="left")
+        ax.tick_params(labelsize=7)
+        ax.xaxis.label.set_size(8)
+        ax.yaxis.label.set_size(8)
+        ax.label_outer()
+
+
+def write_report(columns: dict[str, np.ndarray], out, model: Mechanism | None = None, source: str = "run.csv",
+                 cosim: bool = False) -> list[str]:
+    """Write :func:`report_figure` to each of ``out`` (a path or a list; the format follows each suffix)."""
+    import matplotlib.pyplot as plt
+
+    outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
+    fig = report_figure(columns, model, source, cosim)
+    for path in outs:
+        fig.savefig(path, dpi=110)
     plt.close(fig)
+    return [str(p) for p in outs]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 
 import numpy as np
 
@@ -114,8 +115,8 @@ def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
     return cols
 
 
-def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") -> dict[str, np.ndarray]:
-    """Read a simulate or cosim CSV (see :func:`read_table`) into simulate-vocabulary columns."""
+def read_run(path: str, model: Mechanism | None = None, field: str = "csv"):
+    """Read a simulate or cosim CSV (see :func:`read_table`): its columns as named, and in simulate vocabulary."""
     raw = read_table(path, field)
     try:
         cols = run_columns(raw, model)
@@ -124,15 +125,115 @@ def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") 
     if model is not None:
         missing = [n for n in model.coordinate_names if n not in cols]
         if missing:
-            raise InputError(field, f"{brief(str(path), PATH_CHARS)}: missing columns {', '.join(missing)} "
-                                    "(is it a run of this scene?)")
-    return cols
+            raise InputError("--scene", f"{model.name or 'the scene'} does not fit {brief(str(path), PATH_CHARS)}: "
+                                        f"it has no columns {', '.join(missing)}, which a run of this scene has")
+    return raw, cols
+
+
+def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") -> dict[str, np.ndarray]:
+    """Read a simulate or cosim CSV (see :func:`read_table`) into simulate-vocabulary columns."""
+    return read_run(path, model, field)[1]
+
+
+def column_unit(name: str, names) -> str:
+    """The unit of a run column, where the library knows it (a mechanism's columns), else ''.
+
+    Examples
+    --------
+    >>> column_unit("arm.theta2_d", ["t", "arm.theta2", "arm.closure_error"])
+    'rad/s'
+    >>> column_unit("motor.current", ["t", "arm.theta2", "arm.closure_error"])
+    ''
+    """
+    from .simulate import unit_of
+
+    prefix = mechanism_prefix(list(names))
+    leaf = name[len(prefix) + 1:] if prefix and name.startswith(prefix + ".") else (None if prefix else name)
+    if leaf is None:
+        return ""
+    try:
+        return unit_of(leaf)
+    except (KeyError, ValueError):
+        return ""
+
+
+def signal_names(spec: str, available, field: str = "--signals", limit: int | None = None) -> list[str]:
+    """The comma-separated column names of ``spec``, each one of ``available`` (else refused, with a suggestion)."""
+    from .limits import did_you_mean
+
+    names = [n.strip() for n in spec.split(",") if n.strip()]
+    if not names:
+        raise InputError(field, "expected column names separated by commas, e.g. theta2,tau_drive")
+    if limit is not None and len(names) > limit:
+        raise InputError(field, f"at most {limit} signals fit under the mechanism, got {len(names)}")
+    choices = [c for c in available if c != "t"]
+    for name in names:
+        if name not in choices:
+            raise InputError(field, f"no column {brief(name)} in the run{did_you_mean(name, choices)}")
+    return names
+
+
+def select_signals(spec: str, columns: dict[str, np.ndarray], field: str = "--signals", limit: int | None = None):
+    """``(label with unit, values)`` of the comma-separated column names in ``spec`` (see :func:`signal_names`)."""
+    out = []
+    for name in signal_names(spec, list(columns), field, limit):
+        unit = column_unit(name, list(columns))
+        out.append((f"{name} [{unit}]" if unit else name, columns[name]))
+    return out
 
 
 def coordinates(cols: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
-    """Real joint coordinates z at each row, from the absolute ones."""
+    """Real joint coordinates z at each row, from the absolute ones (one matrix product).
+
+    ``model.z_from_q`` is affine (differences of absolute angles, the slides as
+    they are), so it is its value at q = 0 plus a matrix read off its columns.
+    """
     q = np.column_stack([cols[n] for n in model.coordinate_names])
-    return np.array([model.z_from_q(row) for row in q])
+    nq = q.shape[1]
+    z0 = model.z_from_q(np.zeros(nq))
+    M = np.column_stack([model.z_from_q(e) - z0 for e in np.eye(nq)])
+    return z0 + q @ M.T
 
 
-__all__ = ["read_run_csv", "read_table", "run_columns", "mechanism_prefix", "coordinates"]
+FIT_TOL = 1e-4  # m per m of the longest link, or rad: how far a run's recorded loop may be open under its scene
+
+
+def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: str = "--scene") -> None:
+    """Refuse a scene whose geometry does not close the loop the CSV recorded.
+
+    The recorded coordinates are put into the scene's closure equations at up to
+    200 rows spread over the run; the largest violation must be within
+    :data:`FIT_TOL` (times the longest link for a distance) or ten times the
+    closure error the run itself recorded (a penalty run's), whichever is larger.
+    A slider-crank scene given for a four-bar run leaves its loop open by
+    decimetres; the run's own scene closes it to rounding.
+    """
+    from .assembly import constraint
+
+    if not model.closures:
+        return
+    zs = coordinates(cols, model)
+    t = cols["t"]
+    rows = np.unique(np.linspace(0, len(t) - 1, min(len(t), 200)).astype(int))
+    recorded = float(np.max(np.abs(cols["closure_error"]))) if "closure_error" in cols else 0.0
+    scale = max(abs(lk.a) for lk in model.links) or 1.0
+    worst = (0.0, "", 0, 0.0)  # (violation / tolerance, text, row, ...)
+    for i in rows:
+        phi, _ = constraint(model, zs[i])
+        for j, cl in enumerate(model.closures):
+            for r in (2 * j, 2 * j + 1):
+                angle = cl.kind != "revolute" and r == 2 * j + 1  # a slide closure's second row is its angle
+                v = abs(math.remainder(phi[r], 2 * math.pi)) if angle else abs(phi[r])
+                tol = max(FIT_TOL if angle else FIT_TOL * scale, 10 * recorded)
+                if v / tol > worst[0]:
+                    worst = (v / tol, f"{v:.3g} {'rad' if angle else 'm'}", int(i), tol, j, angle)
+    if worst[0] > 1.0:
+        _, text, i, tol, j, angle = worst
+        raise InputError(field, f"{model.name or 'the scene'} does not fit {brief(str(path), PATH_CHARS)}: its "
+                                f"geometry leaves the recorded loop (closure[{j}]) open by {text} at t = {t[i]:.4g} s, "
+                                f"more than the {tol:.2g} {'rad' if angle else 'm'} a run of it would; name the scene "
+                                "the run came from")
+
+
+__all__ = ["check_fits", "read_run", "read_run_csv", "read_table", "run_columns", "mechanism_prefix", "coordinates",
+           "column_unit", "select_signals", "signal_names"]

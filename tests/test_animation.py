@@ -1,6 +1,7 @@
 """The picture is right: joint centres where independent kinematics puts them,
 the whole motion in view, and the trammel's classic traces."""
 
+import re
 import shutil
 
 import matplotlib
@@ -124,22 +125,163 @@ def test_mp4_without_ffmpeg_says_so(tmp_path, capsys):
     assert "ffmpeg" in capsys.readouterr().err
 
 
-def test_report_page_and_its_key_numbers(tmp_path, capsys):
-    from grubler.report import energy_balance, key_numbers
+# -- the film: every point of every frame from one kernel call, a traced point on its plate,
+# -- the signals' cursor where the frame's time is -------------------------------------------
+from grubler.animation import PLATE_COLOUR, CURSOR_COLOUR, Sketch, _Film, frame_rows  # noqa: E402
+from grubler.kinematics import link_points  # noqa: E402
 
-    csv, png = tmp_path / "run.csv", tmp_path / "report.png"
-    assert main(["simulate", "fourbar-crank-rocker", "--t-end", "2", "--dt-out", "0.002", "--csv", str(csv)]) == 0
-    assert main(["report", str(csv), "--scene", "fourbar-crank-rocker", "--out", str(png)]) == 0
-    assert png.stat().st_size > 30_000
-    data = np.genfromtxt(csv, delimiter=",", names=True)
-    cols = {n: data[n] for n in data.dtype.names}
-    model = grubler.load_scene("fourbar-crank-rocker").mechanism
-    numbers = dict(key_numbers(cols, "theta2", model))
-    assert numbers["peak |drive torque|"] == "2 N m"  # the preset's constant torque
-    peak_force = max(np.hypot(fx, fy) for fx, fy in zip(data["Fx"], data["Fy"]))
-    assert numbers["peak closing-joint force"] == f"{peak_force:.4g} N"
-    # the drive works against gravity and damping: E alone changes, the balance does not
-    assert np.ptp(cols["E"]) > 1.0
-    assert np.max(np.abs(energy_balance(cols, model))) < 1e-3
-    assert main(["report", str(csv), "--out", str(tmp_path / "r.pdf")]) == 0
-    assert (tmp_path / "r.pdf").read_bytes()[:4] == b"%PDF"
+
+@pytest.mark.parametrize("preset", ["watt-ii", "thesis-slider-crank", "thesis-trammel-driven"])
+def test_link_points_of_a_whole_trajectory_match_the_reference_kinematics(preset):
+    res = grubler.simulate(preset, t_end=0.5, dt_out=0.05)
+    m = res.model
+    ref = RefChain.of(m)
+    pts = [(k, 0.0, 0.0) for k in range(m.n_links)] + [(k, 0.13, -0.07) for k in range(m.n_links)]
+    got = link_points(m, res.z, [p[0] for p in pts], [p[1:] for p in pts])
+    for i, z in enumerate(res.z):
+        q = m.q_from_z(z)
+        want = ref.origins(q) + [ref.point(q, k, u, v) for k, u, v in pts[m.n_links:]]
+        assert np.max(np.abs(got[i] - np.array([(w.real, w.imag) for w in want]))) < 1e-12
+    with pytest.raises(IndexError):
+        link_points(m, res.z[:1], [m.n_links], [(0.0, 0.0)])
+
+
+def test_frame_rows_show_the_last_record_row_at_or_before_each_frame_time():
+    t = np.arange(0.0, 1.0005, 0.001)  # a 1 ms record
+    rows = frame_rows(t, fps=25, speed=1.0)
+    assert len(rows) == 26 and np.allclose(t[rows], np.arange(26) * 0.04)
+    rows = frame_rows(np.array([0.0, 0.3, 0.35, 1.0]), fps=10, speed=1.0)
+    assert rows.tolist() == [0, 0, 0, 1, 2, 2, 2, 2, 2, 2, 3]
+
+
+def _colour_at(im, xy):
+    rgb = im.convert("RGB").getpixel((int(round(xy[0])), int(round(xy[1]))))
+    return "#%02x%02x%02x" % rgb
+
+
+def test_a_traced_point_is_drawn_on_its_link_as_a_plate_and_the_cursor_follows_the_time():
+    res = grubler.simulate("thesis-fourbar", t_end=1.0, dt_out=0.01, torque=3.0)
+    m = res.model
+    point = (1, (0.4, 0.1))  # the coupler, off its line
+    geo = frame_geometry(m, res.z[0], point)
+    pin, end = link_points(m, res.z[:1], [1, 2], [(0, 0), (0, 0)])[0]
+    (plate,) = geo.plates
+    assert len(plate) == 3 and all(any(np.allclose(c, p) for c in plate) for p in (pin, end, geo.trace))
+    sketch = Sketch(m, point)
+    rows = frame_rows(res.t, 10, 1.0)
+    film = _Film(m, sketch, sketch.positions(res.z[rows]), None, res.t, [("theta2 [rad]", res["theta2"])],
+                 "", (960, 720))
+    assert film.size[0] == 960
+    xs = []
+    for f, row in enumerate(rows):
+        im = film.frame(f, row)
+        corners = film._px(np.array(sketch.geometry(film.pos[f]).plates[0]))
+        # the plate is filled: its centroid, and halfway from it to the traced point, are plate-coloured
+        c = corners.mean(axis=0)
+        tp = film._px(film.pos[f][sketch.trace][None, :])[0]
+        assert _colour_at(im, c) == PLATE_COLOUR and _colour_at(im, (c + tp) / 2) == PLATE_COLOUR
+        sax, y_top, y_bottom, _ = film.strip_px[0]
+        band = np.asarray(im.convert("RGB"))[int(y_top) + 3: int(y_top) + 12]  # above any dot on the curve
+        cursor = np.all(band == np.array(matplotlib.colors.to_rgb(CURSOR_COLOUR)) * 255, axis=2).any(axis=0)
+        x_expected = sax.transData.transform((res.t[row], 0.0))[0]
+        assert abs(np.flatnonzero(cursor).mean() - x_expected) < 1.5
+        xs.append(x_expected)
+    assert np.all(np.diff(xs) > 0)
+
+
+def test_animate_cli_signals_frames_and_a_scene_that_does_not_fit(tmp_path, capsys):
+    from PIL import Image
+
+    csv = tmp_path / "run.csv"
+    assert main(["simulate", "thesis-fourbar", "--torque", "3", "--t-end", "1", "--csv", str(csv)]) == 0
+    gif = tmp_path / "a.gif"
+    assert main(["animate", str(csv), "--scene", "thesis-fourbar", "--fps", "10", "--out", str(gif),
+                 "--signals", "theta2,tau_drive", "--trace", "link3:0.4,0.1"]) == 0
+    im = Image.open(gif)
+    assert im.n_frames == 11 and im.size[0] == 960 and im.size[1] > 720
+    capsys.readouterr()
+    assert main(["animate", str(csv), "--scene", "thesis-fourbar", "--out", str(gif), "--signals", "theta_2"]) == 2
+    assert "--signals: no column 'theta_2' in the run; did you mean 'theta2'?" in capsys.readouterr().err
+    assert main(["animate", str(csv), "--scene", "thesis-fourbar", "--out", str(gif),
+                 "--signals", "theta2,theta3,theta4,E,KE"]) == 2
+    assert "at most 4" in capsys.readouterr().err
+    # from a scene, the names are checked before anything is simulated (a million seconds would be refused too)
+    assert main(["animate", "thesis-fourbar", "--t-end", "1e6", "--out", str(gif), "--signals", "tau_driv"]) == 2
+    assert "--signals: no column 'tau_driv' in the run; did you mean 'tau_drive'?" in capsys.readouterr().err
+    assert main(["animate", str(csv), "--scene", "thesis-slider-crank", "--out", str(gif)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--scene: thesis-slider-crank does not fit" in err
+    assert re.search(r"open by [0-9.e+-]+ (m|rad) at t = ", err), err
+
+
+def test_mp4_frames_go_to_ffmpeg_whole(tmp_path, monkeypatch):
+    # a stand-in ffmpeg that counts the bytes it is given: the film's plumbing, not H.264
+    fake = tmp_path / "bin" / "ffmpeg"
+    fake.parent.mkdir()
+    fake.write_text("#!/bin/sh\nfor a; do out=$a; done\nwc -c > \"$out\"\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{fake.parent}:/usr/bin:/bin")
+    res = grubler.simulate("thesis-fourbar", t_end=0.4, dt_out=0.01, torque=3.0)
+    from grubler.animation import animate
+
+    out = tmp_path / "a.mp4"
+    n = animate(res.model, res.t, res.z, str(out), fps=10)
+    from PIL import Image
+
+    animate(res.model, res.t, res.z, str(tmp_path / "same.gif"), fps=10)  # the same frames, to know their size
+    w, h = Image.open(tmp_path / "same.gif").size
+    assert int(out.read_text().split()[0]) == n * w * h * 3
+
+
+def test_the_gif_decodes_to_the_frames_drawn_though_it_stores_only_what_moved(tmp_path):
+    from PIL import Image
+    from grubler.animation import animate, trace_path, trace_point
+
+    res = grubler.simulate("thesis-fourbar", t_end=1.0, dt_out=0.01, torque=3.0)
+    m = res.model
+    signals = [("theta2 [rad]", res["theta2"])]
+    out = tmp_path / "a.gif"
+    n = animate(m, res.t, res.z, str(out), fps=10, trace="link3:0.4,0.1", signals=signals)
+    # the same film drawn again, frame by frame
+    point = trace_point("link3:0.4,0.1", m)
+    sketch = Sketch(m, point)
+    rows = frame_rows(res.t, 10, 1.0)
+    film = _Film(m, sketch, sketch.positions(res.z[rows]), trace_path(m, res.z, point), res.t, signals, "",
+                 (960, 720))
+    gif = Image.open(out)
+    assert gif.n_frames == n == len(rows)
+    for f, row in enumerate(rows):
+        want = np.asarray(film.frame(f, row).convert("RGB"))
+        gif.seek(f)
+        assert np.array_equal(np.asarray(gif.convert("RGB")), want), f
+
+
+def test_a_branching_chain_is_drawn_from_each_links_parent():
+    """The Y tree of test_tree: joints placed by hand from each link's parent, link 2 a plate of three joints."""
+    from grubler import Link, Mechanism
+
+    # link: (parent, a); each pair's slide across its parent's vector end; absolute angles
+    Y = {2: (1, 0.5), 3: (2, 0.4), 4: (2, 0.3), 5: (1, 0.45), 6: (4, 0.35)}
+    B = {2: 0.0, 3: 0.0, 4: 0.2, 5: 0.3, 6: 0.0}
+    ANGLES = {2: -1.0, 3: -2.1, 4: -0.5, 5: -1.8, 6: 0.2}
+    m = Mechanism(links=tuple(Link("R", a=a, m=1.0, I=0.01, parent=p) for p, a in Y.values()),
+                  q_ref=tuple(v for k in Y for v in (B[k], ANGLES[k])), name="Y")
+    z = m.z_from_q(m.q_ref)
+
+    def rot(a):
+        return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+
+    joint = {}
+    for k, (p, _) in Y.items():
+        joint[k] = np.array([0.0, B[k]]) if p == 1 else joint[p] + rot(ANGLES[p]) @ np.array([Y[p][1], B[k]])
+    got = link_points(m, z[None, :], [k - 2 for k in Y] * 2, [(0.0, 0.0)] * 5 + [(0.1, -0.05)] * 5)[0]
+    for i, k in enumerate(Y):
+        assert np.allclose(got[i], joint[k], atol=1e-12)
+        assert np.allclose(got[5 + i], joint[k] + rot(ANGLES[k]) @ np.array([0.1, -0.05]), atol=1e-12)
+    geo = frame_geometry(m, z)
+    (plate,) = geo.plates  # link 2 carries links 3 and 4: its own joint and theirs
+    assert sorted(map(tuple, np.round(plate, 12))) == sorted(tuple(np.round(joint[k], 12)) for k in (2, 3, 4))
+    # the two links on the ground have their pivots hatched; link 4's offset from link 2's end is a bar
+    assert sorted(map(tuple, np.round(geo.fixed, 12))) == sorted(tuple(np.round(joint[k], 12)) for k in (2, 5))
+    end2 = joint[2] + rot(ANGLES[2]) @ np.array([0.5, 0.0])
+    assert any(np.allclose(a, end2) and np.allclose(b, joint[4]) for a, b in geo.bars)

@@ -6,7 +6,7 @@ import matplotlib.collections
 import numpy as np
 
 import grubler
-from grubler.plotting import _ENVELOPE_BINS, panels_figure, result_figure
+from grubler.plotting import ENVELOPE_BINS, panels_figure, result_figure
 
 
 def _legend_labels(ax):
@@ -21,7 +21,7 @@ def test_identical_curves_are_drawn_once_and_a_dense_series_as_its_band():
     ax = fig.axes[0]
     (line,) = ax.get_lines()
     assert _legend_labels(ax) == ["commanded = applied"]
-    assert len(line.get_xdata()) == _ENVELOPE_BINS        # not 4001 zig-zags
+    assert len(line.get_xdata()) == ENVELOPE_BINS        # not 4001 zig-zags
     # the band reaches the series' extremes, the line is each bin's mean (the zig-zag averages out)
     (band,) = [c for c in ax.collections if isinstance(c, matplotlib.collections.PolyCollection)]
     ys = band.get_paths()[0].vertices[:, 1]

@@ -155,7 +155,10 @@ def test_an_output_the_writer_cannot_make_is_refused_before_the_run(capsys, tmp_
 
 
 # -- run CSVs for animate and report ----------------------------------------------------------
-GOOD = "t,B1,theta2,B2,theta3,B3,theta4\n0,0,1,0,0.5,0,2\n0.1,0,1.1,0,0.5,0,2\n"
+# two closed positions of thesis-fourbar (crank at 1 and 1.1 rad): report and animate
+# check that a scene closes the loop a CSV recorded
+GOOD = ("t,B1,theta2,B2,theta3,B3,theta4\n0,0,1,0,0.781083538038075,0,-1.1540653915300074\n"
+        "0.1,0,1.1,0,0.7595818806141422,0,-1.1467223403571456\n")
 
 
 def GOOD_CSV(folder: Path) -> Path:

@@ -101,6 +101,14 @@ GRB_API int grb_observe(const grb_model *m, int method, const double *y, double 
 GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
                              double tau_drive_const, double tau_load, int want_reactions, double *work, double *out);
 
+/* World positions of points fixed to links over rows states y (rows x 2N; the
+ * rates are not used): out[(i * n_points + p) * 2 + 0..1] is point p of row i,
+ * local[2p] along and local[2p + 1] across the vector of moving link link[p]
+ * (0-based), or the ground point local[2p..2p+1] itself where link[p] < 0.
+ * GRB_BAD_ARGUMENT for a link index past the chain.  For drawing a trajectory. */
+GRB_API int grb_link_points_rows(const grb_model *m, int rows, const double *y, int n_points, const int *link,
+                                 const double *local, double *work, double *out);
+
 /* Closure violation phi (2C) and its Jacobian J (2C x N, row-major) at z. */
 GRB_API int grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
 
