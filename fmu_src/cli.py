@@ -35,8 +35,8 @@ def _number(name: str, **bounds):
     return parse
 
 
-def _positive(name: str):
-    return _number(name, low=0.0, low_open=True)
+def _positive(name: str, unit: str = ""):
+    return _number(name, low=0.0, low_open=True, unit=unit)
 
 
 def _finite(name: str):
@@ -425,15 +425,15 @@ def build_parser() -> argparse.ArgumentParser:
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
-    s.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the scene's)")
-    s.add_argument("--dt-out", type=_positive("--dt-out"), help="output interval, s")
+    s.add_argument("--t-end", type=_positive("--t-end", "s"), help="end time, s (default: the scene's)")
+    s.add_argument("--dt-out", type=_positive("--dt-out", "s"), help="output interval, s")
     s.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
     s.add_argument("--rtol", type=_number("--rtol", low=1e-14, high=0.1), default=1e-9,
                    help="relative tolerance (1e-14 to 0.1: below, no double-precision step can meet it)")
     s.add_argument("--atol", type=_positive("--atol"), help="absolute tolerance (default: rtol)")
     s.add_argument("--integrator", choices=["dop853", "rk45", "rk4", "radau", "bdf"],
                    help="default: dop853 (exact), radau (penalty)")
-    s.add_argument("--step", type=_positive("--step"), default=1e-3, help="fixed step for rk4, s")
+    s.add_argument("--step", type=_positive("--step", "s"), default=1e-3, help="fixed step for rk4, s")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
@@ -453,7 +453,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="up to 4 columns to plot under the mechanism with a moving cursor, comma-separated, "
                         "as the CSV names them (e.g. mechanism.theta2,motor.current) or, for a scene, "
                         "simulate's columns (e.g. theta2,tau_drive,E)")
-    a.add_argument("--t-end", type=_positive("--t-end"), help="simulated time, s (scene sources)")
+    a.add_argument("--t-end", type=_positive("--t-end", "s"), help="simulated time, s (scene sources)")
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
@@ -468,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("scene", help="preset name or TOML file")
     w.add_argument("--set", action="append", required=True, metavar="NAME=VALUES",
                    help="an axis: NAME=V1,V2,... or NAME=START:STOP:N (e.g. link2.a=0.15:0.25:5); repeat")
-    w.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="simulated time per point, s")
+    w.add_argument("--t-end", type=_positive("--t-end", "s"), default=2.0, help="simulated time per point, s")
     w.add_argument("--method", choices=["exact", "penalty"], help="closure method (default: the scene's)")
     w.add_argument("--out", type=_output("--out", (".csv", ".parquet")),
                    help="table to write: .csv or .parquet (a journal beside it makes it resumable)")
@@ -485,9 +485,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="constant drive speed, rad/s (default one turn per second)")
     z.add_argument("--move", choices=["trapezoid", "scurve"], help="a rest-to-rest move instead of a constant speed")
     z.add_argument("--distance", type=_finite("--distance"), default=math.pi, help="move length, rad")
-    z.add_argument("--v-max", type=_positive("--v-max"), default=2 * math.pi, help="move speed limit, rad/s")
-    z.add_argument("--a-max", type=_positive("--a-max"), default=20.0, help="move acceleration limit, rad/s2")
-    z.add_argument("--j-max", type=_positive("--j-max"), default=400.0, help="scurve jerk limit, rad/s3")
+    z.add_argument("--v-max", type=_positive("--v-max", "rad/s"), default=2 * math.pi, help="move speed limit, rad/s")
+    z.add_argument("--a-max", type=_positive("--a-max", "rad/s2"), default=20.0, help="move acceleration limit, rad/s2")
+    z.add_argument("--j-max", type=_positive("--j-max", "rad/s3"), default=400.0, help="scurve jerk limit, rad/s3")
     z.add_argument("--dwell", type=_number("--dwell", low=0.0), default=0.5, help="rest after each move, s")
     z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
     z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
@@ -496,8 +496,8 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
     z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9,
                    help="gearbox efficiency")
-    z.add_argument("--supply", type=_positive("--supply"), help="supply voltage, V (default: each motor's nominal)")
-    z.add_argument("--current-limit", type=_positive("--current-limit"), default=math.inf,
+    z.add_argument("--supply", type=_positive("--supply", "V"), help="supply voltage, V (default: each motor's nominal)")
+    z.add_argument("--current-limit", type=_positive("--current-limit", "A"), default=math.inf,
                    help="the drive's current limit, A")
     z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
@@ -509,12 +509,12 @@ def build_parser() -> argparse.ArgumentParser:
     z.set_defaults(func=cmd_size)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
-    c.add_argument("--t-end", type=_positive("--t-end"), help="end time, s (default: the system's)")
-    c.add_argument("--step", type=_positive("--step"), help="communication step, s (default: the system's)")
+    c.add_argument("--t-end", type=_positive("--t-end", "s"), help="end time, s (default: the system's)")
+    c.add_argument("--step", type=_positive("--step", "s"), help="communication step, s (default: the system's)")
     c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
                    help="stepping order (default gauss-seidel)")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
-    c.add_argument("--dt-out", type=_positive("--dt-out"),
+    c.add_argument("--dt-out", type=_positive("--dt-out", "s"),
                    help="record every this many seconds (a multiple of the step; default every step)")
     c.add_argument("--order", help="comma-separated stepping order of the components (default: the system's)")
     c.add_argument("--csv", type=_output("--csv"), help="write every recorded output to this CSV file")

@@ -101,7 +101,7 @@ def did_you_mean(word, choices) -> str:
 
 
 def number(value, field: str, *, low: float | None = None, high: float | None = None, low_open: bool = False,
-           integer: bool = False, magnitude: float = MAX_MAGNITUDE) -> float:
+           integer: bool = False, magnitude: float = MAX_MAGNITUDE, unit: str = "") -> float:
     """A finite number from outside (int, float or its text), or an InputError naming ``field``.
 
     Parameters
@@ -115,7 +115,20 @@ def number(value, field: str, *, low: float | None = None, high: float | None = 
         It must be a whole number (returned as ``int``).
     magnitude : float
         Largest absolute value accepted.
+    unit : str
+        The quantity's unit, written after the numbers of a bound's message.
+
+    Examples
+    --------
+    >>> number("0.3", "--t-end", low=0.0, low_open=True, unit="s")
+    0.3
+    >>> try:
+    ...     number("-1", "--t-end", low=0.0, low_open=True, unit="s")
+    ... except ValueError as exc:
+    ...     print(exc)
+    --t-end: must be > 0 s, got -1 s
     """
+    u = f" {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise InputError(field, f"must be a number, got {brief(value)}")
     if isinstance(value, str):
@@ -137,9 +150,9 @@ def number(value, field: str, *, low: float | None = None, high: float | None = 
     if abs(v_f) > magnitude:
         raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, got {v_f:g}")
     if low is not None and (v_f < low or (low_open and v_f == low)):
-        raise InputError(field, f"must be {'>' if low_open else '>='} {low:g}, got {v_f:g}")
+        raise InputError(field, f"must be {'>' if low_open else '>='} {low:g}{u}, got {v_f:g}{u}")
     if high is not None and v_f > high:
-        raise InputError(field, f"must be <= {high:g}, got {v_f:g}")
+        raise InputError(field, f"must be <= {high:g}{u}, got {v_f:g}{u}")
     if integer:
         if v_f != int(v_f):
             raise InputError(field, f"must be a whole number, got {v_f:g}")
