@@ -20,7 +20,7 @@
 /* fraction of the joint speeds one projection may remove before the step is
  * taken for a jump between assembly branches (a change point) */
 #define BRANCH_JUMP 1e-2
-/* Closure conditioning (smallest over largest singular value of its Jacobian,
+/* Closure conditioning (its Jacobian's (N-1)-th singular value over its largest,
  * relative to the best the run has seen: a chain of very unequal lengths is
  * ill-conditioned everywhere, and that is no change point) below which the
  * motion is followed on its branch's chart (chart.c), and below which the
@@ -417,6 +417,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                     }
                 }
             }
+            int charted = 0;
             if (passing && chart.active) {
                 /* on the chart: the new state is put on it exactly; a passage is
                  * the motion crossing the chart's pinch */
@@ -428,10 +429,13 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                         st->passage_log[(clock->passages + passages) % st->passage_capacity] = at;
                     passages++;
                 }
-                if (!grb_chart_put(&chart, nw)) return fail(why, GRB_BRANCH_JUMP, t, 1.0);
-                have_new_f = 0;
-                if (nw[held] < chart.lo || nw[held] > chart.hi) chart.active = 0; /* off the chart: well conditioned */
-            } else if (st->project && md->n_closures > 0) {
+                charted = grb_chart_put(&chart, nw);
+                if (charted) have_new_f = 0;
+                /* off the chart (well conditioned there; beyond its reach, the
+                 * projection below puts the state on the closure) */
+                if (!charted || nw[held] < chart.lo || nw[held] > chart.hi) chart.active = 0;
+            }
+            if (!charted && st->project && md->n_closures > 0) {
                 memcpy(proj, nw, sizeof(double) * N);
                 grb_project_ws(md, st->scale, proj, &p.ws);
                 /* a step's correction is of the order of the tolerance; one that
