@@ -144,8 +144,8 @@ class Outcome:
     @property
     def message(self) -> str:
         if self.status == "finished":
-            passages = self.stats.get("passages", [])
-            return f"finished; {len(passages)} change points passed" if passages else "finished"
+            count = self.stats.get("passage_count", 0)
+            return f"finished; {count} change points passed" if count else "finished"
         if self.status == "stopped":
             return f"stopped: {type(self.error).__name__}: {self.error}"
         if self.status == "guard":

@@ -176,10 +176,10 @@ def cmd_simulate(args) -> int:
     print(f"{scene.name}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
           f"{res.stats['steps']} steps, {res.stats['rhs_evals']} RHS evaluations")
     print(f"max closure error {np.max(res['closure_error']):.3g}; energy {e[0]:.9g} J -> {e[-1]:.9g} J")
-    passages = res.stats.get("passages", [])
-    if passages:
-        shown = ", ".join(f"{t:.4f}" for t in passages[:8]) + (", ..." if len(passages) > 8 else "")
-        print(f"passed {len(passages)} change point{'s' if len(passages) > 1 else ''} (two assembly branches meet), "
+    passages, count = res.stats.get("passages", []), res.stats.get("passage_count", 0)
+    if count:
+        shown = ", ".join(f"{t:.4f}" for t in passages[:8]) + (", ..." if count > 8 else "")
+        print(f"passed {count} change point{'s' if count > 1 else ''} (two assembly branches meet), "
               f"each on the branch it came along, at t = {shown} s")
     if not args.csv and not args.plot:
         cols = output_columns(res.model, ["state"])[: 1 + 2 * res.model.n_links]

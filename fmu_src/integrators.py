@@ -44,7 +44,7 @@ EXPLICIT = tuple(binding.TABLEAU_CODE)
 IMPLICIT = ("radau", "bdf")
 METHODS = EXPLICIT + IMPLICIT
 _advance_fn = binding.library().grb_advance
-PASSAGE_LOG = 256  # change-point passages one advance can report
+PASSAGE_LOG = 65536  # change-point passage times one advance keeps (all are counted)
 
 
 @dataclass
@@ -160,6 +160,7 @@ class Integrator:
     n_rejected: int = 0
     n_evals: int = 0
     passages: list = field(default_factory=list)  # times of the change points the motion crossed, s
+    n_passages: int = 0  # how many (the list keeps the last PASSAGE_LOG of any one advance)
     _explicit: bool = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -215,6 +216,7 @@ class Integrator:
         """
         return {"t": self.t, "y": self.y, "h": self.h, "f": self.f,
                 "counts": (self.n_steps, self.n_rejected, self.n_evals), "passages": list(self.passages),
+                "n_passages": self.n_passages,
                 "kappa_seen": self._clock.kappa_seen if self._explicit else 0.0}
 
     def restore(self, snap: dict) -> None:
@@ -222,6 +224,7 @@ class Integrator:
         self.f = None if snap["f"] is None else snap["f"].copy()
         self.n_steps, self.n_rejected, self.n_evals = snap["counts"]
         self.passages = list(snap["passages"])
+        self.n_passages = snap["n_passages"]
         if self._explicit:
             self._clock.kappa_seen = snap["kappa_seen"]
 
@@ -352,6 +355,7 @@ class Integrator:
         self.n_rejected += clock.rejected
         self.n_evals += clock.evals
         # (a ring: an advance with more passages than it holds keeps the last ones)
+        self.n_passages += clock.passages
         self.passages += [float(self._passage_log[k % PASSAGE_LOG])
                           for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out

@@ -196,3 +196,13 @@ def test_the_coupling_rod_linearises_as_its_one_degree_of_freedom_model():
     poles = np.linalg.eigvals(sys.A)
     assert np.allclose(sorted(np.abs(poles.imag)), [math.sqrt(stiffness / 0.75)] * 2, rtol=1e-9)
     assert abs(float(np.real(sys.dcgain())) - 1.0 / stiffness) < 1e-9 / stiffness
+
+
+def test_every_passage_of_a_long_advance_is_counted():
+    # one dense advance through some two thousand aligned positions (the crank
+    # spinning up under 100 N m): each is counted, and the last times are kept
+    res = grubler.simulate("fourbar-parallelogram", t_end=20.0, dt_out=0.01, torque=100.0)
+    theta = res["theta2"]
+    aligned = int(math.floor(theta[-1] / math.pi)) - int(math.floor(theta[0] / math.pi))
+    assert res.stats["passage_count"] == aligned > 2000
+    assert len(res.stats["passages"]) == aligned
