@@ -60,17 +60,17 @@ def freedom(model: Mechanism, z: np.ndarray) -> int:
 
 
 def held_coordinates(model: Mechanism, z: np.ndarray) -> list[int]:
-    """Indices in z that assembly keeps at their given values: as many as the
-    closures leave free (:func:`freedom`), at least the drive, the drive first."""
+    """Indices in z that assembly keeps at their given values, the drive first:
+    as many as the closures leave free (:func:`freedom`), at least the drive
+    (the kernel's ``grb_hold_count``, which the FMU asks too)."""
     n = model.n_links
     z = np.ascontiguousarray(z, dtype=float)
     held = np.zeros(max(n, 1), dtype=np.int32)
     count = ctypes.c_int(0)
     work = binding.work(n, len(model.closures))
-    # (a sketch that does not close shows no redundancy: the drive is held all
-    # the same, as the motion's own coordinate)
-    n_hold = max(model.mobility, freedom(model, z) if model.closures else 0, 1 if model.drive else 0)
-    binding.library().grb_held_coordinates(model.arrays.c, n_hold, binding.address(z),
+    n_hold = ctypes.c_int(0)
+    binding.library().grb_hold_count(model.arrays.c, binding.address(z), binding.address(work), ctypes.byref(n_hold))
+    binding.library().grb_held_coordinates(model.arrays.c, n_hold.value, binding.address(z),
                                            binding.address(held), ctypes.byref(count),
                                            binding.address(work))
     return [int(i) for i in held[:count.value]]

@@ -91,6 +91,7 @@ _SIGNATURES = {
     "grb_project": (c_int, [_M, c_double, _P, _P]),
     "grb_held_coordinates": (c_int, [_M, c_int, _P, _P, POINTER(c_int), _P]),
     "grb_freedom": (c_int, [_M, _P, _P, POINTER(c_int)]),
+    "grb_hold_count": (c_int, [_M, _P, _P, POINTER(c_int)]),
     "grb_assemble": (c_int, [_M, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
     "grb_advance": (c_int, [_M, POINTER(Settings), POINTER(Clock), _P, _P, _P, c_int, _P, _P, _P,
                             POINTER(Failure)]),

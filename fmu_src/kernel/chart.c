@@ -85,9 +85,10 @@ static void chebyshev_derivative(const double *c, int n, double half, double *d)
  * against the move, or the step is refused (0: it may have left the branch).
  * A point whose closure conditioning is below kappa_floor is refused too (2):
  * right at the pinch a branch point is known only to the rounding of the
- * closure over sigma, too coarse to continue from. */
+ * closure over sigma, too coarse to continue from.  The new point's
+ * conditioning goes to *kappa. */
 static int continue_to(const grb_model *md, double scale, int held, double dx, double kappa_floor, double *z,
-                       double *t, double *trial, double *t_new, grb_ws *w) {
+                       double *t, double *trial, double *t_new, double *kappa, grb_ws *w) {
     int n = w->n;
     double move = 0.0, corr = 0.0;
     for (int i = 0; i < n; i++) {
@@ -99,7 +100,8 @@ static int continue_to(const grb_model *md, double scale, int held, double dx, d
     if (!isfinite(grb_branch_point(md, held, scale, trial, t_new, w))) return 0;
     for (int i = 0; i < n; i++) corr = fmax(corr, fabs(trial[i] - predicted[i]));
     if (!(corr <= 1e-2 * move + 1e-13 * scale)) return 0;
-    if (kappa_floor > 0.0 && grb_closure_conditioning(md, trial, w) < kappa_floor) return 2;
+    *kappa = grb_closure_conditioning(md, trial, w);
+    if (*kappa < kappa_floor) return 2;
     memcpy(z, trial, sizeof(double) * n);
     memcpy(t, t_new, sizeof(double) * n);
     return 1;
@@ -125,7 +127,8 @@ static int march(const grb_model *md, double scale, int held, double d, double t
                 floor = 0.0; /* the target itself: wherever it is */
             }
         }
-        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, w);
+        double kappa;
+        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, &kappa, w);
         if (status == 2) {
             dx *= 2.5; /* over the pinch rather than onto it */
             continue;
@@ -136,7 +139,7 @@ static int march(const grb_model *md, double scale, int held, double d, double t
             k--;
             continue;
         }
-        double kappa = grb_closure_conditioning(md, z, w) / kappa_ref;
+        kappa /= kappa_ref;
         if (track && kappa < ch->pinch_kappa) {
             /* the worst point so far, its step and its branch point: the
              * pinch lies within a step of it */

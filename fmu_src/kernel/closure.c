@@ -104,6 +104,16 @@ int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom
     return GRB_OK;
 }
 
+int grb_hold_count(const grb_model *md, const double *z, double *work, int *count) {
+    int freedom, n = md->n_links - 2 * md->n_closures;
+    int status = grb_freedom(md, z, work, &freedom);
+    if (status != GRB_OK) return status;
+    if (freedom > n) n = freedom;
+    if (md->drive >= 0 && n < 1) n = 1;
+    *count = n;
+    return GRB_OK;
+}
+
 int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
@@ -233,17 +243,24 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     return GRB_OK;
 }
 
-/* Squared singular values of the closure Jacobian in w (rows_at), largest
- * first, into e (m of them): the eigenvalues of the Gram matrix J J^T. */
-static void squared_singular_values(grb_ws *w, double *e) {
+/* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into Q's first
+ * m columns, where grb_sym_eig finds its eigenvectors and eigenvalues. */
+static void gram(grb_ws *w) {
     int n = w->n, m = w->m;
-    double *G = w->Q; /* Q's first m columns hold it, sym_eig its scratch */
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
             double g = 0.0;
             for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
-            G[r * w->qc + c] = g;
+            Q_(w, r, c) = g;
         }
+}
+
+/* Squared singular values of the closure Jacobian in w (rows_at), largest
+ * first, into e (m of them): the eigenvalues of the Gram matrix. */
+static void squared_singular_values(grb_ws *w, double *e) {
+    int m = w->m;
+    double *G = w->Q;
+    gram(w);
     if (m == 2) {
         double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
         double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
@@ -287,7 +304,7 @@ double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w)
 
 /* Degrees of freedom the closures leave at z: N minus the rank of their
  * Jacobian (singular values above 1e-8 of the largest).  With redundant rows
- * this is less than N - M. */
+ * this is more than N - M. */
 int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
     int n = w->n, m = w->m, rank = 0;
     double e[64];
@@ -307,12 +324,7 @@ int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, doubl
     int n = w->n, m = w->m, v0 = 2 * m, w0 = 3 * m, used[64] = {0};
     if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
     rows_at(md, z, w);
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < m; c++) {
-            double g = 0.0;
-            for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
-            Q_(w, r, c) = g;
-        }
+    gram(w);
     grb_sym_eig(w->Q, w->qc, m);
     for (int b = 0; b < n - 1; b++) {
         int best = -1;

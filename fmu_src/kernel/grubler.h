@@ -130,6 +130,12 @@ GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double
  * parallelogram's coupling rod); assembly holds that many coordinates. */
 GRB_API int grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
 
+/* How many coordinates assembly holds at the sketch z: the closures' freedom
+ * there, no fewer than the Grübler count N - 2C, and at least the drive (a
+ * sketch that does not close shows no redundancy; the drive is the motion's
+ * own coordinate all the same).  The library and the FMU both ask this. */
+GRB_API int grb_hold_count(const grb_model *m, const double *z, double *work, int *count);
+
 /* Which coordinates assembly holds: the drive (if any), then, up to the
  * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
  * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */

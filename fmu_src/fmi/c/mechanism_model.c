@@ -329,10 +329,8 @@ fmi2Status model_prepare(grb_instance *inst) {
         if (method == GRB_EXACT && NC > 0) {
             char names[256];
             size_t used = 0;
-            int freedom = mm->n_hold;
-            /* redundant closure rows leave more freedom than the Grübler count */
-            if (grb_freedom(&mm->m, z, mm->work, &freedom) == GRB_OK && freedom > mm->n_hold) mm->n_hold = freedom;
-            if (mm->m.drive >= 0 && mm->n_hold < 1) mm->n_hold = 1; /* the drive, whatever the sketch */
+            st = grb_hold_count(&mm->m, z, mm->work, &mm->n_hold);
+            if (st != GRB_OK) BAD("initial: cannot count the coordinates to hold (%s)", status_text(st));
             st = grb_held_coordinates(&mm->m, mm->n_hold, z, mm->held, &n_held, mm->work);
             if (st != GRB_OK) BAD("initial: cannot choose the coordinates to hold (%s)", status_text(st));
             names[0] = '\0';
