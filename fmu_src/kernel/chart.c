@@ -156,37 +156,46 @@ static int march(const grb_model *md, double scale, int held, double d, double t
     return !isfinite(target) ? 0 : 1;
 }
 
-/* The pinch to rounding: the worst conditioning along the branch, by golden
- * section over branch points within a continuation step of the worst one the
- * continuation met (its steps only bracket it). */
-static int refine_pinch(const grb_model *md, double scale, int held, double kappa_ref, grb_chart *ch, grb_ws *w) {
+/* The conditioning at the branch point where the held coordinate is x, by
+ * continuation from the worst point the continuation met (zp, tp). */
+static int kappa_at(const grb_model *md, double scale, int held, double kappa_ref, grb_chart *ch, grb_ws *w,
+                    double x, double *kappa) {
     int n = w->n;
-    const double *zp = ch->scratch + 8 * n, *tp = ch->scratch + 9 * n;
-    double *z = ch->scratch + 4 * n, *t = ch->scratch + 5 * n, x0 = ch->pinch, g = 0.5 * (sqrt(5.0) - 1.0);
-    double a = x0 - ch->pinch_step, b = x0 + ch->pinch_step, k[2] = {INFINITY, INFINITY}, x[2];
-    /* (to 1e-7 of the bracket: closer in, branch points are ill-conditioned) */
-    for (int it = 0; it < 100 && b - a > 1e-7 * ch->pinch_step; it++) {
-        x[0] = b - g * (b - a);
-        x[1] = a + g * (b - a);
-        for (int e = 0; e < 2; e++) {
-            /* the branch point at x[e], by continuation from the worst one */
-            memcpy(z, zp, sizeof(double) * n);
-            memcpy(t, tp, sizeof(double) * n);
-            if (!march(md, scale, held, x[e] > x0 ? 1.0 : -1.0, x[e], kappa_ref, 1.0, z, t, ch, w, 0)) {
-                it = 100; /* as close as a branch point can be had: the bracket stands */
-                break;
-            }
-            k[e] = grb_closure_conditioning(md, z, w);
+    double *z = ch->scratch + 4 * n, *t = ch->scratch + 5 * n, x0 = ch->pinch;
+    memcpy(z, ch->scratch + 8 * n, sizeof(double) * n);
+    memcpy(t, ch->scratch + 9 * n, sizeof(double) * n);
+    if (!march(md, scale, held, x > x0 ? 1.0 : -1.0, x, kappa_ref, 1.0, z, t, ch, w, 0)) return 0;
+    *kappa = grb_closure_conditioning(md, z, w);
+    return 1;
+}
+
+/* The pinch to rounding: the worst conditioning along the branch, by golden
+ * section (one new probe per narrowing) over branch points within a
+ * continuation step of the worst one the continuation met (its steps only
+ * bracket it).  To 1e-7 of that step: closer in, branch points are
+ * ill-conditioned; where one cannot be had the bracket reached stands. */
+static void refine_pinch(const grb_model *md, double scale, int held, double kappa_ref, grb_chart *ch, grb_ws *w) {
+    double g = 0.5 * (sqrt(5.0) - 1.0), step = ch->pinch_step, k1, k2;
+    double a = ch->pinch - step, b = ch->pinch + step, x1 = b - g * (b - a), x2 = a + g * (b - a);
+    if (!kappa_at(md, scale, held, kappa_ref, ch, w, x1, &k1) || !kappa_at(md, scale, held, kappa_ref, ch, w, x2, &k2))
+        return;
+    for (int it = 0; it < 100 && b - a > 1e-7 * step; it++) {
+        if (k1 < k2) { /* the minimum lies in [a, x2]: x1 becomes the upper probe */
+            b = x2;
+            x2 = x1;
+            k2 = k1;
+            x1 = b - g * (b - a);
+            if (!kappa_at(md, scale, held, kappa_ref, ch, w, x1, &k1)) break;
+        } else {
+            a = x1;
+            x1 = x2;
+            k1 = k2;
+            x2 = a + g * (b - a);
+            if (!kappa_at(md, scale, held, kappa_ref, ch, w, x2, &k2)) break;
         }
-        if (it == 100) break;
-        if (k[0] < k[1])
-            b = x[1];
-        else
-            a = x[0];
     }
     ch->pinch = 0.5 * (a + b);
-    if (isfinite(k[0]) && isfinite(k[1])) ch->pinch_kappa = fmin(ch->pinch_kappa, fmin(k[0], k[1]) / kappa_ref);
-    return 1;
+    ch->pinch_kappa = fmin(ch->pinch_kappa, fmin(k1, k2) / kappa_ref);
 }
 
 /* The chart in one held coordinate (GRB_BRANCH_JUMP when the branch is not a
@@ -216,7 +225,7 @@ static int build_on(const grb_model *md, double scale, const double *y, double k
         !march(md, scale, held, +1.0, INFINITY, kappa_ref, near, z_hi, t_hi, ch, w, 1))
         return GRB_BRANCH_JUMP;
     double lo = z_lo[held], hi = z_hi[held];
-    if (!refine_pinch(md, scale, held, kappa_ref, ch, w)) return GRB_BRANCH_JUMP;
+    refine_pinch(md, scale, held, kappa_ref, ch, w);
     /* no node near the pinch, where a branch point's tangent is least accurate */
     double width = hi - lo, mid = 0.5 * (lo + hi), half = 0.5 * width;
     for (int j = 0, moves = 0; j < CHART_NODES && moves < 100; j++) {
