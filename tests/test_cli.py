@@ -100,3 +100,13 @@ def test_size_ranks_motors_and_says_why_others_fail(capsys, tmp_path):
                                                                       ("rejected", "10.0", "False")]
     code, _, err = run(capsys, "size", "thesis-fourbar", "--motors", "no-such-motor")
     assert code == 2 and "no-such-motor" in err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["simulate", "thesis-fourbar", "--t-end", "-1"], "--t-end: must be > 0 s, got -1 s"),
+    (["size", "thesis-fourbar", "--v-max", "0"], "--v-max: must be > 0 rad/s, got 0 rad/s"),
+])
+def test_a_bound_message_carries_the_unit(args, message):
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", *args], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert message in proc.stderr
