@@ -486,8 +486,8 @@ as a chart in the crank angle ([model.md](model.md#change-points)): the preset r
 the same whether the run is one advance (dense output) or ten thousand 1 ms advances as a co-
 simulation makes them (the chart is rebuilt at each; the two runs agree to 1e-6 rad). The driven
 parallelogram (`fourbar-parallelogram`, 100 N m; it used to stop at t = 1.87 s, before one turn)
-passes 46 aligned positions in 3 s with its balance at 4e-10, and runs 20 s through 2107 of them
-(spinning up under the constant torque) with the balance at 6e-8 and the loop closed to 2e-10 m;
+passes 46 aligned positions in 3 s with its balance at 3e-10, and runs 20 s through 2107 of them
+(spinning up under the constant torque) with the balance at 7e-8 and the loop closed to 2e-11 m;
 `tests/test_change_points.py` checks its coupler stays parallel to 1e-9 rad over 20 turns and its
 crank follows a separate one-degree-of-freedom model to 1e-8 rad. Ten random change-point four-bars
 (seed 20261122, 2 N m on the crank, advanced 10 ms at a time; every second one damped and advanced 1
@@ -495,7 +495,7 @@ ms at a time) all finish, passing 1 to 26 change points each; the undamped ones 
 balance to 6e-9. The cost is in rejected steps: a step that would run into the zone is cut back to
 its edge, so a quarter of the steps of a run through many passages are rejected ones (the preset's
 10 s: some 2100 steps, 460 rejected), up to two thirds when every step is long enough to jump a
-whole zone (the parallelogram's 20 s: some 12000 steps, 7800 rejected); each chart costs some 50 to
+whole zone (the parallelogram's 20 s: some 10000 steps, 5700 rejected); each chart costs some 50 to
 100 branch points (Newton solves in the other coordinates, microseconds each in C). The wall times
 stay small (the table).
 
