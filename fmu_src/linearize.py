@@ -53,7 +53,13 @@ EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an
 EQUILIBRIUM_ITERATIONS = 60
 MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
 ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
-SINGULAR_RCOND = 1e-7  # of the closure Jacobian's dependent columns: below it, a toggle or change point
+# of the closure Jacobian's dependent columns: below it, a toggle or change point.
+# Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
+# of it: the rounding alone leaves a conditioning anywhere up to about 1e-6, and
+# which value a machine gets depends on its BLAS kernel. 1e-4 sits far above that
+# rounding and still only refuses within about (1e-4)^2 rad of a toggle, where the
+# dependent coordinates' derivatives are 1e4 times the independent one's.
+SINGULAR_RCOND = 1e-4
 
 DRIVE, LOAD, VOLTAGE = "drive", "load", "voltage"
 _INPUT_ALIASES = {"drive": DRIVE, "tau_drive": DRIVE, "torque": DRIVE, "load": LOAD, "tau_load": LOAD,
@@ -479,6 +485,10 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
             z, _ = assemble(model, z, None, field="at")
     plant.choose_independent(z)
     y = plant.close(np.concatenate([z, zd]))
+    if kind == "held":
+        # a held coordinate at a toggle is refused by the conditioning it gives,
+        # before any search whose verdict there would hang on rounding
+        plant.check_regular(y)
     if kind in ("equilibrium", "held"):
         held = []
         if kind == "held":
