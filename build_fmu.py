@@ -28,7 +28,7 @@ from grubler.controllers.fmu import build_controller_fmu
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
 from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
-from grubler.scene import load_scene
+from grubler.mechanism.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
 # native FMUs: name -> the ModelSpec of the model they serve

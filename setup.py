@@ -2,7 +2,7 @@
 
 The kernel (``fmu_src/kernel/*.c``) and the motor model (``motors/kernel/*.c``)
 are plain C99 with libm only.  They are compiled as one shared library that the
-Python binding (:mod:`grubler.kernel`) loads with ctypes; ``_module.c`` gives it
+Python binding (:mod:`grubler.binding`) loads with ctypes; ``_module.c`` gives it
 the module entry point Python's build tools expect.  The native FMUs compile the
 same sources again without Python (:mod:`grubler.fmi.build`).
 """

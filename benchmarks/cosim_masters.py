@@ -37,7 +37,7 @@ import servo_fourbar  # noqa: E402
 from servo_reference import monolithic  # noqa: E402
 
 from grubler import cosim  # noqa: E402
-from grubler.servo import servo_system  # noqa: E402
+from grubler.system.servo import servo_system  # noqa: E402
 
 STEPS = (1e-4, 1e-3, 1e-2)
 

@@ -40,9 +40,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import grubler  # noqa: E402
-from grubler.dynamics import Inputs  # noqa: E402
-from grubler.integrators import StateEquation  # noqa: E402
-from grubler.simulate import DEFAULT_RTOL, Simulator  # noqa: E402
+from grubler.mechanism.dynamics import Inputs  # noqa: E402
+from grubler.mechanism.integrators import StateEquation  # noqa: E402
+from grubler.mechanism.simulate import DEFAULT_RTOL, Simulator  # noqa: E402
 from work_precision import make_problem  # noqa: E402
 
 TOLERANCES = [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]

@@ -38,7 +38,7 @@ from fmpy import extract, read_model_description  # noqa: E402
 from fmpy.fmi2 import FMU2Slave  # noqa: E402
 import grubler  # noqa: E402
 from grubler import binding  # noqa: E402
-from grubler.simulate import Simulator  # noqa: E402
+from grubler.mechanism.simulate import Simulator  # noqa: E402
 
 READ = ["theta2", "theta2_d", "Fx", "Fy"]
 TORQUE = 3.0
@@ -95,7 +95,7 @@ class FmuRun:
 
 class FmuRawRun(FmuRun):
     """The same FMU through the C functions fmpy loaded, with buffers made once and
-    the status checked, as grubler's own master (grubler.cosim) calls them."""
+    the status checked, as grubler's own master (grubler.system.cosim) calls them."""
 
     def __init__(self, path: Path, unzipped: str, h: float):
         super().__init__(path, unzipped, h)
@@ -241,7 +241,7 @@ def main() -> None:
         "- `kernel`: the kernel's own stepping through ctypes (grb_advance + grb_observe, everything",
         "  prepared once): two foreign calls a step, the reference;",
         "- `FMU, raw`: Mechanism.fmu through the C functions fmpy loaded (`FMU2Slave._functions`), buffers",
-        "  made once and every status checked, as grubler's master (`grubler.cosim`) calls them: three",
+        "  made once and every status checked, as grubler's master (`grubler.system.cosim`) calls them: three",
         "  foreign calls a step (setReal, doStep, getReal);",
         "- `FMU`: the same FMU through fmpy's FMU2Slave methods, which build ctypes arrays at every call;",
         "- `library`: grubler.Simulator in Python: set_inputs, advance_to, outputs(state, dynamics).",

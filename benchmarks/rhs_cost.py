@@ -31,9 +31,9 @@ import time
 import numpy as np
 
 import grubler
-from grubler.assembly import assemble
-from grubler.dynamics import Inputs, forward_dynamics
-from grubler.simulate import Simulator
+from grubler.mechanism.assembly import assemble
+from grubler.mechanism.dynamics import Inputs, forward_dynamics
+from grubler.mechanism.simulate import Simulator
 
 SCENE = "thesis-fourbar"
 PARTS = ("first_call", "rhs", "cosim", "outputs", "accuracy")
@@ -93,7 +93,7 @@ def cosim(steps: int, repeat: int) -> dict:
 
 def outputs_cost(repeat: int) -> dict:
     """Simulator.outputs for growing sets of output groups (what an FMU pays per read), s."""
-    from grubler.simulate import GROUPS
+    from grubler.mechanism.simulate import GROUPS
 
     sim = Simulator(grubler.load_scene(SCENE).mechanism)
     sim.advance_to(0.1)

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import grubler
-from grubler.dynamics import Inputs, forward_dynamics
+from grubler.mechanism.dynamics import Inputs, forward_dynamics
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_sixbar import (BODIES, GROUND, SIX, closed_library, reference, stephenson_iii_against_bodies,  # noqa: E402

@@ -40,7 +40,7 @@ import numpy as np
 import scipy.integrate
 
 import grubler
-from grubler.scene import preset_text
+from grubler.mechanism.scene import preset_text
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from reference import RefChain  # noqa: E402  (the independent reference lives beside the tests)

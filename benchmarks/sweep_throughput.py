@@ -4,7 +4,7 @@
 
 Every variant runs the same sweep (the thesis four-bar over a grid of crank
 lengths and drive torques, ``t_end`` simulated seconds a point) through
-:func:`grubler.sweep.run_sweep`; the Dask variant starts a
+:func:`grubler.studies.sweep.run_sweep`; the Dask variant starts a
 ``distributed.LocalCluster`` with two single-threaded worker processes, as a
 two-node cluster would run it, and its start-up is timed apart.  Times are
 medians over --repeat runs, measured in one process, one variant after another.
@@ -24,7 +24,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from grubler.sweep import evaluate_point, grid, run_sweep, scene_point  # noqa: E402
+from grubler.studies.sweep import evaluate_point, grid, run_sweep, scene_point  # noqa: E402
 
 
 def points(n: int) -> list[dict]:

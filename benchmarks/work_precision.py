@@ -44,8 +44,8 @@ from pathlib import Path
 import numpy as np
 
 import grubler
-from grubler.dynamics import Inputs
-from grubler.simulate import DEFAULT_ATOL, DEFAULT_RTOL, Simulator, evaluate
+from grubler.mechanism.dynamics import Inputs
+from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL, Simulator, evaluate
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))

@@ -12,6 +12,11 @@ semantics in co-simulation are documented in :mod:`grubler.controllers.law`.
 - :class:`Trajectory`: constant speed, trapezoid, S-curve, sine and table setpoints;
 - :class:`Encoder`: seeded noise, quantisation, delay and a speed estimate.
 
+May import: the base modules (:mod:`grubler.errors`, :mod:`grubler.limits`),
+:mod:`grubler.mechanism` (computed torque runs the inverse dynamics),
+:mod:`grubler.motors`, and :mod:`grubler.system` for the pythonfmu slave that
+makes a law an FMU (:mod:`grubler.controllers.fmu`). Not the studies or the CLI.
+
 Examples
 --------
 >>> from grubler.controllers import PID, Sampler
@@ -20,13 +25,13 @@ Examples
 {'u': 1.5}
 """
 
-from .cascade import CascadeController
-from .computed_torque import ComputedTorque
-from .encoder import Encoder
-from .law import Law, Parameter, Sampler
-from .linear import LinearController
-from .pid import PID
-from .trajectory import Trajectory
+from grubler.controllers.cascade import CascadeController
+from grubler.controllers.computed_torque import ComputedTorque
+from grubler.controllers.encoder import Encoder
+from grubler.controllers.law import Law, Parameter, Sampler
+from grubler.controllers.linear import LinearController
+from grubler.controllers.pid import PID
+from grubler.controllers.trajectory import Trajectory
 
 __all__ = ["CascadeController", "ComputedTorque", "Encoder", "Law", "LinearController", "PID", "Parameter",
            "Sampler", "Trajectory"]

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 from grubler.errors import SceneError
 
-from .law import Law, Parameter, check_number, check_sample_time
-from .pid import PID
+from grubler.controllers.law import Law, Parameter, check_number, check_sample_time
+from grubler.controllers.pid import PID
 
 
 class CascadeController(Law):

@@ -1,7 +1,7 @@
 """Computed-torque feedforward: the drive torque a one-DOF mechanism needs to follow a trajectory.
 
 Given the drive joint's position, velocity and acceleration from a trajectory,
-:func:`grubler.inverse.drive_demand` closes the loop at that drive position
+:func:`grubler.mechanism.inverse.drive_demand` closes the loop at that drive position
 (starting from the last sample's configuration, so the branch stays the one the
 scene sketches), makes the dependent rates and accelerations consistent with
 the closures, and gives the drive torque by :func:`grubler.inverse_dynamics`
@@ -30,11 +30,11 @@ from __future__ import annotations
 import numpy as np
 
 from grubler.errors import SceneError
-from grubler.inverse import DriveDemand, drive_demand
-from grubler.model import Mechanism
-from grubler.scene import Scene, load_scene
+from grubler.mechanism.inverse import DriveDemand, drive_demand
+from grubler.mechanism.model import Mechanism
+from grubler.mechanism.scene import Scene, load_scene
 
-from .law import Law, Parameter, check_number, check_sample_time
+from grubler.controllers.law import Law, Parameter, check_number, check_sample_time
 
 
 def _mechanism(source) -> Mechanism:

@@ -33,7 +33,7 @@ import numpy as np
 
 from grubler.errors import SceneError
 
-from .law import Law, Parameter, check_count, check_number, check_sample_time
+from grubler.controllers.law import Law, Parameter, check_count, check_number, check_sample_time
 
 # the delay line holds delay + 1 readings: a million samples is 1000 s at 1 kHz
 MAX_DELAY = 1_000_000

@@ -54,18 +54,17 @@ import subprocess
 import sys
 import tempfile
 import zipfile
+from importlib import resources
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 
-from grubler.fmi_slave import ProjectSlave
-from grubler.fmu_loader import package_files, tree_digest
-
-import grubler
+from grubler._version import __version__
+from grubler.controllers.law import Law, Sampler
 from grubler.errors import SceneError
-
-from .law import Law, Sampler
+from grubler.system.fmi_slave import ProjectSlave
+from grubler.system.fmu_loader import package_files, tree_digest
 
 _TYPES = ((bool, Boolean), (int, Integer), (float, Real), (str, String))
 
@@ -82,7 +81,7 @@ class LawSlave(ProjectSlave):
 
     law: type[Law] = Law
     author = "grubler"
-    version = grubler.__version__
+    version = __version__
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -121,7 +120,7 @@ class LawSlave(ProjectSlave):
         the inputs held since ``t`` (see :class:`~grubler.controllers.law.Sampler`),
         so to a master every output is a state, and a feedback loop through a
         controller is never algebraic; the model description of every FMU
-        built from a law says so (:class:`grubler.fmi_slave.DeclaredDependencies`).
+        built from a law says so (:class:`grubler.system.fmi_slave.DeclaredDependencies`).
         """
         return {name: [] for name in type(self).law.outputs}
 
@@ -184,14 +183,14 @@ SLAVE_TEMPLATE = '''\
 import importlib
 
 # this FMU's own copies of the modules it runs (in resources/, first on sys.path),
-# or an identical copy already loaded, never another: see grubler.fmu_loader
+# or an identical copy already loaded, never another: see grubler.system.fmu_loader
 importlib.import_module({loader!r}).prepare({script!r}, {expected!r})
 
 from grubler.controllers.fmu import LawSlave  # noqa: E402
-from grubler.fmi_slave import balance_loader_reference  # noqa: E402
+from grubler.system.fmi_slave import balance_loader_reference  # noqa: E402
 from {module} import {name} as _Law  # noqa: E402
 
-balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.fmi_slave
+balance_loader_reference(globals())  # pythonfmu 0.7's loader, see grubler.system.fmi_slave
 
 
 class {name}(LawSlave):
@@ -213,7 +212,7 @@ def _package_files(root=None) -> dict:
     import grubler.motors
 
     if root is None:
-        root = Path(grubler.__file__).parent
+        root = Path(str(resources.files("grubler")))  # the package folder, wherever it is installed
         subs = {"motors": Path(grubler.motors.__file__).parent,
                 "controllers": Path(grubler.controllers.__file__).parent}
     else:
@@ -226,7 +225,7 @@ def stage_package(folder: Path) -> Path:
 
     Works from a source checkout (where ``grubler.motors`` and
     ``grubler.controllers`` live in folders of their own) and from an installed
-    package alike; the copy lists the same files (:func:`grubler.fmu_loader.package_files`),
+    package alike; the copy lists the same files (:func:`grubler.system.fmu_loader.package_files`),
     so it has the same content digest as the package it was copied from.
     """
     package = Path(folder) / "grubler"
@@ -337,7 +336,7 @@ def build_controller_fmu(law: type[Law], dest: str | Path = "dist") -> Path:
         build = hashlib.sha256(repr(sorted(expected.items())).encode()).hexdigest()[:16]
         script = tmp / f"law_{module_name.replace('.', '_')}_{law.__name__}_{build}.py"
         loader = tmp / f"_grubler_loader_{digest[:16]}.py"
-        shutil.copy2(package / "fmu_loader.py", loader)
+        shutil.copy2(package / "system" / "fmu_loader.py", loader)
         files.append(loader)
         script.write_text(SLAVE_TEMPLATE.format(module=module_name, name=law.__name__, loader=loader.stem,
                                                 script=script.stem, expected=expected))

@@ -136,7 +136,7 @@ class Law:
         The default takes a copy of the instance's attributes (a random
         generator's state included) and the state of every attribute that is a
         Law itself (a cascade's inner loops).  An FMU serialises it with
-        :mod:`grubler.fmu_state`: numbers, strings, None, lists, tuples, dicts,
+        :mod:`grubler.system.fmu_state`: numbers, strings, None, lists, tuples, dicts,
         deques, numpy arrays and random Generators; override this (and
         :meth:`set_state`) when some attribute is none of these.
         """

@@ -32,7 +32,7 @@ import numpy as np
 from grubler.errors import SceneError
 from grubler.limits import brief
 
-from .law import Law, Parameter, check_sample_time
+from grubler.controllers.law import Law, Parameter, check_sample_time
 
 DISCRETE = "none"
 

@@ -51,7 +51,7 @@ import math
 
 from grubler.errors import SceneError
 
-from .law import Law, Parameter, check_number, check_sample_time
+from grubler.controllers.law import Law, Parameter, check_number, check_sample_time
 
 ANTI_WINDUP = ("back-calculation", "conditional", "none")
 

@@ -5,7 +5,7 @@
  * the Python slave raises, fmi2Fatal (and it frees the Python instance then,
  * so the importer's next call reads freed memory).  A grubler slave never
  * raises: it logs what went wrong with the status the call deserves
- * (grubler.fmi_slave).  This wrapper forwards every call to pythonfmu's binary,
+ * (grubler.system.fmi_slave).  This wrapper forwards every call to pythonfmu's binary,
  * which sits beside it as <modelIdentifier>_pythonfmu.so, and returns the worst
  * of the binary's status and the statuses logged during the call, with Fatal
  * reported as Error.  After the binary reported fmi2Fatal the instance refuses
@@ -268,7 +268,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte s
     FORWARD(serializeFMUstate, state, serializedState, size);
 }
 /* Not a variable: through it the slave says whether the blob it just deserialised
- * is refused (grubler.fmi_slave.STATE_CHECK_VR), logging why. */
+ * is refused (grubler.system.fmi_slave.STATE_CHECK_VR), logging why. */
 #define STATE_CHECK_VR ((fmi2ValueReference)0xFFFFFFFFu)
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,

@@ -39,7 +39,7 @@ import numpy as np
 from grubler.errors import SceneError
 from grubler.limits import brief
 
-from .law import Law, Parameter, check_number
+from grubler.controllers.law import Law, Parameter, check_number
 
 KINDS = ("constant", "trapezoid", "scurve", "sine", "table")
 
@@ -219,7 +219,7 @@ class Trajectory(Law):
     def breakpoints(self, t_end: float) -> list[float]:
         """Times in ``[0, t_end]`` where the motion law changes phase (a move's segments, a table's points).
 
-        A sampler puts samples in every phase (see :func:`grubler.sizing.sample_times`),
+        A sampler puts samples in every phase (see :func:`grubler.studies.sizing.sample_times`),
         so that a short move in a long dwell is not missed.  At most 100 000 times.
         """
         out = [self.delay]

@@ -38,13 +38,13 @@ from control_laws import LoopShapedPID, LQRServo  # noqa: E402
 
 from grubler.controllers import Sampler  # noqa: E402
 from grubler.controllers.fmu import build_controller_fmu  # noqa: E402
-from grubler.cosim import run  # noqa: E402
-from grubler.fmi.mechanism import scene_fmu  # noqa: E402
+from grubler.system.cosim import run  # noqa: E402
+from grubler.fmi.build import scene_fmu  # noqa: E402
 from grubler.fmi.motor import motor_parameters  # noqa: E402
-from grubler.linearize import linearize  # noqa: E402
+from grubler.studies.linearize import linearize  # noqa: E402
 from grubler.motors import DCMotor, Drive, Gearbox, load_motor  # noqa: E402
-from grubler.scene import load_scene  # noqa: E402
-from grubler.ssp import System  # noqa: E402
+from grubler.mechanism.scene import load_scene  # noqa: E402
+from grubler.system.ssp import System  # noqa: E402
 
 SCENE = "thesis-fourbar"
 MOTOR_NAME, RATIO, EFFICIENCY, SUPPLY, CURRENT_LIMIT = "maxon-re40-148877", 50.0, 0.9, 48.0, 10.0

@@ -14,7 +14,7 @@ below (motor, gear ratio, gains, move) and run this script again to rewrite it.
 
 from pathlib import Path
 
-from grubler.servo import ServoDesign, servo_system
+from grubler.system.servo import ServoDesign, servo_system
 
 HERE = Path(__file__).resolve().parent
 

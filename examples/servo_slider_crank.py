@@ -15,7 +15,7 @@ The PID follows a constant-speed ramp of the crank angle; the load is a constant
 
 from pathlib import Path
 
-from grubler.servo import ServoDesign, servo_system
+from grubler.system.servo import ServoDesign, servo_system
 
 HERE = Path(__file__).resolve().parent
 

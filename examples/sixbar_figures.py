@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.animation import Drawer, fit_view, frame_geometry  # noqa: E402
+from grubler.views.animation import Drawer, fit_view, frame_geometry  # noqa: E402
 
 WATT = {"nodes": {"T1": (0, 0), "T2": (1, 0), "b1": (0, 1), "b2": (1, 1), "b3": (0, -1), "b4": (1, -1)},
         "edges": [("T1", "T2"), ("T1", "b1"), ("b1", "b2"), ("b2", "T2"), ("T1", "b3"), ("b3", "b4"),

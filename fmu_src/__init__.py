@@ -16,16 +16,23 @@ True
 ['theta2', 'theta2_d']
 """
 
-from .analysis import Grashof, classify, grashof, kutzbach_mobility
-from .assembly import assemble
-from .dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
-from .errors import AssemblyError, GrublerError, IntegrationError, SceneError
-from .linearize import OperatingPoint, linearize, operating_point
-from .model import Closure, Link, Mechanism
-from .scene import Scene, load_scene, preset_names, scene_from_dict
-from .simulate import Result, Simulator, evaluate, output_columns, simulate
+import sys
 
-__version__ = "0.1.0"
+from grubler._version import __version__
+from grubler.mechanism.analysis import Grashof, classify, grashof, kutzbach_mobility
+from grubler.mechanism.assembly import assemble
+from grubler.mechanism.dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
+from grubler.errors import AssemblyError, GrublerError, IntegrationError, SceneError
+from grubler.studies.linearize import OperatingPoint, linearize, operating_point
+from grubler.mechanism.model import Closure, Link, Mechanism
+from grubler.mechanism.scene import Scene, load_scene, preset_names, scene_from_dict
+from grubler.mechanism.simulate import Result, Simulator, evaluate, output_columns, simulate
+from grubler.system import cosim, ssp
+
+# the co-simulation modules keep their public names (``import grubler.cosim``,
+# ``from grubler.ssp import System``) now that they live in grubler.system
+sys.modules[__name__ + ".cosim"], sys.modules[__name__ + ".ssp"] = cosim, ssp
+
 
 __all__ = [
     "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",

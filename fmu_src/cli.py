@@ -15,14 +15,14 @@ from typing import Sequence
 
 import numpy as np
 
-from .analysis import classify
-from .assembly import assemble
-from . import limits
-from .errors import AssemblyError, GrublerError, InputError
-from .limits import number
-from .runs import coordinates, read_run_csv
-from .scene import load_scene, preset_names
-from .simulate import output_columns, simulate
+from grubler.mechanism.analysis import classify
+from grubler.mechanism.assembly import assemble
+from grubler import limits
+from grubler.errors import AssemblyError, GrublerError, InputError
+from grubler.limits import number
+from grubler.views.runs import coordinates, read_run_csv
+from grubler.mechanism.scene import load_scene, preset_names
+from grubler.mechanism.simulate import output_columns, simulate
 
 
 def _number(name: str, **bounds):
@@ -73,7 +73,7 @@ def cmd_info(args) -> int:
     except AssemblyError:
         # a loop that closes nowhere at this angle: its class would only mislead, the reason comes
         # alone; one that closes on another branch than its sketch's gets the branches listed below
-        from .assembly import branches
+        from grubler.mechanism.assembly import branches
 
         if not (at.closures and at.drive and branches(at, at.z_from_q(at.q_ref))[0]):
             raise
@@ -82,13 +82,13 @@ def cmd_info(args) -> int:
         print(f"           {m.description}")
     print(f"type       {c.name} ({c.chain} chain)")
     if c.chain in ("Watt", "Stephenson"):
-        from .analysis import SIX_BAR_INVERSIONS
+        from grubler.mechanism.analysis import SIX_BAR_INVERSIONS
 
         print(f"           {SIX_BAR_INVERSIONS[c.name.removesuffix(' six-bar')]}")
     print(f"mobility   {c.mobility} (Grübler/Kutzbach: 3(n-1) - 2 j with n = {m.n_links + 1}, "
           f"j = {m.n_links + len(m.closures)})")
     if m.closures:
-        from .assembly import freedom
+        from grubler.mechanism.assembly import freedom
 
         free = freedom(m, m.z_from_q(m.q_ref))
         if free > c.mobility:
@@ -96,7 +96,7 @@ def cmd_info(args) -> int:
                   f"{m.n_constraints} equations {'is' if free - c.mobility == 1 else 'are'} redundant "
                   f"(a linkage overconstrained by its design moves all the same)")
     if len(m.closures) > 1:
-        from .analysis import joint_counts
+        from grubler.mechanism.analysis import joint_counts
 
         ternary = [f"link{b}" + (" (ground)" if b == 1 else "") for b, d in joint_counts(m).items() if d >= 3]
         print(f"topology   {m.n_links + 1} links, {m.n_links + len(m.closures)} joints; ternary: "
@@ -137,7 +137,7 @@ def _at_drive_angle(m, at):
         return m
     if not m.drive:
         raise GrublerError("--at: this scene has no drive joint whose angle it could set")
-    from .scene import parse_angle_or_number
+    from grubler.mechanism.scene import parse_angle_or_number
 
     q_ref = list(m.q_ref)
     q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(at, "--at")
@@ -145,7 +145,7 @@ def _at_drive_angle(m, at):
 
 
 def _print_branches(m, z0) -> None:
-    from .assembly import branches
+    from grubler.mechanism.assembly import branches
 
     found, default = branches(m, z0)
     names = [n for n in m.free_names if n != m.drive]
@@ -169,7 +169,7 @@ def cmd_simulate(args) -> int:
     if args.csv:
         res.to_csv(args.csv, groups)
     if args.plot:
-        from .plotting import plot_result
+        from grubler.views.plotting import plot_result
 
         plot_result(res, args.plot)
     e = res["E"]
@@ -190,8 +190,8 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .animation import MAX_SIGNALS, animate, check_frames
-    from .runs import check_fits, read_run, select_signals, signal_names
+    from grubler.views.animation import MAX_SIGNALS, animate, check_frames
+    from grubler.views.runs import check_fits, read_run, select_signals, signal_names
 
     if args.source.endswith(".csv"):
         if not args.scene:
@@ -219,8 +219,8 @@ def cmd_animate(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .report import write_report
-    from .runs import check_fits, mechanism_prefix, read_run
+    from grubler.views.report import write_report
+    from grubler.views.runs import check_fits, mechanism_prefix, read_run
 
     model = load_scene(args.scene).mechanism if args.scene else None
     raw, columns = read_run(args.csv, model)
@@ -233,7 +233,7 @@ def cmd_report(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from .fmi.build import export
+    from grubler.fmi.build import export
 
     path = export(args.scene, args.out)
     print(f"wrote {path}")
@@ -241,13 +241,13 @@ def cmd_export(args) -> int:
 
 
 def cmd_cosim(args) -> int:
-    from .cosim import run
+    from grubler.system.cosim import run
 
     record = args.record.split(",") if args.record else None
     step_order = args.order.split(",") if args.order else None
     every = 1
     if args.dt_out:
-        from .ssp import read
+        from grubler.system.ssp import read
 
         system = read(args.system)
         h = args.step or system.step or 1e-3
@@ -273,8 +273,8 @@ def cmd_cosim(args) -> int:
 def cmd_sweep(args) -> int:
     import functools
 
-    from .scene import override
-    from .sweep import grid, parse_axis, run_sweep, scene_point
+    from grubler.mechanism.scene import override
+    from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point
 
     axes = {}
     for text in args.set:
@@ -302,9 +302,9 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_size(args) -> int:
-    from .motors import list_motors, load_motor
-    from .sizing import Control, DutyCycle, size
-    from .sweep import parse_axis
+    from grubler.motors import list_motors, load_motor
+    from grubler.studies.sizing import Control, DutyCycle, size
+    from grubler.studies.sweep import parse_axis
 
     scene = load_scene(args.scene)
     model = scene.mechanism
@@ -312,7 +312,7 @@ def cmd_size(args) -> int:
         model = model.replace(load=model.drive)  # a load on the drive joint itself
     start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
     if args.move:
-        from .controllers.trajectory import Trajectory
+        from grubler.controllers.trajectory import Trajectory
 
         traj = Trajectory(args.move, distance=args.distance, v_max=args.v_max, a_max=args.a_max, j_max=args.j_max,
                           dwell=args.dwell, repeat=2 if args.reverse else 1, reverse=args.reverse)
@@ -352,7 +352,7 @@ def cmd_size(args) -> int:
         print(f"  ... {len(rejected) - shown} more rejected (the table has every reason)")
     if any(a.closed_loop is not None and a.closed_loop.method == "bound" for a in study.assessments):
         print("note: the cycle is too long to step the position loop over it: the current it adds is bounded "
-              "instead (grubler.sizing.quantisation_bound), which overstates it")
+              "instead (grubler.studies.sizing.quantisation_bound), which overstates it")
     if args.out:
         study.write_csv(args.out)
         print(f"wrote {args.out}")
@@ -360,7 +360,7 @@ def cmd_size(args) -> int:
         study.plot(args.plot)
         print(f"wrote {args.plot}")
     if args.check and study.best is not None:
-        from .sizing import closed_loop_check
+        from grubler.studies.sizing import closed_loop_check
 
         chk = closed_loop_check(study.best, cycle, args.scene, trajectory, args.check,
                                 load_joint=model.load if args.load_torque else None, load_torque=args.load_torque)
@@ -374,9 +374,9 @@ def cmd_linearize(args) -> int:
     """grubler linearize: the linear model about an operating point, printed, as JSON, as a Bode plot."""
     import json
 
-    from .errors import SceneError
-    from .linearize import linearize, plot_bode, summary, to_json
-    from .scene import parse_angle_or_number
+    from grubler.errors import SceneError
+    from grubler.studies.linearize import linearize, plot_bode, summary, to_json
+    from grubler.mechanism.scene import parse_angle_or_number
 
     at = args.at.strip()
     if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
@@ -384,7 +384,7 @@ def cmd_linearize(args) -> int:
         at = {name.strip(): parse_angle_or_number(value.strip(), "--at")}
     motor = None
     if args.motor:
-        from .motors import DCMotor, Gearbox, load_motor
+        from grubler.motors import DCMotor, Gearbox, load_motor
 
         motor = DCMotor(load_motor(args.motor), Gearbox(args.ratio if args.ratio is not None else 1.0,
                                                         args.efficiency))

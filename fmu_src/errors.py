@@ -47,6 +47,10 @@ class AssemblyError(SceneError):
     """The loop cannot be closed for the given dimensions or initial state."""
 
 
+class SystemDescriptionError(GrublerError):
+    """A system description that cannot be run: names the element and the reason."""
+
+
 class IntegrationError(GrublerError, RuntimeError):
     """The integrator could not continue (step-size underflow, non-finite state).
 

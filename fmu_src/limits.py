@@ -37,6 +37,7 @@ from __future__ import annotations
 import atexit
 import math
 import os
+import re
 import shutil
 import tempfile
 import threading
@@ -45,7 +46,7 @@ import zipfile
 import zlib
 from pathlib import Path
 
-from .errors import InputError, LimitError
+from grubler.errors import InputError, LimitError, SceneError
 
 # Largest magnitude a number from outside may have.  Lengths, masses, gains and
 # torques are multiplied together in the equations of motion (m a^2 w^2 ...):
@@ -385,3 +386,37 @@ def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int | None 
 __all__ = ["number", "read_text", "read_bytes", "decode_text", "parse_toml", "output_file", "check_size",
            "extract_zip", "clip", "temp_dir", "remove_temp_dir", "remove_temp_dirs", "brief", "MAX_MAGNITUDE",
            "MAX_OUTPUT_BYTES", "check_count"]
+
+
+# -- angles --------------------------------------------------------------------------
+_ANGLE = re.compile(
+    r"^\s*(?P<num>[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?)\s*(?P<unit>deg|degrees?|rad|°)?\s*$"
+)
+_PI = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<k>(\d+(\.\d*)?|\.\d+))?\s*\*?\s*pi\s*(/\s*(?P<d>\d+(\.\d*)?))?\s*$")
+
+
+def parse_angle_or_number(value, field: str) -> float:
+    """A number, or a string such as '60 deg', '1.2 rad', 'pi/3', '-2*pi/3'.
+
+    Whatever the spelling, the value goes through :func:`grubler.limits.number`:
+    finite and no larger in magnitude than :data:`grubler.limits.MAX_MAGNITUDE`.
+    """
+    if isinstance(value, str) and len(value) <= 64:
+        m = _ANGLE.match(value)
+        p = _PI.match(value)
+        if m:
+            v = float(m["num"])
+            if m["unit"] in ("deg", "degree", "degrees", "°"):
+                v = math.radians(v)
+        elif p:
+            v = math.pi * float(p["k"] or 1.0) / float(p["d"] or 1.0)
+            v = -v if p["sign"] == "-" else v
+        else:
+            raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
+        value = v
+    elif isinstance(value, str):
+        raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
+    try:
+        return number(value, field)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None

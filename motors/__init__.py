@@ -5,6 +5,10 @@ from a datasheet or a shipped data set); :mod:`~grubler.motors.dc_motor` steps a
 permanent-magnet DC motor with gearbox, current-limited drive and winding
 temperature, taking the shaft speed as an input (the rotor's inertia belongs to
 the mechanism: ``drive.inertia`` = :attr:`DCMotor.reflected_inertia`).
+
+May import: the base modules (:mod:`grubler.errors`, :mod:`grubler.limits`,
+:mod:`grubler.binding`, which also loads the motor's C kernel). It sits beside
+:mod:`grubler.mechanism` and imports neither it nor anything above.
 """
 
 from grubler.motors.dc_motor import (DCMotor, Drive, Gearbox, MotorOutputs, MotorSimulator, MotorState,

@@ -92,7 +92,7 @@ def states(dist: str, scratch: str) -> dict:
     res["pickle_ran"] = os.path.exists(marker)
     # a crafted blob with this instance's identity (copied from a real one) whose payload does not
     # fit: refused by setFMUstate, and the instance is left as it was
-    from grubler.fmu_state import SlaveState, from_bytes, to_bytes  # the FMUs' own copy, loaded by now
+    from grubler.system.fmu_state import SlaveState, from_bytes, to_bytes  # the FMUs' own copy, loaded by now
 
     real = from_bytes(blob)
     payload = real.payload

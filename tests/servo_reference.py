@@ -18,10 +18,10 @@ import numpy as np
 import scipy.integrate
 
 from grubler import Inputs, forward_dynamics, load_scene
-from grubler.assembly import assemble, project
+from grubler.mechanism.assembly import assemble, project
 from grubler.controllers import PID, Encoder, Trajectory
 from grubler.motors import load_motor
-from grubler.servo import ServoDesign
+from grubler.system.servo import ServoDesign
 
 
 def monolithic(design: ServoDesign, t_end: float, rtol: float = 1e-10) -> dict[str, np.ndarray]:

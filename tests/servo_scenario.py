@@ -16,7 +16,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
 
 from grubler import cosim  # noqa: E402
-from grubler.servo import servo_system  # noqa: E402
+from grubler.system.servo import servo_system  # noqa: E402
 
 import servo_fourbar  # noqa: E402
 

@@ -13,7 +13,7 @@ import pytest  # noqa: E402
 import scipy.ndimage  # noqa: E402
 
 import grubler  # noqa: E402
-from grubler.animation import JOINT_COLOUR, Drawer, fit_view, frame_geometry, trace_path  # noqa: E402
+from grubler.views.animation import JOINT_COLOUR, Drawer, fit_view, frame_geometry, trace_path  # noqa: E402
 from grubler.cli import main  # noqa: E402
 from reference import RefChain  # noqa: E402
 
@@ -127,8 +127,8 @@ def test_mp4_without_ffmpeg_says_so(tmp_path, capsys):
 
 # -- the film: every point of every frame from one kernel call, a traced point on its plate,
 # -- the signals' cursor where the frame's time is -------------------------------------------
-from grubler.animation import PLATE_COLOUR, CURSOR_COLOUR, Sketch, _Film, frame_rows  # noqa: E402
-from grubler.kinematics import link_points  # noqa: E402
+from grubler.views.animation import PLATE_COLOUR, CURSOR_COLOUR, Sketch, _Film, frame_rows  # noqa: E402
+from grubler.mechanism.kinematics import link_points  # noqa: E402
 
 
 @pytest.mark.parametrize("preset", ["watt-ii", "thesis-slider-crank", "thesis-trammel-driven"])
@@ -222,7 +222,7 @@ def test_mp4_frames_go_to_ffmpeg_whole(tmp_path, monkeypatch):
     fake.chmod(0o755)
     monkeypatch.setenv("PATH", f"{fake.parent}:/usr/bin:/bin")
     res = grubler.simulate("thesis-fourbar", t_end=0.4, dt_out=0.01, torque=3.0)
-    from grubler.animation import animate
+    from grubler.views.animation import animate
 
     out = tmp_path / "a.mp4"
     n = animate(res.model, res.t, res.z, str(out), fps=10)
@@ -235,7 +235,7 @@ def test_mp4_frames_go_to_ffmpeg_whole(tmp_path, monkeypatch):
 
 def test_the_gif_decodes_to_the_frames_drawn_though_it_stores_only_what_moved(tmp_path):
     from PIL import Image
-    from grubler.animation import animate, trace_path, trace_point
+    from grubler.views.animation import animate, trace_path, trace_point
 
     res = grubler.simulate("thesis-fourbar", t_end=1.0, dt_out=0.01, torque=3.0)
     m = res.model

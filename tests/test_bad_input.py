@@ -12,8 +12,8 @@ import pytest
 
 from grubler import GrublerError, SceneError
 from grubler import cosim, ssp
-from grubler.sizing import DutyCycle, size
-from grubler.sweep import run_sweep
+from grubler.studies.sizing import DutyCycle, size
+from grubler.studies.sweep import run_sweep
 
 from test_sizing import balanced_crank, toy_motor
 from test_sweep import counted

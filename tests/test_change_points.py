@@ -14,7 +14,7 @@ import scipy.integrate
 
 import grubler
 from grubler import Closure, Link, Mechanism
-from grubler.simulate import Simulator
+from grubler.mechanism.simulate import Simulator
 
 G = 9.81
 
@@ -156,7 +156,7 @@ def test_a_third_crank_keeps_the_parallelogram_as_data():
     scene = grubler.load_scene("coupling-rod")
     m = scene.mechanism
     assert m.mobility == 0
-    assert grubler.assembly.freedom(m, m.z_from_q(m.q_ref)) == 1
+    assert grubler.mechanism.assembly.freedom(m, m.z_from_q(m.q_ref)) == 1
     tau, theta0 = 10.0, math.pi / 3
     times = np.linspace(0.01, 4.0, 400)
     sim = Simulator(m, inputs=grubler.Inputs(tau), rtol=1e-11, atol=1e-11)
@@ -187,7 +187,7 @@ def test_the_coupling_rod_linearises_as_its_one_degree_of_freedom_model():
     # minimal coordinates with a redundant closure (the normal equations of the
     # consistent, taller-than-square dependent block): the rod-and-cranks model
     # 0.75 theta'' = tau - 1.75 g cos(theta) about its stable rest under 10 N m
-    from grubler.linearize import linearize
+    from grubler.studies.linearize import linearize
 
     sys = linearize("coupling-rod")
     theta = -math.acos(10.0 / (1.75 * G))

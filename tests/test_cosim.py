@@ -15,7 +15,7 @@ import pytest
 
 import grubler
 from grubler import cosim, ssp
-from grubler.dynamics import Inputs, forward_dynamics
+from grubler.mechanism.dynamics import Inputs, forward_dynamics
 
 ROOT = Path(__file__).parent.parent
 
@@ -129,7 +129,7 @@ def test_one_mechanism_co_simulated_is_the_library_run(mechanism_fmu, tmp_path):
     scene = grubler.load_scene("thesis-fourbar")
     m = scene.mechanism
     from dataclasses import replace
-    scene = grubler.scene.with_overrides(scene, mechanism=m.replace(
+    scene = grubler.mechanism.scene.with_overrides(scene, mechanism=m.replace(
         links=(replace(m.links[0], m=1.5),) + m.links[1:]))
     lib = grubler.simulate(scene, t_end=1.0, dt_out=0.01)
     assert np.allclose(got["t"], lib.t, atol=1e-12)
@@ -184,7 +184,7 @@ def test_a_bad_parameter_is_named_by_the_fmu_that_refused_it(mechanism_fmu, tmp_
 
 
 def test_report_and_animation_read_a_cosim_csv(mechanism_fmu, tmp_path):
-    from grubler.runs import coordinates, read_run_csv
+    from grubler.views.runs import coordinates, read_run_csv
 
     s = ssp.System("alone", stop_time=0.5, step=0.01)
     s.add("arm", mechanism_fmu)

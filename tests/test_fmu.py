@@ -50,7 +50,7 @@ def library(t_end, torque=3.0, dt_out=0.01, scene="thesis-fourbar", **link2):
     sc = grubler.load_scene(scene)
     if link2:
         m = sc.mechanism
-        sc = grubler.scene.with_overrides(sc, mechanism=m.replace(links=(replace(m.links[0], **link2),) + m.links[1:]))
+        sc = grubler.mechanism.scene.with_overrides(sc, mechanism=m.replace(links=(replace(m.links[0], **link2),) + m.links[1:]))
     return grubler.simulate(sc, t_end=t_end, dt_out=dt_out, torque=torque)
 
 

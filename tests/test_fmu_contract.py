@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from grubler.errors import SceneError
-from grubler.fmu_state import MAGIC, SlaveState, StateError, from_bytes, to_bytes
+from grubler.system.fmu_state import MAGIC, SlaveState, StateError, from_bytes, to_bytes
 
 HERE = Path(__file__).parent
 ERROR = "status 3 (error)"

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from fuzzing import (NASTY_TEXT, check_cli, examples, nasty_value, number_text, run_csv, ssd_text, ssp_archive,
                      toml_text)
-from grubler.scene import preset_text
+from grubler.mechanism.scene import preset_text
 
 PRESETS = ["thesis-fourbar", "thesis-slider-crank", "elliptic-trammel", "thesis-conchoidal"]
 

@@ -6,7 +6,7 @@ import scipy.integrate
 
 import grubler
 from grubler import Link, Mechanism, Simulator
-from grubler.integrators import Integrator, StateEquation
+from grubler.mechanism.integrators import Integrator, StateEquation
 
 PENDULUM = Mechanism(links=(Link("R", a=1.0, p=1.0, m=1.0),), q_ref=(0.0, -1.5))
 

@@ -6,7 +6,7 @@ import pytest
 import scipy.interpolate
 
 import grubler
-from grubler.inverse import drive_demand
+from grubler.mechanism.inverse import drive_demand
 
 
 def smooth_move(t):

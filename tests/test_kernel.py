@@ -10,7 +10,7 @@ from scipy.integrate._ivp import dop853_coefficients as dc
 import grubler
 from grubler import binding
 from grubler.errors import IntegrationError
-from grubler.simulate import Simulator
+from grubler.mechanism.simulate import Simulator
 
 
 def _table(ptr, count):
@@ -84,7 +84,7 @@ def test_kernel_refuses_times_out_of_order():
 def test_complex_step_derivatives_match_central_differences():
     # the equations compiled over complex numbers give d(ydot)/dy exactly; a
     # central difference (error ~ h^2) must agree with it to its own accuracy
-    from grubler.assembly import assemble
+    from grubler.mechanism.assembly import assemble
 
     m = grubler.load_scene("thesis-fourbar").mechanism
     n, lib = m.n_links, binding.library()

@@ -25,9 +25,9 @@ import scipy.optimize
 
 import grubler
 from grubler import SceneError
-from grubler.assembly import assemble, constraint
-from grubler.dynamics import Inputs, forward_dynamics, joint_reactions
-from grubler.linearize import linearize, operating_point, to_json
+from grubler.mechanism.assembly import assemble, constraint
+from grubler.mechanism.dynamics import Inputs, forward_dynamics, joint_reactions
+from grubler.studies.linearize import linearize, operating_point, to_json
 from grubler.motors import DCMotor, Gearbox, MotorState, load_motor, shaft_torque
 from grubler.motors import linearization as motor_linearization
 from grubler.motors import step as motor_step
@@ -44,7 +44,7 @@ def _motor(ratio=50.0):
 def test_parallelogram_swings_at_the_pendulum_frequency(tmp_path, length):
     # every moving mass of a parallelogram moves on a circle of the crank's radius,
     # synchronously: a simple pendulum of length l, omega = sqrt(g / l)
-    text = (grubler.scene.resources.files("grubler").joinpath("presets/fourbar-parallelogram.toml").read_text()
+    text = (grubler.mechanism.scene.resources.files("grubler").joinpath("presets/fourbar-parallelogram.toml").read_text()
             .replace("a = 1.0", f"a = {length}").replace("p = 1.0", f"p = {length}")
             .replace("p = 0.5", f"p = {length / 2}").replace("point = [1.0, 0.0]", f"point = [{length}, 0.0]"))
     path = tmp_path / "para.toml"

@@ -253,9 +253,9 @@ def test_value_references_agree_between_binary_and_description(host, built, name
 def test_the_library_and_the_fmu_build_the_same_tables_as_the_model_locks_coordinates():
     # grb_scene_tables (C) builds the kernel's tables for the library and the FMU
     # alike; the locked coordinates must be the Python model's own (q_from_z uses them)
-    from grubler.model import L_APRED, L_PARENT, L_SLIDE0, L_THETA0
+    from grubler.mechanism.model import L_APRED, L_PARENT, L_SLIDE0, L_THETA0
 
-    for preset in grubler.scene.preset_names():
+    for preset in grubler.mechanism.scene.preset_names():
         m = grubler.load_scene(preset).mechanism
         L = m.arrays.links
         assert np.array_equal(L[:, L_SLIDE0], m._q_locked[0::2]), preset
@@ -423,7 +423,7 @@ def test_many_instances_in_one_process(native, md):
     assert rows.shape == (30 * len(masses), 2)
     scene = grubler.load_scene("thesis-fourbar")
     for k, m in enumerate(masses):
-        sc = grubler.scene.override(scene, {"link2.m": m})
+        sc = grubler.mechanism.scene.override(scene, {"link2.m": m})
         lib = library_steps(sc, 0.01, 30, ("theta2",))
         np.testing.assert_allclose(rows[k:: len(masses)], lib, rtol=0, atol=MATCH)
 
@@ -804,7 +804,7 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
 @pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output"),
                                          (["bad.toml"], "link2.m")])
 def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
-    text = grubler.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
+    text = grubler.mechanism.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
     (tmp_path / "bad.toml").write_text(text)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", *args], capture_output=True, text=True,
                           cwd=tmp_path)

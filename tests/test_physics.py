@@ -13,7 +13,7 @@ import scipy.special
 
 import grubler
 from grubler import Closure, Link, Mechanism, Simulator
-from grubler.assembly import assemble
+from grubler.mechanism.assembly import assemble
 from reference import RefChain
 
 
@@ -167,7 +167,7 @@ def test_penalty_closure_converges_to_the_exact_one_as_the_gain_grows():
         cl = m.closures[0]
         stiff = m.replace(closures=(Closure(cl.kind, cl.link, cl.point, cl.to_link, cl.to_point,
                                             gain=gain, damping=100.0),), q_ref=tuple(m.q_from_z(z)))
-        res = grubler.simulate(grubler.scene.with_overrides(scene, mechanism=stiff), t_end=1.0, dt_out=0.01,
+        res = grubler.simulate(grubler.mechanism.scene.with_overrides(scene, mechanism=stiff), t_end=1.0, dt_out=0.01,
                                method="penalty", rtol=1e-8, atol=1e-10)
         errors.append(np.max(np.abs(res["theta2"] - exact["theta2"])))
         closure.append(np.max(res["closure_error"]))

@@ -6,7 +6,7 @@ import matplotlib.collections
 import numpy as np
 
 import grubler
-from grubler.plotting import ENVELOPE_BINS, panels_figure, result_figure
+from grubler.views.plotting import ENVELOPE_BINS, panels_figure, result_figure
 
 
 def _legend_labels(ax):

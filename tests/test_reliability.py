@@ -24,8 +24,8 @@ import pytest
 from grubler import GrublerError, SceneError, limits
 from grubler.cli import run
 from grubler.errors import InputError, LimitError
-from grubler.scene import load_scene, override, preset_text
-from grubler.sweep import run_sweep, scene_point
+from grubler.mechanism.scene import load_scene, override, preset_text
+from grubler.studies.sweep import run_sweep, scene_point
 
 ROOT = Path(__file__).parent.parent
 SSD_HEAD = ('<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription '
@@ -348,9 +348,9 @@ def test_a_long_dwell_does_not_hide_the_move(capsys):
 
 
 def test_a_need_that_is_not_a_number_never_fits(monkeypatch):
-    from grubler import sizing
+    from grubler.studies import sizing
     from grubler.motors import load_motor
-    from grubler.sizing import DutyCycle, size
+    from grubler.studies.sizing import DutyCycle, size
 
     m = load_scene("thesis-fourbar").mechanism
     cycle = DutyCycle.constant_speed(2 * np.pi, n=50)
@@ -486,7 +486,7 @@ def test_a_run_the_integrator_cannot_finish_names_the_integration(capsys, monkey
     # the kernel's 10-million-step guard stops it (after 90 s, too long for here: the guard's
     # message is fed instead, through the same simulate() and CLI layers)
     from grubler import IntegrationError
-    from grubler.simulate import Simulator
+    from grubler.mechanism.simulate import Simulator
 
     def stop(self, times):
         self.advance_to(float(times[1]))

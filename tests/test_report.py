@@ -16,8 +16,8 @@ from matplotlib.text import Text  # noqa: E402
 
 import grubler  # noqa: E402
 from grubler.cli import main  # noqa: E402
-from grubler.report import PAGE, energy_balance, key_numbers, report_figure  # noqa: E402
-from grubler.runs import read_run  # noqa: E402
+from grubler.views.report import PAGE, energy_balance, key_numbers, report_figure  # noqa: E402
+from grubler.views.runs import read_run  # noqa: E402
 
 
 def overlapping_texts(fig):

@@ -113,7 +113,7 @@ def test_the_shipped_ssd_is_what_its_example_script_writes(example):
     import importlib
 
     from grubler import ssp
-    from grubler.servo import servo_system
+    from grubler.system.servo import servo_system
 
     module = importlib.import_module(example)
     shipped = ssp.read(HERE.parent / "examples" / f"{example}.ssd")
@@ -134,7 +134,7 @@ def test_libcosim_runs_the_servo_from_its_file_alone_as_the_jacobi_master_does(f
     Jacobi: the same numbers to rounding over the example's whole 10 s."""
     pytest.importorskip("libcosimpy")
     from grubler import cosim, ssp
-    from grubler.servo import servo_system
+    from grubler.system.servo import servo_system
 
     # the shipped file carries the step where libcosim looks for it
     root = ET.parse(HERE.parent / "examples" / "servo_fourbar.ssd").getroot()
@@ -169,7 +169,7 @@ def test_libcosim_runs_the_servo_from_its_file_alone_as_the_jacobi_master_does(f
 
 def test_the_servo_plot_shows_the_tracking_error_on_its_own_axis_in_words(fmu_dir, tmp_path):
     from grubler import cosim
-    from grubler.servo import servo_system
+    from grubler.system.servo import servo_system
 
     res = cosim.run(servo_system(servo_fourbar.DESIGN, fmu_dir, name="servo_fourbar"), t_end=T_END)
     panels = dict(res.panels())

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import grubler
-from grubler.dynamics import Inputs, forward_dynamics
-from grubler.inverse import drive_demand
-from grubler.kinematics import chain_kinematics
-from grubler.scene import override
+from grubler.mechanism.dynamics import Inputs, forward_dynamics
+from grubler.mechanism.inverse import drive_demand
+from grubler.mechanism.kinematics import chain_kinematics
+from grubler.mechanism.scene import override
 from scipy.optimize import brentq
 
 from planar_bodies import Bodies, Body, Pin, dyad
@@ -146,7 +146,7 @@ def library_joints(model, z):
 
 def sketch(name):
     P = params(name)
-    th = grubler.scene.parse_angle_or_number(P["input_angle"], "input_angle")
+    th = grubler.mechanism.scene.parse_angle_or_number(P["input_angle"], "input_angle")
     return P, th
 
 
@@ -162,7 +162,7 @@ def test_loop_positions_follow_the_closed_form_dyads_around_the_crank(name):
     def miss(w):
         return max(np.linalg.norm(a - w[n]) for a, n in zip(library_joints(m, z), origins))
 
-    near = grubler.scene.parse_angle_or_number(P.get("coupler_angle", 0.0), "coupler_angle")
+    near = grubler.mechanism.scene.parse_angle_or_number(P.get("coupler_angle", 0.0), "coupler_angle")
     # which side each dyad is on at the start, read from the library's first assembly
     starts = {s: joints(name, P, th0, s, near) for s in ((1, 1), (1, -1), (-1, 1), (-1, -1))}
     signs = min((s for s in starts if starts[s] is not None), key=lambda s: miss(starts[s]))
@@ -274,7 +274,7 @@ def test_forward_then_inverse_dynamics_gives_back_the_applied_torque(name):
 
 @pytest.mark.parametrize("name", SIX)
 def test_ternary_links_are_drawn_as_plates_and_the_chain_is_named(name):
-    from grubler.animation import frame_geometry
+    from grubler.views.animation import frame_geometry
 
     m = grubler.load_scene(name).mechanism
     z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
@@ -288,7 +288,7 @@ def test_ternary_links_are_drawn_as_plates_and_the_chain_is_named(name):
 
 
 def test_an_input_angle_that_cannot_close_names_the_loop_and_its_triangle():
-    scene = grubler.scene.scene_from_dict({"mechanism": {
+    scene = grubler.mechanism.scene.scene_from_dict({"mechanism": {
         "type": "watt-ii", "crank": 0.1, "coupler": 0.35, "rocker": 0.25, "rocker_arm": 0.2, "rocker_web": 0.3,
         "coupler2": 0.2, "output": 0.2, "rocker_pivot": [0.3, 0.0], "output_pivot": [0.35, 0.4],
         "input_angle": "30 deg"}})
@@ -339,7 +339,7 @@ def test_info_at_an_angle_that_cannot_close_exits_with_the_loop_and_triangle(tmp
 def test_drive_demand_over_a_turn_at_constant_speed_does_no_net_work(name):
     # sizing's demand for a six-bar: undamped, the mechanism returns every joule
     # it takes over one crank turn, and the static part is the reference's statics
-    from grubler.sizing import DutyCycle, required_drive
+    from grubler.studies.sizing import DutyCycle, required_drive
 
     m = grubler.load_scene(name).mechanism
     start = m.q_ref[1]
@@ -359,14 +359,14 @@ def test_drive_demand_over_a_turn_at_constant_speed_does_no_net_work(name):
 
 def test_several_closures_are_overridden_table_by_table_and_errors_name_the_closure():
     base = {k: v for k, v in params("watt-ii").items()}
-    scene = grubler.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"gain": 5e4}]})
+    scene = grubler.mechanism.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"gain": 5e4}]})
     assert [c.gain for c in scene.mechanism.closures] == [1e4, 5e4]
     with pytest.raises(grubler.SceneError, match=r"closure: the builder makes 2 closures"):
-        grubler.scene.scene_from_dict({"mechanism": base, "closure": {"gain": 5e4}})
+        grubler.mechanism.scene.scene_from_dict({"mechanism": base, "closure": {"gain": 5e4}})
     with pytest.raises(grubler.SceneError, match=r"closure\[1\]\.link: must be a moving link 2\.\.6"):
-        grubler.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"link": True}]})
+        grubler.mechanism.scene.scene_from_dict({"mechanism": base, "closure": [{}, {"link": True}]})
     with pytest.raises(grubler.SceneError, match=r"closure\[0\]\.to_link"):
-        grubler.scene.scene_from_dict({"mechanism": base, "closure": [{"to_link": 9}, {}]})
+        grubler.mechanism.scene.scene_from_dict({"mechanism": base, "closure": [{"to_link": 9}, {}]})
     # one tuning for every loop, as a sweep or an FMU sets it
     tuned = override(scene, {"closure.gain": 2e5})
     assert [c.gain for c in tuned.mechanism.closures] == [2e5, 2e5]

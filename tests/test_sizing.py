@@ -11,10 +11,10 @@ import pytest
 import scipy.integrate
 
 import grubler
-from grubler.inverse import drive_demand
+from grubler.mechanism.inverse import drive_demand
 from grubler.motors import MotorData, load_motor
 from grubler.controllers import Trajectory
-from grubler.sizing import Control, DutyCycle, assess, periodic_temperature, required_drive, size
+from grubler.studies.sizing import Control, DutyCycle, assess, periodic_temperature, required_drive, size
 
 
 def toy_motor(**kw):
@@ -240,7 +240,7 @@ def test_a_long_rest_is_shortened_not_stepped_and_the_move_is_judged_the_same():
 
 
 def test_the_bound_for_cycles_too_long_to_step_bounds_the_stepped_loop(monkeypatch):
-    from grubler import sizing
+    from grubler.studies import sizing
 
     m, cycle = fourbar_move(0.5)
     motor = [load_motor("maxon-re40-148866")]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from grubler import GrublerError
-from grubler.sweep import grid, parse_axis, run_sweep, scene_point
+from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point
 
 CALLS = []
 

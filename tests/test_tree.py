@@ -15,7 +15,7 @@ import pytest
 
 import grubler
 from grubler import Link, Mechanism, Simulator
-from grubler.scene import scene_from_dict
+from grubler.mechanism.scene import scene_from_dict
 from planar_bodies import Bodies, Body, Pin, rot
 
 # link: (predecessor, a, p, q, m, I); link 4 sits 0.2 m across link 2's end, link 5

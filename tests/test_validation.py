@@ -171,7 +171,7 @@ def test_run_settings_are_checked():
 
 
 def test_angle_strings():
-    from grubler.scene import parse_angle_or_number as p
+    from grubler.mechanism.scene import parse_angle_or_number as p
 
     assert p("60 deg", "x") == pytest.approx(math.pi / 3)
     assert p("-2*pi/3", "x") == pytest.approx(-2 * math.pi / 3)
@@ -194,7 +194,7 @@ def test_docs_example_is_valid():
 
 
 def test_dotted_overrides_name_what_is_wrong():
-    from grubler.scene import override
+    from grubler.mechanism.scene import override
 
     scene = grubler.load_scene("thesis-fourbar")
     with pytest.raises(grubler.SceneError, match=r"link7\.m: no such parameter of this scene \(it has: gravity"):
@@ -234,7 +234,7 @@ def test_info_on_a_loop_that_closes_nowhere_gives_the_reason_alone(capsys, tmp_p
 
 def test_a_sweep_range_written_without_its_count_is_explained():
     from grubler.errors import InputError
-    from grubler.sweep import parse_axis
+    from grubler.studies.sweep import parse_axis
 
     with pytest.raises(InputError, match="START:STOP:N"):
         parse_axis("link2.a=0.3:0.1")

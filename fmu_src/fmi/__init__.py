@@ -11,4 +11,8 @@ writes such an FMU:
 - :mod:`grubler.fmi.description`: ``modelDescription.xml``;
 - :mod:`grubler.fmi.header`: ``sources/config.h``, the same layout for the C side;
 - :mod:`grubler.fmi.build`: compile, package, and :func:`export` a scene.
+
+May import: the base modules, :mod:`grubler.mechanism` and :mod:`grubler.motors`
+(a scene's or a data set's quantities become the FMU's parameters). Not the
+co-simulation, the studies or the CLI.
 """

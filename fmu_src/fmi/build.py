@@ -10,7 +10,7 @@ exported; the binary needs libc and libm, no Python.
 
 Examples
 --------
->>> from grubler.scene import load_scene
+>>> from grubler.mechanism.scene import load_scene
 >>> from grubler.fmi.mechanism import mechanism_spec
 >>> import tempfile, zipfile, pathlib
 >>> with tempfile.TemporaryDirectory() as d:
@@ -32,10 +32,12 @@ import zipfile
 from dataclasses import replace
 from pathlib import Path
 
-from ..errors import GrublerError, SceneError
-from .description import model_description
-from .header import config_header, variables_source
-from .variables import ModelSpec
+from grubler.errors import GrublerError, SceneError
+from grubler.fmi.description import model_description
+from grubler.fmi.header import config_header, variables_source
+from grubler.mechanism.scene import Scene, load_scene
+from grubler.fmi.mechanism import STANDARD_SCENE, fmu_parameters, mechanism_spec, same_shape
+from grubler.fmi.variables import ModelSpec
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
@@ -177,12 +179,31 @@ def export(scene, dest: Path | None = None, win64: bool | None = None) -> Path:
     dest : path, optional
         The ``.fmu`` to write (default: ``<scene name>.fmu`` in the working folder).
     """
-    from ..scene import Scene, load_scene
-    from .mechanism import mechanism_spec
-
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     dest = Path(dest) if dest is not None else Path(f"{scene.name or 'mechanism'}.fmu")
     if dest.suffix != ".fmu":
         raise SceneError("output", f"an FMU's file name ends in .fmu, got {dest.name!r}")
     return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, win64)
+
+
+def scene_fmu(scene: Scene, fmu_dir) -> tuple:
+    """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
+
+    ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
+    (three moving links, one closure: every four-link preset) through its
+    parameters.  A scene of another shape gets its own FMU, exported into
+    ``fmu_dir`` as ``Mechanism_<scene>.fmu``.
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        Every scene quantity, by FMU variable name (:func:`fmu_parameters`).
+    """
+    d = Path(fmu_dir)
+    if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
+        return d / "Mechanism.fmu", fmu_parameters(scene)
+    path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
+    export(scene, path)
+    return path, fmu_parameters(scene)

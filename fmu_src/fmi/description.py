@@ -13,8 +13,8 @@ from __future__ import annotations
 import datetime
 import xml.etree.ElementTree as ET
 
-from .. import __version__
-from .variables import ENUMERATION, INPUT, OUTPUT, PARAMETER, STRING, UNIT_OFFSET, UNITS, ModelSpec
+from grubler._version import __version__
+from grubler.fmi.variables import ENUMERATION, INPUT, OUTPUT, PARAMETER, STRING, UNIT_OFFSET, UNITS, ModelSpec
 
 LOG_CATEGORIES = {
     "logStatusWarning": "warnings: an output that could not be computed",

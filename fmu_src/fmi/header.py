@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 
-from .variables import CAUSALITY_CODE, TYPE_CODE, ModelSpec
+from grubler.fmi.variables import CAUSALITY_CODE, TYPE_CODE, ModelSpec
 
 
 def _c_string(s: str) -> str:

@@ -14,7 +14,7 @@ could branch.
 
 Examples
 --------
->>> from grubler.scene import load_scene
+>>> from grubler.mechanism.scene import load_scene
 >>> spec = mechanism_spec(load_scene("thesis-fourbar"))
 >>> spec.vr("link2.a") > 0, spec.defines["N_LINKS"]
 (True, 3)
@@ -24,12 +24,12 @@ Examples
 
 from __future__ import annotations
 
-from ..dynamics import observation_names
-from ..errors import SceneError
-from ..model import PRISMATIC, Mechanism
-from ..scene import Scene
-from ..simulate import DEFAULT_ATOL, DEFAULT_RTOL
-from .variables import ENUMERATION, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, EnumType, ModelSpec, Variable
+from grubler.mechanism.dynamics import observation_names
+from grubler.errors import SceneError
+from grubler.mechanism.model import PRISMATIC, Mechanism
+from grubler.mechanism.scene import Scene
+from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL
+from grubler.fmi.variables import ENUMERATION, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, EnumType, ModelSpec, Variable
 
 JOINT = EnumType("JointType", "which joint of a link's pair is real",
                  (("R", "revolute (existence factors 0, 1)"), ("P", "prismatic slide (existence factors 1, 0)")))
@@ -97,34 +97,6 @@ STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fm
 def same_shape(a: Mechanism, b: Mechanism) -> bool:
     """Whether one mechanism FMU serves both (same number of links and of closures)."""
     return (a.n_links, len(a.closures)) == (b.n_links, len(b.closures))
-
-
-def scene_fmu(scene: Scene, fmu_dir) -> tuple:
-    """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
-
-    ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
-    (three moving links, one closure: every four-link preset) through its
-    parameters.  A scene of another shape gets its own FMU, exported into
-    ``fmu_dir`` as ``Mechanism_<scene>.fmu``.
-
-    Returns
-    -------
-    path : Path
-    parameters : dict
-        Every scene quantity, by FMU variable name (:func:`fmu_parameters`).
-    """
-    from pathlib import Path
-
-    from ..scene import load_scene
-
-    d = Path(fmu_dir)
-    if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
-        return d / "Mechanism.fmu", fmu_parameters(scene)
-    from .build import export, identifier_for
-
-    path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
-    export(scene, path)
-    return path, fmu_parameters(scene)
 
 
 def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:

@@ -16,8 +16,8 @@ Examples
 
 from __future__ import annotations
 
-from ..errors import SceneError
-from .variables import INPUT, OUTPUT, PARAMETER, REAL, ModelSpec, Variable
+from grubler.errors import SceneError
+from grubler.fmi.variables import INPUT, OUTPUT, PARAMETER, REAL, ModelSpec, Variable
 
 DEFAULT_MOTOR = "maxon-re40-148877"
 

@@ -9,7 +9,7 @@
  * coordinate, rate, acceleration, force and energy, then the joint reactions.
  *
  * The parameters are validated here, with the library's messages naming the
- * field, because the library's checks are Python (grubler.model) and the FMU
+ * field, because the library's checks are Python (grubler.mechanism.model) and the FMU
  * runs without it.
  */
 #include <math.h>
@@ -124,7 +124,7 @@ static void closure_prefix(int j, char *buf, size_t size) {
 
 static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
 
-/* The checks grubler.model.Mechanism makes, with its messages. */
+/* The checks grubler.mechanism.model.Mechanism makes, with its messages. */
 static fmi2Status validate(grb_instance *inst) {
     const double *p = inst->p;
     char name[32];
@@ -295,7 +295,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     if (joint_index(inst, mm, "drive_joint", (int)p[SLOT_DRIVE_JOINT], &mm->m.drive) != fmi2OK) return fmi2Error;
     if (joint_index(inst, mm, "load_joint", (int)p[SLOT_LOAD_JOINT], &mm->m.load) != fmi2OK) return fmi2Error;
 
-    /* how to integrate: what grubler.simulate.Simulator sets up */
+    /* how to integrate: what grubler.mechanism.simulate.Simulator sets up */
     method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
     tableau = (int)p[SLOT_INTEGRATOR] == 2 ? GRB_RK45 : (int)p[SLOT_INTEGRATOR] == 3 ? GRB_RK4 : GRB_DOP853;
     mm->scale = 1.0;
@@ -379,7 +379,7 @@ fmi2Status model_start(grb_instance *inst) {
  * grb_observe's Fx, Fy, Mz), into out[3 (j - 1) ..]: from the multipliers the
  * forward dynamics grb_observe just ran left in the workspace's constraint-row
  * table (grb_work_layout; its columns lambda and the line normal are the
- * kernel's R_LAM and R_NORMAL, as grubler.simulate.closure_forces reads them). */
+ * kernel's R_LAM and R_NORMAL, as grubler.mechanism.simulate.closure_forces reads them). */
 enum { ROW_LAM = 3, ROW_NORMAL = 4 };
 
 static void closure_forces(const mech *mm, double *out) {
@@ -448,7 +448,7 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     }
     mm->s.tau_drive = drive;
     mm->s.tau_load = load;
-    /* as grubler.integrators.Integrator._advance: the counts are per advance */
+    /* as grubler.mechanism.integrators.Integrator._advance: the counts are per advance */
     clock.t = t;
     clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;

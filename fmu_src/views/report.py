@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from .model import Mechanism
+from grubler.mechanism.model import Mechanism
 
 RPM = 60.0 / (2.0 * math.pi)  # rpm per rad/s
 PAGE = (11.69, 8.27)  # inches: A4 landscape
@@ -136,7 +136,7 @@ def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[st
 
 def _draw_panel(ax, t, lines, scale: str) -> str:
     """One quantity against time; returns a note for the axis title ('' if none)."""
-    from .plotting import ENVELOPE_BINS, envelope
+    from grubler.views.plotting import ENVELOPE_BINS, envelope
 
     dense = len(t) > 2 * ENVELOPE_BINS
     note = ""
@@ -193,10 +193,10 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     ----------
     columns : dict of str to ndarray
         A run's columns in simulate vocabulary (``t`` required; see
-        :func:`grubler.runs.read_run`, which also reads cosim CSVs).
+        :func:`grubler.views.runs.read_run`, which also reads cosim CSVs).
     model : Mechanism, optional
         The mechanism the run is of: its name titles the page, and it is drawn
-        at four instants.  Check that it fits first (:func:`grubler.runs.check_fits`).
+        at four instants.  Check that it fits first (:func:`grubler.views.runs.check_fits`).
     source : str
         The CSV's path (its file name is quoted under the title).
     cosim : bool
@@ -207,7 +207,7 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .animation import Drawer, Sketch
+    from grubler.views.animation import Drawer, Sketch
 
     t = columns["t"]
     drive = model.drive if model is not None else next((c for c in ("theta2", "B1") if c in columns), None)
@@ -244,7 +244,7 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
                    color=GREY)
     elif len(t) > 1:
         first.set_xlim(t[0], t[-1])
-    from .plotting import ENVELOPE_BINS
+    from grubler.views.plotting import ENVELOPE_BINS
 
     if len(t) > 2 * ENVELOPE_BINS:
         right.suptitle(f"dense records: line = mean, band = min to max over {(t[-1] - t[0]) / ENVELOPE_BINS * 1e3:.3g}"
@@ -278,8 +278,8 @@ def _band(ax, y: float, step: float):
 
 def _instants(fig, model: Mechanism, columns, Drawer, Sketch) -> None:
     """The mechanism at four instants spread over the run, one view for all."""
-    from .animation import _view
-    from .runs import coordinates
+    from grubler.views.animation import _view
+    from grubler.views.runs import coordinates
 
     t = columns["t"]
     zs = coordinates(columns, model)

@@ -33,8 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import binding
-from .model import Mechanism
+from grubler import binding
+from grubler.mechanism.model import Mechanism
 
 # columns of the link table K (kernel/workspace.h): angle, rate, cos, sin, joint
 # point O_k, its bias acceleration, slide axis, slide and its rate; then the mass

@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 
-from .errors import GrublerError, InputError
-from .limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, PATH_CHARS, brief, read_text
-from .model import Mechanism
+from grubler.errors import GrublerError, InputError
+from grubler.limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, PATH_CHARS, brief, read_text
+from grubler.mechanism.model import Mechanism
 
 
 def mechanism_prefix(names: list[str]) -> str | None:
@@ -145,7 +145,7 @@ def column_unit(name: str, names) -> str:
     >>> column_unit("motor.current", ["t", "arm.theta2", "arm.closure_error"])
     ''
     """
-    from .simulate import unit_of
+    from grubler.mechanism.simulate import unit_of
 
     prefix = mechanism_prefix(list(names))
     leaf = name[len(prefix) + 1:] if prefix and name.startswith(prefix + ".") else (None if prefix else name)
@@ -159,7 +159,7 @@ def column_unit(name: str, names) -> str:
 
 def signal_names(spec: str, available, field: str = "--signals", limit: int | None = None) -> list[str]:
     """The comma-separated column names of ``spec``, each one of ``available`` (else refused, with a suggestion)."""
-    from .limits import did_you_mean
+    from grubler.limits import did_you_mean
 
     names = [n.strip() for n in spec.split(",") if n.strip()]
     if not names:
@@ -208,7 +208,7 @@ def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: 
     A slider-crank scene given for a four-bar run leaves its loop open by
     decimetres; the run's own scene closes it to rounding.
     """
-    from .assembly import constraint
+    from grubler.mechanism.assembly import constraint
 
     if not model.closures:
         return

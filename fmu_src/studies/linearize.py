@@ -40,13 +40,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import binding
-from .assembly import _scale, assemble, constraint, freedom, held_coordinates
-from .dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
-from .errors import SceneError
-from .model import Mechanism
-from .scene import Scene, load_scene
-from .simulate import Simulator, unit_of
+from grubler import binding
+from grubler.mechanism.assembly import _scale, assemble, constraint, freedom, held_coordinates
+from grubler.mechanism.dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
+from grubler.errors import SceneError
+from grubler.mechanism.model import Mechanism
+from grubler.mechanism.scene import Scene, load_scene
+from grubler.mechanism.simulate import Simulator, unit_of
 
 H_STEP = 1e-30  # complex step: any tiny h is exact; this one keeps h^2 far above underflow
 EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an equilibrium

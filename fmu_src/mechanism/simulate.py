@@ -2,7 +2,7 @@
 
 :class:`Simulator` is what the CLI, the FMU slave and the benchmarks drive: it
 holds the state of one run (joint coordinates and rates, the integrator, the
-current inputs) over an immutable :class:`~grubler.model.Mechanism`, advances to any
+current inputs) over an immutable :class:`~grubler.mechanism.model.Mechanism`, advances to any
 time, and evaluates only the output groups that are asked for.
 
 Examples
@@ -24,15 +24,15 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from . import binding
-from .assembly import POSITION_TOL, assemble
-from .analysis import explain_singular_start
-from .dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
-from .errors import IntegrationError, SceneError
-from .integrators import Integrator, StateEquation
-from .limits import check_size
-from .model import Mechanism, coordinate_names
-from .scene import Scene, load_scene
+from grubler import binding
+from grubler.mechanism.assembly import POSITION_TOL, assemble
+from grubler.mechanism.analysis import explain_singular_start
+from grubler.mechanism.dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
+from grubler.errors import IntegrationError, SceneError
+from grubler.mechanism.integrators import Integrator, StateEquation
+from grubler.limits import check_size
+from grubler.mechanism.model import Mechanism, coordinate_names
+from grubler.mechanism.scene import Scene, load_scene
 
 # Output groups.  One compiled forward-dynamics evaluation (about a microsecond)
 # serves 'state', 'dynamics' and 'energy' alike; only 'reactions' adds work, a

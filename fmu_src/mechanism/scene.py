@@ -24,44 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .builders import BUILDERS
-from .dynamics import METHODS
-from .errors import InputError, SceneError
-from .limits import brief, did_you_mean, number, parse_toml, read_text
-from .model import Closure, Link, Mechanism, coordinate_names
-
-_ANGLE = re.compile(
-    r"^\s*(?P<num>[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?)\s*(?P<unit>deg|degrees?|rad|°)?\s*$"
-)
-_PI = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<k>(\d+(\.\d*)?|\.\d+))?\s*\*?\s*pi\s*(/\s*(?P<d>\d+(\.\d*)?))?\s*$")
-
-
-def parse_angle_or_number(value, field: str) -> float:
-    """A number, or a string such as '60 deg', '1.2 rad', 'pi/3', '-2*pi/3'.
-
-    Whatever the spelling, the value goes through :func:`grubler.limits.number`:
-    finite and no larger in magnitude than :data:`grubler.limits.MAX_MAGNITUDE`.
-    """
-    if isinstance(value, str) and len(value) <= 64:
-        m = _ANGLE.match(value)
-        p = _PI.match(value)
-        if m:
-            v = float(m["num"])
-            if m["unit"] in ("deg", "degree", "degrees", "°"):
-                v = math.radians(v)
-        elif p:
-            v = math.pi * float(p["k"] or 1.0) / float(p["d"] or 1.0)
-            v = -v if p["sign"] == "-" else v
-        else:
-            raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
-        value = v
-    elif isinstance(value, str):
-        raise SceneError(field, f"cannot read {brief(value)} as a number or an angle ('60 deg', 'pi/3')")
-    try:
-        return number(value, field)
-    except InputError as exc:
-        raise SceneError(exc.field, exc.reason) from None
-
+from grubler.mechanism.builders import BUILDERS
+from grubler.mechanism.dynamics import METHODS
+from grubler.errors import InputError, SceneError
+from grubler.limits import brief, did_you_mean, number, parse_angle_or_number, parse_toml, read_text
+from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names
 
 @dataclass(frozen=True)
 class Scene:

@@ -2,7 +2,7 @@
 gearbox, and the mechanism, each its own FMU.
 
 The design is data (:class:`ServoDesign`); :func:`servo_system` turns it into a
-:class:`grubler.ssp.System` the co-simulation runner (or any SSP tool) runs.  The
+:class:`grubler.system.ssp.System` the co-simulation runner (or any SSP tool) runs.  The
 motor's rotor inertia is written into the mechanism's ``drive.inertia``
 (J_rotor N²), where it belongs for a stable coupling at ordinary steps.
 
@@ -31,7 +31,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .ssp import Plot, System
+from grubler.system.ssp import Plot, System
 
 
 def _default_trajectory() -> dict:
@@ -101,9 +101,9 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     System
     """
     from grubler.motors import DCMotor, Drive, Gearbox, load_motor
-    from .fmi.mechanism import scene_fmu
-    from .fmi.motor import motor_parameters
-    from .scene import load_scene
+    from grubler.fmi.build import scene_fmu
+    from grubler.fmi.motor import motor_parameters
+    from grubler.mechanism.scene import load_scene
 
     data = load_motor(design.motor)
     motor = DCMotor(data, Gearbox(design.gear_ratio, design.gear_efficiency),

@@ -1,7 +1,7 @@
 """Motor sizing: which motor and gear ratio a linkage's duty cycle needs, with what margin.
 
 The drive joint's duty cycle (a move profile repeated, a constant speed, or a
-recorded trajectory) and the loads give, by :func:`grubler.inverse.drive_demand`,
+recorded trajectory) and the loads give, by :func:`grubler.mechanism.inverse.drive_demand`,
 the torque and speed the drive joint needs over the cycle.  For each candidate
 motor and gear ratio the motor side follows without another simulation, because
 the rotor inertia enters the drive joint's equation linearly (``J N² a``) and the
@@ -49,10 +49,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SceneError
-from .limits import check_count, check_size, number
-from .inverse import DriveDemand, drive_demand
-from .model import Mechanism
+from grubler.errors import SceneError
+from grubler.limits import check_count, check_size, number
+from grubler.mechanism.inverse import DriveDemand, drive_demand
+from grubler.mechanism.model import Mechanism
 
 
 MAX_SAMPLES = 1e6  # samples of one duty cycle
@@ -267,7 +267,7 @@ class Control:
     The prediction (:func:`closed_loop_current`) and the co-simulated check
     (:func:`closed_loop_check`) both take the controller from here, so they
     judge the same servo.  :meth:`servo` is the servo co-simulation's own
-    (:class:`grubler.servo.ServoDesign`'s PID and encoder) with feedforward.
+    (:class:`grubler.system.servo.ServoDesign`'s PID and encoder) with feedforward.
     """
 
     pid: dict
@@ -276,7 +276,7 @@ class Control:
 
     @classmethod
     def servo(cls) -> "Control":
-        from .servo import ServoDesign
+        from grubler.system.servo import ServoDesign
 
         d = ServoDesign()
         return cls(dict(d.pid), dict(d.encoder), True)
@@ -647,7 +647,7 @@ class SizingStudy:
 
     def plot(self, path) -> None:
         """Duty-cycle points over each motor's envelopes, and margin against gear ratio."""
-        from .plotting import plt
+        from grubler.views.plotting import plt
 
         motors = list(dict.fromkeys(a.candidate.motor.name for a in self.assessments))
         n = len(motors) + 1
@@ -832,7 +832,7 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
                       step: float = 1e-3) -> CheckResult:
     """Run a candidate in the servo co-simulation and judge it on every limit.
 
-    The servo (:mod:`grubler.servo`) follows ``trajectory`` (Trajectory FMU
+    The servo (:mod:`grubler.system.servo`) follows ``trajectory`` (Trajectory FMU
     parameters describing the same duty cycle) with the controller the
     prediction used (the assessment's :class:`Control`, else
     :meth:`Control.servo`); the first period is the start-up and is left out.
@@ -847,8 +847,8 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
         temperature rise): predicted, co-simulated, their difference, margin
         and verdict.
     """
-    from .cosim import run
-    from .servo import ServoDesign, servo_system
+    from grubler.system.cosim import run
+    from grubler.system.servo import ServoDesign, servo_system
 
     c = assessment.candidate
     data = c.motor

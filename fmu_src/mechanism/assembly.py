@@ -23,10 +23,10 @@ import ctypes
 
 import numpy as np
 
-from . import binding
-from .analysis import explain_unclosable
-from .errors import AssemblyError
-from .model import Mechanism
+from grubler import binding
+from grubler.mechanism.analysis import explain_unclosable
+from grubler.errors import AssemblyError
+from grubler.mechanism.model import Mechanism
 
 POSITION_TOL = 1e-12  # m (or rad): loop closure reached by assembly and projection (kernel/closure.c)
 

@@ -18,7 +18,7 @@ What it does that a bare loop does not:
 
 Examples
 --------
->>> from grubler.ssp import System
+>>> from grubler.system.ssp import System
 >>> s = System("empty")
 >>> check(s, {}) == []
 True
@@ -36,10 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import GrublerError, InputError
-from .limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
+from grubler.errors import GrublerError, InputError
+from grubler.limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
                      temp_dir)
-from .ssp import System, SystemDescriptionError, read
+from grubler.system.interface import FmuInterface, Port, units_compatible
+from grubler.system.ssp import System, SystemDescriptionError, read
 
 GAUSS_SEIDEL = "gauss-seidel"
 JACOBI = "jacobi"
@@ -50,98 +51,15 @@ class CosimError(GrublerError):
     """A co-simulation that failed while running: names the component and time."""
 
 
-# -- what the master needs to know of an FMU ---------------------------------------
-@dataclass(frozen=True)
-class Port:
-    """One variable of an FMU, as the master sees it."""
-
-    name: str
-    vr: int
-    causality: str
-    type: str
-    unit: str  # '' when unknown
-    description: str
-
-
-@dataclass
-class FmuInterface:
-    """The parts of a model description a master uses."""
-
-    path: Path
-    model_description: object
-    ports: dict[str, Port]
-    feedthrough: dict[str, set[str] | None]  # output -> inputs it depends on now (None: unknown = all)
-
-    @staticmethod
-    def of(path: Path, unzipdir: Path | None = None) -> "FmuInterface":
-        """The interface of the FMU at ``path`` (read from ``unzipdir`` when it is unpacked there)."""
-        from fmpy import read_model_description
-
-        md = read_model_description(str(unzipdir or path), validate=False)
-        if md.coSimulation is None:
-            raise SystemDescriptionError(f"{path.name}: not a co-simulation FMU")
-        ports = {}
-        for v in md.modelVariables:
-            unit = v.unit or (v.declaredType.unit if v.declaredType is not None else None) or _bracket_unit(
-                v.description or "")
-            ports[v.name] = Port(v.name, v.valueReference, v.causality, v.type, unit or "", v.description or "")
-        feed = {}
-        for out in md.outputs:
-            deps = out.dependencies
-            feed[out.variable.name] = None if deps is None else {
-                d.name for d in deps if d.causality == "input"}
-        return FmuInterface(path, md, ports, feed)
-
-
 # string parameters of the pythonfmu plant FMUs that the native ones replace by
 # their quantities: what an SSD written for those should set instead
 _RETIRED = {
     "mechanism": " (the native Mechanism.fmu takes the scene's quantities as parameters: "
-                 "grubler.fmi.mechanism.fmu_parameters(scene) gives them; rewrite the system with grubler.servo "
+                 "grubler.fmi.mechanism.fmu_parameters(scene) gives them; rewrite the system with grubler.system.servo "
                  "or set them)",
     "motor": " (the native DCMotor.fmu takes the data set's numbers as parameters: "
              "grubler.fmi.motor.motor_parameters(name) gives them)",
 }
-
-
-def _bracket_unit(description: str) -> str | None:
-    # the project's convention for pythonfmu FMUs: the description ends in [unit]
-    m = re.search(r"\[([^\[\]]+)\]\s*$", description)
-    return m.group(1).strip() if m else None
-
-
-def _unit_alternatives(unit: str) -> set[str]:
-    """'rad or m' and 'N m, or N on a slide' name alternatives; normalise spellings."""
-    parts = re.split(r",|\bor\b", unit)
-    out = set()
-    for p in parts:
-        p = p.strip()
-        p = re.sub(r"\bon a slide\b|\bon a prismatic joint\b", "", p).strip()
-        p = p.replace("*", " ").replace(".", " ").replace("·", " ")
-        p = re.sub(r"\s+", " ", p)
-        if p in ("Nm",):
-            p = "N m"
-        if p in ("-", ""):
-            p = "1" if p == "-" else ""
-        if p:
-            out.add(p)
-    return out
-
-
-def units_compatible(a: str, b: str) -> bool:
-    """True when either unit is unknown or generic (``any``), or they share a spelling.
-
-    Examples
-    --------
-    >>> units_compatible("N m", "N.m"), units_compatible("rad or m", "rad"), units_compatible("A", "V")
-    (True, True, False)
-    """
-    if not a or not b:
-        return True
-    ua, ub = _unit_alternatives(a), _unit_alternatives(b)
-    if not ua or not ub or "any" in ua or "any" in ub:
-        return True
-    return bool(ua & ub)
 
 
 # -- checking and ordering -----------------------------------------------------------
@@ -275,7 +193,7 @@ class CosimResult:
 
     def plot(self, path: str | Path) -> None:
         """Draw :meth:`panels` to ``path``, sharing the time axis."""
-        from .plotting import plot_panels
+        from grubler.views.plotting import plot_panels
 
         plot_panels(self.t, self.panels(), path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
 
@@ -304,7 +222,7 @@ class CosimResult:
 
 def _default_panels(res: CosimResult):
     """The connected outputs, one panel per unit, labelled by their FMUs' descriptions."""
-    from .ssp import Plot
+    from grubler.system.ssp import Plot
 
     words: dict[str, str] = {}
     for name, comp in res.system.components.items():

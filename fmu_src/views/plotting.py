@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np  # noqa: E402
 
-from .simulate import Result, unit_of  # noqa: E402
+from grubler.mechanism.simulate import Result, unit_of  # noqa: E402
 
 
 # A curve with more samples than this is drawn as its min/max envelope over

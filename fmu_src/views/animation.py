@@ -2,7 +2,7 @@
 
 The geometry of a frame comes from the same kinematics the simulator integrates:
 the points a drawing needs are fixed to links (:class:`Sketch`), and one kernel
-call (:func:`grubler.kinematics.link_points`) places them at every instant.  This
+call (:func:`grubler.mechanism.kinematics.link_points`) places them at every instant.  This
 module only decides how each part looks: links as bars, a link with three or
 more joints (or a traced point off its line) as a filled plate, revolute joints
 as circles, prismatic joints as a block on its guide with the guide's axis drawn,
@@ -29,10 +29,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, Polygon  # noqa: E402
 
-from .errors import InputError, SceneError  # noqa: E402
-from .limits import brief, check_size, number  # noqa: E402
-from .kinematics import link_points  # noqa: E402
-from .model import PRISMATIC, Mechanism  # noqa: E402
+from grubler.errors import InputError, SceneError  # noqa: E402
+from grubler.limits import brief, check_size, number  # noqa: E402
+from grubler.mechanism.kinematics import link_points  # noqa: E402
+from grubler.mechanism.model import PRISMATIC, Mechanism  # noqa: E402
 
 LINK_COLOUR = "#1f4e79"
 JOINT_COLOUR = "#d62728"  # used for revolute joints only: tests find them by it
@@ -63,7 +63,7 @@ class Sketch:
 
     The points (joint centres, link ends, closure points, a traced point, and
     two unit directions per link for the slide axes) are fixed to their links,
-    so one kernel call (:func:`grubler.kinematics.link_points`) places them at
+    so one kernel call (:func:`grubler.mechanism.kinematics.link_points`) places them at
     every instant of a trajectory; :meth:`geometry` turns one instant's
     positions into the drawing primitives.
     """
@@ -525,7 +525,7 @@ class _Film:
 
 def _plot_signal(ax, t: np.ndarray, values: np.ndarray) -> None:
     """A strip's curve: as it is, or its min/max band and mean where denser than the strip can show."""
-    from .plotting import ENVELOPE_BINS, envelope
+    from grubler.views.plotting import ENVELOPE_BINS, envelope
 
     if len(t) > 2 * ENVELOPE_BINS:
         tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)

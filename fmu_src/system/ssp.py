@@ -35,8 +35,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from .errors import GrublerError, InputError
-from .limits import PATH_CHARS, brief, clip, extract_zip, number, read_bytes, remove_temp_dir, temp_dir
+from grubler.errors import GrublerError, InputError, SystemDescriptionError
+from grubler.system.interface import FmuInterface
+from grubler.limits import PATH_CHARS, brief, clip, extract_zip, number, read_bytes, remove_temp_dir, temp_dir
 
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -63,10 +64,6 @@ _BASE_UNITS = {
     "H": {"kg": 1, "m": 2, "s": -2, "A": -2}, "degC": {"K": 1}, "K": {"K": 1},
     "kg m2": {"kg": 1, "m": 2}, "kg": {"kg": 1},
 }
-
-
-class SystemDescriptionError(GrublerError):
-    """A system description that cannot be run: names the element and the reason."""
 
 
 @dataclass
@@ -145,7 +142,7 @@ class System:
         The default experiment (``step`` is the communication step).
     order : list of str, optional
         The components' stepping order, when the system's author knows better
-        than the runner's default (see :func:`grubler.cosim.order`).
+        than the runner's default (see :func:`grubler.system.cosim.order`).
     plots : list of Plot
     description : str
     base : Path or None
@@ -279,8 +276,6 @@ class System:
 
         Units come from the FMUs where they can be read (see the module's notes).
         """
-        from .cosim import FmuInterface
-
         ports = {}
         for n, c in self.components.items():
             try:

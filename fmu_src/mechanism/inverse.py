@@ -27,11 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import assemble
-from .dynamics import Inputs, inverse_dynamics
-from .errors import SceneError
-from .kinematics import chain_kinematics, closure_kinematics
-from .model import Mechanism
+from grubler.mechanism.assembly import assemble
+from grubler.mechanism.dynamics import Inputs, inverse_dynamics
+from grubler.errors import SceneError
+from grubler.mechanism.kinematics import chain_kinematics, closure_kinematics
+from grubler.mechanism.model import Mechanism
 
 
 @dataclass

@@ -18,23 +18,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from grubler.mechanism.model import kutzbach_mobility  # the count lives with the model it counts
+
 if TYPE_CHECKING:  # pragma: no cover
-    from .model import Mechanism
-
-
-def kutzbach_mobility(n_bodies: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
-    """Planar Grübler/Kutzbach mobility, M = 3 (n - 1) - 2 j1 - j2.
-
-    Parameters
-    ----------
-    n_bodies : int
-        Links, the ground included.
-    n_lower_pairs : int
-        One-freedom joints (revolute, prismatic).
-    n_higher_pairs : int
-        Two-freedom joints (cam, rolling with slip).
-    """
-    return 3 * (n_bodies - 1) - 2 * n_lower_pairs - n_higher_pairs
+    from grubler.mechanism.model import Mechanism
 
 
 @dataclass(frozen=True)
@@ -189,7 +176,7 @@ def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
         return (f"the longest link ({ordered[-1]:.6g} m) is not shorter than the other three together "
                 f"({sum(ordered[:-1]):.6g} m), so no position closes")
     if model.free_names and held and model.free_names[held[0]] == "theta2" and model.links[0].joint == "R":
-        from .kinematics import chain_kinematics
+        from grubler.mechanism.kinematics import chain_kinematics
 
         pin = chain_kinematics(model, np.asarray(z0, float), np.zeros(model.n_links)).origin[1]
         diag = float(np.linalg.norm(np.asarray(model.closures[0].to_point) - pin))
@@ -210,7 +197,7 @@ def explain_singular_start(model: "Mechanism", z, zd, method: str) -> str:
     """
     from dataclasses import replace
 
-    from .dynamics import Inputs, forward_dynamics
+    from grubler.mechanism.dynamics import Inputs, forward_dynamics
 
     scale = max([1.0] + [link.m * link.a**2 for link in model.links])
     for k, link in enumerate(model.links):
@@ -327,7 +314,7 @@ def dyad_reason(model: "Mechanism", z0, held: list[int]) -> str:
     fixed, and the triangle they make with the two links' pin-to-pin lengths must
     exist.  The branch of each dyad that closes is the one nearest the sketch.
     """
-    from .kinematics import chain_kinematics
+    from grubler.mechanism.kinematics import chain_kinematics
 
     if not held or any(l.joint != "R" for l in model.links) or any(c.kind != "revolute" for c in model.closures):
         return ""

@@ -32,8 +32,8 @@ import threading
 from pythonfmu import Boolean, Fmi2Slave, Integer, Real, String
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 
-from grubler.fmu_loader import module_digest
-from grubler.fmu_state import SlaveState, StateError, from_bytes, to_bytes
+from grubler.system.fmu_loader import module_digest
+from grubler.system.fmu_state import SlaveState, StateError, from_bytes, to_bytes
 
 
 class DeclaredDependencies(Fmi2Slave):
@@ -82,7 +82,7 @@ class ProjectSlave(DeclaredDependencies):
     its rollback payload from :meth:`_save_state` and takes it back in
     :meth:`_load_state`; the base wraps it with the instance's identity
     (model, code digest, parameter values) and serialises it with
-    :mod:`grubler.fmu_state` (never pickle).  A state set before initialisation
+    :mod:`grubler.system.fmu_state` (never pickle).  A state set before initialisation
     is applied when initialisation ends.
 
     Attributes
@@ -133,7 +133,7 @@ class ProjectSlave(DeclaredDependencies):
 
     # -- state (subclasses) -------------------------------------------------------
     def _save_state(self):
-        """Everything a rollback needs, as plain data (see :mod:`grubler.fmu_state`)."""
+        """Everything a rollback needs, as plain data (see :mod:`grubler.system.fmu_state`)."""
         return {}
 
     def _load_state(self, payload) -> None:

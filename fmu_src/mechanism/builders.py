@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from .errors import SceneError
-from .limits import brief, did_you_mean
+from grubler.errors import SceneError
+from grubler.limits import brief, did_you_mean, parse_angle_or_number
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
 BUILDER_DOCS: dict[str, str] = {}
@@ -58,8 +58,6 @@ class _Params:
         return v
 
     def number(self, key: str) -> float:
-        from .scene import parse_angle_or_number
-
         return parse_angle_or_number(self.values[key], f"{self.prefix}.{key}")
 
     def angle(self, key: str) -> float:
@@ -403,8 +401,6 @@ def _point(p: _Params, key: str) -> tuple[float, float]:
     v = p.values[key]
     if not (isinstance(v, (list, tuple)) and len(v) == 2):
         raise SceneError(f"{p.prefix}.{key}", f"must be [x, y], got {v!r}")
-    from .scene import parse_angle_or_number
-
     return (parse_angle_or_number(v[0], f"{p.prefix}.{key}"), parse_angle_or_number(v[1], f"{p.prefix}.{key}"))
 
 

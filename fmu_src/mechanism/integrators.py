@@ -33,10 +33,10 @@ from typing import Callable
 
 import numpy as np
 
-from . import binding
-from .dynamics import EXACT, METHOD_CODE
-from .errors import IntegrationError
-from .model import Mechanism
+from grubler import binding
+from grubler.mechanism.dynamics import EXACT, METHOD_CODE
+from grubler.errors import IntegrationError
+from grubler.mechanism.model import Mechanism
 
 # the kernel's explicit methods, and the implicit ones for stiff problems (high
 # penalty gains), run by scipy

@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import GrublerError, InputError
-from .limits import MAX_POINTS, MAX_TABLE_BYTES, brief, check_count, clip, decode_text, number, read_bytes
+from grubler.errors import GrublerError, InputError
+from grubler.limits import MAX_POINTS, MAX_TABLE_BYTES, brief, check_count, clip, decode_text, number, read_bytes
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
@@ -410,7 +410,7 @@ def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol:
     method : {'exact', 'penalty'}, optional
     rtol : float
     **params
-        Dotted parameters (see :func:`grubler.scene.parameter_names`).
+        Dotted parameters (see :func:`grubler.mechanism.scene.parameter_names`).
 
     Returns
     -------
@@ -421,9 +421,9 @@ def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol:
         rule's error on the work over the output grid),
         ``run_seconds``.
     """
-    from .report import energy_balance
-    from .scene import load_scene, override
-    from .simulate import simulate
+    from grubler.views.report import energy_balance
+    from grubler.mechanism.scene import load_scene, override
+    from grubler.mechanism.simulate import simulate
 
     sc = override(load_scene(scene), params)
     t0 = time.perf_counter()

@@ -10,7 +10,7 @@ its angle relative to the predecessor.  Closures tie a point of one link to a po
 (revolute) or a line (prismatic) of another, usually the chain's tip to the ground.
 
 The model never changes during a run; everything that does lives in the state
-(:mod:`grubler.state`).  The integrated coordinates ``z`` are the joint variables of
+(a :class:`~grubler.mechanism.simulate.Simulator` holds it).  The integrated coordinates ``z`` are the joint variables of
 the real joints only: a slide's ``B`` or a revolute's angle relative to its
 predecessor.  The thesis's absolute coordinates ``q`` (B1, theta2, B2, theta3, ...)
 are the affine image ``q = q_locked + S z``.
@@ -24,16 +24,31 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import binding
-from .analysis import kutzbach_mobility
-from .errors import InputError, SceneError
-from .limits import number
+from grubler import binding
+from grubler.errors import InputError, SceneError
+from grubler.limits import number
 
 G_STANDARD = 9.81
 
 REVOLUTE = "R"
 PRISMATIC = "P"
 MAX_LINKS = 64  # moving links a chain may have: the kernel's GRB_MAX_LINKS
+
+
+
+def kutzbach_mobility(n_bodies: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
+    """Planar Grübler/Kutzbach mobility, M = 3 (n - 1) - 2 j1 - j2.
+
+    Parameters
+    ----------
+    n_bodies : int
+        Links, the ground included.
+    n_lower_pairs : int
+        One-freedom joints (revolute, prismatic).
+    n_higher_pairs : int
+        Two-freedom joints (cam, rolling with slip).
+    """
+    return 3 * (n_bodies - 1) - 2 * n_lower_pairs - n_higher_pairs
 
 
 @dataclass(frozen=True)

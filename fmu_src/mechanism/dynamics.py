@@ -22,7 +22,7 @@ Examples
 >>> import numpy as np
 >>> from grubler import load_scene
 >>> m = load_scene("thesis-fourbar").mechanism
->>> from grubler.assembly import assemble
+>>> from grubler.mechanism.assembly import assemble
 >>> z, zd = assemble(m, m.z_from_q(m.q_ref))
 >>> dyn = forward_dynamics(m, z, zd, Inputs())
 >>> dyn.zdd.shape, dyn.lam.shape
@@ -40,8 +40,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import binding
-from .kinematics import (
+from grubler import binding
+from grubler.mechanism.kinematics import (
     K_CBX,
     K_CBY,
     K_CX,
@@ -53,7 +53,7 @@ from .kinematics import (
     evaluate_into,
     tables,
 )
-from .model import Mechanism, coordinate_names
+from grubler.mechanism.model import Mechanism, coordinate_names
 
 EXACT = "exact"
 PENALTY = "penalty"

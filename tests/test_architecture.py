@@ -1,0 +1,147 @@
+"""The package's import graph: no cycles, and no layer imports one above it.
+
+Every import statement counts, those inside functions too: a deferred import
+hides a cycle from Python's loader, not from a reader. The layers, lowest
+first, are the table below; docs/architecture.md draws them.
+"""
+
+import ast
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# (layer, the modules and folders in it), lowest first. A module may import its
+# own folder and any lower layer; within a layer, only its own folder (the base
+# and front layers are loose modules, which may import each other).
+LAYERS = [
+    ("base", ["grubler._version", "grubler.errors", "grubler.limits", "grubler.binding"]),
+    ("mechanism", ["grubler.mechanism", "grubler.motors"]),
+    ("views", ["grubler.views"]),
+    ("fmi", ["grubler.fmi"]),
+    ("system", ["grubler.system"]),
+    ("controllers", ["grubler.controllers"]),
+    ("studies", ["grubler.studies"]),
+    ("front", ["grubler", "grubler.cli", "grubler.app"]),
+]
+
+
+def modules() -> dict[str, Path]:
+    """Every module of the installed layout, by dotted name, from pyproject's package-dir."""
+    dirs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+    found = {}
+    for pkg, folder in sorted(dirs.items(), key=lambda kv: -len(kv[0])):
+        for f in (ROOT / folder).rglob("*.py"):
+            parts = list(f.relative_to(ROOT / folder).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found.setdefault(".".join([pkg, *parts]), f)
+    return found
+
+
+def imports(name: str, path: Path, known) -> set[str]:
+    """The grubler modules ``name`` imports, wherever in the file."""
+    is_pkg = path.name == "__init__.py"
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.split(".")[0] == "grubler")
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = name.split(".") if is_pkg else name.split(".")[:-1]
+                base = base[:len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != "grubler":
+                continue
+            for a in node.names:  # 'from grubler.system import cosim' imports the module cosim
+                out.add(f"{target}.{a.name}" if f"{target}.{a.name}" in known else target)
+    return {m for m in out if m in known and m != name}
+
+
+def graph():
+    known = modules()
+    return {name: imports(name, path, known) for name, path in known.items()}
+
+
+def layer_of(name: str) -> tuple[int, str]:
+    """(layer index, the folder that places it) for a module."""
+    best = None
+    for k, (_, members) in enumerate(LAYERS):
+        for m in members:
+            if (name == m or name.startswith(m + ".")) and (best is None or len(m) > len(best[1])):
+                best = (k, m)
+    assert best is not None, f"{name} is in no layer: add it to LAYERS"
+    return best
+
+
+def cycles(edges) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_every_module_is_in_a_layer():
+    for name in modules():
+        layer_of(name)
+
+
+def test_no_import_cycles():
+    assert cycles(graph()) == []
+
+
+def test_no_module_imports_a_layer_above_it_or_a_sibling_folder():
+    bad = []
+    for src, targets in graph().items():
+        (ls, fs) = layer_of(src)
+        for dst in targets:
+            (ld, fd) = layer_of(dst)
+            # the base and front layers are loose modules; elsewhere a layer's
+            # folders (mechanism and motors) stay apart
+            if ld > ls or (ld == ls and fd != fs and LAYERS[ls][0] not in ("base", "front")):
+                bad.append(f"{src} ({LAYERS[ls][0]}) imports {dst} ({LAYERS[ld][0]})")
+    assert bad == []
+
+
+def test_the_checks_catch_what_they_are_for():
+    # the test's own machinery, on a graph made to break each rule
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert layer_of("grubler.views.report") > layer_of("grubler.mechanism.scene")
+    assert layer_of("grubler.motors.dc_motor")[0] == layer_of("grubler.mechanism.model")[0]
+    known = modules()
+    src = ROOT / "fmu_src" / "mechanism" / "model.py"
+    assert "grubler.errors" in imports("grubler.mechanism.model", src, known)
+
+
+def test_every_folder_says_what_lives_there_and_what_it_may_import():
+    for name, path in modules().items():
+        if path.name == "__init__.py" and name != "grubler":
+            doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+            assert "May import" in doc or "may import" in doc, f"{name}: its docstring names no allowed imports"
