@@ -38,20 +38,19 @@
 #define NC N_CLOSURES
 #define NS (2 * N_LINKS)
 
-/* the model's part of the persistent block, after the parameter and input slots */
-enum {
-    P_STARTED = GRB_MODEL_BASE, /* 1: the block holds a started run (initialised or restored) */
-    P_T,                        /* time of the state */
-    P_H,                        /* the integrator's next step */
-    P_HAVE_F,                   /* f holds ydot at (t, y) */
-    P_STEPS, P_REJECTED, P_EVALS,
-    P_PASSAGES,                 /* change points passed */
-    P_KAPPA_SEEN,               /* the best closure conditioning the run has seen (grb_clock) */
-    P_DRIVE_USED, P_LOAD_USED,  /* the efforts f was computed with */
-    P_Y,                        /* y = (z, zd), 2N */
-    P_F = P_Y + NS,             /* f = ydot, 2N */
-    P_STEPPER = P_F + NS        /* the integrator's own workspace */
-};
+/* The model's part of the persistent block, after the parameter and input
+ * slots: its fields' indices P_* come with config.h, from the ModelSpec's state
+ * layout (grubler.fmi.mechanism.run_state):
+ *   P_STARTED     1: the block holds a started run (initialised or restored)
+ *   P_T           time of the state
+ *   P_H           the integrator's next step
+ *   P_HAVE_F      f holds ydot at (t, y)
+ *   P_STEPS, P_REJECTED, P_EVALS, P_PASSAGES (change points passed): counts
+ *   P_KAPPA_SEEN  the best closure conditioning the run has seen (grb_clock)
+ *   P_DRIVE_USED, P_LOAD_USED  the efforts f was computed with
+ *   P_Y           y = (z, zd), 2N
+ *   P_F           f = ydot, 2N
+ *   P_STEPPER     the integrator's own workspace (written before it is read) */
 
 enum { LEVEL_DRIVE = 1, LEVEL_OBSERVE = 2, LEVEL_REACTIONS = 3 };
 
@@ -124,10 +123,13 @@ static void closure_prefix(int j, char *buf, size_t size) {
 
 static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
 
-/* The checks grubler.model.Mechanism makes, with its messages. */
-static fmi2Status validate(grb_instance *inst) {
-    const double *p = inst->p;
+/* The checks grubler.model.Mechanism and grubler.scene make, with their
+ * messages, then those of a started run's state.  The integer and string
+ * parameters are in range here (the wrapper's value_ok, on both paths), so
+ * their casts to int are safe. */
+fmi2Status model_check(grb_instance *inst, const double *p) {
     char name[32];
+    int revolute[N], q_index[N];
     int i, j, k;
     for (k = 0; k < MODEL_N_STORED; k++)
         if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE) {
@@ -218,22 +220,65 @@ static fmi2Status validate(grb_instance *inst) {
     if (p[SLOT_DRIVE_INERTIA] < 0) BAD("drive.inertia: must be >= 0, got %g", p[SLOT_DRIVE_INERTIA]);
     if (p[SLOT_DRIVE_INERTIA] > 0 && (int)p[SLOT_DRIVE_JOINT] == 0)
         BAD("drive.inertia: a drive inertia needs the joint it acts on (drive_joint)");
+    for (i = 0; i < N; i++) revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
+    grb_real_coordinates(N, revolute, q_index);
+    {
+        /* the efforts act on real joints (grubler.model.Mechanism.free_index) */
+        static const char *const effort[2] = {"drive_joint", "load_joint"};
+        const int slot[2] = {SLOT_DRIVE_JOINT, SLOT_LOAD_JOINT};
+        char buf[32], real[32];
+        for (k = 0; k < 2; k++) {
+            int q = (int)p[slot[k]] - 1;  /* choice 0: none */
+            if (q >= 0 && q_index[q / 2] != q)
+                BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", effort[k],
+                    coordinate_name(q, buf, sizeof buf), q / 2 + 2,
+                    coordinate_name(q_index[q / 2], real, sizeof real));
+        }
+        /* a locked coordinate cannot move (grubler.scene): a locked slide's rate is 0; a
+         * locked angle's absolute rate is its predecessor's (the ground's: 0) */
+        for (i = 0; i < N; i++) {
+            int q = revolute[i] ? 2 * i : 2 * i + 1, pk = parent_link(p, i + 2);
+            double rate = p[SLOT_QD0 + q], follows = revolute[i] || pk == 1 ? 0.0 : p[SLOT_QD0 + 2 * pk - 3];
+            if (fabs(rate - follows) > 1e-12 * fmax(1.0, fmax(fabs(rate), fabs(follows)))) {
+                coordinate_name(q, buf, sizeof buf);
+                if (revolute[i] || pk == 1)
+                    BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move", buf, buf);
+                BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move (relative to link%d: its "
+                    "absolute rate is initial.%s_d = %g, got %g)", buf, buf, pk,
+                    coordinate_name(2 * pk - 3, real, sizeof real), follows, rate);
+            }
+        }
+    }
+    /* a started run's state: what the integrator and the outputs compute with */
+    if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
+    if (p[P_STARTED] == 0.0) return fmi2OK;  /* not started: initialisation computes the state */
+    if (!isfinite(p[P_T])) BAD("state.t: the time must be finite, got %g", p[P_T]);
+    if (!(p[P_H] >= 0.0 && isfinite(p[P_H]))) BAD("state.h: the next step must be >= 0 and finite, got %g", p[P_H]);
+    if (p[P_HAVE_F] != 0.0 && p[P_HAVE_F] != 1.0) BAD("state.have_f: must be 0 or 1, got %g", p[P_HAVE_F]);
+    {
+        static const char *const count[4] = {"steps", "rejected", "evals", "passages"};
+        for (k = 0; k < 4; k++)
+            if (!(p[P_STEPS + k] >= 0.0 && isfinite(p[P_STEPS + k])))
+                BAD("state.%s: a count must be >= 0 and finite, got %g", count[k], p[P_STEPS + k]);
+    }
+    if (!(p[P_KAPPA_SEEN] >= 0.0 && isfinite(p[P_KAPPA_SEEN])))
+        BAD("state.kappa_seen: a conditioning must be >= 0 and finite, got %g", p[P_KAPPA_SEEN]);
+    if (!isfinite(p[P_DRIVE_USED])) BAD("state.drive_used: must be finite, got %g", p[P_DRIVE_USED]);
+    if (!isfinite(p[P_LOAD_USED])) BAD("state.load_used: must be finite, got %g", p[P_LOAD_USED]);
+    for (k = 0; k < NS; k++) {
+        char buf[32];
+        coordinate_name(q_index[k % N], buf, sizeof buf);
+        if (!isfinite(p[P_Y + k]))
+            BAD("state.%s%s: the joint state must be finite, got %g", buf, k < N ? "" : "_d", p[P_Y + k]);
+        if (p[P_HAVE_F] != 0.0 && !isfinite(p[P_F + k]))
+            BAD("state.f: the derivative of %s%s must be finite, got %g", buf, k < N ? "" : "_d", p[P_F + k]);
+    }
     return fmi2OK;
 }
 
-/* index in z of a real joint named by a drive_joint / load_joint choice (0: none -> -1) */
-static fmi2Status joint_index(grb_instance *inst, const mech *mm, const char *field, int choice, int *z_index) {
-    int q = choice - 1, pair;
-    char buf[32], real[32];
-    *z_index = -1;
-    if (choice == 0) return fmi2OK;
-    pair = q / 2;
-    if (mm->q_index[pair] != q)
-        BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", field,
-            coordinate_name(q, buf, sizeof buf), pair + 2, coordinate_name(mm->q_index[pair], real, sizeof real));
-    *z_index = pair;
-    return fmi2OK;
-}
+/* index in z of the real joint a drive_joint / load_joint choice names (0: none -> -1);
+ * model_check made sure it is a real joint */
+static int joint_index(int choice) { return choice == 0 ? -1 : (choice - 1) / 2; }
 
 static const char *status_text(int status) {
     switch (status) {
@@ -255,7 +300,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     double *p = inst->p;
     double lf[N * GRB_SL_COLUMNS], cf[(NC > 0 ? NC : 1) * GRB_SC_COLUMNS];
     int i, j, st, method, tableau;
-    fmi2Status s = validate(inst);
+    fmi2Status s = model_check(inst, p);
     if (s != fmi2OK) return s;
     for (i = 0; i < N; i++) {
         mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
@@ -292,8 +337,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->m.theta1 = p[SLOT_GROUND_THETA1];
     mm->m.gravity = p[SLOT_GRAVITY];
     mm->m.drive_inertia = p[SLOT_DRIVE_INERTIA];
-    if (joint_index(inst, mm, "drive_joint", (int)p[SLOT_DRIVE_JOINT], &mm->m.drive) != fmi2OK) return fmi2Error;
-    if (joint_index(inst, mm, "load_joint", (int)p[SLOT_LOAD_JOINT], &mm->m.load) != fmi2OK) return fmi2Error;
+    mm->m.drive = joint_index((int)p[SLOT_DRIVE_JOINT]);
+    mm->m.load = joint_index((int)p[SLOT_LOAD_JOINT]);
 
     /* how to integrate: what grubler.simulate.Simulator sets up */
     method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
