@@ -1026,3 +1026,71 @@ def test_crafted_states_under_the_sanitizers(built, sanitized, watt_fmu, tmp_pat
                       + [host_.run_steps(0.0, 0.01, 5), "save 0", f"ser 0 {good}"], env=SANITIZER_ENV)
         for case, values, field in cases:
             refused_and_usable(host_, md_, good, tmp_path / f"bad{k}.bin", values, field, output, env=SANITIZER_ENV)
+
+
+def test_a_rate_on_a_locked_coordinate_is_refused_with_the_librarys_reason(native, md, tmp_path):
+    text = grubler.scene.preset_text("thesis-fourbar").replace('theta3 = "pi/3"', 'theta3 = "pi/3"\nB1_d = 0.5')
+    (tmp_path / "moving.toml").write_text(text)
+    with pytest.raises(grubler.errors.SceneError) as err:
+        grubler.load_scene(str(tmp_path / "moving.toml"))
+    assert err.value.field == "initial.B1_d"
+    t = native.run(native.start({"initial.B1_d": 0.5}, md=md))
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged(f"initial.B1_d: {err.value.reason}"), t.logs
+    # the rate the real joint implies is no error: a slide of a turning link stays 0
+    assert native.run(native.start({"initial.B1_d": 0.0, "initial.theta2_d": 2.0}, md=md)).statuses("exit") == [OK]
+
+
+def test_a_locked_angle_turns_with_its_predecessor(native, md):
+    """On a prismatic pair the angle is locked: its absolute rate is the predecessor's, nothing else."""
+    scene = grubler.load_scene("quick-return")  # link 4 slides on link 3: theta4 is locked
+    m = scene.mechanism
+    assert "theta4" not in m.free_names and m.parents[2] == 3
+    params = fmu_parameters(scene)
+    ok = native.run(native.start({**params, "initial.theta3_d": 1.5, "initial.theta4_d": 1.5}, md=md))
+    assert ok.statuses("exit") == [OK], ok.logs
+    t = native.run(native.start({**params, "initial.theta3_d": 1.5, "initial.theta4_d": 0.7}, md=md))
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged("initial.theta4_d: theta4 is a locked (fictitious) coordinate; it cannot move (relative to "
+                    "link3: its absolute rate is initial.theta3_d = 1.5, got 0.7)"), t.logs
+
+
+FOREIGN_STATE = """
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+slaves = []
+for k, path in enumerate(sys.argv[1:3]):
+    md = read_model_description(path)
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=f"i{k}")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    slaves.append(s)
+own = slaves[1].getFMUstate()
+slaves[1].setFMUstate(own)
+print("own state restored", flush=True)
+try:
+    slaves[1].setFMUstate(slaves[0].getFMUstate())
+    print("foreign state accepted")
+except Exception as exc:
+    print("foreign state refused:", exc)
+slaves[1].reset()
+slaves[1].freeInstance()
+"""
+
+
+def test_a_state_of_another_fmu_of_the_same_layout_is_refused_in_memory(fmu, tmp_path):
+    """As serialised (by the GUID), so in memory: two FMUs of one layout, one's state set on the other."""
+    from grubler.fmi.build import export
+
+    other = export(grubler.load_scene("thesis-fourbar"), tmp_path / "Other.fmu")
+    proc = subprocess.run([sys.executable, "-c", FOREIGN_STATE, str(fmu), str(other)], capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "own state restored" in proc.stdout
+    assert "foreign state refused" in proc.stdout, proc.stdout
+    assert "fmi2SetFMUstate: not a state of this model" in proc.stdout, proc.stdout
