@@ -808,16 +808,52 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
                                rtol=0, atol=MATCH)
 
 
-@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output"),
-                                         (["bad.toml"], "link2.m")])
-def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
+@pytest.mark.parametrize("args, field, reason", [
+    (["no-such-scene"], "scene", ""), (["thesis-fourbar", "-o", "x.zip"], "output", ""),
+    (["bad.toml"], "link2.m", ""),
+    # the output is checked before compiling: a name whose partial file (NAME.fmu.part) the file system refuses,
+    (["thesis-fourbar", "-o", "a" * 250 + ".fmu"], "output", "the file name is 254 characters"),
+    (["thesis-fourbar", "-o", "a" * 300 + ".fmu"], "output", "File name too long"),
+    # a folder that does not exist (not made: as every other command)
+    (["thesis-fourbar", "-o", "missing/d/x.fmu"], "output", "the folder 'missing/d' does not exist"),
+])
+def test_export_refuses_bad_input_with_one_line(tmp_path, args, field, reason):
     text = grubler.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
     (tmp_path / "bad.toml").write_text(text)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", *args], capture_output=True, text=True,
                           cwd=tmp_path)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and f"{field}:" in lines[0]
+    assert len(lines) == 1 and f"{field}:" in lines[0] and reason in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]  # nothing written, no folder made
+
+
+def test_export_refuses_a_scene_that_cannot_start_as_simulate_does(tmp_path):
+    bad = tmp_path / "open.toml"
+    bad.write_text('[mechanism]\ntype = "four-bar"\nground = 1\ncrank = 3\ncoupler = 0.8\nrocker = 0.6\n')
+    said = {}
+    for cmd in (["simulate", str(bad)], ["export", str(bad), "-o", str(tmp_path / "Open.fmu")]):
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", *cmd], capture_output=True, text=True)
+        assert proc.returncode == 2, proc.stderr
+        said[cmd[0]] = proc.stderr.strip()
+    assert said["export"] == said["simulate"] and "initial: the loop cannot be closed" in said["export"]
+    assert not (tmp_path / "Open.fmu").exists()
+
+
+def test_export_refuses_a_folder_it_may_not_write(tmp_path):
+    import os
+
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        if os.access(folder, os.W_OK):
+            pytest.skip("this user writes into any folder (root): nothing to refuse")
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", "thesis-fourbar", "-o",
+                               str(folder / "x.fmu")], capture_output=True, text=True)
+    finally:
+        folder.chmod(0o755)
+    assert proc.returncode == 2 and "output:" in proc.stderr and "is not writable" in proc.stderr, proc.stderr
 
 
 def test_fmi_headers_come_from_fmpy(unzipped):
