@@ -80,13 +80,13 @@ static size_t stepper_doubles(void) {
 
 size_t model_persistent_size(void) { return (size_t)P_STEPPER + stepper_doubles(); }
 /* Scratch: the mech struct and the kernel's workspace, then (with directional
- * derivatives) the complex-step workspace, state and observations, 16-byte aligned. */
+ * derivatives) the complex-step workspace, state and outputs, 16-byte aligned. */
 static size_t complex_offset(void) {
     return (sizeof(mech) + grb_work_size(N, NC) * sizeof(double) + 15) & ~(size_t)15;
 }
 size_t model_scratch_bytes(void) {
     return complex_offset() + (MODEL_DIRECTIONAL_DERIVATIVE ? 2 * sizeof(double) * (grb_work_size(N, NC) + NS +
-                                                                                     N_OBSERVED) : 0);
+                                                                                     MODEL_N_OUTPUTS) : 0);
 }
 int model_input_free_level(void) { return LEVEL_DRIVE; }
 const double *model_outputs(const grb_instance *inst) { return ((const mech *)inst->model)->out; }
@@ -427,25 +427,33 @@ fmi2Status model_start(grb_instance *inst) {
  * kernel's R_LAM and R_NORMAL, as grubler.simulate.closure_forces reads them). */
 enum { ROW_LAM = 3, ROW_NORMAL = 4 };
 
-static void closure_forces(const mech *mm, double *out) {
-    long layout[12];
-    grb_work_layout(N, NC, layout);
-    const double *R = mm->work + layout[3];
-    long rc = layout[8];
-    for (int j = 1; j < NC; j++) {
-        const double *r0 = R + 2 * j * rc, *r1 = r0 + rc;
-        double *o = out + 3 * (j - 1);
-        if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: its normal force, holding moment */
-            o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];
-            o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];
-            o[2] = r1[ROW_LAM];
-        } else { /* a pin */
-            o[0] = r0[ROW_LAM];
-            o[1] = r1[ROW_LAM];
-            o[2] = 0.0;
-        }
+/* over real numbers from grb_observe's workspace, and (with directional
+ * derivatives) over complex numbers from grb_cs_observe_at's, which has the same
+ * layout in complex entries: one text, two scalar types */
+#define CLOSURE_FORCES(name, real)                                                                             \
+    static void name(const mech *mm, const real *work, real *out) {                                            \
+        long layout[12];                                                                                       \
+        grb_work_layout(N, NC, layout);                                                                        \
+        const real *R = work + layout[3];                                                                      \
+        long rc = layout[8];                                                                                   \
+        for (int j = 1; j < NC; j++) {                                                                         \
+            const real *r0 = R + 2 * j * rc, *r1 = r0 + rc;                                                    \
+            real *o = out + 3 * (j - 1);                                                                       \
+            if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: normal force, moment */   \
+                o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];                                                           \
+                o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];                                                           \
+                o[2] = r1[ROW_LAM];                                                                            \
+            } else { /* a pin */                                                                               \
+                o[0] = r0[ROW_LAM];                                                                            \
+                o[1] = r1[ROW_LAM];                                                                            \
+                o[2] = 0.0;                                                                                    \
+            }                                                                                                  \
+        }                                                                                                      \
     }
-}
+CLOSURE_FORCES(closure_forces, double)
+#if MODEL_DIRECTIONAL_DERIVATIVE
+CLOSURE_FORCES(closure_forces_cs, double complex)
+#endif
 #endif
 
 fmi2Status model_compute(grb_instance *inst, int level) {
@@ -464,7 +472,7 @@ fmi2Status model_compute(grb_instance *inst, int level) {
             return fmi2Warning;
         }
 #if N_CLOSURES > 1
-        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->out + N_OBSERVED + 2);
+        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->work, mm->out + N_OBSERVED + 2);
 #endif
     }
     return fmi2OK;
@@ -535,8 +543,9 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
 /* d(outputs)/d(motor_torque, load_torque) along the seed: the kernel's
  * observations compiled over complex numbers (grb_cs_observe_at, the same
  * equations grb_observe runs) at the present state, with the efforts moved by
- * i h times the seed; the imaginary parts over h are the exact derivatives.
- * The drive joint's angle and speed are states: zero. */
+ * i h times the seed, and the other closures' forces from its multipliers as
+ * model_compute takes them; the imaginary parts over h are the exact
+ * derivatives.  The drive joint's angle and speed are states: zero. */
 fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
                                         const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
                                         fmi2Real dv_unknown[]) {
@@ -555,10 +564,11 @@ fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueRefer
     efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
     efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
     st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
-    for (k = 0; k < n_unknown; k++) {
-        int slot = model_variables[unknown[k] - 1].slot;
-        dv_unknown[k] = slot < N_OBSERVED ? cimag(cout[slot]) / CS_STEP : 0.0;
-    }
+    cout[N_OBSERVED] = cout[N_OBSERVED + 1] = 0.0;  /* drive_angle, drive_speed */
+#if N_CLOSURES > 1
+    closure_forces_cs(mm, cwork, cout + N_OBSERVED + 2);
+#endif
+    for (k = 0; k < n_unknown; k++) dv_unknown[k] = cimag(cout[model_variables[unknown[k] - 1].slot]) / CS_STEP;
     if (st != GRB_OK) {
         grb_log(inst, fmi2Warning, "directional derivative at t = %.12g s: %s; it reads as NaN", p[P_T],
                 status_text(st));
