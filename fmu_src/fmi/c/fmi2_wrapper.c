@@ -234,8 +234,8 @@ static int block_ok(grb_instance *inst, const char *call, const double *block) {
         }
     }
     if (model_check(inst, block) != fmi2OK) {
-        grb_log(inst, fmi2Error, "%s: the state is refused (see the reason above); the instance keeps its own",
-                call);
+        grb_log(inst, fmi2Error, "%s: the state is refused (see the reason above); only fmi2Reset and "
+                "fmi2FreeInstance are allowed now", call);
         inst->state = GRB_ERROR;
         return 0;
     }
