@@ -1130,3 +1130,33 @@ def test_a_state_of_another_fmu_of_the_same_layout_is_refused_in_memory(fmu, tmp
     assert "own state restored" in proc.stdout
     assert "foreign state refused" in proc.stdout, proc.stdout
     assert "fmi2SetFMUstate: not a state of this model" in proc.stdout, proc.stdout
+
+
+@BOTH
+def test_random_crafted_states_never_crash_hang_nor_corrupt_memory(built, sanitized, name, tmp_path):
+    """States with valid checksums and 1 to 3 random doubles of the block replaced by awkward numbers
+    (a parameter, a was-set flag, the run's state, the integrator's workspace), each deserialised,
+    restored, stepped and read, in the sanitized host."""
+    md = built[name][2]
+    h = Host(sanitized["host"], sanitized[name], md.guid, {v.name: v.valueReference for v in md.modelVariables})
+    inputs = RUNS[name][0]
+    good = saved_state(h, md, tmp_path / "good.bin", inputs)
+    n = struct.unpack_from("<I", good.read_bytes(), 16)[0]
+    rng = np.random.default_rng(7)
+    awkward = [float("nan"), float("inf"), -float("inf"), 1e300, -1e300, 1e9, -3.0, -1.0, 0.0, 0.5, 2.5, 1000.0]
+    output = RUNS[name][1][0]
+    script = h.start(md=md)
+    for k in range(150):
+        blob = tmp_path / f"c{k}.bin"
+        picks = rng.choice(n, size=int(rng.integers(1, 4)), replace=False)
+        blob.write_bytes(craft(good.read_bytes(), {int(i): float(rng.choice(awkward)) for i in picks}))
+        script += [f"deser 1 {blob}", "load 1", "step 0.05 0.01", h.getr(output), "reset", "setup 0", "enter",
+                   "exit"]
+    proc = subprocess.run(h.cmd, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=600,
+                          env=SANITIZER_ENV)
+    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+        proc.stderr[-3000:]
+    t = Transcript(proc.stdout)
+    deser = t.statuses("deser")
+    assert len(deser) == 150 and set(deser) == {OK, ERROR}  # some slots take any value (an input, the workspace)
+    assert set(t.statuses("step")) <= {OK, WARNING, DISCARD, ERROR}  # never fmi2Fatal
