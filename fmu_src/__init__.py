@@ -29,8 +29,8 @@ from grubler.mechanism.scene import Scene, load_scene, preset_names, scene_from_
 from grubler.mechanism.simulate import Result, Simulator, evaluate, output_columns, simulate
 from grubler.system import cosim, ssp
 
-# the co-simulation modules keep their public names (``import grubler.cosim``,
-# ``from grubler.ssp import System``) now that they live in grubler.system
+# the co-simulation modules keep their public names (``import grubler.system.cosim``,
+# ``from grubler.system.ssp import System``) now that they live in grubler.system
 sys.modules[__name__ + ".cosim"], sys.modules[__name__ + ".ssp"] = cosim, ssp
 
 

@@ -10,6 +10,7 @@ model description's start values, and the FMI contract itself.
 from __future__ import annotations
 
 import shutil
+import struct
 import subprocess
 import sys
 import zipfile
@@ -74,9 +75,9 @@ class Host:
         self.cmd = [*(wrapper or []), str(host), str(library), guid]
         self.vr = vr
 
-    def run(self, script: list[str], env: dict | None = None) -> "Transcript":
+    def run(self, script: list[str], env: dict | None = None, timeout: float = 600) -> "Transcript":
         proc = subprocess.run(self.cmd, input="\n".join(script) + "\n", capture_output=True, text=True,
-                              env={} if env is None else env, timeout=600)
+                              env={} if env is None else env, timeout=timeout)
         assert proc.returncode == 0, f"host failed ({proc.returncode}):\n{proc.stderr[-2000:]}\n{proc.stdout[-2000:]}"
         return Transcript(proc.stdout)
 
@@ -510,25 +511,32 @@ def test_a_null_instance_does_not_crash_the_host(native):
     assert t.statuses("null") == [ERROR]
 
 
+SANITIZE = ["-std=c99", "-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
+            "-fno-sanitize-recover=undefined"]
+SANITIZER_ENV = {"ASAN_OPTIONS": "halt_on_error=1:detect_leaks=1", "UBSAN_OPTIONS": "halt_on_error=1"}
+
+
+def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
+    """An FMU's binary rebuilt from its sources/ with AddressSanitizer and UBSan."""
+    src = unzipped_dir / "sources"
+    files = [str(src / f) for f in desc.buildConfigurations[0].sourceFileSets[0].sourceFiles]
+    subprocess.run(["cc", "-shared", "-fPIC", *SANITIZE, "-I", str(src), *files, "-o", str(out), "-lm"], check=True)
+    return out
+
+
 @pytest.fixture(scope="session")
 def sanitized(built, tmp_path_factory):
     """The FMUs' binaries and the host, rebuilt from sources/ with AddressSanitizer and UBSan."""
     d = tmp_path_factory.mktemp("asan")
-    flags = ["-std=c99", "-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
-             "-fno-sanitize-recover=undefined"]
-    probe = subprocess.run(["cc", *flags, "-x", "c", "-", "-o", str(d / "probe")], input="int main(void){return 0;}",
-                           capture_output=True, text=True)
+    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(d / "probe")],
+                           input="int main(void){return 0;}", capture_output=True, text=True)
     if probe.returncode != 0:
         pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
     out = {"host": d / "fmi_host"}
-    subprocess.run(["cc", *flags, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()), str(HERE / "fmi_host.c"),
-                    "-o", str(out["host"]), "-ldl"], check=True)
-    for name, (_, unzipped_dir, _) in built.items():
-        src = unzipped_dir / "sources"
-        files = [str(src / f) for f in built[name][2].buildConfigurations[0].sourceFileSets[0].sourceFiles]
-        out[name] = d / f"{name}.so"
-        subprocess.run(["cc", "-shared", "-fPIC", *flags, "-I", str(src), *files, "-o", str(out[name]), "-lm"],
-                       check=True)
+    subprocess.run(["cc", *SANITIZE, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
+                    str(HERE / "fmi_host.c"), "-o", str(out["host"]), "-ldl"], check=True)
+    for name, (_, unzipped_dir, desc) in built.items():
+        out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")
     return out
 
 
@@ -591,8 +599,7 @@ def test_random_call_sequences_never_crash_nor_corrupt_memory(built, sanitized, 
     md = built[name][2]
     script = random_script(md, np.random.default_rng(seed), tmp_path)
     proc = subprocess.run([str(sanitized["host"]), str(sanitized[name]), md.guid], input="\n".join(script) + "\n",
-                          capture_output=True, text=True, timeout=600,
-                          env={"ASAN_OPTIONS": "halt_on_error=1:detect_leaks=1", "UBSAN_OPTIONS": "halt_on_error=1"})
+                          capture_output=True, text=True, timeout=600, env=SANITIZER_ENV)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, proc.stderr[-3000:]
     t = Transcript(proc.stdout)
@@ -801,16 +808,52 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
                                rtol=0, atol=MATCH)
 
 
-@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output"),
-                                         (["bad.toml"], "link2.m")])
-def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
+@pytest.mark.parametrize("args, field, reason", [
+    (["no-such-scene"], "scene", ""), (["thesis-fourbar", "-o", "x.zip"], "output", ""),
+    (["bad.toml"], "link2.m", ""),
+    # the output is checked before compiling: a name whose partial file (NAME.fmu.part) the file system refuses,
+    (["thesis-fourbar", "-o", "a" * 250 + ".fmu"], "output", "the file name is 254 characters"),
+    (["thesis-fourbar", "-o", "a" * 300 + ".fmu"], "output", "File name too long"),
+    # a folder that does not exist (not made: as every other command)
+    (["thesis-fourbar", "-o", "missing/d/x.fmu"], "output", "the folder 'missing/d' does not exist"),
+])
+def test_export_refuses_bad_input_with_one_line(tmp_path, args, field, reason):
     text = grubler.mechanism.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
     (tmp_path / "bad.toml").write_text(text)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", *args], capture_output=True, text=True,
                           cwd=tmp_path)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and f"{field}:" in lines[0]
+    assert len(lines) == 1 and f"{field}:" in lines[0] and reason in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]  # nothing written, no folder made
+
+
+def test_export_refuses_a_scene_that_cannot_start_as_simulate_does(tmp_path):
+    bad = tmp_path / "open.toml"
+    bad.write_text('[mechanism]\ntype = "four-bar"\nground = 1\ncrank = 3\ncoupler = 0.8\nrocker = 0.6\n')
+    said = {}
+    for cmd in (["simulate", str(bad)], ["export", str(bad), "-o", str(tmp_path / "Open.fmu")]):
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", *cmd], capture_output=True, text=True)
+        assert proc.returncode == 2, proc.stderr
+        said[cmd[0]] = proc.stderr.strip()
+    assert said["export"] == said["simulate"] and "initial: the loop cannot be closed" in said["export"]
+    assert not (tmp_path / "Open.fmu").exists()
+
+
+def test_export_refuses_a_folder_it_may_not_write(tmp_path):
+    import os
+
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        if os.access(folder, os.W_OK):
+            pytest.skip("this user writes into any folder (root): nothing to refuse")
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", "thesis-fourbar", "-o",
+                               str(folder / "x.fmu")], capture_output=True, text=True)
+    finally:
+        folder.chmod(0o755)
+    assert proc.returncode == 2 and "output:" in proc.stderr and "is not writable" in proc.stderr, proc.stderr
 
 
 def test_fmi_headers_come_from_fmpy(unzipped):
@@ -859,3 +902,261 @@ def test_a_parent_that_is_not_an_earlier_link_is_refused_with_its_name(tree_fmu)
     assert t.logged("link5.parent must be in 1 .. 4, got 5"), t.logs
     t = native.run(native.start({"link5.parent": 1}, md=md) + [native.run_steps(0.0, 0.01, 2, "theta5")])
     assert t.statuses("exit") == [OK]  # a legal other tree: link 5 on the ground, its dyad then a four-bar
+
+
+# -- crafted states: a blob with valid checksums and any content ----------------------
+#
+# The checksums are public (FNV-1a), so a blob can carry anything and pass them.
+# Each crafted state below must be refused with fmi2Error and a log line naming
+# the field, in a host process (a crash fails the test, not pytest) with a
+# timeout (a hang fails it too), and the instance must reset, run and free.
+
+def fnv1a(data: bytes) -> int:
+    h = 14695981039346656037
+    for b in data:
+        h = ((h ^ b) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def craft(blob: bytes, values: dict[int, float]) -> bytes:
+    """A serialised state with some doubles of its block replaced and its checksums made to match."""
+    b = bytearray(blob)
+    n_stored, n = struct.unpack_from("<II", b, 12)
+    assert len(b) == 48 + 8 * n
+    for k, x in values.items():
+        struct.pack_into("<d", b, 48 + 8 * k, x)
+    struct.pack_into("<QQ", b, 32, fnv1a(bytes(b[48:48 + 8 * n_stored])), fnv1a(bytes(b[48:])))
+    return bytes(b)
+
+
+def refused_and_usable(h: Host, md, good: Path, bad: Path, values: dict[int, float], field: str,
+                       output: str, env: dict | None = None) -> None:
+    bad.write_bytes(craft(good.read_bytes(), values))
+    t = h.run(h.start(md=md) + [f"deser 1 {bad}", "load 1", h.getr(output), "reset", "setup 0", "enter", "exit",
+                                h.run_steps(0.0, 0.01, 3, output), "free"], env=env, timeout=120)
+    assert t.statuses("deser") == [ERROR], t.logs
+    assert t.logged(field) and t.logs[0].startswith("log 3 ") and t.logged("fmi2DeSerializeFMUstate: "), t.logs
+    assert t.statuses("load") == [ERROR] and t.statuses("getr") == [ERROR]  # refused until reset
+    assert t.statuses("exit") == [OK, OK] and t.statuses("run") == [OK] and len(t.rows()) == 3
+    assert t.statuses("free") == [OK]
+
+
+def saved_state(h: Host, md, path: Path, inputs: dict) -> Path:
+    t = h.run(h.start(md=md) + [f"setr {h.vr[k]} {x!r}" for k, x in inputs.items()]
+              + [h.run_steps(0.0, 0.01, 5), "save 0", f"ser 0 {path}"])
+    assert t.statuses("ser") == [OK], t.logs
+    return path
+
+
+def _mechanism_cases(spec) -> list[tuple[str, dict, str]]:
+    """(case, {block index: value}, the field the refusal names) for a mechanism FMU of spec's shape."""
+    nc = spec.defines["N_CLOSURES"]
+    last = "closure" if nc == 1 else f"closure[{nc - 1}]"
+    y, f = spec.state_slot("y"), spec.state_slot("f")
+    return [
+        ("link beyond int", {spec.slot(f"{last}.link"): 1e9}, f"{last}.link must be in 2 .. "),
+        ("link negative", {spec.slot(f"{last}.link"): -3.0}, f"{last}.link must be in 2 .. "),
+        ("link not whole", {spec.slot(f"{last}.link"): 2.5}, f"{last}.link must be an integer"),
+        ("to_link huge", {spec.slot(f"{last}.to_link"): 1e300}, f"{last}.to_link must be an integer"),
+        ("parent", {spec.slot("link3.parent"): 3.0}, "link3.parent must be in 1 .. 2"),
+        ("joint", {spec.slot("link2.joint"): 7.0}, "link2.joint must be an item 1 .. 2"),
+        ("drive_joint", {spec.slot("drive_joint"): 1000.0}, "drive_joint must be the index of one of"),
+        ("method", {spec.slot("method"): float("nan")}, "method must be the index of one of"),
+        ("was-set flag", {spec.n_stored + spec.slot("link2.m"): 0.5}, "the flag saying whether link2.m was set"),
+        ("mass", {spec.slot("link2.m"): -1.0}, "link2.m: mass must be positive"),
+        ("started", {spec.state_slot("started"): 0.5}, "state.started: must be 0 or 1"),
+        ("time", {spec.state_slot("t"): float("inf")}, "state.t: the time must be finite"),
+        ("step", {spec.state_slot("h"): float("nan")}, "state.h:"),
+        ("joint state", {y: float("nan")}, "state.theta2: the joint state must be finite"),
+        ("joint rate", {y + spec.defines["N_LINKS"]: float("-inf")}, "state.theta2_d: the joint state must be"),
+        ("derivative", {spec.state_slot("have_f"): 1.0, f + 1: float("nan")}, "state.f: the derivative of"),
+        ("count", {spec.state_slot("steps"): -1.0}, "state.steps: a count must be >= 0"),
+    ]
+
+
+def _spec(scene: str, identifier: str):
+    from grubler.fmi.mechanism import mechanism_spec
+
+    return mechanism_spec(grubler.load_scene(scene), identifier)
+
+
+MECHANISM_CASES = _mechanism_cases(_spec("thesis-fourbar", "Mechanism"))
+
+
+@pytest.fixture(scope="session")
+def watt_fmu(host, tmp_path_factory):
+    """The watt-ii scene exported (two closures), unzipped, with its spec."""
+    from fmpy import read_model_description
+
+    from grubler.fmi.build import export
+
+    d = tmp_path_factory.mktemp("watt")
+    path = export(grubler.load_scene("watt-ii"), d / "WattII.fmu")
+    zipfile.ZipFile(path).extractall(d / "unzipped")
+    desc = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in desc.modelVariables}
+    return (Host(host, d / "unzipped" / "binaries" / "linux64" / "WattII.so", desc.guid, vr), desc,
+            _spec("watt-ii", "WattII"), d / "unzipped")
+
+
+@pytest.mark.parametrize("case, values, field", MECHANISM_CASES, ids=[c[0] for c in MECHANISM_CASES])
+def test_a_crafted_mechanism_state_is_refused_naming_the_field(native, md, tmp_path, case, values, field):
+    good = saved_state(native, md, tmp_path / "good.bin", {"motor_torque": 3.0})
+    assert _spec("thesis-fourbar", "Mechanism").guid == md.guid  # the layout the cases address is the binary's
+    refused_and_usable(native, md, good, tmp_path / "bad.bin", values, field, "theta2")
+
+
+WATT_CASES = _mechanism_cases(_spec("watt-ii", "WattII"))
+
+
+@pytest.mark.parametrize("case, values, field", WATT_CASES, ids=[c[0] for c in WATT_CASES])
+def test_a_crafted_state_of_an_exported_two_loop_fmu_is_refused(watt_fmu, tmp_path, case, values, field):
+    h, desc, spec, _ = watt_fmu
+    assert spec.guid == desc.guid
+    good = saved_state(h, desc, tmp_path / "good.bin", {"motor_torque": 0.5})
+    refused_and_usable(h, desc, good, tmp_path / "bad.bin", values, field, "theta2")
+
+
+def _motor_cases(spec) -> list[tuple[str, dict, str]]:
+    return [
+        ("current", {spec.state_slot("current"): float("nan")}, "state.current"),
+        ("temperature", {spec.state_slot("temperature"): float("inf")}, "state.temperature"),
+        ("resistance", {spec.slot("resistance"): -1.0}, "resistance"),
+        ("current limit", {spec.slot("current_limit"): float("nan")}, "current_limit"),
+        ("warned", {spec.state_slot("warned_hot"): 2.0}, "state.warned_hot"),
+        ("started", {spec.state_slot("started"): -1.0}, "state.started"),
+    ]
+
+
+def _motor_spec():
+    from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
+
+    return motor_spec(DEFAULT_MOTOR, "DCMotor")
+
+
+MOTOR_CASES = _motor_cases(_motor_spec())
+
+
+@pytest.mark.parametrize("case, values, field", MOTOR_CASES, ids=[c[0] for c in MOTOR_CASES])
+def test_a_crafted_motor_state_is_refused_naming_the_field(motor, built, tmp_path, case, values, field):
+    desc = built["DCMotor"][2]
+    assert _motor_spec().guid == desc.guid
+    good = saved_state(motor, desc, tmp_path / "good.bin", {"voltage": 24.0, "shaft_speed": 5.0})
+    refused_and_usable(motor, desc, good, tmp_path / "bad.bin", values, field, "current")
+
+
+def test_crafted_states_under_the_sanitizers(built, sanitized, watt_fmu, tmp_path):
+    """Every crafted case of the three FMUs, in one sanitized host run each: no invalid access, no UB, no leak."""
+    h, desc, spec, unzipped = watt_fmu
+    watt_so = sanitized_binary(unzipped, desc, tmp_path / "WattII.so")
+    runs = [(Host(sanitized["host"], sanitized["Mechanism"], built["Mechanism"][2].guid,
+                  {v.name: v.valueReference for v in built["Mechanism"][2].modelVariables}),
+             built["Mechanism"][2], MECHANISM_CASES, {"motor_torque": 3.0}, "theta2"),
+            (Host(sanitized["host"], watt_so, desc.guid, h.vr), desc, WATT_CASES, {"motor_torque": 0.5}, "theta2"),
+            (Host(sanitized["host"], sanitized["DCMotor"], built["DCMotor"][2].guid,
+                  {v.name: v.valueReference for v in built["DCMotor"][2].modelVariables}),
+             built["DCMotor"][2], MOTOR_CASES, {"voltage": 24.0, "shaft_speed": 5.0}, "current")]
+    for k, (host_, md_, cases, inputs, output) in enumerate(runs):
+        good = tmp_path / f"good{k}.bin"
+        t = host_.run(host_.start(md=md_) + [f"setr {host_.vr[n]} {x!r}" for n, x in inputs.items()]
+                      + [host_.run_steps(0.0, 0.01, 5), "save 0", f"ser 0 {good}"], env=SANITIZER_ENV)
+        for case, values, field in cases:
+            refused_and_usable(host_, md_, good, tmp_path / f"bad{k}.bin", values, field, output, env=SANITIZER_ENV)
+
+
+def test_a_rate_on_a_locked_coordinate_is_refused_with_the_librarys_reason(native, md, tmp_path):
+    text = grubler.mechanism.scene.preset_text("thesis-fourbar").replace('theta3 = "pi/3"', 'theta3 = "pi/3"\nB1_d = 0.5')
+    (tmp_path / "moving.toml").write_text(text)
+    with pytest.raises(grubler.errors.SceneError) as err:
+        grubler.load_scene(str(tmp_path / "moving.toml"))
+    assert err.value.field == "initial.B1_d"
+    t = native.run(native.start({"initial.B1_d": 0.5}, md=md))
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged(f"initial.B1_d: {err.value.reason}"), t.logs
+    # the rate the real joint implies is no error: a slide of a turning link stays 0
+    assert native.run(native.start({"initial.B1_d": 0.0, "initial.theta2_d": 2.0}, md=md)).statuses("exit") == [OK]
+
+
+def test_a_locked_angle_turns_with_its_predecessor(native, md):
+    """On a prismatic pair the angle is locked: its absolute rate is the predecessor's, nothing else."""
+    scene = grubler.load_scene("quick-return")  # link 4 slides on link 3: theta4 is locked
+    m = scene.mechanism
+    assert "theta4" not in m.free_names and m.parents[2] == 3
+    params = fmu_parameters(scene)
+    ok = native.run(native.start({**params, "initial.theta3_d": 1.5, "initial.theta4_d": 1.5}, md=md))
+    assert ok.statuses("exit") == [OK], ok.logs
+    t = native.run(native.start({**params, "initial.theta3_d": 1.5, "initial.theta4_d": 0.7}, md=md))
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged("initial.theta4_d: theta4 is a locked (fictitious) coordinate; it cannot move (relative to "
+                    "link3: its absolute rate is initial.theta3_d = 1.5, got 0.7)"), t.logs
+
+
+FOREIGN_STATE = """
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+slaves = []
+for k, path in enumerate(sys.argv[1:3]):
+    md = read_model_description(path)
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=f"i{k}")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    slaves.append(s)
+own = slaves[1].getFMUstate()
+slaves[1].setFMUstate(own)
+print("own state restored", flush=True)
+try:
+    slaves[1].setFMUstate(slaves[0].getFMUstate())
+    print("foreign state accepted")
+except Exception as exc:
+    print("foreign state refused:", exc)
+slaves[1].reset()
+slaves[1].freeInstance()
+"""
+
+
+def test_a_state_of_another_fmu_of_the_same_layout_is_refused_in_memory(fmu, tmp_path):
+    """As serialised (by the GUID), so in memory: two FMUs of one layout, one's state set on the other."""
+    from grubler.fmi.build import export
+
+    other = export(grubler.load_scene("thesis-fourbar"), tmp_path / "Other.fmu")
+    proc = subprocess.run([sys.executable, "-c", FOREIGN_STATE, str(fmu), str(other)], capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "own state restored" in proc.stdout
+    assert "foreign state refused" in proc.stdout, proc.stdout
+    assert "fmi2SetFMUstate: not a state of this model" in proc.stdout, proc.stdout
+
+
+@BOTH
+def test_random_crafted_states_never_crash_hang_nor_corrupt_memory(built, sanitized, name, tmp_path):
+    """States with valid checksums and 1 to 3 random doubles of the block replaced by awkward numbers
+    (a parameter, a was-set flag, the run's state, the integrator's workspace), each deserialised,
+    restored, stepped and read, in the sanitized host."""
+    md = built[name][2]
+    h = Host(sanitized["host"], sanitized[name], md.guid, {v.name: v.valueReference for v in md.modelVariables})
+    inputs = RUNS[name][0]
+    good = saved_state(h, md, tmp_path / "good.bin", inputs)
+    n = struct.unpack_from("<I", good.read_bytes(), 16)[0]
+    rng = np.random.default_rng(7)
+    awkward = [float("nan"), float("inf"), -float("inf"), 1e300, -1e300, 1e9, -3.0, -1.0, 0.0, 0.5, 2.5, 1000.0]
+    output = RUNS[name][1][0]
+    script = h.start(md=md)
+    for k in range(150):
+        blob = tmp_path / f"c{k}.bin"
+        picks = rng.choice(n, size=int(rng.integers(1, 4)), replace=False)
+        blob.write_bytes(craft(good.read_bytes(), {int(i): float(rng.choice(awkward)) for i in picks}))
+        script += [f"deser 1 {blob}", "load 1", "step 0.05 0.01", h.getr(output), "reset", "setup 0", "enter",
+                   "exit"]
+    proc = subprocess.run(h.cmd, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=600,
+                          env=SANITIZER_ENV)
+    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+        proc.stderr[-3000:]
+    t = Transcript(proc.stdout)
+    deser = t.statuses("deser")
+    assert len(deser) == 150 and set(deser) == {OK, ERROR}  # some slots take any value (an input, the workspace)
+    assert set(t.statuses("step")) <= {OK, WARNING, DISCARD, ERROR}  # never fmi2Fatal

@@ -32,10 +32,12 @@ import zipfile
 from dataclasses import replace
 from pathlib import Path
 
-from grubler.errors import GrublerError, SceneError
+from grubler.errors import GrublerError, InputError, SceneError
 from grubler.fmi.description import model_description
 from grubler.fmi.header import config_header, variables_source
+from grubler.limits import PATH_CHARS, brief, output_file
 from grubler.mechanism.scene import Scene, load_scene
+from grubler.mechanism.simulate import Simulator
 from grubler.fmi.mechanism import STANDARD_SCENE, fmu_parameters, mechanism_spec, same_shape
 from grubler.fmi.variables import ModelSpec
 
@@ -184,6 +186,10 @@ def export(scene, dest: Path | None = None, win64: bool | None = None) -> Path:
     dest = Path(dest) if dest is not None else Path(f"{scene.name or 'mechanism'}.fmu")
     if dest.suffix != ".fmu":
         raise SceneError("output", f"an FMU's file name ends in .fmu, got {dest.name!r}")
+    check_destination(dest)
+    # a scene that cannot start is refused as simulate refuses it (the loop that
+    # does not close, a penalty closure without inertia), not found out by the importer
+    Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)
     return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, win64)
 
 
@@ -207,3 +213,30 @@ def scene_fmu(scene: Scene, fmu_dir) -> tuple:
     path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
     export(scene, path)
     return path, fmu_parameters(scene)
+
+
+def check_destination(dest: Path, field: str = "output") -> None:
+    """Refuse, before compiling, an FMU path that cannot be written.
+
+    As every command checks a file to write (:func:`grubler.limits.output_file`:
+    the folder exists, the name is a file's), and besides: the name of the
+    partial file written first (``NAME.fmu.part``) fits the file system, and
+    the folder is writable.
+
+    Raises
+    ------
+    InputError
+    """
+    dest = output_file(str(dest), field, (".fmu",))
+    folder = dest.parent if str(dest.parent) else Path(".")
+    where = brief(str(dest), PATH_CHARS)
+    try:
+        longest = os.pathconf(folder, "PC_NAME_MAX")
+    except (AttributeError, ValueError, OSError):  # no pathconf (Windows): the usual limit
+        longest = 255
+    partial = dest.name + ".part"
+    if len(partial.encode("utf-8", "surrogateescape")) > longest:
+        raise InputError(field, f"{where}: the file name is {len(dest.name)} characters; the file system takes "
+                                f"{longest - len('.part')} at most here (the export writes NAME.part first)")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(field, f"{where}: the folder {brief(str(folder), PATH_CHARS)} is not writable")

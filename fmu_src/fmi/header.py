@@ -34,6 +34,9 @@ def config_header(spec: ModelSpec) -> str:
     ]
     for k, value in spec.defines.items():
         lines.append(f"#define {k} {int(value)}")
+    if spec.state:
+        lines += ["", "/* the model's own part of the persistent block: each field's index */"]
+        lines += [f"#define P_{name.upper()} {spec.state_slot(name)}" for name, _ in spec.state]
     lines += ["", "#endif", ""]
     return "\n".join(lines)
 

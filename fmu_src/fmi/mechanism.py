@@ -52,6 +52,18 @@ GLOBALS = ("method", "integrator", "rtol", "atol", "max_step", "step", "gravity"
            "drive_joint", "load_joint", "drive.inertia")
 
 
+def run_state(n_links: int) -> tuple[tuple[str, int], ...]:
+    """The model's own part of a mechanism FMU's persistent block (``mechanism_model.c``'s ``P_*``).
+
+    The run's flag, time, integrator step and counters, the joint state y = (z,
+    zd) and its derivative f (2 ``n_links`` each), then the integrator's
+    workspace (sized by the kernel).
+    """
+    scalars = ("started", "t", "h", "have_f", "steps", "rejected", "evals", "passages", "kappa_seen",
+               "drive_used", "load_used")
+    return (*((f, 1) for f in scalars), ("y", 2 * n_links), ("f", 2 * n_links), ("stepper", 0))
+
+
 def _coordinate_unit(name: str, order: int) -> str:
     base = "m" if name.startswith("B") else "rad"
     return base + ("", "/s", "/s2")[order]
@@ -231,4 +243,4 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
                      tuple(v), "mechanism_model.c", defines, len(obs) + 2 + 3 * max(nc - 1, 0), tuple(slot_order),
                      (JOINT, CLOSURE),
-                     ("kernel",))
+                     ("kernel",), run_state(n))

@@ -70,6 +70,12 @@ OUTPUTS = {
 }
 
 
+# the model's own part of the persistent block (motor_model.c's P_*): the run's
+# flag and time, the dcm_state (winding current, temperature), the warnings given
+RUN_STATE = (("started", 1), ("t", 1), ("current", 1), ("temperature", 1), ("warned_chatter", 1),
+             ("warned_hot", 1), ("end", 0))
+
+
 def motor_parameters(motor=DEFAULT_MOTOR) -> dict[str, float]:
     """A data set's numbers as DCMotor.fmu parameters (name, TOML text or MotorData).
 
@@ -108,4 +114,4 @@ def motor_spec(motor=DEFAULT_MOTOR, identifier: str = "DCMotor") -> ModelSpec:
                                  "thermal model; inputs terminal voltage and shaft speed, output shaft torque (rotor "
                                  "inertia excluded: it belongs to the mechanism as drive.inertia = "
                                  "reflected_inertia)",
-                     tuple(v), "motor_model.c", defines, len(OUTPUTS), (), (), ("motor",))
+                     tuple(v), "motor_model.c", defines, len(OUTPUTS), (), (), ("motor",), RUN_STATE)

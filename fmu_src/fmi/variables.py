@@ -138,6 +138,12 @@ class ModelSpec:
         Parameter and input names in slot order (when the C model addresses
         them arithmetically, e.g. link fields with a stride).
     enums : sequence of EnumType
+    state : sequence of (str, int)
+        The model's own part of the persistent block, after the parameters' and
+        inputs' values and their was-set flags: each field's name and length in
+        doubles, in order (a last length of 0: the rest, sized by the C model).
+        ``config.h`` gets each field's index as ``P_<NAME>``, so the C model, a
+        state's reader and the tests share one layout.
     """
 
     identifier: str
@@ -149,6 +155,7 @@ class ModelSpec:
     slot_order: tuple[str, ...] = ()
     enums: tuple[EnumType, ...] = ()
     kernel_sources: tuple[str, ...] = ()  # ("fmu_src/kernel", ...) folders relative to the package
+    state: tuple[tuple[str, int], ...] = ()
 
     def __post_init__(self):
         names = [v.name for v in self.variables]
@@ -182,6 +189,15 @@ class ModelSpec:
     def slot(self, name: str) -> int:
         return self.variables[self.vr(name) - 1].slot
 
+    def state_slot(self, name: str) -> int:
+        """Index in the persistent block of a field of the model's own part (:attr:`state`)."""
+        k = 2 * self.n_stored
+        for field_name, length in self.state:
+            if field_name == name:
+                return k
+            k += length
+        raise KeyError(name)
+
     @property
     def guid(self) -> str:
         """A GUID that changes with anything the binary and the description must agree on."""
@@ -191,6 +207,7 @@ class ModelSpec:
             h.update(repr((k, v.name, v.type, v.causality, v.slot, v.stored_start if v.start is not None else None,
                            v.choices, v.level)).encode())
         h.update(repr(sorted(self.defines.items())).encode())
+        h.update(repr(self.state).encode())
         d = h.hexdigest()
         return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 

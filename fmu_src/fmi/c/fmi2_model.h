@@ -82,9 +82,17 @@ size_t model_scratch_bytes(void);
 /* The model's part of a fresh persistent block (after the parameters and inputs
  * got their start values): "not started". */
 void model_reset(grb_instance *inst);
+/* The model's checks of a persistent block's values: its parameters (those
+ * values the wrapper's per-variable checks cannot judge: a length's sign, a
+ * loop's joints, ...) and, when the block holds a started run, the run's state
+ * (every number the model will compute with, ranges and finiteness).  fmi2Error
+ * with a logged reason naming the field.  The one check for both ways values
+ * arrive: model_prepare runs it on values the importer set, the wrapper on a
+ * state before restoring it, so nothing in a block reaches the kernel unchecked. */
+fmi2Status model_check(grb_instance *inst, const double *block);
 /* Make the scratch (tables, the initial state unless the block holds a started
  * run) agree with the persistent block; called when inst->dirty.  fmi2Error with
- * a logged reason naming the parameter when the parameters are unusable. */
+ * a logged reason naming the parameter when model_check refuses the block. */
 fmi2Status model_prepare(grb_instance *inst);
 /* The run starts: from now on the persistent block holds a started run. */
 fmi2Status model_start(grb_instance *inst);

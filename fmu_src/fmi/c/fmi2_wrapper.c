@@ -22,8 +22,13 @@
  *   40      8     FNV-1a 64 of the whole block's bytes
  *   48      8*n   the block, IEEE 754 doubles
  *
- * Nothing in it is executed or interpreted beyond these numbers.
+ * Nothing in it is executed or interpreted beyond these numbers, and the
+ * checksums only catch accidents: anyone can write a blob that passes them.  So
+ * a state's values, whether restored from memory or from bytes, pass the same
+ * checks as values set one by one (value_ok for each variable, model_check for
+ * the model's parameters and its run state) before anything uses them.
  */
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -47,9 +52,12 @@
 #define MASK_DO_STEP GRB_STEP_COMPLETE
 #define MASK_FMU_STATE ANY_LIVE
 
-/* an fmi2FMUstate: a tagged copy of the persistent block */
+/* an fmi2FMUstate: a tagged copy of the persistent block; guid is the model's
+ * GUID hash, so that a state of another FMU of the same layout is refused in
+ * memory as it is serialised */
 typedef struct grb_saved {
     char tag[8];
+    uint64_t guid;
     size_t n;
     double block[1];
 } grb_saved;
@@ -166,6 +174,69 @@ static int settable(grb_instance *inst, const char *call, const grb_variable *v)
     if (v->causality == GRB_C_PARAMETER && !(inst->state & (GRB_INSTANTIATED | GRB_INITIALIZATION))) {
         fail(inst, "%s: %s is a fixed parameter; it cannot change after initialisation (fmi2Reset, then set it)",
              call, v->name);
+        return 0;
+    }
+    return 1;
+}
+
+/* Is x a value this variable can hold, as fmi2SetInteger, fmi2SetBoolean and
+ * fmi2SetString store them (a Real holds any double: the model checks it)?
+ * The one check for values set by the importer and values a state brings. */
+static int value_ok(grb_instance *inst, const char *call, const grb_variable *v, double x) {
+    switch (v->type) {
+    case GRB_T_INTEGER:
+        if (!(x == floor(x) && fabs(x) <= INT_MAX)) {
+            fail(inst, "%s: %s must be an integer, got %.17g", call, v->name, x);
+            return 0;
+        }
+        if (v->enum_items > 0 && (x < 1 || x > v->enum_items)) {
+            fail(inst, "%s: %s must be an item 1 .. %d of its enumeration, got %.17g", call, v->name,
+                 v->enum_items, x);
+            return 0;
+        }
+        if ((v->min != 0 || v->max != 0) && (x < v->min || x > v->max)) {
+            fail(inst, "%s: %s must be in %d .. %d, got %.17g", call, v->name, v->min, v->max, x);
+            return 0;
+        }
+        return 1;
+    case GRB_T_BOOLEAN:
+        if (x != 0.0 && x != 1.0) {
+            fail(inst, "%s: %s must be a Boolean (0 or 1), got %.17g", call, v->name, x);
+            return 0;
+        }
+        return 1;
+    case GRB_T_STRING:  /* stored as the index of one of its choices */
+        if (!(x == floor(x) && x >= 0 && x < v->n_choices)) {
+            fail(inst, "%s: %s must be the index of one of its %d accepted values, got %.17g", call, v->name,
+                 v->n_choices, x);
+            return 0;
+        }
+        return 1;
+    default:
+        return 1;
+    }
+}
+
+/* The values of a whole persistent block (a state to restore): every
+ * parameter's and input's by value_ok, the was-set flags, then the model's
+ * checks of its parameters and its run state (model_check). */
+static int block_ok(grb_instance *inst, const char *call, const double *block) {
+    int k;
+    for (k = 0; k < MODEL_N_VARIABLES; k++) {
+        const grb_variable *v = &model_variables[k];
+        double set;
+        if (v->causality == GRB_C_OUTPUT) continue;
+        if (!value_ok(inst, call, v, block[v->slot])) return 0;
+        set = block[MODEL_N_STORED + v->slot];
+        if (set != 0.0 && set != 1.0) {
+            fail(inst, "%s: the flag saying whether %s was set must be 0 or 1, got %.17g", call, v->name, set);
+            return 0;
+        }
+    }
+    if (model_check(inst, block) != fmi2OK) {
+        grb_log(inst, fmi2Error, "%s: the state is refused (see the reason above); only fmi2Reset and "
+                "fmi2FreeInstance are allowed now", call);
+        inst->state = GRB_ERROR;
         return 0;
     }
     return 1;
@@ -483,13 +554,8 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
         return fmi2Error;
     for (k = 0; k < nvr; k++) {
         const grb_variable *v = lookup(inst, "fmi2SetInteger", vr[k], GRB_T_INTEGER);
-        if (v == NULL || !settable(inst, "fmi2SetInteger", v)) return fmi2Error;
-        if (v->enum_items > 0 && (value[k] < 1 || value[k] > v->enum_items))
-            return fail(inst, "fmi2SetInteger: %s must be an item 1 .. %d of its enumeration, got %d", v->name,
-                        v->enum_items, (int)value[k]);
-        if ((v->min != 0 || v->max != 0) && (value[k] < v->min || value[k] > v->max))
-            return fail(inst, "fmi2SetInteger: %s must be in %d .. %d, got %d", v->name, v->min, v->max,
-                        (int)value[k]);
+        if (v == NULL || !settable(inst, "fmi2SetInteger", v) || !value_ok(inst, "fmi2SetInteger", v, value[k]))
+            return fmi2Error;
     }
     for (k = 0; k < nvr; k++) set_stored(inst, &model_variables[vr[k] - 1], (double)value[k]);
     return fmi2OK;
@@ -683,6 +749,22 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
 
 /* ---- FMU state ---------------------------------------------------------------- */
 
+/* Is this fmi2FMUstate one this model made (its tag, its model's GUID, its size)? */
+static int ours(const grb_saved *saved) {
+    return saved != NULL && memcmp(saved->tag, STATE_MAGIC, 8) == 0 && saved->guid == guid_hash() &&
+           saved->n == model_persistent_size();
+}
+
+static grb_saved *new_saved(grb_instance *inst) {
+    size_t n = model_persistent_size();
+    grb_saved *saved = (grb_saved *)inst->cb.allocateMemory(1, sizeof(grb_saved) + (n - 1) * sizeof(double));
+    if (saved == NULL) return NULL;
+    memcpy(saved->tag, STATE_MAGIC, 8);
+    saved->guid = guid_hash();
+    saved->n = n;
+    return saved;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     grb_instance *inst = (grb_instance *)c;
     size_t n = model_persistent_size();
@@ -690,23 +772,11 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     if (!allowed(inst, "fmi2GetFMUstate", MASK_FMU_STATE)) return fmi2Error;
     if (FMUstate == NULL) return fail(inst, "fmi2GetFMUstate: NULL FMUstate pointer");
     saved = (grb_saved *)*FMUstate;
-    if (saved != NULL && (memcmp(saved->tag, STATE_MAGIC, 8) != 0 || saved->n != n))
+    if (saved != NULL && !ours(saved))
         return fail(inst, "fmi2GetFMUstate: *FMUstate is not a state of this model (pass NULL for a new one)");
-    if (saved == NULL) {
-        saved = (grb_saved *)inst->cb.allocateMemory(1, sizeof(grb_saved) + (n - 1) * sizeof(double));
-        if (saved == NULL) return fail(inst, "fmi2GetFMUstate: out of memory");
-        memcpy(saved->tag, STATE_MAGIC, 8);
-        saved->n = n;
-    }
+    if (saved == NULL && (saved = new_saved(inst)) == NULL) return fail(inst, "fmi2GetFMUstate: out of memory");
     memcpy(saved->block, inst->p, n * sizeof(double));
     *FMUstate = saved;
-    return fmi2OK;
-}
-
-static fmi2Status restore(grb_instance *inst, const double *block) {
-    memcpy(inst->p, block, model_persistent_size() * sizeof(double));
-    inst->dirty = 1;
-    inst->level = 0;
     return fmi2OK;
 }
 
@@ -714,9 +784,13 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     grb_instance *inst = (grb_instance *)c;
     const grb_saved *saved = (const grb_saved *)FMUstate;
     if (!allowed(inst, "fmi2SetFMUstate", MASK_FMU_STATE)) return fmi2Error;
-    if (saved == NULL || memcmp(saved->tag, STATE_MAGIC, 8) != 0 || saved->n != model_persistent_size())
-        return fail(inst, "fmi2SetFMUstate: not a state of this model");
-    return restore(inst, saved->block);
+    if (!ours(saved))
+        return fail(inst, "fmi2SetFMUstate: not a state of this model (another FMU's, or not a state at all)");
+    if (!block_ok(inst, "fmi2SetFMUstate", saved->block)) return fmi2Error;
+    memcpy(inst->p, saved->block, model_persistent_size() * sizeof(double));
+    inst->dirty = 1;
+    inst->level = 0;
+    return fmi2OK;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
@@ -733,8 +807,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, si
     const grb_saved *saved = (const grb_saved *)FMUstate;
     if (!allowed(inst, "fmi2SerializedFMUstateSize", MASK_FMU_STATE)) return fmi2Error;
     if (size == NULL) return fail(inst, "fmi2SerializedFMUstateSize: NULL size");
-    if (saved == NULL || memcmp(saved->tag, STATE_MAGIC, 8) != 0 || saved->n != model_persistent_size())
-        return fail(inst, "fmi2SerializedFMUstateSize: not a state of this model");
+    if (!ours(saved)) return fail(inst, "fmi2SerializedFMUstateSize: not a state of this model");
     *size = STATE_HEADER + 8 * saved->n;
     return fmi2OK;
 }
@@ -746,8 +819,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
     unsigned char *b = (unsigned char *)serializedState;
     size_t n;
     if (!allowed(inst, "fmi2SerializeFMUstate", MASK_FMU_STATE)) return fmi2Error;
-    if (saved == NULL || memcmp(saved->tag, STATE_MAGIC, 8) != 0 || saved->n != model_persistent_size())
-        return fail(inst, "fmi2SerializeFMUstate: not a state of this model");
+    if (!ours(saved)) return fail(inst, "fmi2SerializeFMUstate: not a state of this model");
     n = saved->n;
     if (b == NULL || size < STATE_HEADER + 8 * n)
         return fail(inst, "fmi2SerializeFMUstate: the buffer holds %u bytes, the state needs %u", (unsigned)size,
@@ -769,7 +841,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     grb_instance *inst = (grb_instance *)c;
     const unsigned char *b = (const unsigned char *)serializedState;
     size_t n = model_persistent_size(), k;
-    grb_saved *saved;
+    grb_saved *saved, *fresh;
     const char *call = "fmi2DeSerializeFMUstate";
     if (!allowed(inst, call, MASK_FMU_STATE)) return fmi2Error;
     if (FMUstate == NULL) return fail(inst, "%s: NULL FMUstate pointer", call);
@@ -790,19 +862,24 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     if (get_u64(b + 40) != fnv1a(FNV_OFFSET, b + STATE_HEADER, 8 * n))
         return fail(inst, "%s: the state's checksum does not match (corrupted state)", call);
     saved = (grb_saved *)*FMUstate;
-    if (saved != NULL && (memcmp(saved->tag, STATE_MAGIC, 8) != 0 || saved->n != n))
+    if (saved != NULL && !ours(saved))
         return fail(inst, "%s: *FMUstate is not a state of this model (pass NULL for a new one)", call);
-    if (saved == NULL) {
-        saved = (grb_saved *)inst->cb.allocateMemory(1, sizeof(grb_saved) + (n - 1) * sizeof(double));
-        if (saved == NULL) return fail(inst, "%s: out of memory", call);
-        memcpy(saved->tag, STATE_MAGIC, 8);
-        saved->n = n;
-    }
+    /* decoded aside and checked: a refused blob leaves *FMUstate as it was */
+    if ((fresh = new_saved(inst)) == NULL) return fail(inst, "%s: out of memory", call);
     for (k = 0; k < n; k++) {
         uint64_t u = get_u64(b + STATE_HEADER + 8 * k);
-        memcpy(&saved->block[k], &u, 8);
+        memcpy(&fresh->block[k], &u, 8);
     }
-    *FMUstate = saved;
+    if (!block_ok(inst, call, fresh->block)) {
+        inst->cb.freeMemory(fresh);
+        return fmi2Error;
+    }
+    if (saved == NULL) {
+        *FMUstate = fresh;
+    } else {
+        memcpy(saved->block, fresh->block, n * sizeof(double));
+        inst->cb.freeMemory(fresh);
+    }
     return fmi2OK;
 }
 

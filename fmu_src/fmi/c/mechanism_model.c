@@ -38,20 +38,19 @@
 #define NC N_CLOSURES
 #define NS (2 * N_LINKS)
 
-/* the model's part of the persistent block, after the parameter and input slots */
-enum {
-    P_STARTED = GRB_MODEL_BASE, /* 1: the block holds a started run (initialised or restored) */
-    P_T,                        /* time of the state */
-    P_H,                        /* the integrator's next step */
-    P_HAVE_F,                   /* f holds ydot at (t, y) */
-    P_STEPS, P_REJECTED, P_EVALS,
-    P_PASSAGES,                 /* change points passed */
-    P_KAPPA_SEEN,               /* the best closure conditioning the run has seen (grb_clock) */
-    P_DRIVE_USED, P_LOAD_USED,  /* the efforts f was computed with */
-    P_Y,                        /* y = (z, zd), 2N */
-    P_F = P_Y + NS,             /* f = ydot, 2N */
-    P_STEPPER = P_F + NS        /* the integrator's own workspace */
-};
+/* The model's part of the persistent block, after the parameter and input
+ * slots: its fields' indices P_* come with config.h, from the ModelSpec's state
+ * layout (grubler.fmi.mechanism.run_state):
+ *   P_STARTED     1: the block holds a started run (initialised or restored)
+ *   P_T           time of the state
+ *   P_H           the integrator's next step
+ *   P_HAVE_F      f holds ydot at (t, y)
+ *   P_STEPS, P_REJECTED, P_EVALS, P_PASSAGES (change points passed): counts
+ *   P_KAPPA_SEEN  the best closure conditioning the run has seen (grb_clock)
+ *   P_DRIVE_USED, P_LOAD_USED  the efforts f was computed with
+ *   P_Y           y = (z, zd), 2N
+ *   P_F           f = ydot, 2N
+ *   P_STEPPER     the integrator's own workspace (written before it is read) */
 
 enum { LEVEL_DRIVE = 1, LEVEL_OBSERVE = 2, LEVEL_REACTIONS = 3 };
 
@@ -81,13 +80,13 @@ static size_t stepper_doubles(void) {
 
 size_t model_persistent_size(void) { return (size_t)P_STEPPER + stepper_doubles(); }
 /* Scratch: the mech struct and the kernel's workspace, then (with directional
- * derivatives) the complex-step workspace, state and observations, 16-byte aligned. */
+ * derivatives) the complex-step workspace, state and outputs, 16-byte aligned. */
 static size_t complex_offset(void) {
     return (sizeof(mech) + grb_work_size(N, NC) * sizeof(double) + 15) & ~(size_t)15;
 }
 size_t model_scratch_bytes(void) {
     return complex_offset() + (MODEL_DIRECTIONAL_DERIVATIVE ? 2 * sizeof(double) * (grb_work_size(N, NC) + NS +
-                                                                                     N_OBSERVED) : 0);
+                                                                                     MODEL_N_OUTPUTS) : 0);
 }
 int model_input_free_level(void) { return LEVEL_DRIVE; }
 const double *model_outputs(const grb_instance *inst) { return ((const mech *)inst->model)->out; }
@@ -124,10 +123,13 @@ static void closure_prefix(int j, char *buf, size_t size) {
 
 static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
 
-/* The checks grubler.mechanism.model.Mechanism makes, with its messages. */
-static fmi2Status validate(grb_instance *inst) {
-    const double *p = inst->p;
+/* The checks grubler.mechanism.model.Mechanism and grubler.mechanism.scene make, with their
+ * messages, then those of a started run's state.  The integer and string
+ * parameters are in range here (the wrapper's value_ok, on both paths), so
+ * their casts to int are safe. */
+fmi2Status model_check(grb_instance *inst, const double *p) {
     char name[32];
+    int revolute[N], q_index[N];
     int i, j, k;
     for (k = 0; k < MODEL_N_STORED; k++)
         if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE) {
@@ -218,22 +220,65 @@ static fmi2Status validate(grb_instance *inst) {
     if (p[SLOT_DRIVE_INERTIA] < 0) BAD("drive.inertia: must be >= 0, got %g", p[SLOT_DRIVE_INERTIA]);
     if (p[SLOT_DRIVE_INERTIA] > 0 && (int)p[SLOT_DRIVE_JOINT] == 0)
         BAD("drive.inertia: a drive inertia needs the joint it acts on (drive_joint)");
+    for (i = 0; i < N; i++) revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
+    grb_real_coordinates(N, revolute, q_index);
+    {
+        /* the efforts act on real joints (grubler.mechanism.model.Mechanism.free_index) */
+        static const char *const effort[2] = {"drive_joint", "load_joint"};
+        const int slot[2] = {SLOT_DRIVE_JOINT, SLOT_LOAD_JOINT};
+        char buf[32], real[32];
+        for (k = 0; k < 2; k++) {
+            int q = (int)p[slot[k]] - 1;  /* choice 0: none */
+            if (q >= 0 && q_index[q / 2] != q)
+                BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", effort[k],
+                    coordinate_name(q, buf, sizeof buf), q / 2 + 2,
+                    coordinate_name(q_index[q / 2], real, sizeof real));
+        }
+        /* a locked coordinate cannot move (grubler.mechanism.scene): a locked slide's rate is 0; a
+         * locked angle's absolute rate is its predecessor's (the ground's: 0) */
+        for (i = 0; i < N; i++) {
+            int q = revolute[i] ? 2 * i : 2 * i + 1, pk = parent_link(p, i + 2);
+            double rate = p[SLOT_QD0 + q], follows = revolute[i] || pk == 1 ? 0.0 : p[SLOT_QD0 + 2 * pk - 3];
+            if (fabs(rate - follows) > 1e-12 * fmax(1.0, fmax(fabs(rate), fabs(follows)))) {
+                coordinate_name(q, buf, sizeof buf);
+                if (revolute[i] || pk == 1)
+                    BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move", buf, buf);
+                BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move (relative to link%d: its "
+                    "absolute rate is initial.%s_d = %g, got %g)", buf, buf, pk,
+                    coordinate_name(2 * pk - 3, real, sizeof real), follows, rate);
+            }
+        }
+    }
+    /* a started run's state: what the integrator and the outputs compute with */
+    if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
+    if (p[P_STARTED] == 0.0) return fmi2OK;  /* not started: initialisation computes the state */
+    if (!isfinite(p[P_T])) BAD("state.t: the time must be finite, got %g", p[P_T]);
+    if (!(p[P_H] >= 0.0 && isfinite(p[P_H]))) BAD("state.h: the next step must be >= 0 and finite, got %g", p[P_H]);
+    if (p[P_HAVE_F] != 0.0 && p[P_HAVE_F] != 1.0) BAD("state.have_f: must be 0 or 1, got %g", p[P_HAVE_F]);
+    {
+        static const char *const count[4] = {"steps", "rejected", "evals", "passages"};
+        for (k = 0; k < 4; k++)
+            if (!(p[P_STEPS + k] >= 0.0 && isfinite(p[P_STEPS + k])))
+                BAD("state.%s: a count must be >= 0 and finite, got %g", count[k], p[P_STEPS + k]);
+    }
+    if (!(p[P_KAPPA_SEEN] >= 0.0 && isfinite(p[P_KAPPA_SEEN])))
+        BAD("state.kappa_seen: a conditioning must be >= 0 and finite, got %g", p[P_KAPPA_SEEN]);
+    if (!isfinite(p[P_DRIVE_USED])) BAD("state.drive_used: must be finite, got %g", p[P_DRIVE_USED]);
+    if (!isfinite(p[P_LOAD_USED])) BAD("state.load_used: must be finite, got %g", p[P_LOAD_USED]);
+    for (k = 0; k < NS; k++) {
+        char buf[32];
+        coordinate_name(q_index[k % N], buf, sizeof buf);
+        if (!isfinite(p[P_Y + k]))
+            BAD("state.%s%s: the joint state must be finite, got %g", buf, k < N ? "" : "_d", p[P_Y + k]);
+        if (p[P_HAVE_F] != 0.0 && !isfinite(p[P_F + k]))
+            BAD("state.f: the derivative of %s%s must be finite, got %g", buf, k < N ? "" : "_d", p[P_F + k]);
+    }
     return fmi2OK;
 }
 
-/* index in z of a real joint named by a drive_joint / load_joint choice (0: none -> -1) */
-static fmi2Status joint_index(grb_instance *inst, const mech *mm, const char *field, int choice, int *z_index) {
-    int q = choice - 1, pair;
-    char buf[32], real[32];
-    *z_index = -1;
-    if (choice == 0) return fmi2OK;
-    pair = q / 2;
-    if (mm->q_index[pair] != q)
-        BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", field,
-            coordinate_name(q, buf, sizeof buf), pair + 2, coordinate_name(mm->q_index[pair], real, sizeof real));
-    *z_index = pair;
-    return fmi2OK;
-}
+/* index in z of the real joint a drive_joint / load_joint choice names (0: none -> -1);
+ * model_check made sure it is a real joint */
+static int joint_index(int choice) { return choice == 0 ? -1 : (choice - 1) / 2; }
 
 static const char *status_text(int status) {
     switch (status) {
@@ -255,7 +300,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     double *p = inst->p;
     double lf[N * GRB_SL_COLUMNS], cf[(NC > 0 ? NC : 1) * GRB_SC_COLUMNS];
     int i, j, st, method, tableau;
-    fmi2Status s = validate(inst);
+    fmi2Status s = model_check(inst, p);
     if (s != fmi2OK) return s;
     for (i = 0; i < N; i++) {
         mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
@@ -292,8 +337,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->m.theta1 = p[SLOT_GROUND_THETA1];
     mm->m.gravity = p[SLOT_GRAVITY];
     mm->m.drive_inertia = p[SLOT_DRIVE_INERTIA];
-    if (joint_index(inst, mm, "drive_joint", (int)p[SLOT_DRIVE_JOINT], &mm->m.drive) != fmi2OK) return fmi2Error;
-    if (joint_index(inst, mm, "load_joint", (int)p[SLOT_LOAD_JOINT], &mm->m.load) != fmi2OK) return fmi2Error;
+    mm->m.drive = joint_index((int)p[SLOT_DRIVE_JOINT]);
+    mm->m.load = joint_index((int)p[SLOT_LOAD_JOINT]);
 
     /* how to integrate: what grubler.mechanism.simulate.Simulator sets up */
     method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
@@ -382,25 +427,33 @@ fmi2Status model_start(grb_instance *inst) {
  * kernel's R_LAM and R_NORMAL, as grubler.mechanism.simulate.closure_forces reads them). */
 enum { ROW_LAM = 3, ROW_NORMAL = 4 };
 
-static void closure_forces(const mech *mm, double *out) {
-    long layout[12];
-    grb_work_layout(N, NC, layout);
-    const double *R = mm->work + layout[3];
-    long rc = layout[8];
-    for (int j = 1; j < NC; j++) {
-        const double *r0 = R + 2 * j * rc, *r1 = r0 + rc;
-        double *o = out + 3 * (j - 1);
-        if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: its normal force, holding moment */
-            o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];
-            o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];
-            o[2] = r1[ROW_LAM];
-        } else { /* a pin */
-            o[0] = r0[ROW_LAM];
-            o[1] = r1[ROW_LAM];
-            o[2] = 0.0;
-        }
+/* over real numbers from grb_observe's workspace, and (with directional
+ * derivatives) over complex numbers from grb_cs_observe_at's, which has the same
+ * layout in complex entries: one text, two scalar types */
+#define CLOSURE_FORCES(name, real)                                                                             \
+    static void name(const mech *mm, const real *work, real *out) {                                            \
+        long layout[12];                                                                                       \
+        grb_work_layout(N, NC, layout);                                                                        \
+        const real *R = work + layout[3];                                                                      \
+        long rc = layout[8];                                                                                   \
+        for (int j = 1; j < NC; j++) {                                                                         \
+            const real *r0 = R + 2 * j * rc, *r1 = r0 + rc;                                                    \
+            real *o = out + 3 * (j - 1);                                                                       \
+            if (mm->closures[j * GRB_CL_COLUMNS + GRB_CL_KIND] != 0.0) { /* a line: normal force, moment */   \
+                o[0] = r0[ROW_NORMAL] * r0[ROW_LAM];                                                           \
+                o[1] = r1[ROW_NORMAL] * r0[ROW_LAM];                                                           \
+                o[2] = r1[ROW_LAM];                                                                            \
+            } else { /* a pin */                                                                               \
+                o[0] = r0[ROW_LAM];                                                                            \
+                o[1] = r1[ROW_LAM];                                                                            \
+                o[2] = 0.0;                                                                                    \
+            }                                                                                                  \
+        }                                                                                                      \
     }
-}
+CLOSURE_FORCES(closure_forces, double)
+#if MODEL_DIRECTIONAL_DERIVATIVE
+CLOSURE_FORCES(closure_forces_cs, double complex)
+#endif
 #endif
 
 fmi2Status model_compute(grb_instance *inst, int level) {
@@ -419,7 +472,7 @@ fmi2Status model_compute(grb_instance *inst, int level) {
             return fmi2Warning;
         }
 #if N_CLOSURES > 1
-        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->out + N_OBSERVED + 2);
+        if (level >= LEVEL_REACTIONS) closure_forces(mm, mm->work, mm->out + N_OBSERVED + 2);
 #endif
     }
     return fmi2OK;
@@ -490,8 +543,9 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
 /* d(outputs)/d(motor_torque, load_torque) along the seed: the kernel's
  * observations compiled over complex numbers (grb_cs_observe_at, the same
  * equations grb_observe runs) at the present state, with the efforts moved by
- * i h times the seed; the imaginary parts over h are the exact derivatives.
- * The drive joint's angle and speed are states: zero. */
+ * i h times the seed, and the other closures' forces from its multipliers as
+ * model_compute takes them; the imaginary parts over h are the exact
+ * derivatives.  The drive joint's angle and speed are states: zero. */
 fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
                                         const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
                                         fmi2Real dv_unknown[]) {
@@ -510,10 +564,11 @@ fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueRefer
     efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
     efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
     st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
-    for (k = 0; k < n_unknown; k++) {
-        int slot = model_variables[unknown[k] - 1].slot;
-        dv_unknown[k] = slot < N_OBSERVED ? cimag(cout[slot]) / CS_STEP : 0.0;
-    }
+    cout[N_OBSERVED] = cout[N_OBSERVED + 1] = 0.0;  /* drive_angle, drive_speed */
+#if N_CLOSURES > 1
+    closure_forces_cs(mm, cwork, cout + N_OBSERVED + 2);
+#endif
+    for (k = 0; k < n_unknown; k++) dv_unknown[k] = cimag(cout[model_variables[unknown[k] - 1].slot]) / CS_STEP;
     if (st != GRB_OK) {
         grb_log(inst, fmi2Warning, "directional derivative at t = %.12g s: %s; it reads as NaN", p[P_T],
                 status_text(st));

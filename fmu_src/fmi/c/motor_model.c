@@ -12,14 +12,14 @@
 #include "dc_motor.h"
 #include "fmi2_model.h"
 
-enum {
-    P_STARTED = GRB_MODEL_BASE, /* 1: the block holds a started run */
-    P_T,                        /* time of the state */
-    P_CURRENT, P_TEMPERATURE,   /* dcm_state */
-    P_WARNED_CHATTER,           /* the chatter warning was given in this run */
-    P_WARNED_HOT,               /* the winding-temperature warning was given */
-    P_END
-};
+/* The model's part of the persistent block: its fields' indices P_* come with
+ * config.h, from the ModelSpec's state layout (grubler.fmi.motor.RUN_STATE):
+ *   P_STARTED         1: the block holds a started run
+ *   P_T               time of the state
+ *   P_CURRENT, P_TEMPERATURE   the dcm_state
+ *   P_WARNED_CHATTER  the chatter warning was given in this run
+ *   P_WARNED_HOT      the winding-temperature warning was given
+ *   P_END             its size */
 
 typedef struct motor {
     dcm_params params;
@@ -38,15 +38,17 @@ void model_reset(grb_instance *inst) {
     inst->p[P_T] = 0.0;
 }
 
+/* unless the importer set it, the winding starts at ambient temperature */
+static double initial_temperature(const double *p) {
+    return p[MODEL_N_STORED + SLOT_INITIAL_TEMPERATURE] != 0.0 ? p[SLOT_INITIAL_TEMPERATURE]
+                                                                : p[SLOT_AMBIENT_TEMPERATURE];
+}
+
 #define BAD(...) do { grb_log(inst, fmi2Error, __VA_ARGS__); return fmi2Error; } while (0)
 
-fmi2Status model_prepare(grb_instance *inst) {
-    motor *mm = (motor *)inst->model;
-    double *p = inst->p, limit = p[SLOT_CURRENT_LIMIT];
-    dcm_params *d = &mm->params;
-    dcm_state s;
-    int field = -1, st;
-    const char *why = "";
+/* The block's parameters as the C model's, the FMU's "0: no limit" its INFINITY. */
+static void params_of(const double *p, dcm_params *d) {
+    double limit = p[SLOT_CURRENT_LIMIT];
     d->resistance = p[SLOT_RESISTANCE];
     d->inductance = p[SLOT_INDUCTANCE];
     d->torque_constant = p[SLOT_TORQUE_CONSTANT];
@@ -62,11 +64,22 @@ fmi2Status model_prepare(grb_instance *inst) {
     d->gear_ratio = p[SLOT_GEAR_RATIO];
     d->gear_efficiency = p[SLOT_GEAR_EFFICIENCY];
     d->supply_voltage = p[SLOT_SUPPLY_VOLTAGE];
-    /* the FMU's "0: no limit" is the C model's INFINITY */
-    if (!(limit >= 0.0) || !isfinite(limit)) BAD("current_limit: must be >= 0 and finite (0: none), got %g", limit);
     d->current_limit = limit > 0.0 ? limit : INFINITY;
     d->ambient_temperature = p[SLOT_AMBIENT_TEMPERATURE];
     d->max_substep = p[SLOT_MAX_SUBSTEP];
+}
+
+/* The parameters by dcm_check_params (it names the field), then the state: the
+ * initial one (dcm_check_state) or a started run's (the same check, and its
+ * time and flags). */
+fmi2Status model_check(grb_instance *inst, const double *p) {
+    dcm_params params, *d = &params;
+    dcm_state s;
+    int field = -1, st, started = p[P_STARTED] != 0.0;
+    const char *why = "", *prefix = started ? "state." : "initial_";
+    if (!(p[SLOT_CURRENT_LIMIT] >= 0.0) || !isfinite(p[SLOT_CURRENT_LIMIT]))
+        BAD("current_limit: must be >= 0 and finite (0: none), got %g", p[SLOT_CURRENT_LIMIT]);
+    params_of(p, d);
     st = dcm_check_params(d, &field, &why);
     if (st != DCM_OK) {
         const char *name = dcm_field_name(field);
@@ -76,21 +89,39 @@ fmi2Status model_prepare(grb_instance *inst) {
     }
     if (!isfinite(p[SLOT_MAX_WINDING_TEMPERATURE]))
         BAD("max_winding_temperature: must be finite (0: none), got %g", p[SLOT_MAX_WINDING_TEMPERATURE]);
-    dcm_reflected_inertia(d, &mm->reflected_inertia);
-    if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
-    s.current = p[SLOT_INITIAL_CURRENT];
-    /* unless the importer set it, the winding starts at ambient temperature */
-    s.temperature = GRB_WAS_SET(inst, SLOT_INITIAL_TEMPERATURE) ? p[SLOT_INITIAL_TEMPERATURE]
-                                                                 : p[SLOT_AMBIENT_TEMPERATURE];
+    if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
+    if (started) {
+        if (!isfinite(p[P_T])) BAD("state.t: the time must be finite, got %g", p[P_T]);
+        if (p[P_WARNED_CHATTER] != 0.0 && p[P_WARNED_CHATTER] != 1.0)
+            BAD("state.warned_chatter: must be 0 or 1, got %g", p[P_WARNED_CHATTER]);
+        if (p[P_WARNED_HOT] != 0.0 && p[P_WARNED_HOT] != 1.0)
+            BAD("state.warned_hot: must be 0 or 1, got %g", p[P_WARNED_HOT]);
+        s.current = p[P_CURRENT];
+        s.temperature = p[P_TEMPERATURE];
+    } else {
+        s.current = p[SLOT_INITIAL_CURRENT];
+        s.temperature = initial_temperature(p);
+    }
     st = dcm_check_state(d, &s, &field, &why);
     if (st != DCM_OK) {
         const char *name = dcm_field_name(field);
-        BAD("initial_%s: %s (got %g)", name ? name : "state", why ? why : dcm_status_message(st),
+        BAD("%s%s: %s (got %g)", prefix, name ? name : "state", why ? why : dcm_status_message(st),
             field == DCM_CURRENT ? s.current : s.temperature);
     }
+    return fmi2OK;
+}
+
+fmi2Status model_prepare(grb_instance *inst) {
+    motor *mm = (motor *)inst->model;
+    double *p = inst->p;
+    fmi2Status status = model_check(inst, p);
+    if (status != fmi2OK) return status;
+    params_of(p, &mm->params);
+    dcm_reflected_inertia(&mm->params, &mm->reflected_inertia);
+    if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
     p[P_T] = inst->start_time;
-    p[P_CURRENT] = s.current;
-    p[P_TEMPERATURE] = s.temperature;
+    p[P_CURRENT] = p[SLOT_INITIAL_CURRENT];
+    p[P_TEMPERATURE] = initial_temperature(p);
     p[P_WARNED_CHATTER] = p[P_WARNED_HOT] = 0.0;
     return fmi2OK;
 }
