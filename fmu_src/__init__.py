@@ -25,11 +25,15 @@ from .model import Closure, Link, Mechanism
 from .scene import Scene, load_scene, preset_names, scene_from_dict
 from .simulate import Result, Simulator, evaluate, output_columns, simulate
 
+# grubler.motors after `import grubler` (the data sets and the DC motor); by its full name, which a
+# doctest run that imports this folder as `fmu_src` also finds
+from grubler import motors  # noqa: E402
+
 __version__ = "0.1.0"
 
 __all__ = [
     "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
     "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
     "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility", "linearize",
-    "load_scene", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
+    "load_scene", "motors", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
 ]

@@ -117,14 +117,14 @@ def envelope(t, values, bins: int):
     return tb, lo, hi, mean
 
 
-def plot_panels(t, panels, path: str, title: str = "") -> None:
+def plot_panels(t, panels, path: str, title: str = "", limits=None) -> None:
     """Save :func:`panels_figure` to ``path`` (PNG or any format matplotlib writes)."""
-    fig = panels_figure(t, panels, title)
+    fig = panels_figure(t, panels, title, limits)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def panels_figure(t, panels, title: str = ""):
+def panels_figure(t, panels, title: str = "", limits=None):
     """Stacked time plots sharing the time axis.
 
     Curves in a panel that are equal at every sample are drawn once, their
@@ -138,6 +138,10 @@ def panels_figure(t, panels, title: str = ""):
         The title is the axis label; give it the unit in square brackets.
     title : str
         The figure's title.
+    limits : dict, optional
+        Horizontal lines by panel title: ``{title: [(label, value), ...]}``, a
+        limit such as the supply voltage, drawn dashed and drawn at +-value
+        when the label starts with "±".
     """
     t = np.asarray(t, dtype=float)
     n = max(len(panels), 1)
@@ -161,9 +165,13 @@ def panels_figure(t, panels, title: str = ""):
                 ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
             else:
                 ax.plot(t, values, label=textwrap.fill(label, 28), lw=1.2)
+        for k, (label, value) in enumerate((limits or {}).get(name, [])):
+            both = label.startswith("±")
+            for v in ((value, -value) if both else (value,)):
+                ax.axhline(v, color="0.35", lw=1.0, ls=("--", ":", "-.")[k % 3], label=label if v == value else None)
         # a title that carries its unit keeps it; the FMUs' spellings ("N.m") would repeat it
         ax.set_ylabel(name if "[" in name or not units else f"{name} [{', '.join(units)}]", fontsize=9)
-        if merged:
+        if ax.get_legend_handles_labels()[0]:
             # beside the axes, never over a curve
             ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
         ax.grid(True, alpha=0.3)

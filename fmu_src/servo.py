@@ -160,9 +160,27 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
              {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
         Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
         Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
-             {"mechanism.Fx": "ground on the last link, x", "mechanism.Fy": "ground on the last link, y"}),
+             {"mechanism.Fx": f"{closing_force_words(model)}, x", "mechanism.Fy": f"{closing_force_words(model)}, y"}),
     ]
     return s
 
 
-__all__ = ["ServoDesign", "servo_system"]
+def closing_force_words(model) -> str:
+    """The closing joint's force in a design review's words: the pin's on the rocker, the guide's on the slider.
+
+    Examples
+    --------
+    >>> from grubler.scene import load_scene
+    >>> closing_force_words(load_scene("thesis-fourbar").mechanism)
+    'closing-pin force on the rocker'
+    >>> closing_force_words(load_scene("slider-crank").mechanism)
+    'guide force on the slider'
+    """
+    cl = model.closures[0]
+    four_link = model.n_links == 3 and cl.link == 4  # the closing link of a four-bar or slider-crank
+    if cl.kind == "revolute":
+        return f"closing-pin force on {'the rocker' if four_link else f'link{cl.link}'}"
+    return f"guide force on {'the slider' if four_link else f'link{cl.link}'}"
+
+
+__all__ = ["ServoDesign", "closing_force_words", "servo_system"]

@@ -1,0 +1,192 @@
+"""Units and names wherever a number is shown or written, and pictures a design
+review can read: CSV headings carry units that the readers take back off, the
+motors can be listed, the sizing picture has no blank panel, no legend over data
+and no margin floored at 0, the servo plot shows the power stage's limits."""
+
+import csv
+import math
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import grubler  # noqa: E402
+from grubler.cli import main  # noqa: E402
+
+MOTOR_DATA = Path(grubler.__file__).resolve().parent.parent / "motors" / "data"
+
+
+def data_points(ax):
+    """Display coordinates of every drawn data point of ``ax`` (lines' vertices, not the axes' own)."""
+    pts = []
+    for line in ax.get_lines():
+        xy = np.column_stack([line.get_xdata(), line.get_ydata()]).astype(float)
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if len(xy) and line.get_transform() == ax.transData:
+            pts.append(ax.transData.transform(xy))
+    return np.vstack(pts) if pts else np.empty((0, 2))
+
+
+def legends_over_data(fig):
+    """(axes label, points) of every legend that covers data points of any axes of ``fig``."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    found = []
+    for leg_ax in fig.axes:
+        legend = leg_ax.get_legend()
+        if legend is None:
+            continue
+        box = legend.get_window_extent(renderer)
+        for ax in fig.axes:
+            pts = data_points(ax)
+            inside = ((pts[:, 0] > box.x0) & (pts[:, 0] < box.x1) & (pts[:, 1] > box.y0) & (pts[:, 1] < box.y1))
+            if inside.any():
+                found.append((leg_ax.get_ylabel() or leg_ax.get_title(), int(inside.sum())))
+    return found
+
+
+# -- CSV headings carry units ----------------------------------------------------------
+def test_a_cosim_csv_heading_carries_the_unit_and_animate_labels_its_strip_with_it(tmp_path):
+    from grubler.cosim import CosimResult
+    from grubler.runs import read_table, select_signals
+
+    t = np.linspace(0.0, 1.0, 11)
+    res = CosimResult(t, ["arm.theta2", "arm.closure_error", "motor.current"], np.column_stack([t, 0 * t, 2 * t]),
+                      system=None, order=[], master="gauss-seidel", step=0.1, wall_time=0.0,
+                      units={"arm.theta2": "rad", "arm.closure_error": "m", "motor.current": "A"})
+    res.to_csv(tmp_path / "co.csv")
+    header = (tmp_path / "co.csv").read_text().splitlines()[0]
+    assert header == "t [s],arm.theta2 [rad],arm.closure_error [m],motor.current [A]"
+    # numpy reads the file as it is; the one reader takes the units off the names
+    assert np.loadtxt(tmp_path / "co.csv", delimiter=",", skiprows=1).shape == (11, 4)
+    table = read_table(str(tmp_path / "co.csv"))
+    assert list(table) == ["t", "arm.theta2", "arm.closure_error", "motor.current"]
+    assert table.units["motor.current"] == "A"
+    labels = [label for label, _ in select_signals("arm.theta2,motor.current", table)]
+    assert labels == ["arm.theta2 [rad]", "motor.current [A]"]  # the motor's unit came from the file
+
+
+def test_sizing_csv_and_console_give_motor_speed_in_rpm_and_say_so(capsys, tmp_path):
+    out = tmp_path / "s.csv"
+    assert main(["size", "thesis-fourbar", "--motors", "maxon-re40-148877", "--ratios", "50", "--supply", "48",
+                 "--current-limit", "10", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    (row,) = list(csv.DictReader(open(out)))
+    assert "peak_current [A]" in row and "rank" in row and "margin_voltage" in row
+    rpm = float(row["peak_motor_speed [rpm]"])
+    # the cycle's peak drive speed, 2 pi rad/s, through 50:1, in rpm: 3000
+    assert rpm == pytest.approx(2 * math.pi * 50 * 30 / math.pi, rel=1e-3)
+    assert f"{rpm:.0f} rpm" in text
+
+
+def test_sweep_headings_carry_the_units_of_inputs_and_metrics(tmp_path):
+    from grubler.sweep import scene_point_units
+
+    units = scene_point_units(grubler.load_scene("thesis-slider-crank"),
+                              ["link3.m", "link2.damping", "closure.damping", "initial.theta2_d"])
+    assert units["link3.m"] == "kg" and units["link2.damping"] == "N m s/rad"
+    assert units["closure.damping"] == "" and units["initial.theta2_d"] == "rad/s"
+    assert units["energy_balance"] == "J" and units["peak_closure_force"] == "N"
+
+
+# -- the motors ----------------------------------------------------------------------
+def test_grubler_motors_lists_every_data_set_with_its_figures_units_and_source(capsys):
+    assert main(["motors"]) == 0
+    text = capsys.readouterr().out
+    lines = text.splitlines()
+    assert "[V]" in lines[2] and "[mN m]" in lines[2] and "[rpm]" in lines[2] and "[g cm2]" in lines[2]
+    for path in sorted(MOTOR_DATA.glob("*.toml")):
+        doc = tomllib.loads(path.read_text())
+        sheet = doc["datasheet"]
+        row = next(line.split() for line in lines if line.startswith(doc["name"] + " "))
+        # figures read from the file itself, in the datasheet's units
+        assert float(row[1]) == pytest.approx(sheet["nominal_voltage_V"], rel=1e-3)
+        assert float(row[2]) == pytest.approx(sheet["nominal_torque_mNm"], rel=1e-3)
+        assert float(row[4]) == pytest.approx(sheet["stall_torque_mNm"], rel=1e-3)
+        assert float(row[6]) == pytest.approx(sheet["terminal_resistance_ohm"], rel=1e-3)
+        assert float(row[7]) == pytest.approx(sheet["rotor_inertia_gcm2"], rel=1e-3)
+        assert f"{doc['name']}: {doc['source']['manufacturer']}" in text
+    assert main(["motors", "no-such-motor"]) == 2
+    assert "no data set named 'no-such-motor'" in capsys.readouterr().err
+
+
+def test_grubler_motors_is_an_attribute_after_import_grubler():
+    code = "import grubler; print(grubler.motors.list_motors()[0])"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("maxon-")
+
+
+# -- the sizing picture --------------------------------------------------------------
+@pytest.fixture(scope="module")
+def sizing_study():
+    from grubler.controllers.trajectory import Trajectory
+    from grubler.motors import list_motors, load_motor
+    from grubler.sizing import Control, DutyCycle, size
+
+    model = grubler.load_scene("thesis-fourbar").mechanism
+    traj = Trajectory("trapezoid", distance=math.pi, v_max=2 * math.pi, a_max=20.0, dwell=0.5, repeat=2,
+                      reverse=True)
+    cycle = DutyCycle.from_trajectory(traj, (traj.move_time + 0.5) * 2, start=0.0, name="trapezoid move")
+    return size(model, cycle, [load_motor(n) for n in list_motors()], [5, 10, 20, 35, 50, 75, 100, 150],
+                supply_voltage=48.0, current_limit=10.0, control=Control.servo())
+
+
+def test_the_sizing_picture_has_the_winner_first_no_blank_panel_and_no_legend_over_data(sizing_study):
+    from test_report import overlapping_texts
+
+    fig = sizing_study.figure()
+    axes = fig.axes
+    assert len(axes) == 6  # four motors, the margins, the key: no blank panel
+    assert axes[0].get_title().startswith(f"best: {sizing_study.best.candidate.motor.name} at "
+                                          f"{sizing_study.best.candidate.ratio:g}:1")
+    assert all(ax.get_lines() or ax.collections for ax in axes[:5])
+    key = axes[5]
+    assert key.get_legend() is not None and not data_points(key).size
+    assert [ax.get_legend() for ax in axes[:5]] == [None] * 5  # one key, off the data
+    assert legends_over_data(fig) == []
+    assert overlapping_texts(fig) == []
+
+
+def test_the_margin_panel_draws_no_runaway_as_a_zero(sizing_study):
+    from grubler.sizing import _runaway
+
+    margin = sizing_study.figure().axes[4]
+    assert margin.get_yscale() == "log"
+    runaways = sum(_runaway(a) for a in sizing_study.assessments)
+    assert runaways > 0  # what the check is about: small ratios overheat the winding without bound
+    drawn = np.concatenate([line.get_ydata() for line in margin.get_lines() if line.get_marker() == "o"])
+    assert np.all(np.isnan(drawn) | (drawn > 0))
+    assert np.count_nonzero(np.isnan(drawn)) == runaways  # a gap in the line, and a cross on the axis
+    crosses = sum(len(line.get_xdata()) for line in margin.get_lines() if line.get_marker() == "x")
+    assert crosses == runaways
+
+
+# -- the servo plot ------------------------------------------------------------------
+def test_panels_draw_limit_lines_at_plus_and_minus_the_limit_in_the_legend():
+    from grubler.plotting import panels_figure
+
+    t = np.linspace(0.0, 1.0, 101)
+    fig = panels_figure(t, [("motor current [A]", [("winding current", np.sin(t), "A")])],
+                        limits={"motor current [A]": [("±10 A current limit", 10.0)]})
+    ax = fig.axes[0]
+    levels = sorted(line.get_ydata()[0] for line in ax.get_lines()[1:])
+    assert levels == [-10.0, 10.0]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["winding current", "±10 A current limit"]
+
+
+def test_the_servo_system_names_the_closing_force_in_plain_words():
+    from grubler.servo import ServoDesign, servo_system
+
+    s = servo_system(ServoDesign(), "dist")
+    force = next(p for p in s.plots if p.title.startswith("force"))
+    assert force.labels["mechanism.Fx"] == "closing-pin force on the rocker, x"
+    for path in ("examples/servo_fourbar.ssd", "examples/servo_slider_crank.ssd"):
+        text = (Path(__file__).parent.parent / path).read_text()
+        assert "last link" not in text
