@@ -233,8 +233,13 @@ def cmd_report(args) -> int:
     raw, columns = read_run(args.csv, model)
     if model is not None:
         check_fits(model, columns, args.csv)
+    system = None
+    if args.system:
+        from .ssp import read
+
+        system = read(args.system)
     outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
-                        cosim=mechanism_prefix(list(raw)) is not None)
+                        cosim=mechanism_prefix(list(raw)) is not None, system=system)
     print(f"wrote {', '.join(outs)}")
     return 0
 
@@ -472,6 +477,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
     r.add_argument("--scene", help="the scene it came from: titles the page and draws the mechanism (refused if its "
                                    "geometry does not close the recorded loop)")
+    r.add_argument("--system", help="the .ssd or .ssp a cosim CSV came from: names its motor, gearbox and "
+                                    "controller")
     r.add_argument("--out", type=_output("--out", "figure"), action="append",
                    help="the page, in the format of its suffix: report.png (default) or report.pdf; "
                         "give --out twice for both")

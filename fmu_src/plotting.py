@@ -42,12 +42,12 @@ def result_figure(res: Result):
     """
     m = res.model
     title = f"{m.name or 'scene'}: {m.kind or ''} ({res.method} closure)".replace(" ()", "")
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.0), sharex=True, layout="constrained")
     ax = axes[0, 0]
     for name in m.free_names:
         ax.plot(res.t, res[name], label=f"{name} [{unit_of(name)}]")
     ax.set_ylabel("real joint coordinates (absolute)")
-    ax.legend(fontsize=8)
+    _legend_above(ax)
     ax = axes[0, 1]
     if len(m.closures) > 1:
         # several loops: each closure's force magnitude on its closing link
@@ -55,17 +55,19 @@ def result_figure(res: Result):
             fx, fy = (res["Fx"], res["Fy"]) if j == 0 else (res[f"closure{j}_Fx"], res[f"closure{j}_Fy"])
             ax.plot(res.t, np.hypot(fx, fy), label=f"closure[{j}]: link{cl.link}-link{cl.to_link} [N]")
         ax.set_ylabel("closing-joint force magnitudes")
-        ax.legend(fontsize=8)
+        _legend_above(ax)
     elif m.closures:
         zero = [c for c in ("Fx", "Fy", "Mz") if _all_zero(res[c])]
         for c in ("Fx", "Fy", "Mz"):
             if c not in zero:
                 ax.plot(res.t, res[c], label=f"{c} [{unit_of(c)}]")
-        ax.set_ylabel("closing-joint force on the last link")
-        if zero:
-            ax.set_title(f"{', '.join(zero)} = 0 throughout (not drawn)", fontsize=9)
+        from .servo import closing_force_words
+
+        ax.set_ylabel(closing_force_words(m))
+        if zero:  # right-aligned: the legend takes the left of the space above the axes
+            ax.set_title(f"{', '.join(zero)} = 0 throughout (not drawn)", fontsize=9, loc="right")
         if len(zero) < 3:
-            ax.legend(fontsize=8)
+            _legend_above(ax)
     else:
         ax.plot(res["tip_x"], res["tip_y"])
         ax.set_ylabel("tip path y [m] (x on the bottom axis)")
@@ -98,12 +100,17 @@ def result_figure(res: Result):
         ax.set_title("no drive work" + ("; E falls by what the dampers take" if damped else ""), fontsize=9)
     ax.set_ylabel("energy [J]")
     ax.set_xlabel("t [s]")
-    ax.legend(fontsize=8, framealpha=0.85)
+    _legend_above(ax)
     for a in axes.flat:
         a.grid(True, alpha=0.3)
     fig.suptitle(title)
-    fig.tight_layout()
     return fig
+
+
+def _legend_above(ax) -> None:
+    """The axes' legend above it, beside any title, never over a curve (constrained layout makes the room)."""
+    ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=3, frameon=False, borderaxespad=0.0,
+              handlelength=1.5, columnspacing=1.0)
 
 
 def envelope(t, values, bins: int):

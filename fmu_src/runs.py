@@ -53,9 +53,9 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
     for n, v in raw.items():
         if n.startswith(head):
             cols[n[len(head):]] = v
-    for n, v in raw.items():  # the first current and voltage of another component
+    for n, v in raw.items():  # the first current, voltage and position setpoint of another component
         leaf = n.rsplit(".", 1)[-1]
-        if not n.startswith(head) and leaf in ("current", "voltage") and leaf not in cols:
+        if not n.startswith(head) and leaf in ("current", "voltage", "setpoint") and leaf not in cols:
             cols[leaf] = v
     if "motor_torque" in cols:
         cols["tau_drive"] = cols["motor_torque"]
