@@ -190,3 +190,56 @@ def test_the_servo_system_names_the_closing_force_in_plain_words():
     for path in ("examples/servo_fourbar.ssd", "examples/servo_slider_crank.ssd"):
         text = (Path(__file__).parent.parent / path).read_text()
         assert "last link" not in text
+
+
+# -- the run report and the simulate plot --------------------------------------------
+def servo_like_columns():
+    """A simulate run of the thesis four-bar with a setpoint, a current and a voltage beside it."""
+    res = grubler.simulate("thesis-fourbar", t_end=1.0, dt_out=0.005, torque=3.0)
+    cols = {c: res[c] for c in res.columns}
+    cols["setpoint"] = cols["theta2"] + 0.01 * np.sin(7 * res.t)  # a response 0.01 rad off at most
+    cols["current"], cols["voltage"] = np.cos(res.t), 12 * np.cos(res.t)
+    return cols
+
+
+def test_the_report_shows_the_servo_tracking_error_as_a_panel_and_a_key_number():
+    from grubler.report import key_numbers, report_figure
+    from test_report import overlapping_texts
+
+    cols = servo_like_columns()
+    model = grubler.load_scene("thesis-fourbar").mechanism
+    numbers = dict(key_numbers(cols, "theta2", model))
+    err = np.max(np.abs(cols["setpoint"] - cols["theta2"]))
+    assert numbers["peak |tracking error|"] == f"{err:.3g} rad ({np.degrees(err):.3g} deg)"
+    # energies that sweep their axes everywhere: a legend inside the axes, wherever put, would cover them
+    cols["KE"], cols["PE"] = 5 + 5 * np.sin(40 * cols["t"]), 5 + 5 * np.cos(37 * cols["t"])
+    cols["E"] = cols["KE"] + cols["PE"]
+    fig = report_figure(cols, model, cosim=True)
+    (ax,) = [a for a in fig.axes if a.get_ylabel() == "tracking error [rad]"]
+    assert np.max(np.abs(ax.get_lines()[0].get_ydata())) == pytest.approx(err)
+    assert overlapping_texts(fig) == []
+    assert legends_over_data(fig) == []  # the energy legend above its axes, off the total's peaks
+
+
+def test_the_report_names_the_motor_gearbox_power_stage_and_controller_of_the_system():
+    from grubler.report import report_figure, system_numbers
+    from grubler.servo import ServoDesign, servo_system
+
+    design = ServoDesign()
+    rows = dict(system_numbers(servo_system(design, "dist")))
+    assert rows["motor"] == design.motor  # found by its figures among the shipped data sets
+    assert rows["gearbox"] == f"{design.gear_ratio:g}:1, efficiency {design.gear_efficiency:g}"
+    assert rows["power stage"] == f"{design.supply_voltage:g} V, {design.current_limit:g} A limit"
+    assert rows["controller"].startswith(f"PID: K {design.pid['K']:g}, Ti {design.pid['Ti']:g}")
+    texts = [t.get_text() for t in report_figure(servo_like_columns(), cosim=True).findobj(matplotlib.text.Text)]
+    assert "give --system SSD" in texts  # a cosim record without its system says where the names come from
+
+
+def test_the_simulate_plot_puts_no_legend_over_a_curve():
+    from grubler.plotting import result_figure
+    from test_report import overlapping_texts
+
+    for scene, torque in (("watt-ii", 0.2), ("thesis-fourbar", 3.0)):
+        fig = result_figure(grubler.simulate(scene, t_end=3.0, dt_out=0.01, torque=torque))
+        assert legends_over_data(fig) == [], scene
+        assert overlapping_texts(fig) == [], scene
