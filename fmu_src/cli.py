@@ -1,4 +1,5 @@
-"""Command line: ``grubler presets | motors | info | simulate | animate | report | sweep | size | cosim | export | linearize``.
+"""Command line: ``grubler presets | motors | info | simulate | animate | report | sweep | size | cosim | export |
+linearize``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -237,7 +238,10 @@ def cmd_report(args) -> int:
     if args.system:
         from .ssp import read
 
-        system = read(args.system)
+        try:
+            system = read(args.system)
+        except GrublerError as exc:  # the reader names the file; the option names the field
+            raise InputError("--system", str(exc)) from None
     outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
                         cosim=mechanism_prefix(list(raw)) is not None, system=system)
     print(f"wrote {', '.join(outs)}")
@@ -353,7 +357,8 @@ def cmd_size(args) -> int:
     for k, a in enumerate(study.ranked[:10]):
         r = a.summary()
         print(f"  {k + 1:2d}. {a.candidate.label:<26} margin {a.min_margin:5.2f} ({a.binding}); peak "
-              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, {r['peak_motor_speed']:.0f} {SUMMARY_UNITS['peak_motor_speed']}, "
+              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, "
+              f"{r['peak_motor_speed']:.0f} {SUMMARY_UNITS['peak_motor_speed']}, "
               f"winding +{r['temperature_rise']:.3g} K")
     if len(study.ranked) > 10:
         print(f"  ... {len(study.ranked) - 10} more that fit (the table ranks them all)")

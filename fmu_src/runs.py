@@ -279,5 +279,6 @@ def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: 
                                 "the run came from")
 
 
-__all__ = ["Table", "check_fits", "column_heading", "read_run", "read_run_csv", "read_table", "split_heading", "run_columns", "mechanism_prefix", "coordinates",
+__all__ = ["Table", "check_fits", "column_heading", "read_run", "read_run_csv", "read_table", "split_heading",
+           "run_columns", "mechanism_prefix", "coordinates",
            "column_unit", "select_signals", "signal_names"]

@@ -179,6 +179,15 @@ def test_panels_draw_limit_lines_at_plus_and_minus_the_limit_in_the_legend():
     levels = sorted(line.get_ydata()[0] for line in ax.get_lines()[1:])
     assert levels == [-10.0, 10.0]
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["winding current", "±10 A current limit"]
+    assert legends_over_data(fig) == []  # beside the axes
+
+
+def test_report_names_the_system_option_when_its_file_is_bad(capsys, tmp_path):
+    run = tmp_path / "run.csv"
+    run.write_text("t [s],theta2 [rad]\n0,0\n1,1\n")
+    assert main(["report", str(run), "--system", str(tmp_path / "no.ssd"), "--out", str(tmp_path / "r.png")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("grubler: error: --system: ") and "\n" not in err
 
 
 def test_the_servo_system_names_the_closing_force_in_plain_words():
