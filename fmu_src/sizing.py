@@ -684,8 +684,10 @@ class SizingStudy:
         if self.best is not None:  # the winner first, even where another motor's margin on known limits is larger
             motors.remove(self.best.candidate.motor.name)
             motors.insert(0, self.best.candidate.motor.name)
-        ncols = min(len(motors) + 2, 3)
-        nrows = -(-(len(motors) + 2) // ncols)
+        panels = len(motors) + 2
+        # three columns, but never the key alone on a last row: four panels in two by two, seven in two by four
+        ncols = 2 if panels == 4 else 4 if panels % 3 == 1 and panels > 4 else min(panels, 3)
+        nrows = -(-panels // ncols)
         fig = plt.figure(figsize=(5.4 * ncols, 4.3 * nrows), layout="constrained")
         grid = fig.add_gridspec(nrows, ncols)
         cells = [grid[k // ncols, k % ncols] for k in range(len(motors) + 1)]

@@ -252,3 +252,69 @@ def test_the_simulate_plot_puts_no_legend_over_a_curve():
         fig = result_figure(grubler.simulate(scene, t_end=3.0, dt_out=0.01, torque=torque))
         assert legends_over_data(fig) == [], scene
         assert overlapping_texts(fig) == [], scene
+
+
+# -- the servo's co-simulation record and plot ---------------------------------------
+def test_the_servo_plot_puts_the_supply_and_current_limit_on_the_motor_panels():
+    from grubler.cosim import CosimResult
+    from grubler.servo import ServoDesign, servo_system
+
+    design = ServoDesign()
+    t = np.linspace(0.0, 0.1, 11)
+    res = CosimResult(t, ["motor.current"], t[:, None], servo_system(design, "dist"), [], "gauss-seidel", 0.01, 0.0)
+    limits = res.limits()
+    assert limits["motor current [A]"] == [(f"±{design.current_limit:g} A current limit", design.current_limit)]
+    assert limits["motor voltage [V]"] == [(f"±{design.supply_voltage:g} V supply voltage", design.supply_voltage)]
+    assert not any("tracking" in title or "crank" in title for title in limits)
+
+
+@pytest.fixture(scope="module")
+def servo_record(tmp_path_factory):
+    """A short co-simulation of the servo four-bar (FMUs built from this checkout), as its CSV."""
+    sys.path.insert(0, str(Path(__file__).parent.parent))
+    import build_fmu
+    from grubler.servo import ServoDesign, servo_system
+
+    d = tmp_path_factory.mktemp("servo")
+    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    ssd = servo_system(ServoDesign(t_end=0.05), d).write(d / "servo.ssd")
+    # in a process of its own: pythonfmu FMUs that ran numpy may corrupt the heap at exit
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(ssd), "--csv", str(d / "co.csv"),
+                           "--plot", str(d / "co.png")], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return d
+
+
+def test_a_controller_output_of_any_unit_is_headed_in_the_unit_of_what_it_feeds(servo_record):
+    header = next(csv.reader(open(servo_record / "co.csv")))
+    assert "controller.u [V]" in header and "motor.voltage [V]" in header  # the PID's "any" is the motor's volts
+    assert "motor.current [A]" in header and "mechanism.theta2 [rad]" in header and header[0] == "t [s]"
+    assert (servo_record / "co.png").stat().st_size > 10_000
+
+
+def test_the_report_of_a_servo_record_and_its_system_names_what_drove_it(servo_record, capsys):
+    from grubler.report import report_figure, system_numbers
+    from grubler.runs import read_run
+    from grubler.ssp import read
+
+    model = grubler.load_scene("thesis-fourbar").mechanism
+    raw, cols = read_run(str(servo_record / "co.csv"), model)
+    assert "setpoint" in cols  # the controller's, in simulate vocabulary
+    system = read(servo_record / "servo.ssd")
+    assert dict(system_numbers(system))["motor"] == "maxon-re40-148877"
+    fig = report_figure(cols, model, source="co.csv", cosim=True, system=system)
+    assert any(ax.get_ylabel() == "tracking error [rad]" for ax in fig.axes)
+    assert main(["report", str(servo_record / "co.csv"), "--scene", "thesis-fourbar", "--system",
+                 str(servo_record / "servo.ssd"), "--out", str(servo_record / "r.png")]) == 0
+
+
+def test_two_motors_draw_two_by_two_not_a_key_alone_on_a_row(sizing_study):
+    import dataclasses
+
+    two = {"maxon-re40-148877", "maxon-re25-118752"}
+    study = dataclasses.replace(sizing_study, assessments=[a for a in sizing_study.assessments
+                                                           if a.candidate.motor.name in two],
+                                ranked=[a for a in sizing_study.ranked if a.candidate.motor.name in two])
+    fig = study.figure()
+    spec = [ax.get_subplotspec() for ax in fig.axes]
+    assert [(s.rowspan.start, s.colspan.start) for s in spec] == [(0, 0), (0, 1), (1, 0), (1, 1)]
