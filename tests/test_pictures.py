@@ -22,6 +22,15 @@ from grubler.cli import main  # noqa: E402
 MOTOR_DATA = Path(grubler.__file__).resolve().parent.parent / "motors" / "data"
 
 
+@pytest.fixture(autouse=True)
+def close_figures():
+    """Each test's figures closed after it: pyplot keeps every figure it made until then."""
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
 def data_points(ax):
     """Display coordinates of every drawn data point of ``ax`` (lines' vertices, not the axes' own)."""
     pts = []
