@@ -58,7 +58,8 @@ def main(out: Path) -> None:
     presets = set(grubler.preset_names())
     for name, (chain, ground, title) in INVERSIONS.items():
         has_preset = name in presets
-        fig, axes = plt.subplots(1, 2 if has_preset else 1, figsize=(6.4 if has_preset else 3.2, 3.3), dpi=90)
+        fig, axes = plt.subplots(1, 2 if has_preset else 1, figsize=(6.4 if has_preset else 3.2, 3.3), dpi=90,
+                                 layout="constrained")  # room for every label: none clipped at the edge
         axes = axes if has_preset else [axes]
         draw_graph(axes[0], chain, ground, title)
         if has_preset:
@@ -68,7 +69,6 @@ def main(out: Path) -> None:
             Drawer(axes[1], m, xlim, ylim).draw(frame_geometry(m, z))
             axes[1].set_title(f"preset {name}", fontsize=9)
             axes[1].tick_params(labelsize=7)
-        fig.tight_layout()
         fig.savefig(out / f"topology-{name}.png")
         plt.close(fig)
         print(f"wrote {out / f'topology-{name}.png'}")

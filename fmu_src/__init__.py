@@ -29,8 +29,12 @@ from grubler.mechanism.scene import Scene, load_scene, preset_names, scene_from_
 from grubler.mechanism.simulate import Result, Simulator, evaluate, output_columns, simulate
 from grubler.system import cosim, ssp
 
-# the co-simulation modules keep their public names (``import grubler.system.cosim``,
-# ``from grubler.system.ssp import System``) now that they live in grubler.system
+# grubler.motors after `import grubler` (the data sets and the drives); by its full name, which a
+# doctest run that imports this folder as `fmu_src` also finds
+from grubler import motors
+
+# the co-simulation modules keep their public names (``import grubler.cosim``,
+# ``from grubler.ssp import System``) now that they live in grubler.system
 sys.modules[__name__ + ".cosim"], sys.modules[__name__ + ".ssp"] = cosim, ssp
 
 

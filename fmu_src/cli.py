@@ -1,4 +1,5 @@
-"""Command line: ``grubler presets | info | simulate | animate | report | sweep | size | cosim | export | linearize``.
+"""Command line: ``grubler presets | motors | info | simulate | animate | report | sweep | size | cosim | export |
+linearize``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -60,6 +61,13 @@ def cmd_presets(args) -> int:
         scene = load_scene(name)
         c = classify(scene.mechanism)
         print(f"{name:<{width}}  {c.chain:<10} {c.name}")
+    return 0
+
+
+def cmd_motors(args) -> int:
+    from grubler.motors import motor_listing
+
+    print("\n".join(motor_listing(args.names or None)))
     return 0
 
 
@@ -226,8 +234,16 @@ def cmd_report(args) -> int:
     raw, columns = read_run(args.csv, model)
     if model is not None:
         check_fits(model, columns, args.csv)
+    system = None
+    if args.system:
+        from grubler.system.ssp import read
+
+        try:
+            system = read(args.system)
+        except GrublerError as exc:  # the reader names the file; the option names the field
+            raise InputError("--system", str(exc)) from None
     outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
-                        cosim=mechanism_prefix(list(raw)) is not None)
+                        cosim=mechanism_prefix(list(raw)) is not None, system=system)
     print(f"wrote {', '.join(outs)}")
     return 0
 
@@ -274,7 +290,7 @@ def cmd_sweep(args) -> int:
     import functools
 
     from grubler.mechanism.scene import override
-    from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point
+    from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point, scene_point_units
 
     axes = {}
     for text in args.set:
@@ -286,13 +302,15 @@ def cmd_sweep(args) -> int:
     override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
     func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
     table = run_sweep(func, grid(**axes), out=args.out, workers=args.workers, scheduler=args.scheduler,
-                      resume=not args.no_resume, retry_failed=args.retry_failed)
+                      resume=not args.no_resume, retry_failed=args.retry_failed,
+                      units=scene_point_units(scene, list(axes)))
     n = len(table.rows)
     print(f"{n} points ({table.resumed} from the journal, {len(table.failed)} failed) on {table.workers} "
           f"in {table.wall_time:.2f} s" + (f"; wrote {args.out}" if args.out else ""))
     shown = table.inputs + [c for c in ("final_drive_angle", "peak_drive_speed", "peak_closure_force")
                             if c in table.metrics] + ["status"]
     print("  ".join(f"{c[:18]:>18}" for c in shown))
+    print("  ".join(f"{f'[{table.units[c]}]' if table.units.get(c) else '':>18}" for c in shown))
     for r in table.rows[:20]:
         print("  ".join(f"{r.get(c):>18.6g}" if isinstance(r.get(c), float) else f"{str(r.get(c))[:18]:>18}"
                         for c in shown))
@@ -303,7 +321,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_size(args) -> int:
     from grubler.motors import list_motors, load_motor
-    from grubler.studies.sizing import Control, DutyCycle, size
+    from grubler.studies.sizing import SUMMARY_UNITS, Control, DutyCycle, size
     from grubler.studies.sweep import parse_axis
 
     scene = load_scene(args.scene)
@@ -339,7 +357,8 @@ def cmd_size(args) -> int:
     for k, a in enumerate(study.ranked[:10]):
         r = a.summary()
         print(f"  {k + 1:2d}. {a.candidate.label:<26} margin {a.min_margin:5.2f} ({a.binding}); peak "
-              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, {r['peak_motor_speed'] * 30 / math.pi:.0f} rpm, "
+              f"{r['peak_current']:.3g} A, {r['peak_voltage']:.3g} V, "
+              f"{r['peak_motor_speed']:.0f} {SUMMARY_UNITS['peak_motor_speed']}, "
               f"winding +{r['temperature_rise']:.3g} K")
     if len(study.ranked) > 10:
         print(f"  ... {len(study.ranked) - 10} more that fit (the table ranks them all)")
@@ -419,6 +438,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("presets", help="list the shipped scenes").set_defaults(func=cmd_presets)
+    mot = sub.add_parser("motors", help="the motor data sets: key figures and where they come from")
+    mot.add_argument("names", nargs="*", help="data set names or TOML files (default: every shipped one)")
+    mot.set_defaults(func=cmd_motors)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
     info.add_argument("--at", help="drive angle to assemble at, e.g. '120 deg' (default: the scene's)")
@@ -460,6 +482,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")
     r.add_argument("--scene", help="the scene it came from: titles the page and draws the mechanism (refused if its "
                                    "geometry does not close the recorded loop)")
+    r.add_argument("--system", help="the .ssd or .ssp a cosim CSV came from: names its motor, gearbox and "
+                                    "controller")
     r.add_argument("--out", type=_output("--out", "figure"), action="append",
                    help="the page, in the format of its suffix: report.png (default) or report.pdf; "
                         "give --out twice for both")
@@ -492,7 +516,7 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
     z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
                    help="load on the load joint (the drive joint if the scene has none), N m")
-    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see grubler.motors)")
+    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see `grubler motors`)")
     z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
     z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9,
                    help="gearbox efficiency")
@@ -531,7 +555,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "COORDINATE=VALUE (at rest there, held by the drive effort; e.g. theta2=30deg)")
     lin.add_argument("--torque", type=_finite("--torque"), help="constant drive effort, N m (default: the scene's)")
     lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m")
-    lin.add_argument("--motor", help="DC motor data set on the drive joint (see grubler.motors): input voltage")
+    lin.add_argument("--motor", help="DC motor data set on the drive joint (see `grubler motors`): input voltage")
     lin.add_argument("--ratio", type=_positive("--ratio"), help="its gear ratio (default 1)")
     lin.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
     lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")

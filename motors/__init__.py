@@ -14,8 +14,9 @@ May import: the base modules (:mod:`grubler.errors`, :mod:`grubler.limits`,
 from grubler.motors.dc_motor import (DCMotor, Drive, Gearbox, MotorOutputs, MotorSimulator, MotorState,
                                      current_for_torque, initial_state, linearization, outputs, shaft_torque,
                                      step)
-from grubler.motors.motor_data import MotorData, list_motors, load_motor, two_node_slow_time_constant
+from grubler.motors.motor_data import (MotorData, list_motors, load_motor, motor_listing,
+                                       two_node_slow_time_constant)
 
 __all__ = ["current_for_torque", "DCMotor", "Drive", "Gearbox", "MotorData", "MotorOutputs", "MotorSimulator", "MotorState",
-           "initial_state", "linearization", "list_motors", "load_motor", "outputs", "shaft_torque", "step",
-           "two_node_slow_time_constant"]
+           "initial_state", "linearization", "list_motors", "load_motor", "motor_listing", "outputs", "shaft_torque",
+           "step", "two_node_slow_time_constant"]

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import re
+import textwrap
 import tomllib
 from dataclasses import dataclass, fields
 from importlib import resources
@@ -576,6 +577,54 @@ def load_motor(spec: str | Path) -> MotorData:
         found = re.search(r"'(\w+)'", str(exc))
         missing = found.group(1) if found else "?"
         raise SceneError(f"datasheet.{missing}", f"is missing (motor {name!r})") from None
+
+
+# the key figures of a data set, in the datasheet's units: (heading, unit, MotorData field, SI -> shown)
+KEY_FIGURES = (
+    ("nominal voltage", "V", "nominal_voltage", 1.0),
+    ("nominal torque", "mN m", "nominal_torque", 1e3),
+    ("nominal speed", "rpm", "nominal_speed", 1.0 / RPM),
+    ("stall torque", "mN m", "stall_torque", 1e3),
+    ("torque constant", "mN m/A", "torque_constant", 1e3),
+    ("terminal resistance", "Ohm", "resistance", 1.0),
+    ("rotor inertia", "g cm2", "rotor_inertia", 1e7),
+)
+
+
+def motor_listing(names=None) -> list[str]:
+    """The shipped data sets (or ``names``) as a table of key figures, each with its source.
+
+    One row per motor in the datasheet's units (the heading's third line gives each),
+    then the document its figures come from (and, for motors named, the data
+    set's notes).  A figure the data set does not give shows as ``-``.
+
+    Examples
+    --------
+    >>> lines = motor_listing(["maxon-re40-148877"])
+    >>> lines[0].split()[:3]
+    ['motor', 'nominal', 'nominal']
+    >>> lines[2].split()[:3]
+    ['[V]', '[mN', 'm]']
+    >>> lines[3].split()[:3]
+    ['maxon-re40-148877', '48', '187']
+    """
+    motors = [load_motor(n) for n in (list_motors() if names is None else names)]
+    width = max([len("motor")] + [len(m.name) for m in motors])
+    # three heading lines: the quantity in two words, then its unit
+    heads = [(*h.split(maxsplit=1), f"[{u}]") for h, u, _, _ in KEY_FIGURES]
+    cols = [max(map(len, h)) for h in heads]
+    out = ["  ".join([f"{'motor' if k == 0 else '':<{width}}"] + [f"{h[k]:>{c}}" for h, c in zip(heads, cols)])
+           for k in range(3)]
+    for m in motors:
+        values = [getattr(m, f) for _, _, f, _ in KEY_FIGURES]
+        out.append("  ".join([f"{m.name:<{width}}"] + [f"{'-' if v is None else f'{v * k:.4g}':>{c}}"
+                                                       for v, (_, _, _, k), c in zip(values, KEY_FIGURES, cols)]))
+    out.append("")
+    for m in motors:
+        out += textwrap.wrap(f"{m.name}: {m.source}", 100, subsequent_indent="    ")
+        if names is not None and m.notes:  # asked for by name: how far to trust each figure, too
+            out += textwrap.wrap(f"notes: {m.notes}", 100, initial_indent="    ", subsequent_indent="    ")
+    return out
 
 
 def _read_spec(spec: str | Path) -> tuple[str, str]:

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # own folder and any lower layer; within a layer, only its own folder (the base
 # and front layers are loose modules, which may import each other).
 LAYERS = [
-    ("base", ["grubler._version", "grubler.errors", "grubler.limits", "grubler.binding"]),
+    ("base", ["grubler._version", "grubler.errors", "grubler.limits", "grubler.records", "grubler.binding"]),
     ("mechanism", ["grubler.mechanism", "grubler.motors"]),
     ("views", ["grubler.views"]),
     ("fmi", ["grubler.fmi"]),

@@ -36,13 +36,14 @@ def test_simulate_writes_the_documented_csv_and_a_plot(capsys, tmp_path):
                        "--csv", str(csv_path), "--plot", str(png), "--reactions")
     assert code == 0
     rows = list(csv.reader(open(csv_path)))
-    header = rows[0]
-    expected = ["t", "B1", "theta2", "B2", "theta3", "B3", "theta4",
-                "B1_d", "theta2_d", "B2_d", "theta3_d", "B3_d", "theta4_d",
-                "B1_dd", "theta2_dd", "B2_dd", "theta3_dd", "B3_dd", "theta4_dd",
-                "tip_x", "tip_y", "closure_error", "Fx", "Fy", "Mz", "KE", "PE"]
+    header = rows[0]  # each heading with its unit
+    expected = ["t [s]", "B1 [m]", "theta2 [rad]", "B2 [m]", "theta3 [rad]", "B3 [m]", "theta4 [rad]",
+                "B1_d [m/s]", "theta2_d [rad/s]", "B2_d [m/s]", "theta3_d [rad/s]", "B3_d [m/s]", "theta4_d [rad/s]",
+                "B1_dd [m/s^2]", "theta2_dd [rad/s^2]", "B2_dd [m/s^2]", "theta3_dd [rad/s^2]", "B3_dd [m/s^2]",
+                "theta4_dd [rad/s^2]", "tip_x [m]", "tip_y [m]", "closure_error [m or rad]", "Fx [N]", "Fy [N]",
+                "Mz [N m]", "KE [J]", "PE [J]"]
     assert header[: len(expected)] == expected
-    assert "R1_Fx" in header and "P_drive" in header
+    assert "R1_Fx [N]" in header and "P_drive [W]" in header
     assert len(rows) == 7
     assert png.stat().st_size > 10_000
 
@@ -80,8 +81,10 @@ def test_sweep_runs_a_grid_writes_a_table_and_names_bad_axes(capsys, tmp_path):
                         "drive.torque=0,3", "--t-end", "0.2", "--workers", "1", "--out", str(out))
     assert code == 0
     assert "6 points (0 from the journal, 0 failed) on 1 process" in text
-    rows = list(csv.DictReader(open(out)))
-    assert [(r["link2.a"], r["drive.torque"]) for r in rows][:2] == [("0.15", "0.0"), ("0.15", "3.0")]
+    rows = list(csv.DictReader(open(out)))  # headings with units, as on the console
+    assert [(r["link2.a [m]"], r["drive.torque [N m]"]) for r in rows][:2] == [("0.15", "0.0"), ("0.15", "3.0")]
+    assert "peak_closure_force [N]" in rows[0] and "peak_drive_speed [rad/s]" in rows[0]
+    assert text.splitlines()[2].split() == ["[m]", "[N", "m]", "[rad]", "[rad/s]", "[N]"]
     assert all(r["status"] == "ok" for r in rows)
     code, _, err = run(capsys, "sweep", "thesis-fourbar", "--set", "link2.mass=1,2")
     assert code == 2 and "link2.mass: no such parameter of this scene" in err

@@ -35,8 +35,11 @@ def run_cli(*args, timeout=600):
 
 
 def read_csv(path):
-    data = np.genfromtxt(path, delimiter=",", names=True, deletechars="")
-    return {n: data[n] for n in data.dtype.names}
+    """The columns by name: each heading is the name, then its unit in brackets (mechanism.Fx [N])."""
+    with open(path) as fh:
+        names = [h.split(" [")[0] for h in fh.readline().strip().split(",")]
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {n: data[:, j] for j, n in enumerate(names)}
 
 
 def test_an_ssd_round_trips_and_fmpy_reads_it(mechanism_fmu, tmp_path):

@@ -40,7 +40,8 @@ def test_simulate_plot_leaves_out_zero_columns_and_floored_zeros_and_shows_the_d
     assert np.all(res["Mz"] == 0.0) and np.any(res["closure_error"] == 0.0)  # what the checks are about
     fig = result_figure(res)
     force, violation, energy = fig.axes[1], fig.axes[2], fig.axes[3]
-    assert _legend_labels(force) == ["Fx [N]", "Fy [N]"] and "Mz" in force.get_title()
+    assert _legend_labels(force) == ["Fx [N]", "Fy [N]"] and "Mz" in force.get_title(loc="right")
+    assert force.get_ylabel() == "closing-pin force on the rocker"  # not "the last link"
     assert violation.get_yscale() == "log"
     (points,) = violation.get_lines()
     assert np.all(points.get_ydata() > 0) and len(points.get_ydata()) == np.count_nonzero(res["closure_error"])

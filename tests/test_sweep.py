@@ -51,7 +51,7 @@ def test_local_processes_and_a_dask_cluster_give_the_same_table(tmp_path):
     # the written tables agree too
     a, b = (list(csv.DictReader(open(tmp_path / f))) for f in ("local.csv", "dask.csv"))
     for ra, rb in zip(a, b):
-        for k in ("seconds", "run_seconds"):
+        for k in ("seconds [s]", "run_seconds"):  # wall times; the sweep's own in seconds, as its heading says
             ra.pop(k), rb.pop(k)
         assert ra == rb
     assert len(a) == 4
@@ -73,7 +73,7 @@ def test_an_interrupted_sweep_resumes_without_redoing_points(tmp_path):
     assert CALLS == [3.0, 4.0]
     assert table.resumed == 2
     assert table.column("y") == [2.0, 4.0, 6.0, 8.0]
-    assert out.read_text().splitlines()[0] == "x,y,status,error,seconds,key"
+    assert out.read_text().splitlines()[0] == "x,y,status,error,seconds [s],key"  # the units a sweep knows
     # a different sweep refuses the journal instead of mixing results
     with pytest.raises(GrublerError, match="its journal is of another sweep"):
         run_sweep(functools.partial(scene_point, "thesis-fourbar"), grid(**{"link2.a": [0.2]}), out=out,

@@ -392,10 +392,12 @@ class Result:
         return cols, np.column_stack([self[c] for c in cols])
 
     def to_csv(self, path, groups: Iterable[str] = DEFAULT_GROUPS) -> None:
+        from grubler.records import column_heading
+
         cols, data = self.table(groups)
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(cols)
+            w.writerow([column_heading(c, unit_of(c)) for c in cols])
             for row in data:
                 w.writerow([repr(float(x)) for x in row])
 

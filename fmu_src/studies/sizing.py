@@ -134,6 +134,14 @@ class Candidate:
         return f"{self.motor.name} x {self.ratio:g}"
 
 
+RPM = 30.0 / math.pi  # rpm per rad/s: motor speeds are given in rpm, as on a motor's datasheet
+# the unit of each number in a study's table (Assessment.summary, the CSV's headings); margins are ratios
+SUMMARY_UNITS = {"peak_motor_torque": "N m", "rms_motor_torque": "N m", "peak_motor_speed": "rpm",
+                 "mean_motor_speed": "rpm", "peak_current": "A", "rms_current": "A", "peak_current_ideal_drive": "A",
+                 "rms_current_ideal_drive": "A", "peak_voltage": "V", "winding_temperature_max": "degC",
+                 "temperature_rise": "K"}
+
+
 @dataclass
 class Assessment:
     """What one candidate needs over the cycle and its margins."""
@@ -190,7 +198,7 @@ class Assessment:
         return out
 
     def summary(self) -> dict[str, float | str]:
-        """The study table's row for this candidate."""
+        """The study table's row for this candidate, each number in its :data:`SUMMARY_UNITS` unit."""
         tq, w = self.motor_torque, self.motor_speed
         loop = self.closed_loop
         i = loop.current if loop is not None else self.current
@@ -198,7 +206,7 @@ class Assessment:
         kt = self.candidate.motor.torque_constant
         row = {"motor": self.candidate.motor.name, "ratio": self.candidate.ratio,
                "peak_motor_torque": kt * float(np.max(np.abs(i))), "rms_motor_torque": kt * rms,
-               "peak_motor_speed": float(np.max(np.abs(w))), "mean_motor_speed": float(np.mean(np.abs(w))),
+               "peak_motor_speed": float(np.max(np.abs(w))) * RPM, "mean_motor_speed": float(np.mean(np.abs(w))) * RPM,
                "peak_current": float(np.max(np.abs(i))), "rms_current": rms,
                "peak_current_ideal_drive": float(np.max(np.abs(self.current))),
                "rms_current_ideal_drive": _rms(self.current, self.t),
@@ -635,81 +643,155 @@ class SizingStudy:
                 + [{"rank": "rejected", **a.summary()} for a in self.rejected])
 
     def write_csv(self, path) -> None:
+        """:meth:`table` as CSV, each heading with its unit (``peak_motor_speed [rpm]``)."""
         import csv
+
+        from grubler.records import column_heading
 
         rows = self.table()
         cols = list(dict.fromkeys(c for r in rows for c in r))
         with open(path, "w", newline="") as fh:
-            w = csv.DictWriter(fh, cols)
-            w.writeheader()
+            w = csv.writer(fh)
+            w.writerow([column_heading(c, SUMMARY_UNITS.get(c, "")) for c in cols])
             for r in rows:
-                w.writerow({k: repr(v) if isinstance(v, float) else v for k, v in r.items()})
+                w.writerow([repr(v) if isinstance(v, float) else v for v in (r.get(c, "") for c in cols)])
 
     def plot(self, path) -> None:
-        """Duty-cycle points over each motor's envelopes, and margin against gear ratio."""
+        """Save :meth:`figure` to ``path`` (PNG or any format matplotlib writes)."""
         from grubler.views.plotting import plt
 
-        motors = list(dict.fromkeys(a.candidate.motor.name for a in self.assessments))
-        n = len(motors) + 1
-        cols = min(n, 3)
-        rows = (n + cols - 1) // cols
-        fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.2 * rows), squeeze=False)
-        for ax in axes.flat[n:]:
-            ax.axis("off")
-
-        def known_margin(a):  # the ratio worth drawing: best on the limits the data set gives
-            return min((v for k, v in a.margins.items() if not math.isnan(a.needs[k][1])), default=0.0)
-
-        for ax, name in zip(axes.flat, motors):
-            mine = [a for a in self.assessments if a.candidate.motor.name == name]
-            pick = max(mine, key=known_margin)
-            c, d = pick.candidate, pick.candidate.motor
-            w = np.abs(pick.motor_speed)
-            ax.plot(pick.motor_speed * 30 / math.pi, pick.motor_torque * 1e3, ".", ms=2,
-                    label=f"cycle at {c.ratio:g}:1, ideal drive")
-            loop = pick.closed_loop
-            if loop is not None:  # what the margins judge: the torque the loop's current makes
-                speed = np.interp(loop.t, self.cycle.t - self.cycle.t[0], pick.motor_speed)
-                ax.plot(speed * 30 / math.pi, d.torque_constant * loop.current * 1e3, ".", ms=1, color="tab:red",
-                        alpha=0.25, zorder=1, label="with the servo's PID and encoder")
-            w_top = (d.max_speed or d.no_load_speed or float(np.max(w)) * 1.2)
-            ws = np.linspace(-w_top, w_top, 200)
-            # what the supply and the current limit allow: back-EMF eats the voltage
-            # while the motor drives, and adds to it while it brakes
-            i_max = min(c.current_limit, c.supply_voltage / d.resistance)
-            kt, ke, R, V = d.torque_constant, d.back_emf_constant, d.resistance, c.supply_voltage
-            upper = np.clip(kt * (V - ke * ws) / R, -kt * i_max, kt * i_max)
-            lower = np.clip(-kt * (V + ke * ws) / R, -kt * i_max, kt * i_max)
-            ax.fill_between(ws * 30 / math.pi, lower * 1e3, upper * 1e3, color="tab:orange", alpha=0.15,
-                            label=f"peak envelope ({c.supply_voltage:g} V"
-                                  + (f", {c.current_limit:g} A)" if math.isfinite(c.current_limit) else ")"))
-            if d.nominal_torque:
-                ax.fill_between(ws * 30 / math.pi, -d.nominal_torque * 1e3, d.nominal_torque * 1e3,
-                                color="tab:green", alpha=0.2, label="continuous (nominal torque)")
-            ax.set_xlabel("motor speed [rpm]")
-            ax.set_ylabel("motor torque [mN m]")
-            verdict = "fits" if pick.feasible else "fails on " + ", ".join(
-                k for k, v in pick.margins.items() if v < 1.0)
-            ax.set_title(f"{name} at {c.ratio:g}:1\n{verdict} (smallest margin {pick.min_margin:.2f}, "
-                         f"{pick.binding})", fontsize=9)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7, loc="upper right")
-        ax = axes.flat[n - 1]
-        for name in motors:
-            mine = sorted((a for a in self.assessments if a.candidate.motor.name == name),
-                          key=lambda a: a.candidate.ratio)
-            ax.plot([a.candidate.ratio for a in mine], [min(a.min_margin, 10) for a in mine], "o-", ms=3,
-                    label=name)
-        ax.axhline(1.0, color="k", lw=0.8, ls="--")
-        ax.set_xlabel("gear ratio")
-        ax.set_ylabel("smallest margin (limit / need), capped at 10")
-        ax.set_title("margin against gear ratio", fontsize=9)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-        fig.suptitle(f"sizing: {self.cycle.name}")
-        fig.tight_layout()
+        fig = self.figure()
         fig.savefig(path, dpi=110)
         plt.close(fig)
+
+    def figure(self):
+        """Duty-cycle points over each motor's envelopes, margin against gear ratio, and the key.
+
+        One panel per motor, the best combination's first, each at that motor's
+        best ratio; then the smallest margin of every combination against its
+        ratio (log axis; a winding that runs away thermally has no margin and is
+        marked on the axis, not drawn as a 0); then one key for all panels and
+        the ranking, so that no legend covers data.
+        """
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        from grubler.views.plotting import plt
+
+        motors = sorted(dict.fromkeys(a.candidate.motor.name for a in self.assessments),
+                        key=lambda name: -max(_known_margin(a) for a in self.assessments
+                                              if a.candidate.motor.name == name))
+        if self.best is not None:  # the winner first, even where another motor's margin on known limits is larger
+            motors.remove(self.best.candidate.motor.name)
+            motors.insert(0, self.best.candidate.motor.name)
+        panels = len(motors) + 2
+        # three columns, but never the key alone on a last row: four panels in two by two, seven in two by four
+        ncols = 2 if panels == 4 else 4 if panels % 3 == 1 and panels > 4 else min(panels, 3)
+        nrows = -(-panels // ncols)
+        fig = plt.figure(figsize=(5.4 * ncols, 4.3 * nrows), layout="constrained")
+        grid = fig.add_gridspec(nrows, ncols)
+        cells = [grid[k // ncols, k % ncols] for k in range(len(motors) + 1)]
+        colours = {name: f"C{i}" for i, name in enumerate(motors)}
+        for cell, name in zip(cells, motors):
+            ax = fig.add_subplot(cell)
+            pick = (self.best if self.best is not None and self.best.candidate.motor.name == name
+                    else max((a for a in self.assessments if a.candidate.motor.name == name), key=_known_margin))
+            self._envelope_panel(ax, pick, colours[name])
+        self._margin_panel(fig.add_subplot(cells[-1]), motors, colours)
+        k = len(motors) + 1
+        key_ax = fig.add_subplot(grid[k // ncols, k % ncols:])  # the key takes the rest of the last row
+        key_ax.axis("off")
+        handles = [Line2D([], [], ls="", marker=".", color="C0", label="duty cycle, ideal drive (each motor's colour)"),
+                   Line2D([], [], ls="", marker=".", color=LOOP_COLOUR, alpha=0.5,
+                          label="with the servo's PID and encoder"),
+                   Patch(color="tab:orange", alpha=0.25, label="peak envelope: supply voltage and current limit"),
+                   Patch(color="tab:green", alpha=0.3, label="continuous: the nominal torque"),
+                   Line2D([], [], ls="", marker="*", ms=11, color="k", label="best combination")]
+        handles += [Line2D([], [], color=colours[n], marker="o", ms=3, label=f"{n}: smallest margin") for n in motors]
+        handles += [Line2D([], [], ls="", marker="x", color="0.3",
+                           label="winding runs away thermally: no margin")]
+        key_ax.legend(handles=handles, loc="upper left", fontsize=8, frameon=False, title="key", title_fontsize=9,
+                      alignment="left")
+        ranked = [f"{k + 1}. {a.candidate.label}: margin {a.min_margin:.2f} ({a.binding})"
+                  for k, a in enumerate(self.ranked[:5])] or ["no combination fits"]
+        if len(self.ranked) > 5:
+            ranked.append(f"... {len(self.ranked) - 5} more")
+        key_ax.text(0.0, 0.0, "ranking\n" + "\n".join(ranked), transform=key_ax.transAxes, va="bottom", ha="left",
+                    fontsize=8, family="DejaVu Sans Mono")
+        fig.suptitle(f"sizing: {self.cycle.name}")
+        return fig
+
+    def _envelope_panel(self, ax, pick: Assessment, colour: str) -> None:
+        """One motor at its best ratio: the cycle's points over what the supply and the winding allow."""
+        c, d = pick.candidate, pick.candidate.motor
+        w = np.abs(pick.motor_speed)
+        # the envelopes under the points: what the supply and the current limit allow (back-EMF eats the
+        # voltage while the motor drives, and adds to it while it brakes), and the continuous torque
+        w_top = (d.max_speed or d.no_load_speed or float(np.max(w)) * 1.2)
+        ws = np.linspace(-w_top, w_top, 200)
+        i_max = min(c.current_limit, c.supply_voltage / d.resistance)
+        kt, ke, R, V = d.torque_constant, d.back_emf_constant, d.resistance, c.supply_voltage
+        upper = np.clip(kt * (V - ke * ws) / R, -kt * i_max, kt * i_max)
+        lower = np.clip(-kt * (V + ke * ws) / R, -kt * i_max, kt * i_max)
+        ax.fill_between(ws * RPM, lower * 1e3, upper * 1e3, color="tab:orange", alpha=0.15, lw=0)
+        if d.nominal_torque:
+            ax.fill_between(ws * RPM, -d.nominal_torque * 1e3, d.nominal_torque * 1e3, color="tab:green", alpha=0.2,
+                            lw=0)
+        loop = pick.closed_loop
+        if loop is not None:  # what the margins judge: the torque the loop's current makes
+            speed = np.interp(loop.t, self.cycle.t - self.cycle.t[0], pick.motor_speed)
+            ax.plot(speed * RPM, d.torque_constant * loop.current * 1e3, ".", ms=1, color=LOOP_COLOUR, alpha=0.25)
+        ax.plot(pick.motor_speed * RPM, pick.motor_torque * 1e3, ".", ms=2, color=colour)
+        ax.set_xlabel("motor speed [rpm]")
+        ax.set_ylabel("motor torque [mN m]")
+        verdict = "fits" if pick.feasible else "fails on " + ", ".join(k for k, v in pick.margins.items() if v < 1.0)
+        margin = "none (thermal runaway)" if _runaway(pick) else f"{pick.min_margin:.2f} ({pick.binding})"
+        supply = f"{c.supply_voltage:g} V" + (f", {c.current_limit:g} A" if math.isfinite(c.current_limit) else "")
+        best = "best: " if pick is self.best else ""
+        ax.set_title(f"{best}{d.name} at {c.ratio:g}:1 on {supply}\n{verdict}; smallest margin {margin}",
+                     fontsize=9)
+        ax.grid(True, alpha=0.3)
+
+    def _margin_panel(self, ax, motors: list[str], colours: dict[str, str]) -> None:
+        """The smallest margin of every combination against its gear ratio, per motor."""
+        import matplotlib.ticker
+        import matplotlib.transforms as mtransforms
+
+        on_axis = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+        for name in reversed(motors):  # the winner's line on top
+            mine = sorted((a for a in self.assessments if a.candidate.motor.name == name),
+                          key=lambda a: a.candidate.ratio)
+            ratios = [a.candidate.ratio for a in mine]
+            # a runaway has no margin: a gap in the line, a cross on the axis, never a 0 that looks like data
+            margins = [math.nan if _runaway(a) else _known_margin(a) for a in mine]
+            ax.plot(ratios, margins, "o-", ms=3, color=colours[name], lw=2.0 if name == motors[0] else 1.2)
+            gone = [r for r, a in zip(ratios, mine) if _runaway(a)]
+            ax.plot(gone, [0.03] * len(gone), "x", color=colours[name], ms=6, transform=on_axis, clip_on=False)
+        if self.best is not None:
+            ax.plot([self.best.candidate.ratio], [self.best.min_margin], "*", ms=13, color="k", zorder=5)
+        ax.axhline(1.0, color="k", lw=0.8, ls="--")
+        ax.set_yscale("log")
+        # plain numbers on the log axis: 0.5 and 2 read as margins, 5e-1 and 2e0 do not
+        ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.set_xlabel("gear ratio")
+        ax.set_ylabel("smallest margin (limit / need)")
+        ax.set_title("margin against gear ratio (fits above the dashed line)", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+
+
+LOOP_COLOUR = "0.25"  # the closed loop's points: grey under every motor's colour
+
+
+def _runaway(a: Assessment) -> bool:
+    """The winding's i² R(T) outgrows its cooling: the temperature need is infinite, its margin none."""
+    return any(math.isinf(need) for need, _, _ in a.needs.values())
+
+
+def _known_margin(a: Assessment) -> float:
+    """The smallest margin over the limits the data set gives (a figure it lacks cannot rank a motor)."""
+    return min((v for k, v in a.margins.items() if not math.isnan(a.needs[k][1])), default=0.0)
 
 
 def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float = 0.9,

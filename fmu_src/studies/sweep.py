@@ -97,6 +97,7 @@ class SweepTable:
     resumed: int = 0
     workers: str = ""
     metrics: list[str] = field(default_factory=list)
+    units: dict[str, str] = field(default_factory=dict)  # of inputs and metrics, for the CSV's headings
 
     @property
     def columns(self) -> list[str]:
@@ -121,11 +122,14 @@ class SweepTable:
                                    "or write a .csv") from None
             pq.write_table(pa.table({c: [r.get(c) for r in self.rows] for c in self.columns}), path)
             return path
+        from grubler.records import column_heading
+
+        units = {"seconds": "s", **self.units}
         with open(path, "w", newline="") as fh:
-            w = csv.DictWriter(fh, self.columns, extrasaction="ignore")
-            w.writeheader()
+            w = csv.writer(fh)
+            w.writerow([column_heading(c, units.get(c, "")) for c in self.columns])
             for r in self.rows:
-                w.writerow({c: _plain(r.get(c)) for c in self.columns})
+                w.writerow([_plain(r.get(c)) for c in self.columns])
         return path
 
 
@@ -233,7 +237,7 @@ class _Progress:
 
 def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | None = None,
               workers: int | None = None, scheduler=None, resume: bool = True, retry_failed: bool = False,
-              progress: bool = True) -> SweepTable:
+              progress: bool = True, units: dict[str, str] | None = None) -> SweepTable:
     """Run ``func(**point)`` for every point and gather a table.
 
     Parameters
@@ -255,6 +259,9 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
         When resuming, run the failed points again.
     progress : bool
         A progress bar on stderr.
+    units : dict, optional
+        The unit of each input and metric, for the table's headings
+        (``peak_closure_force [N]``); see :func:`scene_point_units`.
 
     Returns
     -------
@@ -325,7 +332,8 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
         for name in rows[k]:
             if name not in inputs and name not in META and name not in metrics:
                 metrics.append(name)
-    table = SweepTable([rows[k] for k in keys], inputs, time.perf_counter() - t0, resumed, where, metrics)
+    table = SweepTable([rows[k] for k in keys], inputs, time.perf_counter() - t0, resumed, where, metrics,
+                       dict(units or {}))
     if out is not None:
         table.write(out)
     return table
@@ -440,6 +448,43 @@ def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol:
     out["energy_balance"] = float(max(abs(energy_balance(cols, m))))
     out["run_seconds"] = wall
     return out
+
+
+# units of scene parameters (grubler.mechanism.scene.parameter_names), a link's by its last part; on a slide
+# joint a damping is in N s/m and an effort in N
+_LINK_UNITS = {"a": "m", "p": "m", "q": "m", "m": "kg", "I": "kg m2", "damping": "N m s/rad"}
+_PARAMETER_UNITS = {"gravity": "m/s2", "drive.inertia": "kg m2", "drive.torque": "N m", "load.torque": "N m"}
+
+
+def scene_point_units(scene, names=()) -> dict[str, str]:
+    """The unit of each of :func:`scene_point`'s metrics for ``scene``, and of the parameters ``names``.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> u = scene_point_units(load_scene("thesis-fourbar"), ["link2.a", "drive.torque"])
+    >>> u["link2.a"], u["drive.torque"], u["peak_drive_speed"], u["peak_closure_force"]
+    ('m', 'N m', 'rad/s', 'N')
+    """
+    from grubler.mechanism.simulate import unit_of
+
+    m = scene.mechanism
+    drive = m.drive
+    slide = bool(drive and drive.startswith("B"))
+    units = {"final_drive_angle": unit_of(drive) if drive else "", "peak_drive_speed": unit_of(f"{drive}_d") if drive
+             else "", "peak_closure_force": "N", "max_closure_error": unit_of("closure_error"), "energy_balance": "J",
+             "run_seconds": "s"}
+    for name in names:
+        head, _, last = name.partition(".")
+        if head == "initial":
+            units[name] = unit_of(last)
+        elif head.startswith("link") and head[4:].isdigit() and last in _LINK_UNITS:
+            on_slide = 0 <= int(head[4:]) - 2 < m.n_links and m.links[int(head[4:]) - 2].joint != "R"
+            units[name] = "N s/m" if on_slide and last == "damping" else _LINK_UNITS[last]
+        else:
+            load_slide = name == "load.torque" and bool(m.load and m.load.startswith("B"))
+            units[name] = "N" if (slide and name == "drive.torque") or load_slide else _PARAMETER_UNITS.get(name, "")
+    return units
 
 
 def parse_axis(text: str) -> tuple[str, list]:

@@ -39,7 +39,7 @@ import numpy as np
 from grubler.errors import GrublerError, InputError
 from grubler.limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
                      temp_dir)
-from grubler.system.interface import FmuInterface, Port, units_compatible
+from grubler.system.interface import FmuInterface, Port, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
 
 GAUSS_SEIDEL = "gauss-seidel"
@@ -185,9 +185,12 @@ class CosimResult:
             raise KeyError(f"no recorded signal {name!r}") from None
 
     def to_csv(self, path: str | Path) -> None:
+        """Every recorded signal, headed ``component.output [unit]`` (see :func:`grubler.records.column_heading`)."""
+        from grubler.records import column_heading
+
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["t"] + self.columns)
+            w.writerow(["t [s]"] + [column_heading(c, self.units.get(c, "")) for c in self.columns])
             for t, row in zip(self.t, self.data):
                 w.writerow([repr(float(t))] + [repr(float(x)) for x in row])
 
@@ -195,7 +198,32 @@ class CosimResult:
         """Draw :meth:`panels` to ``path``, sharing the time axis."""
         from grubler.views.plotting import plot_panels
 
-        plot_panels(self.t, self.panels(), path, title=f"{self.system.name}: {self.master}, step {self.step:g} s")
+        plot_panels(self.t, self.panels(), path, title=f"{self.system.name}: {self.master}, step {self.step:g} s",
+                    limits=self.limits())
+
+    def limits(self) -> dict[str, list[tuple[str, float]]]:
+        """The power stage's limits by panel title: +-supply over a motor's voltage, +-limit over its current.
+
+        A motor is a component with ``supply_voltage`` and ``current_limit``
+        parameters (the DC motor FMU's); a limit of 0 or less is none.
+        """
+        bounds = {}
+        for name, comp in self.system.components.items():
+            p = comp.parameters
+            for param, signals, words in (("supply_voltage", ("voltage", "terminal_voltage"), "supply voltage"),
+                                          ("current_limit", ("current",), "current limit")):
+                value = p.get(param)
+                if isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value < math.inf:
+                    unit = "V" if param == "supply_voltage" else "A"
+                    for sig in signals:
+                        bounds[f"{name}.{sig}"] = (f"±{value:g} {unit} {words}" + (f" ({name})" if name != "motor"
+                                                                                      else ""), float(value))
+        out: dict[str, list[tuple[str, float]]] = {}
+        for p in self.system.plots or _default_panels(self):
+            lines = list(dict.fromkeys(bounds[s] for s in p.signals if s in bounds and not p.difference))
+            if lines:
+                out[p.title] = lines
+        return out
 
     def panels(self) -> list[tuple[str, list[tuple[str, np.ndarray, str]]]]:
         """One panel per plot in the system (default: connected signals by unit).
@@ -486,7 +514,12 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             if c.end not in units:
                 columns.append(c.end)
                 col_src.append(("", slot[c.start]))
-                units[c.end] = units.get(c.start, "")
+                declared = system.components[c.end_element].units.get(
+                    c.end_connector, interfaces[c.end_element].ports[c.end_connector].unit)
+                units[c.end] = units.get(c.start, "") if generic_unit(declared) else declared
+        for c in system.connections:  # a generic output (a controller's "any") is in what it feeds
+            if generic_unit(units.get(c.start, "")) and not generic_unit(units.get(c.end, "")):
+                units[c.start] = units[c.end]
         n_steps = check_count(math.floor((t_end - t0) / step + 1e-9), MAX_STEPS, "communication steps",
                               "t_end or step (--t-end, --step)")
         if t0 + n_steps * step < t_end - 1e-9 * step:

@@ -85,6 +85,11 @@ def _unit_alternatives(unit: str) -> set[str]:
     return out
 
 
+def generic_unit(unit: str) -> bool:
+    """No unit, or one that takes any (a controller's signal): the connection says which."""
+    return not unit or "any" in _unit_alternatives(unit)
+
+
 def units_compatible(a: str, b: str) -> bool:
     """True when either unit is unknown or generic (``any``), or they share a spelling.
 

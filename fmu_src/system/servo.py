@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grubler.views.plotting import closing_force_words
 from grubler.system.ssp import Plot, System
 
 
@@ -160,7 +161,7 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
              {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
         Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
         Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
-             {"mechanism.Fx": "ground on the last link, x", "mechanism.Fy": "ground on the last link, y"}),
+             {"mechanism.Fx": f"{closing_force_words(model)}, x", "mechanism.Fy": f"{closing_force_words(model)}, y"}),
     ]
     return s
 

@@ -20,6 +20,24 @@ from grubler.mechanism.simulate import Result, unit_of  # noqa: E402
 ENVELOPE_BINS = 500
 
 
+def closing_force_words(model) -> str:
+    """The closing joint's force in a design review's words: the pin's on the rocker, the guide's on the slider.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> closing_force_words(load_scene("thesis-fourbar").mechanism)
+    'closing-pin force on the rocker'
+    >>> closing_force_words(load_scene("slider-crank").mechanism)
+    'guide force on the slider'
+    """
+    cl = model.closures[0]
+    four_link = model.n_links == 3 and cl.link == 4  # the closing link of a four-bar or slider-crank
+    if cl.kind == "revolute":
+        return f"closing-pin force on {'the rocker' if four_link else f'link{cl.link}'}"
+    return f"guide force on {'the slider' if four_link else f'link{cl.link}'}"
+
+
 def _all_zero(values) -> bool:
     return bool(np.all(np.asarray(values) == 0.0))
 
@@ -42,12 +60,12 @@ def result_figure(res: Result):
     """
     m = res.model
     title = f"{m.name or 'scene'}: {m.kind or ''} ({res.method} closure)".replace(" ()", "")
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.0), sharex=True, layout="constrained")
     ax = axes[0, 0]
     for name in m.free_names:
         ax.plot(res.t, res[name], label=f"{name} [{unit_of(name)}]")
     ax.set_ylabel("real joint coordinates (absolute)")
-    ax.legend(fontsize=8)
+    _legend_above(ax)
     ax = axes[0, 1]
     if len(m.closures) > 1:
         # several loops: each closure's force magnitude on its closing link
@@ -55,17 +73,18 @@ def result_figure(res: Result):
             fx, fy = (res["Fx"], res["Fy"]) if j == 0 else (res[f"closure{j}_Fx"], res[f"closure{j}_Fy"])
             ax.plot(res.t, np.hypot(fx, fy), label=f"closure[{j}]: link{cl.link}-link{cl.to_link} [N]")
         ax.set_ylabel("closing-joint force magnitudes")
-        ax.legend(fontsize=8)
+        _legend_above(ax)
     elif m.closures:
         zero = [c for c in ("Fx", "Fy", "Mz") if _all_zero(res[c])]
         for c in ("Fx", "Fy", "Mz"):
             if c not in zero:
                 ax.plot(res.t, res[c], label=f"{c} [{unit_of(c)}]")
-        ax.set_ylabel("closing-joint force on the last link")
-        if zero:
-            ax.set_title(f"{', '.join(zero)} = 0 throughout (not drawn)", fontsize=9)
+
+        ax.set_ylabel(closing_force_words(m))
+        if zero:  # right-aligned: the legend takes the left of the space above the axes
+            ax.set_title(f"{', '.join(zero)} = 0 throughout (not drawn)", fontsize=9, loc="right")
         if len(zero) < 3:
-            ax.legend(fontsize=8)
+            _legend_above(ax)
     else:
         ax.plot(res["tip_x"], res["tip_y"])
         ax.set_ylabel("tip path y [m] (x on the bottom axis)")
@@ -98,12 +117,17 @@ def result_figure(res: Result):
         ax.set_title("no drive work" + ("; E falls by what the dampers take" if damped else ""), fontsize=9)
     ax.set_ylabel("energy [J]")
     ax.set_xlabel("t [s]")
-    ax.legend(fontsize=8, framealpha=0.85)
+    _legend_above(ax)
     for a in axes.flat:
         a.grid(True, alpha=0.3)
     fig.suptitle(title)
-    fig.tight_layout()
     return fig
+
+
+def _legend_above(ax) -> None:
+    """The axes' legend above it, beside any title, never over a curve (constrained layout makes the room)."""
+    ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=3, frameon=False, borderaxespad=0.0,
+              handlelength=1.5, columnspacing=1.0)
 
 
 def envelope(t, values, bins: int):
@@ -117,14 +141,14 @@ def envelope(t, values, bins: int):
     return tb, lo, hi, mean
 
 
-def plot_panels(t, panels, path: str, title: str = "") -> None:
+def plot_panels(t, panels, path: str, title: str = "", limits=None) -> None:
     """Save :func:`panels_figure` to ``path`` (PNG or any format matplotlib writes)."""
-    fig = panels_figure(t, panels, title)
+    fig = panels_figure(t, panels, title, limits)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def panels_figure(t, panels, title: str = ""):
+def panels_figure(t, panels, title: str = "", limits=None):
     """Stacked time plots sharing the time axis.
 
     Curves in a panel that are equal at every sample are drawn once, their
@@ -138,6 +162,10 @@ def panels_figure(t, panels, title: str = ""):
         The title is the axis label; give it the unit in square brackets.
     title : str
         The figure's title.
+    limits : dict, optional
+        Horizontal lines by panel title: ``{title: [(label, value), ...]}``, a
+        limit such as the supply voltage, drawn dashed and drawn at +-value
+        when the label starts with "±".
     """
     t = np.asarray(t, dtype=float)
     n = max(len(panels), 1)
@@ -161,9 +189,13 @@ def panels_figure(t, panels, title: str = ""):
                 ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
             else:
                 ax.plot(t, values, label=textwrap.fill(label, 28), lw=1.2)
+        for k, (label, value) in enumerate((limits or {}).get(name, [])):
+            both = label.startswith("±")
+            for v in ((value, -value) if both else (value,)):
+                ax.axhline(v, color="0.35", lw=1.0, ls=("--", ":", "-.")[k % 3], label=label if v == value else None)
         # a title that carries its unit keeps it; the FMUs' spellings ("N.m") would repeat it
         ax.set_ylabel(name if "[" in name or not units else f"{name} [{', '.join(units)}]", fontsize=9)
-        if merged:
+        if ax.get_legend_handles_labels()[0]:
             # beside the axes, never over a curve
             ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
         ax.grid(True, alpha=0.3)

@@ -77,6 +77,11 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechan
         w = float(np.max(np.abs(columns[f"{drive}_d"])))
         rpm = f" ({w * RPM:.4g} rpm)" if unit == "rad" else ""
         out.append(("peak |drive speed|", f"{w:.4g} {speed_unit}{rpm}"))
+    if drive and "setpoint" in columns and drive in columns:
+        err = np.abs(columns["setpoint"] - columns[drive])
+        deg = f" ({math.degrees(err.max()):.3g} deg)" if unit == "rad" else ""
+        out.append(("peak |tracking error|", f"{err.max():.3g} {unit}{deg}"))
+        out.append(("RMS tracking error", f"{np.sqrt(np.mean(err**2)):.3g} {unit}"))
     if "tau_drive" in columns:
         tau = columns["tau_drive"]
         out.append(("peak |drive torque|", f"{np.max(np.abs(tau)):.4g} {effort_unit}"))
@@ -102,12 +107,53 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechan
     return out
 
 
+def system_numbers(system) -> list[tuple[str, str]]:
+    """What drove the mechanism in a co-simulation, from its system file: motor, gearbox, power stage, controller.
+
+    A motor is a component with ``torque_constant`` and ``gear_ratio``
+    parameters (the DC motor FMU's), named by the shipped data set whose
+    figures it carries; the controller is the component that feeds the
+    motor's voltage, named by its FMU and its numeric parameters.
+    """
+    from pathlib import Path
+
+    from grubler.motors import list_motors, load_motor
+
+    out = []
+    for name, comp in system.components.items():
+        p = comp.parameters
+        if "torque_constant" not in p or "gear_ratio" not in p:
+            continue
+        figures = ("resistance", "torque_constant", "rotor_inertia")
+        known = [m.name for m in map(load_motor, list_motors())
+                 if all(math.isclose(getattr(m, f), float(p.get(f, math.nan)), rel_tol=1e-9) for f in figures)]
+        out.append(("motor", known[0] if known else f"R {p['resistance']:.3g} Ohm, k_t "
+                                                    f"{1e3 * p['torque_constant']:.3g} mN m/A"))
+        out.append(("gearbox", f"{p['gear_ratio']:g}:1, efficiency {p.get('gear_efficiency', 1.0):g}"))
+        limit = float(p.get("current_limit", 0.0))
+        out.append(("power stage", f"{p.get('supply_voltage', math.nan):g} V, "
+                                   + (f"{limit:g} A limit" if 0 < limit < math.inf else "no current limit")))
+        feeder = next((c.start_element for c in system.connections if c.end == f"{name}.voltage"), None)
+        if feeder is not None:
+            ctrl = system.components[feeder]
+            gains = [f"{k} {v:g}" for k, v in ctrl.parameters.items()
+                     if isinstance(v, (int, float)) and not isinstance(v, bool)]
+            # the first three (a PID's K, Ti, Td): what fits the table's line
+            out.append(("controller", f"{Path(ctrl.source).stem}: {', '.join(gains[:3])}"))
+    if system.step:
+        out.append(("co-simulation step", f"{system.step * 1e3:.4g} ms"))
+    return out
+
+
 def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[str, np.ndarray, str]], str, str]]:
     """(axis label with unit, [(legend, values, colour)], scale, note) of each quantity there is."""
     unit, speed_unit, effort_unit = _drive_units(drive)
     panels = []
     if drive and drive in columns:
         panels.append((f"drive {drive} [{unit}]", [("", columns[drive], BLUE)], "linear", ""))
+    if drive and drive in columns and "setpoint" in columns:  # a servo's key figure
+        panels.append((f"tracking error [{unit}]", [("", columns["setpoint"] - columns[drive], BLUE)], "linear",
+                       "setpoint - response"))
     if drive and f"{drive}_d" in columns:
         panels.append((f"drive speed [{speed_unit}]", [("", columns[f"{drive}_d"], BLUE)], "linear", ""))
     if "tau_drive" in columns and np.ptp(columns["tau_drive"]) > 0.0:  # a constant one is in the table
@@ -158,9 +204,9 @@ def _draw_panel(ax, t, lines, scale: str) -> str:
             ax.fill_between(tb, lo, hi, color=colour, alpha=0.3, lw=0)
         else:
             ax.plot(t, values, color=colour, lw=1.1, label=label or None)
-    if any(label for label, _, _ in lines):
-        ax.legend(fontsize=7, loc="best", frameon=True, framealpha=0.8, borderpad=0.3, handlelength=1.2,
-                  labelspacing=0.2)
+    if any(label for label, _, _ in lines):  # above the axes, in one row: never over a peak
+        ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=len(lines), frameon=False,
+                  borderaxespad=0.2, handlelength=1.2, columnspacing=0.8)
     return note
 
 
@@ -186,7 +232,7 @@ def _title(model: Mechanism | None, source: str, cosim: bool) -> tuple[str, str]
 
 
 def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None, source: str = "run.csv",
-                  cosim: bool = False):
+                  cosim: bool = False, system=None):
     """The report page as a matplotlib figure (A4 landscape).
 
     Parameters
@@ -201,6 +247,9 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
         The CSV's path (its file name is quoted under the title).
     cosim : bool
         A co-simulation's record: the energy remainder is named a coupling residue.
+    system : grubler.system.ssp.System, optional
+        The co-simulated system: its motor, gearbox, power stage and controller
+        head the table (:func:`system_numbers`).
     """
     import matplotlib
 
@@ -219,7 +268,9 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     left.suptitle(title, x=0.02, ha="left", fontsize=17, fontweight="bold")
     # the table and the mechanism share the left column; without a scene the last panel takes its place
     table_fig, low_fig = left.subfigures(2, 1, height_ratios=[TABLE_SHARE, 1 - TABLE_SHARE], hspace=0.02)
-    _table(table_fig, subtitle, key_numbers(columns, drive, model, cosim))
+    made_of = system_numbers(system) if system is not None else (
+        [("motor, gearbox, controller", "give --system SSD")] if cosim else [])
+    _table(table_fig, subtitle, made_of + key_numbers(columns, drive, model, cosim))
     if model is not None:
         _instants(low_fig, model, columns, Drawer, Sketch)
     elif panels:
@@ -302,12 +353,12 @@ def _instants(fig, model: Mechanism, columns, Drawer, Sketch) -> None:
 
 
 def write_report(columns: dict[str, np.ndarray], out, model: Mechanism | None = None, source: str = "run.csv",
-                 cosim: bool = False) -> list[str]:
+                 cosim: bool = False, system=None) -> list[str]:
     """Write :func:`report_figure` to each of ``out`` (a path or a list; the format follows each suffix)."""
     import matplotlib.pyplot as plt
 
     outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
-    fig = report_figure(columns, model, source, cosim)
+    fig = report_figure(columns, model, source, cosim, system)
     for path in outs:
         fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -12,9 +12,11 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 
 import numpy as np
 
+from grubler.records import column_heading, split_heading
 from grubler.errors import GrublerError, InputError
 from grubler.limits import MAX_MAGNITUDE, MAX_TABLE_BYTES, PATH_CHARS, brief, read_text
 from grubler.mechanism.model import Mechanism
@@ -52,9 +54,9 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
     for n, v in raw.items():
         if n.startswith(head):
             cols[n[len(head):]] = v
-    for n, v in raw.items():  # the first current and voltage of another component
+    for n, v in raw.items():  # the first current, voltage and position setpoint of another component
         leaf = n.rsplit(".", 1)[-1]
-        if not n.startswith(head) and leaf in ("current", "voltage") and leaf not in cols:
+        if not n.startswith(head) and leaf in ("current", "voltage", "setpoint") and leaf not in cols:
             cols[leaf] = v
     if "motor_torque" in cols:
         cols["tau_drive"] = cols["motor_torque"]
@@ -65,12 +67,21 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
     return cols
 
 
-def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
+class Table(dict):
+    """A CSV table's columns by name (a dict), with ``units``: each column's unit, '' where the file gave none."""
+
+    units: dict[str, str]
+
+
+def read_table(path: str, field: str = "csv") -> Table:
     """A numeric CSV table: a header of distinct names, then rows of finite numbers.
 
-    Every row must have one value per column, every value be a finite number
-    within :data:`grubler.limits.MAX_MAGNITUDE`, and ``t`` (when present) must
-    increase.  A refusal names the file, the line and the column.
+    A heading may carry its column's unit in brackets (``motor.current [A]``,
+    see :func:`column_heading`): the column is named without it and the unit
+    kept in the table's ``units``.  Every row must have one value per column,
+    every value be a finite number within :data:`grubler.limits.MAX_MAGNITUDE`,
+    and ``t`` (when present) must increase.  A refusal names the file, the line
+    and the column.
     """
     text = read_text(path, field, MAX_TABLE_BYTES)
     where = brief(str(path), PATH_CHARS)
@@ -80,7 +91,8 @@ def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
         raise InputError(field, f"{where}: not a CSV table ({exc})") from None
     if not lines:
         raise InputError(field, f"{where}: empty, not a run CSV (no header)")
-    header = [h.strip() for h in lines[0]]
+    header, units = zip(*(split_heading(h) for h in lines[0]))
+    header = list(header)
     if any(not h for h in header):
         raise InputError(field, f"{where}: the header has an empty column name")
     dup = sorted({h for h in header if header.count(h) > 1})
@@ -108,7 +120,8 @@ def read_table(path: str, field: str = "csv") -> dict[str, np.ndarray]:
         i, j = map(int, np.argwhere(bad)[0])
         raise InputError(field, f"{where}: row {i + 2}, column {brief(header[j])}: {data[i, j]:g} is not a finite "
                                 f"number within +-{MAX_MAGNITUDE:g}")
-    cols = {h: data[:, j].copy() for j, h in enumerate(header)}
+    cols = Table((h, data[:, j].copy()) for j, h in enumerate(header))
+    cols.units = dict(zip(header, units))
     if "t" in cols and len(cols["t"]) > 1 and np.any(np.diff(cols["t"]) <= 0):
         i = int(np.argmax(np.diff(cols["t"]) <= 0))
         raise InputError(field, f"{where}: column 't' must increase, row {i + 3} does not")
@@ -136,7 +149,7 @@ def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") 
 
 
 def column_unit(name: str, names) -> str:
-    """The unit of a run column, where the library knows it (a mechanism's columns), else ''.
+    """The unit of a run column: the file's (a :class:`Table`'s), else the library's for a mechanism's, else ''.
 
     Examples
     --------
@@ -147,6 +160,8 @@ def column_unit(name: str, names) -> str:
     """
     from grubler.mechanism.simulate import unit_of
 
+    if getattr(names, "units", {}).get(name):
+        return names.units[name]
     prefix = mechanism_prefix(list(names))
     leaf = name[len(prefix) + 1:] if prefix and name.startswith(prefix + ".") else (None if prefix else name)
     if leaf is None:
@@ -177,7 +192,7 @@ def select_signals(spec: str, columns: dict[str, np.ndarray], field: str = "--si
     """``(label with unit, values)`` of the comma-separated column names in ``spec`` (see :func:`signal_names`)."""
     out = []
     for name in signal_names(spec, list(columns), field, limit):
-        unit = column_unit(name, list(columns))
+        unit = column_unit(name, columns)
         out.append((f"{name} [{unit}]" if unit else name, columns[name]))
     return out
 
@@ -235,5 +250,6 @@ def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: 
                                 "the run came from")
 
 
-__all__ = ["check_fits", "read_run", "read_run_csv", "read_table", "run_columns", "mechanism_prefix", "coordinates",
+__all__ = ["Table", "check_fits", "column_heading", "read_run", "read_run_csv", "read_table", "split_heading",
+           "run_columns", "mechanism_prefix", "coordinates",
            "column_unit", "select_signals", "signal_names"]
