@@ -51,7 +51,21 @@ from .simulate import Simulator, unit_of
 H_STEP = 1e-30  # complex step: any tiny h is exact; this one keeps h^2 far above underflow
 EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an equilibrium
 EQUILIBRIUM_ITERATIONS = 60
-MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
+MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, where the local model still holds
+# A step of the independent coordinates is walked (_Plant.follow): each piece is
+# predicted along the tangent and closed by Newton, and kept only when Newton's
+# correction is a small part of the predicted move; else halved.  Newton from a
+# far guess lands on whichever branch is nearest the guess.
+FOLLOW_RATIO = 0.25  # largest correction over predicted move of one piece
+FOLLOW_MOVE = 0.1  # rad (or m over the length scale): largest predicted move of a dependent coordinate
+FOLLOW_FLOOR = 1e-9  # rad (or m over the length scale): a correction this small passes whatever the move
+FOLLOW_SHORTEST = 1e-10  # rad (or m): a piece this short that still fails is stopped by a toggle
+FOLLOW_PIECES = 2000  # pieces of one walk at most: beyond, a coordinate runs off towards an asymptote
+# The search moves in whichever independent coordinates are well conditioned: a
+# double-rocker's crank reaches a toggle on the way down and turns back while the
+# rest swings on, as its damped release does.  It changes chart when the current
+# one's conditioning falls below this fraction of the best one's.
+CHART_SWITCH = 0.25
 ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
 # of the closure Jacobian's dependent columns: below it, a toggle or change point.
 # Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
@@ -163,6 +177,84 @@ class _Plant:
                                     "(the closure Jacobian's dependent columns are singular: a dead centre or "
                                     "change point); linearise elsewhere")
         raise SceneError(where, f"the loop cannot be closed at {at}")
+
+    def _charts(self, z: np.ndarray, ind) -> tuple[float, list[int]]:
+        """How well ``ind`` determines the rest at ``z`` (the smallest singular value of the
+        closures' null space restricted to it), and the best-conditioned chart's choice."""
+        weight = np.where(self.model.arrays.revolute, 1.0, 1.0 / self.scale)
+        _, J = constraint(self.model, z)
+        _, s, vt = np.linalg.svd(J / weight, full_matrices=True)
+        null = vt[len(vt) - len(ind):].T  # n x k: the closures' tangent space
+        best, rest = [], null.copy()
+        for _ in range(len(ind)):  # greedy pivoting: the coordinate that moves most, then the next ...
+            i = int(np.argmax(np.linalg.norm(rest, axis=1)))
+            best.append(i)
+            v = rest[i] / np.linalg.norm(rest[i])
+            rest = rest - np.outer(rest @ v, v)
+        quality = lambda chosen: np.linalg.svd(null[sorted(chosen)], compute_uv=False)[-1]  # noqa: E731
+        return quality(ind) / quality(best), sorted(best)
+
+    def well_conditioned_chart(self, y: np.ndarray) -> None:
+        """Move to the best-conditioned independent coordinates when the current ones near a toggle."""
+        if not self.model.n_constraints:
+            return
+        ratio, best = self._charts(y[:self.n], list(self.ind))
+        if ratio < CHART_SWITCH:
+            self.ind = np.array(best, dtype=np.int32)
+
+    def follow(self, y: np.ndarray, target: np.ndarray, where: str = "at") -> np.ndarray:
+        """The closed state (at rest) with the independent coordinates at ``target``, reached from
+        ``y`` by continuity: on ``y``'s assembly branch, as a simulation keeps it.
+
+        Raises SceneError(``where``) when a dead centre or change point on the way stops the walk.
+        """
+        n, ind = self.n, self.ind
+        y = np.array(y, dtype=float)
+        y[n:] = 0.0
+        start = y[ind].copy()
+        delta = np.asarray(target, dtype=float) - start
+        if not self.model.n_constraints:
+            y[ind] = target
+            return y
+        weight = np.where(self.model.arrays.revolute, 1.0, 1.0 / self.scale)
+        done, piece = 0.0, 1.0
+        for _ in range(FOLLOW_PIECES):
+            if done >= 1.0:
+                break
+            piece = min(piece, 1.0 - done)
+            ok = False
+            try:
+                tangent = y.copy()
+                tangent[n + ind] = piece * delta  # as rates: the dependent rates are the first-order move
+                move = self.close(tangent, where)[n:]
+                predicted = y.copy()
+                predicted[:n] += move
+                predicted[n:] = 0.0
+                predicted[ind] = start + (done + piece) * delta
+                if np.abs(move * weight).max() <= FOLLOW_MOVE:
+                    closed = self.close(predicted, where)
+                    correction = np.abs((closed[:n] - predicted[:n]) * weight).max()
+                    ok = correction <= max(FOLLOW_RATIO * np.abs(move * weight).max(), FOLLOW_FLOOR)
+            except SceneError:
+                pass
+            if ok:
+                y, done, piece = closed, done + piece, 2.0 * piece
+                continue
+            piece /= 2.0
+            if piece * np.abs(delta).max() < FOLLOW_SHORTEST:
+                names = [self.model.free_names[i] for i in ind]
+                raise SceneError(where, f"turning {', '.join(names)} from {_where(names, start, range(len(ind)))} "
+                                        f"towards {_where(names, target, range(len(ind)))} stops at "
+                                        f"{_where(names, y, ind)}: a dead centre or change point there (the closure "
+                                        "Jacobian's dependent columns are singular) bars the way on this branch")
+        else:
+            if done < 1.0:
+                names = [self.model.free_names[i] for i in ind]
+                raise SceneError(where, f"turning {', '.join(names)} towards {_where(names, target, range(len(ind)))}"
+                                        f" takes more than {FOLLOW_PIECES} steps from {_where(names, y, ind)}: "
+                                        "the others run off on the way")
+        y[ind] = target  # exactly, not as the sum of the pieces
+        return self.close(y, where)
 
     def check_regular(self, y: np.ndarray) -> None:
         """Refuse a configuration where the dependent coordinates barely follow from the independent ones."""
@@ -287,7 +379,8 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
     d, l = model.arrays.drive, model.arrays.load
     y = y.copy()
     y[n:] = 0.0
-    start = y[ind].copy()
+    start = y[:n].copy()
+    weight = np.where(model.arrays.revolute, 1.0, 1.0 / plant.scale)
 
     def potential(yy):
         obs = plant.observe(yy, drive, load)
@@ -305,6 +398,9 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
         return g, Mr, K, plant.rhs(yy, drive, load)[n + ind]
 
     for _ in range(EQUILIBRIUM_ITERATIONS):
+        if not held:  # every coordinate settles: any chart will do, and a toggle of this one is no wall
+            plant.well_conditioned_chart(y)
+            ind, names = plant.ind, [model.free_names[i] for i in plant.ind]
         g, Mr, K, acc = local(y)
         if not free or np.abs(acc[free] if held else acc).max() <= EQUILIBRIUM_TOL:
             break
@@ -321,10 +417,10 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
             step *= MAX_NEWTON_STEP / biggest
         v0, slope, lam, residual = potential(y), float(gf @ step), 1.0, np.linalg.norm(acc[free])
         while True:
-            trial = y.copy()
-            trial[ind[free]] += lam * step
+            target = y[ind].copy()
+            target[free] += lam * step
             try:
-                trial = plant.close(trial)
+                trial = plant.follow(y, target)
                 # near the minimum V's decrease drowns in its rounding: there a
                 # Newton step that halves the accelerations is as good
                 ok = (potential(trial) <= v0 + 1e-4 * lam * slope or
@@ -339,14 +435,20 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
                 raise SceneError("at", "no equilibrium found near the initial configuration: the search stalls "
                                        f"at {_where(names, y, ind)} with joint accelerations "
                                        f"{', '.join(f'{v:.3g}' for v in acc)}")
-        if np.abs(y[ind] - start).max() > 4 * math.pi:
-            moving = [names[k] for k in free]
+        travel = np.abs(y[:n] - start) * weight
+        if travel.max() > 4 * math.pi:  # two turns (or lengths): no well on the way
+            why = ("the drive or load effort exceeds what gravity can hold" if drive or load else
+                   "nothing stops the fall on this side")
             raise SceneError("at", f"no equilibrium under these efforts: the potential keeps falling as "
-                                   f"{', '.join(moving)} {'moves' if len(moving) == 1 else 'move'} on (the drive or "
-                                   "load effort exceeds what gravity can hold)")
+                                   f"{model.free_names[d if d >= 0 and travel[d] > 2 * math.pi else int(np.argmax(travel))]}"
+                                   f" moves on ({why})")
     else:
         raise SceneError("at", f"no equilibrium found in {EQUILIBRIUM_ITERATIONS} steps from the initial "
                                f"configuration (joint accelerations {', '.join(f'{v:.3g}' for v in acc)})")
+    if not held:  # back to the drive's chart, the linear model's states
+        plant.choose_independent(y[:n])
+        ind, names = plant.ind, [model.free_names[i] for i in plant.ind]
+        y = plant.close(y)
     if held:
         drive, _ = inverse_dynamics(model, y[:n], np.zeros(n), np.zeros(n), Inputs(0.0, load))
     acc = plant.rhs(y, drive, load)[n + ind]

@@ -284,6 +284,69 @@ def test_open_chain_has_all_its_coordinates_as_states():
     np.testing.assert_allclose(sys.poles().real, 0.0, atol=1e-8)
 
 
+# -- the equilibrium is where a damped release comes to rest ----------------------------
+RELEASE_DAMPING = 1.0  # N m s/rad on every joint: overdamped, so the release rolls down into the nearest well
+SIX_BARS = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
+FOUR_BARS = ["thesis-fourbar", "thesis-fourbar-damped", "fourbar-crank-rocker", "fourbar-double-rocker",
+             "fourbar-triple-rocker", "fourbar-change-point", "fourbar-parallelogram"]
+
+
+def _released(name):
+    """Where the scene, released at rest from its start under no drive effort with every joint
+    damped, comes to rest: the integrator's small steps keep the assembly branch, and a crank
+    that meets a toggle turns back while the rest swings on."""
+    from grubler.scene import override
+
+    scene = grubler.load_scene(name)
+    damped = override(scene, {f"link{k}.damping": RELEASE_DAMPING for k in range(2, scene.mechanism.n_links + 2)})
+    res = grubler.simulate(damped, t_end=60.0, dt_out=60.0, torque=0.0, rtol=1e-10, atol=1e-10)
+    assert np.abs(res.zd[-1]).max() < 1e-8  # at rest
+    return res.z[-1]
+
+
+def _same_pose(a, b):
+    """Largest difference of two joint-coordinate vectors, angles modulo a turn."""
+    return np.abs(np.remainder(np.asarray(a) - np.asarray(b) + math.pi, 2 * math.pi) - math.pi).max()
+
+
+@pytest.mark.parametrize("name", SIX_BARS)
+def test_six_bar_equilibrium_is_where_its_damped_release_rests_with_the_body_models_poles(name):
+    # the search walks its steps by continuity, so it stays on the scene's branch
+    # (a 0.5 rad crank step closed by Newton from afar took the Stephenson I to
+    # another branch, theta2 = -126.5 deg instead of -99.5 deg); the poles are
+    # the independent body model's, sqrt(d2PE/dphi2 / v^T M v) at that pose,
+    # with v = dx/dphi along its own closed configurations (phi the crank angle)
+    from test_sixbar import crank_stiffness, reference, world_of
+
+    sys = linearize(name, torque=0.0)
+    op = sys.operating_point
+    assert _same_pose(op.z, _released(name)) < 1e-8
+    m = grubler.load_scene(name).mechanism
+    ref, x_lib = reference(name, world_of(name, m, op.z))
+    assert np.abs(ref.rest(x_lib + 1e-3 * np.sin(np.arange(len(x_lib)))) - x_lib).max() < 1e-6
+    _, stiffness, inertia = crank_stiffness(name, m, op.z)
+    wn = math.sqrt(stiffness / inertia)
+    np.testing.assert_allclose(np.sort(sys.poles().imag), [-wn, wn], rtol=1e-6)
+    np.testing.assert_allclose(sys.poles().real, 0.0, atol=1e-9 * wn)
+
+
+def test_stephenson_i_rests_below_its_crank_pivot_on_the_scenes_branch():
+    # the figures of the report: -99.530 deg with poles +-20.0313j (the other
+    # branch's -126.513 deg swings at 10.64 rad/s)
+    sys = linearize("stephenson-i", torque=0.0)
+    assert math.degrees(sys.operating_point.coordinates["theta2"]) == pytest.approx(-99.530, abs=1e-3)
+    assert np.abs(sys.poles()).max() == pytest.approx(20.0313, abs=1e-4)
+
+
+@pytest.mark.parametrize("name", FOUR_BARS)
+def test_four_bar_equilibrium_is_where_its_damped_release_rests(name):
+    # the double-rocker's crank meets a toggle on the way down: the search changes
+    # to a coordinate that still determines the others there, as the release
+    # swings through it
+    op = operating_point(name, torque=0.0)
+    assert _same_pose(op.z, _released(name)) < 1e-8
+
+
 # -- bad operating points ----------------------------------------------------------
 def test_no_equilibrium_when_the_torque_beats_gravity():
     with pytest.raises(SceneError, match=r"^at: no equilibrium"):
