@@ -45,7 +45,7 @@ from .assembly import _scale, assemble, constraint, freedom, held_coordinates
 from .dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
 from .errors import SceneError
 from .model import Mechanism
-from .scene import Scene, load_scene
+from .scene import Scene, coordinate_text, load_scene, parse_coordinate
 from .simulate import Simulator, unit_of
 
 H_STEP = 1e-30  # complex step: any tiny h is exact; this one keeps h^2 far above underflow
@@ -104,6 +104,8 @@ class OperatingPoint:
         elsewhere the linear model describes perturbations of a moving point).
     current, voltage : float or None
         The motor's winding current (A) and the voltage that holds it (V), with a motor.
+    effort_units : dict
+        The units of ``drive`` and ``load``: 'N m' on a revolute, 'N' on a slide.
     """
 
     kind: str
@@ -117,13 +119,14 @@ class OperatingPoint:
     acceleration: np.ndarray = field(default_factory=lambda: np.zeros(0))
     current: float | None = None
     voltage: float | None = None
+    effort_units: dict = field(default_factory=lambda: {"drive": "N m", "load": "N m"})
 
     def as_dict(self) -> dict:
         """Plain numbers for JSON."""
         d = {"kind": self.kind, "time": self.time, "drive_effort": self.drive, "load_effort": self.load,
              "independent": list(self.independent),
              "coordinates": {k: float(v) for k, v in self.coordinates.items()},
-             "acceleration": [float(a) for a in self.acceleration]}
+             "acceleration": [float(a) for a in self.acceleration], "effort_units": dict(self.effort_units)}
         if self.current is not None:
             d["current"], d["voltage"] = self.current, self.voltage
         return d
@@ -171,7 +174,7 @@ class _Plant:
         if status == binding.OK:
             return
         names = [self.model.free_names[i] for i in self.ind]
-        at = ", ".join(f"{nm} = {float(np.real(y[i])):.6g}" for nm, i in zip(names, self.ind))
+        at = _where(names, y, self.ind)
         if status == binding.SINGULAR:
             raise SceneError(where, f"at {at} the coordinates {', '.join(names)} do not determine the others "
                                     "(the closure Jacobian's dependent columns are singular: a dead centre or "
@@ -352,8 +355,8 @@ def _parse_at(at):
             raise SceneError("at", f"cannot read the time in {at!r} (write t=1.5)") from None
     else:
         raise SceneError("at", f"must be 'equilibrium', 'initial', 't=T' (a time along the simulated "
-                               f"trajectory) or a coordinate held at a value ({{'theta2': 0.5}}; on the command "
-                               f"line theta2=0.5), got {at!r}")
+                               f"trajectory) or a coordinate held at a value ({{'theta2': 0.5}} in rad, or "
+                               f"{{'theta2': '30 deg'}}; on the command line theta2=30deg), got {at!r}")
     if not (math.isfinite(t) and t >= 0):
         raise SceneError("at", f"the time must be finite and >= 0, got {t}")
     return "trajectory", t
@@ -434,7 +437,7 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
             if lam < 1e-8:
                 raise SceneError("at", "no equilibrium found near the initial configuration: the search stalls "
                                        f"at {_where(names, y, ind)} with joint accelerations "
-                                       f"{', '.join(f'{v:.3g}' for v in acc)}")
+                                       f"{_accelerations(names, acc)}")
         travel = np.abs(y[:n] - start) * weight
         if travel.max() > 4 * math.pi:  # two turns (or lengths): no well on the way
             why = ("the drive or load effort exceeds what gravity can hold" if drive or load else
@@ -444,7 +447,7 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
                                    f" moves on ({why})")
     else:
         raise SceneError("at", f"no equilibrium found in {EQUILIBRIUM_ITERATIONS} steps from the initial "
-                               f"configuration (joint accelerations {', '.join(f'{v:.3g}' for v in acc)})")
+                               f"configuration (joint accelerations {_accelerations(names, acc)})")
     if not held:  # back to the drive's chart, the linear model's states
         plant.choose_independent(y[:n])
         ind, names = plant.ind, [model.free_names[i] for i in plant.ind]
@@ -454,7 +457,7 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
     acc = plant.rhs(y, drive, load)[n + ind]
     if np.abs(acc).max() > 1e3 * EQUILIBRIUM_TOL:
         raise SceneError("at", f"no equilibrium found: at {_where(names, y, ind)} the joint accelerations are "
-                               f"{', '.join(f'{v:.3g}' for v in acc)}")
+                               f"{_accelerations(names, acc)}")
     if not held:
         # the stiffness against gravity's own scale g / l: below that fraction the
         # natural frequency is a rounding error's
@@ -478,7 +481,11 @@ def _mass_matrix(model: Mechanism, y: np.ndarray) -> np.ndarray:
 
 
 def _where(names, y, ind) -> str:
-    return ", ".join(f"{nm} = {float(y[i]):.6g}" for nm, i in zip(names, ind))
+    return ", ".join(f"{nm} = {coordinate_text(nm, float(np.real(y[i])))}" for nm, i in zip(names, ind))
+
+
+def _accelerations(names, acc) -> str:
+    return ", ".join(f"{nm} {a:.3g} {unit_of(nm + '_dd')}" for nm, a in zip(names, acc))
 
 
 def _motor_model(motor):
@@ -581,7 +588,7 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
             if not isinstance(name, str) or name not in model.free_names:
                 raise SceneError("at", f"{name!r} is not a real joint coordinate; expected one of "
                                        f"{', '.join(model.free_names)}")
-            q[model.coordinate_names.index(name)] = _effort(value, 0.0, f"at.{name}")
+            q[model.coordinate_names.index(name)] = parse_coordinate(name, value, f"at.{name}")
         z = model.z_from_q(q)
         if model.n_constraints:
             z, _ = assemble(model, z, None, field="at")
@@ -617,7 +624,8 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
     if motor is not None:
         current, voltage = _motor_operating(motor, y[n + model.arrays.drive], drive)
     op = OperatingPoint(kind, time, y[:n].copy(), y[n:].copy(), float(drive), float(load),
-                        tuple(model.free_names[i] for i in plant.ind), coords, acc, current, voltage)
+                        tuple(model.free_names[i] for i in plant.ind), coords, acc, current, voltage,
+                        {"drive": input_unit(DRIVE, model), "load": input_unit(LOAD, model)})
     return op, plant
 
 
@@ -830,15 +838,15 @@ def summary(sys) -> str:
     op = getattr(sys, "operating_point", None)
     if op is not None:
         at = op.kind + (f" at t = {op.time:g} s" if op.time is not None else "")
-        coords = ", ".join(f"{k} = {op.coordinates[k]:.6g}" for k in op.independent)
-        lines.append(f"operating point: {at}: {coords}; drive effort {op.drive:.6g}, load effort {op.load:.6g}")
+        coords = ", ".join(f"{k} = {coordinate_text(k, op.coordinates[k], radians=True)}" for k in op.independent)
+        lines.append(f"operating point: {at}: {coords}; drive effort {op.drive:.6g} {op.effort_units['drive']}, "
+                     f"load effort {op.load:.6g} {op.effort_units['load']}")
         if op.current is not None:
             lines.append(f"motor: {op.current:.6g} A at {op.voltage:.6g} V")
         if op.kind != "equilibrium":
-            lines.append("  (not an equilibrium: accelerations "
-                         + ", ".join(f"{a:.4g}" for a in op.acceleration) + ")")
+            lines.append(f"  (not an equilibrium: accelerations {_accelerations(op.independent, op.acceleration)})")
     lines.append("states: " + ", ".join(f"{s} [{units.get(s, '')}]" for s in sys.state_labels))
-    lines.append("poles (natural frequency, damping ratio):")
+    lines.append("poles, rad/s (natural frequency, damping ratio):")
     wn, zeta, poles = control.damp(sys, doprint=False)
     for p, w, z in sorted(zip(poles, wn, zeta), key=lambda t: abs(t[0])):
         # (+ 0.0 turns a negative zero, an undamped pole's, into a plain one)
@@ -852,14 +860,15 @@ def summary(sys) -> str:
             except Exception:  # noqa: BLE001 - python-control's zero finder; report instead of failing
                 zeros = None
             ztxt = "none" if zeros is not None and len(zeros) == 0 else (
-                "?" if zeros is None else ", ".join(f"{z.real:+.6g}{z.imag:+.6g}j" for z in zeros))
+                "?" if zeros is None else ", ".join(f"{z.real:+.6g}{z.imag:+.6g}j" for z in zeros) + " rad/s")
             with np.errstate(divide="ignore", invalid="ignore"):
                 try:
                     g = complex(np.squeeze(sub.dcgain())).real
                 except Exception:  # noqa: BLE001 - a pole at zero: the gain is infinite
                     g = math.inf
+            per = units.get(inp, "")
             lines.append(f"{inp} -> {out}: zeros {ztxt}; DC gain {g:.6g} "
-                         f"{units.get(out, '')}/{units.get(inp, '')}")
+                         f"{units.get(out, '')}/{f'({per})' if ' ' in per else per}")
     return "\n".join(lines)
 
 

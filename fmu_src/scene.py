@@ -63,6 +63,62 @@ def parse_angle_or_number(value, field: str) -> float:
         raise SceneError(exc.field, exc.reason) from None
 
 
+def parse_angle(value, field: str) -> float:
+    """An angle, rad: a number is radians; text names its unit.
+
+    Text reads '30 deg', '30°', '0.5 rad', 'pi/6' or '-2*pi/3'; bare text such as
+    '30' is refused, since nothing tells whether it meant degrees.  The rule of
+    every angle typed on the command line and of the API's angles given as text;
+    a TOML number or a Python float is radians.
+
+    Examples
+    --------
+    >>> parse_angle("30 deg", "--at") == math.radians(30)
+    True
+    >>> try:
+    ...     parse_angle("30", "--at")
+    ... except SceneError as exc:
+    ...     print(exc)
+    --at: '30' has no unit: write '30 deg' or '30 rad' (or a multiple of pi, 'pi/6')
+    """
+    if isinstance(value, str) and len(value) <= 64:
+        m = _ANGLE.match(value)
+        if m and not m["unit"]:
+            raise SceneError(field, f"{brief(value.strip())} has no unit: write '{value.strip()} deg' or "
+                                    f"'{value.strip()} rad' (or a multiple of pi, 'pi/6')")
+    return parse_angle_or_number(value, field)
+
+
+def parse_coordinate(name: str, value, field: str) -> float:
+    """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
+    slide's length B, m (a number, or text such as '0.2' or '0.2 m')."""
+    if not name.startswith("B"):
+        return parse_angle(value, field)
+    if isinstance(value, str) and value.strip().endswith("m") and len(value) <= 64:
+        value = value.strip()[:-1]
+    try:
+        return number(value, field, unit="m")
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
+
+
+def coordinate_text(name: str, value: float, digits: int = 6, radians: bool = False) -> str:
+    """A joint coordinate as people read it, with its unit: '-99.5296 deg' (and, with
+    ``radians``, ' (-1.73712 rad)'), or a slide's '0.25 m'.
+
+    Examples
+    --------
+    >>> coordinate_text("theta2", -math.pi / 2, radians=True)
+    '-90 deg (-1.5708 rad)'
+    >>> coordinate_text("B2", 0.25)
+    '0.25 m'
+    """
+    if name.startswith("B"):
+        return f"{value:.{digits}g} m"
+    deg = f"{math.degrees(value) + 0.0:.{digits}g} deg"  # (+ 0.0: no negative zero)
+    return deg + (f" ({value + 0.0:.{digits}g} rad)" if radians else "")
+
+
 @dataclass(frozen=True)
 class Scene:
     """A mechanism with its loads, initial rates and run settings.

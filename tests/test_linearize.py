@@ -419,6 +419,50 @@ def test_penalty_scenes_are_refused():
 
 
 # -- the command line ------------------------------------------------------------
+@pytest.mark.parametrize("value", ["30 deg", "30deg", "30°", f"{math.radians(30)!r} rad", "pi/6", math.radians(30)])
+def test_a_held_angle_reads_the_same_from_the_api_as_from_the_command_line(value):
+    op = operating_point("thesis-fourbar", at={"theta2": value})
+    assert op.coordinates["theta2"] == pytest.approx(math.radians(30), abs=1e-12)
+
+
+@pytest.mark.parametrize("value", ["30", " 0.5 ", "30 grad"])
+def test_an_angle_given_as_text_without_its_unit_is_refused(value):
+    # '30' could mean degrees or radians: which one is not guessed
+    with pytest.raises(SceneError, match=r"^at\.theta2: .*(no unit|cannot read)"):
+        operating_point("thesis-fourbar", at={"theta2": value})
+
+
+def test_cli_refuses_a_bare_number_for_an_angle(capsys):
+    from grubler.cli import main
+
+    for argv in (["linearize", "thesis-fourbar", "--at", "theta2=30"], ["info", "watt-ii", "--at", "120"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == ["grubler: error: --at: " + f"'{argv[-1].rpartition('=')[2]}' has no unit: write "
+                       f"'{argv[-1].rpartition('=')[2]} deg' or '{argv[-1].rpartition('=')[2]} rad' "
+                       "(or a multiple of pi, 'pi/6')"], err
+
+
+def test_cli_prints_every_number_of_the_operating_point_with_its_unit(capsys):
+    from grubler.cli import main
+
+    assert main(["linearize", "thesis-fourbar", "--at", "theta2=30deg"]) == 0
+    out = capsys.readouterr().out
+    assert ("operating point: equilibrium: theta2 = 30 deg (0.523599 rad); drive effort 3.39523 N m, "
+            "load effort 0 N m") in out
+    assert "DC gain -0.224239 rad/(N m)" in out
+    assert main(["linearize", "thesis-fourbar", "--at", "t=0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "(not an equilibrium: accelerations theta2 " in out and " rad/s^2)" in out
+    # a slide's coordinate is a length and its effort a force
+    from grubler.linearize import summary
+    from grubler.scene import override
+
+    slide = override(grubler.load_scene("elliptic-trammel"), {"drive_joint": "B1"})
+    assert summary(linearize(slide, at="initial")).startswith(
+        "operating point: initial: B1 = 0.69282 m; drive effort 0 N, load effort 0 N m")
+
+
 def test_cli_prints_poles_and_writes_json_and_bode(tmp_path, capsys):
     import json
 
@@ -429,7 +473,7 @@ def test_cli_prints_poles_and_writes_json_and_bode(tmp_path, capsys):
                  "--ratio", "50", "--output", "theta2,current", "--json", str(js), "--bode", str(png)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "poles (natural frequency, damping ratio)" in out and "DC gain" in out and "rad/V" in out
+    assert "poles, rad/s (natural frequency, damping ratio)" in out and "DC gain" in out and "rad/V" in out
     d = json.loads(js.read_text())
     assert d["states"] == ["theta2", "theta2_d", "current"] and d["inputs"] == ["voltage"]
     assert len(d["A"]) == 3 and all(len(row) == 3 for row in d["A"])

@@ -316,7 +316,7 @@ def test_info_names_the_inversion_and_lists_the_branches(capsys):
     # each listed branch is where the reference's dyads put it
     P = params("watt-ii")
     for line in branches:
-        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        angles = dict((k, float(v)) for k, v, _deg in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
         candidates = [joints("watt-ii", P, math.radians(120), s) for s in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
         th3 = [math.degrees(math.atan2(*(w["B"] - w["A"])[::-1])) % 360 for w in candidates]
         assert min(abs(angles["theta3"] - a) for a in th3) < 1e-3
@@ -471,7 +471,7 @@ def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
 
     found = set()
     for line in branches:  # the rocker (link 4) runs B -> O4, link 6 D -> O6
-        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        angles = dict((k, float(v)) for k, v, _deg in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
         miss = [max(off(angles["theta4"], w["B"], w["O4"]), off(angles["theta6"], w["D"], w["O6"]))
                 for w in candidates]
         found.add(int(np.argmin(miss)))
