@@ -21,6 +21,7 @@ from . import limits
 from .errors import AssemblyError, GrublerError, InputError
 from .limits import number
 from .runs import coordinates, read_run_csv
+from .linearize import BODE_SUFFIXES
 from .scene import coordinate_text, load_scene, preset_names
 from .simulate import output_columns, simulate
 
@@ -547,8 +548,10 @@ def build_parser() -> argparse.ArgumentParser:
     lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")
     lin.add_argument("--output", help="comma-separated outputs, e.g. theta2,theta4_d,Fx,current "
                                       "(default: the drive coordinate)")
-    lin.add_argument("--json", help="write A, B, C, D, the names and the operating point to this JSON file")
-    lin.add_argument("--bode", help="write a Bode plot to this PNG file")
+    lin.add_argument("--json", type=_output("--json", (".json",)),
+                     help="write A, B, C, D, the names and the operating point to this JSON file")
+    lin.add_argument("--bode", type=_output("--bode", BODE_SUFFIXES),
+                     help="write a Bode plot to this file: " + ", ".join(BODE_SUFFIXES))
     lin.set_defaults(func=cmd_linearize)
     return p
 

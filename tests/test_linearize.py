@@ -562,3 +562,48 @@ def test_every_preset_linearises_or_says_why(name):
     model = grubler.load_scene(name).mechanism
     dyn = forward_dynamics(model, op.z, op.zd, Inputs(op.drive, op.load))
     assert np.abs(dyn.zdd).max() < 1e-7
+
+
+# -- the Bode plot ------------------------------------------------------------------
+def test_bode_phase_starts_where_the_dc_gain_says_and_the_title_says_what_was_linearised():
+    from grubler.linearize import bode_figure, frequency_response, phase_deg
+
+    sys = linearize("thesis-fourbar", at={"theta2": "30 deg"}, motor=_motor(), outputs=["theta2", "current"])
+    omega = np.logspace(-3, 5, 400)
+    G = frequency_response(sys, omega)
+    for i in range(2):
+        # python-control's DC gain (its own solve): positive, the phase starts near 0 deg,
+        # negative, near -180 deg (the winding current's ran from -315 to -450 deg)
+        dc = float(np.real(np.squeeze(sys[i, 0].dcgain())))
+        assert abs(G[i, 0, 0] - dc) < 1e-2 * abs(dc)  # (1e-3 rad/s is 400 times below the slowest pole)
+        assert phase_deg(G[i, 0])[0] == pytest.approx(0.0 if dc > 0 else -180.0, abs=1.0), (i, dc)
+    fig = bode_figure(sys)
+    try:
+        title = fig.get_suptitle()
+        assert "theta2 = 30 deg" in title and "maxon-re40-148877 through 50:1" in title and "3.395 N m" in title
+        unstable = [p for p in sys.poles() if p.real > 0]
+        assert len(unstable) == 1
+        assert f"open-loop unstable: pole at {unstable[0].real:+.4g} rad/s" in fig.get_supxlabel()
+        for ax in fig.axes[0::2]:  # every magnitude axis reads: four or more labelled levels within it
+            lo, hi = ax.get_ylim()
+            assert sum(lo <= t <= hi for t in ax.get_yticks()) >= 4, ax.get_yticks()
+            assert ax.get_ylabel().startswith("magnitude, dB re 1 ")
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    # a stable plant says nothing of the kind
+    stable = bode_figure(linearize("thesis-fourbar-damped"))
+    assert stable.get_supxlabel() == "" and "-112.6 deg" in stable.get_suptitle()
+
+
+@pytest.mark.parametrize("path, reason", [("out-{tmp}/b.png", "does not exist"),
+                                           ("{tmp}/b.xyz", "cannot write a 'xyz' file; use one of .png, .pdf, .svg")])
+def test_cli_refuses_a_bode_file_it_cannot_write_before_linearising(tmp_path, capsys, path, reason):
+    from grubler.cli import main
+
+    assert main(["linearize", "thesis-fourbar", "--bode", path.format(tmp=tmp_path)]) == 2
+    err = capsys.readouterr()
+    lines = err.err.strip().splitlines()
+    assert len(lines) == 1 and "--bode" in lines[0] and reason in lines[0], lines
+    assert err.out == ""  # refused up front, before any model is printed
