@@ -21,7 +21,7 @@ from . import limits
 from .errors import AssemblyError, GrublerError, InputError
 from .limits import number
 from .runs import coordinates, read_run_csv
-from .linearize import BODE_SUFFIXES
+from .linearize import BODE_SUFFIXES, input_unit
 from .scene import coordinate_text, load_scene, preset_names
 from .simulate import output_columns, simulate
 
@@ -115,10 +115,9 @@ def cmd_info(args) -> int:
                                                             c.fourbar_lengths))
         print(f"grashof    {g.kind}: s + l = {g.s_plus_l:.6g} m, p + q = {g.p_plus_q:.6g} m ({g.detail})")
         print(f"lengths    {lengths}")
-    effort = lambda joint: "N" if joint.startswith("B") else "N m"  # noqa: E731
-    print(f"drive      {m.drive or '-'}" + (f"  torque {scene.torque:g} {effort(m.drive)}" if m.drive else ""))
+    print(f"drive      {m.drive or '-'}" + (f"  torque {scene.torque:g} {input_unit('drive', m)}" if m.drive else ""))
     if m.load:
-        print(f"load       {m.load}  torque {scene.load_torque:g} {effort(m.load)}")
+        print(f"load       {m.load}  torque {scene.load_torque:g} {input_unit('load', m)}")
     m = at
     z0 = m.z_from_q(m.q_ref)
     if m.closures and m.drive:
