@@ -22,7 +22,8 @@ from grubler import limits
 from grubler.errors import AssemblyError, GrublerError, InputError
 from grubler.limits import number
 from grubler.views.runs import coordinates, read_run_csv
-from grubler.mechanism.scene import load_scene, preset_names
+from grubler.studies.linearize import BODE_SUFFIXES, input_unit
+from grubler.mechanism.scene import coordinate_text, load_scene, preset_names
 from grubler.mechanism.simulate import output_columns, simulate
 
 
@@ -122,20 +123,20 @@ def cmd_info(args) -> int:
                                                             c.fourbar_lengths))
         print(f"grashof    {g.kind}: s + l = {g.s_plus_l:.6g} m, p + q = {g.p_plus_q:.6g} m ({g.detail})")
         print(f"lengths    {lengths}")
-    print(f"drive      {m.drive or '-'}  torque {scene.torque:g}")
+    print(f"drive      {m.drive or '-'}" + (f"  torque {scene.torque:g} {input_unit('drive', m)}" if m.drive else ""))
     if m.load:
-        print(f"load       {m.load}  torque {scene.load_torque:g}")
+        print(f"load       {m.load}  torque {scene.load_torque:g} {input_unit('load', m)}")
     m = at
     z0 = m.z_from_q(m.q_ref)
     if m.closures and m.drive:
         _print_branches(m, z0)
     z, zd = assemble(m, z0, scene.initial_rates)
     q = m.q_from_z(z)
-    print("assembled  " + ", ".join(f"{n} = {v:.9g}" for n, v in zip(m.coordinate_names, q)))
+    print("assembled  " + ", ".join(f"{n} = {coordinate_text(n, v, 9)}" for n, v in zip(m.coordinate_names, q)))
     moved = [(n, a, b) for n, a, b in zip(m.coordinate_names, m.q_ref, q) if abs(a - b) > 1e-9]
     if moved:
         print("           (closed from the scene's start: "
-              + ", ".join(f"{n} {a:.6g} -> {b:.6g}" for n, a, b in moved) + ")")
+              + ", ".join(f"{n} {coordinate_text(n, a)} -> {coordinate_text(n, b)}" for n, a, b in moved) + ")")
     return 0
 
 
@@ -145,11 +146,16 @@ def _at_drive_angle(m, at):
         return m
     if not m.drive:
         raise GrublerError("--at: this scene has no drive joint whose angle it could set")
-    from grubler.mechanism.scene import parse_angle_or_number
+    from grubler.mechanism.scene import parse_coordinate
 
     q_ref = list(m.q_ref)
-    q_ref[m.coordinate_names.index(m.drive)] = parse_angle_or_number(at, "--at")
+    q_ref[m.coordinate_names.index(m.drive)] = parse_coordinate(m.drive, at, "--at")
     return m.replace(q_ref=tuple(q_ref))
+
+
+def _turn(name: str, value: float) -> float:
+    """An angle within [0, 2 pi) (a slide's length as it is): branches are told apart modulo a turn."""
+    return value if name.startswith("B") else value % (2 * math.pi)
 
 
 def _print_branches(m, z0) -> None:
@@ -157,11 +163,12 @@ def _print_branches(m, z0) -> None:
 
     found, default = branches(m, z0)
     names = [n for n in m.free_names if n != m.drive]
-    print(f"branches   {len(found)} with {m.drive} = {math.degrees(m.q_from_z(z0)[m.coordinate_names.index(m.drive)]):.6g} "
-          f"deg (assembly from the scene's sketch and 256 random ones):")
+    drive = m.q_from_z(z0)[m.coordinate_names.index(m.drive)]
+    print(f"branches   {len(found)} with {m.drive} = {coordinate_text(m.drive, drive)} "
+          f"(assembly from the scene's sketch and 256 random ones; angles modulo a turn):")
     for k, z in enumerate(found):
         q = m.q_from_z(z)
-        angles = ", ".join(f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.6g}" for n in names)
+        angles = ", ".join(f"{n} {coordinate_text(n, _turn(n, q[m.coordinate_names.index(n)]))}" for n in names)
         note = "  <- the scene's (its sketch closes here; the default)" if k == default else ""
         print(f"  [{k + 1}] {angles}{note}")
     if default < 0:
@@ -395,12 +402,12 @@ def cmd_linearize(args) -> int:
 
     from grubler.errors import SceneError
     from grubler.studies.linearize import linearize, plot_bode, summary, to_json
-    from grubler.mechanism.scene import parse_angle_or_number
+    from grubler.mechanism.scene import parse_coordinate
 
     at = args.at.strip()
     if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
         name, _, value = at.partition("=")
-        at = {name.strip(): parse_angle_or_number(value.strip(), "--at")}
+        at = {name.strip(): parse_coordinate(name.strip(), value.strip(), "--at")}
     motor = None
     if args.motor:
         from grubler.motors import DCMotor, Gearbox, load_motor
@@ -443,7 +450,8 @@ def build_parser() -> argparse.ArgumentParser:
     mot.set_defaults(func=cmd_motors)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
-    info.add_argument("--at", help="drive angle to assemble at, e.g. '120 deg' (default: the scene's)")
+    info.add_argument("--at", help="drive angle to assemble at, with its unit: '120 deg', '2.1 rad' or 'pi/3' "
+                                   "(a slide's length in m); a bare number is refused (default: the scene's)")
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
@@ -552,17 +560,21 @@ def build_parser() -> argparse.ArgumentParser:
     lin.add_argument("scene", help="preset name or TOML file")
     lin.add_argument("--at", default="equilibrium",
                      help="equilibrium (default), initial, t=T (along the trajectory under the efforts), or "
-                          "COORDINATE=VALUE (at rest there, held by the drive effort; e.g. theta2=30deg)")
-    lin.add_argument("--torque", type=_finite("--torque"), help="constant drive effort, N m (default: the scene's)")
-    lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m")
+                          "COORDINATE=VALUE (at rest there, held by the drive effort; an angle with its unit, "
+                          "e.g. theta2=30deg, theta2=0.5rad or theta2=pi/6; a bare number is refused)")
+    lin.add_argument("--torque", type=_finite("--torque"),
+                     help="constant drive effort, N m (N on a slide; default: the scene's)")
+    lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m (N on a slide)")
     lin.add_argument("--motor", help="DC motor data set on the drive joint (see `grubler motors`): input voltage")
     lin.add_argument("--ratio", type=_positive("--ratio"), help="its gear ratio (default 1)")
     lin.add_argument("--efficiency", type=_positive("--efficiency"), default=0.9, help="gearbox efficiency")
     lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")
     lin.add_argument("--output", help="comma-separated outputs, e.g. theta2,theta4_d,Fx,current "
                                       "(default: the drive coordinate)")
-    lin.add_argument("--json", help="write A, B, C, D, the names and the operating point to this JSON file")
-    lin.add_argument("--bode", help="write a Bode plot to this PNG file")
+    lin.add_argument("--json", type=_output("--json", (".json",)),
+                     help="write A, B, C, D, the names and the operating point to this JSON file")
+    lin.add_argument("--bode", type=_output("--bode", BODE_SUFFIXES),
+                     help="write a Bode plot to this file: " + ", ".join(BODE_SUFFIXES))
     lin.set_defaults(func=cmd_linearize)
     return p
 

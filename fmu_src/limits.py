@@ -420,3 +420,29 @@ def parse_angle_or_number(value, field: str) -> float:
         return number(value, field)
     except InputError as exc:
         raise SceneError(exc.field, exc.reason) from None
+
+
+def parse_angle(value, field: str) -> float:
+    """An angle, rad: a number is radians; text names its unit.
+
+    Text reads '30 deg', '30°', '0.5 rad', 'pi/6' or '-2*pi/3'; bare text such as
+    '30' is refused, since nothing tells whether it meant degrees.  The rule of
+    every angle typed on the command line and of the API's angles given as text;
+    a TOML number or a Python float is radians.
+
+    Examples
+    --------
+    >>> parse_angle("30 deg", "--at") == math.radians(30)
+    True
+    >>> try:
+    ...     parse_angle("30", "--at")
+    ... except SceneError as exc:
+    ...     print(exc)
+    --at: '30' has no unit: write '30 deg' or '30 rad' (or a multiple of pi, 'pi/6')
+    """
+    if isinstance(value, str) and len(value) <= 64:
+        m = _ANGLE.match(value)
+        if m and not m["unit"]:
+            raise SceneError(field, f"{brief(value.strip())} has no unit: write '{value.strip()} deg' or "
+                                    f"'{value.strip()} rad' (or a multiple of pi, 'pi/6')")
+    return parse_angle_or_number(value, field)

@@ -22,12 +22,22 @@ def test_presets_lists_every_name(capsys):
         assert name in out
 
 
+def test_info_prints_every_angle_in_degrees_with_its_unit(capsys):
+    # the branches' angles were bare degrees, the assembled start bare radians
+    code, out, _ = run(capsys, "info", "stephenson-i", "--at", "-126.51321969 deg")
+    assert code == 0
+    assert "drive      theta2  torque 0.05 N m" in out
+    assert "branches   4 with theta2 = -126.513 deg" in out
+    assert "  [1] theta3 13.9323 deg, theta4 205.27 deg, theta5 85.4599 deg, theta6 233.232 deg" in out
+    assert "assembled  B1 = 0 m, theta2 = -126.51322 deg, B2 = 0.0793725393 m, theta3 = 13.9323" in out
+
+
 def test_info_shows_type_mobility_grashof_and_assembly(capsys):
     code, out, _ = run(capsys, "info", "thesis-fourbar")
     assert code == 0
     assert "crank-rocker" in out and "mobility   1" in out and "s + l = 1.2" in out
     code, out, _ = run(capsys, "info", "thesis-slider-crank")
-    assert "theta3 0 -> 0.201358" in out
+    assert "theta3 0 deg -> 11.537 deg" in out  # (0.201358 rad)
 
 
 def test_simulate_writes_the_documented_csv_and_a_plot(capsys, tmp_path):

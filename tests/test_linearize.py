@@ -284,6 +284,69 @@ def test_open_chain_has_all_its_coordinates_as_states():
     np.testing.assert_allclose(sys.poles().real, 0.0, atol=1e-8)
 
 
+# -- the equilibrium is where a damped release comes to rest ----------------------------
+RELEASE_DAMPING = 1.0  # N m s/rad on every joint: overdamped, so the release rolls down into the nearest well
+SIX_BARS = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
+FOUR_BARS = ["thesis-fourbar", "thesis-fourbar-damped", "fourbar-crank-rocker", "fourbar-double-rocker",
+             "fourbar-triple-rocker", "fourbar-change-point", "fourbar-parallelogram"]
+
+
+def _released(name):
+    """Where the scene, released at rest from its start under no drive effort with every joint
+    damped, comes to rest: the integrator's small steps keep the assembly branch, and a crank
+    that meets a toggle turns back while the rest swings on."""
+    from grubler.mechanism.scene import override
+
+    scene = grubler.load_scene(name)
+    damped = override(scene, {f"link{k}.damping": RELEASE_DAMPING for k in range(2, scene.mechanism.n_links + 2)})
+    res = grubler.simulate(damped, t_end=60.0, dt_out=60.0, torque=0.0, rtol=1e-10, atol=1e-10)
+    assert np.abs(res.zd[-1]).max() < 1e-8  # at rest
+    return res.z[-1]
+
+
+def _same_pose(a, b):
+    """Largest difference of two joint-coordinate vectors, angles modulo a turn."""
+    return np.abs(np.remainder(np.asarray(a) - np.asarray(b) + math.pi, 2 * math.pi) - math.pi).max()
+
+
+@pytest.mark.parametrize("name", SIX_BARS)
+def test_six_bar_equilibrium_is_where_its_damped_release_rests_with_the_body_models_poles(name):
+    # the search walks its steps by continuity, so it stays on the scene's branch
+    # (a 0.5 rad crank step closed by Newton from afar took the Stephenson I to
+    # another branch, theta2 = -126.5 deg instead of -99.5 deg); the poles are
+    # the independent body model's, sqrt(d2PE/dphi2 / v^T M v) at that pose,
+    # with v = dx/dphi along its own closed configurations (phi the crank angle)
+    from test_sixbar import crank_stiffness, reference, world_of
+
+    sys = linearize(name, torque=0.0)
+    op = sys.operating_point
+    assert _same_pose(op.z, _released(name)) < 1e-8
+    m = grubler.load_scene(name).mechanism
+    ref, x_lib = reference(name, world_of(name, m, op.z))
+    assert np.abs(ref.rest(x_lib + 1e-3 * np.sin(np.arange(len(x_lib)))) - x_lib).max() < 1e-6
+    _, stiffness, inertia = crank_stiffness(name, m, op.z)
+    wn = math.sqrt(stiffness / inertia)
+    np.testing.assert_allclose(np.sort(sys.poles().imag), [-wn, wn], rtol=1e-6)
+    np.testing.assert_allclose(sys.poles().real, 0.0, atol=1e-9 * wn)
+
+
+def test_stephenson_i_rests_below_its_crank_pivot_on_the_scenes_branch():
+    # the figures of the report: -99.530 deg with poles +-20.0313j (the other
+    # branch's -126.513 deg swings at 10.64 rad/s)
+    sys = linearize("stephenson-i", torque=0.0)
+    assert math.degrees(sys.operating_point.coordinates["theta2"]) == pytest.approx(-99.530, abs=1e-3)
+    assert np.abs(sys.poles()).max() == pytest.approx(20.0313, abs=1e-4)
+
+
+@pytest.mark.parametrize("name", FOUR_BARS)
+def test_four_bar_equilibrium_is_where_its_damped_release_rests(name):
+    # the double-rocker's crank meets a toggle on the way down: the search changes
+    # to a coordinate that still determines the others there, as the release
+    # swings through it
+    op = operating_point(name, torque=0.0)
+    assert _same_pose(op.z, _released(name)) < 1e-8
+
+
 # -- bad operating points ----------------------------------------------------------
 def test_no_equilibrium_when_the_torque_beats_gravity():
     with pytest.raises(SceneError, match=r"^at: no equilibrium"):
@@ -356,6 +419,50 @@ def test_penalty_scenes_are_refused():
 
 
 # -- the command line ------------------------------------------------------------
+@pytest.mark.parametrize("value", ["30 deg", "30deg", "30°", f"{math.radians(30)!r} rad", "pi/6", math.radians(30)])
+def test_a_held_angle_reads_the_same_from_the_api_as_from_the_command_line(value):
+    op = operating_point("thesis-fourbar", at={"theta2": value})
+    assert op.coordinates["theta2"] == pytest.approx(math.radians(30), abs=1e-12)
+
+
+@pytest.mark.parametrize("value", ["30", " 0.5 ", "30 grad"])
+def test_an_angle_given_as_text_without_its_unit_is_refused(value):
+    # '30' could mean degrees or radians: which one is not guessed
+    with pytest.raises(SceneError, match=r"^at\.theta2: .*(no unit|cannot read)"):
+        operating_point("thesis-fourbar", at={"theta2": value})
+
+
+def test_cli_refuses_a_bare_number_for_an_angle(capsys):
+    from grubler.cli import main
+
+    for argv in (["linearize", "thesis-fourbar", "--at", "theta2=30"], ["info", "watt-ii", "--at", "120"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == ["grubler: error: --at: " + f"'{argv[-1].rpartition('=')[2]}' has no unit: write "
+                       f"'{argv[-1].rpartition('=')[2]} deg' or '{argv[-1].rpartition('=')[2]} rad' "
+                       "(or a multiple of pi, 'pi/6')"], err
+
+
+def test_cli_prints_every_number_of_the_operating_point_with_its_unit(capsys):
+    from grubler.cli import main
+
+    assert main(["linearize", "thesis-fourbar", "--at", "theta2=30deg"]) == 0
+    out = capsys.readouterr().out
+    assert ("operating point: equilibrium: theta2 = 30 deg (0.523599 rad); drive effort 3.39523 N m, "
+            "load effort 0 N m") in out
+    assert "DC gain -0.224239 rad/(N m)" in out
+    assert main(["linearize", "thesis-fourbar", "--at", "t=0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "(not an equilibrium: accelerations theta2 " in out and " rad/s^2)" in out
+    # a slide's coordinate is a length and its effort a force
+    from grubler.studies.linearize import summary
+    from grubler.mechanism.scene import override
+
+    slide = override(grubler.load_scene("elliptic-trammel"), {"drive_joint": "B1"})
+    assert summary(linearize(slide, at="initial")).startswith(
+        "operating point: initial: B1 = 0.69282 m; drive effort 0 N, load effort 0 N m")
+
+
 def test_cli_prints_poles_and_writes_json_and_bode(tmp_path, capsys):
     import json
 
@@ -366,7 +473,7 @@ def test_cli_prints_poles_and_writes_json_and_bode(tmp_path, capsys):
                  "--ratio", "50", "--output", "theta2,current", "--json", str(js), "--bode", str(png)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "poles (natural frequency, damping ratio)" in out and "DC gain" in out and "rad/V" in out
+    assert "poles, rad/s (natural frequency, damping ratio)" in out and "DC gain" in out and "rad/V" in out
     d = json.loads(js.read_text())
     assert d["states"] == ["theta2", "theta2_d", "current"] and d["inputs"] == ["voltage"]
     assert len(d["A"]) == 3 and all(len(row) == 3 for row in d["A"])
@@ -455,3 +562,48 @@ def test_every_preset_linearises_or_says_why(name):
     model = grubler.load_scene(name).mechanism
     dyn = forward_dynamics(model, op.z, op.zd, Inputs(op.drive, op.load))
     assert np.abs(dyn.zdd).max() < 1e-7
+
+
+# -- the Bode plot ------------------------------------------------------------------
+def test_bode_phase_starts_where_the_dc_gain_says_and_the_title_says_what_was_linearised():
+    from grubler.studies.linearize import bode_figure, frequency_response, phase_deg
+
+    sys = linearize("thesis-fourbar", at={"theta2": "30 deg"}, motor=_motor(), outputs=["theta2", "current"])
+    omega = np.logspace(-3, 5, 400)
+    G = frequency_response(sys, omega)
+    for i in range(2):
+        # python-control's DC gain (its own solve): positive, the phase starts near 0 deg,
+        # negative, near -180 deg (the winding current's ran from -315 to -450 deg)
+        dc = float(np.real(np.squeeze(sys[i, 0].dcgain())))
+        assert abs(G[i, 0, 0] - dc) < 1e-2 * abs(dc)  # (1e-3 rad/s is 400 times below the slowest pole)
+        assert phase_deg(G[i, 0])[0] == pytest.approx(0.0 if dc > 0 else -180.0, abs=1.0), (i, dc)
+    fig = bode_figure(sys)
+    try:
+        title = fig.get_suptitle()
+        assert "theta2 = 30 deg" in title and "maxon-re40-148877 through 50:1" in title and "3.395 N m" in title
+        unstable = [p for p in sys.poles() if p.real > 0]
+        assert len(unstable) == 1
+        assert f"open-loop unstable: pole at {unstable[0].real:+.4g} rad/s" in fig.get_supxlabel()
+        for ax in fig.axes[0::2]:  # every magnitude axis reads: four or more labelled levels within it
+            lo, hi = ax.get_ylim()
+            assert sum(lo <= t <= hi for t in ax.get_yticks()) >= 4, ax.get_yticks()
+            assert ax.get_ylabel().startswith("magnitude, dB re 1 ")
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    # a stable plant says nothing of the kind
+    stable = bode_figure(linearize("thesis-fourbar-damped"))
+    assert stable.get_supxlabel() == "" and "-112.6 deg" in stable.get_suptitle()
+
+
+@pytest.mark.parametrize("path, reason", [("out-{tmp}/b.png", "does not exist"),
+                                           ("{tmp}/b.xyz", "cannot write a 'xyz' file; use one of .png, .pdf, .svg")])
+def test_cli_refuses_a_bode_file_it_cannot_write_before_linearising(tmp_path, capsys, path, reason):
+    from grubler.cli import main
+
+    assert main(["linearize", "thesis-fourbar", "--bode", path.format(tmp=tmp_path)]) == 2
+    err = capsys.readouterr()
+    lines = err.err.strip().splitlines()
+    assert len(lines) == 1 and "--bode" in lines[0] and reason in lines[0], lines
+    assert err.out == ""  # refused up front, before any model is printed

@@ -316,7 +316,7 @@ def test_info_names_the_inversion_and_lists_the_branches(capsys):
     # each listed branch is where the reference's dyads put it
     P = params("watt-ii")
     for line in branches:
-        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        angles = dict((k, float(v)) for k, v, _deg in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
         candidates = [joints("watt-ii", P, math.radians(120), s) for s in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
         th3 = [math.degrees(math.atan2(*(w["B"] - w["A"])[::-1])) % 360 for w in candidates]
         assert min(abs(angles["theta3"] - a) for a in th3) < 1e-3
@@ -429,24 +429,28 @@ def test_stephenson_iii_linearised_at_rest_swings_at_the_body_model_frequency():
     name = "stephenson-iii"
     sys = grubler.linearize(name, torque=0.0)
     a21 = sys.A[1, 0]
-    op = sys.operating_point
     m = grubler.load_scene(name).mechanism
-    ref, x_rest = reference(name, world_of(name, m, op.z))
+    slope, stiffness, inertia = crank_stiffness(name, m, sys.operating_point.z)
+    assert abs(slope) < 1e-9  # the reference agrees it is at rest
+    assert stiffness > 0
+    assert abs(a21 + stiffness / inertia) < 1e-7 * stiffness / inertia, (a21, -stiffness / inertia)
+
+
+def crank_stiffness(name, m, z, h=1e-3):
+    """The reference's dPE/dphi, d2PE/dphi2 and generalised mass v^T M v at the library's pose z,
+    v = dx/dphi along its own closed configurations (phi the crank's angle), by finite differences."""
+    ref, x_rest = reference(name, world_of(name, m, z))
 
     def closed(dphi):
         x = x_rest.copy()
         x[2] += dphi  # body 0 is the crank
         return ref.close(x, hold=0)
 
-    h = 1e-3
     xs = [closed(k * h) for k in (-2, -1, 0, 1, 2)]
     pe = [ref.potential(x) for x in xs]
     stiffness = (-pe[0] + 16 * pe[1] - 30 * pe[2] + 16 * pe[3] - pe[4]) / (12 * h * h)
     v = (xs[0] - 8 * xs[1] + 8 * xs[3] - xs[4]) / (12 * h)
-    inertia = v @ ref.mass() @ v
-    assert abs((pe[0] - 8 * pe[1] + 8 * pe[3] - pe[4]) / (12 * h)) < 1e-9  # the reference agrees it is at rest
-    assert stiffness > 0
-    assert abs(a21 + stiffness / inertia) < 1e-7 * stiffness / inertia, (a21, -stiffness / inertia)
+    return (pe[0] - 8 * pe[1] + 8 * pe[3] - pe[4]) / (12 * h), stiffness, v @ ref.mass() @ v
 
 
 def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
@@ -467,7 +471,7 @@ def test_info_names_stephenson_iii_its_tree_and_its_branches(capsys):
 
     found = set()
     for line in branches:  # the rocker (link 4) runs B -> O4, link 6 D -> O6
-        angles = dict((k, float(v)) for k, v in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
+        angles = dict((k, float(v)) for k, v, _deg in (kv.split() for kv in line[5:].split("<-")[0].split(", ")))
         miss = [max(off(angles["theta4"], w["B"], w["O4"]), off(angles["theta6"], w["D"], w["O6"]))
                 for w in candidates]
         found.add(int(np.argmin(miss)))

@@ -27,8 +27,38 @@ import numpy as np
 from grubler.mechanism.builders import BUILDERS
 from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, SceneError
-from grubler.limits import brief, did_you_mean, number, parse_angle_or_number, parse_toml, read_text
+from grubler.limits import brief, did_you_mean, number, parse_angle, parse_angle_or_number, parse_toml, read_text
 from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names
+
+def parse_coordinate(name: str, value, field: str) -> float:
+    """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
+    slide's length B, m (a number, or text such as '0.2' or '0.2 m')."""
+    if not name.startswith("B"):
+        return parse_angle(value, field)
+    if isinstance(value, str) and value.strip().endswith("m") and len(value) <= 64:
+        value = value.strip()[:-1]
+    try:
+        return number(value, field, unit="m")
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
+
+
+def coordinate_text(name: str, value: float, digits: int = 6, radians: bool = False) -> str:
+    """A joint coordinate as people read it, with its unit: '-99.5296 deg' (and, with
+    ``radians``, ' (-1.73712 rad)'), or a slide's '0.25 m'.
+
+    Examples
+    --------
+    >>> coordinate_text("theta2", -math.pi / 2, radians=True)
+    '-90 deg (-1.5708 rad)'
+    >>> coordinate_text("B2", 0.25)
+    '0.25 m'
+    """
+    if name.startswith("B"):
+        return f"{value:.{digits}g} m"
+    deg = f"{math.degrees(value) + 0.0:.{digits}g} deg"  # (+ 0.0: no negative zero)
+    return deg + (f" ({value + 0.0:.{digits}g} rad)" if radians else "")
+
 
 @dataclass(frozen=True)
 class Scene:

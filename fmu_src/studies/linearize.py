@@ -45,13 +45,27 @@ from grubler.mechanism.assembly import _scale, assemble, constraint, freedom, he
 from grubler.mechanism.dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
 from grubler.errors import SceneError
 from grubler.mechanism.model import Mechanism
-from grubler.mechanism.scene import Scene, load_scene
+from grubler.mechanism.scene import Scene, coordinate_text, load_scene, parse_coordinate
 from grubler.mechanism.simulate import Simulator, unit_of
 
 H_STEP = 1e-30  # complex step: any tiny h is exact; this one keeps h^2 far above underflow
 EQUILIBRIUM_TOL = 1e-10  # rad/s^2 (or m/s^2): residual joint acceleration of an equilibrium
 EQUILIBRIUM_ITERATIONS = 60
-MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
+MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, where the local model still holds
+# A step of the independent coordinates is walked (_Plant.follow): each piece is
+# predicted along the tangent and closed by Newton, and kept only when Newton's
+# correction is a small part of the predicted move; else halved.  Newton from a
+# far guess lands on whichever branch is nearest the guess.
+FOLLOW_RATIO = 0.25  # largest correction over predicted move of one piece
+FOLLOW_MOVE = 0.1  # rad (or m over the length scale): largest predicted move of a dependent coordinate
+FOLLOW_FLOOR = 1e-9  # rad (or m over the length scale): a correction this small passes whatever the move
+FOLLOW_SHORTEST = 1e-10  # rad (or m): a piece this short that still fails is stopped by a toggle
+FOLLOW_PIECES = 2000  # pieces of one walk at most: beyond, a coordinate runs off towards an asymptote
+# The search moves in whichever independent coordinates are well conditioned: a
+# double-rocker's crank reaches a toggle on the way down and turns back while the
+# rest swings on, as its damped release does.  It changes chart when the current
+# one's conditioning falls below this fraction of the best one's.
+CHART_SWITCH = 0.25
 ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
 # of the closure Jacobian's dependent columns: below it, a toggle or change point.
 # Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
@@ -90,6 +104,8 @@ class OperatingPoint:
         elsewhere the linear model describes perturbations of a moving point).
     current, voltage : float or None
         The motor's winding current (A) and the voltage that holds it (V), with a motor.
+    effort_units : dict
+        The units of ``drive`` and ``load``: 'N m' on a revolute, 'N' on a slide.
     """
 
     kind: str
@@ -103,13 +119,14 @@ class OperatingPoint:
     acceleration: np.ndarray = field(default_factory=lambda: np.zeros(0))
     current: float | None = None
     voltage: float | None = None
+    effort_units: dict = field(default_factory=lambda: {"drive": "N m", "load": "N m"})
 
     def as_dict(self) -> dict:
         """Plain numbers for JSON."""
         d = {"kind": self.kind, "time": self.time, "drive_effort": self.drive, "load_effort": self.load,
              "independent": list(self.independent),
              "coordinates": {k: float(v) for k, v in self.coordinates.items()},
-             "acceleration": [float(a) for a in self.acceleration]}
+             "acceleration": [float(a) for a in self.acceleration], "effort_units": dict(self.effort_units)}
         if self.current is not None:
             d["current"], d["voltage"] = self.current, self.voltage
         return d
@@ -157,12 +174,90 @@ class _Plant:
         if status == binding.OK:
             return
         names = [self.model.free_names[i] for i in self.ind]
-        at = ", ".join(f"{nm} = {float(np.real(y[i])):.6g}" for nm, i in zip(names, self.ind))
+        at = _where(names, y, self.ind)
         if status == binding.SINGULAR:
             raise SceneError(where, f"at {at} the coordinates {', '.join(names)} do not determine the others "
                                     "(the closure Jacobian's dependent columns are singular: a dead centre or "
                                     "change point); linearise elsewhere")
         raise SceneError(where, f"the loop cannot be closed at {at}")
+
+    def _charts(self, z: np.ndarray, ind) -> tuple[float, list[int]]:
+        """How well ``ind`` determines the rest at ``z`` (the smallest singular value of the
+        closures' null space restricted to it), and the best-conditioned chart's choice."""
+        weight = np.where(self.model.arrays.revolute, 1.0, 1.0 / self.scale)
+        _, J = constraint(self.model, z)
+        _, s, vt = np.linalg.svd(J / weight, full_matrices=True)
+        null = vt[len(vt) - len(ind):].T  # n x k: the closures' tangent space
+        best, rest = [], null.copy()
+        for _ in range(len(ind)):  # greedy pivoting: the coordinate that moves most, then the next ...
+            i = int(np.argmax(np.linalg.norm(rest, axis=1)))
+            best.append(i)
+            v = rest[i] / np.linalg.norm(rest[i])
+            rest = rest - np.outer(rest @ v, v)
+        quality = lambda chosen: np.linalg.svd(null[sorted(chosen)], compute_uv=False)[-1]  # noqa: E731
+        return quality(ind) / quality(best), sorted(best)
+
+    def well_conditioned_chart(self, y: np.ndarray) -> None:
+        """Move to the best-conditioned independent coordinates when the current ones near a toggle."""
+        if not self.model.n_constraints:
+            return
+        ratio, best = self._charts(y[:self.n], list(self.ind))
+        if ratio < CHART_SWITCH:
+            self.ind = np.array(best, dtype=np.int32)
+
+    def follow(self, y: np.ndarray, target: np.ndarray, where: str = "at") -> np.ndarray:
+        """The closed state (at rest) with the independent coordinates at ``target``, reached from
+        ``y`` by continuity: on ``y``'s assembly branch, as a simulation keeps it.
+
+        Raises SceneError(``where``) when a dead centre or change point on the way stops the walk.
+        """
+        n, ind = self.n, self.ind
+        y = np.array(y, dtype=float)
+        y[n:] = 0.0
+        start = y[ind].copy()
+        delta = np.asarray(target, dtype=float) - start
+        if not self.model.n_constraints:
+            y[ind] = target
+            return y
+        weight = np.where(self.model.arrays.revolute, 1.0, 1.0 / self.scale)
+        done, piece = 0.0, 1.0
+        for _ in range(FOLLOW_PIECES):
+            if done >= 1.0:
+                break
+            piece = min(piece, 1.0 - done)
+            ok = False
+            try:
+                tangent = y.copy()
+                tangent[n + ind] = piece * delta  # as rates: the dependent rates are the first-order move
+                move = self.close(tangent, where)[n:]
+                predicted = y.copy()
+                predicted[:n] += move
+                predicted[n:] = 0.0
+                predicted[ind] = start + (done + piece) * delta
+                if np.abs(move * weight).max() <= FOLLOW_MOVE:
+                    closed = self.close(predicted, where)
+                    correction = np.abs((closed[:n] - predicted[:n]) * weight).max()
+                    ok = correction <= max(FOLLOW_RATIO * np.abs(move * weight).max(), FOLLOW_FLOOR)
+            except SceneError:
+                pass
+            if ok:
+                y, done, piece = closed, done + piece, 2.0 * piece
+                continue
+            piece /= 2.0
+            if piece * np.abs(delta).max() < FOLLOW_SHORTEST:
+                names = [self.model.free_names[i] for i in ind]
+                raise SceneError(where, f"turning {', '.join(names)} from {_where(names, start, range(len(ind)))} "
+                                        f"towards {_where(names, target, range(len(ind)))} stops at "
+                                        f"{_where(names, y, ind)}: a dead centre or change point there (the closure "
+                                        "Jacobian's dependent columns are singular) bars the way on this branch")
+        else:
+            if done < 1.0:
+                names = [self.model.free_names[i] for i in ind]
+                raise SceneError(where, f"turning {', '.join(names)} towards {_where(names, target, range(len(ind)))}"
+                                        f" takes more than {FOLLOW_PIECES} steps from {_where(names, y, ind)}: "
+                                        "the others run off on the way")
+        y[ind] = target  # exactly, not as the sum of the pieces
+        return self.close(y, where)
 
     def check_regular(self, y: np.ndarray) -> None:
         """Refuse a configuration where the dependent coordinates barely follow from the independent ones."""
@@ -260,8 +355,8 @@ def _parse_at(at):
             raise SceneError("at", f"cannot read the time in {at!r} (write t=1.5)") from None
     else:
         raise SceneError("at", f"must be 'equilibrium', 'initial', 't=T' (a time along the simulated "
-                               f"trajectory) or a coordinate held at a value ({{'theta2': 0.5}}; on the command "
-                               f"line theta2=0.5), got {at!r}")
+                               f"trajectory) or a coordinate held at a value ({{'theta2': 0.5}} in rad, or "
+                               f"{{'theta2': '30 deg'}}; on the command line theta2=30deg), got {at!r}")
     if not (math.isfinite(t) and t >= 0):
         raise SceneError("at", f"the time must be finite and >= 0, got {t}")
     return "trajectory", t
@@ -287,7 +382,8 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
     d, l = model.arrays.drive, model.arrays.load
     y = y.copy()
     y[n:] = 0.0
-    start = y[ind].copy()
+    start = y[:n].copy()
+    weight = np.where(model.arrays.revolute, 1.0, 1.0 / plant.scale)
 
     def potential(yy):
         obs = plant.observe(yy, drive, load)
@@ -305,6 +401,9 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
         return g, Mr, K, plant.rhs(yy, drive, load)[n + ind]
 
     for _ in range(EQUILIBRIUM_ITERATIONS):
+        if not held:  # every coordinate settles: any chart will do, and a toggle of this one is no wall
+            plant.well_conditioned_chart(y)
+            ind, names = plant.ind, [model.free_names[i] for i in plant.ind]
         g, Mr, K, acc = local(y)
         if not free or np.abs(acc[free] if held else acc).max() <= EQUILIBRIUM_TOL:
             break
@@ -321,10 +420,10 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
             step *= MAX_NEWTON_STEP / biggest
         v0, slope, lam, residual = potential(y), float(gf @ step), 1.0, np.linalg.norm(acc[free])
         while True:
-            trial = y.copy()
-            trial[ind[free]] += lam * step
+            target = y[ind].copy()
+            target[free] += lam * step
             try:
-                trial = plant.close(trial)
+                trial = plant.follow(y, target)
                 # near the minimum V's decrease drowns in its rounding: there a
                 # Newton step that halves the accelerations is as good
                 ok = (potential(trial) <= v0 + 1e-4 * lam * slope or
@@ -338,21 +437,27 @@ def _equilibrium(plant: _Plant, y: np.ndarray, drive: float, load: float, held: 
             if lam < 1e-8:
                 raise SceneError("at", "no equilibrium found near the initial configuration: the search stalls "
                                        f"at {_where(names, y, ind)} with joint accelerations "
-                                       f"{', '.join(f'{v:.3g}' for v in acc)}")
-        if np.abs(y[ind] - start).max() > 4 * math.pi:
-            moving = [names[k] for k in free]
+                                       f"{_accelerations(names, acc)}")
+        travel = np.abs(y[:n] - start) * weight
+        if travel.max() > 4 * math.pi:  # two turns (or lengths): no well on the way
+            why = ("the drive or load effort exceeds what gravity can hold" if drive or load else
+                   "nothing stops the fall on this side")
+            runner = d if d >= 0 and travel[d] > 2 * math.pi else int(np.argmax(travel))
             raise SceneError("at", f"no equilibrium under these efforts: the potential keeps falling as "
-                                   f"{', '.join(moving)} {'moves' if len(moving) == 1 else 'move'} on (the drive or "
-                                   "load effort exceeds what gravity can hold)")
+                                   f"{model.free_names[runner]} moves on ({why})")
     else:
         raise SceneError("at", f"no equilibrium found in {EQUILIBRIUM_ITERATIONS} steps from the initial "
-                               f"configuration (joint accelerations {', '.join(f'{v:.3g}' for v in acc)})")
+                               f"configuration (joint accelerations {_accelerations(names, acc)})")
+    if not held:  # back to the drive's chart, the linear model's states
+        plant.choose_independent(y[:n])
+        ind, names = plant.ind, [model.free_names[i] for i in plant.ind]
+        y = plant.close(y)
     if held:
         drive, _ = inverse_dynamics(model, y[:n], np.zeros(n), np.zeros(n), Inputs(0.0, load))
     acc = plant.rhs(y, drive, load)[n + ind]
     if np.abs(acc).max() > 1e3 * EQUILIBRIUM_TOL:
         raise SceneError("at", f"no equilibrium found: at {_where(names, y, ind)} the joint accelerations are "
-                               f"{', '.join(f'{v:.3g}' for v in acc)}")
+                               f"{_accelerations(names, acc)}")
     if not held:
         # the stiffness against gravity's own scale g / l: below that fraction the
         # natural frequency is a rounding error's
@@ -376,7 +481,11 @@ def _mass_matrix(model: Mechanism, y: np.ndarray) -> np.ndarray:
 
 
 def _where(names, y, ind) -> str:
-    return ", ".join(f"{nm} = {float(y[i]):.6g}" for nm, i in zip(names, ind))
+    return ", ".join(f"{nm} = {coordinate_text(nm, float(np.real(y[i])))}" for nm, i in zip(names, ind))
+
+
+def _accelerations(names, acc) -> str:
+    return ", ".join(f"{nm} {a:.3g} {unit_of(nm + '_dd')}" for nm, a in zip(names, acc))
 
 
 def _motor_model(motor):
@@ -479,7 +588,7 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
             if not isinstance(name, str) or name not in model.free_names:
                 raise SceneError("at", f"{name!r} is not a real joint coordinate; expected one of "
                                        f"{', '.join(model.free_names)}")
-            q[model.coordinate_names.index(name)] = _effort(value, 0.0, f"at.{name}")
+            q[model.coordinate_names.index(name)] = parse_coordinate(name, value, f"at.{name}")
         z = model.z_from_q(q)
         if model.n_constraints:
             z, _ = assemble(model, z, None, field="at")
@@ -515,7 +624,8 @@ def _operating_point(scene: Scene, at, torque, load_torque, motor,
     if motor is not None:
         current, voltage = _motor_operating(motor, y[n + model.arrays.drive], drive)
     op = OperatingPoint(kind, time, y[:n].copy(), y[n:].copy(), float(drive), float(load),
-                        tuple(model.free_names[i] for i in plant.ind), coords, acc, current, voltage)
+                        tuple(model.free_names[i] for i in plant.ind), coords, acc, current, voltage,
+                        {"drive": input_unit(DRIVE, model), "load": input_unit(LOAD, model)})
     return op, plant
 
 
@@ -682,6 +792,7 @@ def linearize(scene, at="equilibrium", inputs=None, outputs=None, motor=None, *,
     sys = control.ss(A, B, C, D, states=state_names, inputs=[_input_label(k) for k in in_names],
                      outputs=out_names, name=model.name or "mechanism")
     sys.operating_point = op
+    sys.motor = motor
     sys.units = {**{s: signal_unit(s) for s in state_names + out_names},
                  **{_input_label(k): input_unit(k, model) for k in in_names}}
     return sys
@@ -728,15 +839,15 @@ def summary(sys) -> str:
     op = getattr(sys, "operating_point", None)
     if op is not None:
         at = op.kind + (f" at t = {op.time:g} s" if op.time is not None else "")
-        coords = ", ".join(f"{k} = {op.coordinates[k]:.6g}" for k in op.independent)
-        lines.append(f"operating point: {at}: {coords}; drive effort {op.drive:.6g}, load effort {op.load:.6g}")
+        coords = ", ".join(f"{k} = {coordinate_text(k, op.coordinates[k], radians=True)}" for k in op.independent)
+        lines.append(f"operating point: {at}: {coords}; drive effort {op.drive:.6g} {op.effort_units['drive']}, "
+                     f"load effort {op.load:.6g} {op.effort_units['load']}")
         if op.current is not None:
             lines.append(f"motor: {op.current:.6g} A at {op.voltage:.6g} V")
         if op.kind != "equilibrium":
-            lines.append("  (not an equilibrium: accelerations "
-                         + ", ".join(f"{a:.4g}" for a in op.acceleration) + ")")
+            lines.append(f"  (not an equilibrium: accelerations {_accelerations(op.independent, op.acceleration)})")
     lines.append("states: " + ", ".join(f"{s} [{units.get(s, '')}]" for s in sys.state_labels))
-    lines.append("poles (natural frequency, damping ratio):")
+    lines.append("poles, rad/s (natural frequency, damping ratio):")
     wn, zeta, poles = control.damp(sys, doprint=False)
     for p, w, z in sorted(zip(poles, wn, zeta), key=lambda t: abs(t[0])):
         # (+ 0.0 turns a negative zero, an undamped pole's, into a plain one)
@@ -750,39 +861,117 @@ def summary(sys) -> str:
             except Exception:  # noqa: BLE001 - python-control's zero finder; report instead of failing
                 zeros = None
             ztxt = "none" if zeros is not None and len(zeros) == 0 else (
-                "?" if zeros is None else ", ".join(f"{z.real:+.6g}{z.imag:+.6g}j" for z in zeros))
+                "?" if zeros is None else ", ".join(f"{z.real:+.6g}{z.imag:+.6g}j" for z in zeros) + " rad/s")
             with np.errstate(divide="ignore", invalid="ignore"):
                 try:
                     g = complex(np.squeeze(sub.dcgain())).real
                 except Exception:  # noqa: BLE001 - a pole at zero: the gain is infinite
                     g = math.inf
+            per = units.get(inp, "")
             lines.append(f"{inp} -> {out}: zeros {ztxt}; DC gain {g:.6g} "
-                         f"{units.get(out, '')}/{units.get(inp, '')}")
+                         f"{units.get(out, '')}/{f'({per})' if ' ' in per else per}")
     return "\n".join(lines)
 
 
+BODE_SUFFIXES = (".png", ".pdf", ".svg")  # what --bode writes
+
+
+def frequency_response(sys, omega: np.ndarray) -> np.ndarray:
+    """G(j w) = C (j w I - A)^-1 B + D at each ``omega`` (rad/s): outputs x inputs x frequencies."""
+    A, B, C, D = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
+    eye = np.eye(A.shape[0])
+    return np.stack([C @ np.linalg.solve(1j * w * eye - A, B) + D for w in omega], axis=-1)
+
+
+def phase_deg(g: np.ndarray) -> np.ndarray:
+    """The phase of a frequency response, deg, unwrapped along frequency and placed by its
+    low-frequency end: near 0 where the gain there is positive, near -180 where it is
+    negative (and -90 under an integrator), rather than wherever the arctangent left it."""
+    phase = np.degrees(np.unwrap(np.angle(g)))
+    target = 0.0 if g[0].real >= 0 else -180.0
+    return phase - 360.0 * np.round((phase[0] - target) / 360.0)
+
+
 def plot_bode(sys, path: str) -> None:
-    """Bode plot of every input-output pair, with units in the title, to a PNG or PDF."""
-    import control
+    """Bode plot of every input-output pair (:func:`bode_figure`) to a PNG, PDF or SVG file."""
+    import matplotlib.pyplot as plt
+
+    fig = bode_figure(sys)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def bode_figure(sys):
+    """The Bode plot of every input-output pair as a matplotlib Figure: magnitude in dB of
+    the pair's own unit, phase in degrees (:func:`phase_deg`), the poles' natural
+    frequencies marked, a title with the operating point, the motor and its ratio, and
+    under it a note when the plant is open-loop unstable."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator, MultipleLocator
 
     units = getattr(sys, "units", {})
+    poles = np.asarray(sys.poles())
     # a decade beyond the slowest and the fastest pole: python-control's own
     # choice misses the winding's pole three decades above the mechanism's
-    corners = np.abs(sys.poles())
+    corners = np.abs(poles)
     corners = corners[corners > 1e-9] if np.any(corners > 1e-9) else np.array([1.0])
-    omega = np.logspace(np.log10(corners.min() / 10), np.log10(corners.max() * 10), 600)
-    plt.figure(figsize=(8, 6))
-    control.bode_plot(sys, omega, dB=True, Hz=False, title=None)
-    pairs = ", ".join(f"{o} [{units.get(o, '')}] / {i} [{units.get(i, '')}]"
-                      for o in sys.output_labels for i in sys.input_labels)
-    fig = plt.gcf()
-    fig.suptitle(f"{sys.name}: {pairs}", fontsize=9)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    omega = np.logspace(np.log10(corners.min() / 10), np.log10(corners.max() * 10), 800)
+    G = frequency_response(sys, omega)
+    growing = poles.real > 1e-9 * max(1.0, corners.max())  # (a rounding's worth right of the axis is not)
+    outs, ins = list(sys.output_labels), list(sys.input_labels)
+    fig, axes = plt.subplots(2 * len(outs), len(ins), sharex=True, squeeze=False, layout="constrained",
+                             figsize=(7.5 * len(ins), 1.4 + 3.6 * len(outs)))
+    for i, out in enumerate(outs):
+        for j, inp in enumerate(ins):
+            g, ax_mag, ax_ph = G[i, j], axes[2 * i, j], axes[2 * i + 1, j]
+            per = units.get(inp, "")
+            unit = f"{units.get(out, '')}/{f'({per})' if ' ' in per else per}"
+            with np.errstate(divide="ignore"):
+                ax_mag.semilogx(omega, 20 * np.log10(np.abs(g)), color="C0", lw=1.6)
+            phase = phase_deg(g)
+            ax_ph.semilogx(omega, phase, color="C1", lw=1.6)
+            ax_mag.set_title(f"{inp} -> {out}", fontsize=10)
+            ax_mag.set_ylabel(f"magnitude, dB re 1 {unit}", fontsize=9)
+            ax_ph.set_ylabel("phase, deg", fontsize=9)
+            ax_mag.yaxis.set_major_locator(MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]))
+            ax_ph.yaxis.set_major_locator(MultipleLocator(45 if np.ptp(phase) <= 270 else 90))
+            for ax in (ax_mag, ax_ph):
+                ax.grid(True, which="major", alpha=0.5)
+                ax.grid(True, which="minor", alpha=0.15)
+                for p, bad in zip(poles, growing):  # an unstable pole's in red
+                    ax.axvline(abs(p), color="firebrick" if bad else "0.4", ls=":", lw=0.9)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency, rad/s  (dotted: the poles' natural frequencies, an unstable one's red)",
+                      fontsize=9)
+    fig.suptitle(_bode_title(sys), fontsize=10)
+    unstable = poles[growing]
+    if len(unstable):
+        import textwrap
+
+        note = ("open-loop unstable: pole" + ("s" if len(unstable) > 1 else "") + " at "
+                + ", ".join(f"{p.real:+.4g}{p.imag:+.4g}j" if p.imag else f"{p.real:+.4g}" for p in unstable)
+                + " rad/s; no gain or phase margin can be read from this plot (use the Nyquist criterion "
+                "or the closed loop's poles)")
+        fig.supxlabel("\n".join(textwrap.wrap(note, 95)), fontsize=9, color="firebrick")
+    return fig
+
+
+def _bode_title(sys) -> str:
+    """Scene, operating point, and motor with its ratio, for the plot's title."""
+    op = getattr(sys, "operating_point", None)
+    lines = [f"{sys.name}: linear model"]
+    if op is not None:
+        at = op.kind + (f" at t = {op.time:g} s" if op.time is not None else "")
+        coords = ", ".join(f"{k} = {coordinate_text(k, op.coordinates[k], 4)}" for k in op.independent)
+        lines[0] += f" about the {at}, {coords}, drive effort {op.drive:.4g} {op.effort_units['drive']}"
+    motor = getattr(sys, "motor", None)
+    if motor is not None:
+        lines.append(f"motor {motor.data.name} through {motor.gear.ratio:g}:1 ({motor.gear.efficiency:.0%}), "
+                     f"{op.current:.3g} A at {op.voltage:.3g} V" if op is not None else "")
+    return "\n".join(lines)
 
 
 def to_json(sys) -> dict:
@@ -794,5 +983,6 @@ def to_json(sys) -> dict:
             "operating_point": op.as_dict() if op is not None else None}
 
 
-__all__ = ["OperatingPoint", "linearize", "operating_point", "output_names", "plot_bode", "summary", "to_json",
+__all__ = ["OperatingPoint", "linearize", "operating_point", "output_names", "plot_bode", "bode_figure",
+           "frequency_response", "phase_deg", "summary", "to_json",
            "input_unit", "signal_unit"]
