@@ -1,4 +1,4 @@
-"""ctypes declarations of the C motor model (``motors/kernel/dc_motor.h``).
+"""ctypes declarations of the drives' C models (``motors/kernel/dc_motor.h``, ``hydraulic_cylinder.h``).
 
 The motor's equations exist once, in C; :mod:`grubler.motors.dc_motor` calls
 them through the functions declared here, on the library handle of
@@ -59,14 +59,19 @@ _SIGNATURES = {
 }
 
 
-@functools.lru_cache(maxsize=None)
-def functions() -> ctypes.CDLL:
-    """The kernel library with the motor functions' signatures declared (once)."""
+def _declared(signatures: dict) -> ctypes.CDLL:
+    """The kernel library with these functions' result and argument types declared."""
     lib = library()
-    for name, (restype, argtypes) in _SIGNATURES.items():
+    for name, (restype, argtypes) in signatures.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = restype, argtypes
     return lib
+
+
+@functools.lru_cache(maxsize=None)
+def functions() -> ctypes.CDLL:
+    """The kernel library with the motor functions' signatures declared (once)."""
+    return _declared(_SIGNATURES)
 
 
 def check(kind, p: Params, state: State | None = None) -> tuple[str, str] | None:
@@ -90,3 +95,57 @@ def check(kind, p: Params, state: State | None = None) -> tuple[str, str] | None
 def message(status: int) -> str:
     """dcm_status_message: the C model's sentence for a status."""
     return functions().dcm_status_message(status).decode()
+
+
+# -- the hydraulic cylinder (motors/kernel/hydraulic_cylinder.h) -------------------------
+HYD_OK = 0
+
+
+class HydParams(ctypes.Structure):
+    """struct hyd_params, field for field (grubler.motors.hydraulic.FIELDS describes them)."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "bulk_modulus",
+        "air_fraction", "viscous_friction", "coulomb_friction", "smoothing_speed", "leakage", "stop_stiffness",
+        "stop_damping", "nominal_flow", "nominal_pressure_drop", "valve_frequency", "valve_damping", "overlap",
+        "valve_leakage", "transition_pressure", "pump_flow", "relief_pressure", "relief_gradient", "supply_volume",
+        "tank_pressure", "tolerance")]
+
+
+class HydState(ctypes.Structure):
+    """struct hyd_state: spool, its rate, the three pressures [Pa gauge], the last sub-step [s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "spool", "spool_rate", "pressure_a", "pressure_b", "supply_pressure", "substep")]
+
+
+class HydInputs(ctypes.Structure):
+    """struct hyd_inputs: valve command, actuator length [m] and rate [m/s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in ("command", "length", "rate")]
+
+
+class HydOutputs(ctypes.Structure):
+    """struct hyd_outputs."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "force", "pressure_a", "pressure_b", "supply_pressure", "flow_a", "flow_b", "relief_flow", "position",
+        "spool", "pump_power", "piston_power", "mechanical_power", "throttling_loss", "compression_power")]
+
+
+_HP, _HS, _HI, _HO = (ctypes.POINTER(t) for t in (HydParams, HydState, HydInputs, HydOutputs))
+_HYD_SIGNATURES = {
+    "hyd_field_name": (ctypes.c_char_p, [_I]),
+    "hyd_status_message": (ctypes.c_char_p, [_I]),
+    "hyd_check_params": (_I, [_HP, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+    "hyd_check_state": (_I, [_HP, _HS, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+    "hyd_step": (_I, [_HP, _HS, _HI, _D, _HO]),
+    "hyd_observe": (_I, [_HP, _HS, _HI, _HO]),
+    "hyd_derivatives": (_I, [_HP, _HS, _HI, _DP]),
+}
+
+
+@functools.lru_cache(maxsize=None)
+def hydraulic_functions() -> ctypes.CDLL:
+    """The kernel library with the hydraulic cylinder's signatures declared (once)."""
+    return _declared(_HYD_SIGNATURES)

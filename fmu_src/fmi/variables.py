@@ -43,6 +43,16 @@ UNITS: dict[str, dict[str, int]] = {
     "K/W": {"K": 1, "kg": -1, "m": -2, "s": 3},
     "1/K": {"K": -1},
     "degC": {"K": 1},  # offset 273.15 (description.py)
+    # fluid power
+    "1": {},
+    "1/s": {"s": -1},
+    "m2": {"m": 2},
+    "m3": {"m": 3},
+    "m3/s": {"m": 3, "s": -1},
+    "Pa": {"kg": 1, "m": -1, "s": -2},
+    "m3/(s.Pa)": {"kg": -1, "m": 4, "s": 1},
+    "N/m": {"kg": 1, "s": -2},
+    "N.s/m": {"kg": 1, "s": -1},
 }
 UNIT_OFFSET = {"degC": 273.15}
 

@@ -1,0 +1,389 @@
+/* hydraulic_cylinder: the model of hydraulic_cylinder.h. */
+#include "hydraulic_cylinder.h"
+
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+#define N_STATE 5       /* x, x', p_A, p_B, p_S */
+#define N_AUG 6         /* and the time within the step, so the moving length needs no special term */
+/* Absolute pressure [Pa] about which the oil cavitates: its stiffness falls as
+ * (p / P_CAVITATION)^2 below it, so a chamber the piston pulls from never reaches
+ * a vacuum (the pressure approaches it ever more slowly), and the equations stay
+ * smooth where a clamp would switch. */
+#define P_CAVITATION 1000.0
+/* The pressures' error scale: a relative tolerance applies to at least this. */
+#define PRESSURE_SCALE 1e5
+#define MIN_SUBSTEP 1e-14
+/* Accepted sub-steps over which one Jacobian serves. */
+#define JACOBIAN_REUSE 8
+
+static const char *const FIELD_NAMES[] = {
+    "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "bulk_modulus",
+    "air_fraction", "viscous_friction", "coulomb_friction", "smoothing_speed", "leakage",
+    "stop_stiffness", "stop_damping", "nominal_flow", "nominal_pressure_drop", "valve_frequency",
+    "valve_damping", "overlap", "valve_leakage", "transition_pressure", "pump_flow",
+    "relief_pressure", "relief_gradient", "supply_volume", "tank_pressure", "tolerance",
+    "spool", "spool_rate", "pressure_a", "pressure_b", "supply_pressure"};
+
+const char *hyd_field_name(int field)
+{
+    if (field < 0 || field >= (int)(sizeof FIELD_NAMES / sizeof FIELD_NAMES[0])) return NULL;
+    return FIELD_NAMES[field];
+}
+
+const char *hyd_status_message(int status)
+{
+    switch (status) {
+    case HYD_OK: return "ok";
+    case HYD_BAD_PARAMETER: return "a parameter is out of range";
+    case HYD_BAD_STATE: return "the state is not finite, or a pressure is below vacuum";
+    case HYD_BAD_INPUT: return "the valve command, the actuator length and its rate must be finite";
+    case HYD_BAD_STEP_SIZE: return "the step size must be positive and finite";
+    case HYD_STEP_FAILED:
+        return "the step size control gave up (more than 1e6 sub-steps in one step, or a sub-step below 1e-14 s)";
+    case HYD_BAD_ARGUMENT: return "a NULL pointer";
+    default: return "unknown status";
+    }
+}
+
+static int refuse(int f, const char *rule, int *field, const char **why)
+{
+    if (field) *field = f;
+    if (why) *why = rule;
+    return f >= HYD_N_PARAMS ? HYD_BAD_STATE : HYD_BAD_PARAMETER;
+}
+
+static void params_as_array(const hyd_params *p, double *v)
+{
+    memcpy(v, p, sizeof *p); /* the struct is HYD_N_PARAMS doubles in enum order */
+}
+
+int hyd_check_params(const hyd_params *p, int *field, const char **why)
+{
+    if (!p) return HYD_BAD_ARGUMENT;
+    double v[HYD_N_PARAMS];
+    params_as_array(p, v);
+    for (int f = 0; f < HYD_N_PARAMS; f++) {
+        if (!isfinite(v[f])) return refuse(f, "must be finite", field, why);
+        switch (f) {
+        case HYD_RETRACTED_LENGTH: case HYD_TANK_PRESSURE:
+            break; /* a length offset and a gauge pressure: any sign; checked below */
+        case HYD_VISCOUS_FRICTION: case HYD_COULOMB_FRICTION: case HYD_LEAKAGE: case HYD_STOP_DAMPING:
+        case HYD_VALVE_LEAKAGE: case HYD_PUMP_FLOW: case HYD_AIR_FRACTION: case HYD_OVERLAP:
+            /* negative friction, leakage or flow would feed energy in */
+            if (v[f] < 0.0) return refuse(f, "must be >= 0", field, why);
+            break;
+        default:
+            if (!(v[f] > 0.0)) return refuse(f, "must be positive", field, why);
+        }
+    }
+    if (!(p->rod < p->bore)) return refuse(HYD_ROD, "must be narrower than the bore", field, why);
+    if (!(p->air_fraction < 0.5)) return refuse(HYD_AIR_FRACTION, "must be below 0.5 (a froth is no hydraulic fluid)",
+                                                 field, why);
+    if (!(p->overlap < 1.0)) return refuse(HYD_OVERLAP, "must be below 1 (the valve would never open)", field, why);
+    if (!(p->retracted_length >= 0.0)) return refuse(HYD_RETRACTED_LENGTH, "must be >= 0", field, why);
+    if (!(p->tank_pressure > -HYD_ATMOSPHERE))
+        return refuse(HYD_TANK_PRESSURE, "must be above vacuum (-101325 Pa gauge)", field, why);
+    if (!(p->relief_pressure > p->tank_pressure))
+        return refuse(HYD_RELIEF_PRESSURE, "must be above the tank pressure", field, why);
+    if (!(p->tolerance < 0.1)) return refuse(HYD_TOLERANCE, "must be below 0.1", field, why);
+    return HYD_OK;
+}
+
+int hyd_check_state(const hyd_params *p, const hyd_state *s, int *field, const char **why)
+{
+    if (!p || !s) return HYD_BAD_ARGUMENT;
+    const double v[N_STATE] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure};
+    for (int k = 0; k < N_STATE; k++) {
+        if (!isfinite(v[k])) return refuse(HYD_SPOOL + k, "must be finite", field, why);
+        if (k >= 2 && !(v[k] > -HYD_ATMOSPHERE))
+            return refuse(HYD_SPOOL + k, "must be above vacuum (-101325 Pa gauge)", field, why);
+    }
+    if (!(fabs(s->spool) <= 1.5)) return refuse(HYD_SPOOL, "must be within [-1.5, 1.5] of full opening", field, why);
+    if (!(isfinite(s->substep) && s->substep >= 0.0)) return refuse(HYD_SPOOL, "substep must be >= 0", field, why);
+    (void)p;
+    return HYD_OK;
+}
+
+/* ---- the equations -------------------------------------------------------------- */
+
+typedef struct areas { double a, b; } areas;
+
+static areas piston_areas(const hyd_params *p)
+{
+    areas r = {0.25 * PI * p->bore * p->bore, 0.25 * PI * (p->bore * p->bore - p->rod * p->rod)};
+    return r;
+}
+
+/* The bulk modulus of oil with entrained air at gauge pressure pg: the air's
+ * volume fraction follows the isothermal gas law from air_fraction at one
+ * atmosphere, the mixture's compliance is the volume-weighted sum, and near a
+ * vacuum the stiffness vanishes as the oil cavitates (P_CAVITATION). */
+static double effective_bulk_modulus(const hyd_params *p, double pg)
+{
+    double pa = pg + HYD_ATMOSPHERE, beta = p->bulk_modulus;
+    /* at a vacuum (cavitated) the oil is this soft, so inflow raises the pressure again at once */
+    if (pa < 0.1 * P_CAVITATION) pa = 0.1 * P_CAVITATION;
+    if (p->air_fraction > 0.0) {
+        double air = p->air_fraction * HYD_ATMOSPHERE / pa, oil = 1.0 - p->air_fraction;
+        double x = air / (air + oil);
+        beta = 1.0 / ((1.0 - x) / beta + x / pa);
+    }
+    return beta * pa * pa / (pa * pa + P_CAVITATION * P_CAVITATION);
+}
+
+/* Flow through one metering edge of relative opening a at pressure drop dp:
+ * turbulent (sqrt) above p_tr, turning laminar below it, smooth at dp = 0;
+ * plus the edge's laminar leakage. */
+static double edge_flow(const hyd_params *p, double a, double dp)
+{
+    double K = p->nominal_flow / sqrt(p->nominal_pressure_drop), pt = p->transition_pressure;
+    return K * a * dp / sqrt(sqrt(dp * dp + pt * pt)) + p->valve_leakage * dp;
+}
+
+typedef struct flows {
+    double s, sdot;            /* piston position and the speed that changes the volumes */
+    double va, vb;             /* chamber volumes */
+    double pa_in, at, pb_in, bt, leak, relief; /* P->A, A->T, P->B, B->T, A->B, relief */
+} flows;
+
+/* Everything the derivatives and the outputs share, at state y, length and rate. */
+static flows flows_at(const hyd_params *p, const double *y, double length, double rate)
+{
+    flows f;
+    areas A = piston_areas(p);
+    double L = p->stroke;
+    f.s = length - p->retracted_length;
+    /* in an end stop the piston stands: the mechanism's overtravel is the stop's
+     * compression, not a volume change */
+    double s_in = f.s < 0.0 ? 0.0 : (f.s > L ? L : f.s);
+    f.sdot = ((f.s <= 0.0 && rate < 0.0) || (f.s >= L && rate > 0.0)) ? 0.0 : rate;
+    f.va = p->dead_volume_a + A.a * s_in;
+    f.vb = p->dead_volume_b + A.b * (L - s_in);
+    double x = y[0], o = p->overlap;
+    if (x > 1.0) x = 1.0;
+    if (x < -1.0) x = -1.0;
+    double plus = x - o > 0.0 ? (x - o) / (1.0 - o) : 0.0, minus = -x - o > 0.0 ? (-x - o) / (1.0 - o) : 0.0;
+    double pa = y[2], pb = y[3], ps = y[4], pt = p->tank_pressure;
+    f.pa_in = edge_flow(p, plus, ps - pa);
+    f.at = edge_flow(p, minus, pa - pt);
+    f.pb_in = edge_flow(p, minus, ps - pb);
+    f.bt = edge_flow(p, plus, pb - pt);
+    f.leak = p->leakage * (pa - pb);
+    f.relief = ps > p->relief_pressure ? p->relief_gradient * (ps - p->relief_pressure) : 0.0;
+    return f;
+}
+
+static void derivatives(const hyd_params *p, const double *y, double length, double rate, double command,
+                        double *dy)
+{
+    flows f = flows_at(p, y, length, rate);
+    areas A = piston_areas(p);
+    double u = command > 1.0 ? 1.0 : (command < -1.0 ? -1.0 : command), w = p->valve_frequency;
+    dy[0] = y[1];
+    dy[1] = w * w * (u - y[0]) - 2.0 * p->valve_damping * w * y[1];
+    dy[2] = effective_bulk_modulus(p, y[2]) / f.va * (f.pa_in - f.at - f.leak - A.a * f.sdot);
+    dy[3] = effective_bulk_modulus(p, y[3]) / f.vb * (f.pb_in - f.bt + f.leak + A.b * f.sdot);
+    dy[4] = effective_bulk_modulus(p, y[4]) / p->supply_volume * (p->pump_flow - f.relief - f.pa_in - f.pb_in);
+}
+
+static void outputs_at(const hyd_params *p, const double *y, double length, double rate, hyd_outputs *o)
+{
+    flows f = flows_at(p, y, length, rate);
+    areas A = piston_areas(p);
+    double pt = p->tank_pressure, L = p->stroke, F_stop = 0.0;
+    if (f.s < 0.0) {            /* retracted stop pushes out, damping only while compressing */
+        F_stop = -p->stop_stiffness * f.s - p->stop_damping * (rate < 0.0 ? rate : 0.0);
+    } else if (f.s > L) {       /* extended stop pulls in */
+        F_stop = -p->stop_stiffness * (f.s - L) - p->stop_damping * (rate > 0.0 ? rate : 0.0);
+    }
+    double friction = p->viscous_friction * rate + p->coulomb_friction * tanh(rate / p->smoothing_speed);
+    double pa = y[2], pb = y[3], ps = y[4];
+    o->force = pa * A.a - pb * A.b - friction + F_stop;
+    o->pressure_a = pa;
+    o->pressure_b = pb;
+    o->supply_pressure = ps;
+    o->flow_a = f.pa_in - f.at;
+    o->flow_b = f.pb_in - f.bt;
+    o->relief_flow = f.relief;
+    o->position = f.s;
+    o->spool = y[0];
+    o->pump_power = (ps - pt) * p->pump_flow;
+    o->piston_power = ((pa - pt) * A.a - (pb - pt) * A.b) * f.sdot;
+    o->mechanical_power = o->force * rate;
+    o->throttling_loss = f.pa_in * (ps - pa) + f.at * (pa - pt) + f.pb_in * (ps - pb) + f.bt * (pb - pt) +
+                         f.leak * (pa - pb) + f.relief * (ps - pt);
+    double dy[N_STATE];
+    derivatives(p, y, length, rate, y[0], dy); /* the spool's own term does not enter the pressures */
+    o->compression_power = f.va / effective_bulk_modulus(p, pa) * (pa - pt) * dy[2] +
+                           f.vb / effective_bulk_modulus(p, pb) * (pb - pt) * dy[3] +
+                           p->supply_volume / effective_bulk_modulus(p, ps) * (ps - pt) * dy[4];
+}
+
+/* ---- stepping: ROS2 (Verwer et al. 1999), L-stable, order 2 for any Jacobian ---- */
+
+typedef struct problem {
+    const hyd_params *p;
+    const hyd_inputs *in;
+} problem;
+
+/* y[5] is the time within the step: the length there is length + rate y[5]. */
+static void f_aug(const problem *pr, const double *y, double *dy)
+{
+    derivatives(pr->p, y, pr->in->length + pr->in->rate * y[5], pr->in->rate, pr->in->command, dy);
+    dy[5] = 1.0;
+}
+
+static double scale_of(int i) { return i >= 2 && i < 5 ? PRESSURE_SCALE : 1.0; }
+
+/* LU with partial pivoting of the N_AUG x N_AUG matrix a, in place; 0 when singular. */
+static int lu(double a[N_AUG][N_AUG], int *piv)
+{
+    for (int k = 0; k < N_AUG; k++) {
+        int m = k;
+        for (int i = k + 1; i < N_AUG; i++)
+            if (fabs(a[i][k]) > fabs(a[m][k])) m = i;
+        if (a[m][k] == 0.0) return 0;
+        piv[k] = m;
+        if (m != k)
+            for (int j = 0; j < N_AUG; j++) { double t = a[k][j]; a[k][j] = a[m][j]; a[m][j] = t; }
+        for (int i = k + 1; i < N_AUG; i++) {
+            a[i][k] /= a[k][k];
+            for (int j = k + 1; j < N_AUG; j++) a[i][j] -= a[i][k] * a[k][j];
+        }
+    }
+    return 1;
+}
+
+static void lu_solve(double a[N_AUG][N_AUG], const int *piv, double *b)
+{
+    /* lu swapped whole rows, multipliers included: the interchanges all come first */
+    for (int k = 0; k < N_AUG; k++) {
+        double t = b[piv[k]]; b[piv[k]] = b[k]; b[k] = t;
+    }
+    for (int k = 0; k < N_AUG; k++)
+        for (int i = k + 1; i < N_AUG; i++) b[i] -= a[i][k] * b[k];
+    for (int k = N_AUG - 1; k >= 0; k--) {
+        for (int j = k + 1; j < N_AUG; j++) b[k] -= a[k][j] * b[j];
+        b[k] /= a[k][k];
+    }
+}
+
+static void jacobian(const problem *pr, const double *y, const double *f0, double J[N_AUG][N_AUG])
+{
+    double yy[N_AUG], f1[N_AUG];
+    memcpy(yy, y, sizeof yy);
+    for (int j = 0; j < N_AUG; j++) {
+        double d = sqrt(DBL_EPSILON) * fmax(fabs(y[j]), j == 5 ? 1e-6 : scale_of(j) * 1e-3);
+        yy[j] = y[j] + d;
+        d = yy[j] - y[j];
+        f_aug(pr, yy, f1);
+        for (int i = 0; i < N_AUG; i++) J[i][j] = (f1[i] - f0[i]) / d;
+        yy[j] = y[j];
+    }
+}
+
+static int all_finite(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+int hyd_derivatives(const hyd_params *p, const hyd_state *s, const hyd_inputs *in, double *dydt)
+{
+    if (!p || !s || !in || !dydt) return HYD_BAD_ARGUMENT;
+    const double y[N_STATE] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure};
+    derivatives(p, y, in->length, in->rate, in->command, dydt);
+    return HYD_OK;
+}
+
+int hyd_step(const hyd_params *p, hyd_state *s, const hyd_inputs *in, double dt, hyd_outputs *out)
+{
+    if (!p || !s || !in) return HYD_BAD_ARGUMENT;
+    if (!(isfinite(in->command) && isfinite(in->length) && isfinite(in->rate))) return HYD_BAD_INPUT;
+    if (!(dt > 0.0 && isfinite(dt))) return HYD_BAD_STEP_SIZE;
+    const double gamma = 1.0 + 1.0 / sqrt(2.0);
+    problem pr = {p, in};
+    double y[N_AUG] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure, 0.0};
+    double h = s->substep > 0.0 ? s->substep : dt * 1e-3, h_used = h;
+    double J[N_AUG][N_AUG];
+    long steps = 0;
+    int fresh = 0, since = JACOBIAN_REUSE; /* J taken at this y? accepted steps since it was taken */
+    while (y[5] < dt) {
+        if (++steps > HYD_MAX_SUBSTEPS || h < MIN_SUBSTEP) return HYD_STEP_FAILED;
+        int last = y[5] + h >= dt * (1.0 - 1e-12);
+        double hh = last ? dt - y[5] : h;
+        double f0[N_AUG], W[N_AUG][N_AUG], k1[N_AUG], k2[N_AUG], y1[N_AUG];
+        int piv[N_AUG];
+        f_aug(&pr, y, f0);
+        /* ROS2 keeps its order with any matrix in W, so the Jacobian is reused
+         * over a few accepted steps and taken afresh after a rejected one */
+        if (since >= JACOBIAN_REUSE) {
+            jacobian(&pr, y, f0, J);
+            fresh = 1;
+            since = 0;
+        }
+        for (int i = 0; i < N_AUG; i++)
+            for (int j = 0; j < N_AUG; j++) W[i][j] = (i == j) - gamma * hh * J[i][j];
+        if (!lu(W, piv)) { h *= 0.25; since = JACOBIAN_REUSE; continue; }
+        memcpy(k1, f0, sizeof k1);
+        lu_solve(W, piv, k1);
+        for (int i = 0; i < N_AUG; i++) y1[i] = y[i] + hh * k1[i];
+        f_aug(&pr, y1, k2);
+        for (int i = 0; i < N_AUG; i++) k2[i] -= 2.0 * k1[i];
+        lu_solve(W, piv, k2);
+        double err = 0.0, ynew[N_AUG];
+        for (int i = 0; i < N_AUG; i++) {
+            ynew[i] = y[i] + hh * (1.5 * k1[i] + 0.5 * k2[i]);
+            if (i < N_STATE) {
+                double sc = p->tolerance * fmax(scale_of(i), fmax(fabs(y[i]), fabs(ynew[i])));
+                double e = 0.5 * hh * (k1[i] + k2[i]) / sc;
+                err += e * e;
+            }
+        }
+        err = sqrt(err / N_STATE);
+        int physical = all_finite(ynew, N_AUG);
+        /* no pressure below a vacuum: a chamber drawn down to it stays there,
+         * cavitated, until oil flows in (a projection onto p_abs >= 0) */
+        for (int i = 2; i < N_STATE; i++)
+            if (ynew[i] < -HYD_ATMOSPHERE) ynew[i] = -HYD_ATMOSPHERE;
+        int ok = physical && err <= 1.0;
+        double grow = err > 0.0 ? 0.9 / sqrt(err) : 5.0;
+        grow = physical && isfinite(grow) ? fmin(5.0, fmax(0.2, grow)) : 0.25;
+        if (ok) {
+            memcpy(y, ynew, sizeof y);
+            if (last) y[5] = dt;    /* the step ends exactly at dt */
+            else h_used = hh;
+            since++;
+            fresh = 0;              /* y moved on */
+        } else if (!fresh) {
+            since = JACOBIAN_REUSE; /* retry with a Jacobian taken here */
+            continue;               /* and the same step size */
+        }
+        h = hh * grow;
+    }
+    double length = in->length + in->rate * dt;
+    hyd_outputs o;
+    outputs_at(p, y, length, in->rate, &o);
+    s->spool = y[0];
+    s->spool_rate = y[1];
+    s->pressure_a = y[2];
+    s->pressure_b = y[3];
+    s->supply_pressure = y[4];
+    s->substep = h_used;
+    if (out) *out = o;
+    return HYD_OK;
+}
+
+int hyd_observe(const hyd_params *p, const hyd_state *s, const hyd_inputs *in, hyd_outputs *out)
+{
+    if (!p || !s || !in || !out) return HYD_BAD_ARGUMENT;
+    if (!(isfinite(in->command) && isfinite(in->length) && isfinite(in->rate))) return HYD_BAD_INPUT;
+    const double y[N_STATE] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure};
+    outputs_at(p, y, in->length, in->rate, out);
+    return HYD_OK;
+}
