@@ -1,14 +1,14 @@
 /* hydraulic_cylinder: the model of hydraulic_cylinder.h. */
 #include "hydraulic_cylinder.h"
 
-#include <float.h>
+#include "rosenbrock.h"
+
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
 #define N_STATE 5       /* x, x', p_A, p_B, p_S */
-#define N_AUG 6         /* and the time within the step, so the moving length needs no special term */
 /* Absolute pressure [Pa] about which the oil cavitates: its stiffness falls as
  * (p / P_CAVITATION)^2 below it, so a chamber the piston pulls from never reaches
  * a vacuum (the pressure approaches it ever more slowly), and the equations stay
@@ -16,9 +16,6 @@
 #define P_CAVITATION 1000.0
 /* The pressures' error scale: a relative tolerance applies to at least this. */
 #define PRESSURE_SCALE 1e5
-#define MIN_SUBSTEP 1e-14
-/* Accepted sub-steps over which one Jacobian serves. */
-#define JACOBIAN_REUSE 8
 
 static const char *const FIELD_NAMES[] = {
     "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "bulk_modulus",
@@ -223,74 +220,13 @@ static void outputs_at(const hyd_params *p, const double *y, double length, doub
                            p->supply_volume / effective_bulk_modulus(p, ps) * (ps - pt) * dy[4];
 }
 
-/* ---- stepping: ROS2 (Verwer et al. 1999), L-stable, order 2 for any Jacobian ---- */
+/* ---- stepping: ROS2 with error control (rosenbrock.h) ---------------------------- */
 
-typedef struct problem {
-    const hyd_params *p;
-    const hyd_inputs *in;
-} problem;
-
-/* y[5] is the time within the step: the length there is length + rate y[5]. */
-static void f_aug(const problem *pr, const double *y, double *dy)
+static void step_rhs(const void *ctx, double t, const double *y, double *dy)
 {
-    derivatives(pr->p, y, pr->in->length + pr->in->rate * y[5], pr->in->rate, pr->in->command, dy);
-    dy[5] = 1.0;
-}
-
-static double scale_of(int i) { return i >= 2 && i < 5 ? PRESSURE_SCALE : 1.0; }
-
-/* LU with partial pivoting of the N_AUG x N_AUG matrix a, in place; 0 when singular. */
-static int lu(double a[N_AUG][N_AUG], int *piv)
-{
-    for (int k = 0; k < N_AUG; k++) {
-        int m = k;
-        for (int i = k + 1; i < N_AUG; i++)
-            if (fabs(a[i][k]) > fabs(a[m][k])) m = i;
-        if (a[m][k] == 0.0) return 0;
-        piv[k] = m;
-        if (m != k)
-            for (int j = 0; j < N_AUG; j++) { double t = a[k][j]; a[k][j] = a[m][j]; a[m][j] = t; }
-        for (int i = k + 1; i < N_AUG; i++) {
-            a[i][k] /= a[k][k];
-            for (int j = k + 1; j < N_AUG; j++) a[i][j] -= a[i][k] * a[k][j];
-        }
-    }
-    return 1;
-}
-
-static void lu_solve(double a[N_AUG][N_AUG], const int *piv, double *b)
-{
-    /* lu swapped whole rows, multipliers included: the interchanges all come first */
-    for (int k = 0; k < N_AUG; k++) {
-        double t = b[piv[k]]; b[piv[k]] = b[k]; b[k] = t;
-    }
-    for (int k = 0; k < N_AUG; k++)
-        for (int i = k + 1; i < N_AUG; i++) b[i] -= a[i][k] * b[k];
-    for (int k = N_AUG - 1; k >= 0; k--) {
-        for (int j = k + 1; j < N_AUG; j++) b[k] -= a[k][j] * b[j];
-        b[k] /= a[k][k];
-    }
-}
-
-static void jacobian(const problem *pr, const double *y, const double *f0, double J[N_AUG][N_AUG])
-{
-    double yy[N_AUG], f1[N_AUG];
-    memcpy(yy, y, sizeof yy);
-    for (int j = 0; j < N_AUG; j++) {
-        double d = sqrt(DBL_EPSILON) * fmax(fabs(y[j]), j == 5 ? 1e-6 : scale_of(j) * 1e-3);
-        yy[j] = y[j] + d;
-        d = yy[j] - y[j];
-        f_aug(pr, yy, f1);
-        for (int i = 0; i < N_AUG; i++) J[i][j] = (f1[i] - f0[i]) / d;
-        yy[j] = y[j];
-    }
-}
-
-static int all_finite(const double *v, int n)
-{
-    for (int i = 0; i < n; i++)
-        if (!isfinite(v[i])) return 0;
-    return 1;
+    const hyd_params *p = ((const void *const *)ctx)[0];
+    const hyd_inputs *in = ((const void *const *)ctx)[1];
+    derivatives(p, y, in->length + in->rate * t, in->rate, in->command, dy); /* the length moves at the held rate */
 }
 
 int hyd_derivatives(const hyd_params *p, const hyd_state *s, const hyd_inputs *in, double *dydt)
@@ -306,75 +242,23 @@ int hyd_step(const hyd_params *p, hyd_state *s, const hyd_inputs *in, double dt,
     if (!p || !s || !in) return HYD_BAD_ARGUMENT;
     if (!(isfinite(in->command) && isfinite(in->length) && isfinite(in->rate))) return HYD_BAD_INPUT;
     if (!(dt > 0.0 && isfinite(dt))) return HYD_BAD_STEP_SIZE;
-    const double gamma = 1.0 + 1.0 / sqrt(2.0);
-    problem pr = {p, in};
-    double y[N_AUG] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure, 0.0};
-    double h = s->substep > 0.0 ? s->substep : dt * 1e-3, h_used = h;
-    double J[N_AUG][N_AUG];
-    long steps = 0;
-    int fresh = 0, since = JACOBIAN_REUSE; /* J taken at this y? accepted steps since it was taken */
-    while (y[5] < dt) {
-        if (++steps > HYD_MAX_SUBSTEPS || h < MIN_SUBSTEP) return HYD_STEP_FAILED;
-        int last = y[5] + h >= dt * (1.0 - 1e-12);
-        double hh = last ? dt - y[5] : h;
-        double f0[N_AUG], W[N_AUG][N_AUG], k1[N_AUG], k2[N_AUG], y1[N_AUG];
-        int piv[N_AUG];
-        f_aug(&pr, y, f0);
-        /* ROS2 keeps its order with any matrix in W, so the Jacobian is reused
-         * over a few accepted steps and taken afresh after a rejected one */
-        if (since >= JACOBIAN_REUSE) {
-            jacobian(&pr, y, f0, J);
-            fresh = 1;
-            since = 0;
-        }
-        for (int i = 0; i < N_AUG; i++)
-            for (int j = 0; j < N_AUG; j++) W[i][j] = (i == j) - gamma * hh * J[i][j];
-        if (!lu(W, piv)) { h *= 0.25; since = JACOBIAN_REUSE; continue; }
-        memcpy(k1, f0, sizeof k1);
-        lu_solve(W, piv, k1);
-        for (int i = 0; i < N_AUG; i++) y1[i] = y[i] + hh * k1[i];
-        f_aug(&pr, y1, k2);
-        for (int i = 0; i < N_AUG; i++) k2[i] -= 2.0 * k1[i];
-        lu_solve(W, piv, k2);
-        double err = 0.0, ynew[N_AUG];
-        for (int i = 0; i < N_AUG; i++) {
-            ynew[i] = y[i] + hh * (1.5 * k1[i] + 0.5 * k2[i]);
-            if (i < N_STATE) {
-                double sc = p->tolerance * fmax(scale_of(i), fmax(fabs(y[i]), fabs(ynew[i])));
-                double e = 0.5 * hh * (k1[i] + k2[i]) / sc;
-                err += e * e;
-            }
-        }
-        err = sqrt(err / N_STATE);
-        int physical = all_finite(ynew, N_AUG);
-        /* no pressure below a vacuum: a chamber drawn down to it stays there,
-         * cavitated, until oil flows in (a projection onto p_abs >= 0) */
-        for (int i = 2; i < N_STATE; i++)
-            if (ynew[i] < -HYD_ATMOSPHERE) ynew[i] = -HYD_ATMOSPHERE;
-        int ok = physical && err <= 1.0;
-        double grow = err > 0.0 ? 0.9 / sqrt(err) : 5.0;
-        grow = physical && isfinite(grow) ? fmin(5.0, fmax(0.2, grow)) : 0.25;
-        if (ok) {
-            memcpy(y, ynew, sizeof y);
-            if (last) y[5] = dt;    /* the step ends exactly at dt */
-            else h_used = hh;
-            since++;
-            fresh = 0;              /* y moved on */
-        } else if (!fresh) {
-            since = JACOBIAN_REUSE; /* retry with a Jacobian taken here */
-            continue;               /* and the same step size */
-        }
-        h = hh * grow;
-    }
-    double length = in->length + in->rate * dt;
+    static const double scale[N_STATE] = {1.0, 1.0, PRESSURE_SCALE, PRESSURE_SCALE, PRESSURE_SCALE};
+    /* no pressure below a vacuum: a chamber drawn down to it stays there,
+     * cavitated, until oil flows in */
+    static const double lower[N_STATE] = {-INFINITY, -INFINITY, -HYD_ATMOSPHERE, -HYD_ATMOSPHERE, -HYD_ATMOSPHERE};
+    const void *ctx[2] = {p, in};
+    ros_problem pr = {N_STATE, step_rhs, ctx, scale, lower, p->tolerance};
+    double y[N_STATE] = {s->spool, s->spool_rate, s->pressure_a, s->pressure_b, s->supply_pressure};
+    double substep = s->substep;
+    if (ros_advance(&pr, y, dt, &substep) != 0) return HYD_STEP_FAILED;
     hyd_outputs o;
-    outputs_at(p, y, length, in->rate, &o);
+    outputs_at(p, y, in->length + in->rate * dt, in->rate, &o);
     s->spool = y[0];
     s->spool_rate = y[1];
     s->pressure_a = y[2];
     s->pressure_b = y[3];
     s->supply_pressure = y[4];
-    s->substep = h_used;
+    s->substep = substep;
     if (out) *out = o;
     return HYD_OK;
 }

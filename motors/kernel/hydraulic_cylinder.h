@@ -33,8 +33,7 @@
  * smoothly and, once there, stays at it (each sub-step's end is projected onto
  * p_abs >= 0) until oil flows in again.  Fluid stiffness
  * makes the equations stiff (eigenvalues of 1e4 1/s are common), so a step is
- * integrated by an L-stable Rosenbrock method (ROS2, of order two whatever the
- * Jacobian) with error control, the Jacobian by finite differences.
+ * integrated by an L-stable Rosenbrock method with error control (rosenbrock.h).
  *
  * API (every function but the two that name things returns a hyd_status; no
  * globals, no allocation: the caller owns every struct):
@@ -69,12 +68,9 @@ typedef enum hyd_status {
     HYD_BAD_STATE,       /* a state not finite, or a pressure below vacuum */
     HYD_BAD_INPUT,       /* the command, length or rate is not finite */
     HYD_BAD_STEP_SIZE,   /* dt not positive and finite */
-    HYD_STEP_FAILED,     /* the step size control gave up (more than HYD_MAX_SUBSTEPS, or a step below 1e-14 s) */
+    HYD_STEP_FAILED,     /* the step size control gave up (more than 1e6 sub-steps, or one below 1e-14 s) */
     HYD_BAD_ARGUMENT     /* a NULL pointer */
 } hyd_status;
-
-/* Sub-steps one communication step may take before it is refused. */
-#define HYD_MAX_SUBSTEPS 1000000L
 
 /* The constants.  Field order is the order of enum hyd_field. */
 typedef struct hyd_params {
