@@ -39,14 +39,14 @@ FIELDS = {
     "retracted_length": ("actuator length between its attachment points at s = 0", "m", 0.0),
     "dead_volume_a": ("cap-side volume at s = 0, hoses included", "m3", 0.0),
     "dead_volume_b": ("rod-side volume at s = L, hoses included", "m3", 0.0),
-    "bulk_modulus": ("bulk modulus of the oil", "Pa", 0.0),
-    "air_fraction": ("entrained air by volume at atmospheric pressure, [0, 0.5)", "1", 0.0),
     "viscous_friction": ("viscous friction of the piston and rod seals", "N.s/m", 0.0),
     "coulomb_friction": ("Coulomb friction of the seals", "N", 0.0),
     "smoothing_speed": ("speed over which the Coulomb friction changes sign (tanh)", "m/s", 0.0),
-    "leakage": ("internal leakage past the piston, per pressure difference", "m3/(s.Pa)", 0.0),
     "stop_stiffness": ("stiffness of the end stops", "N/m", 0.0),
     "stop_damping": ("damping of the end stops while compressed", "N.s/m", 0.0),
+    "bulk_modulus": ("bulk modulus of the oil", "Pa", 0.0),
+    "air_fraction": ("entrained air by volume at atmospheric pressure, [0, 0.5)", "1", 0.0),
+    "leakage": ("internal leakage past the piston, per pressure difference", "m3/(s.Pa)", 0.0),
     "nominal_flow": ("valve flow per metering edge, fully open, at nominal_pressure_drop", "m3/s", 0.0),
     "nominal_pressure_drop": ("pressure drop per metering edge at which nominal_flow is stated", "Pa", 0.0),
     "valve_frequency": ("natural frequency of the spool's second-order response", "rad/s", 0.0),
@@ -87,14 +87,14 @@ class HydraulicCylinder:
     retracted_length: float = 0.500
     dead_volume_a: float = 5e-5
     dead_volume_b: float = 5e-5
-    bulk_modulus: float = 1.4e9
-    air_fraction: float = 0.002
     viscous_friction: float = 2000.0
     coulomb_friction: float = 200.0
     smoothing_speed: float = 1e-3
-    leakage: float = 1e-13
     stop_stiffness: float = 1e8
     stop_damping: float = 1e5
+    bulk_modulus: float = 1.4e9
+    air_fraction: float = 0.002
+    leakage: float = 1e-13
     nominal_flow: float = 40.0 / 60000.0
     nominal_pressure_drop: float = 35e5
     valve_frequency: float = 2.0 * math.pi * 50.0

@@ -97,7 +97,10 @@ def message(status: int) -> str:
     return functions().dcm_status_message(status).decode()
 
 
-# -- the hydraulic cylinder (motors/kernel/hydraulic_cylinder.h) -------------------------
+# -- the cylinders (motors/kernel/cylinder.h, hydraulic_cylinder.h, pneumatic_cylinder.h) ---
+# struct cyl_piston: the first fields of either cylinder's parameters
+PISTON_FIELDS = ("bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "viscous_friction",
+                 "coulomb_friction", "smoothing_speed", "stop_stiffness", "stop_damping")
 HYD_OK = 0
 
 
@@ -105,11 +108,9 @@ class HydParams(ctypes.Structure):
     """struct hyd_params, field for field (grubler.motors.hydraulic.FIELDS describes them)."""
 
     _fields_ = [(name, ctypes.c_double) for name in (
-        "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "bulk_modulus",
-        "air_fraction", "viscous_friction", "coulomb_friction", "smoothing_speed", "leakage", "stop_stiffness",
-        "stop_damping", "nominal_flow", "nominal_pressure_drop", "valve_frequency", "valve_damping", "overlap",
-        "valve_leakage", "transition_pressure", "pump_flow", "relief_pressure", "relief_gradient", "supply_volume",
-        "tank_pressure", "tolerance")]
+        *PISTON_FIELDS, "bulk_modulus", "air_fraction", "leakage", "nominal_flow", "nominal_pressure_drop",
+        "valve_frequency", "valve_damping", "overlap", "valve_leakage", "transition_pressure", "pump_flow",
+        "relief_pressure", "relief_gradient", "supply_volume", "tank_pressure", "tolerance")]
 
 
 class HydState(ctypes.Structure):

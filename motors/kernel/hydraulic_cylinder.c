@@ -7,7 +7,6 @@
 #include <stddef.h>
 #include <string.h>
 
-#define PI 3.14159265358979323846
 #define N_STATE 5       /* x, x', p_A, p_B, p_S */
 /* Absolute pressure [Pa] about which the oil cavitates: its stiffness falls as
  * (p / P_CAVITATION)^2 below it, so a chamber the piston pulls from never reaches
@@ -18,11 +17,11 @@
 #define PRESSURE_SCALE 1e5
 
 static const char *const FIELD_NAMES[] = {
-    "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "bulk_modulus",
-    "air_fraction", "viscous_friction", "coulomb_friction", "smoothing_speed", "leakage",
-    "stop_stiffness", "stop_damping", "nominal_flow", "nominal_pressure_drop", "valve_frequency",
-    "valve_damping", "overlap", "valve_leakage", "transition_pressure", "pump_flow",
-    "relief_pressure", "relief_gradient", "supply_volume", "tank_pressure", "tolerance",
+    "bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "viscous_friction",
+    "coulomb_friction", "smoothing_speed", "stop_stiffness", "stop_damping", "bulk_modulus", "air_fraction",
+    "leakage", "nominal_flow", "nominal_pressure_drop", "valve_frequency", "valve_damping", "overlap",
+    "valve_leakage", "transition_pressure", "pump_flow", "relief_pressure", "relief_gradient", "supply_volume",
+    "tank_pressure", "tolerance",
     "spool", "spool_rate", "pressure_a", "pressure_b", "supply_pressure"};
 
 const char *hyd_field_name(int field)
@@ -61,27 +60,28 @@ static void params_as_array(const hyd_params *p, double *v)
 int hyd_check_params(const hyd_params *p, int *field, const char **why)
 {
     if (!p) return HYD_BAD_ARGUMENT;
+    int f = -1;
+    const char *rule = "";
+    cyl_check_piston(&p->piston, &f, &rule);
+    if (f >= 0) return refuse(f, rule, field, why);
     double v[HYD_N_PARAMS];
     params_as_array(p, v);
-    for (int f = 0; f < HYD_N_PARAMS; f++) {
+    for (f = CYL_PISTON_FIELDS; f < HYD_N_PARAMS; f++) {
         if (!isfinite(v[f])) return refuse(f, "must be finite", field, why);
         switch (f) {
-        case HYD_RETRACTED_LENGTH: case HYD_TANK_PRESSURE:
-            break; /* a length offset and a gauge pressure: any sign; checked below */
-        case HYD_VISCOUS_FRICTION: case HYD_COULOMB_FRICTION: case HYD_LEAKAGE: case HYD_STOP_DAMPING:
-        case HYD_VALVE_LEAKAGE: case HYD_PUMP_FLOW: case HYD_AIR_FRACTION: case HYD_OVERLAP:
-            /* negative friction, leakage or flow would feed energy in */
+        case HYD_TANK_PRESSURE:
+            break; /* a gauge pressure: any sign; checked below */
+        case HYD_LEAKAGE: case HYD_VALVE_LEAKAGE: case HYD_PUMP_FLOW: case HYD_AIR_FRACTION: case HYD_OVERLAP:
+            /* negative leakage or flow would feed energy in */
             if (v[f] < 0.0) return refuse(f, "must be >= 0", field, why);
             break;
         default:
             if (!(v[f] > 0.0)) return refuse(f, "must be positive", field, why);
         }
     }
-    if (!(p->rod < p->bore)) return refuse(HYD_ROD, "must be narrower than the bore", field, why);
     if (!(p->air_fraction < 0.5)) return refuse(HYD_AIR_FRACTION, "must be below 0.5 (a froth is no hydraulic fluid)",
                                                  field, why);
     if (!(p->overlap < 1.0)) return refuse(HYD_OVERLAP, "must be below 1 (the valve would never open)", field, why);
-    if (!(p->retracted_length >= 0.0)) return refuse(HYD_RETRACTED_LENGTH, "must be >= 0", field, why);
     if (!(p->tank_pressure > -HYD_ATMOSPHERE))
         return refuse(HYD_TANK_PRESSURE, "must be above vacuum (-101325 Pa gauge)", field, why);
     if (!(p->relief_pressure > p->tank_pressure))
@@ -106,14 +106,6 @@ int hyd_check_state(const hyd_params *p, const hyd_state *s, int *field, const c
 }
 
 /* ---- the equations -------------------------------------------------------------- */
-
-typedef struct areas { double a, b; } areas;
-
-static areas piston_areas(const hyd_params *p)
-{
-    areas r = {0.25 * PI * p->bore * p->bore, 0.25 * PI * (p->bore * p->bore - p->rod * p->rod)};
-    return r;
-}
 
 /* The bulk modulus of oil with entrained air at gauge pressure pg: the air's
  * volume fraction follows the isothermal gas law from air_fraction at one
@@ -142,8 +134,7 @@ static double edge_flow(const hyd_params *p, double a, double dp)
 }
 
 typedef struct flows {
-    double s, sdot;            /* piston position and the speed that changes the volumes */
-    double va, vb;             /* chamber volumes */
+    cyl_chambers ch;           /* piston position, the speed that changes the volumes, the volumes */
     double pa_in, at, pb_in, bt, leak, relief; /* P->A, A->T, P->B, B->T, A->B, relief */
 } flows;
 
@@ -151,20 +142,9 @@ typedef struct flows {
 static flows flows_at(const hyd_params *p, const double *y, double length, double rate)
 {
     flows f;
-    areas A = piston_areas(p);
-    double L = p->stroke;
-    f.s = length - p->retracted_length;
-    /* in an end stop the piston stands: the mechanism's overtravel is the stop's
-     * compression, not a volume change */
-    double s_in = f.s < 0.0 ? 0.0 : (f.s > L ? L : f.s);
-    f.sdot = ((f.s <= 0.0 && rate < 0.0) || (f.s >= L && rate > 0.0)) ? 0.0 : rate;
-    f.va = p->dead_volume_a + A.a * s_in;
-    f.vb = p->dead_volume_b + A.b * (L - s_in);
-    double x = y[0], o = p->overlap;
-    if (x > 1.0) x = 1.0;
-    if (x < -1.0) x = -1.0;
-    double plus = x - o > 0.0 ? (x - o) / (1.0 - o) : 0.0, minus = -x - o > 0.0 ? (-x - o) / (1.0 - o) : 0.0;
-    double pa = y[2], pb = y[3], ps = y[4], pt = p->tank_pressure;
+    double plus, minus, pa = y[2], pb = y[3], ps = y[4], pt = p->tank_pressure;
+    f.ch = cyl_chambers_at(&p->piston, length, rate);
+    cyl_openings(y[0], p->overlap, &plus, &minus);
     f.pa_in = edge_flow(p, plus, ps - pa);
     f.at = edge_flow(p, minus, pa - pt);
     f.pb_in = edge_flow(p, minus, ps - pb);
@@ -178,45 +158,37 @@ static void derivatives(const hyd_params *p, const double *y, double length, dou
                         double *dy)
 {
     flows f = flows_at(p, y, length, rate);
-    areas A = piston_areas(p);
-    double u = command > 1.0 ? 1.0 : (command < -1.0 ? -1.0 : command), w = p->valve_frequency;
+    const cyl_chambers *ch = &f.ch;
     dy[0] = y[1];
-    dy[1] = w * w * (u - y[0]) - 2.0 * p->valve_damping * w * y[1];
-    dy[2] = effective_bulk_modulus(p, y[2]) / f.va * (f.pa_in - f.at - f.leak - A.a * f.sdot);
-    dy[3] = effective_bulk_modulus(p, y[3]) / f.vb * (f.pb_in - f.bt + f.leak + A.b * f.sdot);
+    dy[1] = cyl_spool_acceleration(y[0], y[1], command, p->valve_frequency, p->valve_damping);
+    dy[2] = effective_bulk_modulus(p, y[2]) / ch->volume_a * (f.pa_in - f.at - f.leak - ch->area_a * ch->displacement_rate);
+    dy[3] = effective_bulk_modulus(p, y[3]) / ch->volume_b * (f.pb_in - f.bt + f.leak + ch->area_b * ch->displacement_rate);
     dy[4] = effective_bulk_modulus(p, y[4]) / p->supply_volume * (p->pump_flow - f.relief - f.pa_in - f.pb_in);
 }
 
 static void outputs_at(const hyd_params *p, const double *y, double length, double rate, hyd_outputs *o)
 {
     flows f = flows_at(p, y, length, rate);
-    areas A = piston_areas(p);
-    double pt = p->tank_pressure, L = p->stroke, F_stop = 0.0;
-    if (f.s < 0.0) {            /* retracted stop pushes out, damping only while compressing */
-        F_stop = -p->stop_stiffness * f.s - p->stop_damping * (rate < 0.0 ? rate : 0.0);
-    } else if (f.s > L) {       /* extended stop pulls in */
-        F_stop = -p->stop_stiffness * (f.s - L) - p->stop_damping * (rate > 0.0 ? rate : 0.0);
-    }
-    double friction = p->viscous_friction * rate + p->coulomb_friction * tanh(rate / p->smoothing_speed);
-    double pa = y[2], pb = y[3], ps = y[4];
-    o->force = pa * A.a - pb * A.b - friction + F_stop;
+    const cyl_chambers *ch = &f.ch;
+    double pt = p->tank_pressure, pa = y[2], pb = y[3], ps = y[4];
+    o->force = cyl_rod_force(&p->piston, pa * ch->area_a - pb * ch->area_b, length, rate);
     o->pressure_a = pa;
     o->pressure_b = pb;
     o->supply_pressure = ps;
     o->flow_a = f.pa_in - f.at;
     o->flow_b = f.pb_in - f.bt;
     o->relief_flow = f.relief;
-    o->position = f.s;
+    o->position = ch->position;
     o->spool = y[0];
     o->pump_power = (ps - pt) * p->pump_flow;
-    o->piston_power = ((pa - pt) * A.a - (pb - pt) * A.b) * f.sdot;
+    o->piston_power = ((pa - pt) * ch->area_a - (pb - pt) * ch->area_b) * ch->displacement_rate;
     o->mechanical_power = o->force * rate;
     o->throttling_loss = f.pa_in * (ps - pa) + f.at * (pa - pt) + f.pb_in * (ps - pb) + f.bt * (pb - pt) +
                          f.leak * (pa - pb) + f.relief * (ps - pt);
     double dy[N_STATE];
-    derivatives(p, y, length, rate, y[0], dy); /* the spool's own term does not enter the pressures */
-    o->compression_power = f.va / effective_bulk_modulus(p, pa) * (pa - pt) * dy[2] +
-                           f.vb / effective_bulk_modulus(p, pb) * (pb - pt) * dy[3] +
+    derivatives(p, y, length, rate, 0.0, dy); /* the command moves only the spool, not the pressures' rates */
+    o->compression_power = ch->volume_a / effective_bulk_modulus(p, pa) * (pa - pt) * dy[2] +
+                           ch->volume_b / effective_bulk_modulus(p, pb) * (pb - pt) * dy[3] +
                            p->supply_volume / effective_bulk_modulus(p, ps) * (ps - pt) * dy[4];
 }
 

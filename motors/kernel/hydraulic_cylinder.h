@@ -60,6 +60,8 @@ extern "C" {
 #define HYD_API
 #endif
 
+#include "cylinder.h"
+
 #define HYD_ATMOSPHERE 101325.0 /* Pa: absolute pressure at gauge zero, for the entrained air */
 
 typedef enum hyd_status {
@@ -74,21 +76,11 @@ typedef enum hyd_status {
 
 /* The constants.  Field order is the order of enum hyd_field. */
 typedef struct hyd_params {
-    /* the cylinder */
-    double bore;                  /* piston diameter D [m] */
-    double rod;                   /* rod diameter d < D [m] */
-    double stroke;                /* L [m] */
-    double retracted_length;      /* actuator length (between its two attachment points) at s = 0 [m] */
-    double dead_volume_a;         /* cap-side volume at s = 0, hoses included [m3] */
-    double dead_volume_b;         /* rod-side volume at s = L, hoses included [m3] */
-    double bulk_modulus;          /* of the oil, beta [Pa] */
+    cyl_piston piston;            /* bore, rod, stroke, ..., end stops (cylinder.h) */
+    /* the oil */
+    double bulk_modulus;          /* beta [Pa] */
     double air_fraction;          /* entrained air by volume at atmospheric pressure, [0, 0.5) */
-    double viscous_friction;      /* b [N s/m] */
-    double coulomb_friction;      /* F_c [N], smoothed as F_c tanh(s' / v_s) */
-    double smoothing_speed;       /* v_s [m/s] */
     double leakage;               /* internal leakage past the piston, Q_L = c_L (p_A - p_B) [m3/(s Pa)] */
-    double stop_stiffness;        /* end stops: k [N/m] ... */
-    double stop_damping;          /* ... and c [N s/m], acting only while compressed */
     /* the valve */
     double nominal_flow;          /* Q_N per metering edge, fully open, at nominal_pressure_drop [m3/s] */
     double nominal_pressure_drop; /* dp_N per edge [Pa] */
@@ -108,11 +100,11 @@ typedef struct hyd_params {
 } hyd_params;
 
 enum hyd_field {
-    HYD_BORE, HYD_ROD, HYD_STROKE, HYD_RETRACTED_LENGTH, HYD_DEAD_VOLUME_A, HYD_DEAD_VOLUME_B, HYD_BULK_MODULUS,
-    HYD_AIR_FRACTION, HYD_VISCOUS_FRICTION, HYD_COULOMB_FRICTION, HYD_SMOOTHING_SPEED, HYD_LEAKAGE,
-    HYD_STOP_STIFFNESS, HYD_STOP_DAMPING, HYD_NOMINAL_FLOW, HYD_NOMINAL_PRESSURE_DROP, HYD_VALVE_FREQUENCY,
-    HYD_VALVE_DAMPING, HYD_OVERLAP, HYD_VALVE_LEAKAGE, HYD_TRANSITION_PRESSURE, HYD_PUMP_FLOW,
-    HYD_RELIEF_PRESSURE, HYD_RELIEF_GRADIENT, HYD_SUPPLY_VOLUME, HYD_TANK_PRESSURE, HYD_TOLERANCE,
+    HYD_BORE, HYD_ROD, HYD_STROKE, HYD_RETRACTED_LENGTH, HYD_DEAD_VOLUME_A, HYD_DEAD_VOLUME_B,
+    HYD_VISCOUS_FRICTION, HYD_COULOMB_FRICTION, HYD_SMOOTHING_SPEED, HYD_STOP_STIFFNESS, HYD_STOP_DAMPING,
+    HYD_BULK_MODULUS, HYD_AIR_FRACTION, HYD_LEAKAGE, HYD_NOMINAL_FLOW, HYD_NOMINAL_PRESSURE_DROP,
+    HYD_VALVE_FREQUENCY, HYD_VALVE_DAMPING, HYD_OVERLAP, HYD_VALVE_LEAKAGE, HYD_TRANSITION_PRESSURE,
+    HYD_PUMP_FLOW, HYD_RELIEF_PRESSURE, HYD_RELIEF_GRADIENT, HYD_SUPPLY_VOLUME, HYD_TANK_PRESSURE, HYD_TOLERANCE,
     HYD_N_PARAMS,
     /* fields of hyd_state, for hyd_check_state */
     HYD_SPOOL = HYD_N_PARAMS, HYD_SPOOL_RATE, HYD_PRESSURE_A, HYD_PRESSURE_B, HYD_SUPPLY_PRESSURE
