@@ -2,7 +2,7 @@
 
 The equations live once, in C (``motors/kernel/hydraulic_cylinder.c``, stated
 in its header); this module declares them to ctypes and steps them, and the
-native HydraulicCylinder.fmu (:mod:`grubler.fmi.hydraulic`) compiles the same
+native HydraulicCylinder.fmu (:mod:`grubler.fmi.cylinder`) compiles the same
 source. A :class:`HydraulicCylinder` holds the constants (SI units, gauge
 pressures); a :class:`CylinderSimulator` holds one run's state and steps it
 with the valve command and the actuator's length and rate held over each step,
@@ -23,13 +23,12 @@ Examples
 
 from __future__ import annotations
 
-import ctypes
 import math
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass
 
 from grubler.errors import SceneError
-from grubler.motors.native import (HYD_OK as OK, HydInputs as _Inputs, HydOutputs as _Outputs,
-                                   HydParams as _Params, HydState as _State, hydraulic_functions as _functions)
+from grubler.motors.cylinder import CylinderRun, check_constants
+from grubler.motors.native import HYDRAULIC
 
 # hyd_params' fields in the header's order: name -> (description, unit, lower bound)
 FIELDS = {
@@ -110,14 +109,7 @@ class HydraulicCylinder:
     tolerance: float = 1e-4
 
     def __post_init__(self):
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise SceneError(f.name, f"must be a number, got {v!r}")
-        bad = _check_params(self)
-        if bad:
-            field, why = bad
-            raise SceneError(field, f"{why} (got {getattr(self, field):g})")
+        check_constants(HYDRAULIC, self)
 
     @property
     def areas(self) -> tuple[float, float]:
@@ -125,23 +117,11 @@ class HydraulicCylinder:
         return 0.25 * math.pi * self.bore ** 2, 0.25 * math.pi * (self.bore ** 2 - self.rod ** 2)
 
 
-STATE_FIELDS = tuple(name for name, _ in _State._fields_)
-OUTPUT_FIELDS = tuple(name for name, _ in _Outputs._fields_)
+STATE_FIELDS = tuple(name for name, _ in HYDRAULIC.state._fields_)
+OUTPUT_FIELDS = tuple(name for name, _ in HYDRAULIC.outputs._fields_)
 
 
-def _message(status: int) -> str:
-    return _functions().hyd_status_message(status).decode()
-
-
-def _check_params(c: HydraulicCylinder) -> tuple[str, str] | None:
-    lib, field, why = _functions(), ctypes.c_int(-1), ctypes.c_char_p()
-    status = lib.hyd_check_params(ctypes.byref(_Params(*astuple(c))), ctypes.byref(field), ctypes.byref(why))
-    if status == OK:
-        return None
-    return lib.hyd_field_name(field.value).decode(), why.value.decode()
-
-
-class CylinderSimulator:
+class CylinderSimulator(CylinderRun):
     """One run of a :class:`HydraulicCylinder`: its state, stepped with held inputs.
 
     Parameters
@@ -151,6 +131,9 @@ class CylinderSimulator:
         Chamber pressures at the start [Pa, gauge]; default the tank's.
     supply_pressure : float, optional
         Default: the relief valve's cracking pressure.
+
+    Methods ``step(command, length, rate, dt)`` and ``observe(command, length,
+    rate)`` return the outputs by name (:data:`OUTPUT_FIELDS`).
     """
 
     def __init__(self, cylinder: HydraulicCylinder, pressure_a: float | None = None,
@@ -158,53 +141,11 @@ class CylinderSimulator:
         if not isinstance(cylinder, HydraulicCylinder):
             raise SceneError("cylinder", f"must be a HydraulicCylinder, got {type(cylinder).__name__}")
         self.cylinder = cylinder
-        self._params = _Params(*astuple(cylinder))
         pt = cylinder.tank_pressure
-        self._state = _State(0.0, 0.0, pt if pressure_a is None else pressure_a,
-                             pt if pressure_b is None else pressure_b,
-                             cylinder.relief_pressure if supply_pressure is None else supply_pressure, 0.0)
-        field, why = ctypes.c_int(-1), ctypes.c_char_p()
-        if _functions().hyd_check_state(ctypes.byref(self._params), ctypes.byref(self._state), ctypes.byref(field),
-                                        ctypes.byref(why)) != OK:
-            raise SceneError(_functions().hyd_field_name(field.value).decode(), why.value.decode())
-
-    @property
-    def state(self) -> dict[str, float]:
-        """The state: spool, its rate, the three pressures and the last sub-step."""
-        return {k: getattr(self._state, k) for k in STATE_FIELDS}
-
-    def step(self, command: float, length: float, rate: float, dt: float) -> dict[str, float]:
-        """Advance by ``dt`` [s] with the inputs held (the length moving at ``rate``); the outputs at the end.
-
-        Raises
-        ------
-        SceneError
-            Naming the input that is not finite, or ``dt``.
-        IntegrationError
-            When the step size control gives up.
-        """
-        from grubler.errors import IntegrationError
-
-        for name, v in (("command", command), ("length", length), ("rate", rate), ("dt", dt)):
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise SceneError(name, f"must be a finite number, got {v!r}")
-        if dt <= 0:
-            raise SceneError("dt", f"must be > 0 s, got {dt} s")
-        out = _Outputs()
-        status = _functions().hyd_step(ctypes.byref(self._params), ctypes.byref(self._state),
-                                       ctypes.byref(_Inputs(command, length, rate)), float(dt), ctypes.byref(out))
-        if status != OK:
-            raise IntegrationError(_message(status))
-        return {k: getattr(out, k) for k in OUTPUT_FIELDS}
-
-    def observe(self, command: float, length: float, rate: float) -> dict[str, float]:
-        """The outputs now, for these inputs."""
-        out = _Outputs()
-        status = _functions().hyd_observe(ctypes.byref(self._params), ctypes.byref(self._state),
-                                          ctypes.byref(_Inputs(command, length, rate)), ctypes.byref(out))
-        if status != OK:
-            raise SceneError("inputs", _message(status))
-        return {k: getattr(out, k) for k in OUTPUT_FIELDS}
+        super().__init__(HYDRAULIC, cylinder, (0.0, 0.0, pt if pressure_a is None else pressure_a,
+                                               pt if pressure_b is None else pressure_b,
+                                               cylinder.relief_pressure if supply_pressure is None
+                                               else supply_pressure, 0.0))
 
 
 DEFAULT = HydraulicCylinder()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from dataclasses import dataclass
 
 from grubler.binding import library
 
@@ -101,7 +102,6 @@ def message(status: int) -> str:
 # struct cyl_piston: the first fields of either cylinder's parameters
 PISTON_FIELDS = ("bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "viscous_friction",
                  "coulomb_friction", "smoothing_speed", "stop_stiffness", "stop_damping")
-HYD_OK = 0
 
 
 class HydParams(ctypes.Structure):
@@ -120,8 +120,8 @@ class HydState(ctypes.Structure):
         "spool", "spool_rate", "pressure_a", "pressure_b", "supply_pressure", "substep")]
 
 
-class HydInputs(ctypes.Structure):
-    """struct hyd_inputs: valve command, actuator length [m] and rate [m/s]."""
+class CylinderInputs(ctypes.Structure):
+    """struct hyd_inputs and pnc_inputs: valve command, actuator length [m] and rate [m/s]."""
 
     _fields_ = [(name, ctypes.c_double) for name in ("command", "length", "rate")]
 
@@ -134,19 +134,59 @@ class HydOutputs(ctypes.Structure):
         "spool", "pump_power", "piston_power", "mechanical_power", "throttling_loss", "compression_power")]
 
 
-_HP, _HS, _HI, _HO = (ctypes.POINTER(t) for t in (HydParams, HydState, HydInputs, HydOutputs))
-_HYD_SIGNATURES = {
-    "hyd_field_name": (ctypes.c_char_p, [_I]),
-    "hyd_status_message": (ctypes.c_char_p, [_I]),
-    "hyd_check_params": (_I, [_HP, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
-    "hyd_check_state": (_I, [_HP, _HS, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
-    "hyd_step": (_I, [_HP, _HS, _HI, _D, _HO]),
-    "hyd_observe": (_I, [_HP, _HS, _HI, _HO]),
-    "hyd_derivatives": (_I, [_HP, _HS, _HI, _DP]),
-}
+class PncParams(ctypes.Structure):
+    """struct pnc_params, field for field (grubler.motors.pneumatic.FIELDS describes them)."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        *PISTON_FIELDS, "leakage", "sonic_conductance", "critical_pressure_ratio", "laminar_ratio",
+        "valve_frequency", "valve_damping", "overlap", "supply_pressure", "exhaust_pressure", "supply_temperature",
+        "polytropic_exponent", "tolerance")]
+
+
+class PncState(ctypes.Structure):
+    """struct pnc_state: spool, its rate, the two pressures [Pa gauge], the last sub-step [s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in ("spool", "spool_rate", "pressure_a", "pressure_b", "substep")]
+
+
+class PncOutputs(ctypes.Structure):
+    """struct pnc_outputs."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "force", "pressure_a", "pressure_b", "mass_flow_a", "mass_flow_b", "air_consumption", "position", "spool",
+        "mechanical_power")]
+
+
+@dataclass(frozen=True)
+class CylinderBinding:
+    """One cylinder model's C functions (``<prefix>_check_params``, ``_step``, ...) and structures."""
+
+    prefix: str
+    params: type
+    state: type
+    outputs: type
+
+    def functions(self) -> ctypes.CDLL:
+        """The kernel library with this model's signatures declared (once)."""
+        return _cylinder_functions(self)
+
+    def call(self, name: str, *args):
+        return getattr(self.functions(), f"{self.prefix}_{name}")(*args)
 
 
 @functools.lru_cache(maxsize=None)
-def hydraulic_functions() -> ctypes.CDLL:
-    """The kernel library with the hydraulic cylinder's signatures declared (once)."""
-    return _declared(_HYD_SIGNATURES)
+def _cylinder_functions(b: CylinderBinding) -> ctypes.CDLL:
+    P, S, In, O = (ctypes.POINTER(t) for t in (b.params, b.state, CylinderInputs, b.outputs))
+    return _declared({f"{b.prefix}_{name}": sig for name, sig in {
+        "field_name": (ctypes.c_char_p, [_I]),
+        "status_message": (ctypes.c_char_p, [_I]),
+        "check_params": (_I, [P, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+        "check_state": (_I, [P, S, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+        "step": (_I, [P, S, In, _D, O]),
+        "observe": (_I, [P, S, In, O]),
+        "derivatives": (_I, [P, S, In, _DP]),
+    }.items()})
+
+
+HYDRAULIC = CylinderBinding("hyd", HydParams, HydState, HydOutputs)
+PNEUMATIC = CylinderBinding("pnc", PncParams, PncState, PncOutputs)

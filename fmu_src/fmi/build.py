@@ -62,7 +62,8 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
 
     drives = Path(motors.__file__).resolve().parent / "kernel"
     return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
-            "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
+            "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
+            "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
 
 def fmi_headers_dir() -> Path:

@@ -53,6 +53,9 @@ UNITS: dict[str, dict[str, int]] = {
     "m3/(s.Pa)": {"kg": -1, "m": 4, "s": 1},
     "N/m": {"kg": 1, "s": -2},
     "N.s/m": {"kg": 1, "s": -1},
+    "K": {"K": 1},
+    "kg/s": {"kg": 1, "s": -1},
+    "kg/(s.Pa)": {"m": 1, "s": 1},
 }
 UNIT_OFFSET = {"degC": 273.15}
 

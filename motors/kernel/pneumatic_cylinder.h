@@ -41,6 +41,8 @@ extern "C" {
 #define PNC_API
 #endif
 
+#include "cylinder.h"
+
 #define PNC_ATMOSPHERE 101325.0   /* Pa: absolute pressure at gauge zero */
 #define PNC_GAS_CONSTANT 287.05   /* J/(kg K), dry air */
 #define PNC_ADIABATIC 1.4         /* dry air's ratio of specific heats */
@@ -59,15 +61,8 @@ typedef enum pnc_status {
 
 /* The constants.  Field order is the order of enum pnc_field. */
 typedef struct pnc_params {
-    double bore, rod, stroke;      /* D, d < D, L [m] */
-    double retracted_length;       /* actuator length at s = 0 [m] */
-    double dead_volume_a;          /* cap side at s = 0, tubes included [m3] */
-    double dead_volume_b;          /* rod side at s = L [m3] */
-    double viscous_friction;       /* [N s/m] */
-    double coulomb_friction;       /* [N] */
-    double smoothing_speed;        /* [m/s] */
+    cyl_piston piston;             /* bore, rod, stroke, ..., end stops (cylinder.h) */
     double leakage;                /* past the piston, m' = c (p_A - p_B) [kg/(s Pa)] */
-    double stop_stiffness, stop_damping; /* [N/m], [N s/m] */
     double sonic_conductance;      /* ISO 6358 C of one metering edge fully open [m3/(s Pa)] */
     double critical_pressure_ratio; /* ISO 6358 b, [0, 1) */
     double laminar_ratio;          /* pressure ratio above which an edge's flow turns laminar, (b, 1) */
@@ -83,8 +78,8 @@ typedef struct pnc_params {
 
 enum pnc_field {
     PNC_BORE, PNC_ROD, PNC_STROKE, PNC_RETRACTED_LENGTH, PNC_DEAD_VOLUME_A, PNC_DEAD_VOLUME_B,
-    PNC_VISCOUS_FRICTION, PNC_COULOMB_FRICTION, PNC_SMOOTHING_SPEED, PNC_LEAKAGE, PNC_STOP_STIFFNESS,
-    PNC_STOP_DAMPING, PNC_SONIC_CONDUCTANCE, PNC_CRITICAL_PRESSURE_RATIO, PNC_LAMINAR_RATIO,
+    PNC_VISCOUS_FRICTION, PNC_COULOMB_FRICTION, PNC_SMOOTHING_SPEED, PNC_STOP_STIFFNESS, PNC_STOP_DAMPING,
+    PNC_LEAKAGE, PNC_SONIC_CONDUCTANCE, PNC_CRITICAL_PRESSURE_RATIO, PNC_LAMINAR_RATIO,
     PNC_VALVE_FREQUENCY, PNC_VALVE_DAMPING, PNC_OVERLAP, PNC_SUPPLY_PRESSURE, PNC_EXHAUST_PRESSURE,
     PNC_SUPPLY_TEMPERATURE, PNC_POLYTROPIC_EXPONENT, PNC_TOLERANCE,
     PNC_N_PARAMS,
