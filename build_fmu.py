@@ -3,8 +3,10 @@
     python build_fmu.py [--dest dist] [NAME ...]
 
 The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
-defaults; every scene quantity a parameter) and DCMotor.fmu (the maxon RE 40's
-data; every datasheet number a parameter) are the C models behind one FMI 2.0
+defaults; every scene quantity a parameter), DCMotor.fmu (the maxon RE 40's
+data; every datasheet number a parameter) and HydraulicCylinder.fmu and
+PneumaticCylinder.fmu (a valve, a cylinder and its supply; every constant a
+parameter) are the C models behind one FMI 2.0
 wrapper, compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
 is installed), with its C sources inside.  It runs without Python.
 
@@ -27,6 +29,7 @@ from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder,
 from grubler.controllers.fmu import build_controller_fmu
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
+from grubler.fmi.cylinder import hydraulic_spec, pneumatic_spec
 from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
 from grubler.mechanism.scene import load_scene
 
@@ -35,6 +38,8 @@ HERE = Path(__file__).resolve().parent
 NATIVE = {
     "Mechanism": lambda: mechanism_spec(load_scene("thesis-fourbar"), "Mechanism"),
     "DCMotor": lambda: motor_spec(DEFAULT_MOTOR, "DCMotor"),
+    "HydraulicCylinder": lambda: hydraulic_spec(),
+    "PneumaticCylinder": lambda: pneumatic_spec(),
 }
 
 # grubler.controllers: each law becomes an FMU the way a user's own law does

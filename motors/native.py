@@ -1,4 +1,4 @@
-"""ctypes declarations of the C motor model (``motors/kernel/dc_motor.h``).
+"""ctypes declarations of the drives' C models (``motors/kernel/dc_motor.h``, ``hydraulic_cylinder.h``).
 
 The motor's equations exist once, in C; :mod:`grubler.motors.dc_motor` calls
 them through the functions declared here, on the library handle of
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from dataclasses import dataclass
 
 from grubler.binding import library
 
@@ -59,14 +60,19 @@ _SIGNATURES = {
 }
 
 
-@functools.lru_cache(maxsize=None)
-def functions() -> ctypes.CDLL:
-    """The kernel library with the motor functions' signatures declared (once)."""
+def _declared(signatures: dict) -> ctypes.CDLL:
+    """The kernel library with these functions' result and argument types declared."""
     lib = library()
-    for name, (restype, argtypes) in _SIGNATURES.items():
+    for name, (restype, argtypes) in signatures.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = restype, argtypes
     return lib
+
+
+@functools.lru_cache(maxsize=None)
+def functions() -> ctypes.CDLL:
+    """The kernel library with the motor functions' signatures declared (once)."""
+    return _declared(_SIGNATURES)
 
 
 def check(kind, p: Params, state: State | None = None) -> tuple[str, str] | None:
@@ -90,3 +96,97 @@ def check(kind, p: Params, state: State | None = None) -> tuple[str, str] | None
 def message(status: int) -> str:
     """dcm_status_message: the C model's sentence for a status."""
     return functions().dcm_status_message(status).decode()
+
+
+# -- the cylinders (motors/kernel/cylinder.h, hydraulic_cylinder.h, pneumatic_cylinder.h) ---
+# struct cyl_piston: the first fields of either cylinder's parameters
+PISTON_FIELDS = ("bore", "rod", "stroke", "retracted_length", "dead_volume_a", "dead_volume_b", "viscous_friction",
+                 "coulomb_friction", "smoothing_speed", "stop_stiffness", "stop_damping")
+
+
+class HydParams(ctypes.Structure):
+    """struct hyd_params, field for field (grubler.motors.hydraulic.FIELDS describes them)."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        *PISTON_FIELDS, "bulk_modulus", "air_fraction", "leakage", "nominal_flow", "nominal_pressure_drop",
+        "valve_frequency", "valve_damping", "overlap", "valve_leakage", "transition_pressure", "pump_flow",
+        "relief_pressure", "relief_gradient", "supply_volume", "tank_pressure", "tolerance")]
+
+
+class HydState(ctypes.Structure):
+    """struct hyd_state: spool, its rate, the three pressures [Pa gauge], the last sub-step [s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "spool", "spool_rate", "pressure_a", "pressure_b", "supply_pressure", "substep")]
+
+
+class CylinderInputs(ctypes.Structure):
+    """struct hyd_inputs and pnc_inputs: valve command, actuator length [m] and rate [m/s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in ("command", "length", "rate")]
+
+
+class HydOutputs(ctypes.Structure):
+    """struct hyd_outputs."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "force", "pressure_a", "pressure_b", "supply_pressure", "flow_a", "flow_b", "relief_flow", "position",
+        "spool", "pump_power", "piston_power", "mechanical_power", "throttling_loss", "compression_power")]
+
+
+class PncParams(ctypes.Structure):
+    """struct pnc_params, field for field (grubler.motors.pneumatic.FIELDS describes them)."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        *PISTON_FIELDS, "leakage", "sonic_conductance", "critical_pressure_ratio", "laminar_ratio",
+        "valve_frequency", "valve_damping", "overlap", "supply_pressure", "exhaust_pressure", "supply_temperature",
+        "polytropic_exponent", "tolerance")]
+
+
+class PncState(ctypes.Structure):
+    """struct pnc_state: spool, its rate, the two pressures [Pa gauge], the last sub-step [s]."""
+
+    _fields_ = [(name, ctypes.c_double) for name in ("spool", "spool_rate", "pressure_a", "pressure_b", "substep")]
+
+
+class PncOutputs(ctypes.Structure):
+    """struct pnc_outputs."""
+
+    _fields_ = [(name, ctypes.c_double) for name in (
+        "force", "pressure_a", "pressure_b", "mass_flow_a", "mass_flow_b", "air_consumption", "position", "spool",
+        "mechanical_power")]
+
+
+@dataclass(frozen=True)
+class CylinderBinding:
+    """One cylinder model's C functions (``<prefix>_check_params``, ``_step``, ...) and structures."""
+
+    prefix: str
+    params: type
+    state: type
+    outputs: type
+
+    def functions(self) -> ctypes.CDLL:
+        """The kernel library with this model's signatures declared (once)."""
+        return _cylinder_functions(self)
+
+    def call(self, name: str, *args):
+        return getattr(self.functions(), f"{self.prefix}_{name}")(*args)
+
+
+@functools.lru_cache(maxsize=None)
+def _cylinder_functions(b: CylinderBinding) -> ctypes.CDLL:
+    P, S, In, O = (ctypes.POINTER(t) for t in (b.params, b.state, CylinderInputs, b.outputs))
+    return _declared({f"{b.prefix}_{name}": sig for name, sig in {
+        "field_name": (ctypes.c_char_p, [_I]),
+        "status_message": (ctypes.c_char_p, [_I]),
+        "check_params": (_I, [P, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+        "check_state": (_I, [P, S, ctypes.POINTER(_I), ctypes.POINTER(ctypes.c_char_p)]),
+        "step": (_I, [P, S, In, _D, O]),
+        "observe": (_I, [P, S, In, O]),
+        "derivatives": (_I, [P, S, In, _DP]),
+    }.items()})
+
+
+HYDRAULIC = CylinderBinding("hyd", HydParams, HydState, HydOutputs)
+PNEUMATIC = CylinderBinding("pnc", PncParams, PncState, PncOutputs)

@@ -58,11 +58,14 @@ class BuildError(GrublerError, RuntimeError):
     """A compiler is missing or failed (its output attached)."""
 
 
-def _kernel_dirs() -> dict[str, Path]:
-    """Where the C sources sit: in this source tree, or the installed package."""
-    import grubler.motors as motors  # its kernel sits beside it, in a source tree or installed
+def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
+    """Where each model's C sources sit (folder, file patterns): in this source tree, or the installed package."""
+    import grubler.motors as motors  # the drives' kernels sit beside them, in a source tree or installed
 
-    return {"kernel": HERE.parent / "kernel", "motor": Path(motors.__file__).resolve().parent / "kernel"}
+    drives = Path(motors.__file__).resolve().parent / "kernel"
+    return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
+            "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
+            "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
 
 def fmi_headers_dir() -> Path:
@@ -76,7 +79,8 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     sources.mkdir(parents=True, exist_ok=True)
     dirs = _kernel_dirs()
     for key in spec.kernel_sources:
-        for f in sorted([*dirs[key].glob("*.[ch]"), *dirs[key].glob("*.inc")]):
+        folder, patterns = dirs[key]
+        for f in sorted(f for pattern in patterns for f in folder.glob(pattern) if f.suffix in (".c", ".h", ".inc")):
             if f.name not in NOT_IN_FMU and (spec.defines.get(DIRECTIONAL) or not f.name.endswith("_cs.c")):
                 shutil.copy2(f, sources / f.name)
     for name in (*WRAPPER, spec.model_source):
