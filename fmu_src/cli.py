@@ -18,8 +18,9 @@ import numpy as np
 from .analysis import classify
 from .assembly import assemble
 from . import limits
-from .errors import AssemblyError, GrublerError, InputError
+from .errors import AssemblyError, GrublerError, InputError, SceneErrors
 from .limits import number
+from .motors.motor_data import AMBIENT_RANGE
 from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
 from .simulate import output_columns, simulate
@@ -499,7 +500,8 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--supply", type=_positive("--supply", "V"), help="supply voltage, V (default: each motor's nominal)")
     z.add_argument("--current-limit", type=_positive("--current-limit", "A"), default=math.inf,
                    help="the drive's current limit, A")
-    z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
+    z.add_argument("--ambient", type=_number("--ambient", low=AMBIENT_RANGE[0], high=AMBIENT_RANGE[1], unit="degC"),
+                   default=25.0, help=f"ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g})")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
     z.add_argument("--plot", type=_output("--plot", "figure"),
                    help="write envelopes and margin against ratio to this PNG")
@@ -550,6 +552,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 _LAST: dict = {}  # the command run() last parsed, for main()'s way out
+_MAX_PROBLEMS = 50  # lines of one refusal: a file with hundreds of bad fields is told where to start
 
 
 def run(argv: Sequence[str] | None = None) -> int:
@@ -576,7 +579,11 @@ def run(argv: Sequence[str] | None = None) -> int:
             raise
         if isinstance(exc, MemoryError):
             exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
-        print(f"grubler: error: {_one_line(exc)}", file=sys.stderr)
+        problems = exc.problems if isinstance(exc, SceneErrors) else [exc]  # several: one line each
+        for problem in problems[:_MAX_PROBLEMS]:
+            print(f"grubler: error: {_one_line(problem)}", file=sys.stderr)
+        if len(problems) > _MAX_PROBLEMS:
+            print(f"grubler: error: ... and {len(problems) - _MAX_PROBLEMS} more problems", file=sys.stderr)
         return 2
     finally:
         limits.remove_temp_dirs()

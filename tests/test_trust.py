@@ -1,0 +1,130 @@
+"""A result that cannot be trusted says so; a bad scene tells every problem at once.
+
+Warnings go to stderr, one line each, ``warning: ...``, and leave a successful
+run's exit status at 0; the library carries them on its results.
+"""
+
+import pickle
+import subprocess
+import sys
+
+import pytest
+
+import grubler
+from grubler.cli import main
+from grubler.errors import SceneError, SceneErrors
+from grubler.scene import load_scene, preset_names, preset_text
+
+THREE_MISTAKES = """
+[link2]
+joint = "R"
+a = -0.3
+m = 1.0
+[link3]
+joint = "R"
+a = 0.8
+m = 0.0
+[link4]
+joint = "X"
+a = 0.6
+m = 1.0
+[closure]
+type = "revolute"
+point = [1.0, 0.0]
+[drive]
+joint = "theta2"
+"""
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+# -- every problem of a scene at once ---------------------------------------------------------
+def test_a_scene_with_three_mistakes_lists_all_three_one_line_each(capsys, tmp_path):
+    path = tmp_path / "three.toml"
+    path.write_text(THREE_MISTAKES)
+    code, out, err = run(capsys, "simulate", path, "--t-end", "0.1")
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 3, err
+    assert all(line.startswith("grubler: error: ") for line in lines), err
+    assert "link2.a: length must be >= 0, got -0.3" in lines[0]
+    assert "link3.m: mass must be positive, got 0.0" in lines[1]
+    assert "link4.joint: must be 'R' (revolute) or 'P' (prismatic), got 'X'" in lines[2]
+
+
+def test_the_library_raises_one_exception_that_lists_every_problem():
+    with pytest.raises(SceneError) as caught:
+        load_scene(THREE_MISTAKES)
+    exc = caught.value
+    assert isinstance(exc, SceneErrors)
+    assert [p.field for p in exc.problems] == ["link2.a", "link3.m", "link4.joint"]
+    assert str(exc).splitlines() == [str(p) for p in exc.problems]
+    assert exc.field == "link2.a"  # the first, for code that reads one field
+    back = pickle.loads(pickle.dumps(exc))  # sweep workers send errors back pickled
+    assert str(back) == str(exc) and [p.field for p in back.problems] == [p.field for p in exc.problems]
+
+
+def test_a_mechanism_built_in_code_hears_of_every_bad_link_too():
+    from grubler.model import Link, Mechanism
+
+    with pytest.raises(SceneErrors) as caught:
+        Mechanism(links=(Link("R", -1.0), Link("R", 1.0, m=0.0, I=-1.0)))
+    assert [p.field for p in caught.value.problems] == ["link2.a", "link3.m", "link3.I"]
+
+
+def test_a_single_problem_is_still_a_plain_scene_error():
+    with pytest.raises(SceneError) as caught:
+        load_scene(preset_text("thesis-fourbar").replace("m = 2.0", "m = -2.0", 1))
+    assert not isinstance(caught.value, SceneErrors)
+    assert caught.value.field.endswith(".m")
+
+
+def test_unknown_keys_of_several_tables_and_a_bad_builder_parameter_are_told_together():
+    text = ('[mechanism]\ntype = "four-bar"\nground = 1.0\ncrank = 0.3\ncoupler = 0.8\nrocker = 0.6\n'
+            'crank_angel = 0.1\n[drive]\ntorqe = 1.0\n[simulate]\nt_end = -1\ndt_ot = 0.1\n')
+    with pytest.raises(SceneErrors) as caught:
+        load_scene(text)
+    fields = [p.field for p in caught.value.problems]
+    assert fields == ["mechanism.crank_angel", "drive.torqe", "simulate.dt_ot", "simulate.t_end"], fields
+
+
+def test_hundreds_of_problems_print_a_bounded_number_of_lines(capsys, tmp_path):
+    path = tmp_path / "many.toml"
+    path.write_text("".join(f'[link{k}]\njoint = "Q"\na = -1\nm = 0\n' for k in range(2, 40)))
+    code, _, err = run(capsys, "info", path)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 51 and "more problems" in lines[-1], lines[-3:]
+
+
+# -- a link's mass is never guessed -----------------------------------------------------------
+def test_a_missing_mass_is_refused_by_name_not_taken_as_one_kilogram():
+    with pytest.raises(SceneError, match=r"link3\.m: is required \(the link's mass, kg\)"):
+        load_scene(preset_text("thesis-fourbar").replace("m = 2.0\n", "", 1))
+
+
+def test_every_preset_still_loads_and_builders_give_their_masses():
+    for name in preset_names():
+        scene = load_scene(name)
+        assert all(link.m > 0 for link in scene.mechanism.links), name
+
+
+# -- ambient temperature ------------------------------------------------------------------------
+@pytest.mark.parametrize("value, bound", [("1e6", "<= 200 degC"), ("-60", ">= -50 degC")])
+def test_an_ambient_temperature_no_surroundings_have_is_refused_with_its_unit(value, bound):
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "size", "thesis-fourbar", "--ambient", value],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2
+    (line,) = proc.stderr.strip().splitlines()
+    assert "--ambient" in line and bound in line, line
+
+
+def test_the_motor_model_refuses_it_too():
+    from grubler.motors import DCMotor, load_motor
+
+    with pytest.raises(SceneError, match=r"ambient_temperature: must be <= 200 degC, got 1e\+06 degC"):
+        DCMotor(load_motor("maxon-re40-148877"), ambient_temperature=1e6)
+    assert DCMotor(load_motor("maxon-re40-148877"), ambient_temperature=-40.0).ambient_temperature == -40.0
