@@ -55,6 +55,12 @@ def _output(name: str, kinds: tuple[str, ...] | str | None = None):
     return parse
 
 
+def _warn(warnings) -> None:
+    """What makes a result less than was asked: one ``warning:`` line each on stderr (the exit status stays)."""
+    for line in warnings:
+        print(f"warning: {line}", file=sys.stderr)
+
+
 def cmd_presets(args) -> int:
     width = max(len(n) for n in preset_names())
     for name in preset_names():
@@ -167,6 +173,7 @@ def cmd_simulate(args) -> int:
     res = simulate(scene, t_end=args.t_end, dt_out=args.dt_out, method=args.method, rtol=args.rtol,
                    atol=args.atol if args.atol else args.rtol, integrator=args.integrator, step=args.step,
                    torque=args.torque)
+    _warn(res.warnings)
     if args.csv:
         res.to_csv(args.csv, groups)
     if args.plot:
@@ -434,7 +441,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--atol", type=_positive("--atol"), help="absolute tolerance (default: rtol)")
     s.add_argument("--integrator", choices=["dop853", "rk45", "rk4", "radau", "bdf"],
                    help="default: dop853 (exact), radau (penalty)")
-    s.add_argument("--step", type=_positive("--step", "s"), default=1e-3, help="fixed step for rk4, s")
+    s.add_argument("--step", type=_positive("--step", "s"),
+                   help="fixed step for rk4, s (default 1e-3; cut to --dt-out when longer, with a warning)")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")

@@ -128,3 +128,70 @@ def test_the_motor_model_refuses_it_too():
     with pytest.raises(SceneError, match=r"ambient_temperature: must be <= 200 degC, got 1e\+06 degC"):
         DCMotor(load_motor("maxon-re40-148877"), ambient_temperature=1e6)
     assert DCMotor(load_motor("maxon-re40-148877"), ambient_temperature=-40.0).ambient_temperature == -40.0
+
+
+# -- a loop the penalty method left open ------------------------------------------------------
+def _loop_gap(res):
+    """How far a four-bar's tip is from its ground pivot, from the angles alone (plain trigonometry)."""
+    import numpy as np
+
+    m = res.model
+    tip_x = sum(link.a * np.cos(res[f"theta{k + 2}"]) for k, link in enumerate(m.links))
+    tip_y = sum(link.a * np.sin(res[f"theta{k + 2}"]) for k, link in enumerate(m.links))
+    px, py = m.closures[0].to_point
+    return np.hypot(tip_x - px, tip_y - py)
+
+
+def test_a_loop_pulled_open_by_a_large_torque_is_warned_of_by_the_library_and_the_cli(capsys):
+    import re
+
+    res = grubler.simulate("fourbar-change-point", method="penalty", torque=1e4, t_end=0.2)
+    (line,) = res.warnings
+    assert line.startswith("closure: the loop opened by up to ") and "use the exact method" in line, line
+    gap = float(_loop_gap(res).max())
+    assert gap > 1.0  # open by more than its ground link: nothing of a four-bar is left
+    stated = float(re.search(r"up to (\S+) m", line).group(1))
+    assert abs(stated - gap) <= 0.005 * gap, (stated, gap)
+
+    code, out, err = run(capsys, "simulate", "fourbar-change-point", "--method", "penalty", "--torque", "1e4",
+                         "--t-end", "0.2")
+    assert code == 0 and "fourbar-change-point" in out  # a warning, not a refusal
+    assert err.strip().splitlines() == [f"warning: {line}"]
+
+
+def test_the_penalty_methods_ordinary_compliance_is_not_warned_of():
+    from grubler.simulate import CLOSURE_WARNING, mechanism_size
+
+    res = grubler.simulate("thesis-fourbar", method="penalty", torque=3.0, t_end=1.0)
+    assert res.warnings == []
+    assert 1e-4 < float(_loop_gap(res).max()) < CLOSURE_WARNING * mechanism_size(res.model)
+
+
+def test_an_unassembled_penalty_start_is_told_apart_from_the_run():
+    res = grubler.simulate("thesis-double-slider", method="penalty", t_end=0.3)
+    assert res.warnings and res.warnings[0].startswith("closure: the start is open by 3.14 m or rad")
+
+
+def test_the_readme_simulate_run_prints_no_warning(capsys, tmp_path):
+    code, _, err = run(capsys, "simulate", "thesis-fourbar", "--t-end", "5", "--dt-out", "0.01", "--method", "exact",
+                       "--rtol", "1e-9", "--torque", "3", "--csv", tmp_path / "run.csv")
+    assert code == 0 and err == ""
+
+
+# -- a step that is not the one given -------------------------------------------------------------
+def test_an_rk4_step_longer_than_the_output_interval_is_said_to_be_cut(capsys):
+    res = grubler.simulate("thesis-fourbar", t_end=0.2, dt_out=0.01, integrator="rk4", step=0.05)
+    (line,) = res.warnings
+    assert line.startswith("step: 0.05 s is longer than the output interval 0.01 s") and "stepped 0.01 s" in line
+    # what it says is what it did: 20 steps of 10 ms, not 4 of 50 ms
+    assert res.stats["steps"] == 20, res.stats
+    assert grubler.simulate("thesis-fourbar", t_end=0.2, dt_out=0.05, integrator="rk4", step=0.05).warnings == []
+    code, _, err = run(capsys, "simulate", "thesis-fourbar", "--t-end", "0.2", "--integrator", "rk4", "--step", "0.05",
+                       "--dt-out", "0.01")
+    assert code == 0 and err.startswith("warning: step: 0.05 s is longer")
+
+
+def test_a_step_given_to_an_adaptive_integrator_is_said_to_be_unused():
+    (line,) = grubler.simulate("thesis-fourbar", t_end=0.1, step=0.05).warnings
+    assert line.startswith("step: 0.05 s is rk4's fixed step; dop853 chooses its own steps")
+    assert grubler.simulate("thesis-fourbar", t_end=0.1).warnings == []
