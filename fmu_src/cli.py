@@ -261,14 +261,19 @@ def cmd_cosim(args) -> int:
         h = args.step or system.step or 1e-3
         every = max(1, limits.check_count(round(args.dt_out / h) if math.isfinite(args.dt_out / h) else math.inf,
                                           limits.MAX_STEPS, "communication steps per recorded row", "--dt-out"))
+        if args.dt_out < h * (1 - 1e-9):  # a row exists only where the FMUs meet: refused, not cut to the step
+            raise InputError("--dt-out", f"{args.dt_out:g} s is shorter than the communication step {h:g} s: rows are "
+                                         "recorded at communication points only (give a shorter --step)")
         if abs(every * h - args.dt_out) > 1e-9 * args.dt_out:
             raise InputError("--dt-out", f"{args.dt_out:g} s must be a multiple of the step {h:g} s")
         args.system = system
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
               step_order=step_order, record_every=every)
     steps = len(res.t) - 1
-    print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({res.master}, "
-          f"order {' -> '.join(res.order)}): {res.wall_time:.3f} s wall")
+    _warn(res.warnings)
+    how = ("jacobi: all on the last step's values" if res.master == "jacobi"
+           else f"{res.master}, order {' -> '.join(res.order)}")
+    print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({how}): {res.wall_time:.3f} s wall")
     if args.csv:
         res.to_csv(args.csv)
         print(f"wrote {args.csv}: {len(res.columns)} signals, {steps + 1} rows")
@@ -520,9 +525,13 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
     c.add_argument("--t-end", type=_positive("--t-end", "s"), help="end time, s (default: the system's)")
-    c.add_argument("--step", type=_positive("--step", "s"), help="communication step, s (default: the system's)")
+    c.add_argument("--step", type=_positive("--step", "s"),
+                   help="communication step, s (default: the system's); a warning says when it exceeds a "
+                        "component's sample time or the motor's mechanical time constant")
     c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
-                   help="stepping order (default gauss-seidel)")
+                   help="gauss-seidel (default): each component steps on the outputs of those before it; jacobi: "
+                        "all step on the last step's values, so every connection adds a step of delay (less "
+                        "accurate, for comparison with fmpy and libcosim)")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
     c.add_argument("--dt-out", type=_positive("--dt-out", "s"),
                    help="record every this many seconds (a multiple of the step; default every step)")

@@ -195,3 +195,76 @@ def test_a_step_given_to_an_adaptive_integrator_is_said_to_be_unused():
     (line,) = grubler.simulate("thesis-fourbar", t_end=0.1, step=0.05).warnings
     assert line.startswith("step: 0.05 s is rk4's fixed step; dop853 chooses its own steps")
     assert grubler.simulate("thesis-fourbar", t_end=0.1).warnings == []
+
+
+# -- a communication step longer than what the components need ---------------------------------
+ROOT = __import__("pathlib").Path(__file__).parent.parent
+
+
+@pytest.fixture(scope="module")
+def servo_ssd(tmp_path_factory):
+    """The README's servo four-bar, on FMUs built from this checkout."""
+    sys.path.insert(0, str(ROOT))
+    sys.path.insert(0, str(ROOT / "examples"))
+    import build_fmu
+    import servo_fourbar
+    from grubler.servo import servo_system
+
+    d = tmp_path_factory.mktemp("dist")
+    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    return servo_system(servo_fourbar.DESIGN, d, name="servo_fourbar").write(d / "servo_fourbar.ssd")
+
+
+def cosim_cli(*args):
+    return subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", *map(str, args)], capture_output=True,
+                          text=True, timeout=600)
+
+
+def _interfaces(system):
+    from grubler.cosim import FmuInterface
+
+    return {name: FmuInterface.of(system.source_path(comp)) for name, comp in system.components.items()}
+
+
+def test_the_servos_time_scales_are_its_sample_times_and_the_motors_mechanical_time_constant(servo_ssd):
+    from grubler import cosim, ssp
+
+    system = ssp.read(servo_ssd)
+    scales = {(s.component, s.what.split(" ")[0]): s.seconds for s in cosim.time_scales(system, _interfaces(system))}
+    p = system.components["motor"].parameters
+    # J_rotor R / (k_t k_e), from the system file's own numbers
+    tau_m = p["rotor_inertia"] * p["resistance"] / (p["torque_constant"] * p["back_emf_constant"])
+    assert scales == {("encoder", "sample"): 1e-3, ("controller", "sample"): 1e-3,
+                      ("motor", "mechanical"): pytest.approx(tau_m, rel=1e-12)}
+    assert 1e-3 < tau_m < 0.05  # the README's step is inside it, the reporter's is not
+    assert cosim.step_warnings(1e-3, cosim.time_scales(system, _interfaces(system))) == []
+
+
+def test_a_step_beyond_the_pids_sample_time_is_warned_of_and_the_run_still_succeeds(servo_ssd):
+    proc = cosim_cli(servo_ssd, "--step", "0.05", "--t-end", "0.5")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 3 and all(line.startswith("warning: step: 0.05 s is longer than ") for line in lines), lines
+    assert "controller's sample time Ts = 0.001 s" in lines[1]
+    assert "motor's mechanical time constant" in lines[2]
+
+
+def test_the_readme_cosim_run_prints_no_warning(servo_ssd, tmp_path):
+    proc = cosim_cli(servo_ssd, "--csv", tmp_path / "servo.csv")  # the system's own 10 s at 1 ms
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert "order encoder -> controller" in proc.stdout
+
+
+def test_jacobi_says_what_it_costs_and_prints_no_stepping_order(servo_ssd):
+    proc = cosim_cli(servo_ssd, "--master", "jacobi", "--t-end", "0.05")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert "jacobi: all on the last step's values" in proc.stdout and "order" not in proc.stdout
+    helptext = cosim_cli("--help").stdout
+    assert "every connection adds a step of delay" in " ".join(helptext.split())
+
+
+def test_a_record_interval_shorter_than_the_step_is_refused_not_cut(servo_ssd):
+    proc = cosim_cli(servo_ssd, "--step", "0.05", "--dt-out", "0.01", "--t-end", "0.2")
+    assert proc.returncode == 2
+    (line,) = proc.stderr.strip().splitlines()
+    assert "--dt-out: 0.01 s is shorter than the communication step 0.05 s" in line, line
