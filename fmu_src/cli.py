@@ -216,6 +216,7 @@ def cmd_animate(args) -> int:
         n_signals = len(signal_names(args.signals, available, limit=MAX_SIGNALS)) if args.signals else 0
         check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
+        _warn(res.warnings)
         t, zs = res.t, res.z
         series = {c: res[c] for c in available} if args.signals else {}
     signals = select_signals(args.signals, series, limit=MAX_SIGNALS) if args.signals else None

@@ -268,3 +268,12 @@ def test_a_record_interval_shorter_than_the_step_is_refused_not_cut(servo_ssd):
     assert proc.returncode == 2
     (line,) = proc.stderr.strip().splitlines()
     assert "--dt-out: 0.01 s is shorter than the communication step 0.05 s" in line, line
+
+
+def test_an_animation_of_an_open_loop_says_so_too(capsys, tmp_path):
+    scene = tmp_path / "penalty.toml"
+    scene.write_text(preset_text("fourbar-change-point") + '\n[simulate]\nmethod = "penalty"\n')
+    code, out, err = run(capsys, "animate", scene, "--torque", "1e4", "--t-end", "0.2", "--fps", "10",
+                         "--out", tmp_path / "open.gif")
+    assert code == 0 and "wrote" in out
+    assert err.startswith("warning: closure: the loop opened by up to "), err
