@@ -19,7 +19,7 @@ True
 from .analysis import Grashof, classify, grashof, kutzbach_mobility
 from .assembly import assemble
 from .dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
-from .errors import AssemblyError, GrublerError, IntegrationError, SceneError
+from .errors import AssemblyError, GrublerError, IntegrationError, SceneError, SceneErrors
 from .linearize import OperatingPoint, linearize, operating_point
 from .model import Closure, Link, Mechanism
 from .scene import Scene, load_scene, preset_names, scene_from_dict
@@ -29,7 +29,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
-    "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
+    "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "SceneErrors", "Simulator", "assemble", "classify", "evaluate",
     "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility", "linearize",
     "load_scene", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
 ]

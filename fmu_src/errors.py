@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 
 class GrublerError(Exception):
     """Base class of every error the library raises on purpose."""
@@ -104,19 +106,15 @@ class Problems:
     def __init__(self):
         self._found: list[SceneError] = []
 
+    @contextlib.contextmanager
     def check(self):
         """A context in which a SceneError (or several) is recorded instead of raised."""
-        import contextlib
-
-        @contextlib.contextmanager
-        def recording():
-            try:
-                yield
-            except SceneErrors as exc:
-                self._found += exc.problems
-            except SceneError as exc:
-                self._found.append(exc)
-        return recording()
+        try:
+            yield
+        except SceneErrors as exc:
+            self._found += exc.problems
+        except SceneError as exc:
+            self._found.append(exc)
 
     def add(self, problem: SceneError) -> None:
         self._found.append(problem)
