@@ -15,12 +15,13 @@ from typing import Sequence
 
 import numpy as np
 
+from grubler.motors.motor_data import AMBIENT_RANGE
+
 from .analysis import classify
 from .assembly import assemble
 from . import limits
 from .errors import AssemblyError, GrublerError, InputError, SceneErrors
 from .limits import number
-from .motors.motor_data import AMBIENT_RANGE
 from .runs import coordinates, read_run_csv
 from .scene import load_scene, preset_names
 from .simulate import output_columns, simulate

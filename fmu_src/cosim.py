@@ -267,7 +267,7 @@ def _motor_time_scales(system: System, itf: FmuInterface, name: str) -> list[Tim
     # grubler's DCMotor.fmu solves its winding exactly over any step (v and the speed
     # held), so its electrical pole L/R sets no bound; the speed it holds does
     from .fmi.motor import DATA
-    from .motors.motor_data import MotorData
+    from grubler.motors.motor_data import MotorData
 
     values = {k: _value(system, itf, name, k) for k in DATA}
     if any(v is None for v in values.values()):
