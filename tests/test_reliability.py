@@ -465,7 +465,7 @@ def test_a_word_given_as_a_list_is_refused_by_name(capsys, tmp_path, text, field
 
 
 @pytest.mark.parametrize("step, reason", [
-    ("2.0", "1 s must be a multiple of the step 2 s"),
+    ("2.0", "1 s is shorter than the communication step 2 s"),
     ("1e-320", "communication steps per recorded row"),  # a denormal step: dt_out / step overflowed
 ])
 def test_a_record_interval_against_the_systems_step_is_refused_by_option(capsys, private_tmp, tmp_path, step,
