@@ -147,10 +147,11 @@ TorqueLike = float | Callable[[float], float]
 
 CLOSURE_WARNING = 0.05
 """A loop open by more than this fraction of the mechanism's size (:func:`mechanism_size`)
-is warned of.  The penalty closure is compliant by design: at the presets' own efforts
-and the default gain it opens their loops by 0.2 to 6 % of their size; a large effort
-pulls the joints apart (a four-bar under 1e4 N m: 170 %), and the motion then no
-longer describes the linkage."""
+is warned of.  The penalty closure is compliant by design: over 1 s at their own
+efforts and the default gain it opens the loops of the presets that start closed by
+0.2 % (quick-return) to 9 % (the Oldham coupling: 1.8 mm on its 20 mm offset); a
+large effort pulls the joints apart (a four-bar under 1e4 N m: 170 %), and the
+motion then no longer describes the linkage."""
 
 
 def mechanism_size(model: Mechanism) -> float:
