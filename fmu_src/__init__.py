@@ -22,7 +22,7 @@ from grubler._version import __version__
 from grubler.mechanism.analysis import Grashof, classify, grashof, kutzbach_mobility
 from grubler.mechanism.assembly import assemble
 from grubler.mechanism.dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
-from grubler.errors import AssemblyError, GrublerError, IntegrationError, SceneError
+from grubler.errors import AssemblyError, GrublerError, IntegrationError, SceneError, SceneErrors
 from grubler.studies.linearize import OperatingPoint, linearize, operating_point
 from grubler.mechanism.model import Closure, Link, Mechanism
 from grubler.mechanism.scene import Scene, load_scene, preset_names, scene_from_dict
@@ -40,7 +40,7 @@ sys.modules[__name__ + ".cosim"], sys.modules[__name__ + ".ssp"] = cosim, ssp
 
 __all__ = [
     "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
-    "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "Simulator", "assemble", "classify", "evaluate",
+    "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "SceneErrors", "Simulator", "assemble", "classify", "evaluate",
     "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility", "linearize",
     "load_scene", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
 ]

@@ -19,12 +19,13 @@ import numpy as np
 from grubler.mechanism.analysis import classify
 from grubler.mechanism.assembly import assemble
 from grubler import limits
-from grubler.errors import AssemblyError, GrublerError, InputError
+from grubler.errors import AssemblyError, GrublerError, InputError, SceneErrors
 from grubler.limits import number
 from grubler.views.runs import coordinates, read_run_csv
 from grubler.studies.linearize import BODE_SUFFIXES, input_unit
 from grubler.mechanism.scene import coordinate_text, load_scene, preset_names
 from grubler.mechanism.simulate import output_columns, simulate
+from grubler.motors.motor_data import AMBIENT_RANGE
 
 
 def _number(name: str, **bounds):
@@ -54,6 +55,12 @@ def _output(name: str, kinds: tuple[str, ...] | str | None = None):
             raise argparse.ArgumentTypeError(exc.reason) from None
         return text
     return parse
+
+
+def _warn(warnings) -> None:
+    """What makes a result less than was asked: one ``warning:`` line each on stderr (the exit status stays)."""
+    for line in warnings:
+        print(f"warning: {line}", file=sys.stderr)
 
 
 def cmd_presets(args) -> int:
@@ -181,6 +188,7 @@ def cmd_simulate(args) -> int:
     res = simulate(scene, t_end=args.t_end, dt_out=args.dt_out, method=args.method, rtol=args.rtol,
                    atol=args.atol if args.atol else args.rtol, integrator=args.integrator, step=args.step,
                    torque=args.torque)
+    _warn(res.warnings)
     if args.csv:
         res.to_csv(args.csv, groups)
     if args.plot:
@@ -223,6 +231,7 @@ def cmd_animate(args) -> int:
         n_signals = len(signal_names(args.signals, available, limit=MAX_SIGNALS)) if args.signals else 0
         check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)
+        _warn(res.warnings)
         t, zs = res.t, res.z
         series = {c: res[c] for c in available} if args.signals else {}
     signals = select_signals(args.signals, series, limit=MAX_SIGNALS) if args.signals else None
@@ -276,14 +285,19 @@ def cmd_cosim(args) -> int:
         h = args.step or system.step or 1e-3
         every = max(1, limits.check_count(round(args.dt_out / h) if math.isfinite(args.dt_out / h) else math.inf,
                                           limits.MAX_STEPS, "communication steps per recorded row", "--dt-out"))
+        if args.dt_out < h * (1 - 1e-9):  # a row exists only where the FMUs meet: refused, not cut to the step
+            raise InputError("--dt-out", f"{args.dt_out:g} s is shorter than the communication step {h:g} s: rows are "
+                                         "recorded at communication points only (give a shorter --step)")
         if abs(every * h - args.dt_out) > 1e-9 * args.dt_out:
             raise InputError("--dt-out", f"{args.dt_out:g} s must be a multiple of the step {h:g} s")
         args.system = system
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
               step_order=step_order, record_every=every)
     steps = len(res.t) - 1
-    print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({res.master}, "
-          f"order {' -> '.join(res.order)}): {res.wall_time:.3f} s wall")
+    _warn(res.warnings)
+    how = ("jacobi: all on the last step's values" if res.master == "jacobi"
+           else f"{res.master}, order {' -> '.join(res.order)}")
+    print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({how}): {res.wall_time:.3f} s wall")
     if args.csv:
         res.to_csv(args.csv)
         print(f"wrote {args.csv}: {len(res.columns)} signals, {steps + 1} rows")
@@ -463,7 +477,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--atol", type=_positive("--atol"), help="absolute tolerance (default: rtol)")
     s.add_argument("--integrator", choices=["dop853", "rk45", "rk4", "radau", "bdf"],
                    help="default: dop853 (exact), radau (penalty)")
-    s.add_argument("--step", type=_positive("--step", "s"), default=1e-3, help="fixed step for rk4, s")
+    s.add_argument("--step", type=_positive("--step", "s"),
+                   help="fixed step for rk4, s (default 1e-3; cut to --dt-out when longer, with a warning)")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
@@ -531,7 +546,8 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--supply", type=_positive("--supply", "V"), help="supply voltage, V (default: each motor's nominal)")
     z.add_argument("--current-limit", type=_positive("--current-limit", "A"), default=math.inf,
                    help="the drive's current limit, A")
-    z.add_argument("--ambient", type=_finite("--ambient"), default=25.0, help="ambient temperature, degC")
+    z.add_argument("--ambient", type=_number("--ambient", low=AMBIENT_RANGE[0], high=AMBIENT_RANGE[1], unit="degC"),
+                   default=25.0, help=f"ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g})")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
     z.add_argument("--plot", type=_output("--plot", "figure"),
                    help="write envelopes and margin against ratio to this PNG")
@@ -542,9 +558,13 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
     c.add_argument("--t-end", type=_positive("--t-end", "s"), help="end time, s (default: the system's)")
-    c.add_argument("--step", type=_positive("--step", "s"), help="communication step, s (default: the system's)")
+    c.add_argument("--step", type=_positive("--step", "s"),
+                   help="communication step, s (default: the system's); a warning says when it exceeds a "
+                        "component's sample time or the motor's mechanical time constant")
     c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
-                   help="stepping order (default gauss-seidel)")
+                   help="gauss-seidel (default): each component steps on the outputs of those before it; jacobi: "
+                        "all step on the last step's values, so every connection adds a step of delay (less "
+                        "accurate, for comparison with fmpy and libcosim)")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
     c.add_argument("--dt-out", type=_positive("--dt-out", "s"),
                    help="record every this many seconds (a multiple of the step; default every step)")
@@ -586,6 +606,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 _LAST: dict = {}  # the command run() last parsed, for main()'s way out
+_MAX_PROBLEMS = 50  # lines of one refusal: a file with hundreds of bad fields is told where to start
 
 
 def run(argv: Sequence[str] | None = None) -> int:
@@ -612,7 +633,11 @@ def run(argv: Sequence[str] | None = None) -> int:
             raise
         if isinstance(exc, MemoryError):
             exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
-        print(f"grubler: error: {_one_line(exc)}", file=sys.stderr)
+        problems = exc.problems if isinstance(exc, SceneErrors) else [exc]  # several: one line each
+        for problem in problems[:_MAX_PROBLEMS]:
+            print(f"grubler: error: {_one_line(problem)}", file=sys.stderr)
+        if len(problems) > _MAX_PROBLEMS:
+            print(f"grubler: error: ... and {len(problems) - _MAX_PROBLEMS} more problems", file=sys.stderr)
         return 2
     finally:
         limits.remove_temp_dirs()

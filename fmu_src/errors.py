@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 
 class GrublerError(Exception):
     """Base class of every error the library raises on purpose."""
@@ -41,6 +43,91 @@ class LimitError(InputError):
 
 class SceneError(InputError):
     """A mechanism or scene description that makes no sense (see :class:`InputError`)."""
+
+
+class SceneErrors(SceneError):
+    """Several problems of one scene, each a :class:`SceneError`: all of them at once.
+
+    ``field`` and ``reason`` are the first problem's; the message lists every
+    problem, one ``field: reason`` line each, and ``problems`` holds them.
+
+    Parameters
+    ----------
+    problems : sequence of SceneError
+        Two or more (use :func:`raise_all`, which raises a single one as it is).
+
+    Examples
+    --------
+    >>> exc = SceneErrors([SceneError("link2.a", "length must be >= 0, got -1.0"),
+    ...                    SceneError("link3.m", "mass must be positive, got 0.0")])
+    >>> print(exc)
+    link2.a: length must be >= 0, got -1.0
+    link3.m: mass must be positive, got 0.0
+    >>> exc.field
+    'link2.a'
+    """
+
+    def __init__(self, problems):
+        self.problems = [p for p in problems]
+        first = self.problems[0]
+        super().__init__(first.field, first.reason)
+        self.args = ("\n".join(str(p) for p in self.problems),)
+
+    def __str__(self):
+        return self.args[0]
+
+    def __reduce__(self):  # sweep workers send errors back pickled
+        return (type(self), (self.problems,))
+
+
+def raise_all(problems) -> None:
+    """Raise every problem found at once: nothing for none, one as it is, several as :class:`SceneErrors`."""
+    problems = list(problems)
+    if len(problems) == 1:
+        raise problems[0]
+    if problems:
+        raise SceneErrors(problems)
+
+
+class Problems:
+    """Collects the refusals of independent checks, so that a scene tells every problem in one run.
+
+    Examples
+    --------
+    >>> found = Problems()
+    >>> with found.check():
+    ...     raise SceneError("link2.a", "length must be >= 0, got -1.0")
+    >>> with found.check():
+    ...     raise SceneError("link4.joint", "must be 'R' or 'P', got 'X'")
+    >>> [p.field for p in found]
+    ['link2.a', 'link4.joint']
+    """
+
+    def __init__(self):
+        self._found: list[SceneError] = []
+
+    @contextlib.contextmanager
+    def check(self):
+        """A context in which a SceneError (or several) is recorded instead of raised."""
+        try:
+            yield
+        except SceneErrors as exc:
+            self._found += exc.problems
+        except SceneError as exc:
+            self._found.append(exc)
+
+    def add(self, problem: SceneError) -> None:
+        self._found.append(problem)
+
+    def __iter__(self):
+        return iter(self._found)
+
+    def __len__(self):
+        return len(self._found)
+
+    def raise_all(self) -> None:
+        """Raise what was recorded (see :func:`raise_all`); nothing if all went well."""
+        raise_all(self._found)
 
 
 class AssemblyError(SceneError):

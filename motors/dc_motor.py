@@ -53,9 +53,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from grubler.errors import SceneError
+from grubler.errors import InputError, SceneError
+from grubler.limits import number
 from grubler.motors import native
-from grubler.motors.motor_data import MotorData, check_number
+from grubler.motors.motor_data import AMBIENT_RANGE, MotorData, check_number
 
 
 @dataclass(frozen=True)
@@ -113,7 +114,7 @@ class DCMotor:
     drive : Drive
         Default: the motor's nominal voltage, no current limit.
     ambient_temperature : float
-        T_amb [degC].
+        T_amb [degC], within :data:`~grubler.motors.motor_data.AMBIENT_RANGE`.
     max_substep : float
         Longest internal step [s].  The current is exact for any step; sub-steps
         only refresh R(T) and the thermal coupling, which change on the thermal
@@ -143,9 +144,11 @@ class DCMotor:
             if self.data.nominal_voltage is None:
                 raise SceneError("supply_voltage", f"motor {self.data.name!r} states no nominal voltage: give a Drive")
             object.__setattr__(self, "drive", Drive(self.data.nominal_voltage))
-        t = self.ambient_temperature
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-            raise SceneError("ambient_temperature", f"must be a finite number, got {t!r}")
+        lo, hi = AMBIENT_RANGE
+        try:
+            t = number(self.ambient_temperature, "ambient_temperature", low=lo, high=hi, unit="degC")
+        except InputError as exc:
+            raise SceneError(exc.field, exc.reason) from None
         object.__setattr__(self, "ambient_temperature", float(t))
         object.__setattr__(self, "max_substep", check_number("max_substep", self.max_substep))
         d, g, v = self.data, self.gear, self.drive

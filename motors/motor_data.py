@@ -54,6 +54,11 @@ between a stated speed/torque gradient (or mechanical time constant) and R / k_t
 
 RPM = math.pi / 30.0  # rad/s per rpm
 
+AMBIENT_RANGE = (-50.0, 200.0)
+"""Ambient temperatures [degC] a motor model accepts.  Motors are rated for about
+-40 to +100 degC; the range leaves room to study beyond a rating while refusing
+what no surroundings are (1e6 degC, a unit slip from kelvin is still inside)."""
+
 
 def check_number(field: str, value, *, positive: bool = True, allow_inf: bool = False,
            optional: bool = False) -> float | None:

@@ -66,7 +66,7 @@ def refused(capsys, *args, field: str, reason: str = ""):
     (b"\x00\xff\xfe binary", "a binary file, not text"),
     ("name = 'caf\u00e9'\n".encode("latin-1"), "not UTF-8 text (byte 0xe9"),
     (("a = " + "[" * 3000 + "]" * 3000 + "\n").encode(), "nested 3000 deep"),
-    (("[link2]\na = 1" + "0" * 400 + "\n").encode(), "magnitude above 1e+12"),
+    (("[link2]\njoint = 'R'\nm = 1\na = 1" + "0" * 400 + "\n").encode(), "magnitude above 1e+12"),
     (("[link2]\na = 1" + "0" * 5000 + "\n").encode(), "not valid here"),
     (b"[link2\na = 1\n", "not valid TOML"),
 ])
@@ -85,7 +85,7 @@ def test_a_scene_file_whose_name_holds_an_equals_sign_is_read_as_a_file(capsys, 
 
 def test_a_scene_value_too_large_for_a_message_is_not_echoed(capsys, tmp_path):
     path = tmp_path / "big.toml"
-    path.write_text(preset_text("thesis-fourbar") + f'\n[link5]\na = "{"x" * 10_000_000}"\n')
+    path.write_text(preset_text("thesis-fourbar") + f'\n[link5]\njoint = "R"\nm = 1\na = "{"x" * 10_000_000}"\n')
     line = refused(capsys, "info", path, field="link5.a", reason="cannot read")
     assert "characters)" in line
     path.write_text(preset_text("thesis-fourbar") + f'\n[link5]\na = "{"x" * 24_000_000}"\n')
@@ -456,7 +456,7 @@ def test_size_check_without_a_current_limit_reaches_the_cosimulation(capsys, tmp
 
 @pytest.mark.parametrize("text, field", [
     ('[mechanism]\ntype = []\n', "mechanism.type"),  # found by the long fuzz profile: a TypeError
-    ('[link2]\na = 1\njoint = "R"\n[simulate]\nmethod = ["exact"]\n', "simulate.method"),
+    ('[link2]\na = 1\nm = 1\njoint = "R"\n[simulate]\nmethod = ["exact"]\n', "simulate.method"),
 ])
 def test_a_word_given_as_a_list_is_refused_by_name(capsys, tmp_path, text, field):
     path = tmp_path / "s.toml"
@@ -465,7 +465,7 @@ def test_a_word_given_as_a_list_is_refused_by_name(capsys, tmp_path, text, field
 
 
 @pytest.mark.parametrize("step, reason", [
-    ("2.0", "1 s must be a multiple of the step 2 s"),
+    ("2.0", "1 s is shorter than the communication step 2 s"),
     ("1e-320", "communication steps per recorded row"),  # a denormal step: dt_out / step overflowed
 ])
 def test_a_record_interval_against_the_systems_step_is_refused_by_option(capsys, private_tmp, tmp_path, step,

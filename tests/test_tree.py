@@ -123,11 +123,11 @@ def test_the_command_line_refuses_a_bad_parent_with_exit_2(tmp_path, capsys):
     from grubler.cli import main
 
     scene = tmp_path / "bad.toml"
-    scene.write_text('[link2]\njoint = "R"\na = 0.3\n[link3]\njoint = "R"\na = 0.3\nparent = "link3"\n')
+    scene.write_text('[link2]\njoint = "R"\na = 0.3\nm = 1\n[link3]\njoint = "R"\na = 0.3\nm = 1\nparent = "link3"\n')
     assert main(["info", str(scene)]) == 2
     assert "link3.parent" in capsys.readouterr().err
     good = tmp_path / "good.toml"
-    good.write_text('[link2]\njoint = "R"\na = 0.3\n[link3]\njoint = "R"\na = 0.3\nparent = "ground"\n'
+    good.write_text('[link2]\njoint = "R"\na = 0.3\nm = 1\n[link3]\njoint = "R"\na = 0.3\nm = 1\nparent = "ground"\n'
                     '[initial]\nB2 = 0.2\n')
     assert main(["info", str(good)]) == 0
     assert "link3 on the ground" in capsys.readouterr().out

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from grubler.errors import SceneError
+from grubler.errors import SceneError, raise_all
 from grubler.limits import brief, did_you_mean, parse_angle_or_number
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
@@ -35,15 +35,12 @@ class _Params:
 
     def __init__(self, params: dict, prefix: str, allowed: dict[str, float | str | None]):
         self.prefix = prefix
-        unknown = set(params) - set(allowed) - {"type"}
-        if unknown:
-            key = sorted(unknown)[0]
-            raise SceneError(f"{prefix}.{key}",
-                             f"unknown parameter{did_you_mean(key, allowed)}; this builder takes {', '.join(allowed)}")
+        unknown = sorted(set(params) - set(allowed) - {"type"})
         self.values = {k: params.get(k, v) for k, v in allowed.items()}
-        for k, v in self.values.items():
-            if v is None:
-                raise SceneError(f"{prefix}.{k}", "is required")
+        # every unknown and every missing parameter at once
+        raise_all([SceneError(f"{prefix}.{key}", f"unknown parameter{did_you_mean(key, allowed)}; "
+                                                 f"this builder takes {', '.join(allowed)}") for key in unknown]
+                  + [SceneError(f"{prefix}.{k}", "is required") for k, v in self.values.items() if v is None])
 
     def length(self, key: str, allow_zero: bool = False) -> float:
         v = self.number(key)

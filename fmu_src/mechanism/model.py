@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from grubler import binding
-from grubler.errors import InputError, SceneError
+from grubler.errors import InputError, Problems, SceneError
 from grubler.limits import number
 
 G_STANDARD = 9.81
@@ -65,7 +65,8 @@ class Link:
     p, q : float
         Mass centre along and perpendicular to A_k, m.
     m : float
-        Mass, kg (> 0).
+        Mass, kg (> 0).  The default, 1 kg, serves code that builds links by
+        hand; a scene file must state every link's mass.
     I : float
         Centroidal moment of inertia, kg m^2 (>= 0).
     damping : float
@@ -237,6 +238,34 @@ def _finite(fieldname: str, value) -> float:
         raise SceneError(exc.field, exc.reason) from None
 
 
+def link_problems(link: Link, f: str, k: int) -> list[SceneError]:
+    """Every reason link ``k`` (thesis numbering, named ``f`` in messages) is refused; empty if none.
+
+    One problem per field, so that a scene with a negative length and a zero mass
+    hears of both (the scene reader and :class:`Mechanism` share this check).
+    """
+    found = Problems()
+    if link.joint not in (REVOLUTE, PRISMATIC):
+        found.add(SceneError(f"{f}.joint", f"must be 'R' or 'P', got {link.joint!r}"))
+    rules = (("a", lambda v: v >= 0, "length must be >= 0"), ("p", None, ""), ("q", None, ""),
+             ("m", lambda v: v > 0, "mass must be positive"),
+             ("I", lambda v: v >= 0, "moment of inertia must be >= 0"),
+             ("damping", lambda v: v >= 0, "damping must be >= 0"))
+    for name, ok, rule in rules:
+        with found.check():
+            v = _finite(f"{f}.{name}", getattr(link, name))
+            if ok is not None and not ok(v):
+                raise SceneError(f"{f}.{name}", f"{rule}, got {v}")
+    if link.parent is not None:
+        pk = link.parent
+        if isinstance(pk, np.integer):
+            pk = int(pk)
+        if isinstance(pk, bool) or not isinstance(pk, int) or not 1 <= pk < k:
+            found.add(SceneError(f"{f}.parent", f"must be the ground (1) or an earlier link 2..{k - 1} "
+                                                f"(the chain's predecessor), got {pk!r}"))
+    return list(found)
+
+
 def _parallel(angle1: float, angle2: float) -> bool:
     return abs(math.sin(angle1 - angle2)) < 1e-9
 
@@ -328,31 +357,11 @@ class Mechanism:
 
     # -- validation ---------------------------------------------------------
     def _validate_links(self):
+        found = Problems()  # every link's every problem in one refusal
         for i, link in enumerate(self.links):
-            f = f"link{i + 2}"
-            if link.joint not in (REVOLUTE, PRISMATIC):
-                raise SceneError(f"{f}.joint", f"must be 'R' or 'P', got {link.joint!r}")
-            a = _finite(f"{f}.a", link.a)
-            _finite(f"{f}.p", link.p)
-            _finite(f"{f}.q", link.q)
-            m = _finite(f"{f}.m", link.m)
-            inertia = _finite(f"{f}.I", link.I)
-            c = _finite(f"{f}.damping", link.damping)
-            if link.parent is not None:
-                pk = link.parent
-                if isinstance(pk, np.integer):
-                    pk = int(pk)
-                if isinstance(pk, bool) or not isinstance(pk, int) or not 1 <= pk <= i + 1:
-                    raise SceneError(f"{f}.parent", f"must be the ground (1) or an earlier link 2..{i + 1} "
-                                                    f"(the chain's predecessor), got {pk!r}")
-            if a < 0:
-                raise SceneError(f"{f}.a", f"length must be >= 0, got {a}")
-            if m <= 0:
-                raise SceneError(f"{f}.m", f"mass must be positive, got {m}")
-            if inertia < 0:
-                raise SceneError(f"{f}.I", f"moment of inertia must be >= 0, got {inertia}")
-            if c < 0:
-                raise SceneError(f"{f}.damping", f"damping must be >= 0, got {c}")
+            for problem in link_problems(link, f"link{i + 2}", i + 2):
+                found.add(problem)
+        found.raise_all()
 
     def _validate_closures(self):
         n = len(self.links)

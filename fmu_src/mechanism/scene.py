@@ -26,9 +26,9 @@ import numpy as np
 
 from grubler.mechanism.builders import BUILDERS
 from grubler.mechanism.dynamics import METHODS
-from grubler.errors import InputError, SceneError
+from grubler.errors import InputError, Problems, SceneError, raise_all
 from grubler.limits import brief, did_you_mean, number, parse_angle, parse_angle_or_number, parse_toml, read_text
-from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names
+from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names, link_problems
 
 def parse_coordinate(name: str, value, field: str) -> float:
     """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
@@ -98,11 +98,10 @@ _CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain
 
 
 def _check_keys(table: dict, allowed: set, prefix: str):
-    for key in table:
-        if key not in allowed:
-            where = f"{prefix}.{key}" if prefix else key
-            raise SceneError(where, f"unknown key{did_you_mean(key, allowed)}; expected one of "
-                                    f"{', '.join(sorted(allowed))}")
+    """Refuses every unknown key of a table at once."""
+    raise_all(SceneError(f"{prefix}.{key}" if prefix else key,
+                         f"unknown key{did_you_mean(key, allowed)}; expected one of {', '.join(sorted(allowed))}")
+              for key in table if key not in allowed)
 
 
 def _table(data: dict, key: str, prefix: str = "") -> dict:
@@ -127,6 +126,8 @@ def _joint(d: dict, field: str) -> str:
             raise SceneError(f"{field}.joint", f"{brief(d['joint'])} contradicts existence {ef}")
         return j
     j = d.get("joint")
+    if "joint" not in d:
+        raise SceneError(f"{field}.joint", "is required: 'R' (revolute) or 'P' (prismatic)")
     if j not in ("R", "P"):
         raise SceneError(f"{field}.joint", f"must be 'R' (revolute) or 'P' (prismatic), got {brief(j)}")
     return j
@@ -148,69 +149,103 @@ def _parent(value, field: str, k: int) -> int:
 
 
 def scene_from_dict(data: dict, name: str = "") -> Scene:
-    """Build a Scene from parsed TOML (see docs/scenes.md)."""
+    """Build a Scene from parsed TOML (see docs/scenes.md).
+
+    Raises
+    ------
+    SceneError
+        Naming the field at fault; :class:`~grubler.errors.SceneErrors` (one
+        line per problem) when a scene has several problems: every check that
+        does not need another's result runs before anything is refused.
+    """
     data = dict(data)
+    found = Problems()
     link_keys = sorted((k for k in data if re.fullmatch(r"link\d+", k)), key=lambda k: int(k[4:]))
-    _check_keys({k: v for k, v in data.items() if k not in link_keys}, _TOP, "")
+    with found.check():
+        _check_keys({k: v for k, v in data.items() if k not in link_keys}, _TOP, "")
     built: dict = {}
+    builder_failed = False
     if "mechanism" in data:
-        mech = _table(data, "mechanism")
-        kind = mech.get("type")
-        if not isinstance(kind, str) or kind not in BUILDERS:
-            raise SceneError("mechanism.type", f"unknown builder {brief(kind)}; choose one of {', '.join(BUILDERS)}")
-        built = BUILDERS[kind](mech, "mechanism")
+        with found.check():
+            builder_failed = True
+            mech = _table(data, "mechanism")
+            kind = mech.get("type")
+            if not isinstance(kind, str) or kind not in BUILDERS:
+                raise SceneError("mechanism.type",
+                                 f"unknown builder {brief(kind)}; choose one of {', '.join(BUILDERS)}")
+            built = BUILDERS[kind](mech, "mechanism")
+            builder_failed = False
     # links: the builder's, each overridable field by field
     links_data = [dict(d) for d in built.get("links", [])]
     for key in link_keys:
-        idx = int(key[4:]) - 2
-        if idx < 0:
-            raise SceneError(key, "moving links are numbered from 2 (link 1 is the ground)")
-        table = _table(data, key)
-        _check_keys(table, _LINK_KEYS, key)
-        while len(links_data) <= idx:
-            links_data.append({})
-        if "existence" in table:
-            links_data[idx].pop("joint", None)
-        links_data[idx].update(table)
-    if not links_data:
-        raise SceneError("link2", "a scene needs links ([link2], [link3], ...) or a [mechanism] builder")
-    links = []
+        with found.check():
+            idx = int(key[4:]) - 2
+            if idx < 0:
+                raise SceneError(key, "moving links are numbered from 2 (link 1 is the ground)")
+            table = _table(data, key)
+            while len(links_data) <= idx:
+                links_data.append({})
+            if "existence" in table:
+                links_data[idx].pop("joint", None)
+            links_data[idx].update(table)
+            _check_keys(table, _LINK_KEYS, key)
+    if not links_data and not builder_failed:
+        found.add(SceneError("link2", "a scene needs links ([link2], [link3], ...) or a [mechanism] builder"))
+    links: list[Link | None] = []
     for i, d in enumerate(links_data):
-        f = f"link{i + 2}"
-        if not d:
-            raise SceneError(f, f"missing: links must be numbered without gaps (link2 .. link{len(links_data) + 1})")
-        if "a" not in d:
-            raise SceneError(f"{f}.a", "is required (the link length, m)")
-        num = {k: parse_angle_or_number(d[k], f"{f}.{k}") for k in ("a", "p", "q", "m", "I", "damping") if k in d}
-        parent = _parent(d["parent"], f, i + 2) if "parent" in d else None
-        links.append(Link(joint=_joint(d, f), **num, parent=parent))
+        links.append(_link(d, f"link{i + 2}", i + 2, len(links_data), found))
     n = len(links)
     ground = dict(built.get("ground", {}))
-    ground.update(_table(data, "ground"))
-    _check_keys(ground, {"a1", "theta1"}, "ground")
+    with found.check():
+        ground.update(_table(data, "ground"))
+        _check_keys(ground, {"a1", "theta1"}, "ground")
     # closures: one [closure] table, or an array [[closure]] for several loops
-    closures = tuple(_closure(d, f, links) for d, f in _closure_tables(built, data))
+    closures = []
+    if n:
+        with found.check():
+            for d, f in _closure_tables(built, data):
+                with found.check():
+                    closures.append(_closure(d, f, [link.a if link is not None else 0.0 for link in links]))
     # initial coordinates and rates
-    names = coordinate_names(n)
+    names = coordinate_names(max(n, 1))
     initial = dict(built.get("initial", {}))
-    initial.update(_table(data, "initial"))
-    _check_keys(initial, set(names) | {f"{x}_d" for x in names}, "initial")
-    q0 = [parse_angle_or_number(initial.get(x, 0.0), f"initial.{x}") for x in names]
-    qd0 = [parse_angle_or_number(initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
-    drive = _table(data, "drive")
-    load = _table(data, "load")
-    _check_keys(drive, {"joint", "torque", "inertia"}, "drive")
-    _check_keys(load, {"joint", "torque"}, "load")
-    drive_joint = drive.get("joint", built.get("drive"))
+    with found.check():
+        initial.update(_table(data, "initial"))
+        _check_keys(initial, set(names) | {f"{x}_d" for x in names}, "initial")
+    q0 = [_collect(found, initial.get(x, 0.0), f"initial.{x}") for x in names]
+    qd0 = [_collect(found, initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
+    drive, load, sim = {}, {}, {}
+    with found.check():
+        drive = _table(data, "drive")
+        _check_keys(drive, {"joint", "torque", "inertia"}, "drive")
+    with found.check():
+        load = _table(data, "load")
+        _check_keys(load, {"joint", "torque"}, "load")
+    with found.check():
+        sim = _table(data, "simulate")
+        _check_keys(sim, {"t_end", "dt_out", "method"}, "simulate")
+    method = sim.get("method", "exact")
+    if not isinstance(method, str) or method not in METHODS:
+        found.add(SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {brief(method)}"))
+    t_end = _collect(found, sim.get("t_end", 10.0), "simulate.t_end", positive=True)
+    dt_out = _collect(found, sim.get("dt_out", 0.01), "simulate.dt_out", positive=True)
+    torque = _collect(found, drive.get("torque", 0.0), "drive.torque")
+    load_torque = _collect(found, load.get("torque", 0.0), "load.torque")
+    a1 = _collect(found, ground.get("a1", 0.0), "ground.a1")
+    theta1 = _collect(found, ground.get("theta1", 0.0), "ground.theta1")
+    gravity = _collect(found, data.get("gravity", 9.81), "gravity")
+    drive_inertia = _collect(found, drive.get("inertia", 0.0), "drive.inertia")
+    found.raise_all()
+    # what needs the whole chain (its loops, its joints' names) is checked on it
     mechanism = Mechanism(
         links=tuple(links),
         closures=tuple(closures),
         q_ref=tuple(q0),
-        a1=parse_angle_or_number(ground.get("a1", 0.0), "ground.a1"),
-        theta1=parse_angle_or_number(ground.get("theta1", 0.0), "ground.theta1"),
-        gravity=parse_angle_or_number(data.get("gravity", 9.81), "gravity"),
-        drive=drive_joint,
-        drive_inertia=parse_angle_or_number(drive.get("inertia", 0.0), "drive.inertia"),
+        a1=a1,
+        theta1=theta1,
+        gravity=gravity,
+        drive=drive.get("joint", built.get("drive")),
+        drive_inertia=drive_inertia,
         load=load.get("joint"),
         name=str(data.get("name", name)),
         kind=str(data.get("kind", "")),
@@ -218,25 +253,50 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     )
     for x, v in zip(names, qd0):
         if v != 0.0 and x not in mechanism.free_names:
-            raise SceneError(f"initial.{x}_d", f"{x} is a locked (fictitious) coordinate; it cannot move")
-    sim = _table(data, "simulate")
-    _check_keys(sim, {"t_end", "dt_out", "method"}, "simulate")
-    method = sim.get("method", "exact")
-    if not isinstance(method, str) or method not in METHODS:
-        raise SceneError("simulate.method", f"must be one of {', '.join(METHODS)}, got {brief(method)}")
-    t_end = parse_angle_or_number(sim.get("t_end", 10.0), "simulate.t_end")
-    dt_out = parse_angle_or_number(sim.get("dt_out", 0.01), "simulate.dt_out")
-    if t_end <= 0:
-        raise SceneError("simulate.t_end", f"must be positive, got {t_end}")
-    if dt_out <= 0:
-        raise SceneError("simulate.dt_out", f"must be positive, got {dt_out}")
-    torque = parse_angle_or_number(drive.get("torque", 0.0), "drive.torque")
-    load_torque = parse_angle_or_number(load.get("torque", 0.0), "load.torque")
+            found.add(SceneError(f"initial.{x}_d", f"{x} is a locked (fictitious) coordinate; it cannot move"))
     if torque != 0.0 and mechanism.drive is None:
-        raise SceneError("drive.joint", "a drive torque needs the joint it acts on")
+        found.add(SceneError("drive.joint", "a drive torque needs the joint it acts on"))
     if load_torque != 0.0 and mechanism.load is None:
-        raise SceneError("load.joint", "a load torque needs the joint it acts on")
+        found.add(SceneError("load.joint", "a load torque needs the joint it acts on"))
+    found.raise_all()
     return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
+
+
+def _collect(found: Problems, value, field: str, positive: bool = False) -> float:
+    """A number of the scene (0.0 when refused, the refusal recorded in ``found``)."""
+    with found.check():
+        v = parse_angle_or_number(value, field)
+        if positive and v <= 0:
+            raise SceneError(field, f"must be positive, got {v}")
+        return v
+    return 0.0
+
+
+def _link(d: dict, f: str, k: int, count: int, found: Problems) -> Link | None:
+    """Link ``k`` from its table (None when refused: every problem of it recorded in ``found``)."""
+    if not d:
+        found.add(SceneError(f, f"missing: links must be numbered without gaps (link2 .. link{count + 1})"))
+        return None
+    before = len(found)
+    for key, what in (("a", "the link length, m"), ("m", "the link's mass, kg")):
+        if key not in d:
+            found.add(SceneError(f"{f}.{key}", f"is required ({what})"))
+    num = {}
+    for key in _LINK_PARAMS:
+        if key in d:
+            with found.check():
+                num[key] = parse_angle_or_number(d[key], f"{f}.{key}")
+    joint = parent = None
+    with found.check():
+        joint = _joint(d, f)
+    with found.check():
+        parent = _parent(d["parent"], f, k) if "parent" in d else None
+    # the values read are judged even when another field of the link is refused (a
+    # stand-in joint for a refused one: its problem is told already)
+    link = Link(joint=joint or "R", **{"a": 0.0, **num}, parent=parent)
+    for problem in link_problems(link, f, k):
+        found.add(problem)
+    return link if len(found) == before else None
 
 
 def _closure_tables(built: dict, data: dict) -> list[tuple[dict, str]]:
@@ -260,9 +320,9 @@ def _closure_tables(built: dict, data: dict) -> list[tuple[dict, str]]:
             if d.get("type", "none") != "none" or not single]
 
 
-def _closure(d: dict, f: str, links: list) -> Closure:
-    """One closure from its table; ``f`` names it in errors."""
-    n = len(links)
+def _closure(d: dict, f: str, lengths: list[float]) -> Closure:
+    """One closure from its table (``lengths``: the links' a); ``f`` names it in errors."""
+    n = len(lengths)
     _check_keys(d, _CLOSURE_KEYS, f)
     ctype = d.get("type", "none")
     if ctype not in ("revolute", "prismatic"):
@@ -279,7 +339,7 @@ def _closure(d: dict, f: str, links: list) -> Closure:
     return Closure(
         kind=ctype,
         link=cl_link,
-        point=_pair(d.get("at", [links[cl_link - 2].a, 0.0]), f"{f}.at"),
+        point=_pair(d.get("at", [lengths[cl_link - 2], 0.0]), f"{f}.at"),
         to_link=to_link,
         to_point=_pair(d["point"], f"{f}.point"),
         angle=parse_angle_or_number(d.get("angle", 0.0), f"{f}.angle"),

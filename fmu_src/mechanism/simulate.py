@@ -145,6 +145,55 @@ def closure_forces(model: Mechanism, method: str, z, zd, inputs: Inputs) -> np.n
 
 TorqueLike = float | Callable[[float], float]
 
+CLOSURE_WARNING = 0.05
+"""A loop open by more than this fraction of the mechanism's size (:func:`mechanism_size`)
+is warned of.  The penalty closure is compliant by design: over 1 s at their own
+efforts and the default gain it opens the loops of the presets that start closed by
+0.2 % (quick-return) to 9 % (the Oldham coupling: 1.8 mm on its 20 mm offset); a
+large effort pulls the joints apart (a four-bar under 1e4 N m: 170 %), and the
+motion then no longer describes the linkage."""
+
+
+def mechanism_size(model: Mechanism) -> float:
+    """The mechanism's size, m: its longest link, ground vector or closure offset (1 m if all are 0)."""
+    sizes = [abs(link.a) for link in model.links] + [abs(model.a1)]
+    for c in model.closures:
+        sizes += [math.hypot(*c.point), math.hypot(*c.to_point)]
+    return max(sizes) or 1.0
+
+
+def closure_warnings(model: Mechanism, t: np.ndarray, closure_error: np.ndarray) -> list[str]:
+    """Warning lines for a loop open beyond :data:`CLOSURE_WARNING` of the mechanism's size: at the start, and after.
+
+    The penalty method starts from the scene's coordinates as they are (the exact
+    one assembles them first), so a start that is only a sketch is open at t = 0.
+    """
+    if not model.closures or not len(t):
+        return []
+    size = mechanism_size(model)
+    unit = "m" if all(c.kind == "revolute" for c in model.closures) else "m or rad"
+    out = []
+    for where, errors, times in (("start", closure_error[:1], t[:1]), ("run", closure_error[1:], t[1:])):
+        if not len(errors):
+            continue
+        k = int(np.argmax(errors))
+        worst = float(errors[k])
+        if worst <= CLOSURE_WARNING * size:  # (a NaN warns too)
+            continue
+        share = f"{100 * worst / size:.3g} % of the mechanism's size {size:.3g} m (tolerance {100 * CLOSURE_WARNING:g} %)"
+        if where == "start":
+            out.append(f"closure: the start is open by {worst:.3g} {unit}, {share}: the penalty method starts from "
+                       "the scene's coordinates as they are, so what follows at first is the loop snapping shut")
+        else:
+            out.append(f"closure: the loop opened by up to {worst:.3g} {unit} at t = {times[k]:.4g} s, {share}: the "
+                       "motion does not describe the linkage; use the exact method, or a stiffer closure.gain")
+    return out
+
+
+def default_integrator(method: str) -> str:
+    """The integrator a closure method runs with unless told: the penalty springs make the equations stiff."""
+    return "radau" if method == PENALTY else "dop853"
+
 
 def _check_penalty_inertia(model: Mechanism, z: np.ndarray) -> None:
     """The penalty springs act through inertia: every real coordinate needs some."""
@@ -200,8 +249,7 @@ class Simulator:
         if self.method not in METHODS:
             raise SceneError("method", f"must be one of {', '.join(METHODS)}, got {self.method!r}")
         if self.integrator is None:
-            # the penalty springs make the equations stiff: an implicit method
-            self.integrator = "radau" if self.method == PENALTY else "dop853"
+            self.integrator = default_integrator(self.method)
         m = self.model
         z = m.z_from_q(m.q_ref) if self.z0 is None else np.asarray(self.z0, float)
         zd = np.zeros(m.n_free) if self.zd0 is None else np.asarray(self.zd0, float)
@@ -307,6 +355,11 @@ class Result:
     and rates are read from the stored states; the other columns of a group
     ('state', 'dynamics', 'energy', 'reactions') are computed on first use, in
     one pass of the kernel over every output time.
+
+    ``warnings`` lists, one line each (``field: reason``), what makes the run
+    less than it was asked to be: a loop left open beyond
+    :data:`CLOSURE_WARNING` of the mechanism's size, a step that was not the
+    one given.  ``grubler simulate`` prints them as ``warning:`` lines.
     """
 
     model: Mechanism
@@ -317,6 +370,7 @@ class Result:
     inputs_at: Callable[[float], Inputs]
     stats: dict
     constant_inputs: Inputs | None = None  # the efforts when they do not change with time
+    warnings: list[str] = field(default_factory=list)  # why the result may not be what was asked, one line each
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -410,7 +464,7 @@ def simulate(
     rtol: float = DEFAULT_RTOL,
     atol: float = DEFAULT_ATOL,
     integrator: str | None = None,
-    step: float = 1e-3,
+    step: float | None = None,
     torque: TorqueLike | None = None,
     load_torque: float | None = None,
 ) -> Result:
@@ -428,8 +482,11 @@ def simulate(
         Integration tolerances.
     integrator : {'dop853', 'rk45', 'rk4', 'radau', 'bdf'}, optional
         Default: 'dop853' for the exact closure, 'radau' for the stiff penalty one.
-    step : float
-        Fixed step for 'rk4', s.
+    step : float, optional
+        Fixed step for 'rk4', s (default 1 ms).  RK4 ends a step at every output
+        time, so a step longer than ``dt_out`` is cut to it (a warning says so);
+        the other integrators choose their own steps (given one, a warning says
+        it was not used).
     torque : float or callable, optional
         Drive effort (N m, or N on a slide), constant or a function of time.
     load_torque : float, optional
@@ -437,6 +494,8 @@ def simulate(
     Returns
     -------
     Result
+        Its ``warnings`` say what makes it less than was asked (a loop the
+        penalty method left open, a step not taken as given).
     """
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -454,8 +513,9 @@ def simulate(
     load = scene.load_torque if load_torque is None else float(load_torque)
     if scene.mechanism.drive is None and (callable(torque) or torque != 0.0):
         raise SceneError("torque", f"{scene.name or 'this scene'} has no drive joint to apply it to")
-    sim = Simulator(scene.mechanism, method=method, rtol=rtol, atol=atol, integrator=integrator, step=step,
-                    zd0=scene.initial_rates,
+    warnings = _step_warnings(integrator, method, step, dt_out)
+    sim = Simulator(scene.mechanism, method=method, rtol=rtol, atol=atol, integrator=integrator,
+                    step=1e-3 if step is None else step, zd0=scene.initial_rates,
                     inputs=Inputs(0.0 if callable(torque) else float(torque), load),
                     drive_function=torque if callable(torque) else None)
     n_out = int(math.floor(t_end / dt_out + 1e-9)) + 1
@@ -471,9 +531,26 @@ def simulate(
             field, _, reason = why.partition(": ")
             raise SceneError(field, reason) from None
         raise
-    return Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats,
-                  constant_inputs=None if callable(torque) else sim.inputs)
+    res = Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats,
+                 constant_inputs=None if callable(torque) else sim.inputs, warnings=warnings)
+    if scene.mechanism.closures:
+        res.warnings += closure_warnings(scene.mechanism, times, res["closure_error"])
+    return res
 
 
-__all__ = ["Simulator", "Result", "simulate", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
+def _step_warnings(integrator: str | None, method: str, step: float | None, dt_out: float) -> list[str]:
+    """What becomes of a fixed step given to :func:`simulate`: cut to the output interval, or unused."""
+    if step is None:
+        return []
+    used = integrator or default_integrator(method)
+    if used != "rk4":
+        return [f"step: {step:g} s is rk4's fixed step; {used} chooses its own steps to the tolerances, "
+                "so it was not used"]
+    if step > dt_out * (1 + 1e-9):
+        return [f"step: {step:g} s is longer than the output interval {dt_out:g} s; rk4 ends a step at every "
+                f"output time, so it stepped {dt_out:g} s (an output interval of {step:g} s or more keeps the step)"]
+    return []
+
+
+__all__ = ["Simulator", "Result", "simulate", "CLOSURE_WARNING", "mechanism_size", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
            "POSITION_TOL", "PENALTY", "EXACT"]
