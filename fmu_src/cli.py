@@ -522,7 +522,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_cosim)
     e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
-    e.add_argument("-o", "--out", help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")
@@ -537,8 +537,8 @@ def build_parser() -> argparse.ArgumentParser:
     lin.add_argument("--input", help="comma-separated inputs: drive, load, voltage (default: drive, or voltage)")
     lin.add_argument("--output", help="comma-separated outputs, e.g. theta2,theta4_d,Fx,current "
                                       "(default: the drive coordinate)")
-    lin.add_argument("--json", help="write A, B, C, D, the names and the operating point to this JSON file")
-    lin.add_argument("--bode", help="write a Bode plot to this PNG file")
+    lin.add_argument("--json", type=_output("--json"), help="write A, B, C, D, the names and the operating point to this JSON file")
+    lin.add_argument("--bode", type=_output("--bode", "figure"), help="write a Bode plot to this PNG file")
     lin.set_defaults(func=cmd_linearize)
     return p
 

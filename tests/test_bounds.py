@@ -7,6 +7,9 @@ Each test fails without the change it holds.
 import json
 from pathlib import Path
 
+import pytest
+
+from grubler.cli import run
 from grubler.sweep import _square, grid, run_sweep
 
 ROOT = Path(__file__).parent.parent
@@ -28,3 +31,22 @@ def test_a_journal_torn_mid_line_is_resumed_on_a_fresh_line(tmp_path):
     assert sorted(r["x"] for r in rows) == [1.0, 2.0, 3.0, 4.0]
     # a third run finds every point in the journal
     assert run_sweep(_square, points, out=out, workers=1, progress=False).resumed == 4
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["linearize", "thesis-fourbar", "--json"], "--json"),
+    (["linearize", "thesis-fourbar", "--bode"], "--bode"),
+    (["export", "thesis-fourbar", "--out"], "--out"),
+])
+def test_every_output_option_is_checked_before_the_work_and_named(argv, option, tmp_path, capsys, monkeypatch):
+    import importlib
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work ran before its output path was checked")
+
+    # (the package exports a function of the module's name: reach the modules themselves)
+    monkeypatch.setattr(importlib.import_module("grubler.linearize"), "linearize", no_work)
+    monkeypatch.setattr(importlib.import_module("grubler.fmi.build"), "export", no_work)
+    assert run(argv + [str(tmp_path / "missing" / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert option in err and "does not exist" in err and len(err.splitlines()) == 1
