@@ -5,10 +5,13 @@ Each test fails without the change it holds.
 """
 
 import json
+import sys
+import zipfile
 from pathlib import Path
 
 import pytest
 
+from grubler import ssp
 from grubler.cli import run
 from grubler.sweep import _square, grid, run_sweep
 
@@ -50,3 +53,62 @@ def test_every_output_option_is_checked_before_the_work_and_named(argv, option, 
     assert run(argv + [str(tmp_path / "missing" / "x.png")]) == 2
     err = capsys.readouterr().err
     assert option in err and "does not exist" in err and len(err.splitlines()) == 1
+
+
+def _ssd(source: str) -> str:
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription '
+            'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+            'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="x">'
+            f'<ssd:System name="x"><ssd:Elements><ssd:Component name="a" source="{source}"/></ssd:Elements>'
+            '</ssd:System></ssd:SystemStructureDescription>')
+
+
+@pytest.mark.parametrize("source, reason", [
+    ("../A.fmu", "reaches outside the archive"),
+    ("resources/../../A.fmu", "reaches outside the archive"),
+    ("/opt/A.fmu", "is outside the archive"),
+    ("C:/fmus/A.fmu", "is outside the archive"),
+    ("file:///opt/A.fmu", "is outside the archive"),
+])
+def test_an_ssp_names_no_fmu_outside_itself(source, reason, tmp_path, capsys):
+    arch = tmp_path / "s.ssp"
+    with zipfile.ZipFile(arch, "w") as zf:
+        zf.writestr("SystemStructure.ssd", _ssd(source))
+        zf.writestr("resources/A.fmu", "an FMU's bytes")
+    with pytest.raises(ssp.SystemDescriptionError, match=f"component a: source .* {reason}"):
+        ssp.read(arch)
+    assert run(["cosim", str(arch)]) == 2
+    err = capsys.readouterr().err
+    assert reason in err and len(err.splitlines()) == 1
+    # inside the archive is where its FMUs are; a .ssd on disk names FMUs beside it or elsewhere
+    with zipfile.ZipFile(arch, "w") as zf:
+        zf.writestr("SystemStructure.ssd", _ssd("resources/../resources/A.fmu"))
+    assert ssp.read(arch).components["a"].source == "resources/../resources/A.fmu"
+    (tmp_path / "s.ssd").write_text(_ssd(source))
+    assert ssp.read(tmp_path / "s.ssd").components["a"].source == source
+
+
+@pytest.fixture(scope="module")
+def mechanism_fmu(tmp_path_factory):
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    return path
+
+
+def test_an_fmu_whose_binary_cannot_be_loaded_is_one_line_naming_the_component(mechanism_fmu, tmp_path, capsys):
+    bad = tmp_path / "Bad.fmu"
+    with zipfile.ZipFile(mechanism_fmu) as src, zipfile.ZipFile(bad, "w") as out:
+        for member in src.infolist():
+            data = src.read(member)
+            if member.filename.startswith("binaries/"):  # a 32-bit ELF header on a 64-bit host
+                data = b"\x7fELF\x01\x01\x01" + bytes(9) + data[16:]
+            out.writestr(member, data)
+    system = ssp.System("bad")
+    system.add("mech", bad)
+    arch = system.write(tmp_path / "bad.ssp")
+    assert run(["cosim", str(arch), "--t-end", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [
+        "grubler: error: mech: the binary of Bad.fmu cannot be loaded: wrong ELF class: ELFCLASS32"]
