@@ -14,6 +14,7 @@ import pytest
 from grubler import ssp
 from grubler.cli import run
 from grubler.sweep import _square, grid, run_sweep
+from test_reliability import ssd
 
 ROOT = Path(__file__).parent.parent
 
@@ -56,11 +57,7 @@ def test_every_output_option_is_checked_before_the_work_and_named(argv, option, 
 
 
 def _ssd(source: str) -> str:
-    return ('<?xml version="1.0" encoding="UTF-8"?>\n<ssd:SystemStructureDescription '
-            'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
-            'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="x">'
-            f'<ssd:System name="x"><ssd:Elements><ssd:Component name="a" source="{source}"/></ssd:Elements>'
-            '</ssd:System></ssd:SystemStructureDescription>')
+    return ssd().replace('source="A.fmu"', f'source="{source}"')
 
 
 @pytest.mark.parametrize("source, reason", [
