@@ -194,8 +194,16 @@ def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
         pin = chain_kinematics(model, np.asarray(z0, float), np.zeros(model.n_links)).origin[1]
         diag = float(np.linalg.norm(np.asarray(model.closures[0].to_point) - pin))
         lo, hi = abs(coupler - rocker), coupler + rocker
-        return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
-                f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle inequality)")
+        if not lo <= diag <= hi:
+            return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
+                    f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle "
+                    "inequality)")
+        # the triangle closes: blaming it would contradict the numbers; at its edge the two
+        # solutions meet, where the solver's Jacobian is singular
+        if min(diag - lo, hi - diag) <= 1e-3 * hi:
+            return (f"at this crank angle coupler and rocker must lie nearly in line (the crank pin is {diag:.6g} m "
+                    f"from the rocker pivot, their span {lo:.6g} to {hi:.6g} m): two assembly branches meet "
+                    "there (a change point or dead centre), and the closure cannot be solved from this guess")
     return ""
 
 

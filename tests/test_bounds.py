@@ -5,14 +5,18 @@ Each test fails without the change it holds.
 """
 
 import json
+import math
 import sys
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from grubler import ssp
 from grubler.cli import run
+from grubler.scene import load_scene
 from grubler.sweep import _square, grid, run_sweep
 from test_reliability import ssd
 
@@ -109,3 +113,38 @@ def test_an_fmu_whose_binary_cannot_be_loaded_is_one_line_naming_the_component(m
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [
         "grubler: error: mech: the binary of Bad.fmu cannot be loaded: wrong ELF class: ELFCLASS32"]
+
+
+def test_sizing_through_a_change_point_is_refused_by_its_true_reason(capsys):
+    # the crank passes theta2 = pi, where coupler and rocker lie in line and two branches meet
+    assert run(["size", "fourbar-change-point", "--speed", "1e3"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "trajectory at sample 180 (drive 3.14159)" in line and "change point" in line
+    assert "only span" not in line  # the pin at 1.39999 m is inside the 0.4 to 1.4 m span
+
+
+def test_the_triangle_explanation_runs_only_when_the_triangle_fails():
+    from grubler.analysis import explain_unclosable
+
+    m = load_scene("fourbar-change-point").mechanism
+    z = m.z_from_q(m.q_ref)
+    d = m.free_index(m.drive)
+    z[d] = math.pi + math.pi / 360  # the pin 1.39999 m from the rocker pivot: the triangle closes
+    why = explain_unclosable(m, z, [d])
+    assert "only span" not in why and "nearly in line" in why
+    z[d] = math.pi / 2
+    assert explain_unclosable(m, z, [d]) == ""  # far from the span's edges: no explanation to give
+    longer = m.replace(closures=(replace(m.closures[0], to_point=(1.2, 0.0)),))
+    z[d] = math.pi  # the pin 1.6 m from the pivot: coupler and rocker reach 1.4 m at most
+    assert "only span 0.4 to 1.4 m" in explain_unclosable(longer, z, [d])
+
+
+def test_a_drive_trajectory_straddling_a_change_point_stays_on_its_branch():
+    from grubler.inverse import drive_demand
+
+    m = load_scene("fourbar-change-point").mechanism
+    # samples that pass theta2 = pi between two of them, not on it
+    pos = np.linspace(math.pi / 2, 3 * math.pi / 2, 301)[:300] + 0.0013
+    demand = drive_demand(m, pos, np.full_like(pos, 6.0), np.zeros_like(pos))
+    # the dependent angles go on smoothly through it (a jump to the other branch is a kink)
+    assert np.max(np.abs(np.diff(demand.z, 2, axis=0))) < 1e-3
