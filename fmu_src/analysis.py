@@ -220,15 +220,20 @@ def explain_singular_start(model: "Mechanism", z, zd, method: str) -> str:
 
     from .dynamics import Inputs, forward_dynamics
 
+    z, zd = np.asarray(z, float), np.asarray(zd, float)
+    try:  # the premise: the equations of motion are singular at this state
+        forward_dynamics(model, z, zd, Inputs(), method)
+        return ""
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+        pass
     scale = max([1.0] + [link.m * link.a**2 for link in model.links])
     for k, link in enumerate(model.links):
-        if link.joint != "R" or link.I > 0:
-            continue
+        if link.joint != "R" or link.I > 0 or (link.m > 0 and (link.p, link.q) != (0.0, 0.0)):
+            continue  # its rotation carries inertia: I, or its mass off the joint (m (p^2 + q^2))
         links = list(model.links)
         links[k] = replace(link, I=1e-6 * scale)
         try:
-            forward_dynamics(model.replace(links=tuple(links)), np.asarray(z, float), np.asarray(zd, float),
-                             Inputs(), method)
+            forward_dynamics(model.replace(links=tuple(links)), z, zd, Inputs(), method)
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             continue
         return (f"link{k + 2}.I: the link's rotation carries no inertia (I = 0 and its mass centre on its "

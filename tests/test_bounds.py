@@ -148,3 +148,16 @@ def test_a_drive_trajectory_straddling_a_change_point_stays_on_its_branch():
     demand = drive_demand(m, pos, np.full_like(pos, 6.0), np.zeros_like(pos))
     # the dependent angles go on smoothly through it (a jump to the other branch is a kink)
     assert np.max(np.abs(np.diff(demand.z, 2, axis=0))) < 1e-3
+
+
+def test_a_failure_after_the_start_blames_no_link_for_missing_inertia():
+    from grubler import IntegrationError, simulate
+    from grubler.analysis import explain_singular_start
+
+    scene = load_scene("fourbar-parallelogram")
+    m = scene.mechanism
+    # link2 has I = 0 but its 1 kg 1 m off its joint: its rotation carries 1 kg m2
+    assert m.links[0].I == 0 and m.links[0].p == 1.0
+    assert explain_singular_start(m, m.z_from_q(m.q_ref), np.zeros(m.n_free), scene.method) == ""
+    with pytest.raises(IntegrationError, match="step size fell below .* at t = 0.0"):
+        simulate(scene, t_end=0.1, torque=1e9)
