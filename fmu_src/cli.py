@@ -566,13 +566,15 @@ def run(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     _LAST["command"], _LAST["check"] = args.command, getattr(args, "check", None)
     try:
-        return args.func(args)
+        code = args.func(args)
     except KeyboardInterrupt:
-        _LAST["interrupted"] = True
-        print("grubler: interrupted", file=sys.stderr)
-        return 130
-    except (GrublerError, OSError, MemoryError) as exc:
-        if args.debug:
+        return _interrupted()
+    except BaseException as exc:
+        if _LAST.get("signal"):
+            # Ctrl-C inside an FMU's Python (a pythonfmu do_step) reaches us as that FMU's error
+            # status, or as whatever its error became: the user's interrupt is the cause
+            return _interrupted()
+        if args.debug or not isinstance(exc, (GrublerError, OSError, MemoryError)):
             raise
         if isinstance(exc, MemoryError):
             exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
@@ -580,6 +582,19 @@ def run(argv: Sequence[str] | None = None) -> int:
         return 2
     finally:
         limits.remove_temp_dirs()
+    return _interrupted() if _LAST.get("signal") else code
+
+
+def _interrupted() -> int:
+    _LAST["interrupted"] = True
+    print("grubler: interrupted", file=sys.stderr)
+    return 130
+
+
+def _on_signal(signum, frame):
+    # noted before the KeyboardInterrupt, which an FMU's Python may swallow into an error status
+    _LAST["signal"] = signum
+    raise KeyboardInterrupt
 
 
 def _exit_now(code: int) -> None:
@@ -612,8 +627,9 @@ def _watch_interrupts(grace: float = 0.5) -> None:
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
     signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+    signal.signal(signal.SIGINT, _on_signal)
     if hasattr(signal, "SIGTERM"):
-        signal.signal(signal.SIGTERM, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, _on_signal)
 
     def watch():
         import time

@@ -6,7 +6,10 @@ Each test fails without the change it holds.
 
 import json
 import math
+import signal
+import subprocess
 import sys
+import time
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -161,3 +164,25 @@ def test_a_failure_after_the_start_blames_no_link_for_missing_inertia():
     assert explain_singular_start(m, m.z_from_q(m.q_ref), np.zeros(m.n_free), scene.method) == ""
     with pytest.raises(IntegrationError, match="step size fell below .* at t = 0.0"):
         simulate(scene, t_end=0.1, torque=1e9)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
+def test_ctrl_c_inside_an_fmus_python_ends_as_interrupted(tmp_path):
+    # Ctrl-C while a pythonfmu FMU runs its Python raises KeyboardInterrupt inside its do_step,
+    # which the FMU turns into an error status: it must still end as an interrupt, at any moment
+    from grubler.controllers.fmu import build_controller_fmu
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from busy_law import Busy
+
+    system = ssp.System("busy")
+    system.add("busy", build_controller_fmu(Busy, tmp_path))
+    arch = system.write(tmp_path / "busy.ssp")
+    for k in range(10):
+        proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "cosim", str(arch), "--t-end", "1e4",
+                                 "--step", "1e-3", "--dt-out", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+        time.sleep(2.0 + 0.137 * k)  # while it steps, at ten different phases of a step
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        assert (proc.returncode, err.strip().splitlines()) == (130, ["grubler: interrupted"]), (k, err[-2000:])
