@@ -28,8 +28,8 @@ from . import binding
 from .assembly import POSITION_TOL, assemble
 from .analysis import explain_singular_start
 from .dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
-from .errors import IntegrationError, SceneError
-from .integrators import Integrator, StateEquation
+from .errors import IntegrationError, LimitError, SceneError
+from .integrators import Integrator, StateEquation, StepBudgetError
 from .limits import check_size
 from .model import Mechanism, coordinate_names
 from .scene import Scene, load_scene
@@ -462,6 +462,13 @@ def simulate(
         times = np.append(times, t_end)
     try:
         zs, zds = sim.advance_through(times)
+    except StepBudgetError as exc:
+        # refused at its pace, long before the step budget itself is spent: name what sets the pace
+        efforts = (f"the drive torque {torque:g} N m (--torque) and " if not callable(torque) and torque else "") + \
+                  (f"the load torque {load:g} N m and " if load else "")
+        raise LimitError("t_end (--t-end)", f"the run cannot finish: {exc.reason}; {efforts}the tolerance rtol "
+                                            f"{rtol:g} (--rtol) set that pace: shorten the run, lower the efforts "
+                                            "or loosen the tolerance") from None
     except IntegrationError:
         # a scene whose start cannot be solved: name the field at fault when one is
         why = explain_singular_start(scene.mechanism, sim.z, sim.zd, method) if sim.t == 0.0 else ""

@@ -186,3 +186,36 @@ def test_ctrl_c_inside_an_fmus_python_ends_as_interrupted(tmp_path):
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         assert (proc.returncode, err.strip().splitlines()) == (130, ["grubler: interrupted"]), (k, err[-2000:])
+
+
+@pytest.mark.parametrize("method", ["exact", "penalty"])
+def test_a_run_that_cannot_finish_is_refused_at_its_pace_naming_what_sets_it(method, capsys):
+    # the crank spun ever faster: some 1e7 steps before t = 400 s, 90 s of work before the
+    # step budget itself ran out; its pace gives it away within the first few seconds of steps
+    from grubler import simulate
+    from grubler.errors import LimitError
+
+    with pytest.raises(LimitError) as info:
+        simulate("thesis-fourbar", t_end=400.0, dt_out=1.0, torque=-1589.0, method=method)
+    assert info.value.field == "t_end (--t-end)"
+    assert "cannot finish" in info.value.reason and "more than the 10000000 allowed" in info.value.reason
+    assert "drive torque -1589 N m (--torque)" in info.value.reason
+    assert run(["simulate", "thesis-fourbar", "--t-end", "400", "--torque", "-1589", "--method", method]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("grubler: error: t_end (--t-end): the run cannot finish: ")
+
+
+def test_a_watched_run_takes_the_steps_an_unwatched_one_takes(monkeypatch):
+    # past PACE_STEPS a run is watched through the kernel's drive callback: the same steps, bit for bit
+    from grubler import integrators
+    from grubler.simulate import simulate
+
+    def run_it():
+        res = simulate("thesis-fourbar", t_end=400.0, dt_out=10.0, torque=lambda t: 0.5 * math.sin(t))
+        return res.z, res.stats["steps"]
+
+    z, steps = run_it()
+    assert steps > 2 * 2000
+    monkeypatch.setattr(integrators, "PACE_STEPS", 2000)  # watched from its 2000th step on
+    z_watched, steps_watched = run_it()
+    assert steps_watched == steps and np.array_equal(z_watched, z)
