@@ -53,7 +53,7 @@ MAX_STEPS = 10_000_000  # steps one advance may take (the kernel's guard)
 # The average pace only underestimates a run that speeds up (a constant torque
 # spinning a mechanism ever faster); a run whose steps crowd at its start can be
 # refused that the budget would have let finish.
-PACE_STEPS = 20_000
+PACE_STEPS = 50_000
 PACE_CHECK = 4096  # evaluations between two looks at the pace
 
 
@@ -257,10 +257,7 @@ class Integrator:
             steps = pace.evals / pace.evals_per_step
             projected = steps * (pace.target - pace.t0) / (pace.reached - pace.t0)
             if steps >= pace.min_steps and projected > pace.budget:
-                self._callback_error = StepBudgetError(
-                    f"some {steps:.2g} steps reached t = {pace.reached:.6g} s: at that pace t = {pace.target:.6g} s "
-                    f"takes some {projected:.3g} steps, more than the {pace.budget} allowed",
-                    steps, pace.reached, pace.target, projected, pace.budget)
+                self._callback_error = _over_budget(steps, pace.t0, pace.reached, pace.target, pace.budget)
                 return math.nan
         return self.ode.drive if self.ode.drive_function is None else self._drive_callback(ctx, t)
 
@@ -320,10 +317,7 @@ class Integrator:
             if steps >= PACE_STEPS / 10 and steps % 64 == 0:  # the pace watch, on exact step counts
                 projected = steps * (times[-1] - t_start) / max(solver.t - t_start, 1e-300)
                 if projected > max_steps:
-                    raise StepBudgetError(
-                        f"{steps} steps reached t = {solver.t:.6g} s: at that pace t = {times[-1]:.6g} s takes some "
-                        f"{projected:.3g} steps, more than the {max_steps} allowed",
-                        steps, solver.t, float(times[-1]), projected, max_steps)
+                    raise _over_budget(steps, t_start, solver.t, float(times[-1]), max_steps)
             inside = done
             while inside < len(times) - 1 and (times[inside] < solver.t or solver.status == "finished"):
                 inside += 1
@@ -449,6 +443,12 @@ class Integrator:
         self.passages += [float(self._passage_log[k % PASSAGE_LOG])
                           for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out
+
+
+def _over_budget(steps: float, t0: float, reached: float, target: float, budget: int) -> StepBudgetError:
+    pace = steps / (reached - t0)
+    return StepBudgetError(f"some {steps:.2g} steps reached t = {reached:.6g} s, {pace:.2g} steps per simulated "
+                           f"second: at that pace t = {target:.6g} s needs more than the {budget} steps allowed", steps, reached, target, pace * (target - t0), budget)
 
 
 def _failure(status: int, where: float, limit: float) -> str:

@@ -198,7 +198,7 @@ def test_a_run_that_cannot_finish_is_refused_at_its_pace_naming_what_sets_it(met
     with pytest.raises(LimitError) as info:
         simulate("thesis-fourbar", t_end=400.0, dt_out=1.0, torque=-1589.0, method=method)
     assert info.value.field == "t_end (--t-end)"
-    assert "cannot finish" in info.value.reason and "more than the 10000000 allowed" in info.value.reason
+    assert "cannot finish" in info.value.reason and "more than the 10000000 steps allowed" in info.value.reason
     assert "drive torque -1589 N m (--torque)" in info.value.reason
     assert run(["simulate", "thesis-fourbar", "--t-end", "400", "--torque", "-1589", "--method", method]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
