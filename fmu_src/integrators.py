@@ -80,7 +80,7 @@ class _Pace:
     t0: float
     target: float
     budget: int
-    evals_per_step: float  # at most: each accepted step costs at least this many evaluations
+    evals_per_step: float  # twice what an accepted step's stages cost: the steps counted are an undercount
     min_steps: float  # the pace is judged only over at least this many steps
     evals: int = 0
     reached: float = -math.inf
@@ -233,8 +233,10 @@ class Integrator:
                                                            self._t1, self._out1))
             self._clock, self._why = binding.Clock(), binding.Failure()
             self._callback_error: BaseException | None = None
-            if ode.drive_function is not None:
-                self._settings.drive_fn = binding.DRIVE_FN(self._drive_callback)
+            # the drive callback, held here (a watched run swaps another in, then this back)
+            self._drive_fn = (binding.DRIVE_FN(self._drive_callback) if ode.drive_function is not None
+                              else binding.DRIVE_FN())
+            self._settings.drive_fn = self._drive_fn
 
     def _drive_callback(self, _ctx, t: float) -> float:
         # an exception cannot cross the C stack: keep it, hand the kernel a nan
@@ -401,12 +403,12 @@ class Integrator:
         # (so the steps counted from the evaluations are never more than were taken)
         self._pace = _Pace(self.t, float(times[-1]), int(max_steps), float(2 * (tab.stages + tab.dense_stages)),
                            min_steps=PACE_STEPS / 10)
-        st, user = self._settings, self._settings.drive_fn
-        st.drive_fn = binding.DRIVE_FN(self._paced_callback)
+        paced = binding.DRIVE_FN(self._paced_callback)  # (alive as long as this call)
+        self._settings.drive_fn = paced
         try:
             return self._run(times, max_steps)
         finally:
-            st.drive_fn = user
+            self._settings.drive_fn = self._drive_fn
 
     def _run(self, times: np.ndarray, max_steps: int) -> np.ndarray:
         ode, st, clock, n = self.ode, self._settings, self._clock, self.y.size
@@ -429,7 +431,7 @@ class Integrator:
             raise self._callback_error
         if status != binding.OK:
             exc = IntegrationError(_failure(status, self._why.where, self._why.limit))
-            exc.status = status
+            exc.status = status  # for _advance: a probe that ran out of steps is run again, watched
             raise exc
         self.t, self.y = clock.t, self._ybuf.copy()
         self.f = self._fbuf.copy() if clock.have_f else None
@@ -448,7 +450,8 @@ class Integrator:
 def _over_budget(steps: float, t0: float, reached: float, target: float, budget: int) -> StepBudgetError:
     pace = steps / (reached - t0)
     return StepBudgetError(f"some {steps:.2g} steps reached t = {reached:.6g} s, {pace:.2g} steps per simulated "
-                           f"second: at that pace t = {target:.6g} s needs more than the {budget} steps allowed", steps, reached, target, pace * (target - t0), budget)
+                           f"second: at that pace t = {target:.6g} s needs more than the {budget} steps allowed",
+                           steps, reached, target, pace * (target - t0), budget)
 
 
 def _failure(status: int, where: float, limit: float) -> str:

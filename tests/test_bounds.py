@@ -219,3 +219,23 @@ def test_a_watched_run_takes_the_steps_an_unwatched_one_takes(monkeypatch):
     monkeypatch.setattr(integrators, "PACE_STEPS", 2000)  # watched from its 2000th step on
     z_watched, steps_watched = run_it()
     assert steps_watched == steps and np.array_equal(z_watched, z)
+
+
+def test_an_integrator_goes_on_with_its_drive_function_after_a_watched_advance(monkeypatch):
+    from grubler import integrators
+    from grubler.simulate import Simulator
+
+    monkeypatch.setattr(integrators, "PACE_STEPS", 200)
+    m = load_scene("thesis-fourbar").mechanism
+    calls = []
+
+    def torque(t):
+        calls.append(t)
+        return 0.5
+
+    sim = Simulator(m, drive_function=torque)
+    sim.advance_to(50.0)  # past 200 steps: watched
+    assert sim._integ.n_steps > 200
+    calls.clear()
+    sim.advance_to(51.0)  # the user's function is called again, not the watch's
+    assert calls and sim.t == 51.0
