@@ -586,8 +586,9 @@ def run(argv: Sequence[str] | None = None) -> int:
 
 
 def _interrupted() -> int:
-    _LAST["interrupted"] = True
-    print("grubler: interrupted", file=sys.stderr)
+    if not _LAST.get("interrupted"):  # once, whether the main thread or the watcher says it
+        _LAST["interrupted"] = True
+        print("grubler: interrupted", file=sys.stderr)
     return 130
 
 
@@ -637,9 +638,11 @@ def _watch_interrupts(grace: float = 0.5) -> None:
         while True:
             data = os.read(read_fd, 64)
             if any(b in (signal.SIGINT, getattr(signal, "SIGTERM", -1)) for b in data):
+                # noted at once: what fails in the main thread from here on (an FMU whose folder
+                # is removed below, a handler the signal has not reached yet) is the interrupt
+                _LAST["signal"] = True
                 time.sleep(grace)
-                if not _LAST.get("interrupted"):
-                    print("grubler: interrupted", file=sys.stderr)
+                _interrupted()
                 limits.remove_temp_dirs()
                 _exit_now(130)
 

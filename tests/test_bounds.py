@@ -175,14 +175,19 @@ def test_ctrl_c_inside_an_fmus_python_ends_as_interrupted(tmp_path):
     sys.path.insert(0, str(Path(__file__).parent))
     from busy_law import Busy
 
+    started = tmp_path / "started"
     system = ssp.System("busy")
-    system.add("busy", build_controller_fmu(Busy, tmp_path))
+    system.add("busy", build_controller_fmu(Busy, tmp_path), started=str(started))
     arch = system.write(tmp_path / "busy.ssp")
     for k in range(10):
+        started.unlink(missing_ok=True)
         proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "cosim", str(arch), "--t-end", "1e4",
                                  "--step", "1e-3", "--dt-out", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
-        time.sleep(2.0 + 0.137 * k)  # while it steps, at ten different phases of a step
+        deadline = time.monotonic() + 120
+        while not started.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.0137 * k)  # once it steps, at ten different phases of its 2 ms steps
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         assert (proc.returncode, err.strip().splitlines()) == (130, ["grubler: interrupted"]), (k, err[-2000:])
