@@ -27,7 +27,11 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
+import signal
+import threading
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -251,6 +255,7 @@ class Integrator:
         # the kernel calls the drive effort at every evaluation: where a watched run is seen
         if self._callback_error is not None:
             return math.nan
+        # (a signal's handler, run as this is entered, is kept by _signals_kept)
         pace = self._pace
         pace.evals += 1
         if t > pace.reached:
@@ -425,8 +430,9 @@ class Integrator:
             out = np.empty((times.shape[0], n))
             a_times, a_out = binding.address(times), binding.address(out)
         self._callback_error = None
-        status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
-                             a_stepper, self._why)
+        with _signals_kept(self, called_back=bool(st.drive_fn)):
+            status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
+                                 a_stepper, self._why)
         if self._callback_error is not None:
             raise self._callback_error
         if status != binding.OK:
@@ -445,6 +451,42 @@ class Integrator:
         self.passages += [float(self._passage_log[k % PASSAGE_LOG])
                           for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out
+
+
+@contextlib.contextmanager
+def _signals_kept(integ: Integrator, called_back: bool):
+    """While the kernel calls back into Python, keep what a signal handler raises, and stop the run.
+
+    Python runs a signal's handler at the next function it enters, which during a
+    run is the kernel's callback: Ctrl-C's KeyboardInterrupt would be raised
+    there, where ctypes can only print and drop it, and the run would go on.  The
+    handlers are wrapped for the call instead: what they raise is kept as the
+    callback's error (the run stops at the next evaluation) and raised once the
+    kernel has returned.  Only in the main thread (the one that runs handlers),
+    only when the kernel calls back.
+    """
+    if not called_back or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {}
+    for sig in (signal.SIGINT, getattr(signal, "SIGTERM", None)):
+        handler = signal.getsignal(sig) if sig is not None else None
+        if callable(handler):
+            saved[sig] = handler
+            signal.signal(sig, functools.partial(_keep_raised, integ, handler))
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+
+
+def _keep_raised(integ: Integrator, handler, signum, frame) -> None:
+    try:
+        handler(signum, frame)
+    except BaseException as exc:  # noqa: BLE001 - raised by _run once the kernel returns
+        if integ._callback_error is None:
+            integ._callback_error = exc
 
 
 def _over_budget(steps: float, t0: float, reached: float, target: float, budget: int) -> StepBudgetError:

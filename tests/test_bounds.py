@@ -244,3 +244,23 @@ def test_an_integrator_goes_on_with_its_drive_function_after_a_watched_advance(m
     calls.clear()
     sim.advance_to(51.0)  # the user's function is called again, not the watch's
     assert calls and sim.t == 51.0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
+def test_ctrl_c_during_a_watched_run_raises_in_the_library(monkeypatch):
+    # a watched run calls back into Python at every evaluation, where Python runs the SIGINT
+    # handler; its KeyboardInterrupt must stop the run, not be printed and dropped by ctypes
+    import os
+    import threading
+
+    from grubler import integrators
+    from grubler.simulate import simulate
+
+    monkeypatch.setattr(integrators, "PACE_STEPS", 200)  # watched from the start
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            simulate("thesis-fourbar", t_end=1e5, dt_out=100.0)  # some 3 million steps: minutes
+    finally:
+        timer.cancel()
