@@ -6,6 +6,7 @@ Each test fails without the change it holds.
 
 import json
 import math
+import os
 import signal
 import subprocess
 import sys
@@ -112,10 +113,12 @@ def test_an_fmu_whose_binary_cannot_be_loaded_is_one_line_naming_the_component(m
     system = ssp.System("bad")
     system.add("mech", bad)
     arch = system.write(tmp_path / "bad.ssp")
+    cwd = os.getcwd()
     assert run(["cosim", str(arch), "--t-end", "0.01"]) == 2
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [
         "grubler: error: mech: the binary of Bad.fmu cannot be loaded: wrong ELF class: ELFCLASS32"]
+    assert os.getcwd() == cwd  # not the removed extraction's binaries folder, where fmpy loads
 
 
 def test_sizing_through_a_change_point_is_refused_by_its_true_reason(capsys):
@@ -250,7 +253,6 @@ def test_an_integrator_goes_on_with_its_drive_function_after_a_watched_advance(m
 def test_ctrl_c_during_a_watched_run_raises_in_the_library(monkeypatch):
     # a watched run calls back into Python at every evaluation, where Python runs the SIGINT
     # handler; its KeyboardInterrupt must stop the run, not be printed and dropped by ctypes
-    import os
     import threading
 
     from grubler import integrators
