@@ -801,7 +801,7 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
                                rtol=0, atol=MATCH)
 
 
-@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "output"),
+@pytest.mark.parametrize("args, field", [(["no-such-scene"], "scene"), (["thesis-fourbar", "-o", "x.zip"], "--out"),
                                          (["bad.toml"], "link2.m")])
 def test_export_refuses_bad_input_with_one_line(tmp_path, args, field):
     text = grubler.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)
