@@ -267,7 +267,7 @@ def cmd_report(args) -> int:
 def cmd_export(args) -> int:
     from grubler.fmi.build import export
 
-    path = export(args.scene, args.out)
+    path = export(args.scene, args.out, field="--out")
     print(f"wrote {path}")
     return 0
 
@@ -574,7 +574,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_cosim)
     e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
-    e.add_argument("-o", "--out", help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")
@@ -623,13 +623,15 @@ def run(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     _LAST["command"], _LAST["check"] = args.command, getattr(args, "check", None)
     try:
-        return args.func(args)
+        code = args.func(args)
     except KeyboardInterrupt:
-        _LAST["interrupted"] = True
-        print("grubler: interrupted", file=sys.stderr)
-        return 130
-    except (GrublerError, OSError, MemoryError) as exc:
-        if args.debug:
+        return _interrupted()
+    except BaseException as exc:
+        if _LAST.get("signal"):
+            # Ctrl-C inside an FMU's Python (a pythonfmu do_step) reaches us as that FMU's error
+            # status, or as whatever its error became: the user's interrupt is the cause
+            return _interrupted()
+        if args.debug or not isinstance(exc, (GrublerError, OSError, MemoryError)):
             raise
         if isinstance(exc, MemoryError):
             exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
@@ -641,6 +643,20 @@ def run(argv: Sequence[str] | None = None) -> int:
         return 2
     finally:
         limits.remove_temp_dirs()
+    return _interrupted() if _LAST.get("signal") else code
+
+
+def _interrupted() -> int:
+    if not _LAST.get("interrupted"):  # once, whether the main thread or the watcher says it
+        _LAST["interrupted"] = True
+        print("grubler: interrupted", file=sys.stderr)
+    return 130
+
+
+def _on_signal(signum, frame):
+    # noted before the KeyboardInterrupt, which an FMU's Python may swallow into an error status
+    _LAST["signal"] = signum
+    raise KeyboardInterrupt
 
 
 def _exit_now(code: int) -> None:
@@ -673,8 +689,9 @@ def _watch_interrupts(grace: float = 0.5) -> None:
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
     signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+    signal.signal(signal.SIGINT, _on_signal)
     if hasattr(signal, "SIGTERM"):
-        signal.signal(signal.SIGTERM, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, _on_signal)
 
     def watch():
         import time
@@ -682,9 +699,11 @@ def _watch_interrupts(grace: float = 0.5) -> None:
         while True:
             data = os.read(read_fd, 64)
             if any(b in (signal.SIGINT, getattr(signal, "SIGTERM", -1)) for b in data):
+                # noted at once: what fails in the main thread from here on (an FMU whose folder
+                # is removed below, a handler the signal has not reached yet) is the interrupt
+                _LAST["signal"] = True
                 time.sleep(grace)
-                if not _LAST.get("interrupted"):
-                    print("grubler: interrupted", file=sys.stderr)
+                _interrupted()
                 limits.remove_temp_dirs()
                 _exit_now(130)
 

@@ -809,13 +809,13 @@ def test_export_an_open_chain_and_run_it(host, tmp_path):
 
 
 @pytest.mark.parametrize("args, field, reason", [
-    (["no-such-scene"], "scene", ""), (["thesis-fourbar", "-o", "x.zip"], "output", ""),
+    (["no-such-scene"], "scene", ""), (["thesis-fourbar", "-o", "x.zip"], "--out", ""),
     (["bad.toml"], "link2.m", ""),
     # the output is checked before compiling: a name whose partial file (NAME.fmu.part) the file system refuses,
-    (["thesis-fourbar", "-o", "a" * 250 + ".fmu"], "output", "the file name is 254 characters"),
-    (["thesis-fourbar", "-o", "a" * 300 + ".fmu"], "output", "File name too long"),
+    (["thesis-fourbar", "-o", "a" * 250 + ".fmu"], "--out", "the file name is 254 characters"),
+    (["thesis-fourbar", "-o", "a" * 300 + ".fmu"], "--out", "name"),
     # a folder that does not exist (not made: as every other command)
-    (["thesis-fourbar", "-o", "missing/d/x.fmu"], "output", "the folder 'missing/d' does not exist"),
+    (["thesis-fourbar", "-o", "missing/d/x.fmu"], "--out", "the folder 'missing/d' does not exist"),
 ])
 def test_export_refuses_bad_input_with_one_line(tmp_path, args, field, reason):
     text = grubler.mechanism.scene.preset_text("thesis-fourbar").replace("m = 1.0", "m = -1.0", 1)

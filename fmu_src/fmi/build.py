@@ -175,7 +175,7 @@ def identifier_for(path: Path) -> str:
     return ident
 
 
-def export(scene, dest: Path | None = None, win64: bool | None = None) -> Path:
+def export(scene, dest: Path | None = None, win64: bool | None = None, field: str = "output") -> Path:
     """Export a scene as a native mechanism FMU whose parameters default to the scene's values.
 
     Parameters
@@ -184,13 +184,15 @@ def export(scene, dest: Path | None = None, win64: bool | None = None) -> Path:
         A scene, a preset name or a scene TOML path.
     dest : path, optional
         The ``.fmu`` to write (default: ``<scene name>.fmu`` in the working folder).
+    field : str
+        The name a refused ``dest`` is reported under (the CLI's option).
     """
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     dest = Path(dest) if dest is not None else Path(f"{scene.name or 'mechanism'}.fmu")
     if dest.suffix != ".fmu":
         raise SceneError("output", f"an FMU's file name ends in .fmu, got {dest.name!r}")
-    check_destination(dest)
+    check_destination(dest, field)
     # a scene that cannot start is refused as simulate refuses it (the loop that
     # does not close, a penalty closure without inertia), not found out by the importer
     Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)

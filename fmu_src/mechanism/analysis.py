@@ -181,8 +181,16 @@ def explain_unclosable(model: "Mechanism", z0, held: list[int]) -> str:
         pin = chain_kinematics(model, np.asarray(z0, float), np.zeros(model.n_links)).origin[1]
         diag = float(np.linalg.norm(np.asarray(model.closures[0].to_point) - pin))
         lo, hi = abs(coupler - rocker), coupler + rocker
-        return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
-                f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle inequality)")
+        if not lo <= diag <= hi:
+            return (f"at this crank angle the crank pin is {diag:.6g} m from the rocker pivot, but coupler and "
+                    f"rocker ({coupler:.6g} m, {rocker:.6g} m) only span {lo:.6g} to {hi:.6g} m (triangle "
+                    "inequality)")
+        # the triangle closes: blaming it would contradict the numbers; at its edge the two
+        # solutions meet, where the solver's Jacobian is singular
+        if min(diag - lo, hi - diag) <= 1e-3 * hi:
+            return (f"at this crank angle coupler and rocker must lie nearly in line (the crank pin is {diag:.6g} m "
+                    f"from the rocker pivot, their span {lo:.6g} to {hi:.6g} m): two assembly branches meet "
+                    "there (a change point or dead centre), and the closure cannot be solved from this guess")
     return ""
 
 
@@ -199,15 +207,20 @@ def explain_singular_start(model: "Mechanism", z, zd, method: str) -> str:
 
     from grubler.mechanism.dynamics import Inputs, forward_dynamics
 
+    z, zd = np.asarray(z, float), np.asarray(zd, float)
+    try:  # the premise: the equations of motion are singular at this state
+        forward_dynamics(model, z, zd, Inputs(), method)
+        return ""
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+        pass
     scale = max([1.0] + [link.m * link.a**2 for link in model.links])
     for k, link in enumerate(model.links):
-        if link.joint != "R" or link.I > 0:
-            continue
+        if link.joint != "R" or link.I > 0 or (link.m > 0 and (link.p, link.q) != (0.0, 0.0)):
+            continue  # its rotation carries inertia: I, or its mass off the joint (m (p^2 + q^2))
         links = list(model.links)
         links[k] = replace(link, I=1e-6 * scale)
         try:
-            forward_dynamics(model.replace(links=tuple(links)), np.asarray(z, float), np.asarray(zd, float),
-                             Inputs(), method)
+            forward_dynamics(model.replace(links=tuple(links)), z, zd, Inputs(), method)
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             continue
         return (f"link{k + 2}.I: the link's rotation carries no inertia (I = 0 and its mass centre on its "

@@ -31,6 +31,17 @@ from grubler.mechanism.model import Mechanism
 POSITION_TOL = 1e-12  # m (or rad): loop closure reached by assembly and projection (kernel/closure.c)
 
 
+# The conditioning (smallest over largest singular value) of the closure Jacobian's
+# dependent columns below which a configuration is a toggle or change point:
+# linearisation and inverse dynamics refuse it.
+# Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
+# of it: the rounding alone leaves a conditioning anywhere up to about 1e-6, and
+# which value a machine gets depends on its BLAS kernel. 1e-4 sits far above that
+# rounding and still only refuses within about (1e-4)^2 rad of a toggle, where the
+# dependent coordinates' derivatives are 1e4 times the independent one's.
+SINGULAR_RCOND = 1e-4
+
+
 def _scale(model: Mechanism) -> float:
     return max(1.0, max((abs(l.a) for l in model.links), default=1.0))
 

@@ -27,7 +27,11 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
+import signal
+import threading
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -45,6 +49,45 @@ IMPLICIT = ("radau", "bdf")
 METHODS = EXPLICIT + IMPLICIT
 _advance_fn = binding.library().grb_advance
 PASSAGE_LOG = 65536  # change-point passage times one advance keeps (all are counted)
+MAX_STEPS = 10_000_000  # steps one advance may take (the kernel's guard)
+# An advance that needs more than PACE_STEPS steps is run again watched: the steps
+# taken so far, at their average pace per simulated second, are extrapolated to the
+# end, and a run that could not finish within its step budget is refused as soon
+# as that projection passes it, not after the budget itself (minutes) is spent.
+# The average pace only underestimates a run that speeds up (a constant torque
+# spinning a mechanism ever faster); a run whose steps crowd at its start can be
+# refused that the budget would have let finish.
+PACE_STEPS = 50_000
+PACE_CHECK = 4096  # evaluations between two looks at the pace
+
+
+class StepBudgetError(IntegrationError):
+    """A run that, at the pace of its steps so far, would need more steps than it may take.
+
+    Attributes ``steps`` (taken so far, estimated), ``reached`` (s), ``target`` (s),
+    ``projected`` (steps to reach the target) and ``budget`` give the numbers.
+    """
+
+    def __init__(self, reason: str, steps: float = math.nan, reached: float = math.nan, target: float = math.nan,
+                 projected: float = math.nan, budget: int = 0):
+        super().__init__(reason)
+        self.steps, self.reached, self.target, self.projected, self.budget = steps, reached, target, projected, budget
+
+    def __reduce__(self):  # sweep workers send errors back pickled
+        return (type(self), (self.reason, self.steps, self.reached, self.target, self.projected, self.budget))
+
+
+@dataclass
+class _Pace:
+    """What a watched advance has seen: evaluations and the furthest time they reached."""
+
+    t0: float
+    target: float
+    budget: int
+    evals_per_step: float  # twice what an accepted step's stages cost: the steps counted are an undercount
+    min_steps: float  # the pace is judged only over at least this many steps
+    evals: int = 0
+    reached: float = -math.inf
 
 
 @dataclass
@@ -194,8 +237,10 @@ class Integrator:
                                                            self._t1, self._out1))
             self._clock, self._why = binding.Clock(), binding.Failure()
             self._callback_error: BaseException | None = None
-            if ode.drive_function is not None:
-                self._settings.drive_fn = binding.DRIVE_FN(self._drive_callback)
+            # the drive callback, held here (a watched run swaps another in, then this back)
+            self._drive_fn = (binding.DRIVE_FN(self._drive_callback) if ode.drive_function is not None
+                              else binding.DRIVE_FN())
+            self._settings.drive_fn = self._drive_fn
 
     def _drive_callback(self, _ctx, t: float) -> float:
         # an exception cannot cross the C stack: keep it, hand the kernel a nan
@@ -205,6 +250,23 @@ class Integrator:
         except BaseException as exc:  # noqa: BLE001 - re-raised by _advance
             self._callback_error = exc
             return math.nan
+
+    def _paced_callback(self, ctx, t: float) -> float:
+        # the kernel calls the drive effort at every evaluation: where a watched run is seen
+        if self._callback_error is not None:
+            return math.nan
+        # (a signal's handler, run as this is entered, is kept by _signals_kept)
+        pace = self._pace
+        pace.evals += 1
+        if t > pace.reached:
+            pace.reached = t
+        if pace.evals % PACE_CHECK == 0 and pace.reached > pace.t0:
+            steps = pace.evals / pace.evals_per_step
+            projected = steps * (pace.target - pace.t0) / (pace.reached - pace.t0)
+            if steps >= pace.min_steps and projected > pace.budget:
+                self._callback_error = _over_budget(steps, pace.t0, pace.reached, pace.target, pace.budget)
+                return math.nan
+        return self.ode.drive if self.ode.drive_function is None else self._drive_callback(ctx, t)
 
     # -- state ----------------------------------------------------------------
     def snapshot(self) -> dict:
@@ -233,7 +295,7 @@ class Integrator:
         self.f = None
 
     # -- stepping -------------------------------------------------------------
-    def _advance_implicit(self, times: np.ndarray) -> np.ndarray:
+    def _advance_implicit(self, times: np.ndarray, max_steps: int = MAX_STEPS) -> np.ndarray:
         """scipy's solver from ``t`` to the last of ``times``, the others from its dense output.
 
         One solver for the whole grid: a multistep method restarted at every output
@@ -253,12 +315,16 @@ class Integrator:
         first = min(self.h, times[-1] - self.t) if self.h > 0 else None
         solver = cls(self.ode, self.t, self.y, times[-1], rtol=self.rtol, atol=self.atol,
                      first_step=first, max_step=self.h_max, jac=self.ode.jacobian)
-        steps = 0
+        steps, t_start = 0, self.t
         while solver.status == "running":
             msg = solver.step()
             if solver.status == "failed":
                 raise IntegrationError(f"{self.method} failed at t = {solver.t:.6g} s: {msg}")
             steps += 1
+            if steps >= PACE_STEPS / 10 and steps % 64 == 0:  # the pace watch, on exact step counts
+                projected = steps * (times[-1] - t_start) / max(solver.t - t_start, 1e-300)
+                if projected > max_steps:
+                    raise _over_budget(steps, t_start, solver.t, float(times[-1]), max_steps)
             inside = done
             while inside < len(times) - 1 and (times[inside] < solver.t or solver.status == "finished"):
                 inside += 1
@@ -275,7 +341,7 @@ class Integrator:
         self.t, self.y, self.h, self.f = float(times[-1]), y, solver.step_size or self.h, None
         return out
 
-    def advance_to(self, t_target: float, max_steps: int = 10_000_000) -> None:
+    def advance_to(self, t_target: float, max_steps: int = MAX_STEPS) -> None:
         """Step until ``t`` reaches ``t_target`` exactly.
 
         All or nothing: if it fails, the integrator is left where it started, so a
@@ -287,12 +353,12 @@ class Integrator:
             raise ValueError(f"t: must be finite and not before the integrator's time {self.t:.12g} s, "
                              f"got {t_target!r}")
         if not self._explicit:
-            self._advance_implicit(np.array([t_target]))
+            self._advance_implicit(np.array([t_target]), max_steps)
             return
         self._t1[0] = t_target
         self._advance(self._t1, max_steps)
 
-    def advance_through(self, times: np.ndarray, max_steps: int = 10_000_000) -> np.ndarray:
+    def advance_through(self, times: np.ndarray, max_steps: int = MAX_STEPS) -> np.ndarray:
         """Step through increasing ``times``, returning the state at each (one row per time).
 
         All or nothing, like :meth:`advance_to`.  With DOP853 (and scipy's solvers on
@@ -314,19 +380,42 @@ class Integrator:
             start = self.snapshot()
             try:
                 for i in range(len(times)):
-                    self._advance_implicit(times[i:i + 1])
+                    self._advance_implicit(times[i:i + 1], max_steps)
                     out[i] = self.y
             except BaseException:
                 self.restore(start)
                 raise
             return out
         if not self._explicit:
-            return self._advance_implicit(times)
+            return self._advance_implicit(times, max_steps)
         return self._advance(times, max_steps)
 
     def _advance(self, times: np.ndarray, max_steps: int) -> np.ndarray:
         """The kernel's grb_advance through ``times``; the states there (a buffer of
-        the integrator's own when ``times`` is advance_to's)."""
+        the integrator's own when ``times`` is advance_to's).
+
+        A run longer than ``PACE_STEPS`` steps is run again, watched (see ``PACE_STEPS``).
+        """
+        if max_steps <= PACE_STEPS:
+            return self._run(times, max_steps)
+        try:
+            return self._run(times, PACE_STEPS)
+        except IntegrationError as exc:
+            if getattr(exc, "status", None) != binding.TOO_MANY_STEPS:
+                raise
+        tab = binding.library().grb_tableau(binding.TABLEAU_CODE[self.method]).contents
+        # an accepted step costs its stages and its dense output's; rejected ones only add
+        # (so the steps counted from the evaluations are never more than were taken)
+        self._pace = _Pace(self.t, float(times[-1]), int(max_steps), float(2 * (tab.stages + tab.dense_stages)),
+                           min_steps=PACE_STEPS / 10)
+        paced = binding.DRIVE_FN(self._paced_callback)  # (alive as long as this call)
+        self._settings.drive_fn = paced
+        try:
+            return self._run(times, max_steps)
+        finally:
+            self._settings.drive_fn = self._drive_fn
+
+    def _run(self, times: np.ndarray, max_steps: int) -> np.ndarray:
         ode, st, clock, n = self.ode, self._settings, self._clock, self.y.size
         st.tau_drive, st.tau_load, st.max_steps = float(ode.drive), float(ode.load), int(max_steps)
         clock.t, clock.h, clock.have_f = self.t, self.h if self.method != "rk4" else 0.0, self.f is not None
@@ -341,12 +430,15 @@ class Integrator:
             out = np.empty((times.shape[0], n))
             a_times, a_out = binding.address(times), binding.address(out)
         self._callback_error = None
-        status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
-                             a_stepper, self._why)
+        with _signals_kept(self, called_back=bool(st.drive_fn)):
+            status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
+                                 a_stepper, self._why)
         if self._callback_error is not None:
             raise self._callback_error
         if status != binding.OK:
-            raise IntegrationError(_failure(status, self._why.where, self._why.limit))
+            exc = IntegrationError(_failure(status, self._why.where, self._why.limit))
+            exc.status = status  # for _advance: a probe that ran out of steps is run again, watched
+            raise exc
         self.t, self.y = clock.t, self._ybuf.copy()
         self.f = self._fbuf.copy() if clock.have_f else None
         if self.method != "rk4":
@@ -359,6 +451,49 @@ class Integrator:
         self.passages += [float(self._passage_log[k % PASSAGE_LOG])
                           for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out
+
+
+@contextlib.contextmanager
+def _signals_kept(integ: Integrator, called_back: bool):
+    """While the kernel calls back into Python, keep what a signal handler raises, and stop the run.
+
+    Python runs a signal's handler at the next function it enters, which during a
+    run is the kernel's callback: Ctrl-C's KeyboardInterrupt would be raised
+    there, where ctypes can only print and drop it, and the run would go on.  The
+    handlers are wrapped for the call instead: what they raise is kept as the
+    callback's error (the run stops at the next evaluation) and raised once the
+    kernel has returned.  Only in the main thread (the one that runs handlers),
+    only when the kernel calls back.
+    """
+    if not called_back or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {}
+    for sig in (signal.SIGINT, getattr(signal, "SIGTERM", None)):
+        handler = signal.getsignal(sig) if sig is not None else None
+        if callable(handler):
+            saved[sig] = handler
+            signal.signal(sig, functools.partial(_keep_raised, integ, handler))
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+
+
+def _keep_raised(integ: Integrator, handler, signum, frame) -> None:
+    try:
+        handler(signum, frame)
+    except BaseException as exc:  # noqa: BLE001 - raised by _run once the kernel returns
+        if integ._callback_error is None:
+            integ._callback_error = exc
+
+
+def _over_budget(steps: float, t0: float, reached: float, target: float, budget: int) -> StepBudgetError:
+    pace = steps / (reached - t0)
+    return StepBudgetError(f"some {steps:.2g} steps reached t = {reached:.6g} s, {pace:.2g} steps per simulated "
+                           f"second: at that pace t = {target:.6g} s needs more than the {budget} steps allowed",
+                           steps, reached, target, pace * (target - t0), budget)
 
 
 def _failure(status: int, where: float, limit: float) -> str:

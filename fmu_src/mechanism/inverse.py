@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grubler.mechanism.assembly import assemble
+from grubler.mechanism.assembly import SINGULAR_RCOND, assemble
 from grubler.mechanism.dynamics import Inputs, inverse_dynamics
 from grubler.errors import SceneError
 from grubler.mechanism.kinematics import chain_kinematics, closure_kinematics
@@ -115,6 +115,11 @@ def drive_demand(model: Mechanism, position, velocity, acceleration, load=0.0,
     tau, force = np.empty(n), np.zeros((n, 2))
     for k in range(n):
         z = z.copy()
+        if k >= 2 and pos[k - 1] != pos[k - 2]:
+            # the next sample's guess continues the last two (a secant predictor): through a change
+            # point, where the closure's Jacobian is singular and a guess from the last sample alone
+            # cannot move, the motion goes on along the branch it came along, as the simulator's does
+            z = out_z[k - 1] + (out_z[k - 1] - out_z[k - 2]) * ((pos[k] - pos[k - 1]) / (pos[k - 1] - pos[k - 2]))
         z[d] = pos[k]
         zd = np.zeros(model.n_free)
         zd[d] = vel[k]
@@ -123,6 +128,15 @@ def drive_demand(model: Mechanism, position, velocity, acceleration, load=0.0,
         zdd[d] = acc[k]
         ck = closure_kinematics(model, chain_kinematics(model, z, zd))
         if model.n_constraints:
+            sv = np.linalg.svd(ck.J[:, dep], compute_uv=False)
+            if sv[-1] <= SINGULAR_RCOND * sv[0]:
+                # the other joints' rates are not determined by the drive's: a least-squares answer
+                # here would be one of many, and the torque from it an artefact
+                raise SceneError(f"trajectory at sample {k} (drive {pos[k]:.6g})",
+                                 "the drive passes a change point or dead centre here (the closure Jacobian's "
+                                 "dependent columns are singular: two assembly branches meet), where the other "
+                                 "joints' speeds, and so the drive torque, do not follow from the drive's motion; "
+                                 "give a motion that stays clear of it")
             zdd[dep] = np.linalg.lstsq(ck.J[:, dep], ck.gamma - ck.J[:, d] * acc[k], rcond=None)[0]
         tau[k], lam = inverse_dynamics(model, z, zd, zdd, Inputs(0.0, float(loads[k])))
         if model.closures:

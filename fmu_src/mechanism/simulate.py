@@ -28,8 +28,8 @@ from grubler import binding
 from grubler.mechanism.assembly import POSITION_TOL, assemble
 from grubler.mechanism.analysis import explain_singular_start
 from grubler.mechanism.dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
-from grubler.errors import IntegrationError, SceneError
-from grubler.mechanism.integrators import Integrator, StateEquation
+from grubler.errors import IntegrationError, LimitError, SceneError
+from grubler.mechanism.integrators import Integrator, StateEquation, StepBudgetError
 from grubler.limits import check_size
 from grubler.mechanism.model import Mechanism, coordinate_names
 from grubler.mechanism.scene import Scene, load_scene
@@ -524,6 +524,13 @@ def simulate(
         times = np.append(times, t_end)
     try:
         zs, zds = sim.advance_through(times)
+    except StepBudgetError as exc:
+        # refused at its pace, long before the step budget itself is spent: name what sets the pace
+        efforts = (f"the drive torque {torque:g} N m (--torque) and " if not callable(torque) and torque else "") + \
+                  (f"the load torque {load:g} N m and " if load else "")
+        raise LimitError("t_end (--t-end)", f"the run cannot finish: {exc.reason}; {efforts}the tolerance rtol "
+                                            f"{rtol:g} (--rtol) set that pace: shorten the run, lower the efforts "
+                                            "or loosen the tolerance") from None
     except IntegrationError:
         # a scene whose start cannot be solved: name the field at fault when one is
         why = explain_singular_start(scene.mechanism, sim.z, sim.zd, method) if sim.t == 0.0 else ""

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from grubler import binding
-from grubler.mechanism.assembly import _scale, assemble, constraint, freedom, held_coordinates
+from grubler.mechanism.assembly import SINGULAR_RCOND, _scale, assemble, constraint, freedom, held_coordinates
 from grubler.mechanism.dynamics import EXACT, Inputs, forward_dynamics, inverse_dynamics, observation_names
 from grubler.errors import SceneError
 from grubler.mechanism.model import Mechanism
@@ -67,13 +67,6 @@ FOLLOW_PIECES = 2000  # pieces of one walk at most: beyond, a coordinate runs of
 # one's conditioning falls below this fraction of the best one's.
 CHART_SWITCH = 0.25
 ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
-# of the closure Jacobian's dependent columns: below it, a toggle or change point.
-# Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
-# of it: the rounding alone leaves a conditioning anywhere up to about 1e-6, and
-# which value a machine gets depends on its BLAS kernel. 1e-4 sits far above that
-# rounding and still only refuses within about (1e-4)^2 rad of a toggle, where the
-# dependent coordinates' derivatives are 1e4 times the independent one's.
-SINGULAR_RCOND = 1e-4
 
 DRIVE, LOAD, VOLTAGE = "drive", "load", "voltage"
 _INPUT_ALIASES = {"drive": DRIVE, "tau_drive": DRIVE, "torque": DRIVE, "load": LOAD, "tau_load": LOAD,

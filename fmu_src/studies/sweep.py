@@ -199,6 +199,30 @@ def _read_done(out: Path | None, sig: str, retry_failed: bool) -> dict[str, dict
     return done
 
 
+def _drop_torn_line(journal: Path) -> None:
+    """Cut off a last line the writer did not finish (no newline after it).
+
+    A sweep killed while writing a row leaves it torn; a resumed run appending
+    after it would glue its first row onto the fragment, and both points would
+    be lost to the journal.  Without the fragment, its point is computed again
+    and the next row starts on a line of its own.
+    """
+    if not journal.is_file():
+        return
+    with open(journal, "rb+") as fh:
+        size = end = fh.seek(0, os.SEEK_END)
+        while end > 0:  # back from the end, a block at a time, to the last newline
+            start = max(0, end - 65536)
+            fh.seek(start)
+            cut = fh.read(end - start).rfind(b"\n")
+            if cut >= 0:
+                end = start + cut + 1
+                break
+            end = start
+        if end < size:
+            fh.truncate(end)
+
+
 def _set_aside(journal: Path) -> Path:
     """Move an old journal to the first free ``.N`` backup name: never delete finished points."""
     k = 1
@@ -280,6 +304,8 @@ def run_sweep(func: Callable[..., dict], points: list[dict], out: str | Path | N
         backup = _set_aside(_journal(out))
         if progress:
             print(f"sweep: the earlier journal is kept as {backup}", file=sys.stderr)
+    if out is not None and resume:
+        _drop_torn_line(_journal(out))
     done = _read_done(out, sig, retry_failed) if resume else {}
     keys = [point_key(p) for p in points]
     todo = [(k, p) for k, p in zip(keys, points) if k not in done]

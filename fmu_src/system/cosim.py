@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import ctypes
 import math
+import os
 import re
 import time as _time
 from dataclasses import dataclass, field
@@ -359,8 +360,16 @@ class _Instance:
 
         md = itf.model_description
         self.name, self.itf, self.messages = name, itf, []
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        cwd = os.getcwd()
+        try:
+            self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                                 modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        except Exception as exc:  # noqa: BLE001 - fmpy wraps the loader's OSError in a bare Exception
+            os.chdir(cwd)  # fmpy loads from the binary's folder and stays there when that fails
+            # the loader's own words (e.g. 'wrong ELF class: ELFCLASS32'), after the extraction's path
+            why = str(exc.__context__ if isinstance(exc.__context__, OSError) else exc)
+            why = why.rpartition(f"{Path(unzipdir).name}/binaries/")[2].partition(": ")[2] or why
+            raise CosimError(f"{name}: the binary of {itf.path.name} cannot be loaded: {clip(why)}") from None
 
         def logger(component, instance_name, status, category, message):
             self.messages.append(f"{name}: {message.decode(errors='replace')}")

@@ -32,7 +32,7 @@ import os
 import re
 import zipfile
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from xml.etree import ElementTree as ET
 
 from grubler.errors import GrublerError, InputError, SystemDescriptionError
@@ -367,11 +367,35 @@ def read(path: str | Path) -> System:
             ssd = tmp / "SystemStructure.ssd"
             if not ssd.is_file():
                 raise SystemDescriptionError(f"{where}: the archive has no SystemStructure.ssd")
-            return from_xml(_limited(lambda: read_bytes(ssd, "system")), base=tmp, where=where)
+            system = from_xml(_limited(lambda: read_bytes(ssd, "system")), base=tmp, where=where)
+            for comp in system.components.values():
+                _inside_archive(comp, tmp)
+            return system
         except BaseException:
             remove_temp_dir(tmp)
             raise
     return from_xml(_limited(lambda: read_bytes(path, "system")), base=path.parent, where=where)
+
+
+def _inside_archive(comp: Component, folder: Path) -> None:
+    """Refuse a component of an ``.ssp`` whose FMU is not in the archive.
+
+    Loading an FMU runs its binary: an archive that names one by an absolute
+    path or climbs out with ``..`` would run code it does not carry, as a
+    member named ``../x`` would write outside the extraction (both refused).
+    """
+    source = comp.source
+    # absolute on any system (/x, C:/x, a backslash root, a UNC share) or a URI (file:///x, http://...)
+    if (PurePosixPath(source).is_absolute() or PureWindowsPath(source).drive or source.startswith("\\")
+            or re.match(r"[A-Za-z][A-Za-z0-9+.-]+:", source)):
+        raise SystemDescriptionError(f"component {comp.name}: source {brief(source, PATH_CHARS)} is outside the "
+                                     "archive (an absolute path or a URI); an .ssp carries its FMUs, named "
+                                     "relative to it (e.g. resources/X.fmu)")
+    root = folder.resolve()
+    if not (folder / source).resolve().is_relative_to(root):
+        raise SystemDescriptionError(f"component {comp.name}: source {brief(source, PATH_CHARS)} reaches outside "
+                                     "the archive (through ..); an .ssp carries its FMUs, named relative to it "
+                                     "(e.g. resources/X.fmu)")
 
 
 def _limited(fn):
