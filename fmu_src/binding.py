@@ -56,7 +56,7 @@ class Clock(ctypes.Structure):
     """``grb_clock``: the integrator's state besides y and f."""
 
     _fields_ = [("t", c_double), ("h", c_double), ("have_f", c_int), ("steps", c_long), ("rejected", c_long),
-                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double)]
+                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double), ("charts", c_long)]
 
 
 class Failure(ctypes.Structure):

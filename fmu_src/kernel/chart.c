@@ -298,6 +298,54 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
     return GRB_BRANCH_JUMP;
 }
 
+/* Between advances (a co-simulation step of 1 ms is one advance, and a change
+ * point's zone is tens of them) the chart is kept, not rebuilt: its
+ * coefficients stay in the caller's stepper buffer, and its scalars go into the
+ * node-value block, which is dead once the chart is built.  A tag marks them
+ * valid; resuming clears it, so a failed advance (which may have built another
+ * chart over these coefficients) leaves nothing to resume. */
+#define CHART_TAG 7.0397e-217 /* an unlikely value for a coordinate */
+enum { SAVED_TAG, SAVED_HELD, SAVED_LO, SAVED_HI, SAVED_MID, SAVED_HALF, SAVED_PINCH, SAVED_PINCH_KAPPA,
+       SAVED_COUNT };
+
+void grb_chart_save(const grb_chart *ch) {
+    double *saved = ch->values;
+    if (!ch->active) {
+        saved[SAVED_TAG] = 0.0;
+        return;
+    }
+    saved[SAVED_TAG] = CHART_TAG;
+    saved[SAVED_HELD] = ch->held;
+    saved[SAVED_LO] = ch->lo;
+    saved[SAVED_HI] = ch->hi;
+    saved[SAVED_MID] = ch->mid;
+    saved[SAVED_HALF] = ch->half;
+    saved[SAVED_PINCH] = ch->pinch;
+    saved[SAVED_PINCH_KAPPA] = ch->pinch_kappa;
+}
+
+int grb_chart_resume(grb_chart *ch, const double *y, double scale) {
+    double *saved = ch->values, *z = ch->scratch;
+    int n = ch->n, held = (int)saved[SAVED_HELD];
+    ch->active = 0;
+    if (saved[SAVED_TAG] != CHART_TAG || held < 0 || held >= n || !(saved[SAVED_HALF] > 0.0)) return 0;
+    saved[SAVED_TAG] = 0.0;
+    ch->held = held;
+    ch->lo = saved[SAVED_LO];
+    ch->hi = saved[SAVED_HI];
+    ch->mid = saved[SAVED_MID];
+    ch->half = saved[SAVED_HALF];
+    ch->pinch = saved[SAVED_PINCH];
+    ch->pinch_kappa = saved[SAVED_PINCH_KAPPA];
+    /* the state must lie on it (the last advance put it there; a state set
+     * from outside, or restored from before the chart, need not) */
+    if (!(y[held] >= ch->lo && y[held] <= ch->hi) || !grb_chart_eval(ch, y[held], z, NULL, NULL)) return 0;
+    for (int i = 0; i < n; i++)
+        if (i != held && !(fabs(z[i] - y[i]) <= CHART_CHECK * scale)) return 0;
+    ch->active = 1;
+    return 1;
+}
+
 int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
     int n = ch->n;
     double u = (x - ch->mid) / ch->half, T[CHART_NODES];

@@ -207,6 +207,7 @@ typedef struct grb_clock {
     long steps, rejected, evals;
     long passages;            /* change points passed (see grb_advance) */
     double kappa_seen;        /* best closure conditioning seen so far (0: none yet) */
+    long charts;              /* change-point charts built (a chart is kept from one advance to the next) */
 } grb_clock;
 
 /* Where and why an advance stopped. */

@@ -279,7 +279,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     int passing = dense && st->project && md->n_closures > 0 &&
                   (square || (md->n_links <= 2 * md->n_closures && grb_closure_freedom(md, y, &p.ws) == 1));
     double kappa_seen = clock->kappa_seen;
-    long passages = 0;
+    long passages = 0, charts = 0;
     int uncharted = 0; /* near a zone where no chart could be made */
     /* the current state's conditioning and orientation, kept from the step that
      * ended there (the projection after it moves them by rounding only) */
@@ -287,6 +287,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     int cur_watched = 0, nw_watched = 0;
     if (passing) {
         grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
+        grb_chart_resume(&chart, y, st->scale);
         p.chart = &chart;
     }
     double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *nw = ROW(Y, rw.new_), *proj = ROW(Y, rw.proj);
@@ -314,6 +315,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                      * but no branch crosses: a joint at a limit of its travel)
                      * the ordinary steps go on, watched by the projection,
                      * until the conditioning recovers. */
+                    charts++;
                     if (grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws) == GRB_OK) {
                         grb_chart_put(&chart, cur);
                         have_f = 0;
@@ -487,6 +489,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     }
     memcpy(y, cur, sizeof(double) * N);
     if (have_f) memcpy(f, der, sizeof(double) * N);
+    if (passing) grb_chart_save(&chart);
     clock->t = t;
     clock->h = tab->adaptive ? h : clock->h;
     clock->have_f = have_f;
@@ -494,6 +497,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     clock->rejected += rejected_total;
     clock->evals += evals;
     clock->passages += passages;
+    clock->charts += charts;
     clock->kappa_seen = kappa_seen;
     return GRB_OK;
 }

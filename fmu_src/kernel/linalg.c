@@ -152,6 +152,19 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
         for (int j = 0; j < m; j++) VV(i, j) = i == j ? 1.0 : 0.0;
     for (int sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         int rotated = 0;
+        /* a column below rcond times the largest is dropped from the solution
+         * whatever its direction; turning it against the others only stirs its
+         * rounding, which never settles (where J has more rows than columns, or
+         * redundant rows, some columns are such noise), so it is left alone.
+         * (The largest column only grows over the sweeps and ends as sigma_max;
+         * a left-alone column moves the others by rcond^2 of their length.) */
+        double widest = 0.0;
+        for (int j = 0; j < m; j++) {
+            double s2 = 0.0;
+            for (int k = 0; k < n; k++) s2 += UU(k, j) * UU(k, j);
+            widest = fmax(widest, s2);
+        }
+        double negligible = rcond * rcond * widest;
         for (int p = 0; p < m; p++)
             for (int q = p + 1; q < m; q++) {
                 double alpha = 0.0, beta = 0.0, gamma = 0.0;
@@ -161,6 +174,7 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
                     gamma += UU(k, p) * UU(k, q);
                 }
                 if (gamma == 0.0 || fabs(gamma) <= 1e-15 * sqrt(alpha * beta)) continue;
+                if (alpha <= negligible || beta <= negligible) continue;
                 rotated = 1;
                 double c, s;
                 rotation(alpha, beta, gamma, &c, &s);

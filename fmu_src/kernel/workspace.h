@@ -91,7 +91,8 @@ typedef struct grb_chart {
     double pinch, pinch_kappa;  /* x at the worst conditioning met, and that conditioning (relative) */
     double pinch_step;          /* how far from pinch the worst lies (while the chart is built) */
     double *c;                  /* 3 x CHART_NODES x n coefficients */
-    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes */
+    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes (while built; then the
+                                   chart's scalars between advances: grb_chart_save) */
     double *scratch;            /* 10 n */
 } grb_chart;
 size_t grb_chart_size(int n_links);
@@ -100,6 +101,10 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
                     grb_chart *ch, grb_ws *w);
 int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz);
 int grb_chart_put(const grb_chart *ch, double *y);
+/* keep an active chart in its buffer for the next advance, and take it up
+ * there when the state y lies on it (1) */
+void grb_chart_save(const grb_chart *ch);
+int grb_chart_resume(grb_chart *ch, const double *y, double scale);
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out);
 

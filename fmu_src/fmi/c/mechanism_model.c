@@ -452,7 +452,7 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     clock.t = t;
     clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;
-    clock.steps = clock.rejected = clock.evals = clock.passages = 0;
+    clock.steps = clock.rejected = clock.evals = clock.passages = clock.charts = 0;
     clock.kappa_seen = p[P_KAPPA_SEEN];
     st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
     if (st != GRB_OK) {
