@@ -13,7 +13,18 @@
  * and the closures add J^T lambda: the exact method solves lambda from
  * J zdd = gamma (index-1 DAE; the integrator projects the drift away), the
  * penalty method is the thesis's imaginary joint, lambda = -G phi - C phi_dot. */
+#include <stddef.h>
+
 #include "workspace.h"
+
+/* The named rows sit on the tables' columns (a negative array size stops the
+ * build where one does not): Python and the FMU write the tables by column. */
+typedef char grb_link_columns_check[(offsetof(grb_link, revolute) == GRB_L_REV * sizeof(double) &&
+                                     offsetof(grb_link, parent) == GRB_L_PARENT * sizeof(double) &&
+                                     sizeof(grb_link) == GRB_L_COLUMNS * sizeof(double)) ? 1 : -1];
+typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_CL_TX * sizeof(double) &&
+                                        offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
+                                        sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
 
 /* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer. */
 static void ws_offsets(int n, int m, size_t *off) {
@@ -48,10 +59,10 @@ void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
     w->dd = 2 * n + m + 1;
     w->vec = 2 * n + m + 2;
     w->block = 2 * n + m + 3;
-    w->K = buffer + off[0];
+    w->frame = (grb_frame *)(buffer + off[0]);
     w->Jc = buffer + off[1];
     w->J = buffer + off[2];
-    w->R = buffer + off[3];
+    w->row = (grb_row *)(buffer + off[3]);
     w->T = buffer + off[4];
     w->Q = buffer + off[5];
     w->S = buffer + off[6];
@@ -64,7 +75,7 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     int n = md->n_links;
     for (int k = 0; k < n; k++) {
         /* the predecessor's frame; the ground's is its vector at theta1, at rest */
-        int pk = PARENT_(md, k);
+        int pk = grb_parent(md, k);
         real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
         w->path[k] = (pk < 0 ? 0ull : w->path[pk]) | (1ull << k);
         if (pk < 0) {
@@ -72,32 +83,32 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
             sp = RSIN(md->theta1);
             wp = z_sum = w_sum = ox = oy = bx = by = 0.0;
         } else {
-            const real *prow = w->K + pk * K_COLUMNS;
-            cp = prow[K_COS];
-            sp = prow[K_SIN];
-            wp = w_sum = prow[K_OM];
-            z_sum = prow[K_ZS];
-            ox = prow[K_OX];
-            oy = prow[K_OY];
-            bx = prow[K_BX];
-            by = prow[K_BY];
+            const grb_frame *pred = &w->frame[pk];
+            cp = pred->cos_theta;
+            sp = pred->sin_theta;
+            wp = w_sum = pred->omega;
+            z_sum = pred->z_sum;
+            ox = pred->o[0];
+            oy = pred->o[1];
+            bx = pred->o_bias[0];
+            by = pred->o_bias[1];
         }
         real slide, rate;
-        if (L_(md, k, GRB_L_REV) != 0.0) {
+        if (grb_links(md)[k].revolute != 0.0) {
             z_sum += z[k];
             w_sum += zd[k];
-            slide = L_(md, k, GRB_L_SLIDE0);
+            slide = grb_links(md)[k].slide0;
             rate = 0.0;
         } else {
             slide = z[k];
             rate = zd[k];
         }
-        real theta = L_(md, k, GRB_L_THETA0) + z_sum;
+        real theta = grb_links(md)[k].theta0 + z_sum;
         /* each link hangs off its predecessor's vector end, moved along the slide
          * axis e_perp(predecessor) */
         real ax = -sp, ay = cp;
-        real dx = L_(md, k, GRB_L_APRED) * cp + slide * ax;
-        real dy = L_(md, k, GRB_L_APRED) * sp + slide * ay;
+        real dx = grb_links(md)[k].a_pred * cp + slide * ax;
+        real dy = grb_links(md)[k].a_pred * sp + slide * ay;
         ox += dx;
         oy += dy;
         /* d'' at zero joint acceleration: centripetal of the predecessor's turn
@@ -105,20 +116,20 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         bx += -wp * wp * dx - 2.0 * wp * rate * cp;
         by += -wp * wp * dy - 2.0 * wp * rate * sp;
         real c = RCOS(theta), s = RSIN(theta);
-        real *row = w->K + k * K_COLUMNS;
-        row[K_TH] = theta;
-        row[K_OM] = w_sum;
-        row[K_COS] = c;
-        row[K_SIN] = s;
-        row[K_OX] = ox;
-        row[K_OY] = oy;
-        row[K_BX] = bx;
-        row[K_BY] = by;
-        row[K_AX] = ax;
-        row[K_AY] = ay;
-        row[K_SLIDE] = slide;
-        row[K_RATE] = rate;
-        row[K_ZS] = z_sum;
+        grb_frame *f = &w->frame[k];
+        f->theta = theta;
+        f->omega = w_sum;
+        f->cos_theta = c;
+        f->sin_theta = s;
+        f->o[0] = ox;
+        f->o[1] = oy;
+        f->o_bias[0] = bx;
+        f->o_bias[1] = by;
+        f->axis[0] = ax;
+        f->axis[1] = ay;
+        f->slide = slide;
+        f->rate = rate;
+        f->z_sum = z_sum;
     }
 }
 
@@ -129,28 +140,28 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
  * ground to link k move it (in a serial chain, every joint up to k). */
 void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r) {
     int n = md->n_links;
-    real c = K_(w, k, K_COS), s = K_(w, k, K_SIN);
+    real c = w->frame[k].cos_theta, s = w->frame[k].sin_theta;
     real armx = lx * c - ly * s, army = lx * s + ly * c;
-    real rx = K_(w, k, K_OX) + armx, ry = K_(w, k, K_OY) + army;
+    real rx = w->frame[k].o[0] + armx, ry = w->frame[k].o[1] + army;
     for (int j = 0; j < n; j++) {
         J[j] = 0.0;
         J[n + j] = 0.0;
     }
     for (int j = 0; j <= k; j++) {
         if (!grb_on_path(w, j, k)) continue;
-        if (L_(md, j, GRB_L_REV) != 0.0) {
-            J[j] = -(ry - K_(w, j, K_OY));
-            J[n + j] = rx - K_(w, j, K_OX);
+        if (grb_links(md)[j].revolute != 0.0) {
+            J[j] = -(ry - w->frame[j].o[1]);
+            J[n + j] = rx - w->frame[j].o[0];
         } else {
-            J[j] = K_(w, j, K_AX);
-            J[n + j] = K_(w, j, K_AY);
+            J[j] = w->frame[j].axis[0];
+            J[n + j] = w->frame[j].axis[1];
         }
     }
-    real w2 = K_(w, k, K_OM) * K_(w, k, K_OM);
+    real w2 = w->frame[k].omega * w->frame[k].omega;
     r[0] = rx;
     r[1] = ry;
-    r[2] = K_(w, k, K_BX) - w2 * armx;
-    r[3] = K_(w, k, K_BY) - w2 * army;
+    r[2] = w->frame[k].o_bias[0] - w2 * armx;
+    r[3] = w->frame[k].o_bias[1] - w2 * army;
 }
 
 /* Constraint rows of every closure (MODEL.md section 3), any pair of links:
@@ -160,38 +171,38 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
     real *tmp = w->J + w->m * n;
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
-        int ka = (int)CL_(md, j, GRB_CL_LINK);
-        int kb = (int)CL_(md, j, GRB_CL_TO); /* -1: the ground, whose frame is the world's */
+        int ka = (int)grb_closures(md)[j].link;
+        int kb = (int)grb_closures(md)[j].to; /* -1: the ground, whose frame is the world's */
         real *Jr = w->J + r * n;
         real pa[4], pb[4], thb, wb;
-        GRB(point)(md, w, ka, CL_(md, j, GRB_CL_PX), CL_(md, j, GRB_CL_PY), Jr, pa);
+        GRB(point)(md, w, ka, grb_closures(md)[j].point[0], grb_closures(md)[j].point[1], Jr, pa);
         if (kb >= 0) {
-            GRB(point)(md, w, kb, CL_(md, j, GRB_CL_TX), CL_(md, j, GRB_CL_TY), tmp, pb);
+            GRB(point)(md, w, kb, grb_closures(md)[j].to_point[0], grb_closures(md)[j].to_point[1], tmp, pb);
             for (int i = 0; i < n; i++) {
                 Jr[i] -= tmp[i];
                 Jr[n + i] -= tmp[n + i];
             }
-            thb = K_(w, kb, K_TH);
-            wb = K_(w, kb, K_OM);
+            thb = w->frame[kb].theta;
+            wb = w->frame[kb].omega;
         } else {
-            pb[0] = CL_(md, j, GRB_CL_TX);
-            pb[1] = CL_(md, j, GRB_CL_TY);
+            pb[0] = grb_closures(md)[j].to_point[0];
+            pb[1] = grb_closures(md)[j].to_point[1];
             pb[2] = pb[3] = 0.0;
             thb = wb = 0.0;
         }
-        R_(w, r, R_POINT) = pa[0];
-        R_(w, r + 1, R_POINT) = pa[1];
-        if (CL_(md, j, GRB_CL_KIND) == 0.0) {
-            R_(w, r, R_PHI) = pa[0] - pb[0];
-            R_(w, r + 1, R_PHI) = pa[1] - pb[1];
-            R_(w, r, R_GAMMA) = -(pa[2] - pb[2]);
-            R_(w, r + 1, R_GAMMA) = -(pa[3] - pb[3]);
-            R_(w, r, R_NORMAL) = 0.0;
-            R_(w, r + 1, R_NORMAL) = 0.0;
+        w->row[r].point = pa[0];
+        w->row[r + 1].point = pa[1];
+        if (grb_closures(md)[j].kind == 0.0) {
+            w->row[r].phi = pa[0] - pb[0];
+            w->row[r + 1].phi = pa[1] - pb[1];
+            w->row[r].gamma = -(pa[2] - pb[2]);
+            w->row[r + 1].gamma = -(pa[3] - pb[3]);
+            w->row[r].normal = 0.0;
+            w->row[r + 1].normal = 0.0;
             continue;
         }
         /* the line of to_link through to_point at its angle; the link held at psi */
-        real beta = thb + CL_(md, j, GRB_CL_ANGLE);
+        real beta = thb + grb_closures(md)[j].angle;
         real alx = RCOS(beta), aly = RSIN(beta), nx = -aly, ny = alx;
         real dx = pa[0] - pb[0], dy = pa[1] - pb[1], ddx = 0.0, ddy = 0.0;
         for (int i = 0; i < n; i++) {
@@ -199,22 +210,22 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
             ddy += Jr[n + i] * zd[i];
         }
         real d_normal = dx * nx + dy * ny, d_along = dx * alx + dy * aly;
-        R_(w, r, R_PHI) = d_normal;
-        R_(w, r, R_GAMMA) = -(nx * (pa[2] - pb[2]) + ny * (pa[3] - pb[3]) - 2.0 * wb * (ddx * alx + ddy * aly) -
+        w->row[r].phi = d_normal;
+        w->row[r].gamma = -(nx * (pa[2] - pb[2]) + ny * (pa[3] - pb[3]) - 2.0 * wb * (ddx * alx + ddy * aly) -
                              d_normal * wb * wb);
-        R_(w, r + 1, R_PHI) = K_(w, ka, K_TH) - thb - CL_(md, j, GRB_CL_PSI);
-        R_(w, r + 1, R_GAMMA) = 0.0;
+        w->row[r + 1].phi = w->frame[ka].theta - thb - grb_closures(md)[j].psi;
+        w->row[r + 1].gamma = 0.0;
         for (int i = 0; i < n; i++) {
             /* a link's angle turns with the revolutes on its path from the ground */
-            real jwa = ka >= 0 && grb_on_path(w, i, ka) ? L_(md, i, GRB_L_REV) : 0.0;
-            real jwb = kb >= 0 && grb_on_path(w, i, kb) ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwa = ka >= 0 && grb_on_path(w, i, ka) ? grb_links(md)[i].revolute : 0.0;
+            real jwb = kb >= 0 && grb_on_path(w, i, kb) ? grb_links(md)[i].revolute : 0.0;
             real jx = Jr[i], jy = Jr[n + i];
             /* d(normal)/d(theta_b) = -along */
             Jr[i] = nx * jx + ny * jy - d_along * jwb;
             Jr[n + i] = jwa - jwb;
         }
-        R_(w, r, R_NORMAL) = nx;
-        R_(w, r + 1, R_NORMAL) = ny;
+        w->row[r].normal = nx;
+        w->row[r + 1].normal = ny;
     }
 }
 
@@ -222,11 +233,11 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
 static void mass_centres(const grb_model *md, grb_ws *w) {
     for (int k = 0; k < md->n_links; k++) {
         real c[4];
-        GRB(point)(md, w, k, L_(md, k, GRB_L_P), L_(md, k, GRB_L_Q), w->Jc + 2 * k * w->n, c);
-        K_(w, k, K_CX) = c[0];
-        K_(w, k, K_CY) = c[1];
-        K_(w, k, K_CBX) = c[2];
-        K_(w, k, K_CBY) = c[3];
+        GRB(point)(md, w, k, grb_links(md)[k].p, grb_links(md)[k].q, w->Jc + 2 * k * w->n, c);
+        w->frame[k].com[0] = c[0];
+        w->frame[k].com[1] = c[1];
+        w->frame[k].com_bias[0] = c[2];
+        w->frame[k].com_bias[1] = c[3];
     }
 }
 
@@ -239,15 +250,15 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
-        real mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
+        real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
         unsigned long long path = w->path[k];
         for (int i = 0; i <= k; i++) {
             if (!((path >> i) & 1u)) continue;
-            real wi = ik * L_(md, i, GRB_L_REV);
+            real wi = ik * grb_links(md)[i].revolute;
             for (int j = i; j <= k; j++) {
                 if (!((path >> j) & 1u)) continue;
                 T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
-                               wi * L_(md, j, GRB_L_REV);
+                               wi * grb_links(md)[j].revolute;
             }
         }
     }
@@ -260,11 +271,11 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
 static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w,
                               int col) {
     int n = md->n_links;
-    for (int i = 0; i < n; i++) T_(w, i, col) = -L_(md, i, GRB_L_DAMP) * zd[i];
+    for (int i = 0; i < n; i++) T_(w, i, col) = -grb_links(md)[i].damping * zd[i];
     for (int k = 0; k < n; k++) {
-        real mk = L_(md, k, GRB_L_M);
+        real mk = grb_links(md)[k].m;
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
-        real fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
+        real fx = -mk * w->frame[k].com_bias[0], fy = -mk * (md->gravity + w->frame[k].com_bias[1]);
         for (int i = 0; i <= k; i++)
             if (grb_on_path(w, i, k)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
@@ -286,8 +297,8 @@ static void closure_multipliers(grb_ws *w) {
          * eigenvalue ratio the cut-off below tests */
         real det = Q_(w, 0, 0) * Q_(w, 1, 1) - Q_(w, 0, 1) * Q_(w, 1, 0), tr = Q_(w, 0, 0) + Q_(w, 1, 1);
         if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
-            R_(w, 0, R_LAM) = (Q_(w, 1, 1) * R_(w, 0, R_B) - Q_(w, 0, 1) * R_(w, 1, R_B)) / det;
-            R_(w, 1, R_LAM) = (Q_(w, 0, 0) * R_(w, 1, R_B) - Q_(w, 1, 0) * R_(w, 0, R_B)) / det;
+            w->row[0].lambda = (Q_(w, 1, 1) * w->row[0].b - Q_(w, 0, 1) * w->row[1].b) / det;
+            w->row[1].lambda = (Q_(w, 0, 0) * w->row[1].b - Q_(w, 1, 0) * w->row[0].b) / det;
             return;
         }
     }
@@ -296,13 +307,13 @@ static void closure_multipliers(grb_ws *w) {
     double w_max = -INFINITY;
     for (int i = 0; i < m; i++)
         if (RE(Q_(w, i, w0)) > w_max) w_max = RE(Q_(w, i, w0));
-    for (int r = 0; r < m; r++) R_(w, r, R_LAM) = 0.0;
+    for (int r = 0; r < m; r++) w->row[r].lambda = 0.0;
     for (int i = 0; i < m; i++) {
         if (!(RE(Q_(w, i, w0)) > SINGULAR_RCOND * w_max)) continue;
         real coef = 0.0;
-        for (int r = 0; r < m; r++) coef += Q_(w, r, v0 + i) * R_(w, r, R_B);
+        for (int r = 0; r < m; r++) coef += Q_(w, r, v0 + i) * w->row[r].b;
         coef /= Q_(w, i, w0);
-        for (int r = 0; r < m; r++) R_(w, r, R_LAM) += Q_(w, r, v0 + i) * coef;
+        for (int r = 0; r < m; r++) w->row[r].lambda += Q_(w, r, v0 + i) * coef;
     }
 }
 
@@ -331,8 +342,8 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
         for (int r = 0; r < m; r++) {
             real phidot = 0.0;
             for (int i = 0; i < n; i++) phidot += J_(w, r, i) * zd[i];
-            real lam = -CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) - CL_(md, r / 2, GRB_CL_DAMP) * phidot;
-            R_(w, r, R_LAM) = lam;
+            real lam = -grb_closures(md)[r / 2].gain * w->row[r].phi - grb_closures(md)[r / 2].damping * phidot;
+            w->row[r].lambda = lam;
             for (int i = 0; i < n; i++) T_(w, i, x0) += J_(w, r, i) * lam;
         }
     }
@@ -351,16 +362,16 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
-            T_(w, i, x0) += a * J_(w, r, i) * R_(w, r, R_GAMMA);
+            T_(w, i, x0) += a * J_(w, r, i) * w->row[r].gamma;
             T_(w, i, x0 + 1 + r) = J_(w, r, i);
             for (int j = 0; j < n; j++) T_(w, i, a0 + j) += a * J_(w, r, i) * J_(w, r, j);
         }
     int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
-        real s = R_(w, r, R_GAMMA);
+        real s = w->row[r].gamma;
         for (int i = 0; i < n; i++) s -= J_(w, r, i) * T_(w, i, x0);
-        R_(w, r, R_B) = s;
+        w->row[r].b = s;
         for (int c = 0; c < m; c++) {
             real q = 0.0;
             for (int i = 0; i < n; i++) q += J_(w, r, i) * T_(w, i, x0 + 1 + c);
@@ -370,7 +381,7 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
     if (ok) closure_multipliers(w);
     for (int i = 0; i < n; i++) {
         real s = T_(w, i, x0);
-        for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * R_(w, c, R_LAM);
+        for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * w->row[c].lambda;
         T_(w, i, dd) = ok ? s : NAN;
     }
     return ok;
@@ -401,46 +412,46 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
         real fx, fy, mz;
-        if (CL_(md, j, GRB_CL_KIND) != 0.0) {
-            fx = R_(w, r, R_NORMAL) * R_(w, r, R_LAM);
-            fy = R_(w, r + 1, R_NORMAL) * R_(w, r, R_LAM);
-            mz = R_(w, r + 1, R_LAM);
+        if (grb_closures(md)[j].kind != 0.0) {
+            fx = w->row[r].normal * w->row[r].lambda;
+            fy = w->row[r + 1].normal * w->row[r].lambda;
+            mz = w->row[r + 1].lambda;
         } else {
-            fx = R_(w, r, R_LAM);
-            fy = R_(w, r + 1, R_LAM);
+            fx = w->row[r].lambda;
+            fy = w->row[r + 1].lambda;
             mz = 0.0;
         }
-        real px = R_(w, r, R_POINT), py = R_(w, r + 1, R_POINT);
+        real px = w->row[r].point, py = w->row[r + 1].point;
         for (int side = 0; side < 2; side++) {
-            int k = (int)(side == 0 ? CL_(md, j, GRB_CL_LINK) : CL_(md, j, GRB_CL_TO));
+            int k = (int)(side == 0 ? grb_closures(md)[j].link : grb_closures(md)[j].to);
             if (k < 0) continue; /* the ground */
             real sign = side == 0 ? 1.0 : -1.0;
             out[3 * k] += sign * fx;
             out[3 * k + 1] += sign * fy;
-            out[3 * k + 2] += sign * (mz + (px - K_(w, k, K_OX)) * fy - (py - K_(w, k, K_OY)) * fx);
+            out[3 * k + 2] += sign * (mz + (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx);
         }
     }
     for (int k = n - 1; k >= 0; k--) {
-        real ax = K_(w, k, K_CBX), ay = K_(w, k, K_CBY), alpha = 0.0;
+        real ax = w->frame[k].com_bias[0], ay = w->frame[k].com_bias[1], alpha = 0.0;
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
             ax += JC_(w, k, 0, i) * T_(w, i, dd);
             ay += JC_(w, k, 1, i) * T_(w, i, dd);
-            if (grb_on_path(w, i, k)) alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
+            if (grb_on_path(w, i, k)) alpha += grb_links(md)[i].revolute * T_(w, i, dd);
         }
         /* what the children's joints carry: their force, and its moment about O_k */
         real fnx = 0.0, fny = 0.0, nn = 0.0, nf = 0.0;
         for (int c = k + 1; c < n; c++) {
-            if (PARENT_(md, c) != k) continue;
-            real nx = K_(w, c, K_OX) - K_(w, k, K_OX), ny = K_(w, c, K_OY) - K_(w, k, K_OY);
+            if (grb_parent(md, c) != k) continue;
+            real nx = w->frame[c].o[0] - w->frame[k].o[0], ny = w->frame[c].o[1] - w->frame[k].o[1];
             fnx += out[3 * c];
             fny += out[3 * c + 1];
             nn += out[3 * c + 2];
             nf += nx * out[3 * c + 1] - ny * out[3 * c];
         }
-        real ix = L_(md, k, GRB_L_M) * ax, iy = L_(md, k, GRB_L_M) * (ay + md->gravity); /* m (a - g) */
+        real ix = grb_links(md)[k].m * ax, iy = grb_links(md)[k].m * (ay + md->gravity); /* m (a - g) */
         real fx = ix - out[3 * k] + fnx, fy = iy - out[3 * k + 1] + fny;
-        real cx = K_(w, k, K_CX) - K_(w, k, K_OX), cy = K_(w, k, K_CY) - K_(w, k, K_OY);
-        real mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + nf - out[3 * k + 2];
+        real cx = w->frame[k].com[0] - w->frame[k].o[0], cy = w->frame[k].com[1] - w->frame[k].o[1];
+        real mz = grb_links(md)[k].inertia * alpha + (cx * iy - cy * ix) + nn + nf - out[3 * k + 2];
         out[3 * k] = fx;
         out[3 * k + 1] = fy;
         out[3 * k + 2] = mz;
@@ -456,34 +467,34 @@ int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive,
     int ok = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     int dd = w->dd;
     for (int k = 0; k < n; k++) {
-        int revolute = L_(md, k, GRB_L_REV) != 0.0, pk = PARENT_(md, k);
+        int revolute = grb_links(md)[k].revolute != 0.0, pk = grb_parent(md, k);
         /* a link's angular acceleration: its predecessor's plus its own revolute's */
         real acc = pk >= 0 ? out[4 * n + 2 * pk + 1] : 0.0;
-        out[2 * k] = K_(w, k, K_SLIDE);
-        out[2 * k + 1] = K_(w, k, K_TH);
-        out[2 * n + 2 * k] = K_(w, k, K_RATE);
-        out[2 * n + 2 * k + 1] = K_(w, k, K_OM);
+        out[2 * k] = w->frame[k].slide;
+        out[2 * k + 1] = w->frame[k].theta;
+        out[2 * n + 2 * k] = w->frame[k].rate;
+        out[2 * n + 2 * k + 1] = w->frame[k].omega;
         if (revolute) acc += T_(w, k, dd);
         out[4 * n + 2 * k] = revolute ? 0.0 : T_(w, k, dd);
         out[4 * n + 2 * k + 1] = acc;
     }
     int o = 6 * n;
     real tip[4];
-    GRB(point)(md, w, n - 1, L_(md, n - 1, GRB_L_A), 0.0, w->J + m * n, tip);
+    GRB(point)(md, w, n - 1, grb_links(md)[n - 1].a, 0.0, w->J + m * n, tip);
     out[o] = tip[0];
     out[o + 1] = tip[1];
     real err = 0.0;
-    for (int r = 0; r < m; r++) err += R_(w, r, R_PHI) * R_(w, r, R_PHI);
+    for (int r = 0; r < m; r++) err += w->row[r].phi * w->row[r].phi;
     out[o + 2] = RSQRT(err);
     real fx = 0.0, fy = 0.0, mz = 0.0;
     if (m > 0) {
-        if (CL_(md, 0, GRB_CL_KIND) != 0.0) {
-            fx = R_(w, 0, R_NORMAL) * R_(w, 0, R_LAM);
-            fy = R_(w, 1, R_NORMAL) * R_(w, 0, R_LAM);
-            mz = R_(w, 1, R_LAM);
+        if (grb_closures(md)[0].kind != 0.0) {
+            fx = w->row[0].normal * w->row[0].lambda;
+            fy = w->row[1].normal * w->row[0].lambda;
+            mz = w->row[1].lambda;
         } else {
-            fx = R_(w, 0, R_LAM);
-            fy = R_(w, 1, R_LAM);
+            fx = w->row[0].lambda;
+            fy = w->row[1].lambda;
         }
     }
     out[o + 3] = fx;
@@ -492,10 +503,10 @@ int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive,
     real ke = 0.0, pe = 0.0;
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) ke += zd[i] * T_(w, i, j) * zd[j];
-    for (int k = 0; k < n; k++) pe += L_(md, k, GRB_L_M) * K_(w, k, K_CY);
+    for (int k = 0; k < n; k++) pe += grb_links(md)[k].m * w->frame[k].com[1];
     pe *= md->gravity;
     if (method == GRB_PENALTY) /* the penalty springs store energy too */
-        for (int r = 0; r < m; r++) pe += 0.5 * CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) * R_(w, r, R_PHI);
+        for (int r = 0; r < m; r++) pe += 0.5 * grb_closures(md)[r / 2].gain * w->row[r].phi * w->row[r].phi;
     out[o + 6] = 0.5 * ke;
     out[o + 7] = pe;
     out[o + 8] = 0.5 * ke + pe;

@@ -115,7 +115,7 @@ static int march(const grb_model *md, double scale, int held, double d, double t
                  double near, double *z, double *t, grb_chart *ch, grb_ws *w, int track) {
     int n = w->n;
     double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n;
-    double unit = L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
+    double unit = grb_links(md)[held].revolute > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
     double last = grb_closure_conditioning(md, z, w) / kappa_ref;
     for (int k = 0; k < MARCH_STEPS; k++) {
         double floor = PINCH_AVOID * kappa_ref;
@@ -213,7 +213,7 @@ static int build_on(const grb_model *md, double scale, const double *y, double k
     memcpy(z, y, sizeof(double) * n);
     if (!isfinite(grb_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
     /* (the pinch may lie within the first continuation step either way) */
-    ch->pinch_step = 1.5 * MARCH_FIRST * (L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale);
+    ch->pinch_step = 1.5 * MARCH_FIRST * (grb_links(md)[held].revolute > 0.5 ? 1.0 : scale);
     memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
     memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
     /* both ways from here to where the closure is well conditioned again */

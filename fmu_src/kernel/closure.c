@@ -50,7 +50,7 @@ static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
 static double worst_violation(const grb_ws *w) {
     double worst = 0.0;
     for (int r = 0; r < w->m; r++)
-        if (!(fabs(R_(w, r, R_PHI)) <= worst)) worst = fabs(R_(w, r, R_PHI)); /* a nan wins */
+        if (!(fabs(w->row[r].phi) <= worst)) worst = fabs(w->row[r].phi); /* a nan wins */
     return worst;
 }
 
@@ -63,15 +63,15 @@ void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
     for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
         rows_at(md, z, w);
         if (worst_violation(w) <= POSITION_TOL * scale) break;
-        grb_lstsq_min_norm(w->J, n, m, n, w->R + R_PHI, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+        grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].phi, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
         for (int i = 0; i < n; i++) z[i] -= s.x[i];
     }
     for (int r = 0; r < m; r++) {
         double v = 0.0;
         for (int i = 0; i < n; i++) v += J_(w, r, i) * zd[i];
-        R_(w, r, R_B) = v;
+        w->row[r].b = v;
     }
-    grb_lstsq_min_norm(w->J, n, m, n, w->R + R_B, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+    grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].b, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
     for (int i = 0; i < n; i++) zd[i] -= s.x[i];
 }
 
@@ -90,7 +90,7 @@ int grb_constraint(const grb_model *md, const double *z, double *phi, double *J,
     grb_ws_init(&w, md->n_links, md->n_closures, work);
     rows_at(md, z, &w);
     for (int r = 0; r < w.m; r++) {
-        phi[r] = R_(&w, r, R_PHI);
+        phi[r] = w.row[r].phi;
         for (int i = 0; i < w.n; i++) J[r * w.n + i] = J_(&w, r, i);
     }
     return GRB_OK;
@@ -209,7 +209,7 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
         double err = worst_violation(&w);
         if (err < best) best = err;
         if (err < POSITION_TOL * scale) break;
-        for (int r = 0; r < m; r++) s.phi[r] = -R_(&w, r, R_PHI);
+        for (int r = 0; r < m; r++) s.phi[r] = -w.row[r].phi;
         solve_dependent(&w, &s, dep, nd, s.phi, s.step);
         /* damped Newton: the largest fraction that reduces the violation */
         int moved = 0;
@@ -416,7 +416,7 @@ double grb_branch_point(const grb_model *md, int held, double scale, double *z, 
         err = worst_violation(w);
         if (!(err < 0.5 * previous) || err == 0.0) break;
         previous = err;
-        for (int r = 0; r < m; r++) s.phi[r] = -R_(w, r, R_PHI);
+        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
         solve_dependent(w, &s, dep, nd, s.phi, s.step);
         for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
     }

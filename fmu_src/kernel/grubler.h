@@ -52,12 +52,36 @@ typedef enum grb_status {
  * table as grb_scene_tables builds it: -1 <= parent < k for row k. */
 enum { GRB_L_M, GRB_L_I, GRB_L_P, GRB_L_Q, GRB_L_A, GRB_L_APRED, GRB_L_DAMP, GRB_L_REV, GRB_L_SLIDE0,
        GRB_L_THETA0, GRB_L_PARENT, GRB_L_COLUMNS };
+/* One row of the link table by name (the kernel reads the table through it;
+ * chain.c checks that its fields sit at the columns above). */
+typedef struct grb_link {
+    double m;        /* mass, kg */
+    double inertia;  /* centroidal moment of inertia, kg m^2 */
+    double p, q;     /* mass centre along and across the link vector, m */
+    double a;        /* the link vector's length, m */
+    double a_pred;   /* the predecessor's vector length (a1 for a link on the ground), m */
+    double damping;  /* joint damping, N m s/rad (N s/m on a slide) */
+    double revolute; /* 1: the revolute is the real joint, 0: the slide */
+    double slide0;   /* the locked slide a revolute joint keeps, m */
+    double theta0;   /* the locked absolute angle the real relative angles add to, rad */
+    double parent;   /* the predecessor: an earlier moving link's index, -1 the ground */
+} grb_link;
 /* Columns of the closure table, one row per closure: kind (0 revolute,
  * 1 prismatic), closing link and target link (0-based moving-link index, -1 the
  * ground), point, target point, line angle, held orientation psi, penalty gain
  * and damping. */
 enum { GRB_CL_KIND, GRB_CL_LINK, GRB_CL_TO, GRB_CL_PX, GRB_CL_PY, GRB_CL_TX, GRB_CL_TY, GRB_CL_ANGLE,
        GRB_CL_PSI, GRB_CL_GAIN, GRB_CL_DAMP, GRB_CL_COLUMNS };
+/* One row of the closure table by name. */
+typedef struct grb_closure {
+    double kind;         /* 0 revolute (a pin), 1 prismatic (a point on a line, the link held at psi) */
+    double link, to;     /* the closing link and the link it closes on (moving-link index, -1 the ground) */
+    double point[2];     /* the closing point, in link's frame (along, across its vector), m */
+    double to_point[2];  /* where it closes: in to's frame, or the world's on the ground, m */
+    double angle;        /* a prismatic closure's line angle in to's frame, rad */
+    double psi;          /* the orientation a prismatic closure holds, rad */
+    double gain, damping; /* the penalty method's spring, N/m, and damper, N s/m */
+} grb_closure;
 
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };

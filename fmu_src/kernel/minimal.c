@@ -82,14 +82,14 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         GRB(closure_rows)(md, rest, w);
         double worst = 0.0;
         for (int r = 0; r < m; r++)
-            if (!(fabs(RE(R_(w, r, R_PHI))) <= worst)) worst = fabs(RE(R_(w, r, R_PHI))); /* a nan wins */
+            if (!(fabs(RE(w->row[r].phi)) <= worst)) worst = fabs(RE(w->row[r].phi)); /* a nan wins */
         if (!(worst <= MINIMAL_TOL * scale)) {
             if (polish >= 0 || !isfinite(worst)) return GRB_NOT_CLOSED; /* diverged after converging */
         } else {
             polish++;
         }
         real *b = w->S + n * (n + 1); /* after the system solve_dependent builds in S */
-        for (int r = 0; r < m; r++) b[r] = -R_(w, r, R_PHI);
+        for (int r = 0; r < m; r++) b[r] = -w->row[r].phi;
         if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
         scatter_dependent(w, n_ind, ind, z);
     }

@@ -17,23 +17,42 @@
 #include "grubler.h"
 #include "real.h"
 
-/* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
- * bias acceleration, slide axis, slide and its rate, mass centre, its bias, and
- * the sum of the real relative angles from the ground to the link (what the
- * link's children add theirs to: kept rather than recomputed from the angle so
- * that a serial chain's sums are the same floating-point numbers as before) */
-enum { K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX, K_CBY,
-       K_ZS, K_COLUMNS };
-/* constraint rows: violation, acceleration right side, solver columns b and
- * lambda, the line normal's component along this row's axis (prismatic) and
- * the closing point's */
-enum { R_PHI, R_GAMMA, R_B, R_LAM, R_NORMAL, R_POINT, R_COLUMNS };
+/* A link's frame in the kinematic pass (one row of K, in this field order:
+ * grb_work_layout publishes K's width and the library reads it as a table). */
+typedef struct grb_frame {
+    real theta, omega;         /* absolute angle, rad, and rate, rad/s */
+    real cos_theta, sin_theta;
+    real o[2];                 /* the joint point O_k, m */
+    real o_bias[2];            /* its acceleration at zero joint accelerations (the bias), m/s^2 */
+    real axis[2];              /* the slide axis: the predecessor's vector turned a quarter */
+    real slide, rate;          /* the slide, m, and its rate, m/s */
+    real com[2], com_bias[2];  /* the mass centre and its bias acceleration */
+    /* the sum of the real relative angles from the ground to the link (what
+     * the link's children add theirs to: kept rather than recomputed from the
+     * angle so that a serial chain's sums are the same floating-point numbers
+     * as before) */
+    real z_sum;
+} grb_frame;
+#define K_COLUMNS ((int)(sizeof(grb_frame) / sizeof(real)))
+
+/* One closure row (each closure has two; one row of R): violation phi, the
+ * acceleration's right side gamma (J zdd = gamma), what the closure still
+ * lacks after the unconstrained solve (b), its multiplier lambda, the line
+ * normal's component along this row's axis (prismatic) and the closing
+ * point's coordinate. */
+typedef struct grb_row {
+    real phi, gamma, b, lambda, normal, point;
+} grb_row;
+#define R_COLUMNS ((int)(sizeof(grb_row) / sizeof(real)))
 
 typedef struct grb_ws {
     int n, m;        /* links, closure rows */
     int tc, qc;      /* columns of T and Q */
     int a0, x0, dd, vec, block; /* column offsets in T */
-    real *K, *Jc, *J, *R, *T, *Q, *S;
+    grb_frame *frame; /* K: each link's frame */
+    real *Jc, *J;
+    grb_row *row;     /* R: the closure rows */
+    real *T, *Q, *S;
     /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
      * the ground), set by the kinematic pass: the inner loops over a link's
      * path test a bit instead of walking parents */
@@ -42,15 +61,14 @@ typedef struct grb_ws {
 
 void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
 
-#define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
-#define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
+/* The model's tables by row (grb_link, grb_closure: the same numbers). */
+static inline const grb_link *grb_links(const grb_model *m) { return (const grb_link *)m->links; }
+static inline const grb_closure *grb_closures(const grb_model *m) { return (const grb_closure *)m->closures; }
 /* the predecessor of link k: an earlier moving link, or -1 the ground */
-#define PARENT_(m, k) ((int)L_(m, k, GRB_L_PARENT))
+static inline int grb_parent(const grb_model *m, int k) { return (int)grb_links(m)[k].parent; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
 static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }
-#define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
-#define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
 #define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
 #define Q_(w, i, c) ((w)->Q[(i) * (w)->qc + (c)])
 #define J_(w, r, i) ((w)->J[(r) * (w)->n + (i)])
