@@ -328,9 +328,9 @@ void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, rea
     generalised_force(md, zd, tau_drive, tau_load, w, w->x0);
 }
 
-/* Joint accelerations (T's zdd column) and closure multipliers (R_LAM) at one
- * state.  0 (and nan accelerations) when the matrix to solve is singular. */
-int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+/* Joint accelerations (T's zdd column) and closure multipliers (lambda) at one
+ * state.  GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
+grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                       real tau_load, grb_ws *w) {
     int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
     GRB(mass_and_force)(md, z, zd, tau_drive, tau_load, w);
@@ -348,9 +348,9 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
         }
     }
     if (m == 0 || method == GRB_PENALTY) {
-        int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
-        for (int i = 0; i < n; i++) T_(w, i, dd) = ok ? T_(w, i, x0) : NAN;
-        return ok;
+        grb_status status = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
+        for (int i = 0; i < n; i++) T_(w, i, dd) = status == GRB_OK ? T_(w, i, x0) : NAN;
+        return status;
     }
     /* M may be singular where a real coordinate carries no inertia of its own (a
      * point-mass slider's rotation); M + a J^T J is not, and since J zdd = gamma
@@ -366,7 +366,7 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
             T_(w, i, x0 + 1 + r) = J_(w, r, i);
             for (int j = 0; j < n; j++) T_(w, i, a0 + j) += a * J_(w, r, i) * J_(w, r, j);
         }
-    int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
+    grb_status status = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
         real s = w->row[r].gamma;
@@ -378,26 +378,26 @@ int GRB(accelerations)(const grb_model *md, int method, const real *z, const rea
             Q_(w, r, c) = q;
         }
     }
-    if (ok) closure_multipliers(w);
+    if (status == GRB_OK) closure_multipliers(w);
     for (int i = 0; i < n; i++) {
         real s = T_(w, i, x0);
         for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * w->row[c].lambda;
-        T_(w, i, dd) = ok ? s : NAN;
+        T_(w, i, dd) = status == GRB_OK ? s : NAN;
     }
-    return ok;
+    return status;
 }
 
-int GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
+grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
             real *out) {
     grb_ws w;
     int n = md->n_links;
     GRB(ws_init)(&w, n, md->n_closures, work);
-    int ok = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
+    grb_status status = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
     for (int i = 0; i < n; i++) {
         out[i] = y[n + i];
         out[n + i] = T_(&w, i, w.dd);
     }
-    return ok ? GRB_OK : GRB_SINGULAR;
+    return status;
 }
 
 /* Force and moment each link's predecessor exerts on it, after
@@ -458,13 +458,13 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     }
 }
 
-int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load,
+grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load,
                 int want_reactions, real *work, real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
     GRB(ws_init)(w, n, md->n_closures, work);
     const real *zd = y + n;
-    int ok = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
+    grb_status status = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     int dd = w->dd;
     for (int k = 0; k < n; k++) {
         int revolute = grb_links(md)[k].revolute != 0.0, pk = grb_parent(md, k);
@@ -513,15 +513,16 @@ int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive,
     out[o + 9] = md->drive >= 0 ? tau_drive : 0.0;
     out[o + 10] = md->drive >= 0 ? tau_drive * zd[md->drive] : 0.0;
     if (want_reactions) GRB(reactions)(md, w, out + o + 11);
-    return ok ? GRB_OK : GRB_SINGULAR;
+    return status;
 }
 
-int GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, const real *tau_drive,
+grb_status GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, const real *tau_drive,
                      real tau_drive_const, real tau_load, int want_reactions, real *work, real *out) {
-    int n = md->n_links, status = GRB_OK;
+    int n = md->n_links;
+    grb_status status = GRB_OK;
     for (int i = 0; i < rows; i++) {
         real tau = tau_drive ? tau_drive[i] : tau_drive_const;
-        int s = GRB(observe)(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
+        grb_status s = GRB(observe)(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
                             out + (size_t)i * GRB_N_OBSERVED(n));
         if (s != GRB_OK && status == GRB_OK) status = s;
     }
@@ -540,13 +541,13 @@ void GRB(work_layout)(int n, int n_closures, long *layout) {
     layout[11] = 2 * n + m + 1;
 }
 
-int GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
+grb_status GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
     grb_ws w;
     GRB(ws_init)(&w, md->n_links, md->n_closures, work);
-    return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w) ? GRB_OK : GRB_SINGULAR;
+    return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w);
 }
 
-int GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
+grb_status GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
     grb_ws w;
     if (k < 0 || k >= md->n_links) return GRB_BAD_ARGUMENT;
     GRB(ws_init)(&w, md->n_links, md->n_closures, work);
@@ -554,14 +555,14 @@ int GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly,
     return GRB_OK;
 }
 
-int GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
+grb_status GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
     grb_ws w;
     GRB(ws_init)(&w, md->n_links, md->n_closures, work);
     GRB(reactions)(md, &w, out);
     return GRB_OK;
 }
 
-int GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, real tau_load, real *work,
+grb_status GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, real tau_load, real *work,
                          real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links;
@@ -582,11 +583,11 @@ int GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, r
 #ifdef GRB_COMPLEX_STEP
 /* Entry points with the efforts passed by address: a complex number passed by
  * value is not something every foreign-function interface can do. */
-int grb_cs_rhs_at(const grb_model *md, int method, const real *y, const real *efforts, real *work, real *out) {
+grb_status grb_cs_rhs_at(const grb_model *md, int method, const real *y, const real *efforts, real *work, real *out) {
     return GRB(rhs)(md, method, y, efforts[0], efforts[1], work, out);
 }
 
-int grb_cs_observe_at(const grb_model *md, int method, const real *y, const real *efforts, int want_reactions,
+grb_status grb_cs_observe_at(const grb_model *md, int method, const real *y, const real *efforts, int want_reactions,
                       real *work, real *out) {
     return GRB(observe)(md, method, y, efforts[0], efforts[1], want_reactions, work, out);
 }

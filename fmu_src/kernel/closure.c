@@ -75,7 +75,7 @@ void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
     for (int i = 0; i < n; i++) zd[i] -= s.x[i];
 }
 
-int grb_project(const grb_model *md, double scale, double *y, double *work) {
+grb_status grb_project(const grb_model *md, double scale, double *y, double *work) {
     grb_ws w;
     grb_ws_init(&w, md->n_links, md->n_closures, work);
     if (w.m == 0) return GRB_OK;
@@ -85,7 +85,7 @@ int grb_project(const grb_model *md, double scale, double *y, double *work) {
     return GRB_OK;
 }
 
-int grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
+grb_status grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
     grb_ws w;
     grb_ws_init(&w, md->n_links, md->n_closures, work);
     rows_at(md, z, &w);
@@ -96,7 +96,7 @@ int grb_constraint(const grb_model *md, const double *z, double *phi, double *J,
     return GRB_OK;
 }
 
-int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
+grb_status grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
     grb_ws w;
     grb_ws_init(&w, md->n_links, md->n_closures, work);
     if (w.m > 64) return GRB_BAD_ARGUMENT;
@@ -104,9 +104,9 @@ int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom
     return GRB_OK;
 }
 
-int grb_hold_count(const grb_model *md, const double *z, double *work, int *count) {
+grb_status grb_hold_count(const grb_model *md, const double *z, double *work, int *count) {
     int freedom, n = md->n_links - 2 * md->n_closures;
-    int status = grb_freedom(md, z, work, &freedom);
+    grb_status status = grb_freedom(md, z, work, &freedom);
     if (status != GRB_OK) return status;
     if (freedom > n) n = freedom;
     if (md->drive >= 0 && n < 1) n = 1;
@@ -114,7 +114,7 @@ int grb_hold_count(const grb_model *md, const double *z, double *work, int *coun
     return GRB_OK;
 }
 
-int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
+grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
     grb_ws_init(&w, n, md->n_closures, work);
@@ -186,7 +186,7 @@ static void solve_dependent(const grb_ws *w, scratch *s, const int *dep, int nd,
     grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
 }
 
-int grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
+grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
                  double *closest, double *work) {
     grb_ws w;
     int n = md->n_links;

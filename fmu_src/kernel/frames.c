@@ -4,7 +4,7 @@
  * Positions only, so it is compiled once, over double. */
 #include "workspace.h"
 
-int grb_link_points_rows(const grb_model *md, int rows, const double *y, int n_points, const int *link,
+grb_status grb_link_points_rows(const grb_model *md, int rows, const double *y, int n_points, const int *link,
                          const double *local, double *work, double *out) {
     int n = md->n_links;
     grb_ws ws, *w = &ws;

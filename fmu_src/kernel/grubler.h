@@ -41,6 +41,9 @@ typedef enum grb_status {
     GRB_NOT_CLOSED             /* assembly: limit: the closest violation reached */
 } grb_status;
 
+/* The status in words (a static string). */
+GRB_API const char *grb_status_message(grb_status status);
+
 /* Columns of the link table, one row per moving link (model.py's L_*):
  * mass, centroidal inertia, mass centre along and across the link vector, the
  * vector's length, the predecessor's vector length (a1 for link 2), joint
@@ -112,17 +115,17 @@ GRB_API size_t grb_work_size(int n_links, int n_closures);
 
 /* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
-GRB_API int grb_rhs(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_rhs(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                     double *work, double *out);
 
 /* Every output of one state (after the forward dynamics it runs itself), into
  * out[GRB_N_OBSERVED(n)]; the reactions only when want_reactions (else left as is). */
-GRB_API int grb_observe(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_observe(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                         int want_reactions, double *work, double *out);
 
 /* grb_observe over rows states y (rows x 2N), efforts per row (tau_drive may be
  * NULL: then tau_drive_const), into out (rows x GRB_N_OBSERVED(n)). */
-GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
+GRB_API grb_status grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
                              double tau_drive_const, double tau_load, int want_reactions, double *work, double *out);
 
 /* World positions of points fixed to links over rows states y (rows x 2N; the
@@ -130,40 +133,40 @@ GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const dou
  * local[2p] along and local[2p + 1] across the vector of moving link link[p]
  * (0-based), or the ground point local[2p..2p+1] itself where link[p] < 0.
  * GRB_BAD_ARGUMENT for a link index past the chain.  For drawing a trajectory. */
-GRB_API int grb_link_points_rows(const grb_model *m, int rows, const double *y, int n_points, const int *link,
+GRB_API grb_status grb_link_points_rows(const grb_model *m, int rows, const double *y, int n_points, const int *link,
                                  const double *local, double *work, double *out);
 
 /* Closure violation phi (2C) and its Jacobian J (2C x N, row-major) at z. */
-GRB_API int grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
+GRB_API grb_status grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
 
 /* Minimum-norm projection of y = (z, zd) onto the position and velocity
  * constraints, in place (scale: the length scale of the position tolerance). */
-GRB_API int grb_project(const grb_model *m, double scale, double *y, double *work);
+GRB_API grb_status grb_project(const grb_model *m, double scale, double *y, double *work);
 
 /* Consistent assembly: hold the n_held coordinates listed in held, solve the
  * closures for the others by damped Newton from z (the user's sketch picks the
  * branch), then the rates of the others from the velocity constraint.  z and zd
  * are updated in place.  GRB_NOT_CLOSED with *closest the smallest violation
  * reached when the loop cannot close. */
-GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
+GRB_API grb_status grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
                          double *closest, double *work);
 
 /* Degrees of freedom the closures leave at z: N minus the rank of their
  * Jacobian (singular values above 1e-8 of the largest).  It exceeds the
  * Grübler count N - 2C where closure rows are redundant (a third crank on a
  * parallelogram's coupling rod); assembly holds that many coordinates. */
-GRB_API int grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
+GRB_API grb_status grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
 
 /* How many coordinates assembly holds at the sketch z: the closures' freedom
  * there, no fewer than the Grübler count N - 2C, and at least the drive (a
  * sketch that does not close shows no redundancy; the drive is the motion's
  * own coordinate all the same).  The library and the FMU both ask this. */
-GRB_API int grb_hold_count(const grb_model *m, const double *z, double *work, int *count);
+GRB_API grb_status grb_hold_count(const grb_model *m, const double *z, double *work, int *count);
 
 /* Which coordinates assembly holds: the drive (if any), then, up to the
  * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
  * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */
-GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
+GRB_API grb_status grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
                                  double *work);
 
 /* -- the workspace as tables, for callers that read intermediate results ----
@@ -174,19 +177,19 @@ GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z
  * layout[0..6] offsets of K, Jc, J, R, T, Q, S; layout[7..10] the columns of K,
  * R, T and Q; layout[11] T's column of the accelerations. */
 GRB_API void grb_work_layout(int n_links, int n_closures, long *layout);
-GRB_API int grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                          double *work);
 /* Position r[0..1], bias acceleration r[2..3] and Jacobian J (2 x N) of the
  * point (lx along, ly across the link vector) of moving link k, from a
  * workspace grb_evaluate filled. */
-GRB_API int grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
+GRB_API grb_status grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
 /* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor (parent) on it) from a
  * workspace grb_evaluate filled. */
-GRB_API int grb_joint_reactions(const grb_model *m, double *work, double *out);
+GRB_API grb_status grb_joint_reactions(const grb_model *m, double *work, double *out);
 /* Inverse dynamics residual M zdd + h - Q at (z, zd) with no drive effort:
  * what the drive and the closures must supply.  Leaves the closure rows in the
  * workspace. */
-GRB_API int grb_inverse_residual(const grb_model *m, const double *y, const double *zdd, double tau_load,
+GRB_API grb_status grb_inverse_residual(const grb_model *m, const double *y, const double *zdd, double tau_load,
                                  double *work, double *out);
 /* Minimum-norm least-squares solution of J x = b, J m x n row-major, with a
  * relative singular-value cut-off; returns the rank (scratch: (n + m) * m). */
@@ -201,7 +204,7 @@ GRB_API int grb_lstsq(const double *J, int m, int n, const double *b, double rco
  * set does not parametrise the motion there), GRB_NOT_CLOSED when Newton does
  * not converge, GRB_BAD_ARGUMENT for a wrong count or a repeated index.  Its
  * complex twin (grubler_cs.h) carries the tangent of the constraint manifold. */
-GRB_API int grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
+GRB_API grb_status grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
 
 /* A drive effort given as a function of time (NULL: the constant tau_drive). */
 typedef double (*grb_drive_fn)(void *ctx, double t);
@@ -257,7 +260,7 @@ GRB_API size_t grb_stepper_size(int tableau, int n_states);
  * the motion came along (continuity of position, velocity and acceleration).
  * Each passage is counted in the clock and its time logged.
  * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
-GRB_API int grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
+GRB_API grb_status grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
                         const double *t_out, int n_out, double *out, double *work, double *stepper,
                         grb_failure *why);
 

@@ -246,7 +246,7 @@ static double crossing(double x0, double d0, double x1, double d1, double x) {
     return u;
 }
 
-static int fail(grb_failure *why, int status, double where, double limit) {
+static grb_status fail(grb_failure *why, grb_status status, double where, double limit) {
     if (why) {
         why->where = where;
         why->limit = limit;
@@ -254,7 +254,7 @@ static int fail(grb_failure *why, int status, double where, double limit) {
     return status;
 }
 
-int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
                 const double *t_out, int n_out, double *out, double *work, double *stepper, grb_failure *why) {
     const grb_tableau_data *tab = grb_tableau(st->tableau);
     if (!tab || n_out < 1 || !(st->rtol > 0.0) || !(st->atol > 0.0) || !isfinite(st->rtol) ||

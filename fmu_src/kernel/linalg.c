@@ -14,9 +14,9 @@
 #define GRAM_CUTOFF 1e-8
 
 /* Solve A Y = X in place: A is the n x n block of T from column a0 (destroyed),
- * X the ncols columns from x0 (overwritten by Y).  0 when a pivot is exactly
- * zero (singular), as gesv reports it. */
-int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
+ * X the ncols columns from x0 (overwritten by Y).  GRB_SINGULAR when a pivot
+ * is exactly zero, as gesv reports it. */
+grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
 #define A(r, c) T[(r) * stride + a0 + (c)]
 #define X(r, c) T[(r) * stride + x0 + (c)]
     for (int c = 0; c < n; c++) {
@@ -27,7 +27,7 @@ int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
                 big = fabs(RE(A(r, c)));
                 p = r;
             }
-        if (big == 0.0) return 0;
+        if (big == 0.0) return GRB_SINGULAR;
         if (p != c) {
             for (int j = 0; j < n; j++) {
                 real t = A(c, j);
@@ -54,7 +54,7 @@ int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
             for (int k = c + 1; k < n; k++) s -= A(c, k) * X(k, j);
             X(c, j) = s / A(c, c);
         }
-    return 1;
+    return GRB_OK;
 #undef A
 #undef X
 }

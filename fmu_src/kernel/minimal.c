@@ -31,7 +31,7 @@ static int is_independent(int i, int n_ind, const int *ind) {
  * crank on a parallelogram's rod) the consistent system is solved by its
  * normal equations J_dep^T J_dep x = J_dep^T b, analytic like the square solve,
  * so the complex build's derivatives stay exact.  0 when singular. */
-static int solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
+static grb_status solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
     int n = w->n, m = w->m, nd = n - n_ind;
     int dep[GRB_MAX_LINKS], c = 0;
     for (int i = 0; i < n; i++)
@@ -65,7 +65,7 @@ static void scatter_dependent(const grb_ws *w, int n_ind, const int *ind, real *
     }
 }
 
-int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
+grb_status GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
     if (n_ind < 0 || n_ind + m < n || n_ind > n || (n_ind > 0 && !ind) || n > GRB_MAX_LINKS) return GRB_BAD_ARGUMENT;
@@ -90,7 +90,7 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         }
         real *b = w->S + n * (n + 1); /* after the system solve_dependent builds in S */
         for (int r = 0; r < m; r++) b[r] = -w->row[r].phi;
-        if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
+        if (solve_dependent(w, n_ind, ind, b) != GRB_OK) return GRB_SINGULAR;
         scatter_dependent(w, n_ind, ind, z);
     }
     if (polish < MINIMAL_POLISH) return GRB_NOT_CLOSED;
@@ -104,7 +104,7 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         for (int k = 0; k < n_ind; k++) s -= J_(w, r, ind[k]) * zd[ind[k]];
         b[r] = s;
     }
-    if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
+    if (solve_dependent(w, n_ind, ind, b) != GRB_OK) return GRB_SINGULAR;
     for (int i = 0; i < n; i++)
         if (!is_independent(i, n_ind, ind)) zd[i] = 0.0;
     scatter_dependent(w, n_ind, ind, zd);

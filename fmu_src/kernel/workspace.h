@@ -76,7 +76,7 @@ static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->
 
 /* dense linear algebra on small matrices (linalg.c); row-major with a stride;
  * the least-squares solver exists in the plain (double) build only */
-int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
+grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
 void GRB(sym_eig)(real *Q, int stride, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
@@ -85,7 +85,7 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
 void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w);
 void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r);
 void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w);
-int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                        real tau_load, grb_ws *w);
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);

@@ -235,20 +235,7 @@ static fmi2Status joint_index(grb_instance *inst, const mech *mm, const char *fi
     return fmi2OK;
 }
 
-static const char *status_text(int status) {
-    switch (status) {
-    case GRB_SINGULAR: return "the mass matrix or the constraint Jacobian is singular";
-    case GRB_NONFINITE_DERIVATIVE: return "the state derivative is not finite";
-    case GRB_STEP_UNDERFLOW: return "the step size fell below its limit";
-    case GRB_TOO_MANY_STEPS: return "too many internal steps";
-    case GRB_NONFINITE_FIXED_STEP: return "a fixed step gave a non-finite state";
-    case GRB_BRANCH_JUMP: return "the projection would remove too much of the joint speeds (a change point, where "
-                                 "two assembly branches meet)";
-    case GRB_BAD_ARGUMENT: return "a time, tolerance or size is out of range";
-    case GRB_NOT_CLOSED: return "the loop cannot be closed";
-    default: return "unknown kernel status";
-    }
-}
+static const char *status_text(int status) { return grb_status_message((grb_status)status); }
 
 fmi2Status model_prepare(grb_instance *inst) {
     mech *mm = (mech *)inst->model;
