@@ -26,10 +26,10 @@ typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_C
                                         offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
                                         sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
 
-/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer. */
+/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer (after its header). */
 static void ws_offsets(int n, int m, size_t *off) {
     size_t N = (size_t)n, M = (size_t)m;
-    off[0] = 0;
+    off[0] = WORK_HEADER;
     off[1] = off[0] + N * K_COLUMNS;
     off[2] = off[1] + 2 * N * N;
     off[3] = off[2] + (M + 3) * N;
@@ -46,10 +46,32 @@ size_t GRB(work_size)(int n, int n_closures) {
     return off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
 }
 
-void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
-    int m = 2 * n_closures;
+grb_status GRB(work_init)(int n, int n_closures, real *buffer, size_t length) {
+    if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer || length < GRB(work_size)(n, n_closures))
+        return GRB_BAD_ARGUMENT;
+    buffer[WORK_TAG] = GRB_WORK_TAG;
+    buffer[WORK_LINKS] = n;
+    buffer[WORK_CLOSURES] = n_closures;
+    buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
+    return GRB_OK;
+}
+
+grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled needs) {
+    int n = md->n_links, n_closures = md->n_closures, m = 2 * n_closures;
+    if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer) return GRB_BAD_ARGUMENT;
+    if (RE(buffer[WORK_TAG]) != GRB_WORK_TAG) {
+        /* a buffer no call has used: the caller sized it (grb_work_size) */
+        if (needs != GRB_FILLED_NOTHING) return GRB_BAD_ARGUMENT;
+        buffer[WORK_TAG] = GRB_WORK_TAG;
+        buffer[WORK_LINKS] = n;
+        buffer[WORK_CLOSURES] = n_closures;
+    } else if (RE(buffer[WORK_LINKS]) != n || RE(buffer[WORK_CLOSURES]) != n_closures ||
+               RE(buffer[WORK_FILLED]) < needs)
+        return GRB_BAD_ARGUMENT;
+    if (needs == GRB_FILLED_NOTHING) buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
     size_t off[7];
     ws_offsets(n, m, off);
+    w->header = buffer;
     w->n = n;
     w->m = m;
     w->tc = 2 * n + 2 * m + 3;
@@ -66,6 +88,7 @@ void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
     w->T = buffer + off[4];
     w->Q = buffer + off[5];
     w->S = buffer + off[6];
+    return GRB_OK;
 }
 
 /* Recursive pass from ground to tip (MODEL.md section 2) into K.  Each link
@@ -350,6 +373,7 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
     if (m == 0 || method == GRB_PENALTY) {
         grb_status status = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
         for (int i = 0; i < n; i++) T_(w, i, dd) = status == GRB_OK ? T_(w, i, x0) : NAN;
+        grb_ws_filled(w, GRB_FILLED_DYNAMICS);
         return status;
     }
     /* M may be singular where a real coordinate carries no inertia of its own (a
@@ -384,6 +408,7 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
         for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * w->row[c].lambda;
         T_(w, i, dd) = status == GRB_OK ? s : NAN;
     }
+    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
     return status;
 }
 
@@ -391,8 +416,9 @@ grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_dri
             real *out) {
     grb_ws w;
     int n = md->n_links;
-    GRB(ws_init)(&w, n, md->n_closures, work);
-    grb_status status = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    status = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
     for (int i = 0; i < n; i++) {
         out[i] = y[n + i];
         out[n + i] = T_(&w, i, w.dd);
@@ -462,9 +488,10 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
                 int want_reactions, real *work, real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     const real *zd = y + n;
-    grb_status status = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
+    status = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     int dd = w->dd;
     for (int k = 0; k < n; k++) {
         int revolute = grb_links(md)[k].revolute != 0.0, pk = grb_parent(md, k);
@@ -543,21 +570,24 @@ void GRB(work_layout)(int n, int n_closures, long *layout) {
 
 grb_status GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
     grb_ws w;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w);
 }
 
 grb_status GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
     grb_ws w;
     if (k < 0 || k >= md->n_links) return GRB_BAD_ARGUMENT;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_KINEMATICS);
+    if (status != GRB_OK) return status;
     GRB(point)(md, &w, k, lx, ly, J, r);
     return GRB_OK;
 }
 
 grb_status GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
     grb_ws w;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_DYNAMICS);
+    if (status != GRB_OK) return status;
     GRB(reactions)(md, &w, out);
     return GRB_OK;
 }
@@ -566,10 +596,12 @@ grb_status GRB(inverse_residual)(const grb_model *md, const real *y, const real 
                          real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links;
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     GRB(chain)(md, y, y + n, w);
     mass_centres(md, w);
     GRB(closure_rows)(md, y + n, w);
+    grb_ws_filled(w, GRB_FILLED_KINEMATICS);
     mass_matrix(md, w);
     generalised_force(md, y + n, 0.0, tau_load, w, w->vec);
     for (int i = 0; i < n; i++) {

@@ -77,7 +77,8 @@ void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
 
 grb_status grb_project(const grb_model *md, double scale, double *y, double *work) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     if (w.m == 0) return GRB_OK;
     grb_project_ws(md, scale, y, &w);
     for (int i = 0; i < 2 * w.n; i++)
@@ -87,7 +88,8 @@ grb_status grb_project(const grb_model *md, double scale, double *y, double *wor
 
 grb_status grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     rows_at(md, z, &w);
     for (int r = 0; r < w.m; r++) {
         phi[r] = w.row[r].phi;
@@ -98,7 +100,8 @@ grb_status grb_constraint(const grb_model *md, const double *z, double *phi, dou
 
 grb_status grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     if (w.m > 64) return GRB_BAD_ARGUMENT;
     *freedom = grb_closure_freedom(md, z, &w);
     return GRB_OK;
@@ -117,7 +120,8 @@ grb_status grb_hold_count(const grb_model *md, const double *z, double *work, in
 grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
-    grb_ws_init(&w, n, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     int m = w.m, count = 0;
     if (n_hold < 0) n_hold = 0;
     if (md->drive >= 0 && n_hold > 0) held[count++] = md->drive;
@@ -190,9 +194,10 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
                  double *closest, double *work) {
     grb_ws w;
     int n = md->n_links;
-    grb_ws_init(&w, n, md->n_closures, work);
-    int m = w.m;
     *closest = 0.0;
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    int m = w.m;
     if (m == 0) return GRB_OK;
     if (n > 64 || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
     scratch s = scratch_of(&w);

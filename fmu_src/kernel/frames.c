@@ -11,7 +11,8 @@ grb_status grb_link_points_rows(const grb_model *md, int rows, const double *y, 
     if (rows < 0 || n_points < 0) return GRB_BAD_ARGUMENT;
     for (int p = 0; p < n_points; p++)
         if (link[p] >= n) return GRB_BAD_ARGUMENT;
-    grb_ws_init(w, n, md->n_closures, work);
+    grb_status status = grb_ws_init(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     /* GRB(point) writes a Jacobian we do not need: the closure Jacobian's scratch rows */
     double *scratch = w->J + w->m * n, r[4];
     for (int i = 0; i < rows; i++) {

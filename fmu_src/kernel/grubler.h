@@ -110,8 +110,16 @@ typedef struct grb_model {
  * Mz, KE, PE, E, tau_drive, P_drive (11), the joint reactions (3N). */
 #define GRB_N_OBSERVED(n) (9 * (n) + 11)
 
-/* Doubles of workspace the functions below need for a model (grb_work_size). */
+/* The data (pinocchio's Data beside its Model): every table the kernel fills
+ * for one model, in one caller-owned buffer of grb_work_size doubles.  Its
+ * first entries say which sizes it is laid out for and how far it is filled
+ * (kernel/workspace.h), so that each call below can refuse (GRB_BAD_ARGUMENT)
+ * a buffer laid out for another model's sizes, and grb_point_on_link and
+ * grb_joint_reactions one that grb_evaluate has not filled.  grb_work_init
+ * lays a buffer out, checking its length; a buffer no call has used yet (all
+ * zeros, say) is laid out by the first call, which must trust its length. */
 GRB_API size_t grb_work_size(int n_links, int n_closures);
+GRB_API grb_status grb_work_init(int n_links, int n_closures, double *work, size_t length);
 
 /* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
@@ -181,7 +189,7 @@ GRB_API grb_status grb_evaluate(const grb_model *m, int method, const double *y,
                          double *work);
 /* Position r[0..1], bias acceleration r[2..3] and Jacobian J (2 x N) of the
  * point (lx along, ly across the link vector) of moving link k, from a
- * workspace grb_evaluate filled. */
+ * workspace grb_evaluate (or grb_inverse_residual) filled. */
 GRB_API grb_status grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
 /* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor (parent) on it) from a
  * workspace grb_evaluate filled. */

@@ -18,6 +18,9 @@
 extern "C" {
 #endif
 
+/* grb_work_init over a complex buffer */
+GRB_API grb_status grb_cs_work_init(int n_links, int n_closures, double complex *work, size_t length);
+
 /* efforts: (drive, load); the complex-step rules are in real.h */
 GRB_API grb_status grb_cs_rhs_at(const grb_model *m, int method, const double complex *y, const double complex *efforts,
                           double complex *work, double complex *out);

@@ -254,8 +254,9 @@ static grb_status fail(grb_failure *why, grb_status status, double where, double
     return status;
 }
 
-grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
-                const double *t_out, int n_out, double *out, double *work, double *stepper, grb_failure *why) {
+static grb_status advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                          const double *t_out, int n_out, double *out, double *work, double *stepper,
+                          grb_failure *why) {
     const grb_tableau_data *tab = grb_tableau(st->tableau);
     if (!tab || n_out < 1 || !(st->rtol > 0.0) || !(st->atol > 0.0) || !isfinite(st->rtol) ||
         !isfinite(st->atol) || !(st->h_max > 0.0) || st->max_steps < 0)
@@ -267,7 +268,8 @@ grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *c
         if (!isfinite(t_out[i]) || !(t_out[i] >= lo)) return fail(why, GRB_BAD_ARGUMENT, t_out[i], 0.0);
     }
     problem p = {md, st, {0}, work, 2 * md->n_links, NULL};
-    grb_ws_init(&p.ws, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&p.ws, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return fail(why, status, clock->t, 0.0);
     int N = p.N, s = tab->stages, dense = tab->dense_stages > 0;
     rows rw = rows_of(tab);
     double *Y = stepper;
@@ -500,4 +502,13 @@ grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *c
     clock->charts += charts;
     clock->kappa_seen = kappa_seen;
     return GRB_OK;
+}
+
+grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                       const double *t_out, int n_out, double *out, double *work, double *stepper,
+                       grb_failure *why) {
+    grb_status status = advance(md, st, clock, y, f, t_out, n_out, out, work, stepper, why);
+    /* the evaluations and projections leave the tables at no one state */
+    if (work && work[WORK_TAG] == GRB_WORK_TAG) work[WORK_FILLED] = GRB_FILLED_NOTHING;
+    return status;
 }

@@ -72,7 +72,8 @@ grb_status GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, do
     for (int k = 0; k < n_ind; k++)
         if (ind[k] < 0 || ind[k] >= n || is_independent(ind[k], k, ind)) return GRB_BAD_ARGUMENT;
     if (m == 0) return GRB_OK; /* an open chain: every coordinate is independent */
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     real *z = y, *zd = y + n;
     real *rest = w->J + (m + 2) * n; /* zero rates: they enter neither phi nor J */
     int polish = -1;

@@ -1,7 +1,11 @@
 /* The kernel's workspace layout, shared by its translation units (not public).
  *
  * One caller-owned buffer of GRB(work_size)() doubles holds every table the
- * kernel fills; GRB(ws_init)() only points into it.  Tables are row-major:
+ * kernel fills; GRB(ws_init)() only points into it.  Its first entries (the
+ * header) say which model's sizes it was laid out for and what it holds now,
+ * so that a buffer of another model's, or one read before it was filled, is
+ * refused (GRB_BAD_ARGUMENT) instead of read past or trusted.  Then the tables,
+ * row-major:
  *   K  (N x K_COLUMNS)  the link table of the kinematic pass
  *   Jc (N x 2 x N)      mass-centre Jacobians
  *   J  ((M + 3) x N)    closure Jacobian, then three scratch rows
@@ -45,6 +49,18 @@ typedef struct grb_row {
 } grb_row;
 #define R_COLUMNS ((int)(sizeof(grb_row) / sizeof(real)))
 
+/* The header: a tag, the links and closures the buffer is laid out for (set by
+ * grb_work_init, or by the first call that uses a buffer that has none) and
+ * how far it is filled at the present state. */
+enum { WORK_TAG, WORK_LINKS, WORK_CLOSURES, WORK_FILLED, WORK_HEADER };
+#define GRB_WORK_TAG 4.2347e-297 /* an unlikely value for a number the kernel computes */
+/* what the tables hold (WORK_FILLED), and what a call needs them to hold */
+typedef enum grb_filled {
+    GRB_FILLED_NOTHING = 0,      /* scratch (or a pass at other rates: the closure rows at rest) */
+    GRB_FILLED_KINEMATICS = 1,   /* the kinematic pass, mass centres and closure rows at one state */
+    GRB_FILLED_DYNAMICS = 2      /* and the accelerations and multipliers there */
+} grb_filled;
+
 typedef struct grb_ws {
     int n, m;        /* links, closure rows */
     int tc, qc;      /* columns of T and Q */
@@ -53,13 +69,20 @@ typedef struct grb_ws {
     real *Jc, *J;
     grb_row *row;     /* R: the closure rows */
     real *T, *Q, *S;
+    real *header;     /* the buffer's header (WORK_*) */
     /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
      * the ground), set by the kinematic pass: the inner loops over a link's
      * path test a bit instead of walking parents */
     unsigned long long path[GRB_MAX_LINKS];
 } grb_ws;
 
-void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
+/* Point w into buffer for model md: GRB_BAD_ARGUMENT when the buffer was laid
+ * out for other sizes, or holds less than `needs` (GRB_FILLED_NOTHING: any
+ * buffer of the model; the call will overwrite the tables, and the header says
+ * they hold nothing until the call says otherwise). */
+grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled needs);
+/* What the call left in the tables. */
+static inline void grb_ws_filled(grb_ws *w, grb_filled filled) { w->header[WORK_FILLED] = (double)filled; }
 
 /* The model's tables by row (grb_link, grb_closure: the same numbers). */
 static inline const grb_link *grb_links(const grb_model *m) { return (const grb_link *)m->links; }
