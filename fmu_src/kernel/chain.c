@@ -34,8 +34,17 @@ static void ws_offsets(int n, int m, size_t *off) {
     off[2] = off[1] + 2 * N * N;
     off[3] = off[2] + (M + 3) * N;
     off[4] = off[3] + M * R_COLUMNS;
-    off[5] = off[4] + N * (2 * N + 2 * M + 3);
+    off[5] = off[4] + N * (2 * N + M + 3); /* M, the force, the solver table, zdd */
     off[6] = off[5] + M * (3 * M + 1);
+}
+
+/* Offsets of the dynamics' arrays within T (from off[4]): mass, force, solve, zdd. */
+static void dynamics_offsets(int n, int m, const size_t *off, size_t *dyn) {
+    size_t N = (size_t)n, M = (size_t)m;
+    dyn[0] = off[4];
+    dyn[1] = dyn[0] + N * N;
+    dyn[2] = dyn[1] + N;
+    dyn[3] = dyn[2] + N * (N + M + 1);
 }
 
 size_t GRB(work_size)(int n, int n_closures) {
@@ -69,24 +78,25 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
                RE(buffer[WORK_FILLED]) < needs)
         return GRB_BAD_ARGUMENT;
     if (needs == GRB_FILLED_NOTHING) buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
-    size_t off[7];
+    size_t off[7], dyn[4];
     ws_offsets(n, m, off);
+    dynamics_offsets(n, m, off, dyn);
     w->header = buffer;
     w->n = n;
     w->m = m;
-    w->tc = 2 * n + 2 * m + 3;
-    w->qc = 3 * m + 1;
-    w->a0 = n;
-    w->x0 = 2 * n;
-    w->dd = 2 * n + m + 1;
-    w->vec = 2 * n + m + 2;
-    w->block = 2 * n + m + 3;
+    w->sc = n + m + 1;
     w->frame = (grb_frame *)(buffer + off[0]);
     w->Jc = buffer + off[1];
     w->J = buffer + off[2];
     w->row = (grb_row *)(buffer + off[3]);
-    w->T = buffer + off[4];
-    w->Q = buffer + off[5];
+    w->mass = buffer + dyn[0];
+    w->force = buffer + dyn[1];
+    w->solve = buffer + dyn[2];
+    w->zdd = buffer + dyn[3];
+    w->schur = buffer + off[5];
+    w->eig_work = w->schur + (size_t)m * m;
+    w->eigvec = w->eig_work + (size_t)m * m;
+    w->eigval = w->eigvec + (size_t)m * m;
     w->S = buffer + off[6];
     return GRB_OK;
 }
@@ -264,14 +274,14 @@ static void mass_centres(const grb_model *md, grb_ws *w) {
     }
 }
 
-/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia) into T[:, :N].
+/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia).
  * Link k adds to the entries (i, j) of the joints on its path from the ground
  * (the others' Jacobian columns are zero), i <= j; each entry gets one term per
  * link, in link order, whatever order the path is walked in. */
 static void mass_matrix(const grb_model *md, grb_ws *w) {
     int n = md->n_links;
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
+        for (int j = 0; j < n; j++) MASS_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
         unsigned long long path = w->path[k];
@@ -280,30 +290,30 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
             real wi = ik * grb_links(md)[i].revolute;
             for (int j = i; j <= k; j++) {
                 if (!((path >> j) & 1u)) continue;
-                T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
+                MASS_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * grb_links(md)[j].revolute;
             }
         }
     }
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < i; j++) T_(w, i, j) = T_(w, j, i);
-    if (md->drive >= 0) T_(w, md->drive, md->drive) += md->drive_inertia;
+        for (int j = 0; j < i; j++) MASS_(w, i, j) = MASS_(w, j, i);
+    if (md->drive >= 0) MASS_(w, md->drive, md->drive) += md->drive_inertia;
 }
 
-/* Applied minus velocity-product force, Q - h, into T[:, col]. */
-static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w,
-                              int col) {
+/* Applied minus velocity-product force, Q - h. */
+static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w) {
     int n = md->n_links;
-    for (int i = 0; i < n; i++) T_(w, i, col) = -grb_links(md)[i].damping * zd[i];
+    real *f = w->force;
+    for (int i = 0; i < n; i++) f[i] = -grb_links(md)[i].damping * zd[i];
     for (int k = 0; k < n; k++) {
         real mk = grb_links(md)[k].m;
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
         real fx = -mk * w->frame[k].com_bias[0], fy = -mk * (md->gravity + w->frame[k].com_bias[1]);
         for (int i = 0; i <= k; i++)
-            if (grb_on_path(w, i, k)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+            if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
-    if (md->drive >= 0) T_(w, md->drive, col) += tau_drive;
-    if (md->load >= 0) T_(w, md->load, col) += tau_load;
+    if (md->drive >= 0) f[md->drive] += tau_drive;
+    if (md->load >= 0) f[md->load] += tau_load;
 }
 
 /* Relative eigenvalue below which a closure direction counts as lost.  At a
@@ -318,48 +328,53 @@ static void closure_multipliers(grb_ws *w) {
     if (m == 2) {
         /* one closure in closed form; det / trace^2 is, to first order, the
          * eigenvalue ratio the cut-off below tests */
-        real det = Q_(w, 0, 0) * Q_(w, 1, 1) - Q_(w, 0, 1) * Q_(w, 1, 0), tr = Q_(w, 0, 0) + Q_(w, 1, 1);
+        real det = SCHUR_(w, 0, 0) * SCHUR_(w, 1, 1) - SCHUR_(w, 0, 1) * SCHUR_(w, 1, 0),
+             tr = SCHUR_(w, 0, 0) + SCHUR_(w, 1, 1);
         if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
-            w->row[0].lambda = (Q_(w, 1, 1) * w->row[0].b - Q_(w, 0, 1) * w->row[1].b) / det;
-            w->row[1].lambda = (Q_(w, 0, 0) * w->row[1].b - Q_(w, 1, 0) * w->row[0].b) / det;
+            w->row[0].lambda = (SCHUR_(w, 1, 1) * w->row[0].b - SCHUR_(w, 0, 1) * w->row[1].b) / det;
+            w->row[1].lambda = (SCHUR_(w, 0, 0) * w->row[1].b - SCHUR_(w, 1, 0) * w->row[0].b) / det;
             return;
         }
     }
-    GRB(sym_eig)(w->Q, w->qc, m);
-    int v0 = 2 * m, w0 = 3 * m;
+    GRB(sym_eig)(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     double w_max = -INFINITY;
     for (int i = 0; i < m; i++)
-        if (RE(Q_(w, i, w0)) > w_max) w_max = RE(Q_(w, i, w0));
+        if (RE(w->eigval[i]) > w_max) w_max = RE(w->eigval[i]);
     for (int r = 0; r < m; r++) w->row[r].lambda = 0.0;
     for (int i = 0; i < m; i++) {
-        if (!(RE(Q_(w, i, w0)) > SINGULAR_RCOND * w_max)) continue;
+        if (!(RE(w->eigval[i]) > SINGULAR_RCOND * w_max)) continue;
         real coef = 0.0;
-        for (int r = 0; r < m; r++) coef += Q_(w, r, v0 + i) * w->row[r].b;
-        coef /= Q_(w, i, w0);
-        for (int r = 0; r < m; r++) w->row[r].lambda += Q_(w, r, v0 + i) * coef;
+        for (int r = 0; r < m; r++) coef += EIGVEC_(w, r, i) * w->row[r].b;
+        coef /= w->eigval[i];
+        for (int r = 0; r < m; r++) w->row[r].lambda += EIGVEC_(w, r, i) * coef;
     }
 }
 
-/* The chain's equations of motion without its closures, M zdd = Q - h: M into
- * T[:, :N], Q - h into T[:, x0] (for the closures' solve below, and for the
- * motion along an assembly branch near a change point, integrate.c). */
+/* The chain's equations of motion without its closures, M zdd = Q - h: the
+ * mass matrix and the force (for the closures' solve below, and for the
+ * motion along an assembly branch near a change point, chart.c). */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load,
                          grb_ws *w) {
     GRB(chain)(md, z, zd, w);
     mass_centres(md, w);
     mass_matrix(md, w);
-    generalised_force(md, zd, tau_drive, tau_load, w, w->x0);
+    generalised_force(md, zd, tau_drive, tau_load, w);
 }
 
-/* Joint accelerations (T's zdd column) and closure multipliers (lambda) at one
- * state.  GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
+/* Joint accelerations (zdd) and closure multipliers (lambda) at one state.
+ * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular.
+ * The solver's table holds the matrix in its first N columns, then the
+ * right-hand sides: the force (column N, the solution's particular part when
+ * solved), then J^T (columns N + 1 .., the closures' directions). */
 grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                       real tau_load, grb_ws *w) {
-    int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
+    int n = md->n_links, m = w->m, f = n; /* f: the force's column */
     GRB(mass_and_force)(md, z, zd, tau_drive, tau_load, w);
     GRB(closure_rows)(md, zd, w);
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) T_(w, i, a0 + j) = T_(w, i, j);
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < n; j++) SOLVE_(w, i, j) = MASS_(w, i, j);
+        SOLVE_(w, i, f) = w->force[i];
+    }
     if (m > 0 && method == GRB_PENALTY) {
         /* the thesis's imaginary joint: spring G and damper C on each violation */
         for (int r = 0; r < m; r++) {
@@ -367,12 +382,12 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
             for (int i = 0; i < n; i++) phidot += J_(w, r, i) * zd[i];
             real lam = -grb_closures(md)[r / 2].gain * w->row[r].phi - grb_closures(md)[r / 2].damping * phidot;
             w->row[r].lambda = lam;
-            for (int i = 0; i < n; i++) T_(w, i, x0) += J_(w, r, i) * lam;
+            for (int i = 0; i < n; i++) SOLVE_(w, i, f) += J_(w, r, i) * lam;
         }
     }
     if (m == 0 || method == GRB_PENALTY) {
-        grb_status status = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
-        for (int i = 0; i < n; i++) T_(w, i, dd) = status == GRB_OK ? T_(w, i, x0) : NAN;
+        grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, 1);
+        for (int i = 0; i < n; i++) w->zdd[i] = status == GRB_OK ? SOLVE_(w, i, f) : NAN;
         grb_ws_filled(w, GRB_FILLED_DYNAMICS);
         return status;
     }
@@ -380,33 +395,33 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
      * point-mass slider's rotation); M + a J^T J is not, and since J zdd = gamma
      * the added term changes nothing in the solution (augmented Lagrangian). */
     real trace = 0.0, jj = 0.0;
-    for (int i = 0; i < n; i++) trace += T_(w, i, i);
+    for (int i = 0; i < n; i++) trace += MASS_(w, i, i);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
-            T_(w, i, x0) += a * J_(w, r, i) * w->row[r].gamma;
-            T_(w, i, x0 + 1 + r) = J_(w, r, i);
-            for (int j = 0; j < n; j++) T_(w, i, a0 + j) += a * J_(w, r, i) * J_(w, r, j);
+            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
+            SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
+            for (int j = 0; j < n; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
         }
-    grb_status status = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
+    grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
         real s = w->row[r].gamma;
-        for (int i = 0; i < n; i++) s -= J_(w, r, i) * T_(w, i, x0);
+        for (int i = 0; i < n; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
         w->row[r].b = s;
         for (int c = 0; c < m; c++) {
             real q = 0.0;
-            for (int i = 0; i < n; i++) q += J_(w, r, i) * T_(w, i, x0 + 1 + c);
-            Q_(w, r, c) = q;
+            for (int i = 0; i < n; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            SCHUR_(w, r, c) = q;
         }
     }
     if (status == GRB_OK) closure_multipliers(w);
     for (int i = 0; i < n; i++) {
-        real s = T_(w, i, x0);
-        for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * w->row[c].lambda;
-        T_(w, i, dd) = status == GRB_OK ? s : NAN;
+        real s = SOLVE_(w, i, f);
+        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
+        w->zdd[i] = status == GRB_OK ? s : NAN;
     }
     grb_ws_filled(w, GRB_FILLED_DYNAMICS);
     return status;
@@ -421,7 +436,7 @@ grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_dri
     status = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
     for (int i = 0; i < n; i++) {
         out[i] = y[n + i];
-        out[n + i] = T_(&w, i, w.dd);
+        out[n + i] = w.zdd[i];
     }
     return status;
 }
@@ -432,7 +447,8 @@ grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_dri
  * Children come after their parent, so a link's children are done when it is;
  * it carries what they exert (in a serial chain, its one successor's). */
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
-    int n = md->n_links, dd = w->dd;
+    int n = md->n_links;
+    const real *zdd = w->zdd;
     for (int i = 0; i < 3 * n; i++) out[i] = 0.0;
     /* first the closures' forces on the links they join, about each link's origin */
     for (int j = 0; j < md->n_closures; j++) {
@@ -460,9 +476,9 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     for (int k = n - 1; k >= 0; k--) {
         real ax = w->frame[k].com_bias[0], ay = w->frame[k].com_bias[1], alpha = 0.0;
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
-            ax += JC_(w, k, 0, i) * T_(w, i, dd);
-            ay += JC_(w, k, 1, i) * T_(w, i, dd);
-            if (grb_on_path(w, i, k)) alpha += grb_links(md)[i].revolute * T_(w, i, dd);
+            ax += JC_(w, k, 0, i) * zdd[i];
+            ay += JC_(w, k, 1, i) * zdd[i];
+            if (grb_on_path(w, i, k)) alpha += grb_links(md)[i].revolute * zdd[i];
         }
         /* what the children's joints carry: their force, and its moment about O_k */
         real fnx = 0.0, fny = 0.0, nn = 0.0, nf = 0.0;
@@ -492,7 +508,6 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
     if (status != GRB_OK) return status;
     const real *zd = y + n;
     status = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
-    int dd = w->dd;
     for (int k = 0; k < n; k++) {
         int revolute = grb_links(md)[k].revolute != 0.0, pk = grb_parent(md, k);
         /* a link's angular acceleration: its predecessor's plus its own revolute's */
@@ -501,8 +516,8 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
         out[2 * k + 1] = w->frame[k].theta;
         out[2 * n + 2 * k] = w->frame[k].rate;
         out[2 * n + 2 * k + 1] = w->frame[k].omega;
-        if (revolute) acc += T_(w, k, dd);
-        out[4 * n + 2 * k] = revolute ? 0.0 : T_(w, k, dd);
+        if (revolute) acc += w->zdd[k];
+        out[4 * n + 2 * k] = revolute ? 0.0 : w->zdd[k];
         out[4 * n + 2 * k + 1] = acc;
     }
     int o = 6 * n;
@@ -529,7 +544,7 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
     out[o + 5] = mz;
     real ke = 0.0, pe = 0.0;
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) ke += zd[i] * T_(w, i, j) * zd[j];
+        for (int j = 0; j < n; j++) ke += zd[i] * MASS_(w, i, j) * zd[j];
     for (int k = 0; k < n; k++) pe += grb_links(md)[k].m * w->frame[k].com[1];
     pe *= md->gravity;
     if (method == GRB_PENALTY) /* the penalty springs store energy too */
@@ -557,15 +572,16 @@ grb_status GRB(observe_rows)(const grb_model *md, int method, int rows, const re
 }
 
 void GRB(work_layout)(int n, int n_closures, long *layout) {
-    size_t off[7];
+    size_t off[7], dyn[4];
     int m = 2 * n_closures;
     ws_offsets(n, m, off);
+    dynamics_offsets(n, m, off, dyn);
     for (int i = 0; i < 7; i++) layout[i] = (long)off[i];
     layout[7] = K_COLUMNS;
     layout[8] = R_COLUMNS;
-    layout[9] = 2 * n + 2 * m + 3;
-    layout[10] = 3 * m + 1;
-    layout[11] = 2 * n + m + 1;
+    layout[9] = n;
+    layout[10] = m;
+    layout[11] = (long)dyn[3];
 }
 
 grb_status GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
@@ -603,10 +619,10 @@ grb_status GRB(inverse_residual)(const grb_model *md, const real *y, const real 
     GRB(closure_rows)(md, y + n, w);
     grb_ws_filled(w, GRB_FILLED_KINEMATICS);
     mass_matrix(md, w);
-    generalised_force(md, y + n, 0.0, tau_load, w, w->vec);
+    generalised_force(md, y + n, 0.0, tau_load, w);
     for (int i = 0; i < n; i++) {
-        real s = -T_(w, i, w->vec);
-        for (int j = 0; j < n; j++) s += T_(w, i, j) * zdd[j];
+        real s = -w->force[i];
+        for (int j = 0; j < n; j++) s += MASS_(w, i, j) * zdd[j];
         out[i] = s;
     }
     return GRB_OK;

@@ -376,7 +376,7 @@ int grb_chart_put(const grb_chart *ch, double *y) {
 
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out) {
-    int n = ch->n, held = ch->held, x0 = w->x0;
+    int n = ch->n, held = ch->held;
     double *z = ch->scratch, *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
     double x = y[held], xd = y[n + held];
     if (!grb_chart_eval(ch, x, z, t, tx)) {
@@ -392,12 +392,12 @@ int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, dou
     for (int i = 0; i < n; i++) {
         double mt = 0.0, mtx = 0.0;
         for (int j = 0; j < n; j++) {
-            mt += T_(w, i, j) * t[j];
-            mtx += T_(w, i, j) * tx[j];
+            mt += MASS_(w, i, j) * t[j];
+            mtx += MASS_(w, i, j) * tx[j];
         }
         mass += t[i] * mt;
         bias += t[i] * mtx;
-        force += t[i] * T_(w, i, x0);
+        force += t[i] * w->force[i];
     }
     double xdd = (force - xd * xd * bias) / mass;
     for (int i = 0; i < n; i++) out[n + i] = t[i] * xdd + tx[i] * xd * xd;

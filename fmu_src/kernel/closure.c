@@ -248,15 +248,15 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
     return GRB_OK;
 }
 
-/* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into Q's first
- * m columns, where grb_sym_eig finds its eigenvectors and eigenvalues. */
+/* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into schur,
+ * where grb_sym_eig finds its eigenvectors and eigenvalues. */
 static void gram(grb_ws *w) {
     int n = w->n, m = w->m;
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
             double g = 0.0;
             for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
-            Q_(w, r, c) = g;
+            SCHUR_(w, r, c) = g;
         }
 }
 
@@ -264,17 +264,17 @@ static void gram(grb_ws *w) {
  * first, into e (m of them): the eigenvalues of the Gram matrix. */
 static void squared_singular_values(grb_ws *w, double *e) {
     int m = w->m;
-    double *G = w->Q;
+    double *G = w->schur;
     gram(w);
     if (m == 2) {
-        double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
+        double tr = G[0] + G[m + 1], det = G[0] * G[m + 1] - G[1] * G[m];
         double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
         e[0] = tr / 2.0 + disc;
         e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
         return;
     }
-    grb_sym_eig(w->Q, w->qc, m);
-    for (int i = 0; i < m; i++) e[i] = w->Q[i * w->qc + 3 * m];
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    for (int i = 0; i < m; i++) e[i] = w->eigval[i];
     for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
         for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
             double tmp = e[k];
@@ -326,17 +326,17 @@ int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
  * length M, the Gram matrix's leading eigenvectors) into basis, for
  * grb_branch_orientation when redundant rows make J taller than N - 1. */
 int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis) {
-    int n = w->n, m = w->m, v0 = 2 * m, w0 = 3 * m, used[64] = {0};
+    int n = w->n, m = w->m, used[64] = {0};
     if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
     rows_at(md, z, w);
     gram(w);
-    grb_sym_eig(w->Q, w->qc, m);
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     for (int b = 0; b < n - 1; b++) {
         int best = -1;
         for (int i = 0; i < m; i++)
-            if (!used[i] && (best < 0 || Q_(w, i, w0) > Q_(w, best, w0))) best = i;
+            if (!used[i] && (best < 0 || w->eigval[i] > w->eigval[best])) best = i;
         used[best] = 1;
-        for (int r = 0; r < m; r++) basis[b * m + r] = Q_(w, r, v0 + best);
+        for (int r = 0; r < m; r++) basis[b * m + r] = EIGVEC_(w, r, best);
     }
     return GRB_OK;
 }
@@ -355,7 +355,7 @@ static double orientation_of_rows(grb_ws *w, const double *zd, const double *bas
     for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
     if (!(speed > 0.0)) return 0.0;
     speed = sqrt(speed);
-    double *A = w->Q; /* n x n scratch: n^2 <= (m + 1)^2 <= m (3m + 1) */
+    double *A = w->schur; /* n x n scratch over the closures' matrices: n^2 <= (m + 1)^2 <= m (3m + 1) */
     for (int r = 0; r < n - 1; r++)
         for (int i = 0; i < n; i++) {
             double v = 0.0;

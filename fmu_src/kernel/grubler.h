@@ -182,8 +182,9 @@ GRB_API grb_status grb_held_coordinates(const grb_model *m, int n_hold, const do
  * mass centres, the closure rows, the mass matrix, the accelerations and the
  * closure multipliers (GRB_SINGULAR when the solve fails; the kinematics are
  * still filled).  grb_work_layout says where each table starts:
- * layout[0..6] offsets of K, Jc, J, R, T, Q, S; layout[7..10] the columns of K,
- * R, T and Q; layout[11] T's column of the accelerations. */
+ * layout[0..6] offsets of K, Jc, J, R, M (the mass matrix), the closures'
+ * Schur complement and S; layout[7..10] the columns of K, R, M and the Schur
+ * complement; layout[11] the offset of the accelerations zdd (N). */
 GRB_API void grb_work_layout(int n_links, int n_closures, long *layout);
 GRB_API grb_status grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                          double *work);

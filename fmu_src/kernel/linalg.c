@@ -77,13 +77,13 @@ static void rotate_columns(real *A, int stride, int rows, int p, int q, real c, 
     }
 }
 
-/* Eigen-decomposition of the symmetric m x m matrix S held in Q = [S | scratch |
- * V | w]: S is kept, the eigenvectors land in V's columns, the eigenvalues (not
- * sorted) in the last column. */
-void GRB(sym_eig)(real *Q, int stride, int m) {
-#define S_(i, j) Q[(i) * stride + (j)]
-#define B(i, j) Q[(i) * stride + m + (j)]
-#define V(i, j) Q[(i) * stride + 2 * m + (j)]
+/* Eigen-decomposition of the symmetric m x m matrix S (kept): the
+ * eigenvectors into V's columns, the eigenvalues (not sorted) into values; B
+ * is m x m scratch.  All row-major with m columns. */
+void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m) {
+#define S_(i, j) S[(i) * m + (j)]
+#define B(i, j) B[(i) * m + (j)]
+#define V(i, j) V[(i) * m + (j)]
     for (int i = 0; i < m; i++)
         for (int j = 0; j < m; j++) {
             B(i, j) = S_(i, j);
@@ -101,16 +101,16 @@ void GRB(sym_eig)(real *Q, int stride, int m) {
                 if (B(p, q) == 0.0) continue;
                 real c, s;
                 rotation(B(p, p), B(q, q), B(p, q), &c, &s);
-                rotate_columns(Q + m, stride, m, p, q, c, s);
+                rotate_columns(B, m, m, p, q, c, s);
                 for (int k = 0; k < m; k++) {
                     real bpk = B(p, k), bqk = B(q, k);
                     B(p, k) = c * bpk - s * bqk;
                     B(q, k) = s * bpk + c * bqk;
                 }
-                rotate_columns(Q + 2 * m, stride, m, p, q, c, s);
+                rotate_columns(V, m, m, p, q, c, s);
             }
     }
-    for (int i = 0; i < m; i++) Q[i * stride + 3 * m] = B(i, i);
+    for (int i = 0; i < m; i++) values[i] = B(i, i);
 #undef S_
 #undef B
 #undef V

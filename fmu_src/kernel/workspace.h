@@ -10,9 +10,12 @@
  *   Jc (N x 2 x N)      mass-centre Jacobians
  *   J  ((M + 3) x N)    closure Jacobian, then three scratch rows
  *   R  (M x R_COLUMNS)  constraint rows
- *   T  (N x TC)         solver table: M, the matrix a solve destroys, right-hand
- *                       sides (forces, then J^T), zdd, a scratch vector, M scratch
- *   Q  (M x (3M + 1))   Schur complement, scratch, eigenvectors, eigenvalues
+ *   T  the dynamics: the mass matrix M (N x N), the force Q - h (N), the
+ *      solver's table (N x (N + M + 1): the matrix a solve destroys, then its
+ *      right-hand sides, the force and J^T) and the accelerations zdd (N)
+ *   Q  the closures' M x M matrices: the Schur complement (or the Gram matrix
+ *      J J^T), the eigen-solver's scratch, its eigenvectors, then the M
+ *      eigenvalues
  *   S  scratch for assembly (several N- and M x N-sized blocks)
  * with N moving links and M = 2C closure rows. */
 #ifndef GRUBLER_WORKSPACE_H
@@ -63,12 +66,19 @@ typedef enum grb_filled {
 
 typedef struct grb_ws {
     int n, m;        /* links, closure rows */
-    int tc, qc;      /* columns of T and Q */
-    int a0, x0, dd, vec, block; /* column offsets in T */
+    int sc;          /* columns of solve */
     grb_frame *frame; /* K: each link's frame */
     real *Jc, *J;
     grb_row *row;     /* R: the closure rows */
-    real *T, *Q, *S;
+    real *mass;       /* M (N x N) */
+    real *force;      /* Q - h (N): applied force less the velocity products */
+    real *solve;      /* N x sc: the matrix a solve destroys, then the right-hand sides */
+    real *zdd;        /* the joint accelerations (N) */
+    real *schur;      /* M x M: J (M + a J^T J)^-1 J^T, or the Gram matrix J J^T */
+    real *eig_work;   /* M x M scratch of the eigen-solver */
+    real *eigvec;     /* M x M: the eigenvectors of schur, by column */
+    real *eigval;     /* M: their eigenvalues (not sorted) */
+    real *S;
     real *header;     /* the buffer's header (WORK_*) */
     /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
      * the ground), set by the kinematic pass: the inner loops over a link's
@@ -92,15 +102,17 @@ static inline int grb_parent(const grb_model *m, int k) { return (int)grb_links(
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
 static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }
-#define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
-#define Q_(w, i, c) ((w)->Q[(i) * (w)->qc + (c)])
+#define MASS_(w, i, j) ((w)->mass[(i) * (w)->n + (j)])
+#define SOLVE_(w, i, c) ((w)->solve[(i) * (w)->sc + (c)])
+#define SCHUR_(w, r, c) ((w)->schur[(r) * (w)->m + (c)])
+#define EIGVEC_(w, r, c) ((w)->eigvec[(r) * (w)->m + (c)])
 #define J_(w, r, i) ((w)->J[(r) * (w)->n + (i)])
 #define JC_(w, k, d, i) ((w)->Jc[((k) * 2 + (d)) * (w)->n + (i)])
 
 /* dense linear algebra on small matrices (linalg.c); row-major with a stride;
  * the least-squares solver exists in the plain (double) build only */
 grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
-void GRB(sym_eig)(real *Q, int stride, int m);
+void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
 
@@ -119,7 +131,7 @@ double grb_branch_orientation(const grb_model *md, const double *y, const double
 void grb_closure_watch(const grb_model *md, const double *y, const double *basis, grb_ws *w, double *kappa,
                        double *orientation);
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
-/* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
+/* the mass matrix M and the applied minus velocity-product force Q - h at (z, zd) (chain.c) */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
 
 /* An assembly branch near a change point as a curve z(x) in one held
