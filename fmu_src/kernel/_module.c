@@ -1,6 +1,6 @@
 /* The Python module entry point of grubler._kernel.
  *
- * The kernel is called through ctypes (grubler/kernel.py), not through the
+ * The kernel is called through ctypes (grubler/binding.py), not through the
  * CPython API; this empty module only lets setuptools build and install the
  * shared library like any extension (and lets `import grubler._kernel` find
  * its file).  The native FMUs do not compile this file. */

@@ -1,7 +1,7 @@
 /* grubler kernel: the imaginary-joints planar chain, its closures and integrators.
  *
  * One C99 implementation (libm only) that the Python library calls through
- * ctypes (grubler/kernel.py) and the native FMU (grubler/fmi/) runs.
+ * ctypes (grubler/binding.py) and the native FMU (grubler/fmi/) runs.
  *
  * Conventions, as the Reference FMUs and pinocchio keep them:
  *   - the model (grb_model: geometry, inertia, closures as two number tables) is
