@@ -268,7 +268,10 @@ GRB_API size_t grb_stepper_size(int tableau, int n_states);
  * Taylor prediction and projected onto the closure, is the one on the branch
  * the motion came along (continuity of position, velocity and acceleration).
  * Each passage is counted in the clock and its time logged.
- * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
+ * work: grb_work_size doubles, stepper: grb_stepper_size doubles.  The stepper
+ * also keeps the chart being followed through a change point from one advance
+ * to the next (taken up again only where y lies on it): keep it, and save it
+ * with y, f and the clock, as a rollback must replay the same steps. */
 GRB_API grb_status grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
                         const double *t_out, int n_out, double *out, double *work, double *stepper,
                         grb_failure *why);
