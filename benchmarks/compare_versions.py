@@ -79,6 +79,16 @@ def workloads(pkg) -> dict:
             sim.advance_to((i + 1) * 1e-3)
         return sim.stats["steps"]
 
+    def cosim_scene(name, steps):
+        scene_m = pkg.load_scene(name).mechanism
+
+        def run():
+            sim = pkg.Simulator(scene_m)
+            for i in range(steps):
+                sim.advance_to((i + 1) * 1e-3)
+            return sim.stats["steps"]
+        return run
+
     return {
         "simulate('thesis-fourbar', t_end=10), defaults (0.01 s grid)": simulate_default,
         "10 s, exact DOP853 rtol 1e-9, 0.1 s grid (advance_through)": grid("exact", "dop853"),
@@ -88,6 +98,8 @@ def workloads(pkg) -> dict:
         "the same simulate, then read theta2 (a state column)": simulate_and_read("theta2"),
         "the same simulate, then read Fx (a derived column, 1001 rows)": simulate_and_read("Fx"),
         "1 000 co-simulation steps: set_inputs + advance_to(t + 1 ms)": cosim,
+        "a six-bar (stephenson-iii), 1 000 co-simulation steps of 1 ms": cosim_scene("stephenson-iii", 1000),
+        "the coupling rod, 1 000 co-simulation steps of 1 ms (two change points)": cosim_scene("coupling-rod", 1000),
     }
 
 

@@ -1,6 +1,7 @@
 """Cost of the simulator's hot path: a right-hand side, a DOP853 step, a 1 ms
-co-simulation advance, a 10 s run of the thesis four-bar, and a fresh process's
-first simulation.
+co-simulation advance (the thesis four-bar, a six-bar, and the coupling rod, whose
+redundant closure passes a change point every 0.4 s), a 10 s run of the thesis
+four-bar, and a fresh process's first simulation.
 
     python benchmarks/rhs_cost.py [--repeat 5] [--cosim-steps 10000] [--parts ...] [--json out.json]
 
@@ -89,6 +90,30 @@ def cosim(steps: int, repeat: int) -> dict:
     run_short.advance_to(1e-3)  # warm
     wall = median_time(run, repeat)
     return {"steps": steps, "wall": wall, "per_step": wall / steps}
+
+
+CLOSURE_SCENES = ("thesis-fourbar", "stephenson-iii", "coupling-rod")
+
+
+def cosim_closures(steps: int, repeat: int) -> dict:
+    """advance_to(t + 1 ms) over ``steps`` steps of each of CLOSURE_SCENES, on the
+    scene's own efforts (the coupling rod crosses its change points on them), s per step."""
+    out = {}
+    for name in CLOSURE_SCENES:
+        m = grubler.load_scene(name).mechanism
+        stats = {}
+
+        def run():
+            sim = Simulator(m)
+            for i in range(steps):
+                sim.advance_to((i + 1) * 1e-3)
+            stats.update(sim.stats)
+
+        Simulator(m).advance_to(1e-3)  # warm
+        wall = median_time(run, repeat)
+        out[name] = {"steps": steps, "wall": wall, "per_step": wall / steps,
+                     "passages": stats["passage_count"], "charts": stats["charts"]}
+    return out
 
 
 def outputs_cost(repeat: int) -> dict:
@@ -198,6 +223,10 @@ def main() -> None:
     if "cosim" in parts:
         r["cosim"] = cs = cosim(args.cosim_steps, args.repeat)
         print(f"advance_to(t + 1 ms)         {cs['per_step'] * us:9.2f} us  ({cs['steps']} steps: {cs['wall']:.3f} s)")
+        r["cosim_closures"] = cc = cosim_closures(args.cosim_steps, args.repeat)
+        for name, c in cc.items():
+            print(f"  {name:26s} {c['per_step'] * us:9.2f} us per 1 ms step on its own efforts "
+                  f"({c['wall']:.3f} s for {c['steps']} steps; {c['passages']} change points, {c['charts']} charts)")
     if "outputs" in parts:
         r["outputs"] = oc = outputs_cost(args.repeat)
         for groups, t in oc.items():

@@ -56,7 +56,7 @@ class Clock(ctypes.Structure):
     """``grb_clock``: the integrator's state besides y and f."""
 
     _fields_ = [("t", c_double), ("h", c_double), ("have_f", c_int), ("steps", c_long), ("rejected", c_long),
-                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double)]
+                ("evals", c_long), ("passages", c_long), ("kappa_seen", c_double), ("charts", c_long)]
 
 
 class Failure(ctypes.Structure):
@@ -77,6 +77,8 @@ _P = c_void_p  # a numpy buffer's address
 _M = c_void_p  # a grb_model's address (ModelArrays.c): the struct may come from another import of this module
 _SIGNATURES = {
     "grb_work_size": (c_size_t, [c_int, c_int]),
+    "grb_work_init": (c_int, [c_int, c_int, _P, c_size_t]),
+    "grb_status_message": (ctypes.c_char_p, [c_int]),
     "grb_stepper_size": (c_size_t, [c_int, c_int]),
     "grb_work_layout": (None, [c_int, c_int, _P]),
     "grb_rhs": (c_int, [_M, c_int, _P, c_double, c_double, _P, _P]),
@@ -162,8 +164,17 @@ def scene_tables(revolute: np.ndarray, parent: np.ndarray, link_fields: np.ndarr
 
 
 def work(n_links: int, n_closures: int) -> np.ndarray:
-    """A workspace buffer for a model of this size."""
-    return np.zeros(library().grb_work_size(n_links, n_closures))
+    """A workspace buffer for a model of this size, laid out for it (grb_work_init)."""
+    buffer = np.zeros(library().grb_work_size(n_links, n_closures))
+    status = library().grb_work_init(n_links, n_closures, address(buffer), buffer.size)
+    if status != OK:
+        raise ValueError(f"n_links, n_closures: {status_message(status)} ({n_links} links, {n_closures} closures)")
+    return buffer
+
+
+def status_message(status: int) -> str:
+    """What a grb_status means (grb_status_message)."""
+    return library().grb_status_message(int(status)).decode()
 
 
 @functools.lru_cache(maxsize=64)

@@ -110,3 +110,39 @@ def test_complex_step_derivatives_match_central_differences():
         e[k] = h
         central = (f(y + e) - f(y - e)) / (2 * h)
         np.testing.assert_allclose(out.imag / 1e-30, central, rtol=1e-6, atol=1e-6)
+
+
+def test_a_workspace_laid_out_for_another_model_is_refused_not_read_past():
+    # the workspace carries the sizes it was laid out for: a four-bar's buffer
+    # handed to a six-bar's call (smaller than its tables) is refused by status
+    lib = binding.library()
+    four = grubler.load_scene("thesis-fourbar").mechanism
+    six = grubler.load_scene("stephenson-iii").mechanism
+    y6 = np.zeros(2 * six.n_links)
+    small = binding.work(four.n_links, len(four.closures))
+    before = small.copy()
+    out = np.zeros(2 * six.n_links)
+    status = lib.grb_rhs(six.arrays.c, 0, binding.address(y6), 0.0, 0.0, binding.address(small),
+                         binding.address(out))
+    assert status == binding.BAD_ARGUMENT
+    assert np.array_equal(small, before)
+    assert "size" in binding.status_message(status)
+    # a buffer shorter than the model's tables cannot be laid out for it
+    short = np.zeros(lib.grb_work_size(six.n_links, len(six.closures)) - 1)
+    assert lib.grb_work_init(six.n_links, len(six.closures), binding.address(short), short.size) == \
+        binding.BAD_ARGUMENT
+
+
+def test_joint_reactions_need_a_workspace_the_forward_dynamics_filled():
+    lib = binding.library()
+    m = grubler.load_scene("thesis-fourbar").mechanism
+    z, zd = grubler.assemble(m, m.z_from_q(m.q_ref), np.ones(m.n_free))
+    y = np.concatenate([z, zd])
+    work, out = binding.work(m.n_links, len(m.closures)), np.zeros(3 * m.n_links)
+    assert lib.grb_joint_reactions(m.arrays.c, binding.address(work), binding.address(out)) == binding.BAD_ARGUMENT
+    assert lib.grb_evaluate(m.arrays.c, 0, binding.address(y), 1.0, 0.0, binding.address(work)) == binding.OK
+    assert lib.grb_joint_reactions(m.arrays.c, binding.address(work), binding.address(out)) == binding.OK
+    assert np.all(np.isfinite(out))
+    # a projection overwrites the tables: they no longer hold that evaluation
+    assert lib.grb_project(m.arrays.c, 1.0, binding.address(y.copy()), binding.address(work)) == binding.OK
+    assert lib.grb_joint_reactions(m.arrays.c, binding.address(work), binding.address(out)) == binding.BAD_ARGUMENT

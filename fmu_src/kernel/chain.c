@@ -13,18 +13,38 @@
  * and the closures add J^T lambda: the exact method solves lambda from
  * J zdd = gamma (index-1 DAE; the integrator projects the drift away), the
  * penalty method is the thesis's imaginary joint, lambda = -G phi - C phi_dot. */
+#include <stddef.h>
+
 #include "workspace.h"
 
-/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer. */
+/* The named rows sit on the tables' columns (a negative array size stops the
+ * build where one does not): Python and the FMU write the tables by column. */
+typedef char grb_link_columns_check[(offsetof(grb_link, revolute) == GRB_L_REV * sizeof(double) &&
+                                     offsetof(grb_link, parent) == GRB_L_PARENT * sizeof(double) &&
+                                     sizeof(grb_link) == GRB_L_COLUMNS * sizeof(double)) ? 1 : -1];
+typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_CL_TX * sizeof(double) &&
+                                        offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
+                                        sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
+
+/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer (after its header). */
 static void ws_offsets(int n, int m, size_t *off) {
     size_t N = (size_t)n, M = (size_t)m;
-    off[0] = 0;
+    off[0] = WORK_HEADER;
     off[1] = off[0] + N * K_COLUMNS;
     off[2] = off[1] + 2 * N * N;
     off[3] = off[2] + (M + 3) * N;
     off[4] = off[3] + M * R_COLUMNS;
-    off[5] = off[4] + N * (2 * N + 2 * M + 3);
+    off[5] = off[4] + N * (2 * N + M + 3); /* M, the force, the solver table, zdd */
     off[6] = off[5] + M * (3 * M + 1);
+}
+
+/* Offsets of the dynamics' arrays within T (from off[4]): mass, force, solve, zdd. */
+static void dynamics_offsets(int n, int m, const size_t *off, size_t *dyn) {
+    size_t N = (size_t)n, M = (size_t)m;
+    dyn[0] = off[4];
+    dyn[1] = dyn[0] + N * N;
+    dyn[2] = dyn[1] + N;
+    dyn[3] = dyn[2] + N * (N + M + 1);
 }
 
 size_t GRB(work_size)(int n, int n_closures) {
@@ -35,26 +55,50 @@ size_t GRB(work_size)(int n, int n_closures) {
     return off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
 }
 
-void GRB(ws_init)(grb_ws *w, int n, int n_closures, real *buffer) {
-    int m = 2 * n_closures;
-    size_t off[7];
+grb_status GRB(work_init)(int n, int n_closures, real *buffer, size_t length) {
+    if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer || length < GRB(work_size)(n, n_closures))
+        return GRB_BAD_ARGUMENT;
+    buffer[WORK_TAG] = GRB_WORK_TAG;
+    buffer[WORK_LINKS] = n;
+    buffer[WORK_CLOSURES] = n_closures;
+    buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
+    return GRB_OK;
+}
+
+grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled needs) {
+    int n = md->n_links, n_closures = md->n_closures, m = 2 * n_closures;
+    if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer) return GRB_BAD_ARGUMENT;
+    if (RE(buffer[WORK_TAG]) != GRB_WORK_TAG) {
+        /* a buffer no call has used: the caller sized it (grb_work_size) */
+        if (needs != GRB_FILLED_NOTHING) return GRB_BAD_ARGUMENT;
+        buffer[WORK_TAG] = GRB_WORK_TAG;
+        buffer[WORK_LINKS] = n;
+        buffer[WORK_CLOSURES] = n_closures;
+    } else if (RE(buffer[WORK_LINKS]) != n || RE(buffer[WORK_CLOSURES]) != n_closures ||
+               RE(buffer[WORK_FILLED]) < needs)
+        return GRB_BAD_ARGUMENT;
+    if (needs == GRB_FILLED_NOTHING) buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
+    size_t off[7], dyn[4];
     ws_offsets(n, m, off);
+    dynamics_offsets(n, m, off, dyn);
+    w->header = buffer;
     w->n = n;
     w->m = m;
-    w->tc = 2 * n + 2 * m + 3;
-    w->qc = 3 * m + 1;
-    w->a0 = n;
-    w->x0 = 2 * n;
-    w->dd = 2 * n + m + 1;
-    w->vec = 2 * n + m + 2;
-    w->block = 2 * n + m + 3;
-    w->K = buffer + off[0];
+    w->sc = n + m + 1;
+    w->frame = (grb_frame *)(buffer + off[0]);
     w->Jc = buffer + off[1];
     w->J = buffer + off[2];
-    w->R = buffer + off[3];
-    w->T = buffer + off[4];
-    w->Q = buffer + off[5];
+    w->row = (grb_row *)(buffer + off[3]);
+    w->mass = buffer + dyn[0];
+    w->force = buffer + dyn[1];
+    w->solve = buffer + dyn[2];
+    w->zdd = buffer + dyn[3];
+    w->schur = buffer + off[5];
+    w->eig_work = w->schur + (size_t)m * m;
+    w->eigvec = w->eig_work + (size_t)m * m;
+    w->eigval = w->eigvec + (size_t)m * m;
     w->S = buffer + off[6];
+    return GRB_OK;
 }
 
 /* Recursive pass from ground to tip (MODEL.md section 2) into K.  Each link
@@ -64,7 +108,7 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     int n = md->n_links;
     for (int k = 0; k < n; k++) {
         /* the predecessor's frame; the ground's is its vector at theta1, at rest */
-        int pk = PARENT_(md, k);
+        int pk = grb_parent(md, k);
         real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
         w->path[k] = (pk < 0 ? 0ull : w->path[pk]) | (1ull << k);
         if (pk < 0) {
@@ -72,32 +116,32 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
             sp = RSIN(md->theta1);
             wp = z_sum = w_sum = ox = oy = bx = by = 0.0;
         } else {
-            const real *prow = w->K + pk * K_COLUMNS;
-            cp = prow[K_COS];
-            sp = prow[K_SIN];
-            wp = w_sum = prow[K_OM];
-            z_sum = prow[K_ZS];
-            ox = prow[K_OX];
-            oy = prow[K_OY];
-            bx = prow[K_BX];
-            by = prow[K_BY];
+            const grb_frame *pred = &w->frame[pk];
+            cp = pred->cos_theta;
+            sp = pred->sin_theta;
+            wp = w_sum = pred->omega;
+            z_sum = pred->z_sum;
+            ox = pred->o[0];
+            oy = pred->o[1];
+            bx = pred->o_bias[0];
+            by = pred->o_bias[1];
         }
         real slide, rate;
-        if (L_(md, k, GRB_L_REV) != 0.0) {
+        if (grb_links(md)[k].revolute != 0.0) {
             z_sum += z[k];
             w_sum += zd[k];
-            slide = L_(md, k, GRB_L_SLIDE0);
+            slide = grb_links(md)[k].slide0;
             rate = 0.0;
         } else {
             slide = z[k];
             rate = zd[k];
         }
-        real theta = L_(md, k, GRB_L_THETA0) + z_sum;
+        real theta = grb_links(md)[k].theta0 + z_sum;
         /* each link hangs off its predecessor's vector end, moved along the slide
          * axis e_perp(predecessor) */
         real ax = -sp, ay = cp;
-        real dx = L_(md, k, GRB_L_APRED) * cp + slide * ax;
-        real dy = L_(md, k, GRB_L_APRED) * sp + slide * ay;
+        real dx = grb_links(md)[k].a_pred * cp + slide * ax;
+        real dy = grb_links(md)[k].a_pred * sp + slide * ay;
         ox += dx;
         oy += dy;
         /* d'' at zero joint acceleration: centripetal of the predecessor's turn
@@ -105,20 +149,20 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         bx += -wp * wp * dx - 2.0 * wp * rate * cp;
         by += -wp * wp * dy - 2.0 * wp * rate * sp;
         real c = RCOS(theta), s = RSIN(theta);
-        real *row = w->K + k * K_COLUMNS;
-        row[K_TH] = theta;
-        row[K_OM] = w_sum;
-        row[K_COS] = c;
-        row[K_SIN] = s;
-        row[K_OX] = ox;
-        row[K_OY] = oy;
-        row[K_BX] = bx;
-        row[K_BY] = by;
-        row[K_AX] = ax;
-        row[K_AY] = ay;
-        row[K_SLIDE] = slide;
-        row[K_RATE] = rate;
-        row[K_ZS] = z_sum;
+        grb_frame *f = &w->frame[k];
+        f->theta = theta;
+        f->omega = w_sum;
+        f->cos_theta = c;
+        f->sin_theta = s;
+        f->o[0] = ox;
+        f->o[1] = oy;
+        f->o_bias[0] = bx;
+        f->o_bias[1] = by;
+        f->axis[0] = ax;
+        f->axis[1] = ay;
+        f->slide = slide;
+        f->rate = rate;
+        f->z_sum = z_sum;
     }
 }
 
@@ -129,28 +173,28 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
  * ground to link k move it (in a serial chain, every joint up to k). */
 void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r) {
     int n = md->n_links;
-    real c = K_(w, k, K_COS), s = K_(w, k, K_SIN);
+    real c = w->frame[k].cos_theta, s = w->frame[k].sin_theta;
     real armx = lx * c - ly * s, army = lx * s + ly * c;
-    real rx = K_(w, k, K_OX) + armx, ry = K_(w, k, K_OY) + army;
+    real rx = w->frame[k].o[0] + armx, ry = w->frame[k].o[1] + army;
     for (int j = 0; j < n; j++) {
         J[j] = 0.0;
         J[n + j] = 0.0;
     }
     for (int j = 0; j <= k; j++) {
         if (!grb_on_path(w, j, k)) continue;
-        if (L_(md, j, GRB_L_REV) != 0.0) {
-            J[j] = -(ry - K_(w, j, K_OY));
-            J[n + j] = rx - K_(w, j, K_OX);
+        if (grb_links(md)[j].revolute != 0.0) {
+            J[j] = -(ry - w->frame[j].o[1]);
+            J[n + j] = rx - w->frame[j].o[0];
         } else {
-            J[j] = K_(w, j, K_AX);
-            J[n + j] = K_(w, j, K_AY);
+            J[j] = w->frame[j].axis[0];
+            J[n + j] = w->frame[j].axis[1];
         }
     }
-    real w2 = K_(w, k, K_OM) * K_(w, k, K_OM);
+    real w2 = w->frame[k].omega * w->frame[k].omega;
     r[0] = rx;
     r[1] = ry;
-    r[2] = K_(w, k, K_BX) - w2 * armx;
-    r[3] = K_(w, k, K_BY) - w2 * army;
+    r[2] = w->frame[k].o_bias[0] - w2 * armx;
+    r[3] = w->frame[k].o_bias[1] - w2 * army;
 }
 
 /* Constraint rows of every closure (MODEL.md section 3), any pair of links:
@@ -160,38 +204,38 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
     real *tmp = w->J + w->m * n;
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
-        int ka = (int)CL_(md, j, GRB_CL_LINK);
-        int kb = (int)CL_(md, j, GRB_CL_TO); /* -1: the ground, whose frame is the world's */
+        int ka = (int)grb_closures(md)[j].link;
+        int kb = (int)grb_closures(md)[j].to; /* -1: the ground, whose frame is the world's */
         real *Jr = w->J + r * n;
         real pa[4], pb[4], thb, wb;
-        GRB(point)(md, w, ka, CL_(md, j, GRB_CL_PX), CL_(md, j, GRB_CL_PY), Jr, pa);
+        GRB(point)(md, w, ka, grb_closures(md)[j].point[0], grb_closures(md)[j].point[1], Jr, pa);
         if (kb >= 0) {
-            GRB(point)(md, w, kb, CL_(md, j, GRB_CL_TX), CL_(md, j, GRB_CL_TY), tmp, pb);
+            GRB(point)(md, w, kb, grb_closures(md)[j].to_point[0], grb_closures(md)[j].to_point[1], tmp, pb);
             for (int i = 0; i < n; i++) {
                 Jr[i] -= tmp[i];
                 Jr[n + i] -= tmp[n + i];
             }
-            thb = K_(w, kb, K_TH);
-            wb = K_(w, kb, K_OM);
+            thb = w->frame[kb].theta;
+            wb = w->frame[kb].omega;
         } else {
-            pb[0] = CL_(md, j, GRB_CL_TX);
-            pb[1] = CL_(md, j, GRB_CL_TY);
+            pb[0] = grb_closures(md)[j].to_point[0];
+            pb[1] = grb_closures(md)[j].to_point[1];
             pb[2] = pb[3] = 0.0;
             thb = wb = 0.0;
         }
-        R_(w, r, R_POINT) = pa[0];
-        R_(w, r + 1, R_POINT) = pa[1];
-        if (CL_(md, j, GRB_CL_KIND) == 0.0) {
-            R_(w, r, R_PHI) = pa[0] - pb[0];
-            R_(w, r + 1, R_PHI) = pa[1] - pb[1];
-            R_(w, r, R_GAMMA) = -(pa[2] - pb[2]);
-            R_(w, r + 1, R_GAMMA) = -(pa[3] - pb[3]);
-            R_(w, r, R_NORMAL) = 0.0;
-            R_(w, r + 1, R_NORMAL) = 0.0;
+        w->row[r].point = pa[0];
+        w->row[r + 1].point = pa[1];
+        if (grb_closures(md)[j].kind == 0.0) {
+            w->row[r].phi = pa[0] - pb[0];
+            w->row[r + 1].phi = pa[1] - pb[1];
+            w->row[r].gamma = -(pa[2] - pb[2]);
+            w->row[r + 1].gamma = -(pa[3] - pb[3]);
+            w->row[r].normal = 0.0;
+            w->row[r + 1].normal = 0.0;
             continue;
         }
         /* the line of to_link through to_point at its angle; the link held at psi */
-        real beta = thb + CL_(md, j, GRB_CL_ANGLE);
+        real beta = thb + grb_closures(md)[j].angle;
         real alx = RCOS(beta), aly = RSIN(beta), nx = -aly, ny = alx;
         real dx = pa[0] - pb[0], dy = pa[1] - pb[1], ddx = 0.0, ddy = 0.0;
         for (int i = 0; i < n; i++) {
@@ -199,22 +243,22 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
             ddy += Jr[n + i] * zd[i];
         }
         real d_normal = dx * nx + dy * ny, d_along = dx * alx + dy * aly;
-        R_(w, r, R_PHI) = d_normal;
-        R_(w, r, R_GAMMA) = -(nx * (pa[2] - pb[2]) + ny * (pa[3] - pb[3]) - 2.0 * wb * (ddx * alx + ddy * aly) -
+        w->row[r].phi = d_normal;
+        w->row[r].gamma = -(nx * (pa[2] - pb[2]) + ny * (pa[3] - pb[3]) - 2.0 * wb * (ddx * alx + ddy * aly) -
                              d_normal * wb * wb);
-        R_(w, r + 1, R_PHI) = K_(w, ka, K_TH) - thb - CL_(md, j, GRB_CL_PSI);
-        R_(w, r + 1, R_GAMMA) = 0.0;
+        w->row[r + 1].phi = w->frame[ka].theta - thb - grb_closures(md)[j].psi;
+        w->row[r + 1].gamma = 0.0;
         for (int i = 0; i < n; i++) {
             /* a link's angle turns with the revolutes on its path from the ground */
-            real jwa = ka >= 0 && grb_on_path(w, i, ka) ? L_(md, i, GRB_L_REV) : 0.0;
-            real jwb = kb >= 0 && grb_on_path(w, i, kb) ? L_(md, i, GRB_L_REV) : 0.0;
+            real jwa = ka >= 0 && grb_on_path(w, i, ka) ? grb_links(md)[i].revolute : 0.0;
+            real jwb = kb >= 0 && grb_on_path(w, i, kb) ? grb_links(md)[i].revolute : 0.0;
             real jx = Jr[i], jy = Jr[n + i];
             /* d(normal)/d(theta_b) = -along */
             Jr[i] = nx * jx + ny * jy - d_along * jwb;
             Jr[n + i] = jwa - jwb;
         }
-        R_(w, r, R_NORMAL) = nx;
-        R_(w, r + 1, R_NORMAL) = ny;
+        w->row[r].normal = nx;
+        w->row[r + 1].normal = ny;
     }
 }
 
@@ -222,54 +266,54 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
 static void mass_centres(const grb_model *md, grb_ws *w) {
     for (int k = 0; k < md->n_links; k++) {
         real c[4];
-        GRB(point)(md, w, k, L_(md, k, GRB_L_P), L_(md, k, GRB_L_Q), w->Jc + 2 * k * w->n, c);
-        K_(w, k, K_CX) = c[0];
-        K_(w, k, K_CY) = c[1];
-        K_(w, k, K_CBX) = c[2];
-        K_(w, k, K_CBY) = c[3];
+        GRB(point)(md, w, k, grb_links(md)[k].p, grb_links(md)[k].q, w->Jc + 2 * k * w->n, c);
+        w->frame[k].com[0] = c[0];
+        w->frame[k].com[1] = c[1];
+        w->frame[k].com_bias[0] = c[2];
+        w->frame[k].com_bias[1] = c[3];
     }
 }
 
-/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia) into T[:, :N].
+/* M = sum_k m_k Jc^T Jc + I_k Jw^T Jw (+ the drive's reflected inertia).
  * Link k adds to the entries (i, j) of the joints on its path from the ground
  * (the others' Jacobian columns are zero), i <= j; each entry gets one term per
  * link, in link order, whatever order the path is walked in. */
 static void mass_matrix(const grb_model *md, grb_ws *w) {
     int n = md->n_links;
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) T_(w, i, j) = 0.0;
+        for (int j = 0; j < n; j++) MASS_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
-        real mk = L_(md, k, GRB_L_M), ik = L_(md, k, GRB_L_I);
+        real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
         unsigned long long path = w->path[k];
         for (int i = 0; i <= k; i++) {
             if (!((path >> i) & 1u)) continue;
-            real wi = ik * L_(md, i, GRB_L_REV);
+            real wi = ik * grb_links(md)[i].revolute;
             for (int j = i; j <= k; j++) {
                 if (!((path >> j) & 1u)) continue;
-                T_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
-                               wi * L_(md, j, GRB_L_REV);
+                MASS_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
+                               wi * grb_links(md)[j].revolute;
             }
         }
     }
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < i; j++) T_(w, i, j) = T_(w, j, i);
-    if (md->drive >= 0) T_(w, md->drive, md->drive) += md->drive_inertia;
+        for (int j = 0; j < i; j++) MASS_(w, i, j) = MASS_(w, j, i);
+    if (md->drive >= 0) MASS_(w, md->drive, md->drive) += md->drive_inertia;
 }
 
-/* Applied minus velocity-product force, Q - h, into T[:, col]. */
-static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w,
-                              int col) {
+/* Applied minus velocity-product force, Q - h. */
+static void generalised_force(const grb_model *md, const real *zd, real tau_drive, real tau_load, grb_ws *w) {
     int n = md->n_links;
-    for (int i = 0; i < n; i++) T_(w, i, col) = -L_(md, i, GRB_L_DAMP) * zd[i];
+    real *f = w->force;
+    for (int i = 0; i < n; i++) f[i] = -grb_links(md)[i].damping * zd[i];
     for (int k = 0; k < n; k++) {
-        real mk = L_(md, k, GRB_L_M);
+        real mk = grb_links(md)[k].m;
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
-        real fx = -mk * K_(w, k, K_CBX), fy = -mk * (md->gravity + K_(w, k, K_CBY));
+        real fx = -mk * w->frame[k].com_bias[0], fy = -mk * (md->gravity + w->frame[k].com_bias[1]);
         for (int i = 0; i <= k; i++)
-            if (grb_on_path(w, i, k)) T_(w, i, col) += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+            if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
     }
-    if (md->drive >= 0) T_(w, md->drive, col) += tau_drive;
-    if (md->load >= 0) T_(w, md->load, col) += tau_load;
+    if (md->drive >= 0) f[md->drive] += tau_drive;
+    if (md->load >= 0) f[md->load] += tau_load;
 }
 
 /* Relative eigenvalue below which a closure direction counts as lost.  At a
@@ -284,109 +328,117 @@ static void closure_multipliers(grb_ws *w) {
     if (m == 2) {
         /* one closure in closed form; det / trace^2 is, to first order, the
          * eigenvalue ratio the cut-off below tests */
-        real det = Q_(w, 0, 0) * Q_(w, 1, 1) - Q_(w, 0, 1) * Q_(w, 1, 0), tr = Q_(w, 0, 0) + Q_(w, 1, 1);
+        real det = SCHUR_(w, 0, 0) * SCHUR_(w, 1, 1) - SCHUR_(w, 0, 1) * SCHUR_(w, 1, 0),
+             tr = SCHUR_(w, 0, 0) + SCHUR_(w, 1, 1);
         if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
-            R_(w, 0, R_LAM) = (Q_(w, 1, 1) * R_(w, 0, R_B) - Q_(w, 0, 1) * R_(w, 1, R_B)) / det;
-            R_(w, 1, R_LAM) = (Q_(w, 0, 0) * R_(w, 1, R_B) - Q_(w, 1, 0) * R_(w, 0, R_B)) / det;
+            w->row[0].lambda = (SCHUR_(w, 1, 1) * w->row[0].b - SCHUR_(w, 0, 1) * w->row[1].b) / det;
+            w->row[1].lambda = (SCHUR_(w, 0, 0) * w->row[1].b - SCHUR_(w, 1, 0) * w->row[0].b) / det;
             return;
         }
     }
-    GRB(sym_eig)(w->Q, w->qc, m);
-    int v0 = 2 * m, w0 = 3 * m;
+    GRB(sym_eig)(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     double w_max = -INFINITY;
     for (int i = 0; i < m; i++)
-        if (RE(Q_(w, i, w0)) > w_max) w_max = RE(Q_(w, i, w0));
-    for (int r = 0; r < m; r++) R_(w, r, R_LAM) = 0.0;
+        if (RE(w->eigval[i]) > w_max) w_max = RE(w->eigval[i]);
+    for (int r = 0; r < m; r++) w->row[r].lambda = 0.0;
     for (int i = 0; i < m; i++) {
-        if (!(RE(Q_(w, i, w0)) > SINGULAR_RCOND * w_max)) continue;
+        if (!(RE(w->eigval[i]) > SINGULAR_RCOND * w_max)) continue;
         real coef = 0.0;
-        for (int r = 0; r < m; r++) coef += Q_(w, r, v0 + i) * R_(w, r, R_B);
-        coef /= Q_(w, i, w0);
-        for (int r = 0; r < m; r++) R_(w, r, R_LAM) += Q_(w, r, v0 + i) * coef;
+        for (int r = 0; r < m; r++) coef += EIGVEC_(w, r, i) * w->row[r].b;
+        coef /= w->eigval[i];
+        for (int r = 0; r < m; r++) w->row[r].lambda += EIGVEC_(w, r, i) * coef;
     }
 }
 
-/* The chain's equations of motion without its closures, M zdd = Q - h: M into
- * T[:, :N], Q - h into T[:, x0] (for the closures' solve below, and for the
- * motion along an assembly branch near a change point, integrate.c). */
+/* The chain's equations of motion without its closures, M zdd = Q - h: the
+ * mass matrix and the force (for the closures' solve below, and for the
+ * motion along an assembly branch near a change point, chart.c). */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load,
                          grb_ws *w) {
     GRB(chain)(md, z, zd, w);
     mass_centres(md, w);
     mass_matrix(md, w);
-    generalised_force(md, zd, tau_drive, tau_load, w, w->x0);
+    generalised_force(md, zd, tau_drive, tau_load, w);
 }
 
-/* Joint accelerations (T's zdd column) and closure multipliers (R_LAM) at one
- * state.  0 (and nan accelerations) when the matrix to solve is singular. */
-int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+/* Joint accelerations (zdd) and closure multipliers (lambda) at one state.
+ * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular.
+ * The solver's table holds the matrix in its first N columns, then the
+ * right-hand sides: the force (column N, the solution's particular part when
+ * solved), then J^T (columns N + 1 .., the closures' directions). */
+grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                       real tau_load, grb_ws *w) {
-    int n = md->n_links, m = w->m, a0 = w->a0, x0 = w->x0, dd = w->dd;
+    int n = md->n_links, m = w->m, f = n; /* f: the force's column */
     GRB(mass_and_force)(md, z, zd, tau_drive, tau_load, w);
     GRB(closure_rows)(md, zd, w);
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) T_(w, i, a0 + j) = T_(w, i, j);
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < n; j++) SOLVE_(w, i, j) = MASS_(w, i, j);
+        SOLVE_(w, i, f) = w->force[i];
+    }
     if (m > 0 && method == GRB_PENALTY) {
         /* the thesis's imaginary joint: spring G and damper C on each violation */
         for (int r = 0; r < m; r++) {
             real phidot = 0.0;
             for (int i = 0; i < n; i++) phidot += J_(w, r, i) * zd[i];
-            real lam = -CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) - CL_(md, r / 2, GRB_CL_DAMP) * phidot;
-            R_(w, r, R_LAM) = lam;
-            for (int i = 0; i < n; i++) T_(w, i, x0) += J_(w, r, i) * lam;
+            real lam = -grb_closures(md)[r / 2].gain * w->row[r].phi - grb_closures(md)[r / 2].damping * phidot;
+            w->row[r].lambda = lam;
+            for (int i = 0; i < n; i++) SOLVE_(w, i, f) += J_(w, r, i) * lam;
         }
     }
     if (m == 0 || method == GRB_PENALTY) {
-        int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, 1);
-        for (int i = 0; i < n; i++) T_(w, i, dd) = ok ? T_(w, i, x0) : NAN;
-        return ok;
+        grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, 1);
+        for (int i = 0; i < n; i++) w->zdd[i] = status == GRB_OK ? SOLVE_(w, i, f) : NAN;
+        grb_ws_filled(w, GRB_FILLED_DYNAMICS);
+        return status;
     }
     /* M may be singular where a real coordinate carries no inertia of its own (a
      * point-mass slider's rotation); M + a J^T J is not, and since J zdd = gamma
      * the added term changes nothing in the solution (augmented Lagrangian). */
     real trace = 0.0, jj = 0.0;
-    for (int i = 0; i < n; i++) trace += T_(w, i, i);
+    for (int i = 0; i < n; i++) trace += MASS_(w, i, i);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
-            T_(w, i, x0) += a * J_(w, r, i) * R_(w, r, R_GAMMA);
-            T_(w, i, x0 + 1 + r) = J_(w, r, i);
-            for (int j = 0; j < n; j++) T_(w, i, a0 + j) += a * J_(w, r, i) * J_(w, r, j);
+            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
+            SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
+            for (int j = 0; j < n; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
         }
-    int ok = GRB(lu_solve)(w->T, w->tc, n, a0, x0, m + 1);
+    grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
-        real s = R_(w, r, R_GAMMA);
-        for (int i = 0; i < n; i++) s -= J_(w, r, i) * T_(w, i, x0);
-        R_(w, r, R_B) = s;
+        real s = w->row[r].gamma;
+        for (int i = 0; i < n; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
+        w->row[r].b = s;
         for (int c = 0; c < m; c++) {
             real q = 0.0;
-            for (int i = 0; i < n; i++) q += J_(w, r, i) * T_(w, i, x0 + 1 + c);
-            Q_(w, r, c) = q;
+            for (int i = 0; i < n; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            SCHUR_(w, r, c) = q;
         }
     }
-    if (ok) closure_multipliers(w);
+    if (status == GRB_OK) closure_multipliers(w);
     for (int i = 0; i < n; i++) {
-        real s = T_(w, i, x0);
-        for (int c = 0; c < m; c++) s += T_(w, i, x0 + 1 + c) * R_(w, c, R_LAM);
-        T_(w, i, dd) = ok ? s : NAN;
+        real s = SOLVE_(w, i, f);
+        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
+        w->zdd[i] = status == GRB_OK ? s : NAN;
     }
-    return ok;
+    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
+    return status;
 }
 
-int GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
+grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
             real *out) {
     grb_ws w;
     int n = md->n_links;
-    GRB(ws_init)(&w, n, md->n_closures, work);
-    int ok = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    status = GRB(accelerations)(md, method, y, y + n, tau_drive, tau_load, &w);
     for (int i = 0; i < n; i++) {
         out[i] = y[n + i];
-        out[n + i] = T_(&w, i, w.dd);
+        out[n + i] = w.zdd[i];
     }
-    return ok ? GRB_OK : GRB_SINGULAR;
+    return status;
 }
 
 /* Force and moment each link's predecessor exerts on it, after
@@ -395,95 +447,96 @@ int GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, rea
  * Children come after their parent, so a link's children are done when it is;
  * it carries what they exert (in a serial chain, its one successor's). */
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
-    int n = md->n_links, dd = w->dd;
+    int n = md->n_links;
+    const real *zdd = w->zdd;
     for (int i = 0; i < 3 * n; i++) out[i] = 0.0;
     /* first the closures' forces on the links they join, about each link's origin */
     for (int j = 0; j < md->n_closures; j++) {
         int r = 2 * j;
         real fx, fy, mz;
-        if (CL_(md, j, GRB_CL_KIND) != 0.0) {
-            fx = R_(w, r, R_NORMAL) * R_(w, r, R_LAM);
-            fy = R_(w, r + 1, R_NORMAL) * R_(w, r, R_LAM);
-            mz = R_(w, r + 1, R_LAM);
+        if (grb_closures(md)[j].kind != 0.0) {
+            fx = w->row[r].normal * w->row[r].lambda;
+            fy = w->row[r + 1].normal * w->row[r].lambda;
+            mz = w->row[r + 1].lambda;
         } else {
-            fx = R_(w, r, R_LAM);
-            fy = R_(w, r + 1, R_LAM);
+            fx = w->row[r].lambda;
+            fy = w->row[r + 1].lambda;
             mz = 0.0;
         }
-        real px = R_(w, r, R_POINT), py = R_(w, r + 1, R_POINT);
+        real px = w->row[r].point, py = w->row[r + 1].point;
         for (int side = 0; side < 2; side++) {
-            int k = (int)(side == 0 ? CL_(md, j, GRB_CL_LINK) : CL_(md, j, GRB_CL_TO));
+            int k = (int)(side == 0 ? grb_closures(md)[j].link : grb_closures(md)[j].to);
             if (k < 0) continue; /* the ground */
             real sign = side == 0 ? 1.0 : -1.0;
             out[3 * k] += sign * fx;
             out[3 * k + 1] += sign * fy;
-            out[3 * k + 2] += sign * (mz + (px - K_(w, k, K_OX)) * fy - (py - K_(w, k, K_OY)) * fx);
+            out[3 * k + 2] += sign * (mz + (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx);
         }
     }
     for (int k = n - 1; k >= 0; k--) {
-        real ax = K_(w, k, K_CBX), ay = K_(w, k, K_CBY), alpha = 0.0;
+        real ax = w->frame[k].com_bias[0], ay = w->frame[k].com_bias[1], alpha = 0.0;
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
-            ax += JC_(w, k, 0, i) * T_(w, i, dd);
-            ay += JC_(w, k, 1, i) * T_(w, i, dd);
-            if (grb_on_path(w, i, k)) alpha += L_(md, i, GRB_L_REV) * T_(w, i, dd);
+            ax += JC_(w, k, 0, i) * zdd[i];
+            ay += JC_(w, k, 1, i) * zdd[i];
+            if (grb_on_path(w, i, k)) alpha += grb_links(md)[i].revolute * zdd[i];
         }
         /* what the children's joints carry: their force, and its moment about O_k */
         real fnx = 0.0, fny = 0.0, nn = 0.0, nf = 0.0;
         for (int c = k + 1; c < n; c++) {
-            if (PARENT_(md, c) != k) continue;
-            real nx = K_(w, c, K_OX) - K_(w, k, K_OX), ny = K_(w, c, K_OY) - K_(w, k, K_OY);
+            if (grb_parent(md, c) != k) continue;
+            real nx = w->frame[c].o[0] - w->frame[k].o[0], ny = w->frame[c].o[1] - w->frame[k].o[1];
             fnx += out[3 * c];
             fny += out[3 * c + 1];
             nn += out[3 * c + 2];
             nf += nx * out[3 * c + 1] - ny * out[3 * c];
         }
-        real ix = L_(md, k, GRB_L_M) * ax, iy = L_(md, k, GRB_L_M) * (ay + md->gravity); /* m (a - g) */
+        real ix = grb_links(md)[k].m * ax, iy = grb_links(md)[k].m * (ay + md->gravity); /* m (a - g) */
         real fx = ix - out[3 * k] + fnx, fy = iy - out[3 * k + 1] + fny;
-        real cx = K_(w, k, K_CX) - K_(w, k, K_OX), cy = K_(w, k, K_CY) - K_(w, k, K_OY);
-        real mz = L_(md, k, GRB_L_I) * alpha + (cx * iy - cy * ix) + nn + nf - out[3 * k + 2];
+        real cx = w->frame[k].com[0] - w->frame[k].o[0], cy = w->frame[k].com[1] - w->frame[k].o[1];
+        real mz = grb_links(md)[k].inertia * alpha + (cx * iy - cy * ix) + nn + nf - out[3 * k + 2];
         out[3 * k] = fx;
         out[3 * k + 1] = fy;
         out[3 * k + 2] = mz;
     }
 }
 
-int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load,
+grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load,
                 int want_reactions, real *work, real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     const real *zd = y + n;
-    int ok = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
-    int dd = w->dd;
+    status = GRB(accelerations)(md, method, y, zd, tau_drive, tau_load, w);
     for (int k = 0; k < n; k++) {
-        int revolute = L_(md, k, GRB_L_REV) != 0.0, pk = PARENT_(md, k);
+        int revolute = grb_links(md)[k].revolute != 0.0, pk = grb_parent(md, k);
         /* a link's angular acceleration: its predecessor's plus its own revolute's */
         real acc = pk >= 0 ? out[4 * n + 2 * pk + 1] : 0.0;
-        out[2 * k] = K_(w, k, K_SLIDE);
-        out[2 * k + 1] = K_(w, k, K_TH);
-        out[2 * n + 2 * k] = K_(w, k, K_RATE);
-        out[2 * n + 2 * k + 1] = K_(w, k, K_OM);
-        if (revolute) acc += T_(w, k, dd);
-        out[4 * n + 2 * k] = revolute ? 0.0 : T_(w, k, dd);
+        out[2 * k] = w->frame[k].slide;
+        out[2 * k + 1] = w->frame[k].theta;
+        out[2 * n + 2 * k] = w->frame[k].rate;
+        out[2 * n + 2 * k + 1] = w->frame[k].omega;
+        if (revolute) acc += w->zdd[k];
+        out[4 * n + 2 * k] = revolute ? 0.0 : w->zdd[k];
         out[4 * n + 2 * k + 1] = acc;
     }
     int o = 6 * n;
     real tip[4];
-    GRB(point)(md, w, n - 1, L_(md, n - 1, GRB_L_A), 0.0, w->J + m * n, tip);
+    GRB(point)(md, w, n - 1, grb_links(md)[n - 1].a, 0.0, w->J + m * n, tip);
     out[o] = tip[0];
     out[o + 1] = tip[1];
     real err = 0.0;
-    for (int r = 0; r < m; r++) err += R_(w, r, R_PHI) * R_(w, r, R_PHI);
+    for (int r = 0; r < m; r++) err += w->row[r].phi * w->row[r].phi;
     out[o + 2] = RSQRT(err);
     real fx = 0.0, fy = 0.0, mz = 0.0;
     if (m > 0) {
-        if (CL_(md, 0, GRB_CL_KIND) != 0.0) {
-            fx = R_(w, 0, R_NORMAL) * R_(w, 0, R_LAM);
-            fy = R_(w, 1, R_NORMAL) * R_(w, 0, R_LAM);
-            mz = R_(w, 1, R_LAM);
+        if (grb_closures(md)[0].kind != 0.0) {
+            fx = w->row[0].normal * w->row[0].lambda;
+            fy = w->row[1].normal * w->row[0].lambda;
+            mz = w->row[1].lambda;
         } else {
-            fx = R_(w, 0, R_LAM);
-            fy = R_(w, 1, R_LAM);
+            fx = w->row[0].lambda;
+            fy = w->row[1].lambda;
         }
     }
     out[o + 3] = fx;
@@ -491,26 +544,27 @@ int GRB(observe)(const grb_model *md, int method, const real *y, real tau_drive,
     out[o + 5] = mz;
     real ke = 0.0, pe = 0.0;
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++) ke += zd[i] * T_(w, i, j) * zd[j];
-    for (int k = 0; k < n; k++) pe += L_(md, k, GRB_L_M) * K_(w, k, K_CY);
+        for (int j = 0; j < n; j++) ke += zd[i] * MASS_(w, i, j) * zd[j];
+    for (int k = 0; k < n; k++) pe += grb_links(md)[k].m * w->frame[k].com[1];
     pe *= md->gravity;
     if (method == GRB_PENALTY) /* the penalty springs store energy too */
-        for (int r = 0; r < m; r++) pe += 0.5 * CL_(md, r / 2, GRB_CL_GAIN) * R_(w, r, R_PHI) * R_(w, r, R_PHI);
+        for (int r = 0; r < m; r++) pe += 0.5 * grb_closures(md)[r / 2].gain * w->row[r].phi * w->row[r].phi;
     out[o + 6] = 0.5 * ke;
     out[o + 7] = pe;
     out[o + 8] = 0.5 * ke + pe;
     out[o + 9] = md->drive >= 0 ? tau_drive : 0.0;
     out[o + 10] = md->drive >= 0 ? tau_drive * zd[md->drive] : 0.0;
     if (want_reactions) GRB(reactions)(md, w, out + o + 11);
-    return ok ? GRB_OK : GRB_SINGULAR;
+    return status;
 }
 
-int GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, const real *tau_drive,
+grb_status GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, const real *tau_drive,
                      real tau_drive_const, real tau_load, int want_reactions, real *work, real *out) {
-    int n = md->n_links, status = GRB_OK;
+    int n = md->n_links;
+    grb_status status = GRB_OK;
     for (int i = 0; i < rows; i++) {
         real tau = tau_drive ? tau_drive[i] : tau_drive_const;
-        int s = GRB(observe)(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
+        grb_status s = GRB(observe)(md, method, y + (size_t)i * 2 * n, tau, tau_load, want_reactions, work,
                             out + (size_t)i * GRB_N_OBSERVED(n));
         if (s != GRB_OK && status == GRB_OK) status = s;
     }
@@ -518,51 +572,57 @@ int GRB(observe_rows)(const grb_model *md, int method, int rows, const real *y, 
 }
 
 void GRB(work_layout)(int n, int n_closures, long *layout) {
-    size_t off[7];
+    size_t off[7], dyn[4];
     int m = 2 * n_closures;
     ws_offsets(n, m, off);
+    dynamics_offsets(n, m, off, dyn);
     for (int i = 0; i < 7; i++) layout[i] = (long)off[i];
     layout[7] = K_COLUMNS;
     layout[8] = R_COLUMNS;
-    layout[9] = 2 * n + 2 * m + 3;
-    layout[10] = 3 * m + 1;
-    layout[11] = 2 * n + m + 1;
+    layout[9] = n;
+    layout[10] = m;
+    layout[11] = (long)dyn[3];
 }
 
-int GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
+grb_status GRB(evaluate)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work) {
     grb_ws w;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
-    return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w) ? GRB_OK : GRB_SINGULAR;
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w);
 }
 
-int GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
+grb_status GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
     grb_ws w;
     if (k < 0 || k >= md->n_links) return GRB_BAD_ARGUMENT;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_KINEMATICS);
+    if (status != GRB_OK) return status;
     GRB(point)(md, &w, k, lx, ly, J, r);
     return GRB_OK;
 }
 
-int GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
+grb_status GRB(joint_reactions)(const grb_model *md, real *work, real *out) {
     grb_ws w;
-    GRB(ws_init)(&w, md->n_links, md->n_closures, work);
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_DYNAMICS);
+    if (status != GRB_OK) return status;
     GRB(reactions)(md, &w, out);
     return GRB_OK;
 }
 
-int GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, real tau_load, real *work,
+grb_status GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, real tau_load, real *work,
                          real *out) {
     grb_ws ws, *w = &ws;
     int n = md->n_links;
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     GRB(chain)(md, y, y + n, w);
     mass_centres(md, w);
     GRB(closure_rows)(md, y + n, w);
+    grb_ws_filled(w, GRB_FILLED_KINEMATICS);
     mass_matrix(md, w);
-    generalised_force(md, y + n, 0.0, tau_load, w, w->vec);
+    generalised_force(md, y + n, 0.0, tau_load, w);
     for (int i = 0; i < n; i++) {
-        real s = -T_(w, i, w->vec);
-        for (int j = 0; j < n; j++) s += T_(w, i, j) * zdd[j];
+        real s = -w->force[i];
+        for (int j = 0; j < n; j++) s += MASS_(w, i, j) * zdd[j];
         out[i] = s;
     }
     return GRB_OK;
@@ -571,11 +631,11 @@ int GRB(inverse_residual)(const grb_model *md, const real *y, const real *zdd, r
 #ifdef GRB_COMPLEX_STEP
 /* Entry points with the efforts passed by address: a complex number passed by
  * value is not something every foreign-function interface can do. */
-int grb_cs_rhs_at(const grb_model *md, int method, const real *y, const real *efforts, real *work, real *out) {
+grb_status grb_cs_rhs_at(const grb_model *md, int method, const real *y, const real *efforts, real *work, real *out) {
     return GRB(rhs)(md, method, y, efforts[0], efforts[1], work, out);
 }
 
-int grb_cs_observe_at(const grb_model *md, int method, const real *y, const real *efforts, int want_reactions,
+grb_status grb_cs_observe_at(const grb_model *md, int method, const real *y, const real *efforts, int want_reactions,
                       real *work, real *out) {
     return GRB(observe)(md, method, y, efforts[0], efforts[1], want_reactions, work, out);
 }

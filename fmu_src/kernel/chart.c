@@ -115,7 +115,7 @@ static int march(const grb_model *md, double scale, int held, double d, double t
                  double near, double *z, double *t, grb_chart *ch, grb_ws *w, int track) {
     int n = w->n;
     double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n;
-    double unit = L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
+    double unit = grb_links(md)[held].revolute > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
     double last = grb_closure_conditioning(md, z, w) / kappa_ref;
     for (int k = 0; k < MARCH_STEPS; k++) {
         double floor = PINCH_AVOID * kappa_ref;
@@ -213,7 +213,7 @@ static int build_on(const grb_model *md, double scale, const double *y, double k
     memcpy(z, y, sizeof(double) * n);
     if (!isfinite(grb_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
     /* (the pinch may lie within the first continuation step either way) */
-    ch->pinch_step = 1.5 * MARCH_FIRST * (L_(md, held, GRB_L_REV) > 0.5 ? 1.0 : scale);
+    ch->pinch_step = 1.5 * MARCH_FIRST * (grb_links(md)[held].revolute > 0.5 ? 1.0 : scale);
     memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
     memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
     /* both ways from here to where the closure is well conditioned again */
@@ -298,6 +298,54 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
     return GRB_BRANCH_JUMP;
 }
 
+/* Between advances (a co-simulation step of 1 ms is one advance, and a change
+ * point's zone is tens of them) the chart is kept, not rebuilt: its
+ * coefficients stay in the caller's stepper buffer, and its scalars go into the
+ * node-value block, which is dead once the chart is built.  A tag marks them
+ * valid; resuming clears it, so a failed advance (which may have built another
+ * chart over these coefficients) leaves nothing to resume. */
+#define CHART_TAG 7.0397e-217 /* an unlikely value for a coordinate */
+enum { SAVED_TAG, SAVED_HELD, SAVED_LO, SAVED_HI, SAVED_MID, SAVED_HALF, SAVED_PINCH, SAVED_PINCH_KAPPA,
+       SAVED_COUNT };
+
+void grb_chart_save(const grb_chart *ch) {
+    double *saved = ch->values;
+    if (!ch->active) {
+        saved[SAVED_TAG] = 0.0;
+        return;
+    }
+    saved[SAVED_TAG] = CHART_TAG;
+    saved[SAVED_HELD] = ch->held;
+    saved[SAVED_LO] = ch->lo;
+    saved[SAVED_HI] = ch->hi;
+    saved[SAVED_MID] = ch->mid;
+    saved[SAVED_HALF] = ch->half;
+    saved[SAVED_PINCH] = ch->pinch;
+    saved[SAVED_PINCH_KAPPA] = ch->pinch_kappa;
+}
+
+int grb_chart_resume(grb_chart *ch, const double *y, double scale) {
+    double *saved = ch->values, *z = ch->scratch;
+    int n = ch->n, held = (int)saved[SAVED_HELD];
+    ch->active = 0;
+    if (saved[SAVED_TAG] != CHART_TAG || held < 0 || held >= n || !(saved[SAVED_HALF] > 0.0)) return 0;
+    saved[SAVED_TAG] = 0.0;
+    ch->held = held;
+    ch->lo = saved[SAVED_LO];
+    ch->hi = saved[SAVED_HI];
+    ch->mid = saved[SAVED_MID];
+    ch->half = saved[SAVED_HALF];
+    ch->pinch = saved[SAVED_PINCH];
+    ch->pinch_kappa = saved[SAVED_PINCH_KAPPA];
+    /* the state must lie on it (the last advance put it there; a state set
+     * from outside, or restored from before the chart, need not) */
+    if (!(y[held] >= ch->lo && y[held] <= ch->hi) || !grb_chart_eval(ch, y[held], z, NULL, NULL)) return 0;
+    for (int i = 0; i < n; i++)
+        if (i != held && !(fabs(z[i] - y[i]) <= CHART_CHECK * scale)) return 0;
+    ch->active = 1;
+    return 1;
+}
+
 int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
     int n = ch->n;
     double u = (x - ch->mid) / ch->half, T[CHART_NODES];
@@ -328,7 +376,7 @@ int grb_chart_put(const grb_chart *ch, double *y) {
 
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out) {
-    int n = ch->n, held = ch->held, x0 = w->x0;
+    int n = ch->n, held = ch->held;
     double *z = ch->scratch, *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
     double x = y[held], xd = y[n + held];
     if (!grb_chart_eval(ch, x, z, t, tx)) {
@@ -344,12 +392,12 @@ int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, dou
     for (int i = 0; i < n; i++) {
         double mt = 0.0, mtx = 0.0;
         for (int j = 0; j < n; j++) {
-            mt += T_(w, i, j) * t[j];
-            mtx += T_(w, i, j) * tx[j];
+            mt += MASS_(w, i, j) * t[j];
+            mtx += MASS_(w, i, j) * tx[j];
         }
         mass += t[i] * mt;
         bias += t[i] * mtx;
-        force += t[i] * T_(w, i, x0);
+        force += t[i] * w->force[i];
     }
     double xdd = (force - xd * xd * bias) / mass;
     for (int i = 0; i < n; i++) out[n + i] = t[i] * xdd + tx[i] * xd * xd;

@@ -50,7 +50,7 @@ static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
 static double worst_violation(const grb_ws *w) {
     double worst = 0.0;
     for (int r = 0; r < w->m; r++)
-        if (!(fabs(R_(w, r, R_PHI)) <= worst)) worst = fabs(R_(w, r, R_PHI)); /* a nan wins */
+        if (!(fabs(w->row[r].phi) <= worst)) worst = fabs(w->row[r].phi); /* a nan wins */
     return worst;
 }
 
@@ -63,21 +63,22 @@ void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
     for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
         rows_at(md, z, w);
         if (worst_violation(w) <= POSITION_TOL * scale) break;
-        grb_lstsq_min_norm(w->J, n, m, n, w->R + R_PHI, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+        grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].phi, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
         for (int i = 0; i < n; i++) z[i] -= s.x[i];
     }
     for (int r = 0; r < m; r++) {
         double v = 0.0;
         for (int i = 0; i < n; i++) v += J_(w, r, i) * zd[i];
-        R_(w, r, R_B) = v;
+        w->row[r].b = v;
     }
-    grb_lstsq_min_norm(w->J, n, m, n, w->R + R_B, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+    grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].b, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
     for (int i = 0; i < n; i++) zd[i] -= s.x[i];
 }
 
-int grb_project(const grb_model *md, double scale, double *y, double *work) {
+grb_status grb_project(const grb_model *md, double scale, double *y, double *work) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     if (w.m == 0) return GRB_OK;
     grb_project_ws(md, scale, y, &w);
     for (int i = 0; i < 2 * w.n; i++)
@@ -85,28 +86,30 @@ int grb_project(const grb_model *md, double scale, double *y, double *work) {
     return GRB_OK;
 }
 
-int grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
+grb_status grb_constraint(const grb_model *md, const double *z, double *phi, double *J, double *work) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     rows_at(md, z, &w);
     for (int r = 0; r < w.m; r++) {
-        phi[r] = R_(&w, r, R_PHI);
+        phi[r] = w.row[r].phi;
         for (int i = 0; i < w.n; i++) J[r * w.n + i] = J_(&w, r, i);
     }
     return GRB_OK;
 }
 
-int grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
+grb_status grb_freedom(const grb_model *md, const double *z, double *work, int *freedom) {
     grb_ws w;
-    grb_ws_init(&w, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     if (w.m > 64) return GRB_BAD_ARGUMENT;
     *freedom = grb_closure_freedom(md, z, &w);
     return GRB_OK;
 }
 
-int grb_hold_count(const grb_model *md, const double *z, double *work, int *count) {
+grb_status grb_hold_count(const grb_model *md, const double *z, double *work, int *count) {
     int freedom, n = md->n_links - 2 * md->n_closures;
-    int status = grb_freedom(md, z, work, &freedom);
+    grb_status status = grb_freedom(md, z, work, &freedom);
     if (status != GRB_OK) return status;
     if (freedom > n) n = freedom;
     if (md->drive >= 0 && n < 1) n = 1;
@@ -114,10 +117,11 @@ int grb_hold_count(const grb_model *md, const double *z, double *work, int *coun
     return GRB_OK;
 }
 
-int grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
+grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z, int *held, int *n_held, double *work) {
     grb_ws w;
     int n = md->n_links;
-    grb_ws_init(&w, n, md->n_closures, work);
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     int m = w.m, count = 0;
     if (n_hold < 0) n_hold = 0;
     if (md->drive >= 0 && n_hold > 0) held[count++] = md->drive;
@@ -186,13 +190,14 @@ static void solve_dependent(const grb_ws *w, scratch *s, const int *dep, int nd,
     grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
 }
 
-int grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
+grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
                  double *closest, double *work) {
     grb_ws w;
     int n = md->n_links;
-    grb_ws_init(&w, n, md->n_closures, work);
-    int m = w.m;
     *closest = 0.0;
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    int m = w.m;
     if (m == 0) return GRB_OK;
     if (n > 64 || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
     scratch s = scratch_of(&w);
@@ -209,7 +214,7 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
         double err = worst_violation(&w);
         if (err < best) best = err;
         if (err < POSITION_TOL * scale) break;
-        for (int r = 0; r < m; r++) s.phi[r] = -R_(&w, r, R_PHI);
+        for (int r = 0; r < m; r++) s.phi[r] = -w.row[r].phi;
         solve_dependent(&w, &s, dep, nd, s.phi, s.step);
         /* damped Newton: the largest fraction that reduces the violation */
         int moved = 0;
@@ -243,15 +248,15 @@ int grb_assemble(const grb_model *md, int n_held, const int *held, double scale,
     return GRB_OK;
 }
 
-/* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into Q's first
- * m columns, where grb_sym_eig finds its eigenvectors and eigenvalues. */
+/* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into schur,
+ * where grb_sym_eig finds its eigenvectors and eigenvalues. */
 static void gram(grb_ws *w) {
     int n = w->n, m = w->m;
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
             double g = 0.0;
             for (int i = 0; i < n; i++) g += J_(w, r, i) * J_(w, c, i);
-            Q_(w, r, c) = g;
+            SCHUR_(w, r, c) = g;
         }
 }
 
@@ -259,17 +264,17 @@ static void gram(grb_ws *w) {
  * first, into e (m of them): the eigenvalues of the Gram matrix. */
 static void squared_singular_values(grb_ws *w, double *e) {
     int m = w->m;
-    double *G = w->Q;
+    double *G = w->schur;
     gram(w);
     if (m == 2) {
-        double tr = G[0] + G[w->qc + 1], det = G[0] * G[w->qc + 1] - G[1] * G[w->qc];
+        double tr = G[0] + G[m + 1], det = G[0] * G[m + 1] - G[1] * G[m];
         double disc = sqrt(fmax(tr * tr / 4.0 - det, 0.0));
         e[0] = tr / 2.0 + disc;
         e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
         return;
     }
-    grb_sym_eig(w->Q, w->qc, m);
-    for (int i = 0; i < m; i++) e[i] = w->Q[i * w->qc + 3 * m];
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    for (int i = 0; i < m; i++) e[i] = w->eigval[i];
     for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
         for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
             double tmp = e[k];
@@ -321,17 +326,17 @@ int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
  * length M, the Gram matrix's leading eigenvectors) into basis, for
  * grb_branch_orientation when redundant rows make J taller than N - 1. */
 int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis) {
-    int n = w->n, m = w->m, v0 = 2 * m, w0 = 3 * m, used[64] = {0};
+    int n = w->n, m = w->m, used[64] = {0};
     if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
     rows_at(md, z, w);
     gram(w);
-    grb_sym_eig(w->Q, w->qc, m);
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     for (int b = 0; b < n - 1; b++) {
         int best = -1;
         for (int i = 0; i < m; i++)
-            if (!used[i] && (best < 0 || Q_(w, i, w0) > Q_(w, best, w0))) best = i;
+            if (!used[i] && (best < 0 || w->eigval[i] > w->eigval[best])) best = i;
         used[best] = 1;
-        for (int r = 0; r < m; r++) basis[b * m + r] = Q_(w, r, v0 + best);
+        for (int r = 0; r < m; r++) basis[b * m + r] = EIGVEC_(w, r, best);
     }
     return GRB_OK;
 }
@@ -350,7 +355,7 @@ static double orientation_of_rows(grb_ws *w, const double *zd, const double *bas
     for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
     if (!(speed > 0.0)) return 0.0;
     speed = sqrt(speed);
-    double *A = w->Q; /* n x n scratch: n^2 <= (m + 1)^2 <= m (3m + 1) */
+    double *A = w->schur; /* n x n scratch over the closures' matrices: n^2 <= (m + 1)^2 <= m (3m + 1) */
     for (int r = 0; r < n - 1; r++)
         for (int i = 0; i < n; i++) {
             double v = 0.0;
@@ -416,7 +421,7 @@ double grb_branch_point(const grb_model *md, int held, double scale, double *z, 
         err = worst_violation(w);
         if (!(err < 0.5 * previous) || err == 0.0) break;
         previous = err;
-        for (int r = 0; r < m; r++) s.phi[r] = -R_(w, r, R_PHI);
+        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
         solve_dependent(w, &s, dep, nd, s.phi, s.step);
         for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
     }

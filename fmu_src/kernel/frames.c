@@ -4,14 +4,15 @@
  * Positions only, so it is compiled once, over double. */
 #include "workspace.h"
 
-int grb_link_points_rows(const grb_model *md, int rows, const double *y, int n_points, const int *link,
+grb_status grb_link_points_rows(const grb_model *md, int rows, const double *y, int n_points, const int *link,
                          const double *local, double *work, double *out) {
     int n = md->n_links;
     grb_ws ws, *w = &ws;
     if (rows < 0 || n_points < 0) return GRB_BAD_ARGUMENT;
     for (int p = 0; p < n_points; p++)
         if (link[p] >= n) return GRB_BAD_ARGUMENT;
-    grb_ws_init(w, n, md->n_closures, work);
+    grb_status status = grb_ws_init(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     /* GRB(point) writes a Jacobian we do not need: the closure Jacobian's scratch rows */
     double *scratch = w->J + w->m * n, r[4];
     for (int i = 0; i < rows; i++) {

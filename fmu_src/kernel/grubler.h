@@ -41,6 +41,9 @@ typedef enum grb_status {
     GRB_NOT_CLOSED             /* assembly: limit: the closest violation reached */
 } grb_status;
 
+/* The status in words (a static string). */
+GRB_API const char *grb_status_message(grb_status status);
+
 /* Columns of the link table, one row per moving link (model.py's L_*):
  * mass, centroidal inertia, mass centre along and across the link vector, the
  * vector's length, the predecessor's vector length (a1 for link 2), joint
@@ -52,12 +55,36 @@ typedef enum grb_status {
  * table as grb_scene_tables builds it: -1 <= parent < k for row k. */
 enum { GRB_L_M, GRB_L_I, GRB_L_P, GRB_L_Q, GRB_L_A, GRB_L_APRED, GRB_L_DAMP, GRB_L_REV, GRB_L_SLIDE0,
        GRB_L_THETA0, GRB_L_PARENT, GRB_L_COLUMNS };
+/* One row of the link table by name (the kernel reads the table through it;
+ * chain.c checks that its fields sit at the columns above). */
+typedef struct grb_link {
+    double m;        /* mass, kg */
+    double inertia;  /* centroidal moment of inertia, kg m^2 */
+    double p, q;     /* mass centre along and across the link vector, m */
+    double a;        /* the link vector's length, m */
+    double a_pred;   /* the predecessor's vector length (a1 for a link on the ground), m */
+    double damping;  /* joint damping, N m s/rad (N s/m on a slide) */
+    double revolute; /* 1: the revolute is the real joint, 0: the slide */
+    double slide0;   /* the locked slide a revolute joint keeps, m */
+    double theta0;   /* the locked absolute angle the real relative angles add to, rad */
+    double parent;   /* the predecessor: an earlier moving link's index, -1 the ground */
+} grb_link;
 /* Columns of the closure table, one row per closure: kind (0 revolute,
  * 1 prismatic), closing link and target link (0-based moving-link index, -1 the
  * ground), point, target point, line angle, held orientation psi, penalty gain
  * and damping. */
 enum { GRB_CL_KIND, GRB_CL_LINK, GRB_CL_TO, GRB_CL_PX, GRB_CL_PY, GRB_CL_TX, GRB_CL_TY, GRB_CL_ANGLE,
        GRB_CL_PSI, GRB_CL_GAIN, GRB_CL_DAMP, GRB_CL_COLUMNS };
+/* One row of the closure table by name. */
+typedef struct grb_closure {
+    double kind;         /* 0 revolute (a pin), 1 prismatic (a point on a line, the link held at psi) */
+    double link, to;     /* the closing link and the link it closes on (moving-link index, -1 the ground) */
+    double point[2];     /* the closing point, in link's frame (along, across its vector), m */
+    double to_point[2];  /* where it closes: in to's frame, or the world's on the ground, m */
+    double angle;        /* a prismatic closure's line angle in to's frame, rad */
+    double psi;          /* the orientation a prismatic closure holds, rad */
+    double gain, damping; /* the penalty method's spring, N/m, and damper, N s/m */
+} grb_closure;
 
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
@@ -83,22 +110,30 @@ typedef struct grb_model {
  * Mz, KE, PE, E, tau_drive, P_drive (11), the joint reactions (3N). */
 #define GRB_N_OBSERVED(n) (9 * (n) + 11)
 
-/* Doubles of workspace the functions below need for a model (grb_work_size). */
+/* The data (pinocchio's Data beside its Model): every table the kernel fills
+ * for one model, in one caller-owned buffer of grb_work_size doubles.  Its
+ * first entries say which sizes it is laid out for and how far it is filled
+ * (kernel/workspace.h), so that each call below can refuse (GRB_BAD_ARGUMENT)
+ * a buffer laid out for another model's sizes, and grb_point_on_link and
+ * grb_joint_reactions one that grb_evaluate has not filled.  grb_work_init
+ * lays a buffer out, checking its length; a buffer no call has used yet (all
+ * zeros, say) is laid out by the first call, which must trust its length. */
 GRB_API size_t grb_work_size(int n_links, int n_closures);
+GRB_API grb_status grb_work_init(int n_links, int n_closures, double *work, size_t length);
 
 /* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */
-GRB_API int grb_rhs(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_rhs(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                     double *work, double *out);
 
 /* Every output of one state (after the forward dynamics it runs itself), into
  * out[GRB_N_OBSERVED(n)]; the reactions only when want_reactions (else left as is). */
-GRB_API int grb_observe(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_observe(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                         int want_reactions, double *work, double *out);
 
 /* grb_observe over rows states y (rows x 2N), efforts per row (tau_drive may be
  * NULL: then tau_drive_const), into out (rows x GRB_N_OBSERVED(n)). */
-GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
+GRB_API grb_status grb_observe_rows(const grb_model *m, int method, int rows, const double *y, const double *tau_drive,
                              double tau_drive_const, double tau_load, int want_reactions, double *work, double *out);
 
 /* World positions of points fixed to links over rows states y (rows x 2N; the
@@ -106,40 +141,40 @@ GRB_API int grb_observe_rows(const grb_model *m, int method, int rows, const dou
  * local[2p] along and local[2p + 1] across the vector of moving link link[p]
  * (0-based), or the ground point local[2p..2p+1] itself where link[p] < 0.
  * GRB_BAD_ARGUMENT for a link index past the chain.  For drawing a trajectory. */
-GRB_API int grb_link_points_rows(const grb_model *m, int rows, const double *y, int n_points, const int *link,
+GRB_API grb_status grb_link_points_rows(const grb_model *m, int rows, const double *y, int n_points, const int *link,
                                  const double *local, double *work, double *out);
 
 /* Closure violation phi (2C) and its Jacobian J (2C x N, row-major) at z. */
-GRB_API int grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
+GRB_API grb_status grb_constraint(const grb_model *m, const double *z, double *phi, double *J, double *work);
 
 /* Minimum-norm projection of y = (z, zd) onto the position and velocity
  * constraints, in place (scale: the length scale of the position tolerance). */
-GRB_API int grb_project(const grb_model *m, double scale, double *y, double *work);
+GRB_API grb_status grb_project(const grb_model *m, double scale, double *y, double *work);
 
 /* Consistent assembly: hold the n_held coordinates listed in held, solve the
  * closures for the others by damped Newton from z (the user's sketch picks the
  * branch), then the rates of the others from the velocity constraint.  z and zd
  * are updated in place.  GRB_NOT_CLOSED with *closest the smallest violation
  * reached when the loop cannot close. */
-GRB_API int grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
+GRB_API grb_status grb_assemble(const grb_model *m, int n_held, const int *held, double scale, double *z, double *zd,
                          double *closest, double *work);
 
 /* Degrees of freedom the closures leave at z: N minus the rank of their
  * Jacobian (singular values above 1e-8 of the largest).  It exceeds the
  * Grübler count N - 2C where closure rows are redundant (a third crank on a
  * parallelogram's coupling rod); assembly holds that many coordinates. */
-GRB_API int grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
+GRB_API grb_status grb_freedom(const grb_model *m, const double *z, double *work, int *freedom);
 
 /* How many coordinates assembly holds at the sketch z: the closures' freedom
  * there, no fewer than the Grübler count N - 2C, and at least the drive (a
  * sketch that does not close shows no redundancy; the drive is the motion's
  * own coordinate all the same).  The library and the FMU both ask this. */
-GRB_API int grb_hold_count(const grb_model *m, const double *z, double *work, int *count);
+GRB_API grb_status grb_hold_count(const grb_model *m, const double *z, double *work, int *count);
 
 /* Which coordinates assembly holds: the drive (if any), then, up to the
  * mobility n_hold, the columns of the closure Jacobian that a column-pivoted QR
  * leaves out of the best-conditioned dependent set.  Returns the count in *n_held. */
-GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
+GRB_API grb_status grb_held_coordinates(const grb_model *m, int n_hold, const double *z, int *held, int *n_held,
                                  double *work);
 
 /* -- the workspace as tables, for callers that read intermediate results ----
@@ -147,22 +182,23 @@ GRB_API int grb_held_coordinates(const grb_model *m, int n_hold, const double *z
  * mass centres, the closure rows, the mass matrix, the accelerations and the
  * closure multipliers (GRB_SINGULAR when the solve fails; the kinematics are
  * still filled).  grb_work_layout says where each table starts:
- * layout[0..6] offsets of K, Jc, J, R, T, Q, S; layout[7..10] the columns of K,
- * R, T and Q; layout[11] T's column of the accelerations. */
+ * layout[0..6] offsets of K, Jc, J, R, M (the mass matrix), the closures'
+ * Schur complement and S; layout[7..10] the columns of K, R, M and the Schur
+ * complement; layout[11] the offset of the accelerations zdd (N). */
 GRB_API void grb_work_layout(int n_links, int n_closures, long *layout);
-GRB_API int grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
+GRB_API grb_status grb_evaluate(const grb_model *m, int method, const double *y, double tau_drive, double tau_load,
                          double *work);
 /* Position r[0..1], bias acceleration r[2..3] and Jacobian J (2 x N) of the
  * point (lx along, ly across the link vector) of moving link k, from a
- * workspace grb_evaluate filled. */
-GRB_API int grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
+ * workspace grb_evaluate (or grb_inverse_residual) filled. */
+GRB_API grb_status grb_point_on_link(const grb_model *m, double *work, int k, double lx, double ly, double *J, double *r);
 /* Joint reactions (3N: Fx, Fy, Mz of each link's predecessor (parent) on it) from a
  * workspace grb_evaluate filled. */
-GRB_API int grb_joint_reactions(const grb_model *m, double *work, double *out);
+GRB_API grb_status grb_joint_reactions(const grb_model *m, double *work, double *out);
 /* Inverse dynamics residual M zdd + h - Q at (z, zd) with no drive effort:
  * what the drive and the closures must supply.  Leaves the closure rows in the
  * workspace. */
-GRB_API int grb_inverse_residual(const grb_model *m, const double *y, const double *zdd, double tau_load,
+GRB_API grb_status grb_inverse_residual(const grb_model *m, const double *y, const double *zdd, double tau_load,
                                  double *work, double *out);
 /* Minimum-norm least-squares solution of J x = b, J m x n row-major, with a
  * relative singular-value cut-off; returns the rank (scratch: (n + m) * m). */
@@ -177,7 +213,7 @@ GRB_API int grb_lstsq(const double *J, int m, int n, const double *b, double rco
  * set does not parametrise the motion there), GRB_NOT_CLOSED when Newton does
  * not converge, GRB_BAD_ARGUMENT for a wrong count or a repeated index.  Its
  * complex twin (grubler_cs.h) carries the tangent of the constraint manifold. */
-GRB_API int grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
+GRB_API grb_status grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
 
 /* A drive effort given as a function of time (NULL: the constant tau_drive). */
 typedef double (*grb_drive_fn)(void *ctx, double t);
@@ -207,6 +243,7 @@ typedef struct grb_clock {
     long steps, rejected, evals;
     long passages;            /* change points passed (see grb_advance) */
     double kappa_seen;        /* best closure conditioning seen so far (0: none yet) */
+    long charts;              /* change-point charts built (a chart is kept from one advance to the next) */
 } grb_clock;
 
 /* Where and why an advance stopped. */
@@ -231,8 +268,11 @@ GRB_API size_t grb_stepper_size(int tableau, int n_states);
  * Taylor prediction and projected onto the closure, is the one on the branch
  * the motion came along (continuity of position, velocity and acceleration).
  * Each passage is counted in the clock and its time logged.
- * work: grb_work_size doubles, stepper: grb_stepper_size doubles. */
-GRB_API int grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
+ * work: grb_work_size doubles, stepper: grb_stepper_size doubles.  The stepper
+ * also keeps the chart being followed through a change point from one advance
+ * to the next (taken up again only where y lies on it): keep it, and save it
+ * with y, f and the clock, as a rollback must replay the same steps. */
+GRB_API grb_status grb_advance(const grb_model *m, const grb_settings *s, grb_clock *clock, double *y, double *f,
                         const double *t_out, int n_out, double *out, double *work, double *stepper,
                         grb_failure *why);
 

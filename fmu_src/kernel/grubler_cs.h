@@ -18,10 +18,13 @@
 extern "C" {
 #endif
 
+/* grb_work_init over a complex buffer */
+GRB_API grb_status grb_cs_work_init(int n_links, int n_closures, double complex *work, size_t length);
+
 /* efforts: (drive, load); the complex-step rules are in real.h */
-GRB_API int grb_cs_rhs_at(const grb_model *m, int method, const double complex *y, const double complex *efforts,
+GRB_API grb_status grb_cs_rhs_at(const grb_model *m, int method, const double complex *y, const double complex *efforts,
                           double complex *work, double complex *out);
-GRB_API int grb_cs_observe_at(const grb_model *m, int method, const double complex *y,
+GRB_API grb_status grb_cs_observe_at(const grb_model *m, int method, const double complex *y,
                               const double complex *efforts, int want_reactions, double complex *work,
                               double complex *out);
 
@@ -29,7 +32,7 @@ GRB_API int grb_cs_observe_at(const grb_model *m, int method, const double compl
  * closed state (from grb_minimal_state or assembly); the iteration converges
  * the imaginary part, the derivative of the state along the independent
  * coordinates' imaginary perturbation (scale: the length scale of the tolerance). */
-GRB_API int grb_cs_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double complex *y,
+GRB_API grb_status grb_cs_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double complex *y,
                                  double complex *work);
 
 #ifdef __cplusplus

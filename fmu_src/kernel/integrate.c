@@ -246,7 +246,7 @@ static double crossing(double x0, double d0, double x1, double d1, double x) {
     return u;
 }
 
-static int fail(grb_failure *why, int status, double where, double limit) {
+static grb_status fail(grb_failure *why, grb_status status, double where, double limit) {
     if (why) {
         why->where = where;
         why->limit = limit;
@@ -254,8 +254,9 @@ static int fail(grb_failure *why, int status, double where, double limit) {
     return status;
 }
 
-int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
-                const double *t_out, int n_out, double *out, double *work, double *stepper, grb_failure *why) {
+static grb_status advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                          const double *t_out, int n_out, double *out, double *work, double *stepper,
+                          grb_failure *why) {
     const grb_tableau_data *tab = grb_tableau(st->tableau);
     if (!tab || n_out < 1 || !(st->rtol > 0.0) || !(st->atol > 0.0) || !isfinite(st->rtol) ||
         !isfinite(st->atol) || !(st->h_max > 0.0) || st->max_steps < 0)
@@ -267,7 +268,8 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
         if (!isfinite(t_out[i]) || !(t_out[i] >= lo)) return fail(why, GRB_BAD_ARGUMENT, t_out[i], 0.0);
     }
     problem p = {md, st, {0}, work, 2 * md->n_links, NULL};
-    grb_ws_init(&p.ws, md->n_links, md->n_closures, work);
+    grb_status status = grb_ws_init(&p.ws, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return fail(why, status, clock->t, 0.0);
     int N = p.N, s = tab->stages, dense = tab->dense_stages > 0;
     rows rw = rows_of(tab);
     double *Y = stepper;
@@ -279,7 +281,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     int passing = dense && st->project && md->n_closures > 0 &&
                   (square || (md->n_links <= 2 * md->n_closures && grb_closure_freedom(md, y, &p.ws) == 1));
     double kappa_seen = clock->kappa_seen;
-    long passages = 0;
+    long passages = 0, charts = 0;
     int uncharted = 0; /* near a zone where no chart could be made */
     /* the current state's conditioning and orientation, kept from the step that
      * ended there (the projection after it moves them by rounding only) */
@@ -287,6 +289,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     int cur_watched = 0, nw_watched = 0;
     if (passing) {
         grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
+        grb_chart_resume(&chart, y, st->scale);
         p.chart = &chart;
     }
     double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *nw = ROW(Y, rw.new_), *proj = ROW(Y, rw.proj);
@@ -314,6 +317,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
                      * but no branch crosses: a joint at a limit of its travel)
                      * the ordinary steps go on, watched by the projection,
                      * until the conditioning recovers. */
+                    charts++;
                     if (grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws) == GRB_OK) {
                         grb_chart_put(&chart, cur);
                         have_f = 0;
@@ -487,6 +491,7 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     }
     memcpy(y, cur, sizeof(double) * N);
     if (have_f) memcpy(f, der, sizeof(double) * N);
+    if (passing) grb_chart_save(&chart);
     clock->t = t;
     clock->h = tab->adaptive ? h : clock->h;
     clock->have_f = have_f;
@@ -494,6 +499,16 @@ int grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, d
     clock->rejected += rejected_total;
     clock->evals += evals;
     clock->passages += passages;
+    clock->charts += charts;
     clock->kappa_seen = kappa_seen;
     return GRB_OK;
+}
+
+grb_status grb_advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                       const double *t_out, int n_out, double *out, double *work, double *stepper,
+                       grb_failure *why) {
+    grb_status status = advance(md, st, clock, y, f, t_out, n_out, out, work, stepper, why);
+    /* the evaluations and projections leave the tables at no one state */
+    if (work && work[WORK_TAG] == GRB_WORK_TAG) work[WORK_FILLED] = GRB_FILLED_NOTHING;
+    return status;
 }

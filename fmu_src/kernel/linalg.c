@@ -14,9 +14,9 @@
 #define GRAM_CUTOFF 1e-8
 
 /* Solve A Y = X in place: A is the n x n block of T from column a0 (destroyed),
- * X the ncols columns from x0 (overwritten by Y).  0 when a pivot is exactly
- * zero (singular), as gesv reports it. */
-int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
+ * X the ncols columns from x0 (overwritten by Y).  GRB_SINGULAR when a pivot
+ * is exactly zero, as gesv reports it. */
+grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
 #define A(r, c) T[(r) * stride + a0 + (c)]
 #define X(r, c) T[(r) * stride + x0 + (c)]
     for (int c = 0; c < n; c++) {
@@ -27,7 +27,7 @@ int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
                 big = fabs(RE(A(r, c)));
                 p = r;
             }
-        if (big == 0.0) return 0;
+        if (big == 0.0) return GRB_SINGULAR;
         if (p != c) {
             for (int j = 0; j < n; j++) {
                 real t = A(c, j);
@@ -54,7 +54,7 @@ int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
             for (int k = c + 1; k < n; k++) s -= A(c, k) * X(k, j);
             X(c, j) = s / A(c, c);
         }
-    return 1;
+    return GRB_OK;
 #undef A
 #undef X
 }
@@ -77,13 +77,13 @@ static void rotate_columns(real *A, int stride, int rows, int p, int q, real c, 
     }
 }
 
-/* Eigen-decomposition of the symmetric m x m matrix S held in Q = [S | scratch |
- * V | w]: S is kept, the eigenvectors land in V's columns, the eigenvalues (not
- * sorted) in the last column. */
-void GRB(sym_eig)(real *Q, int stride, int m) {
-#define S_(i, j) Q[(i) * stride + (j)]
-#define B(i, j) Q[(i) * stride + m + (j)]
-#define V(i, j) Q[(i) * stride + 2 * m + (j)]
+/* Eigen-decomposition of the symmetric m x m matrix S (kept): the
+ * eigenvectors into V's columns, the eigenvalues (not sorted) into values; B
+ * is m x m scratch.  All row-major with m columns. */
+void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m) {
+#define S_(i, j) S[(i) * m + (j)]
+#define B(i, j) B[(i) * m + (j)]
+#define V(i, j) V[(i) * m + (j)]
     for (int i = 0; i < m; i++)
         for (int j = 0; j < m; j++) {
             B(i, j) = S_(i, j);
@@ -101,16 +101,16 @@ void GRB(sym_eig)(real *Q, int stride, int m) {
                 if (B(p, q) == 0.0) continue;
                 real c, s;
                 rotation(B(p, p), B(q, q), B(p, q), &c, &s);
-                rotate_columns(Q + m, stride, m, p, q, c, s);
+                rotate_columns(B, m, m, p, q, c, s);
                 for (int k = 0; k < m; k++) {
                     real bpk = B(p, k), bqk = B(q, k);
                     B(p, k) = c * bpk - s * bqk;
                     B(q, k) = s * bpk + c * bqk;
                 }
-                rotate_columns(Q + 2 * m, stride, m, p, q, c, s);
+                rotate_columns(V, m, m, p, q, c, s);
             }
     }
-    for (int i = 0; i < m; i++) Q[i * stride + 3 * m] = B(i, i);
+    for (int i = 0; i < m; i++) values[i] = B(i, i);
 #undef S_
 #undef B
 #undef V
@@ -152,6 +152,19 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
         for (int j = 0; j < m; j++) VV(i, j) = i == j ? 1.0 : 0.0;
     for (int sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         int rotated = 0;
+        /* a column below rcond times the largest is dropped from the solution
+         * whatever its direction; turning it against the others only stirs its
+         * rounding, which never settles (where J has more rows than columns, or
+         * redundant rows, some columns are such noise), so it is left alone.
+         * (The largest column only grows over the sweeps and ends as sigma_max;
+         * a left-alone column moves the others by rcond^2 of their length.) */
+        double widest = 0.0;
+        for (int j = 0; j < m; j++) {
+            double s2 = 0.0;
+            for (int k = 0; k < n; k++) s2 += UU(k, j) * UU(k, j);
+            widest = fmax(widest, s2);
+        }
+        double negligible = rcond * rcond * widest;
         for (int p = 0; p < m; p++)
             for (int q = p + 1; q < m; q++) {
                 double alpha = 0.0, beta = 0.0, gamma = 0.0;
@@ -161,6 +174,7 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
                     gamma += UU(k, p) * UU(k, q);
                 }
                 if (gamma == 0.0 || fabs(gamma) <= 1e-15 * sqrt(alpha * beta)) continue;
+                if (alpha <= negligible || beta <= negligible) continue;
                 rotated = 1;
                 double c, s;
                 rotation(alpha, beta, gamma, &c, &s);

@@ -31,7 +31,7 @@ static int is_independent(int i, int n_ind, const int *ind) {
  * crank on a parallelogram's rod) the consistent system is solved by its
  * normal equations J_dep^T J_dep x = J_dep^T b, analytic like the square solve,
  * so the complex build's derivatives stay exact.  0 when singular. */
-static int solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
+static grb_status solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
     int n = w->n, m = w->m, nd = n - n_ind;
     int dep[GRB_MAX_LINKS], c = 0;
     for (int i = 0; i < n; i++)
@@ -65,14 +65,15 @@ static void scatter_dependent(const grb_ws *w, int n_ind, const int *ind, real *
     }
 }
 
-int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
+grb_status GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
     if (n_ind < 0 || n_ind + m < n || n_ind > n || (n_ind > 0 && !ind) || n > GRB_MAX_LINKS) return GRB_BAD_ARGUMENT;
     for (int k = 0; k < n_ind; k++)
         if (ind[k] < 0 || ind[k] >= n || is_independent(ind[k], k, ind)) return GRB_BAD_ARGUMENT;
     if (m == 0) return GRB_OK; /* an open chain: every coordinate is independent */
-    GRB(ws_init)(w, n, md->n_closures, work);
+    grb_status status = GRB(ws_init)(w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
     real *z = y, *zd = y + n;
     real *rest = w->J + (m + 2) * n; /* zero rates: they enter neither phi nor J */
     int polish = -1;
@@ -82,15 +83,15 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         GRB(closure_rows)(md, rest, w);
         double worst = 0.0;
         for (int r = 0; r < m; r++)
-            if (!(fabs(RE(R_(w, r, R_PHI))) <= worst)) worst = fabs(RE(R_(w, r, R_PHI))); /* a nan wins */
+            if (!(fabs(RE(w->row[r].phi)) <= worst)) worst = fabs(RE(w->row[r].phi)); /* a nan wins */
         if (!(worst <= MINIMAL_TOL * scale)) {
             if (polish >= 0 || !isfinite(worst)) return GRB_NOT_CLOSED; /* diverged after converging */
         } else {
             polish++;
         }
         real *b = w->S + n * (n + 1); /* after the system solve_dependent builds in S */
-        for (int r = 0; r < m; r++) b[r] = -R_(w, r, R_PHI);
-        if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
+        for (int r = 0; r < m; r++) b[r] = -w->row[r].phi;
+        if (solve_dependent(w, n_ind, ind, b) != GRB_OK) return GRB_SINGULAR;
         scatter_dependent(w, n_ind, ind, z);
     }
     if (polish < MINIMAL_POLISH) return GRB_NOT_CLOSED;
@@ -104,7 +105,7 @@ int GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double sc
         for (int k = 0; k < n_ind; k++) s -= J_(w, r, ind[k]) * zd[ind[k]];
         b[r] = s;
     }
-    if (!solve_dependent(w, n_ind, ind, b)) return GRB_SINGULAR;
+    if (solve_dependent(w, n_ind, ind, b) != GRB_OK) return GRB_SINGULAR;
     for (int i = 0; i < n; i++)
         if (!is_independent(i, n_ind, ind)) zd[i] = 0.0;
     scatter_dependent(w, n_ind, ind, zd);

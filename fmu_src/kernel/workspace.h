@@ -1,14 +1,21 @@
 /* The kernel's workspace layout, shared by its translation units (not public).
  *
  * One caller-owned buffer of GRB(work_size)() doubles holds every table the
- * kernel fills; GRB(ws_init)() only points into it.  Tables are row-major:
+ * kernel fills; GRB(ws_init)() only points into it.  Its first entries (the
+ * header) say which model's sizes it was laid out for and what it holds now,
+ * so that a buffer of another model's, or one read before it was filled, is
+ * refused (GRB_BAD_ARGUMENT) instead of read past or trusted.  Then the tables,
+ * row-major:
  *   K  (N x K_COLUMNS)  the link table of the kinematic pass
  *   Jc (N x 2 x N)      mass-centre Jacobians
  *   J  ((M + 3) x N)    closure Jacobian, then three scratch rows
  *   R  (M x R_COLUMNS)  constraint rows
- *   T  (N x TC)         solver table: M, the matrix a solve destroys, right-hand
- *                       sides (forces, then J^T), zdd, a scratch vector, M scratch
- *   Q  (M x (3M + 1))   Schur complement, scratch, eigenvectors, eigenvalues
+ *   T  the dynamics: the mass matrix M (N x N), the force Q - h (N), the
+ *      solver's table (N x (N + M + 1): the matrix a solve destroys, then its
+ *      right-hand sides, the force and J^T) and the accelerations zdd (N)
+ *   Q  the closures' M x M matrices: the Schur complement (or the Gram matrix
+ *      J J^T), the eigen-solver's scratch, its eigenvectors, then the M
+ *      eigenvalues
  *   S  scratch for assembly (several N- and M x N-sized blocks)
  * with N moving links and M = 2C closure rows. */
 #ifndef GRUBLER_WORKSPACE_H
@@ -17,49 +24,95 @@
 #include "grubler.h"
 #include "real.h"
 
-/* link table of the kinematic pass: angle, rate, cos, sin, joint point O_k, its
- * bias acceleration, slide axis, slide and its rate, mass centre, its bias, and
- * the sum of the real relative angles from the ground to the link (what the
- * link's children add theirs to: kept rather than recomputed from the angle so
- * that a serial chain's sums are the same floating-point numbers as before) */
-enum { K_TH, K_OM, K_COS, K_SIN, K_OX, K_OY, K_BX, K_BY, K_AX, K_AY, K_SLIDE, K_RATE, K_CX, K_CY, K_CBX, K_CBY,
-       K_ZS, K_COLUMNS };
-/* constraint rows: violation, acceleration right side, solver columns b and
- * lambda, the line normal's component along this row's axis (prismatic) and
- * the closing point's */
-enum { R_PHI, R_GAMMA, R_B, R_LAM, R_NORMAL, R_POINT, R_COLUMNS };
+/* A link's frame in the kinematic pass (one row of K, in this field order:
+ * grb_work_layout publishes K's width and the library reads it as a table). */
+typedef struct grb_frame {
+    real theta, omega;         /* absolute angle, rad, and rate, rad/s */
+    real cos_theta, sin_theta;
+    real o[2];                 /* the joint point O_k, m */
+    real o_bias[2];            /* its acceleration at zero joint accelerations (the bias), m/s^2 */
+    real axis[2];              /* the slide axis: the predecessor's vector turned a quarter */
+    real slide, rate;          /* the slide, m, and its rate, m/s */
+    real com[2], com_bias[2];  /* the mass centre and its bias acceleration */
+    /* the sum of the real relative angles from the ground to the link (what
+     * the link's children add theirs to: kept rather than recomputed from the
+     * angle so that a serial chain's sums are the same floating-point numbers
+     * as before) */
+    real z_sum;
+} grb_frame;
+#define K_COLUMNS ((int)(sizeof(grb_frame) / sizeof(real)))
+
+/* One closure row (each closure has two; one row of R): violation phi, the
+ * acceleration's right side gamma (J zdd = gamma), what the closure still
+ * lacks after the unconstrained solve (b), its multiplier lambda, the line
+ * normal's component along this row's axis (prismatic) and the closing
+ * point's coordinate. */
+typedef struct grb_row {
+    real phi, gamma, b, lambda, normal, point;
+} grb_row;
+#define R_COLUMNS ((int)(sizeof(grb_row) / sizeof(real)))
+
+/* The header: a tag, the links and closures the buffer is laid out for (set by
+ * grb_work_init, or by the first call that uses a buffer that has none) and
+ * how far it is filled at the present state. */
+enum { WORK_TAG, WORK_LINKS, WORK_CLOSURES, WORK_FILLED, WORK_HEADER };
+#define GRB_WORK_TAG 4.2347e-297 /* an unlikely value for a number the kernel computes */
+/* what the tables hold (WORK_FILLED), and what a call needs them to hold */
+typedef enum grb_filled {
+    GRB_FILLED_NOTHING = 0,      /* scratch (or a pass at other rates: the closure rows at rest) */
+    GRB_FILLED_KINEMATICS = 1,   /* the kinematic pass, mass centres and closure rows at one state */
+    GRB_FILLED_DYNAMICS = 2      /* and the accelerations and multipliers there */
+} grb_filled;
 
 typedef struct grb_ws {
     int n, m;        /* links, closure rows */
-    int tc, qc;      /* columns of T and Q */
-    int a0, x0, dd, vec, block; /* column offsets in T */
-    real *K, *Jc, *J, *R, *T, *Q, *S;
+    int sc;          /* columns of solve */
+    grb_frame *frame; /* K: each link's frame */
+    real *Jc, *J;
+    grb_row *row;     /* R: the closure rows */
+    real *mass;       /* M (N x N) */
+    real *force;      /* Q - h (N): applied force less the velocity products */
+    real *solve;      /* N x sc: the matrix a solve destroys, then the right-hand sides */
+    real *zdd;        /* the joint accelerations (N) */
+    real *schur;      /* M x M: J (M + a J^T J)^-1 J^T, or the Gram matrix J J^T */
+    real *eig_work;   /* M x M scratch of the eigen-solver */
+    real *eigvec;     /* M x M: the eigenvectors of schur, by column */
+    real *eigval;     /* M: their eigenvalues (not sorted) */
+    real *S;
+    real *header;     /* the buffer's header (WORK_*) */
     /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
      * the ground), set by the kinematic pass: the inner loops over a link's
      * path test a bit instead of walking parents */
     unsigned long long path[GRB_MAX_LINKS];
 } grb_ws;
 
-void GRB(ws_init)(grb_ws *w, int n_links, int n_closures, real *buffer);
+/* Point w into buffer for model md: GRB_BAD_ARGUMENT when the buffer was laid
+ * out for other sizes, or holds less than `needs` (GRB_FILLED_NOTHING: any
+ * buffer of the model; the call will overwrite the tables, and the header says
+ * they hold nothing until the call says otherwise). */
+grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled needs);
+/* What the call left in the tables. */
+static inline void grb_ws_filled(grb_ws *w, grb_filled filled) { w->header[WORK_FILLED] = (double)filled; }
 
-#define L_(m, k, c) ((m)->links[(k) * GRB_L_COLUMNS + (c)])
-#define CL_(m, j, c) ((m)->closures[(j) * GRB_CL_COLUMNS + (c)])
+/* The model's tables by row (grb_link, grb_closure: the same numbers). */
+static inline const grb_link *grb_links(const grb_model *m) { return (const grb_link *)m->links; }
+static inline const grb_closure *grb_closures(const grb_model *m) { return (const grb_closure *)m->closures; }
 /* the predecessor of link k: an earlier moving link, or -1 the ground */
-#define PARENT_(m, k) ((int)L_(m, k, GRB_L_PARENT))
+static inline int grb_parent(const grb_model *m, int k) { return (int)grb_links(m)[k].parent; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
 static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }
-#define K_(w, k, c) ((w)->K[(k) * K_COLUMNS + (c)])
-#define R_(w, r, c) ((w)->R[(r) * R_COLUMNS + (c)])
-#define T_(w, i, c) ((w)->T[(i) * (w)->tc + (c)])
-#define Q_(w, i, c) ((w)->Q[(i) * (w)->qc + (c)])
+#define MASS_(w, i, j) ((w)->mass[(i) * (w)->n + (j)])
+#define SOLVE_(w, i, c) ((w)->solve[(i) * (w)->sc + (c)])
+#define SCHUR_(w, r, c) ((w)->schur[(r) * (w)->m + (c)])
+#define EIGVEC_(w, r, c) ((w)->eigvec[(r) * (w)->m + (c)])
 #define J_(w, r, i) ((w)->J[(r) * (w)->n + (i)])
 #define JC_(w, k, d, i) ((w)->Jc[((k) * 2 + (d)) * (w)->n + (i)])
 
 /* dense linear algebra on small matrices (linalg.c); row-major with a stride;
  * the least-squares solver exists in the plain (double) build only */
-int GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
-void GRB(sym_eig)(real *Q, int stride, int m);
+grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
+void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
 
@@ -67,7 +120,7 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
 void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w);
 void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, real *J, real *r);
 void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w);
-int GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
+grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, const real *zd, real tau_drive,
                        real tau_load, grb_ws *w);
 void GRB(reactions)(const grb_model *md, grb_ws *w, real *out);
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w);
@@ -78,7 +131,7 @@ double grb_branch_orientation(const grb_model *md, const double *y, const double
 void grb_closure_watch(const grb_model *md, const double *y, const double *basis, grb_ws *w, double *kappa,
                        double *orientation);
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w);
-/* M into T[:, :N] and the applied minus velocity-product force Q - h into T[:, x0] (chain.c) */
+/* the mass matrix M and the applied minus velocity-product force Q - h at (z, zd) (chain.c) */
 void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, real tau_drive, real tau_load, grb_ws *w);
 
 /* An assembly branch near a change point as a curve z(x) in one held
@@ -91,7 +144,8 @@ typedef struct grb_chart {
     double pinch, pinch_kappa;  /* x at the worst conditioning met, and that conditioning (relative) */
     double pinch_step;          /* how far from pinch the worst lies (while the chart is built) */
     double *c;                  /* 3 x CHART_NODES x n coefficients */
-    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes */
+    double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes (while built; then the
+                                   chart's scalars between advances: grb_chart_save) */
     double *scratch;            /* 10 n */
 } grb_chart;
 size_t grb_chart_size(int n_links);
@@ -100,6 +154,10 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
                     grb_chart *ch, grb_ws *w);
 int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz);
 int grb_chart_put(const grb_chart *ch, double *y);
+/* keep an active chart in its buffer for the next advance, and take it up
+ * there when the state y lies on it (1) */
+void grb_chart_save(const grb_chart *ch);
+int grb_chart_resume(grb_chart *ch, const double *y, double scale);
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out);
 

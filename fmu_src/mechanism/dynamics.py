@@ -137,14 +137,13 @@ def forward_dynamics(
         When the matrix to solve is singular (a real coordinate without inertia
         and without a closure to carry it).
     """
-    n = model.n_links
     tab = tables(model)
     if not evaluate_into(model, tab, z, zd, METHOD_CODE[method], float(inputs.drive), float(inputs.load)):
         raise np.linalg.LinAlgError("Singular matrix")
     K = tab.K
     mp = MassProperties(K[:, K_CX:K_CY + 1], tab.Jc, _angle_jacobian(model), K[:, K_CBX:K_CBY + 1])
-    return Dynamics(ChainKinematics.of(model, tab, zd), mp, ClosureKinematics.of(model, tab), tab.T[:, :n],
-                    tab.T[:, tab.zdd_column], tab.R[:, R_LAM], tab)
+    return Dynamics(ChainKinematics.of(model, tab, zd), mp, ClosureKinematics.of(model, tab), tab.M, tab.zdd,
+                    tab.R[:, R_LAM], tab)
 
 
 def joint_reactions(model: Mechanism, dyn: Dynamics, inputs: Inputs) -> np.ndarray:

@@ -204,6 +204,7 @@ class Integrator:
     n_evals: int = 0
     passages: list = field(default_factory=list)  # times of the change points the motion crossed, s
     n_passages: int = 0  # how many (the list keeps the last PASSAGE_LOG of any one advance)
+    n_charts: int = 0  # change-point charts built (one per zone: a chart is kept between advances)
     _explicit: bool = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -274,12 +275,15 @@ class Integrator:
 
         The arrays are shared, not copied: the integrator never writes into ``y``
         or ``f`` in place, it rebinds them to new arrays at every advance (the
-        kernel writes into buffers of its own).
+        kernel writes into buffers of its own).  The kernel's stepper buffer is
+        copied: it keeps the change-point chart being followed from one advance
+        to the next.
         """
         return {"t": self.t, "y": self.y, "h": self.h, "f": self.f,
                 "counts": (self.n_steps, self.n_rejected, self.n_evals), "passages": list(self.passages),
-                "n_passages": self.n_passages,
-                "kappa_seen": self._clock.kappa_seen if self._explicit else 0.0}
+                "n_passages": self.n_passages, "n_charts": self.n_charts,
+                "kappa_seen": self._clock.kappa_seen if self._explicit else 0.0,
+                "stepper": self._stepper.copy() if self._explicit else None}
 
     def restore(self, snap: dict) -> None:
         self.t, self.y, self.h = snap["t"], snap["y"].copy(), snap["h"]
@@ -287,8 +291,10 @@ class Integrator:
         self.n_steps, self.n_rejected, self.n_evals = snap["counts"]
         self.passages = list(snap["passages"])
         self.n_passages = snap["n_passages"]
+        self.n_charts = snap["n_charts"]
         if self._explicit:
             self._clock.kappa_seen = snap["kappa_seen"]
+            self._stepper[:] = snap["stepper"]
 
     def reset_derivative(self) -> None:
         """Forget the cached derivative (after an input changed)."""
@@ -419,7 +425,7 @@ class Integrator:
         ode, st, clock, n = self.ode, self._settings, self._clock, self.y.size
         st.tau_drive, st.tau_load, st.max_steps = float(ode.drive), float(ode.load), int(max_steps)
         clock.t, clock.h, clock.have_f = self.t, self.h if self.method != "rk4" else 0.0, self.f is not None
-        clock.steps = clock.rejected = clock.evals = clock.passages = 0
+        clock.steps = clock.rejected = clock.evals = clock.passages = clock.charts = 0
         self._ybuf[:] = self.y
         if self.f is not None:
             self._fbuf[:] = self.f
@@ -448,6 +454,7 @@ class Integrator:
         self.n_evals += clock.evals
         # (a ring: an advance with more passages than it holds keeps the last ones)
         self.n_passages += clock.passages
+        self.n_charts += clock.charts
         self.passages += [float(self._passage_log[k % PASSAGE_LOG])
                           for k in range(max(0, clock.passages - PASSAGE_LOG), clock.passages)]
         return out

@@ -56,8 +56,8 @@ class Tables:
     Jc: np.ndarray  # (N, 2, N) mass-centre Jacobians
     J: np.ndarray  # (M, N) closure Jacobian
     R: np.ndarray  # (M, R columns) constraint rows
-    T: np.ndarray  # (N, ...) solver table: M in its first N columns
-    zdd_column: int
+    M: np.ndarray  # (N, N) mass matrix
+    zdd: np.ndarray  # (N,) joint accelerations
 
 
 def tables(model: Mechanism, work: np.ndarray | None = None) -> Tables:
@@ -65,11 +65,11 @@ def tables(model: Mechanism, work: np.ndarray | None = None) -> Tables:
     n, c = model.n_links, len(model.closures)
     if work is None:
         work = binding.work(n, c)
-    oK, oJc, oJ, oR, oT, _, _, kc, rc, tc, _, dd = binding.layout(n, c)
+    oK, oJc, oJ, oR, oM, _, _, kc, rc, mc, _, ozdd = binding.layout(n, c)
     m = 2 * c
     return Tables(work, work[oK:oK + n * kc].reshape(n, kc), work[oJc:oJc + 2 * n * n].reshape(n, 2, n),
                   work[oJ:oJ + m * n].reshape(m, n), work[oR:oR + m * rc].reshape(m, rc),
-                  work[oT:oT + n * tc].reshape(n, tc), dd)
+                  work[oM:oM + n * mc].reshape(n, mc), work[ozdd:ozdd + n])
 
 
 def evaluate_into(model: Mechanism, tab: Tables, z, zd, method: int = 0, tau_drive: float = 0.0,

@@ -344,7 +344,8 @@ class Simulator:
     def stats(self) -> dict[str, int]:
         i = self._integ
         return {"steps": i.n_steps, "rejected": i.n_rejected, "rhs_evals": i.n_evals,
-                "passages": list(i.passages), "passage_count": i.n_passages}
+                "passages": list(i.passages), "passage_count": i.n_passages,
+                "charts": i.n_charts}
 
 
 @dataclass

@@ -280,20 +280,7 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
  * model_check made sure it is a real joint */
 static int joint_index(int choice) { return choice == 0 ? -1 : (choice - 1) / 2; }
 
-static const char *status_text(int status) {
-    switch (status) {
-    case GRB_SINGULAR: return "the mass matrix or the constraint Jacobian is singular";
-    case GRB_NONFINITE_DERIVATIVE: return "the state derivative is not finite";
-    case GRB_STEP_UNDERFLOW: return "the step size fell below its limit";
-    case GRB_TOO_MANY_STEPS: return "too many internal steps";
-    case GRB_NONFINITE_FIXED_STEP: return "a fixed step gave a non-finite state";
-    case GRB_BRANCH_JUMP: return "the projection would remove too much of the joint speeds (a change point, where "
-                                 "two assembly branches meet)";
-    case GRB_BAD_ARGUMENT: return "a time, tolerance or size is out of range";
-    case GRB_NOT_CLOSED: return "the loop cannot be closed";
-    default: return "unknown kernel status";
-    }
-}
+static const char *status_text(int status) { return grb_status_message((grb_status)status); }
 
 fmi2Status model_prepare(grb_instance *inst) {
     mech *mm = (mech *)inst->model;
@@ -505,7 +492,7 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
     clock.t = t;
     clock.h = mm->s.tableau == GRB_RK4 ? 0.0 : p[P_H];
     clock.have_f = p[P_HAVE_F] != 0.0;
-    clock.steps = clock.rejected = clock.evals = clock.passages = 0;
+    clock.steps = clock.rejected = clock.evals = clock.passages = clock.charts = 0;
     clock.kappa_seen = p[P_KAPPA_SEEN];
     st = grb_advance(&mm->m, &mm->s, &clock, p + P_Y, p + P_F, &t_out, 1, mm->y_end, mm->work, p + P_STEPPER, &why);
     if (st != GRB_OK) {
