@@ -53,6 +53,7 @@ BAD = [
     ("current_limit", -1.0, lambda: Drive(24.0, -1.0)),
     ("current_limit", math.nan, lambda: Drive(24.0, math.nan)),
     ("ambient_temperature", -400.0, lambda: DCMotor(load_motor(RE40), ambient_temperature=-400.0)),
+    ("ambient_temperature", 1e6, lambda: DCMotor(load_motor(RE40), ambient_temperature=1e6)),
     ("max_substep", 0.0, lambda: DCMotor(load_motor(RE40), max_substep=0.0)),
 ]
 
@@ -65,6 +66,18 @@ def test_the_c_check_refuses_what_the_library_refuses_and_names_the_same_field(f
     with pytest.raises(SceneError) as exc:
         library()
     assert exc.value.field == field
+
+
+def test_the_c_check_and_the_library_bound_the_ambient_temperature_alike():
+    # DCMotor.fmu checks its parameter with the C model's rule, the library and
+    # the CLI with AMBIENT_RANGE: the same figures, inclusive at both ends
+    from grubler.motors.motor_data import AMBIENT_RANGE
+
+    lo, hi = AMBIENT_RANGE
+    for t in (lo, hi):
+        assert native.check("params", params(ambient_temperature=t)) is None
+    for t in (math.nextafter(lo, -math.inf), math.nextafter(hi, math.inf)):
+        assert native.check("params", params(ambient_temperature=t))[0] == "ambient_temperature"
 
 
 def test_no_current_limit_is_infinity_and_the_state_check_names_its_field():

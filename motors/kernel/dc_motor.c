@@ -84,6 +84,8 @@ int dcm_check_params(const dcm_params *p, int *field, const char **why)
                       "same constant)", field, why);
     if (p->gear_ratio < 1.0) return refuse(DCM_GEAR_RATIO, "must be >= 1 (a reduction)", field, why);
     if (p->gear_efficiency > 1.0) return refuse(DCM_GEAR_EFFICIENCY, "must be in (0, 1]", field, why);
+    if (p->ambient_temperature < DCM_AMBIENT_MIN || p->ambient_temperature > DCM_AMBIENT_MAX)
+        return refuse(DCM_AMBIENT_TEMPERATURE, "must lie in -50 .. 200 degC", field, why);
     if (!(resistance_at(p, p->ambient_temperature) > 0.0))
         return refuse(DCM_AMBIENT_TEMPERATURE, "is below where R(T) = R_ref (1 + alpha (T - T_ref)) vanishes",
                       field, why);

@@ -70,6 +70,12 @@ typedef enum dcm_status {
  * (grubler.motors.motor_data.KE_KT_TOLERANCE, the same figure). */
 #define DCM_KE_KT_TOLERANCE 0.02
 
+/* The ambient temperatures a motor may be run in [degC]: beyond them the data
+ * sets' thermal figures mean nothing (grubler.motors.motor_data.AMBIENT_RANGE,
+ * the same figures; a test holds them equal). */
+#define DCM_AMBIENT_MIN (-50.0)
+#define DCM_AMBIENT_MAX 200.0
+
 /* The constants of a step.  Field order is the order of enum dcm_field. */
 typedef struct dcm_params {
     /* the motor, at its own shaft */
