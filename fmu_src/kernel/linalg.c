@@ -152,12 +152,14 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
         for (int j = 0; j < m; j++) VV(i, j) = i == j ? 1.0 : 0.0;
     for (int sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         int rotated = 0;
-        /* a column below rcond times the largest is dropped from the solution
-         * whatever its direction; turning it against the others only stirs its
-         * rounding, which never settles (where J has more rows than columns, or
-         * redundant rows, some columns are such noise), so it is left alone.
-         * (The largest column only grows over the sweeps and ends as sigma_max;
-         * a left-alone column moves the others by rcond^2 of their length.) */
+        /* a column below rcond times the largest is dropped from the solution,
+         * and turning it against the others only stirs its rounding, which
+         * never settles (where J has more rows than columns, or redundant rows,
+         * some columns are such noise): every pair still turns, as Jacobi needs
+         * for the columns that count to come out orthogonal, but only pairs of
+         * columns above the cut-off keep the sweeps going.  (Skipping the noisy
+         * pairs' rotations instead left the columns that count tilted: the
+         * coupling rod lost a change-point passage and 1e-2 J of its balance.) */
         double widest = 0.0;
         for (int j = 0; j < m; j++) {
             double s2 = 0.0;
@@ -174,8 +176,7 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
                     gamma += UU(k, p) * UU(k, q);
                 }
                 if (gamma == 0.0 || fabs(gamma) <= 1e-15 * sqrt(alpha * beta)) continue;
-                if (alpha <= negligible || beta <= negligible) continue;
-                rotated = 1;
+                if (alpha > negligible && beta > negligible) rotated = 1;
                 double c, s;
                 rotation(alpha, beta, gamma, &c, &s);
                 rotate_columns(U, m, n, p, q, c, s);
