@@ -54,11 +54,13 @@ EQUILIBRIUM_ITERATIONS = 60
 MAX_NEWTON_STEP = 0.5  # rad (or m): one equilibrium step at most, so Newton stays on the sketched branch
 ISOLATION_RCOND = 1e-6  # relative stiffness below which an equilibrium is not isolated
 # of the closure Jacobian's dependent columns: below it, a toggle or change point.
-# Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
-# of it: the rounding alone leaves a conditioning anywhere up to about 1e-6, and
-# which value a machine gets depends on its BLAS kernel. 1e-4 sits far above that
-# rounding and still only refuses within about (1e-4)^2 rad of a toggle, where the
-# dependent coordinates' derivatives are 1e4 times the independent one's.
+# A toggle is a double root of the closure, so the closure's tolerance (1e-13 of the
+# size) leaves the dependent angles up to sqrt(1e-13) from it: a conditioning of up
+# to about 1e-6 at the toggle itself, and what a search from there concludes hangs
+# on the BLAS kernel. 1e-4 sits far above that and refuses only within (1e-4 / c)^2
+# rad of a toggle, the conditioning growing as c sqrt(distance) (c = 0.21 on the
+# triple-rocker preset: 2e-7 rad), where the dependent coordinates' derivatives are
+# some 1e4 times the independent one's.
 SINGULAR_RCOND = 1e-4
 
 DRIVE, LOAD, VOLTAGE = "drive", "load", "voltage"
