@@ -346,7 +346,8 @@ CORE_TYPES = {"Prescott": "sse3", "Sandybridge": "avx", "Haswell": "avx2", "Skyl
 
 def _cpu_flags() -> set[str]:
     try:
-        found = re.search(r"^flags\s*:(.*)$", open("/proc/cpuinfo").read(), re.M)
+        with open("/proc/cpuinfo") as fh:
+            found = re.search(r"^flags\s*:(.*)$", fh.read(), re.M)
     except OSError:  # not Linux
         return set()
     return set(found.group(1).split()) if found else set()
