@@ -53,7 +53,7 @@ def main() -> None:
     old = load_old(args.old)
     import grubler
 
-    names = args.only or grubler.scene.preset_names()
+    names = args.only or grubler.mechanism.scene.preset_names()
     compared = differ = 0
     for name in names:
         for method in METHODS:

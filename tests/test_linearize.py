@@ -14,7 +14,11 @@
 from __future__ import annotations
 
 import math
+import os
+import re
+import subprocess
 from dataclasses import replace
+from sys import executable as PYTHON
 
 import control
 import numpy as np
@@ -31,6 +35,8 @@ from grubler.studies.linearize import linearize, operating_point, to_json
 from grubler.motors import DCMotor, Gearbox, MotorState, load_motor, shaft_torque
 from grubler.motors import linearization as motor_linearization
 from grubler.motors import step as motor_step
+
+import toggle_scenario
 
 G = 9.81
 
@@ -379,18 +385,50 @@ def test_bad_operating_points_name_the_field(at, match):
         linearize("thesis-fourbar", at=at)
 
 
+TOGGLE_REFUSAL = r"^at: .*(singular|cannot be closed)"
+
+
 def test_toggle_position_is_refused():
-    # a triple-rocker's crank turns only while the pin B stays within coupler +
-    # rocker of the rocker pivot D; at that limit coupler and rocker lie in line
-    # and theta3, theta4 no longer follow from theta2
+    assert re.match(TOGGLE_REFUSAL, toggle_scenario.verdict())
     scene = grubler.load_scene("fourbar-triple-rocker")
-    ground, crank, coupler, rocker = grubler.classify(scene.mechanism).fourbar_lengths
-    d = coupler + rocker
-    limit = math.acos((crank ** 2 + ground ** 2 - d ** 2) / (2 * crank * ground))
-    with pytest.raises(SceneError, match=r"^at: .*(singular|cannot be closed)"):
-        linearize(scene, at={"theta2": limit})
+    limit = toggle_scenario.toggle_angle(scene)
+    # 1e-12 rad inside the limit coupler and rocker are 2e-7 rad from in line: no
+    # further than the closure's own tolerance (1e-13 of the size, at a double root
+    # sqrt of it) leaves them at the toggle itself, so it is refused the same way
+    with pytest.raises(SceneError, match=TOGGLE_REFUSAL):
+        linearize(scene, at={"theta2": limit - 1e-12})
+    sys = linearize(scene, at={"theta2": limit - 1e-5})  # 7e-4 of conditioning: fine
+    assert sys.nstates == 2 and np.all(np.isfinite(sys.A))
     sys = linearize(scene, at={"theta2": limit - 0.3})  # away from it, fine
     assert sys.nstates == 2
+
+
+# the OpenBLAS kernels this CPU can run, each with the flag it needs (/proc/cpuinfo)
+CORE_TYPES = {"Prescott": "sse3", "Sandybridge": "avx", "Haswell": "avx2", "SkylakeX": "avx512bw"}
+
+
+def _cpu_flags() -> set[str]:
+    try:
+        with open("/proc/cpuinfo") as fh:
+            found = re.search(r"^flags\s*:(.*)$", fh.read(), re.M)
+    except OSError:  # not Linux
+        return set()
+    return set(found.group(1).split()) if found else set()
+
+
+def test_toggle_verdict_is_the_same_under_every_blas_kernel():
+    # numpy's and scipy's OpenBLAS pick their kernels by CPU (OPENBLAS_CORETYPE
+    # forces one); each rounds a little differently, and a verdict must not follow
+    flags = _cpu_flags()
+    runnable = [core for core, flag in CORE_TYPES.items() if flag in flags]
+    if not runnable:
+        pytest.skip("no x86 OpenBLAS kernel this CPU can run")
+    for core in runnable:
+        env = dict(os.environ, OPENBLAS_CORETYPE=core)
+        proc = subprocess.run([PYTHON, toggle_scenario.__file__], env=env, capture_output=True, text=True,
+                              timeout=120)
+        assert proc.returncode == 0, (core, proc.stderr[-2000:])
+        assert re.match(TOGGLE_REFUSAL, proc.stdout.strip()), (core, proc.stdout)
 
 
 @pytest.mark.parametrize("kwargs, match", [

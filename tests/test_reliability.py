@@ -375,6 +375,29 @@ def children(pid: int) -> list[int]:
     return [int(x) for x in out.split()]
 
 
+def at_a_terminal() -> None:
+    """Give a child Ctrl-C's default action, as a terminal's foreground command has.
+
+    A suite started as a background job (``pytest &``, nohup, some CI runners)
+    inherits SIGINT ignored, and a program keeps an ignored SIGINT ignored (as
+    Python and the shells do): the child would never see the signal these tests send.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def stop(proc: subprocess.Popen, sig: int) -> float:
+    """Send ``sig`` and wait for the end; the seconds waited (a child still running after 30 s is killed)."""
+    proc.send_signal(sig)
+    t0 = time.monotonic()
+    try:
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:  # (a sweep of 4000 points must not outlive a failed test)
+            proc.kill()
+            proc.wait()
+    return time.monotonic() - t0
+
+
 def alive(pid: int) -> bool:
     try:
         with open(f"/proc/{pid}/stat") as fh:
@@ -386,19 +409,17 @@ def alive(pid: int) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
 def test_a_sweep_stops_on_ctrl_c_and_its_workers_never_outlive_it(tmp_path, sig):
+    # 4000 points, minutes of work on any machine: the signal finds the workers busy
     proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "sweep", "thesis-fourbar", "--set",
-                             "link2.m=1:2:40", "--t-end", "200", "--workers", "2", "--out", str(tmp_path / "t.csv")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "link2.m=1:2:4000", "--t-end", "200", "--workers", "2", "--out", str(tmp_path / "t.csv")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=at_a_terminal)
     deadline = time.monotonic() + 60
     while len(children(proc.pid)) < 2 and time.monotonic() < deadline:
         time.sleep(0.2)
     time.sleep(1.0)  # workers busy with a point
     workers = children(proc.pid)
     assert len(workers) >= 2
-    proc.send_signal(sig)
-    t0 = time.monotonic()
-    proc.wait(timeout=30)
-    waited = time.monotonic() - t0
+    waited = stop(proc, sig)
     _, err = proc.communicate()
     if sig == signal.SIGINT:
         assert proc.returncode == 130 and err.strip().splitlines()[-1] == "grubler: interrupted", err
@@ -415,12 +436,11 @@ def test_ctrl_c_stops_a_long_simulate_within_a_second():
     # past the steps after which the kernel calls back to have its pace watched, the callback;
     # 2e5 s of the free four-bar is some 6 million steps, within the budget (1e6 s is refused)
     proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "simulate", "thesis-fourbar", "--t-end", "2e5",
-                             "--dt-out", "100"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "--dt-out", "100"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=at_a_terminal)
     time.sleep(5.0)
-    proc.send_signal(signal.SIGINT)
-    t0 = time.monotonic()
-    _, err = proc.communicate(timeout=30)
-    assert time.monotonic() - t0 < 1.5
+    assert stop(proc, signal.SIGINT) < 1.5
+    err = proc.stderr.read()
     assert (proc.returncode, err.strip().splitlines()) == (130, ["grubler: interrupted"]), err
 
 

@@ -148,8 +148,11 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
             if shutil.which("gcc"):  # MinGW-w64 on PATH
                 compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", "gcc", windows=True)
             else:  # Visual Studio, through fmpy's CMake project
-                from fmpy.build import build_platform_binary
-
+                try:
+                    from fmpy.build import build_platform_binary
+                except ImportError:  # fmpy before 0.3.26
+                    raise BuildError("a win64 binary without MinGW-w64 gcc on PATH is built by fmpy.build, which "
+                                     "needs fmpy 0.3.26 or later (and numpy 2.1.3 or later)") from None
                 build_platform_binary(root)
         if win64 and not sys.platform.startswith("win"):
             compiler = cross_compiler()

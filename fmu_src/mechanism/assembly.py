@@ -34,11 +34,13 @@ POSITION_TOL = 1e-12  # m (or rad): loop closure reached by assembly and project
 # The conditioning (smallest over largest singular value) of the closure Jacobian's
 # dependent columns below which a configuration is a toggle or change point:
 # linearisation and inverse dynamics refuse it.
-# Assembly at a toggle is a double root, so Newton lands within sqrt(its residual)
-# of it: the rounding alone leaves a conditioning anywhere up to about 1e-6, and
-# which value a machine gets depends on its BLAS kernel. 1e-4 sits far above that
-# rounding and still only refuses within about (1e-4)^2 rad of a toggle, where the
-# dependent coordinates' derivatives are 1e4 times the independent one's.
+# A toggle is a double root of the closure, so the closure's tolerance (1e-13 of the
+# size) leaves the dependent angles up to sqrt(1e-13) from it: a conditioning of up
+# to about 1e-6 at the toggle itself, and what a search from there concludes hangs
+# on the BLAS kernel. 1e-4 sits far above that and refuses only within (1e-4 / c)^2
+# rad of a toggle, the conditioning growing as c sqrt(distance) (c = 0.21 on the
+# triple-rocker preset: 2e-7 rad), where the dependent coordinates' derivatives are
+# some 1e4 times the independent one's.
 SINGULAR_RCOND = 1e-4
 
 

@@ -416,9 +416,11 @@ class _Instance:
 
     def bind_calls(self) -> None:
         """The FMU's C functions themselves: fmpy's wrappers cost more than a step here."""
-        f = self.fmu._functions
+        # the library's own function objects (ctypes keeps one per name), to which
+        # fmpy gave their argument types: every fmpy since 0.3.20 does
+        dll = self.fmu.dll
         self._c = self.fmu.component
-        self._set, self._get, self._step = f["fmi2SetReal"], f["fmi2GetReal"], f["fmi2DoStep"]
+        self._set, self._get, self._step = dll.fmi2SetReal, dll.fmi2GetReal, dll.fmi2DoStep
 
     def push(self, values: list[float]) -> None:
         if self.n_in:
