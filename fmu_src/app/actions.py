@@ -1,0 +1,460 @@
+"""What the app's requests do, in the library's terms: no HTTP here, and no physics.
+
+A scene travels as the parsed TOML the CLI reads (a dict), so every edit goes
+through :func:`grubler.scene_from_dict`, the same checks and the same messages
+as ``grubler simulate my_scene.toml``; :func:`scene_toml` writes it back in that
+format.  Every function returns plain JSON-able data.
+
+Examples
+--------
+>>> data = preset_data("fourbar-crank-rocker")
+>>> out = analyse(data)
+>>> out["class"]["grashof"]["kind"], out["class"]["mobility"]
+('crank-rocker', 1)
+>>> moved = drag(data, "B", 0.6, 0.9)          # the coupler-rocker pin, dragged
+>>> moved["mechanism"]["coupler"], moved["mechanism"]["rocker"]
+(0.6708, 0.9055)
+>>> import tomllib
+>>> tomllib.loads(scene_toml(data)) == data
+True
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from functools import lru_cache
+
+import numpy as np
+
+from grubler.errors import AssemblyError, GrublerError, InputError, SceneError
+from grubler.limits import brief, parse_toml
+from grubler.mechanism.analysis import SIX_BAR_INVERSIONS, classify
+from grubler.mechanism.assembly import assemble, branches
+from grubler.mechanism.builders import BUILDER_DOCS
+from grubler.mechanism.kinematics import link_points
+from grubler.mechanism.scene import preset_names, preset_text, scene_from_dict
+from grubler.mechanism.simulate import output_columns, simulate, unit_of
+from grubler.views.animation import Sketch, trace_point
+
+SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 degrees apart)
+MAX_FRAMES = 600  # frames of an animation sent to the page (the graphs get every output row)
+BRANCH_STARTS = 16  # random sketches for the live branch count (`grubler info` tries 256)
+
+
+# -- scenes as data -------------------------------------------------------------------------------
+def preset_data(name: str) -> dict:
+    """A preset's scene as parsed TOML."""
+    if name not in preset_names():
+        raise SceneError("preset", f"no such preset: {brief(name)}")
+    return tomllib.loads(preset_text(name))
+
+
+def parse_scene_text(text: str) -> dict:
+    """TOML text (a file the user opened, a shared link) as scene data, checked as a scene."""
+    if not isinstance(text, str):
+        raise SceneError("scene", f"must be TOML text, got {type(text).__name__}")
+    data = parse_toml(text, "scene")
+    scene_from_dict(data)  # the CLI's checks, now: a bad file is refused where it is opened
+    return data
+
+
+@lru_cache(maxsize=1)
+def catalog() -> dict:
+    """The presets (name, chain, inversion) and the mechanism types, each with its example preset."""
+    presets, types = [], {}
+    for name in preset_names():
+        data = preset_data(name)
+        c = classify(scene_from_dict(data, name).mechanism)
+        presets.append({"name": name, "chain": c.chain, "kind": c.name,
+                        "description": str(data.get("description", ""))})
+        kind = data.get("mechanism", {}).get("type")
+        if kind and kind not in types:
+            types[kind] = {"type": kind, "example": name, "doc": BUILDER_DOCS.get(kind, "")}
+    return {"presets": presets, "types": [types[k] for k in BUILDER_DOCS if k in types]}
+
+
+def scene_toml(data: dict) -> str:
+    """Scene data as TOML text the CLI reads (``tomllib.loads(scene_toml(d)) == d``)."""
+    top = [(k, v) for k, v in data.items() if not isinstance(v, dict) and not _is_tables(v)]
+    lines = [f"{_key(k)} = {_value(v)}" for k, v in top]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{_key(k)}]"] + [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
+        elif _is_tables(v):
+            for table in v:
+                lines += ["", f"[[{_key(k)}]]"] + [f"{_key(a)} = {_value(b)}" for a, b in table.items()]
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _is_tables(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(t, dict) for t in v)
+
+
+def _key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("nan" if v != v else ("inf" if v > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v)  # a JSON string is a TOML basic string (its escapes are TOML's)
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(a)} = {_value(b)}" for a, b in v.items()) + "}"
+    raise SceneError("scene", f"cannot write {type(v).__name__} values to TOML")
+
+
+# -- the form: every number of the scene, named as the TOML names it, with its unit ------------------
+_UNITS = {"m": "kg", "I": "kg m²", "damping": "N m s/rad", "gravity": "m/s²", "torque": "N m",
+          "inertia": "kg m²", "t_end": "s", "dt_out": "s", "mass_per_length": "kg/m", "block_mass": "kg",
+          "slider_mass": "kg", "gain": "N/m", "point": "m", "at": "m", "rocker_pivot": "m",
+          "output_pivot": "m", "a1": "m"}
+_ANGLES = re.compile(r"(theta\d+|.*_angle|angle|psi|theta1)$")
+_TEXT = {"name", "description", "kind", "type", "joint", "existence", "parent", "link", "to_link", "method"}
+
+
+def unit(key: str) -> str:
+    """The unit a scene field is written in, for the form's label ('' for words and counts)."""
+    leaf = key.rsplit(".", 1)[-1]
+    if leaf.endswith("_d") and _ANGLES.match(leaf[:-2]):
+        return "rad/s"
+    if _ANGLES.match(leaf):
+        return "rad, or '30 deg'"
+    if leaf in _UNITS:
+        return _UNITS[leaf]
+    if re.fullmatch(r"B\d+(_d)?", leaf):
+        return "m" + ("/s" if leaf.endswith("_d") else "")
+    return "" if leaf in _TEXT or leaf.startswith("branch") or leaf.endswith("_side") else "m"
+
+
+def fields(data: dict) -> list[dict]:
+    """The form: one entry per editable value, its dotted key (the name errors use), value and unit."""
+    out = []
+
+    def add(prefix, table):
+        for k, v in table.items():
+            key = f"{prefix}{k}"
+            if k in ("name", "description", "kind") and not prefix:
+                continue
+            if isinstance(v, dict):
+                add(key + ".", v)
+            elif _is_tables(v):
+                for j, t in enumerate(v):
+                    add(f"{key}[{j}].", t)
+            else:
+                out.append({"key": key, "value": v, "unit": unit(key), "text": k in _TEXT or isinstance(v, bool)})
+    add("", data)
+    return out
+
+
+def edit(data: dict, key: str, text) -> dict:
+    """Scene data with the value at dotted ``key`` set from the form's ``text`` (a number, a list or words)."""
+    if not isinstance(key, str) or not re.fullmatch(r"[A-Za-z0-9_]+(\[\d+\])?(\.[A-Za-z0-9_]+(\[\d+\])?)*", key):
+        raise InputError("field", f"not a scene field: {brief(key)}")
+    out = json.loads(json.dumps(data))
+    *path, leaf = re.findall(r"([A-Za-z0-9_]+)(?:\[(\d+)\])?", key)
+    table = out
+    for name, index in path:
+        table = table.setdefault(name, {})
+        if index:
+            if not (isinstance(table, list) and int(index) < len(table)):
+                raise InputError(key, "no such table in this scene")
+            table = table[int(index)]
+        if not isinstance(table, dict):
+            raise InputError(key, "no such table in this scene")
+    table[leaf[0]] = _typed(text)
+    return out
+
+
+def _typed(text):
+    """A form value as TOML would hold it: numbers as numbers, '[x, y]' as a list, else the text."""
+    if not isinstance(text, str):
+        return text
+    s = text.strip()
+    if s.startswith("[") and s.endswith("]"):
+        return [_typed(p) for p in s[1:-1].split(",") if p.strip()]
+    try:
+        return int(s) if re.fullmatch(r"[+-]?\d+", s) else float(s)
+    except ValueError:
+        return s
+
+
+# -- what the page shows of a scene -----------------------------------------------------------------
+def _frame(geo) -> dict:
+    r = lambda p: [round(float(p[0]), 6), round(float(p[1]), 6)]  # noqa: E731 (a micrometre is plenty)
+    return {"bars": [r(a) + r(b) for a, b in geo.bars], "joints": [r(p) for p in geo.joints],
+            "fixed": [r(p) for p in geo.fixed], "blocks": [r(c) + [round(a, 6)] for c, a in geo.blocks],
+            "guides": [r(p) + [round(a, 6), bool(f)] for p, a, f in geo.guides],
+            "plates": [[r(p) for p in plate] for plate in geo.plates]}
+
+
+def default_trace(model) -> str:
+    """The coupler point a four-bar book would trace: on link 3, half along it and a quarter across."""
+    if model.n_links < 2 or not model.closures:
+        return "tip"
+    a = model.links[1].a or 0.1
+    return f"link3:{a / 2:.4g},{a / 4:.4g}"
+
+
+def analyse(data: dict, trace: str | None = None, with_branches: bool = True) -> dict:
+    """Everything the editor shows: class, mobility, branch, drawing, drag handles and coupler curve.
+
+    A loop that cannot close is no error here: its reason (the words of
+    ``grubler info``) comes back as ``problem``, with the unclosed sketch drawn.
+    """
+    scene = scene_from_dict(data)
+    m = scene.mechanism
+    c = classify(m)
+    trace_spec = trace or default_trace(m)
+    point = trace_point(trace_spec, m)
+    out = {"class": {"chain": c.chain, "name": c.name, "mobility": c.mobility,
+                     "inversion": SIX_BAR_INVERSIONS.get(c.name.removesuffix(" six-bar"), ""),
+                     "grashof": None if c.grashof is None else
+                     {"kind": c.grashof.kind, "detail": c.grashof.detail, "s_plus_l": c.grashof.s_plus_l,
+                      "p_plus_q": c.grashof.p_plus_q}},
+           "drive": m.drive, "trace": trace_spec, "problem": None, "curve": [], "branch": None}
+    z0 = m.z_from_q(m.q_ref)
+    sketch = Sketch(m, point)
+    try:
+        z, _ = assemble(m, z0, scene.initial_rates)
+        out["closed"] = True
+    except AssemblyError as exc:
+        z, out["closed"], out["problem"] = z0, False, {"field": exc.field, "reason": exc.reason}
+    out["frame"] = _frame(sketch.geometry(sketch.positions(z[None, :])[0]))
+    out["handles"] = handles(data, m, z)
+    if out["closed"] and m.closures and m.drive:
+        out["curve"] = coupler_curve(m, z, point)
+        if with_branches:
+            found, default = branches(m, z0, starts=BRANCH_STARTS)
+            out["branch"] = {"count": len(found), "index": default + 1, "starts": BRANCH_STARTS,
+                             "drive": m.drive}
+    return out
+
+
+def drive_sweep(model, z: np.ndarray, steps: int = SWEEP_STEPS) -> np.ndarray:
+    """Closed positions as the drive turns a full turn (a slide: its length either way) from ``z``.
+
+    Each position is assembled from the one before, so the sweep stays on the
+    branch it started on; where the loop stops closing (a rocker's limit), the
+    sweep goes back and runs the other way.  Rows in drive order.
+    """
+    i = model.free_index(model.drive)
+    revolute = bool(model.arrays.revolute[i])
+    span = 2 * math.pi if revolute else 2 * max(abs(l.a) for l in model.links)
+    step = span / steps
+    ahead, behind = [z], []
+    for sign, rows in ((1, ahead), (-1, behind)):
+        zc = z
+        for k in range(1, steps if sign > 0 else steps - len(ahead) + 1):
+            guess = zc.copy()
+            guess[i] = z[i] + sign * k * step
+            try:
+                zc, _ = assemble(model, guess)
+            except AssemblyError:
+                break
+            rows.append(zc)
+        if sign > 0 and len(ahead) == steps:
+            ahead.append(ahead[0])  # a full turn: the curve closes
+            break
+    return np.array(behind[::-1] + ahead)
+
+
+def coupler_curve(model, z: np.ndarray, point) -> list:
+    """The traced point's path over :func:`drive_sweep`, [[x, y], ...]."""
+    zs = drive_sweep(model, z)
+    k, local = point
+    xy = link_points(model, zs, [k], [local])[:, 0, :]
+    return np.round(xy, 6).tolist()
+
+
+# -- dragging: which scene numbers a point of the drawing stands for ----------------------------------
+def handles(data: dict, model, z: np.ndarray) -> list[dict]:
+    """The points a user can drag, where they are now, and what each changes (in words)."""
+    out = []
+    mech = data.get("mechanism")
+    if isinstance(mech, dict):
+        angle_key = "crank_angle" if "crank_angle" in mech else "input_angle" if "input_angle" in mech else None
+        if "crank" in mech and angle_key and model.links[0].joint == "R":
+            pin = link_points(model, z[None, :], [0], [(model.links[0].a, 0.0)])[0, 0]
+            out.append({"id": "A", "xy": pin.tolist(), "sets": f"mechanism.crank, mechanism.{angle_key}"})
+        if mech.get("type") == "four-bar":
+            pin = link_points(model, z[None, :], [1], [(model.links[1].a, 0.0)])[0, 0]
+            out.append({"id": "B", "xy": pin.tolist(), "sets": "mechanism.coupler, mechanism.rocker, "
+                                                               "mechanism.branch"})
+            out.append({"id": "O4", "xy": [float(_num(mech.get("ground"))), 0.0], "sets": "mechanism.ground"})
+        for key in ("rocker_pivot", "output_pivot"):
+            if isinstance(mech.get(key), list):
+                out.append({"id": key, "xy": [_num(v) for v in mech[key]], "sets": f"mechanism.{key}"})
+    else:
+        closures = data.get("closure")
+        tables = [closures] if isinstance(closures, dict) else closures if _is_tables(closures) else []
+        for j, cl in enumerate(tables):
+            if cl.get("to_link", 1) == 1 and isinstance(cl.get("point"), list):
+                key = "closure" if isinstance(closures, dict) else f"closure[{j}]"
+                out.append({"id": f"{key}.point", "xy": [_num(v) for v in cl["point"]], "sets": f"{key}.point"})
+        if model.links and model.links[0].joint == "R" and model.parents[0] == 1 and "link2" in data:
+            pin = link_points(model, z[None, :], [0], [(model.links[0].a, 0.0)])[0, 0]
+            out.append({"id": "link2.end", "xy": pin.tolist(), "sets": "link2.a, initial.theta2"})
+    for h in out:
+        h["xy"] = [round(float(v), 6) for v in h["xy"]]
+    return out
+
+
+def _num(v) -> float:
+    try:
+        from grubler.limits import parse_angle_or_number
+
+        return parse_angle_or_number(v, "value")
+    except InputError:
+        return 0.0
+
+
+def _r(v: float) -> float:
+    return round(float(v), 4)  # a tenth of a millimetre: what a drag can mean
+
+
+def _deg(angle: float) -> str:
+    return f"{math.degrees(angle):.4g} deg"
+
+
+def drag(data: dict, handle: str, x: float, y: float) -> dict:
+    """Scene data with the numbers behind ``handle`` set so that it sits at (x, y), m."""
+    x, y = (_finite(v, "drag") for v in (x, y))
+    out = json.loads(json.dumps(data))
+    mech = out.get("mechanism")
+    if handle == "A" and isinstance(mech, dict):
+        mech["crank"] = _r(math.hypot(x, y))
+        mech["crank_angle" if "crank_angle" in mech else "input_angle"] = _deg(math.atan2(y, x))
+    elif handle == "B" and isinstance(mech, dict):
+        th = _num(mech.get("crank_angle", 0.0))
+        crank, ground = _num(mech.get("crank")), _num(mech.get("ground"))
+        ax, ay = crank * math.cos(th), crank * math.sin(th)
+        mech["coupler"] = _r(math.hypot(x - ax, y - ay))
+        mech["rocker"] = _r(math.hypot(x - ground, y))
+        # the builder's 'open' branch has the pin to the left of crank pin -> rocker pivot
+        mech["branch"] = "open" if (ground - ax) * (y - ay) - (-ay) * (x - ax) >= 0 else "crossed"
+    elif handle == "O4" and isinstance(mech, dict):
+        mech["ground"] = _r(x)
+    elif handle in ("rocker_pivot", "output_pivot") and isinstance(mech, dict):
+        mech[handle] = [_r(x), _r(y)]
+    elif re.fullmatch(r"closure(\[\d+\])?\.point", handle):
+        return edit(out, handle, [_r(x), _r(y)])
+    elif handle == "link2.end" and isinstance(out.get("link2"), dict):
+        model = scene_from_dict(out).mechanism
+        o = link_points(model, model.z_from_q(model.q_ref)[None, :], [0], [(0.0, 0.0)])[0, 0]
+        out["link2"]["a"] = _r(math.hypot(x - o[0], y - o[1]))
+        out.setdefault("initial", {})["theta2"] = _deg(math.atan2(y - o[1], x - o[0]))
+    else:
+        raise InputError("drag", f"this scene has no point {brief(handle)} to drag")
+    return out
+
+
+def _finite(v, field: str) -> float:
+    from grubler.limits import number
+
+    return number(v, field)
+
+
+# -- runs ----------------------------------------------------------------------------------------
+_WORDS = {"t": "time", "tip_x": "tip x", "tip_y": "tip y", "closure_error": "loop closure error",
+          "Fx": "closing joint force x", "Fy": "closing joint force y", "Mz": "closing joint moment",
+          "KE": "kinetic energy", "PE": "potential energy", "E": "total energy",
+          "tau_drive": "drive torque", "P_drive": "drive power"}
+
+
+def describe(column: str) -> str:
+    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
+    if column in _WORDS:
+        words = _WORDS[column]
+    else:
+        m = re.fullmatch(r"(theta|B)(\d+)(_d|_dd)?", column)
+        if m:
+            what = {"theta": ("angle", "angular rate", "angular acceleration"),
+                    "B": ("slide", "slide rate", "slide acceleration")}[m.group(1)]
+            # theta_k is link k's absolute angle, B_k the slide of its joint
+            words = f"{what[(None, '_d', '_dd').index(m.group(3))]} of {'link' if m.group(1) == 'theta' else 'joint'} " \
+                    f"{m.group(2)}"
+        else:
+            words = column
+    u = unit_of(column)
+    return f"{words} ({column})" + (f", {u}" if u else "")
+
+
+def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
+                   trace: str | None = None):
+    """Simulate the scene (the CLI's ``simulate``) and what the page plays and plots of it.
+
+    Returns
+    -------
+    result : grubler.Result
+        Kept by the session for the CSV export.
+    view : dict
+        Times, frames (at most :data:`MAX_FRAMES`, evenly spread), the traced
+        point's path and every output column with its description.
+    """
+    from grubler.limits import number
+
+    scene = scene_from_dict(data)
+    kw = {}
+    if t_end not in (None, ""):
+        kw["t_end"] = number(t_end, "t_end", low=0.0, low_open=True, unit="s")
+    if dt_out not in (None, ""):
+        kw["dt_out"] = number(dt_out, "dt_out", low=0.0, low_open=True, unit="s")
+    if torque not in (None, ""):
+        kw["torque"] = number(torque, "torque")
+    point = trace_point(trace or default_trace(scene.mechanism), scene.mechanism)
+    res = simulate(scene, cancel=cancel, **kw)
+    rows = np.unique(np.linspace(0, len(res.t) - 1, min(len(res.t), MAX_FRAMES)).round().astype(int))
+    sketch = Sketch(scene.mechanism, point)
+    pos = sketch.positions(res.z[rows])
+    frames = [_frame(sketch.geometry(p)) for p in pos]
+    k, local = point
+    path = link_points(scene.mechanism, res.z, [k], [local])[:, 0, :]
+    columns = res.columns
+    view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
+            "path": np.round(path, 6).tolist(),
+            "columns": [{"name": c, "label": describe(c), "values": _finite_list(res[c])} for c in columns],
+            "summary": _summary(scene, res)}
+    return res, view
+
+
+def _finite_list(values) -> list:
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, float)]
+
+
+def _summary(scene, res) -> str:
+    e = res["E"]
+    text = (f"{scene.name or 'scene'}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
+            f"{res.stats['steps']} steps; max closure error {np.max(res['closure_error']):.3g}; "
+            f"energy {e[0]:.6g} J -> {e[-1]:.6g} J")
+    count = res.stats.get("passage_count", 0)
+    if count:
+        text += f"; passed {count} change point{'s' if count > 1 else ''}"
+    return text
+
+
+def result_csv(res, path) -> None:
+    """The run as ``grubler simulate --csv`` writes it."""
+    res.to_csv(path, ["state", "dynamics", "energy"])
+
+
+def error_of(exc: BaseException) -> dict:
+    """A refusal as the page shows it: the field it belongs next to, and one line."""
+    if isinstance(exc, GrublerError):
+        field = getattr(exc, "field", "") or ""
+        reason = getattr(exc, "reason", None) or str(exc)
+        return {"field": field, "reason": " ".join(str(reason).split())[:1000]}
+    return {"field": "", "reason": f"internal error ({type(exc).__name__}); the server's log has the details"}
+
+
+__all__ = ["analyse", "catalog", "drag", "edit", "fields", "parse_scene_text", "preset_data", "run_simulation",
+           "scene_toml", "describe", "output_columns"]
