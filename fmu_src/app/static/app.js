@@ -145,16 +145,8 @@ function remember() {
 
 // -- the drawing ---------------------------------------------------------------------------------------
 function fitView(things) {
-  const xs = [], ys = [];
-  const add = (p) => { xs.push(p[0]); ys.push(p[1]); };
-  for (const f of things) {
-    if (!f) continue;
-    if (Array.isArray(f)) { f.forEach(add); continue; }
-    f.bars.forEach((b) => { add(b); add([b[2], b[3]]); });
-    f.joints.forEach(add); f.fixed.forEach(add); f.blocks.forEach(add);
-    f.plates.forEach((pl) => pl.forEach(add));
-  }
-  (state.analysis && state.analysis.handles || []).forEach((h) => add(h.xy));
+  const pts = points(things).concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
+  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
   if (!xs.length) return;
   let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
   const span = Math.max(x1 - x0, y1 - y0, 1e-3);
@@ -163,6 +155,23 @@ function fitView(things) {
   const svg = $("drawing");
   // world y points up: the content is drawn in a group flipped about y = 0
   svg.setAttribute("viewBox", `${state.box.x} ${-(state.box.y + state.box.h)} ${state.box.w} ${state.box.h}`);
+}
+
+function points(things) {
+  const out = [];
+  for (const f of things) {
+    if (!f) continue;
+    if (Array.isArray(f)) { out.push(...f); continue; }
+    f.bars.forEach((b) => { out.push(b, [b[2], b[3]]); });
+    out.push(...f.joints, ...f.fixed, ...f.blocks);
+    f.plates.forEach((pl) => out.push(...pl));
+  }
+  return out;
+}
+
+function inView(things) {
+  const b = state.box;
+  return !!b && points(things).every((p) => p[0] >= b.x && p[0] <= b.x + b.w && p[1] >= b.y && p[1] <= b.y + b.h);
 }
 
 function frameMarkup(f, cls) {
@@ -249,13 +258,22 @@ function setupDrag() {
   svg.addEventListener("pointermove", (evt) => {
     if (!state.dragging) return;
     const [x, y] = toWorld(evt);
-    state.queued = { x, y, at: performance.now() };
+    state.queued = { x, y, at: performance.now(), drag: state.dragging };
     pump();
   });
   const end = () => {
     if (!state.dragging) return;
     state.dragging = null;
-    const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : remember());
+    const settle = () => {
+      remember();
+      // the drag may have carried the mechanism out of view: bring it back, handles included
+      const a = state.analysis;
+      if (a && a.frame && !inView([a.frame, a.handles.map((h) => h.xy)])) {
+        fitView([a.frame, a.curve]);
+        drawScene(a);
+      }
+    };
+    const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : settle());
     wait();
   };
   svg.addEventListener("pointerup", end);
@@ -263,12 +281,12 @@ function setupDrag() {
 }
 
 async function pump() {
-  if (state.inflight || !state.queued || !state.dragging) return;
-  const { x, y, at } = state.queued;
+  if (state.inflight || !state.queued) return;
+  const { x, y, at, drag } = state.queued;  // the drag it belongs to: the last move may land after the release
   state.queued = null;
   state.inflight = true;
   try {
-    const out = await api("drag", { scene: state.dragging.start, handle: state.dragging.id, x, y, trace: state.trace });
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace });
     show(out, { dragging: true });
     window.grublerStats.drag.push(performance.now() - at);
   } catch (e) {
