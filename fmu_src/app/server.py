@@ -22,6 +22,7 @@ import json
 import mimetypes
 import re
 import secrets
+import socket
 import sys
 import threading
 import traceback
@@ -100,6 +101,12 @@ class Handler(BaseHTTPRequestHandler):
     server: AppServer
     server_version = "grubler-app"
     protocol_version = "HTTP/1.1"
+
+    def setup(self):
+        super().setup()
+        # headers and body go out as two writes: without this, Nagle's algorithm holds
+        # the body until the browser's delayed ACK, some 40 ms on every answer
+        self.connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
     def log_message(self, fmt, *args):  # quiet: the terminal shows the URL, not every request
         pass
@@ -243,7 +250,7 @@ def a_analyse(server, session, body):
     data = _data(body)
     out = {"scene": data, "fields": actions.fields(data)}
     try:
-        out.update(actions.analyse(data, body.get("trace"), with_branches=body.get("branches", True)))
+        out.update(actions.analyse(data, body.get("trace"), live=body.get("live") is True))
     except GrublerError as exc:
         out["error"] = actions.error_of(exc)
     return out

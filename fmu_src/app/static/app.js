@@ -264,11 +264,11 @@ function setupDrag() {
   const end = () => {
     if (!state.dragging) return;
     state.dragging = null;
-    const settle = () => {
-      remember();
+    const settle = async () => {
+      if (state.analysis && state.analysis.scene) await analyse({ scene: state.scene });  // the full curve
       // the drag may have carried the mechanism out of view: bring it back, handles included
       const a = state.analysis;
-      if (a && a.frame && !inView([a.frame, a.handles.map((h) => h.xy)])) {
+      if (a && a.frame && !inView([a.frame, (a.handles || []).map((h) => h.xy)])) {
         fitView([a.frame, a.curve]);
         drawScene(a);
       }
@@ -286,7 +286,8 @@ async function pump() {
   state.queued = null;
   state.inflight = true;
   try {
-    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace });
+    const live = state.dragging === drag;  // the move after the release gets the full curve
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live });
     show(out, { dragging: true });
     window.grublerStats.drag.push(performance.now() - at);
   } catch (e) {
@@ -309,6 +310,11 @@ async function simulate() {
     const run = await api("simulate", {
       scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
     });
+    for (const c of run.columns) {  // float32 columns, base64: decoded once
+      const bin = atob(c.f32);
+      const bytes = Uint8Array.from(bin, (ch) => ch.charCodeAt(0));
+      c.values = new Float32Array(bytes.buffer);
+    }
     state.run = run;
     state.t = 0;
     fitView([...run.frames.filter((_, i) => i % 10 === 0), run.path]);
@@ -443,7 +449,7 @@ function drawPanels() {
     for (const c of cols) {
       for (let i = 0; i < t.length; i++) {
         const v = c.values[i];
-        if (t[i] >= t0 && t[i] <= t1 && v !== null) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+        if (t[i] >= t0 && t[i] <= t1 && isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
       }
     }
     if (!isFinite(lo)) { lo = -1; hi = 1; }
@@ -467,7 +473,7 @@ function drawPanels() {
       let d = "";
       for (let i = 0; i < t.length; i++) {
         const v = c.values[i];
-        if (v === null || t[i] < t0 || t[i] > t1) continue;
+        if (!isFinite(v) || t[i] < t0 || t[i] > t1) continue;
         d += (d ? "L" : "M") + X(t[i]).toFixed(1) + "," + Y(v).toFixed(1);
       }
       html += `<path d="${d}" fill="none" stroke="${COLOURS[j % COLOURS.length]}" stroke-width="1.5"/>`;
