@@ -30,7 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from grubler.errors import AssemblyError, GrublerError, InputError, SceneError
-from grubler.limits import brief, parse_toml
+from grubler.limits import brief, did_you_mean, parse_toml
 from grubler.mechanism.analysis import SIX_BAR_INVERSIONS, classify
 from grubler.mechanism.assembly import assemble, branches
 from grubler.mechanism.builders import BUILDER_DOCS
@@ -449,6 +449,129 @@ def _summary(scene, res) -> str:
 def result_csv(res, path) -> None:
     """The run as ``grubler simulate --csv`` writes it."""
     res.to_csv(path, ["state", "dynamics", "energy"])
+
+
+# -- the servo drive: a co-simulation of FMUs, and a sizing study ---------------------------------------
+SERVO_SIGNALS = ["trajectory.position", "mechanism.drive_angle", "motor.current", "motor.voltage",
+                 "motor.terminal_voltage"]
+
+
+def servo_defaults() -> dict:
+    """What the servo form starts from: the data sets, and the servo four-bar's design (``ServoDesign()``)."""
+    from grubler.motors import list_motors
+    from grubler.system.servo import ServoDesign
+
+    d = ServoDesign()
+    return {"motors": list_motors(), "motor": d.motor, "gear_ratio": d.gear_ratio, "supply_voltage": d.supply_voltage,
+            "current_limit": d.current_limit, "K": d.pid["K"], "Ti": d.pid["Ti"], "Td": d.pid["Td"],
+            "kind": d.trajectory["kind"], "distance": d.trajectory["distance"], "v_max": d.trajectory["v_max"],
+            "a_max": d.trajectory["a_max"], "dwell": d.trajectory["dwell"], "t_end": d.t_end, "step": d.step}
+
+
+def _servo_design(data: dict, settings: dict):
+    """A :class:`grubler.system.servo.ServoDesign` of the scene from the form's settings, each number checked."""
+    from grubler.limits import number
+    from grubler.motors import list_motors
+    from grubler.system.servo import ServoDesign
+
+    if not isinstance(settings, dict):
+        raise InputError("servo", "missing: the page sends the servo settings as a JSON object")
+    scene = scene_from_dict(data)
+    if scene.mechanism.drive is None:
+        raise SceneError("drive.joint", "the servo drives the scene's drive joint: name one ([drive] joint)")
+    base = ServoDesign()
+    pos = {"low": 0.0, "low_open": True}
+
+    def get(key, **bounds):
+        v = settings.get(key)
+        return number(base_values[key] if v in (None, "") else v, f"servo.{key}", **bounds)
+
+    base_values = servo_defaults()
+    motor = settings.get("motor") or base.motor
+    if motor not in list_motors():
+        raise InputError("servo.motor", f"no such data set: {brief(motor)}{did_you_mean(motor, list_motors())}")
+    kind = settings.get("kind") or "trapezoid"
+    if kind not in ("trapezoid", "scurve"):
+        raise InputError("servo.kind", f"must be 'trapezoid' or 'scurve', got {brief(kind)}")
+    trajectory = {**base.trajectory, "kind": kind, "distance": get("distance"), "v_max": get("v_max", **pos),
+                  "a_max": get("a_max", **pos), "dwell": get("dwell", low=0.0)}
+    pid = {**base.pid, "K": get("K", low=0.0), "Ti": get("Ti", **pos), "Td": get("Td", low=0.0)}
+    supply = get("supply_voltage", **pos)
+    pid["u_min"], pid["u_max"] = -supply, supply
+    return ServoDesign(scene=scene_toml(data), motor=motor, gear_ratio=get("gear_ratio", **pos),
+                       supply_voltage=supply, current_limit=get("current_limit", **pos),
+                       trajectory=trajectory, pid=pid, t_end=get("t_end", **pos), step=get("step", **pos))
+
+
+def check_fmu_folder(d) -> None:
+    """The FMUs the servo runs are in ``d`` (the app's ``dist/``, where ``python3 build_fmu.py`` puts them)."""
+    missing = [n for n in ("Mechanism", "DCMotor", "PID", "Encoder", "Trajectory") if not (d / f"{n}.fmu").is_file()]
+    if missing:
+        raise InputError("servo", f"no {', '.join(m + '.fmu' for m in missing)} in {d}: build the FMUs there first "
+                                  "(python3 build_fmu.py, in the folder the app was started in)")
+
+
+def run_servo(data: dict, settings: dict, fmu_dir) -> dict:
+    """Co-simulate the servo drive of the scene (``grubler cosim`` of :func:`grubler.system.servo.servo_system`).
+
+    Returns the tracking error, the current and the voltages over time (every
+    10th step), and the drive's and the motor's limits to hold them against.
+    """
+    from grubler.motors import load_motor
+    from grubler.system import cosim
+    from grubler.system.servo import servo_system
+
+    design = _servo_design(data, settings)
+    check_fmu_folder(fmu_dir)
+    system = servo_system(design, fmu_dir, name="app-servo")
+    every = max(1, round(design.t_end / design.step / 2000))  # some 2000 rows: a graph's worth
+    res = cosim.run(system, t_end=design.t_end, step=design.step, record=SERVO_SIGNALS, record_every=every)
+    error = res["trajectory.position"] - res["mechanism.drive_angle"]
+    motor = load_motor(design.motor)
+    current, volts = res["motor.current"], res["motor.terminal_voltage"]
+    limits = {"current_limit": design.current_limit, "supply_voltage": design.supply_voltage,
+              "nominal_current": getattr(motor, "nominal_current", None)}
+    return {"t": res.t.tolist(), "wall_time": res.wall_time,
+            "columns": [{"name": "error", "label": "tracking error, setpoint - response (rad)", "f32": _f32(error)},
+                        {"name": "setpoint", "label": "crank angle, setpoint (rad)",
+                         "f32": _f32(res["trajectory.position"])},
+                        {"name": "response", "label": "crank angle, response (rad)",
+                         "f32": _f32(res["mechanism.drive_angle"])},
+                        {"name": "current", "label": "motor current (A)", "f32": _f32(current)},
+                        {"name": "voltage", "label": "motor voltage, applied (V)", "f32": _f32(volts)},
+                        {"name": "command", "label": "motor voltage, commanded (V)",
+                         "f32": _f32(res["motor.voltage"])}],
+            "limits": {k: v for k, v in limits.items() if v is not None and math.isfinite(v)},
+            "summary": f"{design.t_end:g} s at {design.step:g} s steps in {res.wall_time:.2f} s: tracking error "
+                       f"up to {np.max(np.abs(error)):.3g} rad, current up to {np.max(np.abs(current)):.3g} A "
+                       f"(limit {design.current_limit:g} A), voltage up to {np.max(np.abs(volts)):.3g} V "
+                       f"(supply {design.supply_voltage:g} V)"}
+
+
+def run_sizing(data: dict, settings: dict) -> dict:
+    """Which motor and gear ratio fit the servo's move (``grubler size --move``), ranked: the study's table."""
+    from grubler.controllers.trajectory import Trajectory
+    from grubler.motors import list_motors, load_motor
+    from grubler.studies.sizing import Control, DutyCycle, size
+
+    design = _servo_design(data, settings)
+    model = scene_from_dict(data).mechanism
+    tr = design.trajectory
+    traj = Trajectory(tr["kind"], distance=tr["distance"], v_max=tr["v_max"], a_max=tr["a_max"],
+                      dwell=tr["dwell"], repeat=2, reverse=True)
+    start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)])
+    cycle = DutyCycle.from_trajectory(traj, (traj.move_time + tr["dwell"]) * 2, start=start,
+                                      name=f"{tr['kind']} move of {tr['distance']:g} rad and back")
+    study = size(model, cycle, [load_motor(n) for n in list_motors()], [5, 10, 20, 35, 50, 75, 100, 150],
+                 supply_voltage=design.supply_voltage, current_limit=design.current_limit, control=Control.servo())
+    rows = []
+    for a in study.ranked + study.rejected:
+        r = a.summary()
+        rows.append({"motor": a.candidate.motor.name, "ratio": a.candidate.ratio, "fits": bool(a.feasible),
+                     "margin": round(float(a.min_margin), 3), "binding": a.binding,
+                     "peak_current": round(r["peak_current"], 3), "peak_voltage": round(r["peak_voltage"], 2),
+                     "rpm": round(r["peak_motor_speed"] * 30 / math.pi), "why_not": r["why_not"]})
+    return {"cycle": cycle.name, "rows": rows}
 
 
 def error_of(exc: BaseException) -> dict:

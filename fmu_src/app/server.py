@@ -311,9 +311,23 @@ def a_cancel(server, session, body):
     return {"cancelled": True}
 
 
+def a_servo_defaults(server, session, body):
+    return actions.servo_defaults()
+
+
+def a_servo(server, session, body):
+    # a co-simulation runs to its end (the runner has no cancel); the server serves meanwhile
+    return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"))
+
+
+def a_sizing(server, session, body):
+    return actions.run_sizing(_data(body), body.get("servo"))
+
+
 ACTIONS = {"catalog": a_catalog, "preset": a_preset, "analyse": a_analyse, "edit": a_edit, "drag": a_drag,
            "toml": a_toml, "parse": a_parse, "files": a_files, "open": a_open, "save": a_save,
-           "simulate": a_simulate, "cancel": a_cancel}
+           "simulate": a_simulate, "cancel": a_cancel, "servo_defaults": a_servo_defaults, "servo": a_servo,
+           "sizing": a_sizing}
 
 
 def serve(scene: str | None = None, host: str = "127.0.0.1", port: int = 0, open_browser: bool = True,

@@ -310,11 +310,7 @@ async function simulate() {
     const run = await api("simulate", {
       scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
     });
-    for (const c of run.columns) {  // float32 columns, base64: decoded once
-      const bin = atob(c.f32);
-      const bytes = Uint8Array.from(bin, (ch) => ch.charCodeAt(0));
-      c.values = new Float32Array(bytes.buffer);
-    }
+    decodeColumns(run.columns);
     state.run = run;
     state.t = 0;
     fitView([...run.frames.filter((_, i) => i % 10 === 0), run.path]);
@@ -337,6 +333,13 @@ async function simulate() {
   } finally {
     $("simulate").disabled = false;
     $("cancel").disabled = true;
+  }
+}
+
+function decodeColumns(columns) {  // float32 columns, base64: decoded once
+  for (const c of columns) {
+    const bytes = Uint8Array.from(atob(c.f32), (ch) => ch.charCodeAt(0));
+    c.values = new Float32Array(bytes.buffer);
   }
 }
 
@@ -436,53 +439,67 @@ function ticks(lo, hi, n) {
   return out;
 }
 
+// one plot: signals against time over [t0, t1], with optional horizontal limit lines
+function plot(svg, t, cols, t0, t1, opts = {}) {
+  const W = svg.clientWidth || 800, H = opts.height || 220, L = 64, R = 12, T = 10, B = 26;
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  let lo = Infinity, hi = -Infinity;
+  for (const c of cols) {
+    for (let i = 0; i < t.length; i++) {
+      const v = c.values[i];
+      if (t[i] >= t0 && t[i] <= t1 && isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    }
+  }
+  for (const h of opts.limits || []) { lo = Math.min(lo, h.value); hi = Math.max(hi, h.value); }
+  if (!isFinite(lo)) { lo = -1; hi = 1; }
+  if (hi - lo < 1e-12 * Math.max(1, Math.abs(hi))) { lo -= 1; hi += 1; }
+  const pad = 0.05 * (hi - lo);
+  lo -= pad; hi += pad;
+  const X = (v) => L + ((v - t0) / (t1 - t0 || 1)) * (W - L - R);
+  const Y = (v) => T + (1 - (v - lo) / (hi - lo)) * (H - T - B);
+  const text = (x, y, anchor, fill, body) =>
+    `<text x="${x}" y="${y}" text-anchor="${anchor}" font-size="11" fill="${fill}" font-family="sans-serif">${escapeXml(body)}</text>`;
+  let html = `<rect x="0" y="0" width="${W}" height="${H}" fill="#fff"/>`;
+  for (const v of ticks(lo, hi, 5)) {
+    html += `<line x1="${L}" x2="${W - R}" y1="${Y(v)}" y2="${Y(v)}" stroke="#e1e4e8"/>` + text(L - 6, Y(v) + 4, "end", "#57606a", fmt(v));
+  }
+  for (const v of ticks(t0, t1, 8)) {
+    html += `<line x1="${X(v)}" x2="${X(v)}" y1="${T}" y2="${H - B}" stroke="#eef0f2"/>` + text(X(v), H - B + 15, "middle", "#57606a", fmt(v));
+  }
+  html += text(W - R, H - 3, "end", "#57606a", "time, s");
+  html += `<rect x="${L}" y="${T}" width="${W - L - R}" height="${H - T - B}" fill="none" stroke="#afb8c1"/>`;
+  for (const h of opts.limits || []) {
+    html += `<line x1="${L}" x2="${W - R}" y1="${Y(h.value)}" y2="${Y(h.value)}" stroke="#b42318" stroke-dasharray="6 3"/>`;
+    html += text(W - R - 4, Y(h.value) - 3, "end", "#b42318", h.label);
+  }
+  cols.forEach((c, j) => {
+    let d = "";
+    const step = Math.max(1, Math.floor(t.length / (4 * W)));  // no more points than the pixels show
+    for (let i = 0; i < t.length; i += step) {
+      const v = c.values[i];
+      if (!isFinite(v) || t[i] < t0 || t[i] > t1) continue;
+      d += (d ? "L" : "M") + X(t[i]).toFixed(1) + "," + Y(v).toFixed(1);
+    }
+    const colour = COLOURS[j % COLOURS.length];
+    html += `<path d="${d}" fill="none" stroke="${colour}" stroke-width="1.5"/>`;
+    html += `<text x="${L + 8}" y="${T + 14 + 14 * j}" font-size="11.5" fill="${colour}" font-family="sans-serif">${escapeXml(c.label)}</text>`;
+  });
+  if (opts.cursor !== undefined) {
+    html += `<line class="cursor" x1="${X(opts.cursor)}" x2="${X(opts.cursor)}" y1="${T}" y2="${H - B}" stroke="#1d232a" stroke-dasharray="3 3"/>`;
+    html += `<rect class="zoombox" x="0" y="${T}" width="0" height="${H - T - B}"/>`;
+  }
+  svg.innerHTML = html;
+  svg.dataset.x0 = t0; svg.dataset.x1 = t1; svg.dataset.l = L; svg.dataset.r = W - R;
+}
+
 function drawPanels() {
   if (!state.run) return;
   const t = state.run.t;
   const [t0, t1] = state.zoom || [t[0], t[t.length - 1]];
   document.querySelectorAll("#panels svg").forEach((svg) => {
     const series = state.panels[Number(svg.dataset.panel)] || [];
-    const W = svg.clientWidth || 800, H = 220, L = 64, R = 12, T = 10, B = 26;
-    svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
-    let lo = Infinity, hi = -Infinity;
     const cols = series.map((n) => state.run.columns.find((c) => c.name === n)).filter(Boolean);
-    for (const c of cols) {
-      for (let i = 0; i < t.length; i++) {
-        const v = c.values[i];
-        if (t[i] >= t0 && t[i] <= t1 && isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
-      }
-    }
-    if (!isFinite(lo)) { lo = -1; hi = 1; }
-    if (hi - lo < 1e-12 * Math.max(1, Math.abs(hi))) { lo -= 1; hi += 1; }
-    const pad = 0.05 * (hi - lo);
-    lo -= pad; hi += pad;
-    const X = (v) => L + ((v - t0) / (t1 - t0 || 1)) * (W - L - R);
-    const Y = (v) => T + (1 - (v - lo) / (hi - lo)) * (H - T - B);
-    let html = `<rect x="0" y="0" width="${W}" height="${H}" fill="#fff"/>`;
-    for (const v of ticks(lo, hi, 5)) {
-      html += `<line x1="${L}" x2="${W - R}" y1="${Y(v)}" y2="${Y(v)}" stroke="#e1e4e8"/>`;
-      html += `<text x="${L - 6}" y="${Y(v) + 4}" text-anchor="end" font-size="11" fill="#57606a" font-family="sans-serif">${fmt(v)}</text>`;
-    }
-    for (const v of ticks(t0, t1, 8)) {
-      html += `<line x1="${X(v)}" x2="${X(v)}" y1="${T}" y2="${H - B}" stroke="#eef0f2"/>`;
-      html += `<text x="${X(v)}" y="${H - B + 15}" text-anchor="middle" font-size="11" fill="#57606a" font-family="sans-serif">${fmt(v)}</text>`;
-    }
-    html += `<text x="${W - R}" y="${H - 3}" text-anchor="end" font-size="11" fill="#57606a" font-family="sans-serif">time, s</text>`;
-    html += `<rect x="${L}" y="${T}" width="${W - L - R}" height="${H - T - B}" fill="none" stroke="#afb8c1"/>`;
-    cols.forEach((c, j) => {
-      let d = "";
-      for (let i = 0; i < t.length; i++) {
-        const v = c.values[i];
-        if (!isFinite(v) || t[i] < t0 || t[i] > t1) continue;
-        d += (d ? "L" : "M") + X(t[i]).toFixed(1) + "," + Y(v).toFixed(1);
-      }
-      html += `<path d="${d}" fill="none" stroke="${COLOURS[j % COLOURS.length]}" stroke-width="1.5"/>`;
-      html += `<text x="${L + 8}" y="${T + 14 + 14 * j}" font-size="11.5" fill="${COLOURS[j % COLOURS.length]}" font-family="sans-serif">${escapeXml(c.label)}</text>`;
-    });
-    html += `<line class="cursor" x1="${X(state.t)}" x2="${X(state.t)}" y1="${T}" y2="${H - B}" stroke="#1d232a" stroke-dasharray="3 3"/>`;
-    html += `<rect class="zoombox" x="0" y="${T}" width="0" height="${H - T - B}"/>`;
-    svg.innerHTML = html;
-    svg.dataset.x0 = t0; svg.dataset.x1 = t1; svg.dataset.l = L; svg.dataset.r = W - R;
+    plot(svg, t, cols, t0, t1, { cursor: state.t });
   });
 }
 
@@ -546,6 +563,99 @@ async function exportPng() {
   a.download = (state.scene && state.scene.name || "run") + "-graphs.png";
   a.href = canvas.toDataURL("image/png");
   a.click();
+}
+
+// -- the servo drive and the sizing study -------------------------------------------------------------------
+function servoSettings() {
+  const out = {};
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => { out[e.dataset.key] = e.value; });
+  return out;
+}
+
+async function setupServo() {
+  const d = await api("servo_defaults", {});
+  const sel = $("s-motor");
+  for (const m of d.motors) {
+    const o = document.createElement("option");
+    o.textContent = m;
+    sel.appendChild(o);
+  }
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    if (d[e.dataset.key] !== undefined) e.value = String(d[e.dataset.key]);
+  });
+  $("servo-run").addEventListener("click", runServo);
+  $("sizing-run").addEventListener("click", runSizing);
+  // a new gain re-runs the response at once, once there is one to compare
+  document.querySelectorAll("#servo-form .gain").forEach((e) => e.addEventListener("change", () => {
+    if (state.servo) runServo();
+  }));
+}
+
+async function runServo() {
+  const t0 = performance.now();
+  $("servo-run").disabled = true;
+  $("servo-error").textContent = "";
+  $("servo-status").textContent = "co-simulating…";
+  try {
+    const out = await api("servo", { scene: state.scene, servo: servoSettings() });
+    decodeColumns(out.columns);
+    state.servo = out;
+    const col = (n) => out.columns.find((c) => c.name === n);
+    const lim = out.limits;
+    const host = $("servo-plots");
+    host.textContent = "";
+    const panels = [
+      [[col("error")], []],
+      [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
+        { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
+        ? [{ value: lim.nominal_current, label: "motor's nominal (continuous) current" }] : [])],
+      [[col("voltage"), col("command")], [{ value: lim.supply_voltage, label: "supply" }, { value: -lim.supply_voltage, label: "" }]],
+    ];
+    for (const [cols, limits] of panels) {
+      const svg = document.createElementNS(SVG, "svg");
+      host.appendChild(svg);
+      plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits });
+    }
+    window.grublerStats.servo = (window.grublerStats.servo || []).concat([performance.now() - t0]);
+    $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
+  } catch (e) {
+    $("servo-error").textContent = `${e.field}: ${e.message}`;
+    $("servo-status").textContent = "";
+  } finally {
+    $("servo-run").disabled = false;
+  }
+}
+
+async function runSizing() {
+  $("sizing-run").disabled = true;
+  $("servo-error").textContent = "";
+  $("servo-status").textContent = "sizing: every motor at every ratio…";
+  try {
+    const out = await api("sizing", { scene: state.scene, servo: servoSettings() });
+    const table = $("sizing");
+    table.innerHTML = "<tr><th>#</th><th>motor</th><th>ratio</th><th>margin</th><th>binding limit</th>" +
+      "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th><th>why not</th></tr>";
+    out.rows.forEach((r, k) => {
+      const tr = document.createElement("tr");
+      if (!r.fits) tr.className = "no";
+      for (const v of [r.fits ? k + 1 : "×", r.motor, r.ratio, r.margin, r.binding, r.peak_current, r.peak_voltage, r.rpm]) {
+        const td = document.createElement("td");
+        td.textContent = String(v);
+        tr.appendChild(td);
+      }
+      const why = document.createElement("td");
+      why.className = "why";
+      why.textContent = r.why_not;
+      tr.appendChild(why);
+      table.appendChild(tr);
+    });
+    $("servo-status").textContent = `${out.cycle}: ${out.rows.filter((r) => r.fits).length} of ${out.rows.length} motor × ratio combinations fit, best first`;
+  } catch (e) {
+    $("servo-error").textContent = `${e.field}: ${e.message}`;
+    $("servo-status").textContent = "";
+  } finally {
+    $("sizing-run").disabled = false;
+  }
 }
 
 // -- files ---------------------------------------------------------------------------------------------
@@ -665,6 +775,7 @@ async function start() {
   window.addEventListener("resize", drawPanels);
   setupDrag();
   listFiles();
+  setupServo();
   let data = cat.start;
   const m = location.hash.match(/^#scene=([A-Za-z0-9_-]+)$/);
   if (m) {
