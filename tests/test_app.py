@@ -262,3 +262,53 @@ def test_simulate_stops_when_its_cancel_flag_is_set():
 def test_the_cli_refuses_a_bad_port_in_one_line(capsys):
     assert cli.run(["app", "--port", "70000"]) == 2
     assert "--port" in capsys.readouterr().err
+
+
+def test_exports_are_what_the_cli_writes(app):
+    import io
+    import zipfile
+
+    data = actions.preset_data("thesis-fourbar")
+    _, _, token = call(app, "GET", "/")
+    status, out, _ = call(app, "POST", "/api/export", {"kind": "pdf", "scene": data}, cookie=token)
+    assert out["error"] == {"field": "report", "reason": "simulate first: the report is of the last run"}
+    post(app, "simulate", {"scene": data, "t_end": 0.5}, cookie=token)
+    conn = http.client.HTTPConnection("127.0.0.1", app.server_address[1], timeout=120)
+    for kind, name, head in (("pdf", "thesis_fourbar-report.pdf", b"%PDF"), ("fmu", "thesis_fourbar.fmu", b"PK")):
+        conn.request("POST", "/api/export", json.dumps({"kind": kind, "scene": data}),
+                     {"Host": f"127.0.0.1:{app.server_address[1]}", "Content-Type": "application/json",
+                      "Cookie": f"grubler_session={token}"})
+        r = conn.getresponse()
+        body = r.read()
+        assert r.status == 200 and f'filename="{name}"' in r.getheader("Content-Disposition")
+        assert body.startswith(head)
+    assert "modelDescription.xml" in zipfile.ZipFile(io.BytesIO(body)).namelist()
+    # the servo's FMUs come from dist/ in the app's folder: without them, the command that builds them
+    for action, body in (("export", {"kind": "ssp", "scene": data, "servo": {}}),
+                         ("servo", {"scene": data, "servo": {}})):
+        status, out, _ = call(app, "POST", f"/api/{action}", body)
+        assert out["error"]["field"] == "servo" and "python3 build_fmu.py" in out["error"]["reason"]
+
+
+def test_servo_settings_are_checked_by_name(app):
+    data = actions.preset_data("thesis-fourbar")
+    for servo, field in (({"K": "-1"}, "servo.K"), ({"motor": "maxon-re41"}, "servo.motor"),
+                         ({"step": "0"}, "servo.step"), ({"kind": "sine"}, "servo.kind")):
+        out, _ = post(app, "sizing", {"scene": data, "servo": servo})
+        assert out["error"]["field"] == field, out
+    out, _ = post(app, "sizing", {"scene": {**data, "drive": {}}, "servo": {}})
+    assert out["error"]["field"] == "drive.joint"
+    out, _ = post(app, "sizing", {"scene": actions.preset_data("triple-pendulum"), "servo": {}})
+    assert out["error"]["field"] == "mechanism" and "3" in out["error"]["reason"]  # the library's words
+
+
+def test_the_sizing_table_ranks_as_grubler_size_does(app, capsys):
+    data = actions.preset_data("thesis-fourbar")
+    out, _ = post(app, "sizing", {"scene": data, "servo": {}})
+    fits = [r for r in out["rows"] if r["fits"]]
+    assert fits and out["rows"][:len(fits)] == fits  # the ones that fit first, best first
+    assert [r["margin"] for r in fits] == sorted((r["margin"] for r in fits), reverse=True)
+    assert cli.run(["size", "thesis-fourbar", "--move", "trapezoid", "--distance", "3.141592653589793",
+                    "--reverse", "--supply", "48", "--current-limit", "10"]) == 0
+    best = capsys.readouterr().out.split("best first")[1].splitlines()[1]
+    assert fits[0]["motor"] in best and f"{fits[0]['ratio']}" in best

@@ -174,3 +174,60 @@ def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
     page.wait_for_selector('[data-err="link2.a"]:not(:empty)')
     assert "link2.a" not in page.inner_text("#error")
     assert errors == []
+
+
+@pytest.fixture(scope="module")
+def servo_app(tmp_path_factory):
+    """``grubler app`` in a process of its own, started in a folder whose dist/ holds the servo's FMUs.
+
+    (pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit: the CLI
+    leaves without the teardown, and this test's own process never loads them.)
+    """
+    import subprocess
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import build_fmu
+
+    folder = tmp_path_factory.mktemp("app")
+    build_fmu.build(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"], cwd=folder,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert line.startswith("grubler app: http://127.0.0.1:"), line + proc.stderr.read()
+    yield line.split()[2], folder
+    proc.send_signal(__import__("signal").SIGINT)
+    assert proc.wait(30) == 130
+
+
+def test_servo_tuning_sizing_and_the_system_export(servo_app, browser, shots):
+    url, folder = servo_app
+    page = browser.new_page(viewport={"width": 1400, "height": 1000}, accept_downloads=True)
+    errors = watch_console(page)
+    page.goto(url)
+    page.wait_for_selector("#drawing circle.handle")
+    page.select_option("#preset", "thesis-fourbar")
+    page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('four-bar')")
+    page.fill('#servo-form [data-key="t_end"]', "2")
+    page.click("#servo-run")
+    page.wait_for_selector("#servo-plots svg path", timeout=120_000)
+    first = page.inner_text("#servo-status")
+    assert first.startswith("2 s at 0.001 s steps") and "(limit 10 A)" in first and "(supply 48 V)" in first
+    # a softer gain: the response is re-run at once, and follows worse
+    page.fill('#servo-form [data-key="K"]', "60")
+    page.press('#servo-form [data-key="K"]', "Enter")
+    page.wait_for_function("() => (window.grublerStats.servo || []).length >= 2", timeout=120_000)
+    error = lambda text: float(text.split("tracking error up to ")[1].split(" rad")[0])  # noqa: E731
+    assert error(page.inner_text("#servo-status")) > error(first)
+    page.click("#sizing-run")
+    page.wait_for_selector("#sizing td", timeout=120_000)
+    assert "combinations fit, best first" in page.inner_text("#servo-status")
+    assert page.inner_text("#sizing tr:nth-child(2) td:first-child") == "1"
+    page.locator("#servo").screenshot(path=str(shots / "6-servo.png"))
+    with page.expect_download(timeout=120_000) as dl:
+        page.select_option("#export", "ssp")
+    assert dl.value.suggested_filename == "thesis_fourbar_servo.ssp"
+    import zipfile
+
+    assert "resources/PID.fmu" in zipfile.ZipFile(dl.value.path()).namelist()
+    assert errors == []

@@ -505,6 +505,9 @@ def _servo_design(data: dict, settings: dict):
 
 def check_fmu_folder(d) -> None:
     """The FMUs the servo runs are in ``d`` (the app's ``dist/``, where ``python3 build_fmu.py`` puts them)."""
+    from pathlib import Path
+
+    d = Path(d)
     missing = [n for n in ("Mechanism", "DCMotor", "PID", "Encoder", "Trajectory") if not (d / f"{n}.fmu").is_file()]
     if missing:
         raise InputError("servo", f"no {', '.join(m + '.fmu' for m in missing)} in {d}: build the FMUs there first "
@@ -572,6 +575,49 @@ def run_sizing(data: dict, settings: dict) -> dict:
                      "peak_current": round(r["peak_current"], 3), "peak_voltage": round(r["peak_voltage"], 2),
                      "rpm": round(r["peak_motor_speed"] * 30 / math.pi), "why_not": r["why_not"]})
     return {"cycle": cycle.name, "rows": rows}
+
+
+# -- exports: what the CLI would write, into a folder the server sends from and removes -----------------------
+EXPORTS = {"fmu": "the mechanism FMU (grubler export)", "ssp": "the servo system as an SSP archive",
+           "pdf": "the one-page run report (grubler report)"}
+
+
+def export_file(kind: str, data: dict, folder, result=None, settings: dict | None = None, fmu_dir=None):
+    """Write one export into ``folder`` and return its path.
+
+    Parameters
+    ----------
+    kind : {'fmu', 'ssp', 'pdf'}
+        See :data:`EXPORTS`; 'pdf' needs the session's last run (``result``),
+        'ssp' the servo settings and the FMUs the servo runs (``fmu_dir``).
+    """
+    from pathlib import Path
+
+    from grubler.fmi.build import export, identifier_for
+
+    folder = Path(folder)
+    scene = scene_from_dict(data)
+    stem = identifier_for(Path((scene.name or "mechanism").replace("-", "_")))
+    if kind == "fmu":
+        return export(scene, folder / f"{stem}.fmu")
+    if kind == "ssp":
+        from grubler.system.servo import servo_system
+
+        check_fmu_folder(fmu_dir)
+        return servo_system(_servo_design(data, settings), fmu_dir, name=f"{stem}_servo").write(
+            folder / f"{stem}_servo.ssp")
+    if kind == "pdf":
+        from grubler.views.report import write_report
+        from grubler.views.runs import read_run
+
+        if result is None:
+            raise InputError("report", "simulate first: the report is of the last run")
+        csv_path = folder / f"{stem}.csv"
+        result_csv(result, csv_path)
+        _, columns = read_run(str(csv_path), result.model)
+        write_report(columns, [folder / f"{stem}-report.pdf"], result.model, source=csv_path.name)
+        return folder / f"{stem}-report.pdf"
+    raise InputError("export", f"must be one of {', '.join(EXPORTS)}, got {brief(kind)}")
 
 
 def error_of(exc: BaseException) -> dict:

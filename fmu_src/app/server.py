@@ -211,6 +211,8 @@ class Handler(BaseHTTPRequestHandler):
                 raise InputError("request", "not valid JSON") from None
             if not isinstance(body, dict):
                 raise InputError("request", "must be a JSON object")
+            if name == "export":  # a file, not JSON
+                return self._export(session, body, extra)
             action = ACTIONS.get(name)
             if action is None:
                 raise InputError("action", f"no such action: {limits.brief(name)}")
@@ -227,6 +229,19 @@ class Handler(BaseHTTPRequestHandler):
         except Exception as exc:  # a bug: the page gets one line, the terminal the traceback
             traceback.print_exc(file=sys.stderr)
             self._send_json(500, {"error": actions.error_of(exc)}, extra)
+
+
+    def _export(self, session: Session, body: dict, extra: dict):
+        folder = limits.temp_dir("grubler-app-")
+        try:
+            kind = body.get("kind")
+            fmu_dir = self.server.inside("dist", "servo") if kind == "ssp" else None
+            path = actions.export_file(kind, _data(body), folder, session.result, body.get("servo"), fmu_dir)
+            data = path.read_bytes()
+        finally:
+            limits.remove_temp_dir(folder)
+        ctype = {".pdf": "application/pdf"}.get(path.suffix, "application/octet-stream")
+        self._send(200, data, ctype, {**extra, "Content-Disposition": f'attachment; filename="{path.name}"'})
 
 
 # -- the actions -----------------------------------------------------------------------------------------

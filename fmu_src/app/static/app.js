@@ -668,6 +668,27 @@ async function download() {
   setTimeout(() => URL.revokeObjectURL(a.href), 1000);
 }
 
+// an export is a file, or a refusal in JSON
+async function exportFile(kind) {
+  notice(`exporting ${kind}…`);
+  const r = await fetch("/api/export", {
+    method: "POST", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ kind, scene: state.scene, servo: servoSettings() }),
+  });
+  if ((r.headers.get("Content-Type") || "").startsWith("application/json")) {
+    const out = await r.json();
+    notice(`${out.error.field}: ${out.error.reason}`, true);
+    return;
+  }
+  const name = (r.headers.get("Content-Disposition") || "").match(/filename="([^"]+)"/);
+  const a = document.createElement("a");
+  a.download = name ? name[1] : "export";
+  a.href = URL.createObjectURL(await r.blob());
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  notice("exported " + a.download);
+}
+
 async function listFiles() {
   const { files } = await api("files", {});
   const sel = $("files");
@@ -747,6 +768,11 @@ async function start() {
     } catch (e) { notice(`${e.field}: ${e.message}`, true); }
   });
   $("download").addEventListener("click", download);
+  $("export").addEventListener("change", async () => {
+    const kind = $("export").value;
+    $("export").value = "";
+    if (kind) await exportFile(kind);
+  });
   $("share").addEventListener("click", async () => {
     remember();
     try { await navigator.clipboard.writeText(location.href); notice("link copied"); }
