@@ -259,9 +259,16 @@ def test_simulate_stops_when_its_cancel_flag_is_set():
     assert abs(a["theta2"] - b["theta2"]).max() < 1e-8
 
 
-def test_the_cli_refuses_a_bad_port_in_one_line(capsys):
+def test_the_cli_refuses_a_bad_port_or_scene_in_one_line_before_listening(capsys, tmp_path):
     assert cli.run(["app", "--port", "70000"]) == 2
     assert "--port" in capsys.readouterr().err
+    assert cli.run(["app", str(tmp_path / "nosuch.toml"), "--no-browser"]) == 2
+    out = capsys.readouterr()
+    assert out.err.startswith("grubler: error: scene: ") and out.out == ""  # no URL: nothing listens
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[link2]\na = -1\n")
+    assert cli.run(["app", str(bad), "--no-browser"]) == 2
+    assert "link2" in capsys.readouterr().err
 
 
 def test_exports_are_what_the_cli_writes(app):

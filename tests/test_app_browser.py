@@ -221,7 +221,7 @@ def test_servo_tuning_sizing_and_the_system_export(servo_app, browser, shots):
     assert error(page.inner_text("#servo-status")) > error(first)
     page.click("#sizing-run")
     page.wait_for_selector("#sizing td", timeout=120_000)
-    assert "combinations fit, best first" in page.inner_text("#servo-status")
+    assert "combinations fit, best first" in page.inner_text("#sizing-status")
     assert page.inner_text("#sizing tr:nth-child(2) td:first-child") == "1"
     page.locator("#servo").screenshot(path=str(shots / "6-servo.png"))
     with page.expect_download(timeout=120_000) as dl:

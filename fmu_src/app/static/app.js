@@ -629,13 +629,15 @@ async function runServo() {
 async function runSizing() {
   $("sizing-run").disabled = true;
   $("servo-error").textContent = "";
-  $("servo-status").textContent = "sizing: every motor at every ratio…";
+  $("sizing-status").textContent = "sizing: every motor at every ratio…";
   try {
     const out = await api("sizing", { scene: state.scene, servo: servoSettings() });
     const table = $("sizing");
     table.innerHTML = "<tr><th>#</th><th>motor</th><th>ratio</th><th>margin</th><th>binding limit</th>" +
-      "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th><th>why not</th></tr>";
-    out.rows.forEach((r, k) => {
+      "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th><th class=\"why\">why not</th></tr>";
+    const fits = out.rows.filter((r) => r.fits).length;
+    const shown = out.rows.slice(0, fits + 5);  // the ones that fit, and the nearest misses
+    shown.forEach((r, k) => {
       const tr = document.createElement("tr");
       if (!r.fits) tr.className = "no";
       for (const v of [r.fits ? k + 1 : "×", r.motor, r.ratio, r.margin, r.binding, r.peak_current, r.peak_voltage, r.rpm]) {
@@ -649,10 +651,11 @@ async function runSizing() {
       tr.appendChild(why);
       table.appendChild(tr);
     });
-    $("servo-status").textContent = `${out.cycle}: ${out.rows.filter((r) => r.fits).length} of ${out.rows.length} motor × ratio combinations fit, best first`;
+    $("sizing-status").textContent = `${out.cycle}: ${fits} of ${out.rows.length} motor × ratio combinations fit, ` +
+      `best first` + (out.rows.length > shown.length ? `; the ${out.rows.length - shown.length} further misses are not shown` : "");
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
-    $("servo-status").textContent = "";
+    $("sizing-status").textContent = "";
   } finally {
     $("sizing-run").disabled = false;
   }
