@@ -241,6 +241,29 @@ def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
     return out
 
 
+def pick_trace(data: dict, x: float, y: float) -> str:
+    """The trace spec ('linkK:u,v') of the point (x, y), m, on the moving link whose bar passes nearest it."""
+    x, y = _finite(x, "trace"), _finite(y, "trace")
+    scene = scene_from_dict(data)
+    m = scene.mechanism
+    z, _ = assemble(m, m.z_from_q(m.q_ref), scene.initial_rates)
+    n = m.n_links
+    # each link's joint and unit axes, placed by the kernel: the point's (u, v) in that frame
+    frames = link_points(m, z[None, :], [k for k in range(n) for _ in range(3)], [(0, 0), (1, 0), (0, 1)] * n)
+    frames = frames[0].reshape(n, 3, 2)
+    best = None
+    for k in range(n):
+        o = frames[k, 0]
+        u, v = float(np.dot((x, y) - o, frames[k, 1] - o)), float(np.dot((x, y) - o, frames[k, 2] - o))
+        a = m.links[k].a
+        along = min(max(u, min(0.0, a)), max(0.0, a))
+        gap = math.hypot(u - along, v)
+        if best is None or gap < best[0]:
+            best = (gap, k, u, v)
+    _, k, u, v = best
+    return f"link{k + 2}:{u:.4g},{v:.4g}"
+
+
 def drive_sweep(model, z: np.ndarray, steps: int = SWEEP_STEPS) -> np.ndarray:
     """Closed positions as the drive turns a full turn (a slide: its length either way) from ``z``.
 

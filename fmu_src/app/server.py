@@ -63,8 +63,7 @@ class AppServer(ThreadingHTTPServer):
         self.sessions: dict[str, Session] = {}
         self.sessions_lock = threading.Lock()
         port = self.server_address[1]
-        names = {host, "127.0.0.1", "localhost"} if host in ("127.0.0.1", "localhost") else {host}
-        self.allowed_hosts = {f"{n}:{port}" for n in names}
+        self.allowed_hosts = {f"{n}:{port}" for n in host_names(host)}
         self.url = f"http://{'127.0.0.1' if host in ('0.0.0.0', '') else host}:{port}/"
 
     def session(self, token: str | None) -> tuple[str, Session]:
@@ -87,6 +86,21 @@ class AppServer(ThreadingHTTPServer):
             raise InputError(field, f"{limits.brief(name)} is outside the folder the app was started in "
                                     f"({self.root})")
         return path
+
+
+def host_names(host: str) -> set[str]:
+    """The names a browser may call this server by (a DNS name rebound to it is none of them)."""
+    loopback = {"127.0.0.1", "localhost"}
+    if host in loopback:
+        return loopback
+    if host in ("0.0.0.0", ""):  # every interface: this machine's own names and addresses
+        names = loopback | {socket.gethostname(), socket.getfqdn()}
+        try:
+            names |= set(socket.gethostbyname_ex(socket.gethostname())[2])
+        except OSError:
+            pass
+        return names
+    return {host}
 
 
 def _static(name: str) -> bytes | None:
@@ -280,6 +294,10 @@ def a_drag(server, session, body):
     return a_analyse(server, session, {**body, "scene": moved})
 
 
+def a_pick(server, session, body):
+    return {"trace": actions.pick_trace(_data(body), body.get("x"), body.get("y"))}
+
+
 def a_toml(server, session, body):
     return {"toml": actions.scene_toml(_data(body))}
 
@@ -341,7 +359,7 @@ def a_sizing(server, session, body):
 
 ACTIONS = {"catalog": a_catalog, "preset": a_preset, "analyse": a_analyse, "edit": a_edit, "drag": a_drag,
            "toml": a_toml, "parse": a_parse, "files": a_files, "open": a_open, "save": a_save,
-           "simulate": a_simulate, "cancel": a_cancel, "servo_defaults": a_servo_defaults, "servo": a_servo,
+           "simulate": a_simulate, "cancel": a_cancel, "servo_defaults": a_servo_defaults, "pick": a_pick, "servo": a_servo,
            "sizing": a_sizing}
 
 

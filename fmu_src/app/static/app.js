@@ -261,6 +261,18 @@ function setupDrag() {
     state.queued = { x, y, at: performance.now(), drag: state.dragging };
     pump();
   });
+  // a double click on a link traces that point of it
+  svg.addEventListener("dblclick", async (evt) => {
+    if (!state.analysis || state.showingRun || (evt.target.dataset && evt.target.dataset.handle)) return;
+    const [x, y] = toWorld(evt);
+    try {
+      const { trace } = await api("pick", { scene: state.scene, x, y });
+      $("trace").value = trace;
+      state.trace = trace;
+      await analyse({ scene: state.scene });
+      notice("tracing " + trace);
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+  });
   const end = () => {
     if (!state.dragging) return;
     state.dragging = null;
