@@ -203,8 +203,9 @@ function polyline(points, cls) {
 function drawScene(out) {
   const s = state.box.span;
   let html = `<g transform="scale(1,-1)">`;
-  html += polyline(out.curve, "curve");
+  // the curve over the links' plates, which would hide it where it crosses them
   html += frameMarkup(out.frame, out.closed === false ? "open" : "");
+  html += polyline(out.curve, "curve");
   for (const h of out.handles || []) {
     html += `<circle class="handle${state.dragging && state.dragging.id === h.id ? " active" : ""}" data-handle="${h.id}" cx="${h.xy[0]}" cy="${h.xy[1]}" r="${0.028 * s}"><title>drag: sets ${h.sets}</title></circle>`;
   }
@@ -218,7 +219,7 @@ function drawRunFrame() {
   $("edit-mode").disabled = false;
   const i = frameAt(state.t);
   const path = run.path.slice(0, rowAt(state.t) + 1);
-  let html = `<g transform="scale(1,-1)">` + polyline(run.path, "path") + frameMarkup(run.frames[i]);
+  let html = `<g transform="scale(1,-1)">` + frameMarkup(run.frames[i]) + polyline(run.path, "path");
   const p = path[path.length - 1];
   if (p) html += `<circle class="tracer" cx="${p[0]}" cy="${p[1]}" r="${0.01 * state.box.span}"/>`;
   $("drawing").innerHTML = html + "</g>";
