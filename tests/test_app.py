@@ -135,7 +135,11 @@ def test_dragging_the_rocker_pivot_past_the_grashof_limit_and_past_closing(app, 
     data = actions.preset_data("fourbar-crank-rocker")
     out, _ = post(app, "analyse", {"scene": data})
     assert out["class"]["grashof"]["kind"] == "crank-rocker" and out["class"]["mobility"] == 1
-    assert out["branch"]["count"] == 2 and out["branch"]["index"] == 1
+    assert out["branch"]["count"] == 2 and out["branch"]["drive"] == "theta2"
+    # the branch by its angles, as `grubler info` lists it; the crossed one differs
+    crossed, _ = post(app, "edit", {"scene": data, "key": "mechanism.branch", "value": "crossed"})
+    assert len(out["branch"]["angles"]) == 2 and crossed["branch"]["angles"] != out["branch"]["angles"]
+    assert out["branch"]["angles"][0] in capture_info(data)
     assert {h["id"] for h in out["handles"]} == {"A", "B", "O4"}
     out, _ = post(app, "drag", {"scene": data, "handle": "O4", "x": 1.4, "y": 0.3})
     assert out["scene"]["mechanism"]["ground"] == 1.4
@@ -149,6 +153,21 @@ def test_dragging_the_rocker_pivot_past_the_grashof_limit_and_past_closing(app, 
     err = capsys.readouterr().err
     assert f"{out['problem']['field']}: {out['problem']['reason']}" in err
     assert "the longest link (2.1 m) is not shorter than the other three together" in out["problem"]["reason"]
+
+
+def capture_info(data) -> str:
+    import contextlib
+    import io
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "scene.toml"
+        path.write_text(actions.scene_toml(data))
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert cli.run(["info", str(path)]) == 0
+    return out.getvalue()
 
 
 def test_every_type_and_preset_analyses_and_writes_back_as_the_same_toml():
@@ -221,6 +240,9 @@ def test_the_form_names_each_value_as_the_toml_does_with_its_unit():
     assert f["closure.point"]["value"] == [1.0, 0.0]
     edited = actions.edit(actions.preset_data("thesis-fourbar"), "closure.point", "[1.2, 0.1]")
     assert edited["closure"]["point"] == [1.2, 0.1]
+    menus = {x["key"]: x.get("choices") for x in actions.fields(actions.preset_data("stephenson-iii"))}
+    assert menus["mechanism.branch1"] == ["open", "crossed"] and menus["mechanism.coupler_side"] == ["left", "right"]
+    assert "stephenson-iii" in menus["mechanism.type"] and menus["mechanism.crank"] is None
     assert actions.describe("theta3_d") == "angular rate of link 3 (theta3_d), rad/s"
     assert actions.describe("E") == "total energy (E), J"
 

@@ -99,7 +99,7 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
     page.select_option("#preset", "fourbar-crank-rocker")
     page.wait_for_function("() => document.querySelector('#grashof').textContent.startsWith('crank-rocker')")
     assert page.inner_text("#mobility") == "1"
-    assert page.inner_text("#branch").startswith("[1] of 2")
+    assert "one of 2 found with theta2 held" in page.inner_text("#branch")
     # a double click on the rocker traces that point of it
     x, y = page.evaluate("""() => {
         const p = new DOMPoint(1.0, 0.35).matrixTransform(document.querySelector('#drawing g').getScreenCTM());
@@ -157,6 +157,13 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
         page.click("#png")
     assert Path(dl.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
+    # saved into the app's folder, under the scene's name, as the CLI reads it
+    page.click("#save")
+    page.wait_for_selector('#notice:has-text("saved fourbar-crank-rocker.toml")')
+    from grubler import load_scene
+
+    assert load_scene(str(tmp_path / "fourbar-crank-rocker.toml")).mechanism.closures[0].to_point == (1.05, 0.0)
+
     # the URL holds the scene: a second page opened on it shows the same scene
     other = browser.new_page()
     errors += watch_console(other)
@@ -173,9 +180,14 @@ def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
     page.wait_for_selector("#drawing circle.handle")
     page.select_option("#type", label="stephenson-iii")
     page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
-    assert page.inner_text("#branch").endswith("found with theta2 held")
+    assert page.inner_text("#branch").endswith("one of 4 found with theta2 held")
     drag_handle(page, "output_pivot", 0.45, -0.05)
     assert page.input_value('[data-key="mechanism.output_pivot"]') == "[0.45, -0.05]"
+    # the other branch of the second loop, from the field's menu
+    page.select_option('[data-key="mechanism.branch2"]', "crossed")
+    page.wait_for_function("""() => document.querySelector('[data-key="mechanism.branch2"]').value === 'crossed'
+        && state.scene.mechanism.branch2 === 'crossed'""")
+    assert page.is_hidden("#problem")
     page.screenshot(path=str(shots / "5-stephenson-iii.png"))
     # a link whose scene is not a scene: refused where it is opened, in one line
     page.goto(app.url + "#scene=eyJsaW5rMiI6IHsiYSI6ICJ4In19")  # {"link2": {"a": "x"}}

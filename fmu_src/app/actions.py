@@ -123,6 +123,24 @@ _ANGLES = re.compile(r"(theta\d+|.*_angle|angle|psi|theta1)$")
 _TEXT = {"name", "description", "kind", "type", "joint", "existence", "parent", "link", "to_link", "method"}
 
 
+def choices(key: str) -> list[str] | None:
+    """The words the scene reader takes for a field, when they are a short list (the form offers a menu)."""
+    head, leaf = key.split(".")[0], key.rsplit(".", 1)[-1]
+    if key == "mechanism.type":
+        return list(BUILDER_DOCS)
+    if head.startswith("closure") and leaf == "type":
+        return ["revolute", "prismatic", "none"]
+    if leaf == "method":
+        return ["exact", "penalty"]
+    if head.startswith("link") and leaf == "joint":
+        return ["R", "P"]
+    if leaf.endswith("_side"):
+        return ["left", "right"]
+    if leaf.startswith("branch"):
+        return ["open", "crossed"]
+    return None
+
+
 def unit(key: str) -> str:
     """The unit a scene field is written in, for the form's label ('' for words and counts)."""
     leaf = key.rsplit(".", 1)[-1]
@@ -152,7 +170,10 @@ def fields(data: dict) -> list[dict]:
                 for j, t in enumerate(v):
                     add(f"{key}[{j}].", t)
             else:
-                out.append({"key": key, "value": v, "unit": unit(key), "text": k in _TEXT or isinstance(v, bool)})
+                entry = {"key": key, "value": v, "unit": unit(key), "text": k in _TEXT or isinstance(v, bool)}
+                if choices(key):
+                    entry["choices"] = choices(key)
+                out.append(entry)
     add("", data)
     return out
 
@@ -236,8 +257,12 @@ def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
     out["handles"] = handles(data, m, z)
     if out["closed"] and m.closures and m.drive:
         out["curve"] = coupler_curve(m, z, point, LIVE_STEPS if live else SWEEP_STEPS)
-        found, default = branches(m, z0, starts=BRANCH_STARTS)
-        out["branch"] = {"count": len(found), "index": default + 1, "starts": BRANCH_STARTS, "drive": m.drive}
+        # which branch the sketch closes to, named as `grubler info` lists it: by the other joints' angles
+        found, _ = branches(m, z0, starts=BRANCH_STARTS)
+        q = m.q_from_z(z)
+        angles = [f"{n} {math.degrees(q[m.coordinate_names.index(n)]) % 360:.6g}"
+                  for n in m.free_names if n != m.drive and n.startswith("theta")]
+        out["branch"] = {"count": len(found), "starts": BRANCH_STARTS, "drive": m.drive, "angles": angles}
     return out
 
 

@@ -52,7 +52,7 @@ function show(out, opts = {}) {
   $("grashof").title = c && c.grashof ? c.grashof.detail : "";
   $("mobility").textContent = c ? String(c.mobility) : "–";
   $("branch").textContent = out.branch
-    ? `${out.branch.index > 0 ? "[" + out.branch.index + "]" : "none"} of ${out.branch.count} found with ${out.branch.drive} held`
+    ? `${out.branch.angles.length ? out.branch.angles.join(", ") + " deg" : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
     : (out.closed === false ? "the loop does not close" : "–");
   const problem = $("problem");
   problem.hidden = !out.problem;
@@ -105,9 +105,14 @@ function renderFields(fields) {
       label.append(u);
     }
     label.title = f.key + (f.unit ? " in " + f.unit : "");
-    const input = document.createElement("input");
+    const input = document.createElement(f.choices ? "select" : "input");
     input.id = id;
     input.dataset.key = f.key;
+    for (const c of f.choices || []) {
+      const o = document.createElement("option");
+      o.textContent = c;
+      input.appendChild(o);
+    }
     input.value = Array.isArray(f.value) ? "[" + f.value.join(", ") + "]" : String(f.value);
     input.addEventListener("change", () => edit(f.key, input.value));
     const err = document.createElement("div");
@@ -778,7 +783,8 @@ async function start() {
   });
   $("save").addEventListener("click", async () => {
     try {
-      const { saved } = await api("save", { scene: state.scene, file: $("save-name").value });
+      const file = $("save-name").value.trim() || (state.scene.name || "scene") + ".toml";
+      const { saved } = await api("save", { scene: state.scene, file });
       notice("saved " + saved);
       listFiles();
     } catch (e) { notice(`${e.field}: ${e.message}`, true); }
@@ -815,6 +821,13 @@ async function start() {
   $("add-axes").addEventListener("click", () => { state.panels.push([]); renderPanelControls(); drawPanels(); });
   $("png").addEventListener("click", exportPng);
   window.addEventListener("resize", drawPanels);
+  document.addEventListener("keydown", (evt) => {
+    const typing = /^(INPUT|SELECT|TEXTAREA|BUTTON)$/.test(document.activeElement.tagName);
+    if (evt.key === " " && !typing && state.run) {
+      evt.preventDefault();
+      if (state.playing) pause(); else play();
+    }
+  });
   setupDrag();
   listFiles();
   setupServo();
