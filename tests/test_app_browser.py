@@ -141,6 +141,19 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
     page.wait_for_selector('.chip:has-text("drive torque (tau_drive), N m")')
     page.wait_for_timeout(400)
     page.screenshot(path=str(shots / "4-simulated.png"), full_page=True)
+    # zoom: drag across a graph from a quarter to a half of its width; every graph follows
+    graph = page.locator("#panels svg >> nth=1")
+    graph.scroll_into_view_if_needed()
+    box = graph.bounding_box()
+    page.mouse.move(box["x"] + 0.25 * box["width"], box["y"] + 100)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.5 * box["width"], box["y"] + 100, steps=5)
+    page.mouse.up()
+    page.wait_for_function("() => [...document.querySelectorAll('#panels svg')].every((s) => +s.dataset.x1 < 2)")
+    span = page.eval_on_selector("#panels svg", "(s) => [+s.dataset.x0, +s.dataset.x1]")
+    assert 0.5 < span[0] < span[1] < 1.6
+    page.dblclick("#panels svg >> nth=1")
+    page.wait_for_function("() => +document.querySelector('#panels svg').dataset.x1 > 2.99")
     page.click("#play")  # pause, then scrub to the end
     page.eval_on_selector("#scrub", "(e) => { e.value = e.max; e.dispatchEvent(new Event('input')); }")
     assert page.inner_text("#clock") == "t = 3.000 s"

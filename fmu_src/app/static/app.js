@@ -553,8 +553,15 @@ function setupZoom(svg) {
     const x = xAt(evt);
     const a = timeAt(Math.min(from, x)), b = timeAt(Math.max(from, x));
     from = null;
-    if (b - a > 0.01 * (+svg.dataset.x1 - +svg.dataset.x0)) state.zoom = [a, b];  // a click is no zoom
-    drawPanels();
+    // a click is no zoom, and redraws nothing: a redraw between the two clicks of a
+    // double click would replace the element under the mouse, and the double click is lost
+    if (b - a > 0.01 * (+svg.dataset.x1 - +svg.dataset.x0)) {
+      state.zoom = [a, b];
+      drawPanels();
+    } else {
+      const z = svg.querySelector(".zoombox");
+      if (z) z.setAttribute("width", 0);
+    }
   });
   svg.addEventListener("dblclick", () => { state.zoom = null; drawPanels(); });
 }
