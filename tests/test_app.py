@@ -278,7 +278,8 @@ def test_a_long_run_can_be_cancelled_and_the_server_keeps_serving_meanwhile(app)
 
     def run():
         try:
-            answer["out"] = call(app, "POST", "/api/simulate", {"scene": data, "t_end": 2000, "dt_out": 0.01},
+            # some hours of motion on few rows: the integration is the long part, however fast the machine
+            answer["out"] = call(app, "POST", "/api/simulate", {"scene": data, "t_end": 20000, "dt_out": 10},
                                  cookie=token)[1]
         except Exception as exc:  # noqa: BLE001 (shown by the assertion below)
             answer["out"] = exc
@@ -371,3 +372,15 @@ def test_the_sizing_table_ranks_as_grubler_size_does(app, capsys):
                     "--reverse", "--supply", "48", "--current-limit", "10"]) == 0
     best = capsys.readouterr().out.split("best first")[1].splitlines()[1]
     assert fits[0]["motor"] in best and f"{fits[0]['ratio']}" in best
+
+
+def test_a_cancel_while_the_outputs_are_computed_is_honoured_too():
+    class LateFlag:  # clear through every slice of the integration, set once it is over
+        calls = 0
+
+        def is_set(self):
+            self.calls += 1
+            return self.calls > 100
+
+    with pytest.raises(Cancelled, match="its outputs were being computed"):
+        actions.run_simulation(actions.preset_data("thesis-fourbar"), 2.0, None, None, cancel=LateFlag())

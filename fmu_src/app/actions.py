@@ -29,7 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from grubler.errors import AssemblyError, GrublerError, InputError, SceneError
+from grubler.errors import AssemblyError, Cancelled, GrublerError, InputError, SceneError
 from grubler.limits import brief, did_you_mean, parse_toml
 from grubler.mechanism.analysis import SIX_BAR_INVERSIONS, classify
 from grubler.mechanism.assembly import assemble, branches
@@ -462,6 +462,7 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
         kw["torque"] = number(torque, "torque")
     point = trace_point(trace or default_trace(scene.mechanism), scene.mechanism)
     res = simulate(scene, cancel=cancel, **kw)
+    _check_cancel(cancel, res.t[-1])
     rows = np.unique(np.linspace(0, len(res.t) - 1, min(len(res.t), MAX_FRAMES)).round().astype(int))
     sketch = Sketch(scene.mechanism, point)
     pos = sketch.positions(res.z[rows])
@@ -469,11 +470,19 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     k, local = point
     path = link_points(scene.mechanism, res.z, [k], [local])[:, 0, :]
     columns = res.columns
+    res.compute(["state", "dynamics", "energy"])  # every column in one kernel pass, then one more look at the flag
+    _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
             "columns": [{"name": c, "label": describe(c), "f32": _f32(res[c])} for c in columns],
             "summary": _summary(scene, res)}
     return res, view
+
+
+def _check_cancel(cancel, t: float) -> None:
+    """The run's outputs take a while too (a kernel pass over every row): a cancel then is honoured as well."""
+    if cancel is not None and cancel.is_set():
+        raise Cancelled("run", f"cancelled at t = {t:.6g} s (the end: its outputs were being computed)")
 
 
 def _f32(values) -> str:
