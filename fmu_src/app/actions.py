@@ -340,6 +340,14 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
             out.append({"id": "B", "xy": pin.tolist(), "sets": "mechanism.coupler, mechanism.rocker, "
                                                                "mechanism.branch"})
             out.append({"id": "O4", "xy": [float(_num(mech.get("ground"))), 0.0], "sets": "mechanism.ground"})
+        kind = mech.get("type")
+        # a builder's ground pivot on an axis: the block's pivot, the lever's, the pump's slide line
+        if kind == "swinging-block":
+            out.append({"id": "pivot", "xy": [_num(mech.get("ground")), 0.0], "sets": "mechanism.ground"})
+        elif kind == "quick-return":
+            out.append({"id": "pivot", "xy": [0.0, -_num(mech.get("ground"))], "sets": "mechanism.ground"})
+        elif kind == "pendulum-pump":
+            out.append({"id": "slide", "xy": [_num(mech.get("offset")), 0.0], "sets": "mechanism.offset"})
         for key in ("rocker_pivot", "output_pivot"):
             if isinstance(mech.get(key), list):
                 out.append({"id": key, "xy": [_num(v) for v in mech[key]], "sets": f"mechanism.{key}"})
@@ -391,8 +399,10 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
         mech["rocker"] = _r(math.hypot(x - ground, y))
         # the builder's 'open' branch has the pin to the left of crank pin -> rocker pivot
         mech["branch"] = "open" if (ground - ax) * (y - ay) - (-ay) * (x - ax) >= 0 else "crossed"
-    elif handle == "O4" and isinstance(mech, dict):
-        mech["ground"] = _r(x)
+    elif handle in ("O4", "pivot") and isinstance(mech, dict):
+        mech["ground"] = _r(-y if mech.get("type") == "quick-return" else x)  # the pivot's distance, on its axis
+    elif handle == "slide" and isinstance(mech, dict):
+        mech["offset"] = _r(x)
     elif handle in ("rocker_pivot", "output_pivot") and isinstance(mech, dict):
         mech[handle] = [_r(x), _r(y)]
     elif re.fullmatch(r"closure(\[\d+\])?\.point", handle):
