@@ -1,5 +1,5 @@
 """Command line: ``grubler presets | motors | info | simulate | animate | report | sweep | size | cosim | export |
-linearize``.
+linearize | app``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -261,6 +261,13 @@ def cmd_report(args) -> int:
     outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
                         cosim=mechanism_prefix(list(raw)) is not None, system=system)
     print(f"wrote {', '.join(outs)}")
+    return 0
+
+
+def cmd_app(args) -> int:
+    from grubler.app.server import serve
+
+    serve(args.scene, host=args.host, port=int(args.port), open_browser=not args.no_browser)
     return 0
 
 
@@ -572,6 +579,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--csv", type=_output("--csv"), help="write every recorded output to this CSV file")
     c.add_argument("--plot", type=_output("--plot", "figure"), help="write the system's plot to this PNG file")
     c.set_defaults(func=cmd_cosim)
+    ap = sub.add_parser("app", help="the browser app: edit, animate and plot a scene (local, 127.0.0.1)")
+    ap.add_argument("scene", nargs="?", help="preset name or TOML file to open with")
+    ap.add_argument("--port", type=_number("--port", low=0, high=65535, integer=True), default=8765,
+                    help="port to listen on (0: any free one; default 8765)")
+    ap.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    ap.add_argument("--no-browser", action="store_true", help="print the URL without opening a browser")
+    ap.set_defaults(func=cmd_app)
     e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")

@@ -134,6 +134,17 @@ class AssemblyError(SceneError):
     """The loop cannot be closed for the given dimensions or initial state."""
 
 
+class Cancelled(GrublerError):
+    """A run stopped on request (the app's cancel button) before its end: names the run and when."""
+
+    def __init__(self, field: str, reason: str):
+        self.field, self.reason = field, reason
+        super().__init__(f"{field}: {reason}")
+
+    def __reduce__(self):
+        return (type(self), (self.field, self.reason))
+
+
 class SystemDescriptionError(GrublerError):
     """A system description that cannot be run: names the element and the reason."""
 

@@ -189,7 +189,11 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
                 links_data[idx].pop("joint", None)
             links_data[idx].update(table)
             _check_keys(table, _LINK_KEYS, key)
-    if not links_data and not builder_failed:
+    if builder_failed:
+        # a [linkN] table beside a builder overrides the built link field by field:
+        # without the built link it cannot be judged as a whole one (its keys were)
+        links_data = []
+    elif not links_data:
         found.add(SceneError("link2", "a scene needs links ([link2], [link3], ...) or a [mechanism] builder"))
     links: list[Link | None] = []
     for i, d in enumerate(links_data):
@@ -278,14 +282,15 @@ def _link(d: dict, f: str, k: int, count: int, found: Problems) -> Link | None:
         found.add(SceneError(f, f"missing: links must be numbered without gaps (link2 .. link{count + 1})"))
         return None
     before = len(found)
-    for key, what in (("a", "the link length, m"), ("m", "the link's mass, kg")):
-        if key not in d:
-            found.add(SceneError(f"{f}.{key}", f"is required ({what})"))
     num = {}
     for key in _LINK_PARAMS:
         if key in d:
             with found.check():
                 num[key] = parse_angle_or_number(d[key], f"{f}.{key}")
+    # what is given is judged first, then what is missing
+    for key, what in (("a", "the link length, m"), ("m", "the link's mass, kg")):
+        if key not in d:
+            found.add(SceneError(f"{f}.{key}", f"is required ({what})"))
     joint = parent = None
     with found.check():
         joint = _joint(d, f)

@@ -28,7 +28,7 @@ from grubler import binding
 from grubler.mechanism.assembly import POSITION_TOL, assemble
 from grubler.mechanism.analysis import explain_singular_start
 from grubler.mechanism.dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
-from grubler.errors import IntegrationError, LimitError, SceneError
+from grubler.errors import Cancelled, IntegrationError, LimitError, SceneError
 from grubler.mechanism.integrators import Integrator, StateEquation, StepBudgetError
 from grubler.limits import check_size
 from grubler.mechanism.model import Mechanism, coordinate_names
@@ -468,6 +468,7 @@ def simulate(
     step: float | None = None,
     torque: TorqueLike | None = None,
     load_torque: float | None = None,
+    cancel=None,
 ) -> Result:
     """Simulate a scene and return its trajectory.
 
@@ -491,6 +492,9 @@ def simulate(
     torque : float or callable, optional
         Drive effort (N m, or N on a slide), constant or a function of time.
     load_torque : float, optional
+    cancel : threading.Event, optional
+        Checked between slices of the output grid (some 1 % of the run each):
+        once it is set, the run stops with :class:`grubler.errors.Cancelled`.
 
     Returns
     -------
@@ -524,7 +528,15 @@ def simulate(
     if times[-1] < t_end - 1e-12:
         times = np.append(times, t_end)
     try:
-        zs, zds = sim.advance_through(times)
+        if cancel is None:
+            zs, zds = sim.advance_through(times)
+        else:  # slices: one call each, the flag read in between (a compiled call cannot be interrupted)
+            parts = []
+            for piece in np.array_split(times, min(len(times), 100)):
+                if cancel.is_set():
+                    raise Cancelled("run", f"cancelled at t = {sim.t:.6g} s")
+                parts.append(sim.advance_through(piece))
+            zs, zds = np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
     except StepBudgetError as exc:
         # refused at its pace, long before the step budget itself is spent: name what sets the pace
         efforts = (f"the drive torque {torque:g} N m (--torque) and " if not callable(torque) and torque else "") + \

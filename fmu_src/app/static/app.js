@@ -1,0 +1,850 @@
+// grubler app: the page.  Every number comes from the server (the library's own
+// functions); this file draws, animates and plots what it is sent, and sends edits.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const SVG = "http://www.w3.org/2000/svg";
+const COLOURS = ["#1f6feb", "#e8590c", "#2da44e", "#8250df", "#bf3989", "#0a7b83", "#9a6700"];
+const state = {
+  scene: null, analysis: null, run: null, box: null, trace: "",
+  playing: false, t: 0, last: 0, panels: [], zoom: null,
+  inflight: false, queued: null, dragging: null,
+};
+// latencies the benchmark reads (ms): a drag move to its redraw, a click on Simulate to the first frame
+window.grublerStats = { drag: [], simulate: [] };
+
+// -- talking to the server --------------------------------------------------------------------------
+async function api(name, body) {
+  const r = await fetch("/api/" + name, {
+    method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
+  });
+  const out = await r.json();
+  if (out.error && !out.scene) {
+    const e = new Error(out.error.reason);
+    e.field = out.error.field;
+    throw e;
+  }
+  return out;
+}
+
+function notice(text, bad) {
+  const n = $("notice");
+  n.textContent = text;
+  n.className = bad ? "bad" : "";
+  if (!bad) setTimeout(() => { if (n.textContent === text) n.textContent = ""; }, 4000);
+}
+
+// -- the scene: facts, problems, form -----------------------------------------------------------------
+async function analyse(body, opts = {}) {
+  const out = await api(body.action || "analyse", { trace: state.trace, ...body, action: undefined });
+  show(out, opts);
+  return out;
+}
+
+function show(out, opts = {}) {
+  state.scene = out.scene;
+  state.analysis = out;
+  const c = out.class;
+  $("kind").textContent = c ? c.name + (c.inversion ? " — " + c.inversion : "") : "–";
+  $("grashof").textContent = c && c.grashof
+    ? `${c.grashof.kind}: s + l = ${fmt(c.grashof.s_plus_l)} m, p + q = ${fmt(c.grashof.p_plus_q)} m`
+    : (c ? "not a four-bar of pins" : "–");
+  $("grashof").title = c && c.grashof ? c.grashof.detail : "";
+  $("mobility").textContent = c ? String(c.mobility) : "–";
+  $("branch").textContent = out.branch
+    ? `${out.branch.angles.length ? out.branch.angles.join(", ") + " deg" : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
+    : (out.closed === false ? "the loop does not close" : "–");
+  const problem = $("problem");
+  problem.hidden = !out.problem;
+  problem.textContent = out.problem ? `${out.problem.field}: ${out.problem.reason}` : "";
+  if (!opts.keepFields) renderFields(out.fields);
+  document.querySelectorAll("#fields .err").forEach((e) => { e.textContent = ""; });
+  const target = out.error && document.querySelector(`[data-err="${CSS.escape(out.error.field)}"]`);
+  if (target) target.textContent = out.error.reason;
+  const error = $("error");
+  error.textContent = out.error && !target ? `${out.error.field}: ${out.error.reason}` : "";
+  error.hidden = !error.textContent;
+  if (out.trace && !$("trace").value) $("trace").value = out.trace;
+  if (out.frame) {
+    if (opts.fit || !state.box) fitView([out.frame, out.curve]);
+    pause();
+    state.showingRun = false;
+    $("edit-mode").disabled = true;
+    drawScene(out);
+  }
+  if (!opts.dragging) remember();
+}
+
+function fmt(v) { return Number(v).toPrecision(4).replace(/\.?0+$/, "").replace(/\.?0+e/, "e"); }
+
+function renderFields(fields) {
+  const form = $("fields");
+  const focused = document.activeElement && document.activeElement.dataset.key;
+  form.textContent = "";
+  let group = null;
+  for (const f of fields || []) {
+    const head = f.key.includes(".") ? f.key.split(".")[0] : "scene";
+    if (head !== group) {
+      group = head;
+      const h = document.createElement("h3");
+      h.textContent = head;
+      form.appendChild(h);
+    }
+    const row = document.createElement("div");
+    row.className = "row";
+    const label = document.createElement("label");
+    const id = "f-" + f.key.replace(/[^A-Za-z0-9]/g, "_");
+    label.htmlFor = id;
+    const leaf = f.key.slice(head === "scene" ? 0 : head.length + 1);
+    label.innerHTML = "";
+    label.append(leaf, " ");
+    if (f.unit) {
+      const u = document.createElement("span");
+      u.className = "unit";
+      u.textContent = "(" + f.unit + ")";
+      label.append(u);
+    }
+    label.title = f.key + (f.unit ? " in " + f.unit : "");
+    const input = document.createElement(f.choices ? "select" : "input");
+    input.id = id;
+    input.dataset.key = f.key;
+    for (const c of f.choices || []) {
+      const o = document.createElement("option");
+      o.textContent = c;
+      input.appendChild(o);
+    }
+    input.value = Array.isArray(f.value) ? "[" + f.value.join(", ") + "]" : String(f.value);
+    input.addEventListener("change", () => edit(f.key, input.value));
+    const err = document.createElement("div");
+    err.className = "err";
+    err.dataset.err = f.key;
+    row.append(label, input, err);
+    form.appendChild(row);
+  }
+  if (focused) {
+    const again = form.querySelector(`[data-key="${CSS.escape(focused)}"]`);
+    if (again) again.focus();
+  }
+}
+
+async function edit(key, value) {
+  try {
+    await analyse({ action: "edit", scene: state.scene, key, value });
+  } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+}
+
+// -- the URL holds the scene, so a link can be shared ---------------------------------------------------
+function b64(text) {
+  const bytes = new TextEncoder().encode(text);
+  let s = "";
+  for (const b of bytes) s += String.fromCharCode(b);
+  return btoa(s).replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "");
+}
+function unb64(s) {
+  const bin = atob(s.replace(/-/g, "+").replace(/_/g, "/"));
+  return new TextDecoder().decode(Uint8Array.from(bin, (c) => c.charCodeAt(0)));
+}
+function remember() {
+  if (state.scene) history.replaceState(null, "", "#scene=" + b64(JSON.stringify(state.scene)));
+}
+
+// -- the drawing ---------------------------------------------------------------------------------------
+function fitView(things) {
+  const pts = points(things).concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
+  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+  if (!xs.length) return;
+  let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
+  const span = Math.max(x1 - x0, y1 - y0, 1e-3);
+  const pad = 0.15 * span;
+  state.box = { x: x0 - pad, y: y0 - pad, w: x1 - x0 + 2 * pad, h: y1 - y0 + 2 * pad, span };
+  const svg = $("drawing");
+  // world y points up: the content is drawn in a group flipped about y = 0
+  svg.setAttribute("viewBox", `${state.box.x} ${-(state.box.y + state.box.h)} ${state.box.w} ${state.box.h}`);
+}
+
+function points(things) {
+  const out = [];
+  for (const f of things) {
+    if (!f) continue;
+    if (Array.isArray(f)) { out.push(...f); continue; }
+    f.bars.forEach((b) => { out.push(b, [b[2], b[3]]); });
+    out.push(...f.joints, ...f.fixed, ...f.blocks);
+    f.plates.forEach((pl) => out.push(...pl));
+  }
+  return out;
+}
+
+function inView(things) {
+  const b = state.box;
+  return !!b && points(things).every((p) => p[0] >= b.x && p[0] <= b.x + b.w && p[1] >= b.y && p[1] <= b.y + b.h);
+}
+
+function frameMarkup(f, cls) {
+  const s = state.box.span;
+  const r = 0.012 * s;
+  let out = `<g class="${cls || ""}">`;
+  for (const g of f.guides) {
+    const [x, y, a] = g, L = 0.6 * s;
+    out += `<line class="guide" x1="${x - L * Math.cos(a)}" y1="${y - L * Math.sin(a)}" x2="${x + L * Math.cos(a)}" y2="${y + L * Math.sin(a)}"/>`;
+  }
+  for (const pl of f.plates) out += `<polygon class="plate" points="${pl.map((p) => p.join(",")).join(" ")}"/>`;
+  for (const b of f.bars) out += `<line class="bar-link" x1="${b[0]}" y1="${b[1]}" x2="${b[2]}" y2="${b[3]}"/>`;
+  for (const b of f.blocks) {
+    const w = 4 * r, h = 2.6 * r, deg = (b[2] * 180) / Math.PI;
+    out += `<rect class="block" x="${-w / 2}" y="${-h / 2}" width="${w}" height="${h}" transform="translate(${b[0]},${b[1]}) rotate(${deg})"/>`;
+  }
+  for (const p of f.fixed) {
+    out += `<path class="fixed" d="M${p[0]},${p[1]} l${-1.6 * r},${-2.6 * r} h${3.2 * r} z"/>`;
+  }
+  for (const p of f.joints) out += `<circle class="joint" cx="${p[0]}" cy="${p[1]}" r="${r}"/>`;
+  return out + "</g>";
+}
+
+function polyline(points, cls) {
+  if (!points || points.length < 2) return "";
+  return `<polyline class="${cls}" points="${points.map((p) => p[0] + "," + p[1]).join(" ")}"/>`;
+}
+
+function drawScene(out) {
+  const s = state.box.span;
+  let html = `<g transform="scale(1,-1)">`;
+  // the curve over the links' plates, which would hide it where it crosses them
+  html += frameMarkup(out.frame, out.closed === false ? "open" : "");
+  html += polyline(out.curve, "curve");
+  for (const h of out.handles || []) {
+    html += `<circle class="handle${state.dragging && state.dragging.id === h.id ? " active" : ""}" data-handle="${h.id}" cx="${h.xy[0]}" cy="${h.xy[1]}" r="${0.028 * s}"><title>drag: sets ${h.sets}</title></circle>`;
+  }
+  $("drawing").innerHTML = html + "</g>";
+}
+
+function drawRunFrame() {
+  const run = state.run;
+  if (!run) return;
+  state.showingRun = true;
+  $("edit-mode").disabled = false;
+  const i = frameAt(state.t);
+  const path = run.path.slice(0, rowAt(state.t) + 1);
+  let html = `<g transform="scale(1,-1)">` + frameMarkup(run.frames[i]) + polyline(run.path, "path");
+  const p = path[path.length - 1];
+  if (p) html += `<circle class="tracer" cx="${p[0]}" cy="${p[1]}" r="${0.01 * state.box.span}"/>`;
+  $("drawing").innerHTML = html + "</g>";
+  $("clock").textContent = `t = ${state.t.toFixed(3)} s`;
+  $("scrub").value = String(state.t);
+  drawCursors();
+}
+
+function search(ts, t) {
+  let lo = 0, hi = ts.length - 1;
+  while (lo < hi) {
+    const mid = (lo + hi + 1) >> 1;
+    if (ts[mid] <= t + 1e-12) lo = mid; else hi = mid - 1;
+  }
+  return lo;
+}
+function frameAt(t) { return search(state.run.frame_t, t); }
+function rowAt(t) { return search(state.run.t, t); }
+
+function toWorld(evt) {
+  const g = $("drawing").querySelector("g");
+  const pt = new DOMPoint(evt.clientX, evt.clientY).matrixTransform(g.getScreenCTM().inverse());
+  return [pt.x, pt.y];
+}
+
+// dragging a handle: one request in flight, the newest position waiting behind it
+function setupDrag() {
+  const svg = $("drawing");
+  svg.addEventListener("pointerdown", (evt) => {
+    const id = evt.target.dataset && evt.target.dataset.handle;
+    if (!id || !state.scene) return;
+    stopRun();
+    state.dragging = { id, start: state.scene };
+    svg.setPointerCapture(evt.pointerId);
+    evt.preventDefault();
+  });
+  svg.addEventListener("pointermove", (evt) => {
+    if (!state.dragging) return;
+    const [x, y] = toWorld(evt);
+    state.queued = { x, y, at: performance.now(), drag: state.dragging };
+    pump();
+  });
+  // a double click on a link traces that point of it
+  svg.addEventListener("dblclick", async (evt) => {
+    if (!state.analysis || state.showingRun || (evt.target.dataset && evt.target.dataset.handle)) return;
+    const [x, y] = toWorld(evt);
+    try {
+      const { trace } = await api("pick", { scene: state.scene, x, y });
+      $("trace").value = trace;
+      state.trace = trace;
+      await analyse({ scene: state.scene });
+      notice("tracing " + trace);
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+  });
+  const end = () => {
+    if (!state.dragging) return;
+    state.dragging = null;
+    const settle = async () => {
+      if (state.analysis && state.analysis.scene) await analyse({ scene: state.scene });  // the full curve
+      // the drag may have carried the mechanism out of view: bring it back, handles included
+      const a = state.analysis;
+      if (a && a.frame && !inView([a.frame, (a.handles || []).map((h) => h.xy)])) {
+        fitView([a.frame, a.curve]);
+        drawScene(a);
+      }
+    };
+    const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : settle());
+    wait();
+  };
+  svg.addEventListener("pointerup", end);
+  svg.addEventListener("pointercancel", end);
+}
+
+async function pump() {
+  if (state.inflight || !state.queued) return;
+  const { x, y, at, drag } = state.queued;  // the drag it belongs to: the last move may land after the release
+  state.queued = null;
+  state.inflight = true;
+  try {
+    const live = state.dragging === drag;  // the move after the release gets the full curve
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live });
+    show(out, { dragging: true });
+    window.grublerStats.drag.push(performance.now() - at);
+  } catch (e) {
+    notice(`${e.field}: ${e.message}`, true);
+  } finally {
+    state.inflight = false;
+    if (state.queued) requestAnimationFrame(pump);
+  }
+}
+
+// -- running and playing -------------------------------------------------------------------------------
+async function simulate() {
+  const t0 = performance.now();
+  $("simulate").disabled = true;
+  $("cancel").disabled = false;
+  $("run-status").textContent = "simulating…";
+  $("field-t_end").textContent = "";
+  stopRun();
+  try {
+    const run = await api("simulate", {
+      scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
+    });
+    decodeColumns(run.columns);
+    state.run = run;
+    state.t = 0;
+    fitView([...run.frames.filter((_, i) => i % 10 === 0), run.path]);
+    $("scrub").max = String(run.t[run.t.length - 1]);
+    $("scrub").disabled = false;
+    $("play").disabled = false;
+    $("png").disabled = false;
+    $("csv").classList.remove("disabled");
+    $("csv").href = "/api/result.csv?name=" + encodeURIComponent(state.scene.name || "run");
+    drawRunFrame();
+    if (!state.panels.length) defaultPanels();
+    drawPanels();
+    window.grublerStats.simulate.push(performance.now() - t0);
+    $("run-status").textContent = run.summary;
+    play();
+  } catch (e) {
+    const at = e.field === "t_end" ? $("field-t_end") : $("run-status");
+    at.textContent = `${e.field}: ${e.message}`;
+    if (at !== $("run-status")) $("run-status").textContent = "";
+  } finally {
+    $("simulate").disabled = false;
+    $("cancel").disabled = true;
+  }
+}
+
+function decodeColumns(columns) {  // float32 columns, base64: decoded once
+  for (const c of columns) {
+    const bytes = Uint8Array.from(atob(c.f32), (ch) => ch.charCodeAt(0));
+    c.values = new Float32Array(bytes.buffer);
+  }
+}
+
+function play() {
+  if (!state.run) return;
+  const end = state.run.t[state.run.t.length - 1];
+  if (state.t >= end) state.t = 0;
+  state.playing = true;
+  state.last = performance.now();
+  $("play").textContent = "Pause";
+  requestAnimationFrame(tick);
+}
+function pause() {
+  if (!state.playing) return;
+  state.playing = false;
+  $("play").textContent = "Play";
+}
+function stopRun() {
+  if (state.playing) pause();
+}
+function tick(now) {
+  if (!state.playing) return;
+  const end = state.run.t[state.run.t.length - 1];
+  // true speed: simulated seconds follow the wall clock, times the chosen factor
+  state.t = Math.min(end, state.t + ((now - state.last) / 1000) * Number($("speed").value));
+  state.last = now;
+  drawRunFrame();
+  if (state.t >= end) { pause(); return; }
+  requestAnimationFrame(tick);
+}
+
+// -- graphs --------------------------------------------------------------------------------------------
+function defaultPanels() {
+  const names = state.run.columns.map((c) => c.name);
+  const drive = (state.analysis && state.analysis.drive) || names[1];
+  state.panels = [[names.includes(drive) ? drive : names[1]], [names.includes("E") ? "E" : names[2]]];
+  renderPanelControls();
+}
+
+function renderPanelControls() {
+  const host = $("panels");
+  host.textContent = "";
+  state.panels.forEach((series, k) => {
+    const div = document.createElement("div");
+    div.className = "panel";
+    const bar = document.createElement("div");
+    bar.className = "series";
+    series.forEach((name, j) => {
+      const chip = document.createElement("span");
+      chip.className = "chip";
+      chip.style.background = COLOURS[j % COLOURS.length];
+      chip.textContent = label(name);
+      const x = document.createElement("button");
+      x.textContent = "×";
+      x.title = "remove";
+      x.addEventListener("click", () => { series.splice(j, 1); renderPanelControls(); drawPanels(); });
+      chip.appendChild(x);
+      bar.appendChild(chip);
+    });
+    const pick = document.createElement("select");
+    pick.setAttribute("aria-label", "add a signal to these axes");
+    pick.innerHTML = `<option value="">add signal…</option>`;
+    for (const c of (state.run ? state.run.columns : [])) {
+      if (c.name === "t") continue;
+      const o = document.createElement("option");
+      o.value = c.name;
+      o.textContent = c.label;
+      pick.appendChild(o);
+    }
+    pick.addEventListener("change", () => {
+      if (pick.value && !series.includes(pick.value)) series.push(pick.value);
+      renderPanelControls(); drawPanels();
+    });
+    const drop = document.createElement("button");
+    drop.textContent = "Remove axes";
+    drop.addEventListener("click", () => { state.panels.splice(k, 1); renderPanelControls(); drawPanels(); });
+    bar.append(pick, drop);
+    const svg = document.createElementNS(SVG, "svg");
+    svg.dataset.panel = String(k);
+    div.append(bar, svg);
+    host.appendChild(div);
+    setupZoom(svg);
+  });
+}
+
+function label(name) {
+  const c = state.run && state.run.columns.find((x) => x.name === name);
+  return c ? c.label : name;
+}
+
+function ticks(lo, hi, n) {
+  const step0 = (hi - lo) / n;
+  const mag = Math.pow(10, Math.floor(Math.log10(step0)));
+  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= step0) || step0;
+  const out = [];
+  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+  return out;
+}
+
+// one plot: signals against time over [t0, t1], with optional horizontal limit lines
+function plot(svg, t, cols, t0, t1, opts = {}) {
+  const W = svg.clientWidth || 800, H = opts.height || 220, L = 64, R = 12, T = 10, B = 26;
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  let lo = Infinity, hi = -Infinity;
+  for (const c of cols) {
+    for (let i = 0; i < t.length; i++) {
+      const v = c.values[i];
+      if (t[i] >= t0 && t[i] <= t1 && isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    }
+  }
+  for (const h of opts.limits || []) { lo = Math.min(lo, h.value); hi = Math.max(hi, h.value); }
+  if (!isFinite(lo)) { lo = -1; hi = 1; }
+  if (hi - lo < 1e-12 * Math.max(1, Math.abs(hi))) { lo -= 1; hi += 1; }
+  const pad = 0.05 * (hi - lo);
+  lo -= pad; hi += pad;
+  const X = (v) => L + ((v - t0) / (t1 - t0 || 1)) * (W - L - R);
+  const Y = (v) => T + (1 - (v - lo) / (hi - lo)) * (H - T - B);
+  const text = (x, y, anchor, fill, body) =>
+    `<text x="${x}" y="${y}" text-anchor="${anchor}" font-size="11" fill="${fill}" font-family="sans-serif">${escapeXml(body)}</text>`;
+  let html = `<rect x="0" y="0" width="${W}" height="${H}" fill="#fff"/>`;
+  for (const v of ticks(lo, hi, 5)) {
+    html += `<line x1="${L}" x2="${W - R}" y1="${Y(v)}" y2="${Y(v)}" stroke="#e1e4e8"/>` + text(L - 6, Y(v) + 4, "end", "#57606a", fmt(v));
+  }
+  for (const v of ticks(t0, t1, 8)) {
+    html += `<line x1="${X(v)}" x2="${X(v)}" y1="${T}" y2="${H - B}" stroke="#eef0f2"/>` + text(X(v), H - B + 15, "middle", "#57606a", fmt(v));
+  }
+  html += text(W - R, H - 3, "end", "#57606a", "time, s");
+  html += `<rect x="${L}" y="${T}" width="${W - L - R}" height="${H - T - B}" fill="none" stroke="#afb8c1"/>`;
+  for (const h of opts.limits || []) {
+    html += `<line x1="${L}" x2="${W - R}" y1="${Y(h.value)}" y2="${Y(h.value)}" stroke="#b42318" stroke-dasharray="6 3"/>`;
+    html += text(W - R - 4, Y(h.value) - 3, "end", "#b42318", h.label);
+  }
+  cols.forEach((c, j) => {
+    let d = "";
+    const step = Math.max(1, Math.floor(t.length / (4 * W)));  // no more points than the pixels show
+    for (let i = 0; i < t.length; i += step) {
+      const v = c.values[i];
+      if (!isFinite(v) || t[i] < t0 || t[i] > t1) continue;
+      d += (d ? "L" : "M") + X(t[i]).toFixed(1) + "," + Y(v).toFixed(1);
+    }
+    const colour = COLOURS[j % COLOURS.length];
+    html += `<path d="${d}" fill="none" stroke="${colour}" stroke-width="1.5"/>`;
+    html += `<text x="${L + 8}" y="${T + 14 + 14 * j}" font-size="11.5" fill="${colour}" font-family="sans-serif">${escapeXml(c.label)}</text>`;
+  });
+  if (opts.cursor !== undefined) {
+    html += `<line class="cursor" x1="${X(opts.cursor)}" x2="${X(opts.cursor)}" y1="${T}" y2="${H - B}" stroke="#1d232a" stroke-dasharray="3 3"/>`;
+    html += `<rect class="zoombox" x="0" y="${T}" width="0" height="${H - T - B}"/>`;
+  }
+  svg.innerHTML = html;
+  svg.dataset.x0 = t0; svg.dataset.x1 = t1; svg.dataset.l = L; svg.dataset.r = W - R;
+}
+
+function drawPanels() {
+  if (!state.run) return;
+  const t = state.run.t;
+  const [t0, t1] = state.zoom || [t[0], t[t.length - 1]];
+  document.querySelectorAll("#panels svg").forEach((svg) => {
+    const series = state.panels[Number(svg.dataset.panel)] || [];
+    const cols = series.map((n) => state.run.columns.find((c) => c.name === n)).filter(Boolean);
+    plot(svg, t, cols, t0, t1, { cursor: state.t });
+  });
+}
+
+function drawCursors() {
+  document.querySelectorAll("#panels svg").forEach((svg) => {
+    const c = svg.querySelector(".cursor");
+    if (!c) return;
+    const L = +svg.dataset.l, Rr = +svg.dataset.r, t0 = +svg.dataset.x0, t1 = +svg.dataset.x1;
+    const x = L + ((state.t - t0) / (t1 - t0 || 1)) * (Rr - L);
+    c.setAttribute("x1", x); c.setAttribute("x2", x);
+  });
+}
+
+function escapeXml(s) { return String(s).replace(/[<>&"]/g, (c) => ({ "<": "&lt;", ">": "&gt;", "&": "&amp;", '"': "&quot;" })[c]); }
+
+function setupZoom(svg) {
+  let from = null;
+  const xAt = (evt) => {
+    const box = svg.getBoundingClientRect();
+    const vb = svg.viewBox.baseVal;
+    return ((evt.clientX - box.left) / box.width) * vb.width;
+  };
+  const timeAt = (x) => +svg.dataset.x0 + ((x - +svg.dataset.l) / (+svg.dataset.r - +svg.dataset.l)) * (+svg.dataset.x1 - +svg.dataset.x0);
+  svg.addEventListener("pointerdown", (evt) => { from = xAt(evt); svg.setPointerCapture(evt.pointerId); });
+  svg.addEventListener("pointermove", (evt) => {
+    if (from === null) return;
+    const z = svg.querySelector(".zoombox");
+    const x = xAt(evt);
+    if (z) { z.setAttribute("x", Math.min(from, x)); z.setAttribute("width", Math.abs(x - from)); }
+  });
+  svg.addEventListener("pointerup", (evt) => {
+    if (from === null) return;
+    const x = xAt(evt);
+    const a = timeAt(Math.min(from, x)), b = timeAt(Math.max(from, x));
+    from = null;
+    // a click is no zoom, and redraws nothing: a redraw between the two clicks of a
+    // double click would replace the element under the mouse, and the double click is lost
+    if (b - a > 0.01 * (+svg.dataset.x1 - +svg.dataset.x0)) {
+      state.zoom = [a, b];
+      drawPanels();
+    } else {
+      const z = svg.querySelector(".zoombox");
+      if (z) z.setAttribute("width", 0);
+    }
+  });
+  svg.addEventListener("dblclick", () => { state.zoom = null; drawPanels(); });
+}
+
+async function exportPng() {
+  const svgs = [...document.querySelectorAll("#panels svg")];
+  if (!svgs.length) return;
+  const W = Math.max(...svgs.map((s) => s.viewBox.baseVal.width)), H = 220;
+  const canvas = document.createElement("canvas");
+  canvas.width = W * 2; canvas.height = H * svgs.length * 2;
+  const ctx = canvas.getContext("2d");
+  ctx.scale(2, 2);
+  for (let k = 0; k < svgs.length; k++) {
+    const copy = svgs[k].cloneNode(true);
+    copy.setAttribute("xmlns", SVG);
+    copy.setAttribute("width", W); copy.setAttribute("height", H);
+    copy.querySelectorAll(".zoombox").forEach((z) => z.remove());
+    const url = "data:image/svg+xml;charset=utf-8," + encodeURIComponent(new XMLSerializer().serializeToString(copy));
+    const img = new Image();
+    await new Promise((ok, fail) => { img.onload = ok; img.onerror = fail; img.src = url; });
+    ctx.drawImage(img, 0, H * k, W, H);
+  }
+  const a = document.createElement("a");
+  a.download = (state.scene && state.scene.name || "run") + "-graphs.png";
+  a.href = canvas.toDataURL("image/png");
+  a.click();
+}
+
+// -- the servo drive and the sizing study -------------------------------------------------------------------
+function servoSettings() {
+  const out = {};
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => { out[e.dataset.key] = e.value; });
+  return out;
+}
+
+async function setupServo() {
+  const d = await api("servo_defaults", {});
+  const sel = $("s-motor");
+  for (const m of d.motors) {
+    const o = document.createElement("option");
+    o.textContent = m;
+    sel.appendChild(o);
+  }
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    if (d[e.dataset.key] !== undefined) e.value = String(d[e.dataset.key]);
+  });
+  $("servo-run").addEventListener("click", runServo);
+  $("sizing-run").addEventListener("click", runSizing);
+  // a new gain re-runs the response at once, once there is one to compare
+  document.querySelectorAll("#servo-form .gain").forEach((e) => e.addEventListener("change", () => {
+    if (state.servo) runServo();
+  }));
+}
+
+async function runServo() {
+  const t0 = performance.now();
+  $("servo-run").disabled = true;
+  $("servo-error").textContent = "";
+  $("servo-status").textContent = "co-simulating…";
+  try {
+    const out = await api("servo", { scene: state.scene, servo: servoSettings() });
+    decodeColumns(out.columns);
+    state.servo = out;
+    const col = (n) => out.columns.find((c) => c.name === n);
+    const lim = out.limits;
+    const host = $("servo-plots");
+    host.textContent = "";
+    const panels = [
+      [[col("error")], []],
+      [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
+        { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
+        ? [{ value: lim.nominal_current, label: "motor's nominal (continuous) current" }] : [])],
+      [[col("voltage"), col("command")], [{ value: lim.supply_voltage, label: "supply" }, { value: -lim.supply_voltage, label: "" }]],
+    ];
+    for (const [cols, limits] of panels) {
+      const svg = document.createElementNS(SVG, "svg");
+      host.appendChild(svg);
+      plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits });
+    }
+    window.grublerStats.servo = (window.grublerStats.servo || []).concat([performance.now() - t0]);
+    $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
+  } catch (e) {
+    $("servo-error").textContent = `${e.field}: ${e.message}`;
+    $("servo-status").textContent = "";
+  } finally {
+    $("servo-run").disabled = false;
+  }
+}
+
+async function runSizing() {
+  $("sizing-run").disabled = true;
+  $("servo-error").textContent = "";
+  $("sizing-status").textContent = "sizing: every motor at every ratio…";
+  try {
+    const out = await api("sizing", { scene: state.scene, servo: servoSettings() });
+    const table = $("sizing");
+    table.innerHTML = "<tr><th>#</th><th>motor</th><th>ratio</th><th>margin</th><th>binding limit</th>" +
+      "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th><th class=\"why\">why not</th></tr>";
+    const fits = out.rows.filter((r) => r.fits).length;
+    const shown = out.rows.slice(0, fits + 5);  // the ones that fit, and the nearest misses
+    shown.forEach((r, k) => {
+      const tr = document.createElement("tr");
+      if (!r.fits) tr.className = "no";
+      for (const v of [r.fits ? k + 1 : "×", r.motor, r.ratio, r.margin, r.binding, r.peak_current, r.peak_voltage, r.rpm]) {
+        const td = document.createElement("td");
+        td.textContent = String(v);
+        tr.appendChild(td);
+      }
+      const why = document.createElement("td");
+      why.className = "why";
+      why.textContent = r.why_not;
+      tr.appendChild(why);
+      table.appendChild(tr);
+    });
+    $("sizing-status").textContent = `${out.cycle}: ${fits} of ${out.rows.length} motor × ratio combinations fit, ` +
+      `best first` + (out.rows.length > shown.length ? `; the ${out.rows.length - shown.length} further misses are not shown` : "");
+  } catch (e) {
+    $("servo-error").textContent = `${e.field}: ${e.message}`;
+    $("sizing-status").textContent = "";
+  } finally {
+    $("sizing-run").disabled = false;
+  }
+}
+
+// -- files ---------------------------------------------------------------------------------------------
+async function download() {
+  const { toml } = await api("toml", { scene: state.scene });
+  const a = document.createElement("a");
+  a.download = (state.scene.name || "scene") + ".toml";
+  a.href = URL.createObjectURL(new Blob([toml], { type: "text/plain" }));
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+}
+
+// an export is a file, or a refusal in JSON
+async function exportFile(kind) {
+  notice(`exporting ${kind}…`);
+  const r = await fetch("/api/export", {
+    method: "POST", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ kind, scene: state.scene, servo: servoSettings() }),
+  });
+  if ((r.headers.get("Content-Type") || "").startsWith("application/json")) {
+    const out = await r.json();
+    notice(`${out.error.field}: ${out.error.reason}`, true);
+    return;
+  }
+  const name = (r.headers.get("Content-Disposition") || "").match(/filename="([^"]+)"/);
+  const a = document.createElement("a");
+  a.download = name ? name[1] : "export";
+  a.href = URL.createObjectURL(await r.blob());
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  notice("exported " + a.download);
+}
+
+async function listFiles() {
+  const { files } = await api("files", {});
+  const sel = $("files");
+  sel.innerHTML = `<option value="">open…</option>`;
+  for (const f of files) {
+    const o = document.createElement("option");
+    o.textContent = f;
+    sel.appendChild(o);
+  }
+}
+
+async function loadData(data, label) {
+  state.run = null;
+  state.panels = [];
+  state.zoom = null;
+  $("panels").textContent = "";
+  $("trace").value = "";
+  state.trace = "";
+  $("play").disabled = true;
+  $("scrub").disabled = true;
+  $("png").disabled = true;
+  $("csv").classList.add("disabled");
+  $("run-status").textContent = "";
+  await analyse({ scene: data }, { fit: true });
+  if (label) notice(label);
+}
+
+async function start() {
+  const cat = await api("catalog", {});
+  for (const p of cat.presets) {
+    const o = document.createElement("option");
+    o.value = p.name;
+    o.textContent = `${p.name} (${p.kind})`;
+    o.title = p.description;
+    $("preset").appendChild(o);
+  }
+  for (const t of cat.types) {
+    const o = document.createElement("option");
+    o.value = t.example;
+    o.textContent = t.type;
+    o.title = t.doc;
+    $("type").appendChild(o);
+  }
+  $("preset").addEventListener("change", async () => {
+    if (!$("preset").value) return;
+    const { scene } = await api("preset", { name: $("preset").value });
+    $("type").value = "";
+    await loadData(scene);
+  });
+  $("type").addEventListener("change", async () => {
+    if (!$("type").value) return;
+    const { scene } = await api("preset", { name: $("type").value });
+    $("preset").value = "";
+    await loadData(scene, `a ${$("type").selectedOptions[0].textContent} from the ${$("type").value} preset's dimensions`);
+  });
+  $("files").addEventListener("change", async () => {
+    if (!$("files").value) return;
+    try {
+      const { scene } = await api("open", { file: $("files").value });
+      await loadData(scene, "opened " + $("files").value);
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+  });
+  $("upload").addEventListener("change", async () => {
+    const file = $("upload").files[0];
+    if (!file) return;
+    try {
+      const { scene } = await api("parse", { toml: await file.text() });
+      await loadData(scene, "opened " + file.name);
+    } catch (e) { notice(`${file.name}: ${e.field}: ${e.message}`, true); }
+    $("upload").value = "";
+  });
+  $("save").addEventListener("click", async () => {
+    try {
+      const file = $("save-name").value.trim() || (state.scene.name || "scene") + ".toml";
+      const { saved } = await api("save", { scene: state.scene, file });
+      notice("saved " + saved);
+      listFiles();
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+  });
+  $("download").addEventListener("click", download);
+  $("export").addEventListener("change", async () => {
+    const kind = $("export").value;
+    $("export").value = "";
+    if (kind) await exportFile(kind);
+  });
+  $("share").addEventListener("click", async () => {
+    remember();
+    try { await navigator.clipboard.writeText(location.href); notice("link copied"); }
+    catch (e) { notice("copy the address bar: it holds the scene"); }
+  });
+  $("simulate").addEventListener("click", simulate);
+  $("cancel").addEventListener("click", () => api("cancel", {}));
+  $("play").addEventListener("click", () => (state.playing ? pause() : play()));
+  $("scrub").addEventListener("input", () => { pause(); state.t = Number($("scrub").value); drawRunFrame(); });
+  $("edit-mode").addEventListener("click", () => {
+    pause();
+    state.showingRun = false;
+    $("edit-mode").disabled = true;
+    if (state.analysis) { fitView([state.analysis.frame, state.analysis.curve]); drawScene(state.analysis); }
+  });
+  $("fit").addEventListener("click", () => {
+    if (state.run && state.showingRun) { fitView([...state.run.frames, state.run.path]); drawRunFrame(); }
+    else if (state.analysis) { fitView([state.analysis.frame, state.analysis.curve]); drawScene(state.analysis); }
+  });
+  $("trace").addEventListener("change", async () => {
+    state.trace = $("trace").value.trim();
+    await analyse({ scene: state.scene });
+  });
+  $("add-axes").addEventListener("click", () => { state.panels.push([]); renderPanelControls(); drawPanels(); });
+  $("png").addEventListener("click", exportPng);
+  window.addEventListener("resize", drawPanels);
+  document.addEventListener("keydown", (evt) => {
+    const typing = /^(INPUT|SELECT|TEXTAREA|BUTTON)$/.test(document.activeElement.tagName);
+    if (evt.key === " " && !typing && state.run) {
+      evt.preventDefault();
+      if (state.playing) pause(); else play();
+    }
+  });
+  setupDrag();
+  listFiles();
+  setupServo();
+  let data = cat.start;
+  const m = location.hash.match(/^#scene=([A-Za-z0-9_-]+)$/);
+  if (m) {
+    try { data = JSON.parse(unb64(m[1])); } catch (e) { notice("the link's scene cannot be read", true); }
+  }
+  if (!data) data = (await api("preset", { name: "fourbar-crank-rocker" })).scene;
+  await loadData(data);
+}
+
+start();

@@ -1,0 +1,393 @@
+"""The browser app's server without a browser: its safety rules, its answers, its sessions.
+
+Each test talks HTTP to a real server on 127.0.0.1 (a free port), as the page
+does; tests/test_app_browser.py drives the page itself.
+"""
+
+import http.client
+import json
+import threading
+import time
+import tomllib
+
+import pytest
+
+from grubler import cli
+from grubler.app import actions
+from grubler.app.server import AppServer
+from grubler.errors import Cancelled
+from grubler.mechanism.scene import preset_names, scene_from_dict
+from grubler.mechanism.simulate import simulate
+
+
+@pytest.fixture
+def app(tmp_path):
+    server = AppServer("127.0.0.1", 0, tmp_path)
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
+    thread.start()
+    yield server
+    server.shutdown()
+    server.server_close()
+
+
+def call(server, method, path, body=None, headers=None, cookie=None):
+    """(status, parsed JSON or text, the cookie the server set)."""
+    conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=60)
+    h = {"Host": f"127.0.0.1:{server.server_address[1]}"}
+    if body is not None:
+        h["Content-Type"] = "application/json"
+    if cookie:
+        h["Cookie"] = f"grubler_session={cookie}"
+    h.update(headers or {})
+    conn.request(method, path, None if body is None else json.dumps(body), h)
+    r = conn.getresponse()
+    data = r.read()
+    set_cookie = r.getheader("Set-Cookie") or ""
+    token = set_cookie.split(";")[0].split("=", 1)[1] if set_cookie else cookie
+    ctype = r.getheader("Content-Type") or ""
+    conn.close()
+    return r.status, (json.loads(data) if ctype.startswith("application/json") else data.decode()), token
+
+
+def post(server, action, body, cookie=None):
+    status, out, token = call(server, "POST", f"/api/{action}", body, cookie=cookie)
+    assert status == 200, out
+    return out, token
+
+
+# -- safety -------------------------------------------------------------------------------------------
+def test_a_foreign_host_is_refused_dns_rebinding(app):
+    status, out, _ = call(app, "GET", "/", headers={"Host": "attacker.example:80"})
+    assert status == 403 and out["error"]["field"] == "Host"
+    status, out, _ = call(app, "POST", "/api/preset", {"name": "thesis-fourbar"},
+                          headers={"Host": f"attacker.example:{app.server_address[1]}"})
+    assert status == 403
+
+
+def test_a_request_from_another_site_is_refused(app):
+    status, out, _ = call(app, "POST", "/api/files", {}, headers={"Origin": "http://evil.example"})
+    assert status == 403 and out["error"]["field"] == "Origin"
+    port = app.server_address[1]
+    status, out, _ = call(app, "POST", "/api/files", {}, headers={"Origin": f"http://127.0.0.1:{port}"})
+    assert status == 200 and "files" in out
+
+
+def test_only_json_posts_are_taken(app):
+    # a plain HTML form from another page can post text/plain without a preflight
+    status, out, _ = call(app, "POST", "/api/save", None,
+                          headers={"Content-Type": "text/plain", "Content-Length": "2"})
+    assert out["error"]["field"] == "request"
+
+
+def test_it_listens_on_the_loopback_only_by_default(app):
+    import socket
+
+    assert app.server_address[0] == "127.0.0.1"
+    assert cli.build_parser().parse_args(["app"]).host == "127.0.0.1"
+    # told to listen everywhere, it answers to this machine's names, still not to any name
+    wide = AppServer("0.0.0.0", 0)
+    try:
+        port = wide.server_address[1]
+        assert {f"127.0.0.1:{port}", f"{socket.gethostname()}:{port}"} <= wide.allowed_hosts
+        assert f"attacker.example:{port}" not in wide.allowed_hosts
+    finally:
+        wide.server_close()
+
+
+def test_files_outside_the_folder_are_neither_read_nor_written(app, tmp_path):
+    data = actions.preset_data("thesis-fourbar")
+    for name in ("../outside.toml", "/etc/passwd", "sub/../../outside.toml"):
+        out, _ = post(app, "open", {"file": name})
+        assert out["error"]["field"] == "file" and "outside the folder" in out["error"]["reason"]
+        out, _ = post(app, "save", {"file": name, "scene": data})
+        assert out["error"]["field"] == "file"
+    assert not (tmp_path.parent / "outside.toml").exists()
+    out, _ = post(app, "save", {"file": "mine.toml", "scene": data})
+    assert out == {"saved": "mine.toml"}
+    # what was saved is the CLI's format: the CLI reads it as the same scene
+    assert tomllib.loads((tmp_path / "mine.toml").read_text()) == data
+    out, _ = post(app, "files", {})
+    assert out["files"] == ["mine.toml"]
+    out, _ = post(app, "open", {"file": "mine.toml"})
+    assert out["scene"] == data
+
+
+def test_a_bad_value_gets_the_cli_message_next_to_its_field_never_a_traceback(app, tmp_path, capsys):
+    data = actions.preset_data("fourbar-crank-rocker")
+    out, _ = post(app, "edit", {"scene": data, "key": "mechanism.crank", "value": "-0.3"})
+    assert out["error"]["field"] == "mechanism.crank"
+    assert out["scene"]["mechanism"]["crank"] == -0.3  # kept, so the user sees what was refused
+    bad = tmp_path / "bad.toml"
+    bad.write_text(actions.scene_toml(out["scene"]))
+    assert cli.run(["info", str(bad)]) == 2
+    assert capsys.readouterr().err.strip() == f"grubler: error: mechanism.crank: {out['error']['reason']}"
+    for body in ({"scene": data, "key": "mechanism.crank", "value": "1e999"},
+                 {"scene": data, "key": "__class__", "value": 1},
+                 {"scene": "not a table"}, {"scene": data, "handle": "nowhere", "x": 0, "y": 0}):
+        out, _ = post(app, "edit" if "key" in body else "drag", body)
+        assert set(out["error"]) == {"field", "reason"} and "Traceback" not in out["error"]["reason"]
+    status, out, _ = call(app, "POST", "/api/nothing", {})
+    assert status == 200 and out["error"]["field"] == "action"
+
+
+# -- entering a mechanism -----------------------------------------------------------------------------------
+def test_dragging_the_rocker_pivot_past_the_grashof_limit_and_past_closing(app, tmp_path, capsys):
+    data = actions.preset_data("fourbar-crank-rocker")
+    out, _ = post(app, "analyse", {"scene": data})
+    assert out["class"]["grashof"]["kind"] == "crank-rocker" and out["class"]["mobility"] == 1
+    assert out["branch"]["count"] == 2 and out["branch"]["drive"] == "theta2"
+    # the branch by its angles, as `grubler info` lists it; the crossed one differs
+    crossed, _ = post(app, "edit", {"scene": data, "key": "mechanism.branch", "value": "crossed"})
+    assert len(out["branch"]["angles"]) == 2 and crossed["branch"]["angles"] != out["branch"]["angles"]
+    assert out["branch"]["angles"][0] in capture_info(data)
+    assert {h["id"] for h in out["handles"]} == {"A", "B", "O4"}
+    out, _ = post(app, "drag", {"scene": data, "handle": "O4", "x": 1.4, "y": 0.3})
+    assert out["scene"]["mechanism"]["ground"] == 1.4
+    assert out["class"]["grashof"]["kind"] == "triple-rocker" and out["closed"]
+    out, _ = post(app, "drag", {"scene": data, "handle": "O4", "x": 2.1, "y": 0})
+    assert not out["closed"] and out["curve"] == []
+    # the same words as `grubler info`
+    scene = tmp_path / "far.toml"
+    scene.write_text(actions.scene_toml(out["scene"]))
+    assert cli.run(["info", str(scene)]) == 2
+    err = capsys.readouterr().err
+    assert f"{out['problem']['field']}: {out['problem']['reason']}" in err
+    assert "the longest link (2.1 m) is not shorter than the other three together" in out["problem"]["reason"]
+
+
+def capture_info(data) -> str:
+    import contextlib
+    import io
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "scene.toml"
+        path.write_text(actions.scene_toml(data))
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert cli.run(["info", str(path)]) == 0
+    return out.getvalue()
+
+
+def test_every_type_and_preset_analyses_and_writes_back_as_the_same_toml():
+    cat = actions.catalog()
+    assert {t["type"] for t in cat["types"]} >= {"four-bar", "slider-crank", "watt-i", "watt-ii", "stephenson-i",
+                                                "stephenson-ii", "stephenson-iii"}
+    assert [p["name"] for p in cat["presets"]] == preset_names()
+    for name in preset_names():
+        data = actions.preset_data(name)
+        assert tomllib.loads(actions.scene_toml(data)) == data, name
+        out = actions.analyse(data)
+        assert out["closed"], name
+        if out["drive"] and scene_from_dict(data).mechanism.closures:
+            assert len(out["curve"]) > 10, name
+
+
+def test_a_coupler_curve_is_the_traced_point_over_a_full_turn_of_a_crank():
+    import math
+
+    data = actions.preset_data("fourbar-crank-rocker")
+    out = actions.analyse(data, trace="link3:0.45,0.225")
+    curve = out["curve"]
+    assert len(curve) == actions.SWEEP_STEPS + 1 and curve[0] == curve[-1]  # a crank turns fully
+    # the reference: the four-bar closed by hand (two circles), no kernel; the sweep starts at the
+    # scene's 30 deg and steps a whole turn evenly, on the sketch's ('open') branch
+    g, a, b, c = 1.0, 0.3, 0.9, 0.7
+    for k, (x, y) in enumerate(curve[:-1]):
+        t = math.radians(30) + 2 * math.pi * k / actions.SWEEP_STEPS
+        ax, ay = a * math.cos(t), a * math.sin(t)
+        dx, dy = g - ax, -ay
+        d = math.hypot(dx, dy)
+        along = (b * b - c * c + d * d) / (2 * d)
+        h = math.sqrt(b * b - along * along)
+        bx, by = ax + (along * dx - h * dy) / d, ay + (along * dy + h * dx) / d  # left of A -> O4
+        ex, ey = (bx - ax) / b, (by - ay) / b
+        px, py = ax + 0.45 * ex - 0.225 * ey, ay + 0.45 * ey + 0.225 * ex
+        assert math.hypot(x - px, y - py) < 2e-6, k
+    assert out["frame"]["fixed"] == [[0.0, 0.0], [1.0, 0.0]]
+
+
+def test_the_drag_applies_to_each_handle_what_it_stands_for():
+    data = actions.preset_data("stephenson-iii")
+    moved = actions.drag(data, "output_pivot", 0.5, -0.1)
+    assert moved["mechanism"]["output_pivot"] == [0.5, -0.1]
+    moved = actions.drag(data, "A", 0.0, 0.12)
+    assert moved["mechanism"]["crank"] == 0.12 and moved["mechanism"]["input_angle"] == "90 deg"
+    for preset, handle, xy, key, value in (("swinging-block", "pivot", (0.35, 0.02), "ground", 0.35),
+                                           ("quick-return", "pivot", (0.01, -0.3), "ground", 0.3),
+                                           ("pendulum-pump", "slide", (0.25, 0.1), "offset", 0.25)):
+        out = actions.analyse(actions.drag(actions.preset_data(preset), handle, *xy))
+        moved = actions.drag(actions.preset_data(preset), handle, *xy)
+        assert moved["mechanism"][key] == value and out["closed"], preset
+        assert any(h["id"] == handle and h["sets"] == f"mechanism.{key}" for h in out["handles"])
+    data = actions.preset_data("thesis-fourbar")
+    moved = actions.drag(data, "closure.point", 1.1, 0.05)
+    assert moved["closure"]["point"] == [1.1, 0.05]
+    moved = actions.drag(data, "link2.end", 0.0, 0.25)
+    assert moved["link2"]["a"] == 0.25 and moved["initial"]["theta2"] == "90 deg"
+    assert actions.analyse(moved)["closed"]
+
+
+def test_a_double_clicked_point_is_traced_on_the_link_under_it(app):
+    data = actions.preset_data("fourbar-crank-rocker")
+    point = actions.analyse(data, trace="link3:0.45,0.225")["curve"][0]  # where that coupler point is now
+    out, _ = post(app, "pick", {"scene": data, "x": point[0], "y": point[1]})
+    assert out == {"trace": "link3:0.45,0.225"}
+    out, _ = post(app, "pick", {"scene": data, "x": 1.0, "y": 0.35})  # beside the rocker, 1 m from the origin
+    assert out["trace"].startswith("link4:")
+    out, _ = post(app, "pick", {"scene": data, "x": "nan", "y": 0})
+    assert out["error"]["field"] == "trace"
+
+
+def test_the_form_names_each_value_as_the_toml_does_with_its_unit():
+    f = {x["key"]: x for x in actions.fields(actions.preset_data("thesis-fourbar"))}
+    assert f["link2.a"]["unit"] == "m" and f["link2.m"]["unit"] == "kg" and f["link2.I"]["unit"] == "kg m²"
+    assert f["initial.theta3"]["value"] == "pi/3" and f["initial.theta3"]["unit"].startswith("rad")
+    assert f["closure.point"]["value"] == [1.0, 0.0]
+    edited = actions.edit(actions.preset_data("thesis-fourbar"), "closure.point", "[1.2, 0.1]")
+    assert edited["closure"]["point"] == [1.2, 0.1]
+    menus = {x["key"]: x.get("choices") for x in actions.fields(actions.preset_data("stephenson-iii"))}
+    assert menus["mechanism.branch1"] == ["open", "crossed"] and menus["mechanism.coupler_side"] == ["left", "right"]
+    assert "stephenson-iii" in menus["mechanism.type"] and menus["mechanism.crank"] is None
+    assert actions.describe("theta3_d") == "angular rate of link 3 (theta3_d), rad/s"
+    assert actions.describe("E") == "total energy (E), J"
+
+
+def test_a_shared_scene_is_checked_as_the_cli_checks_a_file(app):
+    out, _ = post(app, "parse", {"toml": "[link2]\na = 'x'\n"})
+    assert out["error"]["field"] == "link2.a"
+    out, _ = post(app, "parse", {"toml": "this is = not toml ["})
+    assert out["error"]["field"] == "scene" and "TOML" in out["error"]["reason"]
+
+
+# -- runs: sessions, cancel -------------------------------------------------------------------------------
+def test_one_browser_session_never_sees_another_s_run(app):
+    data = actions.preset_data("thesis-fourbar")
+    status, page, alice = call(app, "GET", "/")
+    assert status == 200 and "<title>grubler</title>" in page and alice
+    view, _ = post(app, "simulate", {"scene": data, "t_end": 0.5}, cookie=alice)
+    assert view["t"][-1] == 0.5 and view["columns"][0]["name"] == "t"
+    status, text, _ = call(app, "GET", "/api/result.csv", cookie=alice)
+    assert status == 200 and text.startswith("t [s],B1 [m],theta2 [rad]")  # the CLI's own CSV, units in the headings
+    status, _, bob = call(app, "GET", "/")
+    assert bob != alice
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie=bob)
+    assert status == 404 and out["error"]["reason"] == "simulate first"
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie="made-up")  # a guessed token is a new session
+    assert status == 404
+
+
+def test_a_long_run_can_be_cancelled_and_the_server_keeps_serving_meanwhile(app):
+    data = actions.preset_data("thesis-fourbar")
+    _, _, token = call(app, "GET", "/")
+    answer = {}
+
+    def run():
+        try:
+            # some hours of motion on few rows: the integration is the long part, however fast the machine
+            answer["out"] = call(app, "POST", "/api/simulate", {"scene": data, "t_end": 20000, "dt_out": 10},
+                                 cookie=token)[1]
+        except Exception as exc:  # noqa: BLE001 (shown by the assertion below)
+            answer["out"] = exc
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    time.sleep(0.5)
+    assert worker.is_alive()
+    status, out, _ = call(app, "POST", "/api/preset", {"name": "oldham"})  # served while the run goes on
+    assert status == 200 and out["scene"]["name"] == "oldham"
+    for _ in range(60):  # a cancel that lands before the run has begun is no cancel: ask until it ends
+        post(app, "cancel", {}, cookie=token)
+        worker.join(0.5)
+        if not worker.is_alive():
+            break
+    assert not worker.is_alive()
+    out = answer["out"]
+    assert isinstance(out, dict), out
+    assert out["error"]["field"] == "run" and "cancelled at t =" in out["error"]["reason"]
+
+
+def test_simulate_stops_when_its_cancel_flag_is_set():
+    flag = threading.Event()
+    flag.set()
+    with pytest.raises(Cancelled, match="run: cancelled at t = 0 s"):
+        simulate("thesis-fourbar", t_end=1.0, cancel=flag)
+    # unset, the sliced run gives the unsliced one's answer (the same steps, the grid read in slices)
+    a = simulate("thesis-fourbar", t_end=1.0, cancel=threading.Event())
+    b = simulate("thesis-fourbar", t_end=1.0)
+    assert abs(a["theta2"] - b["theta2"]).max() < 1e-8
+
+
+def test_the_cli_refuses_a_bad_port_or_scene_in_one_line_before_listening(capsys, tmp_path):
+    assert cli.run(["app", "--port", "70000"]) == 2
+    assert "--port" in capsys.readouterr().err
+    assert cli.run(["app", str(tmp_path / "nosuch.toml"), "--no-browser"]) == 2
+    out = capsys.readouterr()
+    assert out.err.startswith("grubler: error: scene: ") and out.out == ""  # no URL: nothing listens
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[link2]\na = -1\n")
+    assert cli.run(["app", str(bad), "--no-browser"]) == 2
+    assert "link2" in capsys.readouterr().err
+
+
+def test_exports_are_what_the_cli_writes(app):
+    import io
+    import zipfile
+
+    data = actions.preset_data("thesis-fourbar")
+    _, _, token = call(app, "GET", "/")
+    status, out, _ = call(app, "POST", "/api/export", {"kind": "pdf", "scene": data}, cookie=token)
+    assert out["error"] == {"field": "report", "reason": "simulate first: the report is of the last run"}
+    post(app, "simulate", {"scene": data, "t_end": 0.5}, cookie=token)
+    conn = http.client.HTTPConnection("127.0.0.1", app.server_address[1], timeout=120)
+    for kind, name, head in (("pdf", "thesis_fourbar-report.pdf", b"%PDF"), ("fmu", "thesis_fourbar.fmu", b"PK")):
+        conn.request("POST", "/api/export", json.dumps({"kind": kind, "scene": data}),
+                     {"Host": f"127.0.0.1:{app.server_address[1]}", "Content-Type": "application/json",
+                      "Cookie": f"grubler_session={token}"})
+        r = conn.getresponse()
+        body = r.read()
+        assert r.status == 200 and f'filename="{name}"' in r.getheader("Content-Disposition")
+        assert body.startswith(head)
+    assert "modelDescription.xml" in zipfile.ZipFile(io.BytesIO(body)).namelist()
+    # the servo's FMUs come from dist/ in the app's folder: without them, the command that builds them
+    for action, body in (("export", {"kind": "ssp", "scene": data, "servo": {}}),
+                         ("servo", {"scene": data, "servo": {}})):
+        status, out, _ = call(app, "POST", f"/api/{action}", body)
+        assert out["error"]["field"] == "servo" and "python3 build_fmu.py" in out["error"]["reason"]
+
+
+def test_servo_settings_are_checked_by_name(app):
+    data = actions.preset_data("thesis-fourbar")
+    for servo, field in (({"K": "-1"}, "servo.K"), ({"motor": "maxon-re41"}, "servo.motor"),
+                         ({"step": "0"}, "servo.step"), ({"kind": "sine"}, "servo.kind")):
+        out, _ = post(app, "sizing", {"scene": data, "servo": servo})
+        assert out["error"]["field"] == field, out
+    out, _ = post(app, "sizing", {"scene": {**data, "drive": {}}, "servo": {}})
+    assert out["error"]["field"] == "drive.joint"
+    out, _ = post(app, "sizing", {"scene": actions.preset_data("triple-pendulum"), "servo": {}})
+    assert out["error"]["field"] == "mechanism" and "3" in out["error"]["reason"]  # the library's words
+
+
+def test_the_sizing_table_ranks_as_grubler_size_does(app, capsys):
+    data = actions.preset_data("thesis-fourbar")
+    out, _ = post(app, "sizing", {"scene": data, "servo": {}})
+    fits = [r for r in out["rows"] if r["fits"]]
+    assert fits and out["rows"][:len(fits)] == fits  # the ones that fit first, best first
+    assert [r["margin"] for r in fits] == sorted((r["margin"] for r in fits), reverse=True)
+    assert cli.run(["size", "thesis-fourbar", "--move", "trapezoid", "--distance", "3.141592653589793",
+                    "--reverse", "--supply", "48", "--current-limit", "10"]) == 0
+    best = capsys.readouterr().out.split("best first")[1].splitlines()[1]
+    assert fits[0]["motor"] in best and f"{fits[0]['ratio']}" in best
+
+
+def test_a_cancel_while_the_outputs_are_computed_is_honoured_too():
+    class LateFlag:  # clear through every slice of the integration, set once it is over
+        calls = 0
+
+        def is_set(self):
+            self.calls += 1
+            return self.calls > 100
+
+    with pytest.raises(Cancelled, match="its outputs were being computed"):
+        actions.run_simulation(actions.preset_data("thesis-fourbar"), 2.0, None, None, cancel=LateFlag())

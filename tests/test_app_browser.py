@@ -1,0 +1,267 @@
+"""The browser app in a real browser: headless Chromium driven by Playwright, one user journey.
+
+The journey: open the app, pick a preset, drag the rocker's ground pivot past
+the Grashof limit (and past where the loop closes) and read the message,
+mend a value in the form, simulate, pick a graph, export the scene and the
+run; a shared link reopens the scene.  Any console error fails the test.
+Screenshots of each stage land in the test's temporary folder (and in
+``$GRUBLER_APP_SCREENSHOTS`` when set, to look at).
+
+Chromium comes from the system (Debian's ``chromium`` package, which ``.ci/run``
+installs); Playwright never downloads a browser here.
+"""
+
+import os
+import shutil
+import threading
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from grubler.app.server import AppServer
+
+playwright_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e .[test])")
+
+
+def chromium_path() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return "/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None
+
+
+CHROMIUM = chromium_path()
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (Debian: apt-get install chromium)")
+
+
+@pytest.fixture
+def app(tmp_path):
+    server = AppServer("127.0.0.1", 0, tmp_path)
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
+    thread.start()
+    yield server
+    server.shutdown()
+    server.server_close()
+
+
+@pytest.fixture
+def browser():
+    with playwright_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def shots(tmp_path):
+    folder = Path(os.environ.get("GRUBLER_APP_SCREENSHOTS") or tmp_path / "shots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def watch_console(page) -> list:
+    errors = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    return errors
+
+
+def drag_handle(page, handle: str, x: float, y: float) -> None:
+    """Drag a handle of the drawing to world point (x, y), m, with the mouse, in steps."""
+    start = page.locator(f'circle.handle[data-handle="{handle}"]').bounding_box()
+    target = page.evaluate("""([x, y]) => {
+        const g = document.querySelector('#drawing g');
+        const p = new DOMPoint(x, y).matrixTransform(g.getScreenCTM());
+        return [p.x, p.y];
+    }""", [x, y])
+    page.mouse.move(start["x"] + start["width"] / 2, start["y"] + start["height"] / 2)
+    page.mouse.down()
+    for k in range(1, 9):
+        f = k / 8
+        page.mouse.move(start["x"] + start["width"] / 2 + f * (target[0] - start["x"] - start["width"] / 2),
+                        start["y"] + start["height"] / 2 + f * (target[1] - start["y"] - start["height"] / 2))
+        page.wait_for_timeout(30)
+    page.mouse.up()
+    # the last move's answer is on the page once no request is in flight
+    page.wait_for_function("() => window.grublerStats.drag.length > 0")
+    page.wait_for_timeout(300)
+
+
+def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
+    page = browser.new_page(viewport={"width": 1400, "height": 1000}, accept_downloads=True)
+    errors = watch_console(page)
+    page.goto(app.url)
+    page.wait_for_selector("#drawing circle.handle")
+
+    # pick a preset
+    page.select_option("#preset", "fourbar-crank-rocker")
+    page.wait_for_function("() => document.querySelector('#grashof').textContent.startsWith('crank-rocker')")
+    assert page.inner_text("#mobility") == "1"
+    assert "one of 2 found with theta2 held" in page.inner_text("#branch")
+    # a double click on the rocker traces that point of it
+    x, y = page.evaluate("""() => {
+        const p = new DOMPoint(1.0, 0.35).matrixTransform(document.querySelector('#drawing g').getScreenCTM());
+        return [p.x, p.y];
+    }""")
+    page.mouse.dblclick(x, y)
+    page.wait_for_function("() => document.querySelector('#trace').value.startsWith('link4:')")
+    page.screenshot(path=str(shots / "1-preset.png"))
+
+    # drag the rocker's ground pivot past the Grashof limit: a triple-rocker, still closing
+    drag_handle(page, "O4", 1.4, 0.0)
+    page.wait_for_function("() => document.querySelector('#grashof').textContent.startsWith('triple-rocker')")
+    assert page.input_value('[data-key="mechanism.ground"]') == "1.4"
+    page.screenshot(path=str(shots / "2-triple-rocker.png"))
+    # and further, where the loop cannot close: the words of `grubler info`
+    drag_handle(page, "O4", 2.1, 0.0)
+    page.wait_for_selector("#problem:not([hidden])")
+    problem = page.inner_text("#problem")
+    assert "the loop cannot be closed" in problem and "the longest link (2.1 m)" in problem
+    page.screenshot(path=str(shots / "3-cannot-close.png"))
+
+    # a bad value in the form: its one line sits next to the field
+    page.fill('[data-key="mechanism.ground"]', "-1")
+    page.press('[data-key="mechanism.ground"]', "Enter")
+    page.wait_for_selector('[data-err="mechanism.ground"]:has-text("length must be positive")')
+    page.fill('[data-key="mechanism.ground"]', "1.05")
+    page.press('[data-key="mechanism.ground"]', "Enter")
+    # the answer to 1.05: the loop closes again and the field's message is gone
+    page.wait_for_function("""() => document.querySelector('#problem').hidden &&
+        document.querySelector('[data-err="mechanism.ground"]').textContent === '' &&
+        document.querySelector('#grashof').textContent.startsWith('crank-rocker')""")
+
+    # simulate: the animation plays, the graphs come
+    page.fill("#t_end", "3")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    assert "points to t = 3 s" in page.inner_text("#run-status")
+    page.select_option(".panel >> nth=0 >> select", "tau_drive")
+    page.wait_for_selector('.chip:has-text("drive torque (tau_drive), N m")')
+    page.wait_for_timeout(400)
+    page.screenshot(path=str(shots / "4-simulated.png"), full_page=True)
+    # zoom: drag across a graph from a quarter to a half of its width; every graph follows
+    graph = page.locator("#panels svg >> nth=1")
+    graph.scroll_into_view_if_needed()
+    box = graph.bounding_box()
+    page.mouse.move(box["x"] + 0.25 * box["width"], box["y"] + 100)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.5 * box["width"], box["y"] + 100, steps=5)
+    page.mouse.up()
+    page.wait_for_function("() => [...document.querySelectorAll('#panels svg')].every((s) => +s.dataset.x1 < 2)")
+    span = page.eval_on_selector("#panels svg", "(s) => [+s.dataset.x0, +s.dataset.x1]")
+    assert 0.5 < span[0] < span[1] < 1.6
+    page.dblclick("#panels svg >> nth=1")
+    page.wait_for_function("() => +document.querySelector('#panels svg').dataset.x1 > 2.99")
+    page.click("#play")  # pause, then scrub to the end
+    page.eval_on_selector("#scrub", "(e) => { e.value = e.max; e.dispatchEvent(new Event('input')); }")
+    assert page.inner_text("#clock") == "t = 3.000 s"
+
+    # exports: the scene as TOML (the CLI's format), the run as CSV, the graphs as PNG
+    with page.expect_download() as dl:
+        page.click("#download")
+    scene = tomllib.loads(Path(dl.value.path()).read_text())
+    assert scene["mechanism"]["ground"] == 1.05
+    with page.expect_download() as dl:
+        page.click("#csv")
+    assert Path(dl.value.path()).read_text().startswith("t [s],B1 [m],theta2 [rad],")
+    with page.expect_download() as dl:
+        page.click("#png")
+    assert Path(dl.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    # saved into the app's folder, under the scene's name, as the CLI reads it
+    page.click("#save")
+    page.wait_for_selector('#notice:has-text("saved fourbar-crank-rocker.toml")')
+    from grubler import load_scene
+
+    assert load_scene(str(tmp_path / "fourbar-crank-rocker.toml")).mechanism.closures[0].to_point == (1.05, 0.0)
+
+    # the URL holds the scene: a second page opened on it shows the same scene
+    other = browser.new_page()
+    errors += watch_console(other)
+    other.goto(page.url)
+    other.wait_for_selector('[data-key="mechanism.ground"]')
+    assert other.input_value('[data-key="mechanism.ground"]') == "1.05"
+    assert errors == []
+
+
+def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = watch_console(page)
+    page.goto(app.url)
+    page.wait_for_selector("#drawing circle.handle")
+    page.select_option("#type", label="stephenson-iii")
+    page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
+    assert page.inner_text("#branch").endswith("one of 4 found with theta2 held")
+    drag_handle(page, "output_pivot", 0.45, -0.05)
+    assert page.input_value('[data-key="mechanism.output_pivot"]') == "[0.45, -0.05]"
+    # the other branch of the second loop, from the field's menu
+    page.select_option('[data-key="mechanism.branch2"]', "crossed")
+    page.wait_for_function("""() => document.querySelector('[data-key="mechanism.branch2"]').value === 'crossed'
+        && state.scene.mechanism.branch2 === 'crossed'""")
+    assert page.is_hidden("#problem")
+    page.screenshot(path=str(shots / "5-stephenson-iii.png"))
+    # a link whose scene is not a scene: refused where it is opened, in one line
+    page.goto(app.url + "#scene=eyJsaW5rMiI6IHsiYSI6ICJ4In19")  # {"link2": {"a": "x"}}
+    page.reload()
+    page.wait_for_selector('[data-err="link2.a"]:not(:empty)')
+    assert "link2.a" not in page.inner_text("#error")
+    assert errors == []
+
+
+@pytest.fixture(scope="module")
+def servo_app(tmp_path_factory):
+    """``grubler app`` in a process of its own, started in a folder whose dist/ holds the servo's FMUs.
+
+    (pythonfmu FMUs that ran numpy can corrupt the heap at interpreter exit: the CLI
+    leaves without the teardown, and this test's own process never loads them.)
+    """
+    import subprocess
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import build_fmu
+
+    folder = tmp_path_factory.mktemp("app")
+    build_fmu.build(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"], cwd=folder,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert line.startswith("grubler app: http://127.0.0.1:"), line + proc.stderr.read()
+    yield line.split()[2], folder
+    proc.send_signal(__import__("signal").SIGINT)
+    assert proc.wait(30) == 130
+
+
+def test_servo_tuning_sizing_and_the_system_export(servo_app, browser, shots):
+    url, folder = servo_app
+    page = browser.new_page(viewport={"width": 1400, "height": 1000}, accept_downloads=True)
+    errors = watch_console(page)
+    page.goto(url)
+    page.wait_for_selector("#drawing circle.handle")
+    page.select_option("#preset", "thesis-fourbar")
+    page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('four-bar')")
+    page.fill('#servo-form [data-key="t_end"]', "2")
+    page.click("#servo-run")
+    page.wait_for_selector("#servo-plots svg path", timeout=120_000)
+    first = page.inner_text("#servo-status")
+    assert first.startswith("2 s at 0.001 s steps") and "(limit 10 A)" in first and "(supply 48 V)" in first
+    # a softer gain: the response is re-run at once, and follows worse
+    page.fill('#servo-form [data-key="K"]', "60")
+    page.press('#servo-form [data-key="K"]', "Enter")
+    page.wait_for_function("() => (window.grublerStats.servo || []).length >= 2", timeout=120_000)
+    error = lambda text: float(text.split("tracking error up to ")[1].split(" rad")[0])  # noqa: E731
+    assert error(page.inner_text("#servo-status")) > error(first)
+    page.click("#sizing-run")
+    page.wait_for_selector("#sizing td", timeout=120_000)
+    assert "combinations fit, best first" in page.inner_text("#sizing-status")
+    assert page.inner_text("#sizing tr:nth-child(2) td:first-child") == "1"
+    page.locator("#servo").screenshot(path=str(shots / "6-servo.png"))
+    with page.expect_download(timeout=120_000) as dl:
+        page.select_option("#export", "ssp")
+    assert dl.value.suggested_filename == "thesis_fourbar_servo.ssp"
+    import zipfile
+
+    assert "resources/PID.fmu" in zipfile.ZipFile(dl.value.path()).namelist()
+    assert errors == []
