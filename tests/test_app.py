@@ -20,16 +20,6 @@ from grubler.mechanism.scene import preset_names, scene_from_dict
 from grubler.mechanism.simulate import simulate
 
 
-@pytest.fixture
-def app(tmp_path):
-    server = AppServer("127.0.0.1", 0, tmp_path)
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    thread.start()
-    yield server
-    server.shutdown()
-    server.server_close()
-
-
 def call(server, method, path, body=None, headers=None, cookie=None):
     """(status, parsed JSON or text, the cookie the server set)."""
     conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=60)

@@ -13,13 +13,11 @@ installs); Playwright never downloads a browser here.
 
 import os
 import shutil
-import threading
 import tomllib
 from pathlib import Path
 
 import pytest
 
-from grubler.app.server import AppServer
 
 playwright_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e .[test])")
 
@@ -34,16 +32,6 @@ def chromium_path() -> str | None:
 
 CHROMIUM = chromium_path()
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (Debian: apt-get install chromium)")
-
-
-@pytest.fixture
-def app(tmp_path):
-    server = AppServer("127.0.0.1", 0, tmp_path)
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-    thread.start()
-    yield server
-    server.shutdown()
-    server.server_close()
 
 
 @pytest.fixture
