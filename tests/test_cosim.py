@@ -228,3 +228,28 @@ def test_a_cosim_leaves_nothing_in_the_temporary_folder(mechanism_fmu, tmp_path,
                           capture_output=True, text=True, timeout=600, env={**os.environ, "TMPDIR": str(tmp)})
     assert proc.returncode == status, proc.stderr
     assert list(tmp.iterdir()) == []
+
+
+def test_a_run_can_be_cancelled_between_steps_and_runs_again_after(mechanism_fmu, tmp_path):
+    # the flag is read before each communication step; a stand-in that turns
+    # true on its 31st reading stops the run at the start of step 31 (t = 0.3 s)
+    from grubler.errors import Cancelled
+
+    class SetOnReading:
+        def __init__(self, n):
+            self.readings, self.n = 0, n
+
+        def is_set(self):
+            self.readings += 1
+            return self.readings >= self.n
+
+    s = ssp.System("alone", stop_time=1.0, step=0.01)
+    s.add("m", mechanism_fmu)
+    path = s.write(tmp_path / "alone.ssd")
+    flag = SetOnReading(31)
+    with pytest.raises(Cancelled, match=r"^run: cancelled at t = 0\.3 s$"):
+        cosim.run(path, cancel=flag)
+    assert flag.readings == 31
+    # the FMUs were freed: the same system runs to its end right after
+    res = cosim.run(path, cancel=SetOnReading(10 ** 9))
+    assert res.t[-1] == pytest.approx(1.0)

@@ -349,8 +349,11 @@ def a_servo_defaults(server, session, body):
 
 
 def a_servo(server, session, body):
-    # a co-simulation runs to its end (the runner has no cancel); the server serves meanwhile
-    return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"))
+    # a new run replaces this browser's run under way, and the cancel action stops it
+    session.cancel.set()
+    with session.lock:
+        session.cancel = threading.Event()
+        return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"), cancel=session.cancel)
 
 
 def a_sizing(server, session, body):

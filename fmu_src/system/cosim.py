@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from grubler.errors import GrublerError, InputError
+from grubler.errors import Cancelled, GrublerError, InputError
 from grubler.limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
                      temp_dir)
 from grubler.system.interface import FmuInterface, Port, generic_unit, units_compatible
@@ -463,7 +463,7 @@ class _Instance:
 
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
         start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
-        record_every: int = 1, step_order: list[str] | None = None) -> CosimResult:
+        record_every: int = 1, step_order: list[str] | None = None, cancel=None) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -490,11 +490,20 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         a step, so it is best stepped before the components that feed it
         continuous values (the mechanism, a trajectory), and after a sampled
         component that feeds it (an encoder).
+    cancel : threading.Event, optional
+        Read between communication steps: once set, the run stops with
+        :class:`grubler.errors.Cancelled` and every FMU is freed (an app's
+        cancel button, a new run that replaces this one).
 
     Returns
     -------
     CosimResult
         Its ``warnings`` name every time scale the step exceeds (:func:`time_scales`).
+
+    Raises
+    ------
+    Cancelled
+        When ``cancel`` was set during the run.
     """
     if not isinstance(system, System):
         system = read(system)
@@ -516,14 +525,14 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         raise SystemDescriptionError(f"system {brief(system.name)}: has no components")
     unzipped: dict[Path, Path] = {}  # each FMU unpacked once, into a folder removed on the way out
     try:
-        return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped)
+        return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel)
     finally:
         for folder in unzipped.values():
             remove_temp_dir(folder)
 
 
 def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: dict[Path, Path]) -> CosimResult:
+         step_order, unzipped: dict[Path, Path], cancel=None) -> CosimResult:
     interfaces = {}
     problems = []
     for name, comp in system.components.items():
@@ -649,6 +658,8 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         everyone = set(seq)
         t = t0
         for n in range(n_steps):
+            if cancel is not None and cancel.is_set():
+                raise Cancelled("run", f"cancelled at t = {t:.6g} s")
             h = min(step, t_end - t) if n == n_steps - 1 else step
             recording = (n + 1) % record_every == 0 or n == n_steps - 1
             # on a recorded step one read per component serves both the

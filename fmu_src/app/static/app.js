@@ -619,6 +619,7 @@ async function setupServo() {
 async function runServo() {
   const t0 = performance.now();
   $("servo-run").disabled = true;
+  $("cancel").disabled = false;  // the session's run under way, a co-simulation too
   $("servo-error").textContent = "";
   $("servo-status").textContent = "co-simulating…";
   try {
@@ -648,6 +649,7 @@ async function runServo() {
     $("servo-status").textContent = "";
   } finally {
     $("servo-run").disabled = false;
+    $("cancel").disabled = true;
   }
 }
 
