@@ -253,3 +253,23 @@ def test_a_run_can_be_cancelled_between_steps_and_runs_again_after(mechanism_fmu
     # the FMUs were freed: the same system runs to its end right after
     res = cosim.run(path, cancel=SetOnReading(10 ** 9))
     assert res.t[-1] == pytest.approx(1.0)
+
+
+def test_fmus_unpacked_once_serve_every_run_until_the_file_changes(mechanism_fmu, tmp_path):
+    import shutil
+
+    fmu = tmp_path / "M.fmu"
+    shutil.copy(mechanism_fmu, fmu)
+    s = ssp.System("alone", stop_time=0.2, step=0.01)
+    s.add("m", fmu)
+    path = s.write(tmp_path / "alone.ssd")
+    with cosim.UnpackedFMUs() as unpacked:
+        first = cosim.run(path, unpacked=unpacked)
+        folder = unpacked[fmu]
+        again = cosim.run(path, unpacked=unpacked)
+        assert unpacked[fmu] == folder and folder.is_dir()  # not unpacked again
+        np.testing.assert_array_equal(first.data, again.data)
+        os.utime(fmu, ns=(fmu.stat().st_atime_ns, fmu.stat().st_mtime_ns + 10 ** 9))  # the file changed
+        cosim.run(path, unpacked=unpacked)
+        assert unpacked[fmu] != folder
+    assert not folder.exists() and not unpacked._folders  # close removed every folder

@@ -581,7 +581,7 @@ def check_fmu_folder(d) -> None:
                                   "(python3 build_fmu.py, in the folder the app was started in)")
 
 
-def run_servo(data: dict, settings: dict, fmu_dir, cancel=None) -> dict:
+def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None) -> dict:
     """Co-simulate the servo drive of the scene (``grubler cosim`` of :func:`grubler.system.servo.servo_system`).
 
     Returns the tracking error, the current and the voltages over time (every
@@ -596,7 +596,7 @@ def run_servo(data: dict, settings: dict, fmu_dir, cancel=None) -> dict:
     system = servo_system(design, fmu_dir, name="app-servo")
     every = max(1, round(design.t_end / design.step / 2000))  # some 2000 rows: a graph's worth
     res = cosim.run(system, t_end=design.t_end, step=design.step, record=SERVO_SIGNALS, record_every=every,
-                    cancel=cancel)
+                    cancel=cancel, unpacked=unpacked)
     error = res["trajectory.position"] - res["mechanism.drive_angle"]
     motor = load_motor(design.motor)
     current, volts = res["motor.current"], res["motor.terminal_voltage"]

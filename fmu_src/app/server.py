@@ -33,6 +33,7 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
+from grubler.system import cosim
 from grubler import limits
 from grubler.app import actions
 from grubler.errors import GrublerError, InputError
@@ -65,6 +66,12 @@ class AppServer(ThreadingHTTPServer):
         port = self.server_address[1]
         self.allowed_hosts = {f"{n}:{port}" for n in host_names(host)}
         self.url = f"http://{'127.0.0.1' if host in ('0.0.0.0', '') else host}:{port}/"
+        # the servo's FMUs, unpacked once for every re-run (a gain tuned is a re-run)
+        self.unpacked = cosim.UnpackedFMUs()
+
+    def server_close(self) -> None:
+        super().server_close()
+        self.unpacked.close()
 
     def session(self, token: str | None) -> tuple[str, Session]:
         """The session a cookie names, or a new one (with its new token)."""
@@ -353,7 +360,8 @@ def a_servo(server, session, body):
     session.cancel.set()
     with session.lock:
         session.cancel = threading.Event()
-        return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"), cancel=session.cancel)
+        return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"), cancel=session.cancel,
+                                 unpacked=server.unpacked)
 
 
 def a_sizing(server, session, body):

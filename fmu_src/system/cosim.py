@@ -31,6 +31,7 @@ import ctypes
 import math
 import os
 import re
+import threading
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -463,7 +464,8 @@ class _Instance:
 
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
         start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
-        record_every: int = 1, step_order: list[str] | None = None, cancel=None) -> CosimResult:
+        record_every: int = 1, step_order: list[str] | None = None, cancel=None,
+        unpacked: "UnpackedFMUs | None" = None) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -494,6 +496,9 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         Read between communication steps: once set, the run stops with
         :class:`grubler.errors.Cancelled` and every FMU is freed (an app's
         cancel button, a new run that replaces this one).
+    unpacked : UnpackedFMUs, optional
+        Where the FMUs are unpacked and kept for later runs (default: unpacked
+        for this run alone and removed after it).
 
     Returns
     -------
@@ -523,16 +528,70 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         raise SystemDescriptionError(f"record_every: must be a whole number >= 1, got {brief(record_every)}")
     if not system.components:
         raise SystemDescriptionError(f"system {brief(system.name)}: has no components")
-    unzipped: dict[Path, Path] = {}  # each FMU unpacked once, into a folder removed on the way out
+    own = unpacked is None  # each FMU unpacked once, into a folder removed on the way out
+    unzipped = UnpackedFMUs() if own else unpacked
     try:
         return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel)
     finally:
-        for folder in unzipped.values():
-            remove_temp_dir(folder)
+        if own:
+            unzipped.close()
+
+
+class UnpackedFMUs:
+    """FMUs unpacked once and kept for the runs that follow (an app that re-runs one system).
+
+    A run given one reuses an FMU's folder while the file is unchanged (its
+    size and modification time), and unpacks it again when it changed;
+    :meth:`close` removes every folder. Threads may share one.
+
+    Examples
+    --------
+    >>> with UnpackedFMUs() as unpacked:
+    ...     pass        # cosim.run(system, unpacked=unpacked), as often as wanted
+    """
+
+    def __init__(self):
+        self._folders: dict[Path, tuple[tuple[int, int], Path]] = {}
+        self._old: list[Path] = []  # replaced folders: a run may still use one, so they go at close
+        self._lock = threading.Lock()
+
+    def folder(self, path: Path, field: str, where: str) -> Path:
+        """The folder holding the FMU at ``path`` unpacked (refusals name ``field``)."""
+        st = path.stat()
+        stamp = (st.st_size, st.st_mtime_ns)
+        with self._lock:
+            hit = self._folders.get(path)
+        if hit is not None and hit[0] == stamp:
+            return hit[1]
+        folder = temp_dir("grubler_fmu_")
+        extract_zip(path, folder, field, where=where)
+        with self._lock:
+            old = self._folders.get(path)
+            self._folders[path] = (stamp, folder)
+            if old is not None:
+                self._old.append(old[1])
+        return folder
+
+    def __getitem__(self, path: Path) -> Path:
+        return self._folders[path][1]
+
+    def close(self) -> None:
+        """Remove every folder."""
+        with self._lock:
+            folders = [f for _, f in self._folders.values()] + self._old
+            self._folders, self._old = {}, []
+        for f in folders:
+            remove_temp_dir(f)
+
+    def __enter__(self) -> "UnpackedFMUs":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: dict[Path, Path], cancel=None) -> CosimResult:
+         step_order, unzipped: "UnpackedFMUs", cancel=None) -> CosimResult:
     interfaces = {}
     problems = []
     for name, comp in system.components.items():
@@ -541,13 +600,11 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             problems.append(f"component {name}: FMU {clip(str(path), 240)} not found (run python build_fmu.py?)")
             continue
         try:
-            if path not in unzipped:
-                unzipped[path] = temp_dir("grubler_fmu_")
-                extract_zip(path, unzipped[path], f"component {name}", where=clip(comp.source))
-            if not (unzipped[path] / "modelDescription.xml").is_file():
+            folder = unzipped.folder(path, f"component {name}", clip(comp.source))
+            if not (folder / "modelDescription.xml").is_file():
                 problems.append(f"component {name}: {clip(comp.source)} is not an FMU (no modelDescription.xml)")
                 continue
-            interfaces[name] = FmuInterface.of(path, unzipped[path])
+            interfaces[name] = FmuInterface.of(path, folder)
         except InputError as exc:
             problems.append(f"component {name}: cannot read {exc.reason}")
         except Exception as exc:  # noqa: BLE001 - a broken FMU is one of the problems listed
@@ -723,5 +780,5 @@ def _last_message(inst: _Instance) -> str:
     return f": {inst.messages[-1]}" if inst.messages else ""
 
 
-__all__ = ["run", "check", "order", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
+__all__ = ["run", "UnpackedFMUs", "check", "order", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
            "GAUSS_SEIDEL", "JACOBI", "MASTERS"]
