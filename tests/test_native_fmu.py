@@ -31,13 +31,14 @@ MATCH = 1e-12
 
 @pytest.fixture(scope="session")
 def built(tmp_path_factory):
-    """dist/Mechanism.fmu and dist/DCMotor.fmu as build_fmu.py makes them, unzipped too."""
+    """dist/'s native FMUs as build_fmu.py makes them, unzipped too."""
     sys.path.insert(0, str(ROOT))
     import build_fmu
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor"]):
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor", "HydraulicCylinder",
+                                                                          "PneumaticCylinder"]):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, d, read_model_description(str(path)))
@@ -188,7 +189,7 @@ SCRIPTS = {name: _script(name) for name in RUNS}
 
 # -- the binary -----------------------------------------------------------------
 
-@BOTH
+@pytest.mark.parametrize("name", ["Mechanism", "DCMotor", "HydraulicCylinder", "PneumaticCylinder"])
 def test_the_binary_needs_no_python_and_exports_only_fmi2(built, name):
     so = built[name][1] / "binaries" / "linux64" / f"{name}.so"
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
@@ -1177,3 +1178,24 @@ def test_random_crafted_states_never_crash_hang_nor_corrupt_memory(built, saniti
     deser = t.statuses("deser")
     assert len(deser) == 150 and set(deser) == {OK, ERROR}  # some slots take any value (an input, the workspace)
     assert set(t.statuses("step")) <= {OK, WARNING, DISCARD, ERROR}  # never fmi2Fatal
+
+
+@pytest.mark.parametrize("name", ["HydraulicCylinder", "PneumaticCylinder"])
+def test_a_cylinder_runs_in_the_c_host_with_an_empty_environment_as_the_library_steps_it(host, built, name):
+    # no Python in the process: the C host loads the binary alone; the same C
+    # behind the library gives the same numbers
+    from grubler.motors.hydraulic import CylinderSimulator, DEFAULT as HYDRAULIC
+    from grubler.motors.pneumatic import DEFAULT as PNEUMATIC, PneumaticSimulator
+
+    h = host_for(host, built, name)
+    cylinder, sim = (HYDRAULIC, CylinderSimulator(HYDRAULIC)) if name == "HydraulicCylinder" else \
+        (PNEUMATIC, PneumaticSimulator(PNEUMATIC))
+    length, rate = cylinder.retracted_length + 0.5 * cylinder.stroke, 0.01
+    names = ("force", "pressure_a", "pressure_b", "spool")
+    t = h.run(h.start(md=built[name][2]) + [f"setr {h.vr['command']} 0.6", f"setr {h.vr['length']} {length!r}",
+                                            f"setr {h.vr['rate']} {rate!r}", h.run_steps(0.0, 1e-3, 200, *names)])
+    want = []
+    for k in range(200):
+        out = sim.step(0.6, length, rate, 1e-3)
+        want.append([(k + 1) * 1e-3] + [out[n] for n in names])
+    np.testing.assert_allclose(t.rows(), want, rtol=MATCH, atol=0)
