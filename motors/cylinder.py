@@ -18,6 +18,15 @@ from grubler.motors.native import CylinderBinding, CylinderInputs
 OK = 0  # enum hyd_status / pnc_status
 
 
+class Piston:
+    """What either cylinder's constants say of its piston (``bore`` and ``rod`` fields, m)."""
+
+    @property
+    def areas(self) -> tuple[float, float]:
+        """Cap-side and rod-side piston areas [m2] (as motors/kernel/cylinder.c computes them)."""
+        return 0.25 * math.pi * self.bore ** 2, 0.25 * math.pi * (self.bore ** 2 - self.rod ** 2)
+
+
 def check_constants(binding: CylinderBinding, constants) -> None:
     """Raise :class:`grubler.SceneError` naming the first field the C check refuses (a dataclass of numbers)."""
     for f in fields(constants):

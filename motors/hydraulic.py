@@ -27,7 +27,7 @@ import math
 from dataclasses import dataclass
 
 from grubler.errors import SceneError
-from grubler.motors.cylinder import CylinderRun, check_constants
+from grubler.motors.cylinder import CylinderRun, Piston, check_constants
 from grubler.motors.native import HYDRAULIC
 
 # hyd_params' fields in the header's order: name -> (description, unit, lower bound)
@@ -63,7 +63,7 @@ FIELDS = {
 
 
 @dataclass(frozen=True)
-class HydraulicCylinder:
+class HydraulicCylinder(Piston):
     """The constants of a cylinder, its proportional valve and its supply (SI, gauge pressures).
 
     The fields are the C model's ``hyd_params``, described in :data:`FIELDS`.
@@ -110,11 +110,6 @@ class HydraulicCylinder:
 
     def __post_init__(self):
         check_constants(HYDRAULIC, self)
-
-    @property
-    def areas(self) -> tuple[float, float]:
-        """Cap-side and rod-side piston areas [m2]."""
-        return 0.25 * math.pi * self.bore ** 2, 0.25 * math.pi * (self.bore ** 2 - self.rod ** 2)
 
 
 STATE_FIELDS = tuple(name for name, _ in HYDRAULIC.state._fields_)

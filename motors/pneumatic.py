@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 from grubler.errors import SceneError
-from grubler.motors.cylinder import CylinderRun, check_constants
+from grubler.motors.cylinder import CylinderRun, Piston, check_constants
 from grubler.motors.native import PNEUMATIC
 
 # pnc_params' fields in the header's order: name -> (description, unit, lower bound)
@@ -55,7 +55,7 @@ FIELDS = {
 
 
 @dataclass(frozen=True)
-class PneumaticCylinder:
+class PneumaticCylinder(Piston):
     """The constants of a pneumatic cylinder and its proportional valve (SI, gauge pressures).
 
     The fields are the C model's ``pnc_params``, described in :data:`FIELDS`.
@@ -98,11 +98,6 @@ class PneumaticCylinder:
 
     def __post_init__(self):
         check_constants(PNEUMATIC, self)
-
-    @property
-    def areas(self) -> tuple[float, float]:
-        """Cap-side and rod-side piston areas [m2]."""
-        return 0.25 * math.pi * self.bore ** 2, 0.25 * math.pi * (self.bore ** 2 - self.rod ** 2)
 
 
 STATE_FIELDS = tuple(name for name, _ in PNEUMATIC.state._fields_)
