@@ -436,9 +436,12 @@ class Integrator:
             out = np.empty((times.shape[0], n))
             a_times, a_out = binding.address(times), binding.address(out)
         self._callback_error = None
-        with _signals_kept(self, called_back=bool(st.drive_fn)):
-            status = _advance_fn(ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work,
-                                 a_stepper, self._why)
+        args = (ode.model.arrays.c, st, clock, a_y, a_f, a_times, times.shape[0], a_out, a_work, a_stepper, self._why)
+        if st.drive_fn:  # the kernel calls back into Python: signals are kept for the call
+            with _signals_kept(self):
+                status = _advance_fn(*args)
+        else:  # (a co-simulation step's hot path: no context manager to enter)
+            status = _advance_fn(*args)
         if self._callback_error is not None:
             raise self._callback_error
         if status != binding.OK:
@@ -461,7 +464,7 @@ class Integrator:
 
 
 @contextlib.contextmanager
-def _signals_kept(integ: Integrator, called_back: bool):
+def _signals_kept(integ: Integrator):
     """While the kernel calls back into Python, keep what a signal handler raises, and stop the run.
 
     Python runs a signal's handler at the next function it enters, which during a
@@ -469,10 +472,10 @@ def _signals_kept(integ: Integrator, called_back: bool):
     there, where ctypes can only print and drop it, and the run would go on.  The
     handlers are wrapped for the call instead: what they raise is kept as the
     callback's error (the run stops at the next evaluation) and raised once the
-    kernel has returned.  Only in the main thread (the one that runs handlers),
-    only when the kernel calls back.
+    kernel has returned.  Only in the main thread (the one that runs handlers);
+    the caller enters it only when the kernel calls back.
     """
-    if not called_back or threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
     saved = {}
