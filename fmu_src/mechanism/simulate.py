@@ -553,7 +553,10 @@ def simulate(
         raise
     res = Result(scene.mechanism, method, times, zs, zds, sim._inputs_at, sim.stats,
                  constant_inputs=None if callable(torque) else sim.inputs, warnings=warnings)
-    if scene.mechanism.closures:
+    if scene.mechanism.closures and method == PENALTY:
+        # only the penalty closure can open: the exact one assembles the start and
+        # projects every step onto the loop (and computing the closure column here
+        # would cost every run a pass over all its rows that it may never read)
         res.warnings += closure_warnings(scene.mechanism, times, res["closure_error"])
     return res
 
