@@ -43,7 +43,7 @@ from grubler.fmi.variables import ModelSpec
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
-WRAPPER = ("fmi2_wrapper.c", "fmi2_model.h")
+WRAPPER = ("fmi_common.c", "fmi_common.h", "fmi_model.h", "fmi2_model.h", "fmi2_wrapper.c")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 # not part of an FMU: the Python module entry of grubler._kernel; the complex-step
 # twins of the equations (*_cs.c, C99 complex arithmetic, which not every

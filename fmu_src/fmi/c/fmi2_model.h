@@ -1,126 +1,31 @@
-/* What the generic FMI 2.0 co-simulation wrapper (fmi2_wrapper.c) and a model
- * file (mechanism_model.c, motor_model.c) share.
- *
- * The wrapper owns the FMI side: the instance, the state machine, every
- * argument and state check, value references, types, logging, and the FMU
- * state (get/set/serialise).  The model owns the physics: it keeps everything
- * that must survive a rollback in the instance's persistent block of doubles
- * (parameters and inputs first, in the slots config.h and model_variables.c
- * give, then its own state), and whatever it can rebuild from that block in its
- * scratch memory.  Both files are plain C99; nothing is global.
+/* The model contract (fmi_model.h) under the FMI 2.0 names a model file may
+ * use: fmi2Status and its values, fmi2Real, fmi2ValueReference, ...  They are
+ * the contract's neutral types by other names, not the FMI 2.0 headers' own, so
+ * a model file that includes this header (and not the FMI headers) compiles
+ * unchanged behind either adapter, fmi2_wrapper.c or fmi3_wrapper.c.
  */
 #ifndef GRB_FMI2_MODEL_H
 #define GRB_FMI2_MODEL_H
 
-#include <stddef.h>
+#include "fmi_model.h"
 
-#include "fmi2Functions.h"
-#include "config.h"
-
-/* variable types and causalities, as grubler.fmi.variables codes them */
-enum { GRB_T_REAL = 0, GRB_T_INTEGER = 1, GRB_T_BOOLEAN = 2, GRB_T_STRING = 3 };
-enum { GRB_C_PARAMETER = 0, GRB_C_INPUT = 1, GRB_C_OUTPUT = 2 };
-
-typedef struct grb_variable {
-    const char *name;
-    int type, causality;
-    int slot;          /* parameter, input: index in the persistent block; output: in the model's output vector */
-    int level;         /* output: the model's output level that computes it */
-    int n_choices;     /* string parameter: accepted values, stored as their index */
-    const char *const *choices;
-    int enum_items;    /* enumeration: items 1 .. enum_items */
-    int min, max;      /* integer parameter bounds (both 0: none) */
-} grb_variable;
-
-extern const grb_variable model_variables[MODEL_N_VARIABLES];
-
-/* The persistent block: the parameters' and inputs' values (slots 0 ..
- * MODEL_N_STORED - 1), then for each slot 1.0 if the importer set it (a model
- * may default one parameter to another's value unless it was set), then the
- * model's own part from GRB_MODEL_BASE on. */
-#define GRB_WAS_SET(inst, slot) ((inst)->p[MODEL_N_STORED + (slot)] != 0.0)
-#define GRB_MODEL_BASE (2 * MODEL_N_STORED)
-extern const double model_starts[MODEL_N_STORED];
-
-/* FMI 2.0 co-simulation states, as bits so a call's allowed states are a mask */
-enum {
-    GRB_INSTANTIATED = 1 << 0,
-    GRB_INITIALIZATION = 1 << 1,
-    GRB_STEP_COMPLETE = 1 << 2,
-    GRB_TERMINATED = 1 << 3,
-    GRB_ERROR = 1 << 4
-};
-
-typedef struct grb_instance {
-    fmi2CallbackFunctions cb;   /* the memory functions, copied */
-    const fmi2CallbackFunctions *functions;  /* the importer's struct, valid until fmi2FreeInstance (FMI 2.0):
-                                              * its logger is read at each message, as hosts replace it */
-    char *name;
-    int state;                  /* one of the bits above */
-    int logging;                /* fmi2SetDebugLogging */
-    double start_time;          /* fmi2SetupExperiment */
-    int dirty;                  /* a parameter changed since the model last prepared */
-    int level;                  /* outputs valid for this state and inputs: the model's levels up to this */
-    double *p;                  /* persistent block, model_persistent_size() doubles */
-    void *model;                /* the model's scratch, model_scratch_bytes() */
-} grb_instance;
-
-/* Log a message (printf format) with a status; Warning and worse are logged
- * whether debug logging is on or not: they carry the reason an importer needs. */
-void grb_log(grb_instance *inst, fmi2Status status, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
+#ifdef fmi2TypesPlatform_h
+#error "fmi2_model.h is for model files: an adapter includes fmi_model.h beside the FMI headers"
 #endif
-    ;
 
-/* ---- provided by the model file ---------------------------------------- */
+typedef grb_fmi_status fmi2Status;
+#define fmi2OK GRB_FMI_OK
+#define fmi2Warning GRB_FMI_WARNING
+#define fmi2Discard GRB_FMI_DISCARD
+#define fmi2Error GRB_FMI_ERROR
+#define fmi2Fatal GRB_FMI_FATAL
 
-/* Doubles of the persistent block (at least MODEL_N_STORED). */
-size_t model_persistent_size(void);
-/* Bytes of scratch memory. */
-size_t model_scratch_bytes(void);
-/* The model's part of a fresh persistent block (after the parameters and inputs
- * got their start values): "not started". */
-void model_reset(grb_instance *inst);
-/* The model's checks of a persistent block's values: its parameters (those
- * values the wrapper's per-variable checks cannot judge: a length's sign, a
- * loop's joints, ...) and, when the block holds a started run, the run's state
- * (every number the model will compute with, ranges and finiteness).  fmi2Error
- * with a logged reason naming the field.  The one check for both ways values
- * arrive: model_prepare runs it on values the importer set, the wrapper on a
- * state before restoring it, so nothing in a block reaches the kernel unchecked. */
-fmi2Status model_check(grb_instance *inst, const double *block);
-/* Make the scratch (tables, the initial state unless the block holds a started
- * run) agree with the persistent block; called when inst->dirty.  fmi2Error with
- * a logged reason naming the parameter when model_check refuses the block. */
-fmi2Status model_prepare(grb_instance *inst);
-/* The run starts: from now on the persistent block holds a started run. */
-fmi2Status model_start(grb_instance *inst);
-/* Compute the outputs up to level (inst->level says what is valid). */
-fmi2Status model_compute(grb_instance *inst, int level);
-/* The output vector (MODEL_N_OUTPUTS doubles), valid up to inst->level. */
-const double *model_outputs(const grb_instance *inst);
-/* Highest output level that does not depend on the inputs. */
-int model_input_free_level(void);
-/* The time of the run (a started run). */
-double model_time(const grb_instance *inst);
-/* Does the model provide fmi2GetDirectionalDerivative (config.h, from its ModelSpec)? */
-#ifndef MODEL_DIRECTIONAL_DERIVATIVE
-#define MODEL_DIRECTIONAL_DERIVATIVE 0
-#endif
-#if MODEL_DIRECTIONAL_DERIVATIVE
-/* The outputs' derivative along a direction of the inputs at the present state
- * and inputs: dv_unknown[k] for output unknown[k], the direction dv_known[j] of
- * input known[j] (value references the wrapper has checked: Real outputs and
- * Real inputs, seeds finite, the model prepared). */
-fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
-                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
-                                        fmi2Real dv_unknown[]);
-#endif
-/* One communication step of h from t (the run's time, as the importer states
- * it); fmi2Discard with a logged reason when the inputs are not finite or the
- * integration fails (the run stays where it was).  On success the model sets
- * inst->level to what is valid for the new state. */
-fmi2Status model_do_step(grb_instance *inst, double t, double h);
+typedef grb_value_reference fmi2ValueReference;
+typedef double fmi2Real;
+typedef int fmi2Integer;
+typedef int fmi2Boolean;
+typedef const char *fmi2String;
+#define fmi2True 1
+#define fmi2False 0
 
 #endif
