@@ -1,13 +1,13 @@
 """Build the project's FMUs into dist/.
 
-    python build_fmu.py [--dest dist] [NAME ...]
+    python build_fmu.py [--dest dist] [--fmi 2|3] [NAME ...]
 
 The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
 defaults; every scene quantity a parameter), DCMotor.fmu (the maxon RE 40's
 data; every datasheet number a parameter) and HydraulicCylinder.fmu and
 PneumaticCylinder.fmu (a valve, a cylinder and its supply; every constant a
 parameter) are the C models behind one FMI 2.0
-wrapper, compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
+wrapper (``--fmi 3``: its FMI 3.0 adapter, the same model files), compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
 is installed), with its C sources inside.  It runs without Python.
 
 The controllers and the transducers stay pythonfmu FMUs, where Python is the
@@ -47,18 +47,25 @@ LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, 
 FMUS = [*NATIVE, *LAWS]
 
 
-def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Path]:
-    """Build the named FMUs (default: all) and return their paths."""
+def build(dest: Path = HERE / "dist", names: list[str] | None = None, fmi: int = 2) -> list[Path]:
+    """Build the named FMUs (default: all) and return their paths.
+
+    With ``fmi=3`` the native FMUs are FMI 3.0; the controllers (pythonfmu,
+    FMI 2.0 only) are not built.
+    """
     unknown = set(names or ()) - set(FMUS)
     if unknown:
         raise SystemExit(f"build_fmu: no FMU named {', '.join(sorted(unknown))} (have: {', '.join(FMUS)})")
+    python_only = sorted(set(names or ()) & set(LAWS)) if fmi != 2 else []
+    if python_only:
+        raise SystemExit(f"build_fmu: {', '.join(python_only)}: pythonfmu FMUs are FMI 2 only (--fmi 2)")
     dest.mkdir(parents=True, exist_ok=True)
     built = []
     for name, spec in NATIVE.items():
         if not names or name in names:
-            built.append(build_fmu(spec(), dest / f"{name}.fmu"))
+            built.append(build_fmu(spec(), dest / f"{name}.fmu", fmi=fmi))
     for name, law in LAWS.items():
-        if not names or name in names:
+        if (not names or name in names) and fmi == 2:
             built.append(build_controller_fmu(law, dest / f"{name}.fmu"))
     return built
 
@@ -66,9 +73,11 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None) -> list[Pa
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dest", type=Path, default=HERE / "dist")
+    ap.add_argument("--fmi", type=int, choices=[2, 3], default=2,
+                    help="FMI version of the native FMUs (default 2; the pythonfmu controllers are FMI 2 only)")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default all: {', '.join(FMUS)})")
     args = ap.parse_args()
-    for path in build(args.dest, args.names):
+    for path in build(args.dest, args.names, args.fmi):
         print(f"built {path}")
 
 

@@ -274,7 +274,7 @@ def cmd_app(args) -> int:
 def cmd_export(args) -> int:
     from grubler.fmi.build import export
 
-    path = export(args.scene, args.out, field="--out")
+    path = export(args.scene, args.out, field="--out", fmi=args.fmi)
     print(f"wrote {path}")
     return 0
 
@@ -586,9 +586,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     ap.add_argument("--no-browser", action="store_true", help="print the URL without opening a browser")
     ap.set_defaults(func=cmd_app)
-    e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
+    e = sub.add_parser("export", help="a native FMI 2.0 or 3.0 co-simulation FMU of a scene (no Python needed to run it)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
     e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")

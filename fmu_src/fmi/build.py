@@ -1,12 +1,14 @@
-"""Compile and package a native FMI 2.0 co-simulation FMU.
+"""Compile and package a native FMI 2.0 or 3.0 co-simulation FMU.
 
-The FMU holds the C sources in ``sources/`` (the kernel, the generic wrapper,
-the model file, the generated ``config.h`` and ``model_variables.c``, and the
-FMI 2.0 headers fmpy ships), listed in the model description, and the binaries
-compiled from exactly those files: ``binaries/linux64`` with ``cc`` and, when a
-MinGW-w64 cross compiler is installed (Debian: ``apt-get install
-gcc-mingw-w64-x86-64``), ``binaries/win64``.  Only the ``fmi2*`` functions are
-exported; the binary needs libc and libm, no Python.
+The FMU holds the C sources in ``sources/`` (the kernel, the generic wrapper
+with the adapter of its FMI version, the model file, the generated
+``config.h`` and ``model_variables.c``, and the FMI headers fmpy ships), listed
+in the model description (FMI 3.0: in ``sources/buildDescription.xml``), and
+the binaries compiled from exactly those files: ``binaries/linux64`` (FMI 3.0:
+``binaries/x86_64-linux``) with ``cc`` and, when a MinGW-w64 cross compiler is
+installed (Debian: ``apt-get install gcc-mingw-w64-x86-64``),
+``binaries/win64`` (``x86_64-windows``).  Only the ``fmi2*`` (``fmi3*``)
+functions are exported; the binary needs libc and libm, no Python.
 
 Examples
 --------
@@ -33,7 +35,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from grubler.errors import GrublerError, InputError, SceneError
-from grubler.fmi.description import model_description
+from grubler.fmi.description import fmi3_build_description, fmi3_model_description, model_description
 from grubler.fmi.header import config_header, variables_source
 from grubler.limits import PATH_CHARS, brief, output_file
 from grubler.mechanism.scene import Scene, load_scene
@@ -43,8 +45,14 @@ from grubler.fmi.variables import ModelSpec
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
-WRAPPER = ("fmi_common.c", "fmi_common.h", "fmi_model.h", "fmi2_model.h", "fmi2_wrapper.c")
+WRAPPER = ("fmi_common.c", "fmi_common.h", "fmi_model.h", "fmi2_model.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+FMI_VERSIONS = (2, 3)
+# each FMI version's adapter around the same model files, and its headers
+ADAPTER = {2: ("fmi2_wrapper.c", FMI_HEADERS),
+           3: ("fmi3_wrapper.c", ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h"))}
+# FMI 3.0 names a binary's folder by architecture and system
+FMI3_PLATFORM = {"linux64": "x86_64-linux", "win64": "x86_64-windows", "darwin64": "x86_64-darwin"}
 # not part of an FMU: the Python module entry of grubler._kernel; the complex-step
 # twins of the equations (*_cs.c, C99 complex arithmetic, which not every
 # importer's compiler has) only in a model that provides directional derivatives
@@ -74,8 +82,16 @@ def fmi_headers_dir() -> Path:
     return Path(fmpy.__file__).resolve().parent / "c-code"
 
 
-def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
-    """Write an FMU's ``sources/`` folder; the C files to compile, in order."""
+def check_fmi_version(fmi: int, field: str = "fmi") -> int:
+    """The FMI version asked for, if this package builds it."""
+    if fmi not in FMI_VERSIONS:
+        raise InputError(field, f"FMI version {fmi!r}: a native FMU is FMI 2 or FMI 3")
+    return fmi
+
+
+def stage_sources(spec: ModelSpec, sources: Path, fmi: int = 2) -> list[str]:
+    """Write an FMU's ``sources/`` folder for FMI version ``fmi``; the C files to compile, in order."""
+    adapter, fmi_headers = ADAPTER[check_fmi_version(fmi)]
     sources.mkdir(parents=True, exist_ok=True)
     dirs = _kernel_dirs()
     for key in spec.kernel_sources:
@@ -83,10 +99,10 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
         for f in sorted(f for pattern in patterns for f in folder.glob(pattern) if f.suffix in (".c", ".h", ".inc")):
             if f.name not in NOT_IN_FMU and (spec.defines.get(DIRECTIONAL) or not f.name.endswith("_cs.c")):
                 shutil.copy2(f, sources / f.name)
-    for name in (*WRAPPER, spec.model_source):
+    for name in (*WRAPPER, adapter, spec.model_source):
         shutil.copy2(C_DIR / name, sources / name)
     headers = fmi_headers_dir()
-    for name in FMI_HEADERS:
+    for name in fmi_headers:
         shutil.copy2(headers / name, sources / name)
     (sources / "config.h").write_text(config_header(spec))
     (sources / "model_variables.c").write_text(variables_source(spec))
@@ -113,7 +129,7 @@ def cross_compiler() -> str | None:
     return shutil.which(MINGW)
 
 
-def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
+def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None, fmi: int = 2) -> Path:
     """Build a native FMU of ``spec`` at ``dest`` (a ``.fmu`` path).
 
     Parameters
@@ -124,6 +140,9 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
         Also cross-compile ``binaries/win64`` (default: when MinGW-w64 is installed).
         On Windows the binary is ``win64`` anyway: with MinGW's ``gcc`` if on
         PATH, else with Visual Studio through fmpy's CMake project.
+    fmi : {2, 3}
+        The FMI version of the co-simulation interface: the same model behind
+        the FMI 2.0 or the FMI 3.0 adapter.
 
     Returns
     -------
@@ -137,8 +156,12 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
         spec = replace(spec, defines={**spec.defines, DIRECTIONAL: 0})
     with tempfile.TemporaryDirectory(prefix="grubler_native_") as tmp:
         root = Path(tmp)
-        files = stage_sources(spec, root / "sources")
-        (root / "modelDescription.xml").write_bytes(model_description(spec, files))
+        files = stage_sources(spec, root / "sources", fmi)
+        if fmi == 3:
+            (root / "modelDescription.xml").write_bytes(fmi3_model_description(spec))
+            (root / "sources" / "buildDescription.xml").write_bytes(fmi3_build_description(spec, files))
+        else:
+            (root / "modelDescription.xml").write_bytes(model_description(spec, files))
         name, src = spec.identifier, root / "sources"
         if sys.platform.startswith("linux"):
             compile_binary(src, files, root / "binaries" / "linux64" / f"{name}.so")
@@ -160,6 +183,8 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
                 raise BuildError(f"win64 binaries need the MinGW-w64 cross compiler ({MINGW}); Debian/Ubuntu: "
                                  "apt-get install gcc-mingw-w64-x86-64")
             compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", compiler, windows=True)
+        if fmi == 3:
+            fmi3_binary_folders(root / "binaries")
         dest.parent.mkdir(parents=True, exist_ok=True)
         partial = dest.with_name(dest.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
@@ -170,6 +195,21 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
     return dest
 
 
+def fmi3_binary_folders(binaries: Path) -> None:
+    """Rename FMI 2.0's binary folders (``linux64``, ...) to FMI 3.0's (``x86_64-linux``, ...)."""
+    import platform
+
+    # the folder compiled by this machine's own cc holds its own architecture
+    native = "darwin64" if sys.platform == "darwin" else "linux64"
+    arm = platform.machine().lower() in ("arm64", "aarch64")
+    for folder in list(binaries.iterdir()):
+        name = FMI3_PLATFORM.get(folder.name, folder.name)
+        if folder.name == native and arm:
+            name = name.replace("x86_64", "aarch64")
+        if name != folder.name:
+            folder.rename(binaries / name)
+
+
 def identifier_for(path: Path) -> str:
     """A modelIdentifier (a C identifier) from an FMU's file name."""
     ident = re.sub(r"\W", "_", Path(path).stem)
@@ -178,7 +218,7 @@ def identifier_for(path: Path) -> str:
     return ident
 
 
-def export(scene, dest: Path | None = None, win64: bool | None = None, field: str = "output") -> Path:
+def export(scene, dest: Path | None = None, win64: bool | None = None, field: str = "output", fmi: int = 2) -> Path:
     """Export a scene as a native mechanism FMU whose parameters default to the scene's values.
 
     Parameters
@@ -189,7 +229,10 @@ def export(scene, dest: Path | None = None, win64: bool | None = None, field: st
         The ``.fmu`` to write (default: ``<scene name>.fmu`` in the working folder).
     field : str
         The name a refused ``dest`` is reported under (the CLI's option).
+    fmi : {2, 3}
+        The FMI version (:func:`build_fmu`).
     """
+    check_fmi_version(fmi, "fmi")
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     dest = Path(dest) if dest is not None else Path(f"{scene.name or 'mechanism'}.fmu")
@@ -199,7 +242,7 @@ def export(scene, dest: Path | None = None, win64: bool | None = None, field: st
     # a scene that cannot start is refused as simulate refuses it (the loop that
     # does not close, a penalty closure without inertia), not found out by the importer
     Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)
-    return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, win64)
+    return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, win64, fmi)
 
 
 def scene_fmu(scene: Scene, fmu_dir) -> tuple:
