@@ -135,7 +135,7 @@ def main() -> None:
     (tmp / "bench_data.h").write_text(data_header(md))
     (tmp / "bench.c").write_text(PROGRAM)
     kernel = [str(p) for p in sorted(src.glob("*.c"))
-              if p.name not in ("fmi2_wrapper.c", "mechanism_model.c", "model_variables.c")]
+              if p.name not in ("fmi_common.c", "fmi2_wrapper.c", "mechanism_model.c", "model_variables.c")]
     exe = tmp / "bench"
     subprocess.run(["cc", "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I", str(src), "-I", str(tmp),
                     "-I", str(fmi_headers_dir()), str(tmp / "bench.c"), *kernel, "-o", str(exe), "-ldl", "-lm"],

@@ -1,7 +1,8 @@
-"""Native FMI 2.0 co-simulation FMUs: the C kernel behind a thin C wrapper.
+"""Native FMI 2.0 and 3.0 co-simulation FMUs: the C kernel behind a thin C wrapper.
 
 A native FMU runs no Python: its binary is the physics kernel
-(``fmu_src/kernel``) plus a generic FMI 2.0 wrapper (``c/fmi2_wrapper.c``) and
+(``fmu_src/kernel``) plus a generic FMI wrapper (``c/fmi_common.c`` behind the
+adapter of its FMI version, ``c/fmi2_wrapper.c`` or ``c/fmi3_wrapper.c``) and
 one model file per model (``c/mechanism_model.c``).  This package holds what
 writes such an FMU:
 

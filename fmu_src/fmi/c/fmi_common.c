@@ -19,7 +19,8 @@
  *   8       4     layout version (1)
  *   12      4     MODEL_N_STORED (parameter and input slots)
  *   16      4     doubles in the block (model_persistent_size())
- *   20      4     reserved, 0
+ *   20      4     the state machine's state when saved: GRB_STEP_COMPLETE and
+ *                 the like (fmi_model.h), 0 if not recorded
  *   24      8     FNV-1a 64 of MODEL_GUID: a state of another model is foreign
  *   32      8     FNV-1a 64 of the parameter and input slots' bytes
  *   40      8     FNV-1a 64 of the whole block's bytes
@@ -54,6 +55,7 @@
 typedef struct grb_saved {
     char tag[8];
     uint64_t guid;
+    int mode;  /* the state machine's state when saved (0: not recorded) */
     size_t n;
     double block[1];
 } grb_saved;
@@ -124,6 +126,18 @@ static const char *state_name(int state) {
 
 int grb_allowed(grb_instance *inst, const char *call, int mask) {
     if (inst == NULL) return 0;
+    if (inst->resume && inst->state == GRB_INSTANTIATED) {
+        /* A state saved while stepping and restored before initialisation: a
+         * call of step mode resumes the run there (as an importer that restores
+         * the mode with the state expects: fmusim's --initial-fmu-state-file),
+         * a call of initialisation takes the importer's own way there. */
+        if (!(mask & GRB_INSTANTIATED) && (mask & inst->resume)) {
+            inst->state = inst->resume;
+            inst->resume = 0;
+        } else if (!(mask & inst->resume)) {
+            inst->resume = 0;
+        }
+    }
     if (inst->state == GRB_ERROR) {
         grb_log(inst, GRB_FMI_ERROR, "%s refused: an earlier call failed (see the log); only fmi%dReset and "
                 "fmi%dFreeInstance are allowed now", call, inst->fmi, inst->fmi);
@@ -401,6 +415,7 @@ void grb_free_instance(grb_instance *inst) {
 
 void grb_reset(grb_instance *inst) {
     fresh_block(inst);
+    inst->resume = 0;
     inst->start_time = 0.0;
     inst->state = GRB_INSTANTIATED;
 }
@@ -624,6 +639,7 @@ grb_fmi_status grb_get_state(grb_instance *inst, const char *call, void **state)
         return grb_fail(inst, "%s: the FMU state given is not a state of this model (pass NULL for a new one)", call);
     if (saved == NULL && (saved = new_saved(inst)) == NULL) return grb_fail(inst, "%s: out of memory", call);
     memcpy(saved->block, inst->p, n * sizeof(double));
+    saved->mode = inst->state;
     *state = saved;
     return GRB_FMI_OK;
 }
@@ -634,6 +650,7 @@ grb_fmi_status grb_set_state(grb_instance *inst, const char *call, const void *s
         return grb_fail(inst, "%s: not a state of this model (another FMU's, or not a state at all)", call);
     if (!block_ok(inst, call, saved->block)) return GRB_FMI_ERROR;
     memcpy(inst->p, saved->block, model_persistent_size() * sizeof(double));
+    inst->resume = inst->state == GRB_INSTANTIATED && saved->mode == GRB_STEP_COMPLETE ? GRB_STEP_COMPLETE : 0;
     inst->dirty = 1;
     inst->level = 0;
     return GRB_FMI_OK;
@@ -641,6 +658,17 @@ grb_fmi_status grb_set_state(grb_instance *inst, const char *call, const void *s
 
 grb_fmi_status grb_free_state(grb_instance *inst, const char *call, void **state) {
     if (state == NULL) return grb_fail(inst, "%s: NULL FMU state pointer", call);
+    /* An importer that passes the state instead of its address (fmusim 0.0.39
+     * saving a final state does) hands us a state whose tag reads, as a
+     * pointer, as no address a 64-bit process can have: free that state
+     * rather than crash on the tag, and say so (the call did what it was for,
+     * so its status is OK). */
+    if (sizeof(void *) == 8 && memcmp(state, STATE_MAGIC, 8) == 0 && ours((const grb_saved *)state)) {
+        grb_log(inst, GRB_FMI_WARNING, "%s: given the FMU state itself, not the address of the importer's pointer "
+                "to it; freed, but the importer's pointer still points to the freed state", call);
+        inst->release(state);
+        return GRB_FMI_OK;
+    }
     if (*state != NULL) inst->release(*state);
     *state = NULL;
     return GRB_FMI_OK;
@@ -667,7 +695,7 @@ grb_fmi_status grb_serialize(grb_instance *inst, const char *call, const void *s
     put_u32(b + 8, STATE_VERSION);
     put_u32(b + 12, (uint32_t)MODEL_N_STORED);
     put_u32(b + 16, (uint32_t)n);
-    put_u32(b + 20, 0);
+    put_u32(b + 20, (uint32_t)saved->mode);
     put_u64(b + 24, guid_hash());
     put_doubles(b + STATE_HEADER, saved->block, n);
     put_u64(b + 32, fnv1a(FNV_OFFSET, b + STATE_HEADER, 8 * (size_t)MODEL_N_STORED));
@@ -696,6 +724,11 @@ grb_fmi_status grb_deserialize(grb_instance *inst, const char *call, const unsig
         return grb_fail(inst, "%s: the parameters' checksum does not match (corrupted state)", call);
     if (get_u64(b + 40) != fnv1a(FNV_OFFSET, b + STATE_HEADER, 8 * n))
         return grb_fail(inst, "%s: the state's checksum does not match (corrupted state)", call);
+    switch (get_u32(b + 20)) {
+    case 0: case GRB_INSTANTIATED: case GRB_INITIALIZATION: case GRB_STEP_COMPLETE: case GRB_TERMINATED: break;
+    default: return grb_fail(inst, "%s: the state machine's state %u is none of this FMU's (corrupted state)", call,
+                             (unsigned)get_u32(b + 20));
+    }
     saved = (grb_saved *)*state;
     if (saved != NULL && !ours(saved))
         return grb_fail(inst, "%s: the FMU state given is not a state of this model (pass NULL for a new one)", call);
@@ -705,6 +738,7 @@ grb_fmi_status grb_deserialize(grb_instance *inst, const char *call, const unsig
         uint64_t u = get_u64(b + STATE_HEADER + 8 * k);
         memcpy(&fresh->block[k], &u, 8);
     }
+    fresh->mode = (int)get_u32(b + 20);
     if (!block_ok(inst, call, fresh->block)) {
         inst->release(fresh);
         return GRB_FMI_ERROR;
@@ -713,6 +747,7 @@ grb_fmi_status grb_deserialize(grb_instance *inst, const char *call, const unsig
         *state = fresh;
     } else {
         memcpy(saved->block, fresh->block, n * sizeof(double));
+        saved->mode = fresh->mode;
         inst->release(fresh);
     }
     return GRB_FMI_OK;

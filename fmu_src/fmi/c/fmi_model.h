@@ -78,6 +78,8 @@ struct grb_instance {
     void (*host_log)(void);     /* the adapter's: FMI 3.0 the importer's logMessage (cast back to call it) */
     char *name;
     int state;                  /* one of the bits above */
+    int resume;                 /* a state saved while stepping, restored while instantiated: GRB_STEP_COMPLETE,
+                                 * entered by the first call that needs it unless the importer initialises */
     int logging;                /* fmi2SetDebugLogging, fmi3SetDebugLogging */
     double start_time;          /* fmi2SetupExperiment, fmi3EnterInitializationMode */
     int dirty;                  /* a parameter changed since the model last prepared */

@@ -1,0 +1,510 @@
+"""The native FMUs built as FMI 3.0 co-simulation: the same model files behind the FMI 3.0 adapter.
+
+The references: the FMI 2.0 build of the same model (the same C on the same
+code path, so the results agree to the bit), run by the same script through
+the FMI 2.0 C host (tests/fmi_host.c) and its FMI 3.0 twin (tests/fmi3_host.c),
+both with an empty environment; fmpy (validate, simulate) and fmusim, an
+importer that shares no code with ours; and the FMI 3.0 contract itself.
+
+fmusim is the FMI Reference FMUs' command-line importer: the tests find it by
+the environment variable GRUBLER_FMUSIM or on PATH, and skip, saying so, where
+it is absent (docs/fmi.md says how to build it).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grubler.fmi.build import fmi_headers_dir
+from test_native_fmu import (DISCARD, ERROR, OK, SANITIZE, SANITIZER_ENV, SCRIPTS, Host, Transcript, random_script,
+                             sanitized_binary)
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+NATIVE = ["Mechanism", "DCMotor", "HydraulicCylinder", "PneumaticCylinder"]
+EVERY = pytest.mark.parametrize("name", NATIVE)
+# each FMU's inputs held through a run (the cylinders: the valve open half way, the rod moving)
+INPUTS = {"Mechanism": {"motor_torque": 3.0}, "DCMotor": {"voltage": 24.0, "shaft_speed": 5.0},
+          "HydraulicCylinder": {"command": 0.5, "rate": 0.05}, "PneumaticCylinder": {"command": 0.5, "rate": 0.05}}
+
+
+def _build(tmp_path_factory, fmi: int) -> dict:
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+    from fmpy import read_model_description
+
+    out = {}
+    for path in build_fmu.build(tmp_path_factory.mktemp(f"fmi{fmi}"), NATIVE, fmi=fmi):
+        d = tmp_path_factory.mktemp(f"{path.stem}{fmi}")
+        zipfile.ZipFile(path).extractall(d)
+        out[path.stem] = (path, d, read_model_description(str(path)))
+    return out
+
+
+@pytest.fixture(scope="session")
+def built3(tmp_path_factory):
+    """build_fmu.py --fmi 3's native FMUs, unzipped too."""
+    return _build(tmp_path_factory, 3)
+
+
+@pytest.fixture(scope="session")
+def built2(tmp_path_factory):
+    """The same FMUs as FMI 2.0 (build_fmu.py's default)."""
+    return _build(tmp_path_factory, 2)
+
+
+def _compile_host(source: str, out: Path, flags=("-O2",)) -> Path:
+    subprocess.run(["cc", "-std=c99", *flags, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
+                    str(HERE / source), "-o", str(out), "-ldl"], check=True)
+    return out
+
+
+@pytest.fixture(scope="session")
+def hosts(tmp_path_factory):
+    d = tmp_path_factory.mktemp("hosts")
+    return {2: _compile_host("fmi_host.c", d / "fmi_host"), 3: _compile_host("fmi3_host.c", d / "fmi3_host")}
+
+
+class Host3(Host):
+    """The FMI 3.0 host: an enumeration is an Int64 there (setl), Int32 an Integer (seti)."""
+
+    def set_lines(self, params: dict, md) -> list[str]:
+        types = {v.name: v.type for v in md.modelVariables}
+        lines = []
+        for name, value in params.items():
+            if types[name] in ("Int32", "Enumeration"):
+                lines.append(f"{'setl' if types[name] == 'Enumeration' else 'seti'} {self.vr[name]} {int(value)}")
+            else:
+                lines += super().set_lines({name: value}, md)
+        return lines
+
+
+def host3(hosts, built3, name: str) -> Host3:
+    _, d, md = built3[name]
+    return Host3(hosts[3], d / "binaries" / "x86_64-linux" / f"{name}.so", md.guid,
+                 {v.name: v.valueReference for v in md.modelVariables})
+
+
+def host2(hosts, built2, name: str) -> Host:
+    _, d, md = built2[name]
+    return Host(hosts[2], d / "binaries" / "linux64" / f"{name}.so", md.guid,
+                {v.name: v.valueReference for v in md.modelVariables})
+
+
+def outputs(md) -> list[str]:
+    return [v.name for v in md.modelVariables if v.causality == "output"]
+
+
+def run_script(h: Host, md, name: str, n: int = 100, dt: float = 0.01) -> list[str]:
+    return (h.start(md=md) + [f"setr {h.vr[k]} {v!r}" for k, v in INPUTS[name].items()]
+            + [h.run_steps(0.0, dt, n, *outputs(md))])
+
+
+# -- the binary and the description ------------------------------------------------
+
+def _fmi3_functions() -> set[str]:
+    text = (fmi_headers_dir() / "fmi3Functions.h").read_text()
+    return set(re.findall(r"FMI3_Export\s+(fmi3\w+)TYPE\s+\1\s*;", text))
+
+
+@EVERY
+def test_the_binary_exports_every_fmi3_function_and_nothing_else_and_needs_no_python(built3, name):
+    so = built3[name][1] / "binaries" / "x86_64-linux" / f"{name}.so"
+    defined = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True,
+                             check=True).stdout.splitlines()
+    exported = {ln.split()[-1] for ln in defined if ln.strip() and ln.split()[1] in "TD"}
+    assert exported == _fmi3_functions() and len(exported) > 60
+    undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
+                               check=True).stdout
+    assert undefined.strip() and "Py" not in undefined and "python" not in undefined.lower()
+    assert not (built3[name][1] / "binaries" / "linux64").exists()
+
+
+@EVERY
+def test_fmpy_validate_passes(built3, name):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(built3[name][0])) == []
+
+
+def test_the_fmi3_description_declares_fmi3_types_units_structure_and_capabilities(built3, built2):
+    path, d, md = built3["Mechanism"]
+    assert md.fmiVersion == "3.0" and md.guid == built2["Mechanism"][2].guid  # instantiationToken: the same model
+    root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
+    cs = root.find("CoSimulation").attrib
+    assert cs["canGetAndSetFMUState"] == cs["canSerializeFMUState"] == "true"
+    assert cs["providesDirectionalDerivatives"] == "true"  # (fmpy 0.3.32 reads only FMI 2.0's singular name)
+    assert cs["hasEventMode"] == cs["mightReturnEarlyFromDoStep"] == "false"
+    motor = ET.fromstring(zipfile.ZipFile(built3["DCMotor"][0]).read("modelDescription.xml"))
+    assert motor.find("CoSimulation").get("providesDirectionalDerivatives") == "false"
+    by = {v.name: v for v in md.modelVariables}
+    assert by["time"].causality == "independent" and by["time"].valueReference == 0 and by["time"].unit == "s"
+    assert by["theta2"].type == "Float64" and by["theta2"].unit == "rad" and by["Fx"].unit == "N"
+    assert by["link2.joint"].type == "Enumeration" and by["closure.link"].type == "Int32"
+    assert by["method"].type == "String" and by["method"].start == "exact"
+    assert {v.unit for v in md.modelVariables if v.unit} <= {u.name for u in md.unitDefinitions}
+    two = {v.name: v for v in built2["Mechanism"][2].modelVariables}
+    for v in md.modelVariables[1:]:  # the same variables at the same references, starts and causalities
+        assert (v.valueReference, v.causality, v.start) == (two[v.name].valueReference, two[v.name].causality,
+                                                            two[v.name].start), v.name
+    deps = {u.variable.name: sorted(x.name for x in (u.dependencies or [])) for u in md.outputs}
+    assert deps["theta2"] == [] and deps["Fx"] == ["load_torque", "motor_torque"]
+    assert len(md.outputs) == len(md.initialUnknowns) == len(outputs(md))
+    files = md.buildConfigurations[0].sourceFileSets[0].sourceFiles  # sources/buildDescription.xml
+    assert "fmi3_wrapper.c" in files and "mechanism_model.c" in files and "fmi2_wrapper.c" not in files
+
+
+# -- the same numbers as the FMI 2.0 build ------------------------------------------------
+
+@EVERY
+def test_c_host_with_an_empty_environment_runs_fmi3_as_fmi2_to_the_bit(hosts, built2, built3, name):
+    h2, h3, md = host2(hosts, built2, name), host3(hosts, built3, name), built3[name][2]
+    t2, t3 = h2.run(run_script(h2, md, name)), h3.run(run_script(h3, md, name))
+    assert t3.statuses("run") == t2.statuses("run") == [OK], t3.logs
+    rows = t3.rows()
+    assert rows.shape == (100, 1 + len(outputs(md))) and np.ptp(rows[:, 1:], axis=0).max() > 0  # it moved
+    assert np.array_equal(rows, t2.rows(), equal_nan=True)
+
+
+def test_fmi3_host_runs_a_model_retuned_by_enumerations_and_strings_as_fmi2(hosts, built2, built3):
+    # every parameter type on its FMI 3.0 path: a slider-crank by Int64 enumerations, Int32s, strings, Float64s
+    import grubler
+    from grubler.fmi.mechanism import fmu_parameters
+
+    params = fmu_parameters(grubler.load_scene("thesis-slider-crank"))
+    params["integrator"] = "rk45"
+    h2, h3 = host2(hosts, built2, "Mechanism"), host3(hosts, built3, "Mechanism")
+    names = ("theta2", "B3", "Fx", "KE", "drive_angle")
+    rows = []
+    for h, md in ((h2, built2["Mechanism"][2]), (h3, built3["Mechanism"][2])):
+        t = h.run(h.start(params, md=md) + [f"setr {h.vr['motor_torque']} 0.5", h.run_steps(0.0, 0.01, 50, *names)])
+        assert t.statuses("exit") == [OK] and t.statuses("run") == [OK], t.logs
+        rows.append(t.rows())
+    assert any(ln.startswith("setl ") for ln in h3.set_lines(params, built3["Mechanism"][2]))
+    assert np.array_equal(rows[0], rows[1])
+
+
+@EVERY
+def test_fmpy_simulates_fmi3_as_fmi2(built2, built3, name):
+    import fmpy
+
+    md = built3[name][2]
+    inputs = INPUTS[name]
+    sig = np.array([(0.0, *inputs.values()), (1.0, *inputs.values())],
+                   dtype=[("time", float), *((k, float) for k in inputs)])
+    res = {fmi: fmpy.simulate_fmu(str(b[name][0]), stop_time=0.5, output_interval=1e-2, step_size=1e-2,
+                                  input=sig, output=outputs(md))
+           for fmi, b in ((2, built2), (3, built3))}
+    assert len(res[3]) == len(res[2]) == 51
+    for k in outputs(md):
+        np.testing.assert_allclose(res[3][k], res[2][k], rtol=0, atol=1e-12, err_msg=k)
+        assert np.array_equal(res[3][k], res[2][k], equal_nan=True), k  # the same code path: to the bit
+
+
+def test_directional_derivatives_are_the_fmi2_builds(built2, built3):
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    md = built3["Mechanism"][2]
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unknowns = [vr[n] for n in ("theta2_dd", "Fx", "Fy", "Mz", "R2_Fx", "closure_error")]
+    knowns = [vr["motor_torque"], vr["load_torque"]]
+    got = {}
+    for fmi, cls, b in ((2, FMU2Slave, built2), (3, FMU3Slave, built3)):
+        s = cls(guid=md.guid, unzipDirectory=extract(str(b["Mechanism"][0])), modelIdentifier="Mechanism",
+                instanceName="m")
+        s.instantiate()
+        if fmi == 2:
+            s.setupExperiment(startTime=0.0)
+            s.enterInitializationMode()
+        else:
+            s.enterInitializationMode(startTime=0.0)
+        s.exitInitializationMode()
+        step = s.setReal if fmi == 2 else s.setFloat64
+        step([vr["motor_torque"]], [3.0])
+        for i in range(20):
+            s.doStep(i * 0.01, 0.01)
+        got[fmi] = [s.getDirectionalDerivative(unknowns, knowns, seed) for seed in ([1.0, 0.0], [0.0, 1.0])]
+        s.terminate()
+        s.freeInstance()
+    assert np.array_equal(np.array(got[3]), np.array(got[2]))
+    assert np.abs(np.array(got[3])).max() > 0.1  # the outputs do depend on the torques
+
+
+# -- FMU state ------------------------------------------------------------------------
+
+def test_serialised_state_round_trips_and_an_fmi2_state_restores_in_the_fmi3_build(hosts, built2, built3, tmp_path):
+    md = built3["Mechanism"][2]
+    h2, h3 = host2(hosts, built2, "Mechanism"), host3(hosts, built3, "Mechanism")
+    names = ("theta2", "Fx", "KE")
+
+    def script(h, first: str, blob: Path) -> list[str]:
+        return h.start(md=md) + [f"setr {h.vr['motor_torque']} 3.0", h.run_steps(0.0, 0.01, 10, "theta2"),
+                                 "save 0", f"ser 0 {blob}", h.run_steps(0.1, 0.01, 10, *names),
+                                 f"deser 1 {first}", "load 1", h.run_steps(0.1, 0.01, 10, *names)]
+
+    blob2, blob3 = tmp_path / "two.bin", tmp_path / "three.bin"
+    t2 = h2.run(script(h2, str(blob2), blob2))
+    t3 = h3.run(script(h3, str(blob2), blob3))  # the FMI 2.0 build's blob, restored by the FMI 3.0 build
+    assert t3.statuses("deser") == t3.statuses("load") == [OK], t3.logs
+    assert blob3.read_bytes() == blob2.read_bytes()
+    rows = t3.rows(1 + len(names))
+    assert len(rows) == 20 and np.array_equal(rows[:10], rows[10:]) and np.array_equal(rows, t2.rows(1 + len(names)))
+
+
+def test_a_state_saved_while_stepping_and_restored_before_initialisation_resumes_stepping(mech3, tmp_path):
+    # as an importer that restores the mode with the state does (fmusim's --initial-fmu-state-file);
+    # one that initialises after restoring goes on from the state too (test_native_fmu)
+    h, md = mech3
+    blob, names = tmp_path / "s.bin", ("theta2", "theta2_d", "Fx")
+    t = h.run(h.start(md=md) + [f"setr {h.vr['motor_torque']} 2.0", h.run_steps(0, 0.01, 70, "theta2"), "save 0",
+                                f"ser 0 {blob}", h.run_steps(0.7, 0.01, 30, *names),
+                                "new 1 later", f"deser 1 {blob}", "load 1", h.run_steps(0.7, 0.01, 30, *names)])
+    assert t.statuses("run")[-1] == OK, t.logs
+    rows = t.rows(width=4)
+    assert rows.shape == (60, 4) and np.array_equal(rows[:30], rows[30:])
+
+
+@pytest.mark.parametrize("damage", ["flip", "truncate", "magic", "version", "mode", "foreign"])
+def test_a_corrupt_or_foreign_state_blob_is_refused_with_its_reason(hosts, built3, tmp_path, damage):
+    md = built3["Mechanism"][2]
+    h, motor = host3(hosts, built3, "Mechanism"), host3(hosts, built3, "DCMotor")
+    blob = tmp_path / "s.bin"
+    if damage == "foreign":
+        t = motor.run(motor.start(md=built3["DCMotor"][2]) + ["save 0", f"ser 0 {blob}"])
+        assert t.statuses("ser") == [OK]
+    else:
+        h.run(h.start(md=md) + [h.run_steps(0.0, 0.01, 3), "save 0", f"ser 0 {blob}"])
+        b = bytearray(blob.read_bytes())
+        if damage == "flip":
+            b[-3] ^= 0x10
+        elif damage == "truncate":
+            b = b[:-8]
+        elif damage == "magic":
+            b[0:8] = b"NOTGRUBL"
+        elif damage == "mode":
+            b[20] = 99
+        else:
+            b[8] = 7
+        blob.write_bytes(bytes(b))
+    t = h.run(h.start(md=md) + [f"deser 0 {blob}", "step 0 0.01", "reset", "setup 0", "enter", "exit",
+                                "step 0 0.01"])
+    reason = {"flip": "checksum does not match", "truncate": "truncated or padded", "magic": "bad magic",
+              "version": "state layout version 7",
+              "mode": "the state machine's state 99 is none of this FMU's", "foreign": "belongs to another model"}[damage]
+    assert t.statuses("deser") == [ERROR] and t.logged(f"fmi3DeserializeFMUState: ") and t.logged(reason)
+    assert t.statuses("step") == [ERROR, OK]  # refused until fmi3Reset
+
+
+# -- the error contract, one test per class ---------------------------------------------
+
+@pytest.fixture(scope="session")
+def mech3(hosts, built3):
+    return host3(hosts, built3, "Mechanism"), built3["Mechanism"][2]
+
+
+def _refused_then_reset_works(h, md, lines: list[str], cmd: str, *reasons: str) -> Transcript:
+    t = h.run(h.start(md=md) + lines + [h.getr("theta2"), "reset", "setup 0", "enter", "exit",
+                                        h.run_steps(0, 0.01, 2, "theta2")])
+    assert t.statuses(cmd)[-1] == ERROR
+    for r in reasons:
+        assert t.logged(r), (r, t.logs)
+    assert t.statuses("getr")[-1] == ERROR and t.logged("only fmi3Reset and fmi3FreeInstance are allowed now")
+    assert t.statuses("reset") == [OK] and t.statuses("run") == [OK]
+    return t
+
+
+@pytest.mark.parametrize("line, cmd, reasons", [
+    ("getr 99999", "getr", ["fmi3GetFloat64: unknown value reference 99999"]),
+    ("geti {theta2}", "geti", ["fmi3GetInt32: theta2", "is a Real variable, not Integer"]),
+    ("geti {link2.joint}", "geti", ["link2.joint", "is an Enumeration, which fmi3GetInt64 and fmi3SetInt64"]),
+    ("getl {closure.link}", "getl", ["closure.link", "is an Int32, which fmi3GetInt32 and fmi3SetInt32"]),
+    ("setr {Fx} 1.0", "setr", ["fmi3SetFloat64: Fx is an output"]),
+    ("setr 0 1.0", "setr", ["time is the independent variable"]),
+    ("setr {link2.m} 2.0", "setr", ["link2.m is a fixed parameter", "(fmi3Reset, then set it)"]),
+    ("step 0 0.01", "step", []),  # (after a step the model is at 0.01: a wrong time is a Discard, see below)
+])
+def test_a_bad_call_is_an_error_naming_why_and_only_reset_recovers(mech3, line, cmd, reasons):
+    h, md = mech3
+    by = {v.name: v.valueReference for v in md.modelVariables}
+    if cmd == "step":  # fmi3DoStep after fmi3Terminate
+        t = h.run(h.start(md=md) + ["step 0 0.01", "term", "step 0.01 0.01"])
+        assert t.statuses("step") == [OK, ERROR] and t.logged("fmi3DoStep is not allowed in the state terminated")
+        return
+    _refused_then_reset_works(h, md, [re.sub(r"\{([^}]+)\}", lambda m: str(by[m.group(1)]), line)], cmd, *reasons)
+
+
+def test_calls_in_the_wrong_state_and_bad_values_are_refused(mech3):
+    h, md = mech3
+    t = h.run(["new 0 a", "step 0 0.01"])
+    assert t.statuses("step") == [ERROR] and t.logged("fmi3DoStep is not allowed in the state instantiated")
+    t = h.run([*h.start(md=md)[:-1], f"sets {h.vr['method']} lagrange"])
+    assert t.statuses("sets") == [ERROR] and t.logged("method cannot be 'lagrange'; it accepts 'exact', 'penalty'")
+    t = h.run([*h.start(md=md)[:-1], f"setl {h.vr['link2.joint']} 7"])
+    assert t.statuses("setl") == [ERROR] and t.logged("link2.joint must be an item 1 .. 2 of its enumeration, got 7")
+    t = h.run(h.start({"link2.m": -1.0}, md=md) + ["step 0 0.01"])
+    assert t.statuses("exit") == [ERROR] and t.logged("link2.m: mass must be positive, got -1")
+    t = h.run(["null"])
+    assert t.statuses("null") == [ERROR]
+
+
+def test_a_non_finite_input_or_a_wrong_time_is_discarded_and_the_run_goes_on(mech3):
+    h, md = mech3
+    t = h.run(h.start(md=md) + [h.run_steps(0, 0.01, 3), f"setr {h.vr['motor_torque']} nan", "step 0.03 0.01",
+                                f"setr {h.vr['motor_torque']} 1.0", "step 0.5 0.01", "step 0.03 0.01", "getr 0"])
+    assert t.statuses("step") == [DISCARD, DISCARD, OK]
+    assert t.logged("motor_torque is nan at t = 0.03 s") and t.logged("fmi3DoStep at t = 0.5 s, but the model is")
+    assert float(t.values(-1)[0]) == pytest.approx(0.04, abs=1e-15)  # time, value reference 0
+
+
+def test_a_state_passed_where_its_address_belongs_is_freed_not_a_crash(mech3):
+    # (fmusim 0.0.39 does this when it saves a final state)
+    h, md = mech3
+    t = h.run(h.start(md=md) + ["save 0", "dropstate 0", "save 1", "drop 1", h.run_steps(0, 0.01, 2, "theta2")])
+    assert t.statuses("dropstate") == [OK] and t.logged("log 1 logStatusWarning fmi3FreeFMUState: given the FMU state")
+    assert t.statuses("drop") == [OK] and t.statuses("run") == [OK]
+
+
+def test_what_fmi3_adds_to_the_contract(built3):
+    """Event mode asked of an FMU without it, array sizes, types the model has none of, event and
+    configuration calls: each refused with a logged reason, through fmpy."""
+    from fmpy import extract
+    from fmpy.fmi3 import FMU3Slave
+
+    path, _, md = built3["Mechanism"]
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    log = []
+
+    def slave(**kw):
+        s = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier="Mechanism",
+                      instanceName="m")
+        s.instantiate(logMessage=lambda env, status, category, message: log.append(message.decode()), **kw)
+        return s
+
+    with pytest.raises(Exception):
+        slave(eventModeUsed=True)
+    assert any("has no event mode (hasEventMode is false)" in m for m in log)
+
+    def refused(call, *args, reason: str):
+        s = slave()
+        s.enterInitializationMode(startTime=0.0)
+        s.exitInitializationMode()
+        del log[:]
+        with pytest.raises(Exception):
+            getattr(s, call)(*args)
+        assert any(reason in m for m in log), (call, log)
+        s.freeInstance()
+
+    refused("getFloat64", [vr["theta2"], vr["Fx"]], 1, reason="1 values for 2 value references")
+    refused("getFloat32", [vr["theta2"]], reason="value reference %d is no Float32 variable" % vr["theta2"])
+    refused("enterEventMode", reason="fmi3EnterEventMode: not supported (hasEventMode is false)")
+    refused("enterStepMode", reason="step mode begins at fmi3ExitInitializationMode")
+    refused("enterConfigurationMode", reason="no structural parameters")
+    refused("getDirectionalDerivative", [vr["theta2"]], [vr["Fx"]], [1.0],
+            reason="Fx is not an input; a co-simulation FMU's knowns are its inputs")
+
+
+# -- sanitizers over random call sequences -------------------------------------------------
+
+@pytest.fixture(scope="session")
+def sanitized3(built3, tmp_path_factory):
+    """The FMI 3.0 binaries and host, rebuilt from sources/ with AddressSanitizer and UBSan."""
+    d = tmp_path_factory.mktemp("asan3")
+    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(d / "probe")],
+                           input="int main(void){return 0;}", capture_output=True, text=True)
+    if probe.returncode != 0:
+        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
+    out = {"host": _compile_host("fmi3_host.c", d / "fmi3_host", SANITIZE[1:])}
+    for name in ("Mechanism", "DCMotor"):
+        _, unzipped_dir, desc = built3[name]
+        out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")
+    return out
+
+
+@pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
+def test_random_fmi3_call_sequences_never_crash_nor_corrupt_memory(built3, sanitized3, name, tmp_path):
+    md = built3[name][2]
+    script = random_script(md, np.random.default_rng(5), tmp_path)
+    proc = subprocess.run([str(sanitized3["host"]), str(sanitized3[name]), md.guid], input="\n".join(script) + "\n",
+                          capture_output=True, text=True, timeout=600, env=SANITIZER_ENV)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, proc.stderr[-3000:]
+    t = Transcript(proc.stdout)
+    statuses = [int(r[1]) for r in t.results if len(r) > 1 and r[1].lstrip("-").isdigit()]
+    assert len(statuses) > 500 and set(statuses) <= {OK, 1, DISCARD, ERROR}  # never fmi3Fatal
+    assert t.statuses("step").count(OK) > 100 and ERROR in statuses
+
+
+# -- fmusim, the FMI Reference FMUs' importer --------------------------------------------------
+
+def fmusim() -> str:
+    """fmusim's path (GRUBLER_FMUSIM, else PATH), or skip saying how to get it."""
+    path = os.environ.get("GRUBLER_FMUSIM") or shutil.which("fmusim")
+    if not path or not os.access(path, os.X_OK):
+        pytest.skip("fmusim not found (set GRUBLER_FMUSIM or put it on PATH; docs/fmi.md says how to build it)")
+    return path
+
+
+def run_fmusim(fmu: Path, out: Path, name: str, *extra: str) -> np.ndarray:
+    starts = [a for k, v in INPUTS[name].items() for a in ("--start-value", k, repr(v))]
+    proc = subprocess.run([fmusim(), "--interface-type", "cs", "--stop-time", "0.5", "--output-interval", "0.01",
+                           *starts, *extra, "--output-file", str(out), str(fmu)],
+                          capture_output=True, text=True, env={}, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return np.genfromtxt(out, delimiter=",", names=True)
+
+
+@EVERY
+def test_fmusim_runs_fmi3_as_fmi2_with_an_empty_environment(built2, built3, name, tmp_path):
+    r3 = run_fmusim(built3[name][0], tmp_path / "3.csv", name)
+    r2 = run_fmusim(built2[name][0], tmp_path / "2.csv", name)
+    assert len(r3) == len(r2) == 51 and r3.dtype.names == r2.dtype.names
+    assert set(outputs(built3[name][2])) <= set(r3.dtype.names)
+    for k in r3.dtype.names:
+        assert np.array_equal(r3[k], r2[k], equal_nan=True), k
+    assert max(np.ptp(r3[k]) for k in outputs(built3[name][2])) > 0  # it moved
+
+
+def test_fmusim_saves_and_resumes_an_fmi3_state(built3, tmp_path):
+    # fmusim serialises the final state and starts a run from it (fmi3DeserializeFMUState before initialisation)
+    fmu, state = built3["Mechanism"][0], tmp_path / "state.bin"
+    whole = run_fmusim(fmu, tmp_path / "whole.csv", "Mechanism")
+    run_fmusim(fmu, tmp_path / "first.csv", "Mechanism", "--final-fmu-state-file", str(state))
+    assert state.stat().st_size > 48 and state.read_bytes()[:8] == b"GRBFMI2S"
+    again = run_fmusim(fmu, tmp_path / "again.csv", "Mechanism", "--initial-fmu-state-file", str(state),
+                       "--start-time", "0.5", "--stop-time", "1.0")
+    assert float(again["time"][0]) == 0.5 and float(again["theta2"][0]) == float(whole["theta2"][-1])
+
+
+# -- the command line -------------------------------------------------------------------
+
+def test_grubler_export_fmi3_and_a_bad_version(tmp_path):
+    out = tmp_path / "Crank.fmu"
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", "fourbar-crank-rocker", "-o", str(out),
+                           "--fmi", "3"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    names = zipfile.ZipFile(out).namelist()
+    assert "binaries/x86_64-linux/Crank.so" in names and "sources/fmi3_wrapper.c" in names
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(out)) == []
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", "fourbar-crank-rocker", "-o", str(out),
+                           "--fmi", "4"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "--fmi" in proc.stderr
+
+
+def test_build_fmu_refuses_a_pythonfmu_controller_as_fmi3(tmp_path):
+    proc = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--dest", str(tmp_path), "--fmi", "3", "PID"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode != 0 and "PID: pythonfmu FMUs are FMI 2 only" in proc.stderr
