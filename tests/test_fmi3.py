@@ -212,34 +212,71 @@ def test_fmpy_simulates_fmi3_as_fmi2(built2, built3, name):
 
 
 def test_directional_derivatives_are_the_fmi2_builds(built2, built3):
-    from fmpy import extract
-    from fmpy.fmi2 import FMU2Slave
-    from fmpy.fmi3 import FMU3Slave
-
-    md = built3["Mechanism"][2]
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    unknowns = [vr[n] for n in ("theta2_dd", "Fx", "Fy", "Mz", "R2_Fx", "closure_error")]
-    knowns = [vr["motor_torque"], vr["load_torque"]]
+    unknowns = ("theta2_dd", "Fx", "Fy", "Mz", "R2_Fx", "closure_error")
     got = {}
-    for fmi, cls, b in ((2, FMU2Slave, built2), (3, FMU3Slave, built3)):
-        s = cls(guid=md.guid, unzipDirectory=extract(str(b["Mechanism"][0])), modelIdentifier="Mechanism",
-                instanceName="m")
-        s.instantiate()
-        if fmi == 2:
-            s.setupExperiment(startTime=0.0)
-            s.enterInitializationMode()
-        else:
-            s.enterInitializationMode(startTime=0.0)
-        s.exitInitializationMode()
-        step = s.setReal if fmi == 2 else s.setFloat64
-        step([vr["motor_torque"]], [3.0])
+    for fmi, b in ((2, built2), (3, built3)):
+        s, vr = _slave(fmi, b, {})
+        (s.setReal if fmi == 2 else s.setFloat64)([vr["motor_torque"]], [3.0])
         for i in range(20):
             s.doStep(i * 0.01, 0.01)
-        got[fmi] = [s.getDirectionalDerivative(unknowns, knowns, seed) for seed in ([1.0, 0.0], [0.0, 1.0])]
+        got[fmi] = [s.getDirectionalDerivative([vr[n] for n in unknowns], [vr["motor_torque"], vr["load_torque"]],
+                                               seed) for seed in ([1.0, 0.0], [0.0, 1.0])]
         s.terminate()
         s.freeInstance()
     assert np.array_equal(np.array(got[3]), np.array(got[2]))
     assert np.abs(np.array(got[3])).max() > 0.1  # the outputs do depend on the torques
+
+
+def _slave(fmi: int, b: dict, params: dict, **instantiate):
+    """An fmpy slave of the Mechanism build, its parameters set by type, initialised."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    path, _, md = b["Mechanism"]
+    s = (FMU2Slave if fmi == 2 else FMU3Slave)(guid=md.guid, unzipDirectory=extract(str(path)),
+                                               modelIdentifier="Mechanism", instanceName="m")
+    s.instantiate(**instantiate)
+    if fmi == 2:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+    else:
+        s.enterInitializationMode(startTime=0.0)
+    by = {v.name: v for v in md.modelVariables}
+    setter = {"Real": "setReal", "Integer": "setInteger", "Enumeration": "setInteger" if fmi == 2 else "setInt64",
+              "String": "setString", "Float64": "setFloat64", "Int32": "setInt32"}
+    for name, value in params.items():
+        v = by[name]
+        getattr(s, setter[v.type])([v.valueReference], [value])
+    s.exitInitializationMode()
+    return s, {n: v.valueReference for n, v in by.items()}
+
+
+def test_a_step_over_change_points_reports_no_event_and_returns_as_fmi2(built2, built3):
+    # the change-point four-bar turns six times in 3 s, every link aligned twice a turn; an importer
+    # that allows early return gets none, and the numbers are the FMI 2.0 build's (docs/fmi.md)
+    import grubler
+    from grubler.fmi.mechanism import fmu_parameters
+
+    params = fmu_parameters(grubler.load_scene("fourbar-change-point"))
+    names = ("theta2", "theta2_d", "theta3", "Fx", "KE", "PE")
+    rows, flags = {}, []
+    for fmi, b in ((2, built2), (3, built3)):
+        s, vr = _slave(fmi, b, params, **({"earlyReturnAllowed": True} if fmi == 3 else {}))
+        refs = [vr[n] for n in names]
+        (s.setReal if fmi == 2 else s.setFloat64)([vr["motor_torque"]], [0.5])
+        out = []
+        for i in range(300):
+            r = s.doStep(i * 0.01, 0.01)
+            if fmi == 3:
+                flags.append((r[0], r[1], r[2], r[3] == (i + 1) * 0.01 or abs(r[3] - (i + 1) * 0.01) < 1e-15))
+            out.append((s.getReal if fmi == 2 else s.getFloat64)(refs))
+        s.terminate()
+        s.freeInstance()
+        rows[fmi] = np.array(out)
+    assert set(flags) == {(False, False, False, True)}
+    assert rows[3][-1, 0] > 2 * np.pi * 5  # past ten change points
+    assert np.array_equal(rows[3], rows[2])
 
 
 # -- FMU state ------------------------------------------------------------------------
