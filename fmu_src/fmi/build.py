@@ -63,7 +63,10 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     import grubler.motors as motors  # the drives' kernels sit beside them, in a source tree or installed
 
     drives = Path(motors.__file__).resolve().parent / "kernel"
+    # the control laws' C sits in grubler.controllers, beside grubler.motors in a source tree and installed
+    laws = drives.parent.parent / "controllers" / "kernel"
     return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
+            "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h")),
             "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
             "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
