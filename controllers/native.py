@@ -26,6 +26,7 @@ import functools
 
 from grubler.binding import library
 from grubler.errors import SceneError
+from grubler.limits import brief
 
 # enum ctl_status, in ctl_law.h's order
 (OK, BAD_PARAMETER, BAD_STATE, BAD_INPUT, BAD_STEP_SIZE, TOO_MANY_SAMPLES, NOT_FINITE, BAD_ARGUMENT) = range(8)
@@ -61,6 +62,19 @@ class PidState(ctypes.Structure):
     _fields_ = _doubles("I", "D", "ed_prev", "started")
 
 
+class CascadeParams(ctypes.Structure):
+    """struct ctl_cascade_params."""
+
+    _fields_ = _doubles("K_position", "Ti_position", "K_speed", "Ti_speed", "velocity_feedforward", "speed_limit",
+                        "u_min", "u_max", "Tt_speed", "Ts")
+
+
+class CascadeState(ctypes.Structure):
+    """struct ctl_cascade_state: both loops' states and the last speed setpoint."""
+
+    _fields_ = [("position_loop", PidState), ("speed_loop", PidState), ("speed_setpoint", _D)]
+
+
 class EncoderParams(ctypes.Structure):
     """struct ctl_encoder_params."""
 
@@ -71,6 +85,18 @@ class EncoderState(ctypes.Structure):
     """struct ctl_encoder_state (the delay line is a separate buffer)."""
 
     _fields_ = [("started", _D), ("last", _D), ("rng", Rng), ("head", _D)]
+
+
+class SensorParams(ctypes.Structure):
+    """struct ctl_sensor_params."""
+
+    _fields_ = _doubles("gain_error", "offset", "noise_std", "seed", "bandwidth", "Ts")
+
+
+class SensorState(ctypes.Structure):
+    """struct ctl_sensor_state."""
+
+    _fields_ = [("started", _D), ("filtered", _D), ("rng", Rng)]
 
 
 class TrajectoryParams(ctypes.Structure):
@@ -116,12 +142,23 @@ _SIGNATURES = {
     "ctl_pid_reset": (_I, [_R, _D, _R]),
     "ctl_pid_sample": (_I, [_R, _R, _D, _D, _D, _DP]),
     "ctl_pid_initial_output": (_I, [_R, _DP]),
+    "ctl_cascade_field_name": (ctypes.c_char_p, [_I]),
+    "ctl_cascade_check": (_I, [_R, _IP, _SP]),
+    "ctl_cascade_check_state": (_I, [_R, _R, _IP, _SP]),
+    "ctl_cascade_reset": (_I, [_R, _R]),
+    "ctl_cascade_sample": (_I, [_R, _R, _D, _D, _D, _D, _DP]),
+    "ctl_cascade_initial_output": (_I, [_R, _DP]),
     "ctl_encoder_field_name": (ctypes.c_char_p, [_I]),
     "ctl_encoder_check": (_I, [_R, _D, _IP, _SP]),
     "ctl_encoder_check_state": (_I, [_R, _R, _DP, _IP, _SP]),
     "ctl_encoder_reset": (_I, [_R, _R]),
     "ctl_encoder_measure": (_I, [_R, _R, _D, _DP]),
     "ctl_encoder_sample": (_I, [_R, _R, _DP, _D, _DP, _DP]),
+    "ctl_sensor_field_name": (ctypes.c_char_p, [_I]),
+    "ctl_sensor_check": (_I, [_R, _IP, _SP]),
+    "ctl_sensor_check_state": (_I, [_R, _R, _IP, _SP]),
+    "ctl_sensor_reset": (_I, [_R, _R]),
+    "ctl_sensor_sample": (_I, [_R, _R, _D, _DP]),
     "ctl_trajectory_field_name": (ctypes.c_char_p, [_I]),
     "ctl_trajectory_check": (_I, [_R, _R, _IP, _SP]),
     "ctl_move_phases": (_I, [_R, _DP, _IP]),
@@ -177,6 +214,28 @@ def refuse_bad(law: str, params: ctypes.Structure, *args, shown: dict | None = N
         raise SceneError(field, why if value is None else f"{why}, got {value!r}")
 
 
+def as_plain(s: ctypes.Structure) -> dict:
+    """A structure of doubles (and nested structures) as a dict of floats, for a law's get_state."""
+    return {name: as_plain(getattr(s, name)) if isinstance(getattr(s, name), ctypes.Structure) else getattr(s, name)
+            for name, _ in s._fields_}
+
+
+def _from_plain(kind: type, values) -> ctypes.Structure:
+    if not isinstance(values, dict) or sorted(values) != sorted(n for n, _ in kind._fields_):
+        raise ValueError(f"a state of another law: {brief(repr(values))}")
+    return kind(**{name: _from_plain(t, values[name]) if issubclass(t, ctypes.Structure) else float(values[name])
+                   for name, t in kind._fields_})
+
+
+def checked_state(law: str, params: ctypes.Structure, kind: type, state, *buffers) -> ctypes.Structure:
+    """The structure ``kind`` from a get_state dict, checked by ``ctl_<law>_check_state``; ValueError naming the field."""
+    s = _from_plain(kind, state)
+    bad = check(law, params, s, *buffers, state=True)
+    if bad:
+        raise ValueError(f"state.{bad[0]}: {bad[1]}")
+    return s
+
+
 def call(name: str, *args) -> None:
     """Call ``name`` (structures by reference); ValueError with the C's sentence when it refuses."""
     refs = [ctypes.byref(a) if isinstance(a, (ctypes.Structure, ctypes.c_double)) else a for a in args]
@@ -185,5 +244,5 @@ def call(name: str, *args) -> None:
         raise ValueError(f"{name}: {message(status)}")
 
 
-__all__ = ["Clock", "DOUBLES", "EncoderParams", "EncoderState", "Move", "PidParams", "PidState", "Rng", "Segment", "Table",
+__all__ = ["CascadeParams", "CascadeState", "Clock", "DOUBLES", "as_plain", "checked_state", "EncoderParams", "EncoderState", "Move", "PidParams", "PidState", "Rng", "Segment", "SensorParams", "SensorState", "Table",
            "TrajectoryParams", "call", "check", "functions", "message", "refuse_bad"]

@@ -1,7 +1,7 @@
-"""Native FMUs of the shipped control laws: PID.fmu, Encoder.fmu and Trajectory.fmu.
+"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory.
 
 Each is the law's C (``controllers/kernel``) behind a law file
-(``grubler/fmi/c/pid_law.c``, ...), the generic sampled-law model
+(``grubler/fmi/c/pid_law.c``, ``cascade_law.c``, ...), the generic sampled-law model
 (``law_model.c``: the sample-and-hold clock of :mod:`grubler.controllers.law`)
 and the one FMI wrapper every native grubler FMU uses: no Python at run time.
 The variables are the law's own declaration (its ``inputs``, ``outputs`` and
@@ -25,9 +25,11 @@ import re
 from pathlib import Path
 
 from grubler.controllers import native
+from grubler.controllers.cascade import CascadeController
 from grubler.controllers.encoder import Encoder
 from grubler.controllers.law import Law
 from grubler.controllers.pid import ANTI_WINDUP, PID
+from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
 from grubler.controllers.trajectory import KINDS, Trajectory
 from grubler.fmi.build import build_fmu
 from grubler.fmi.variables import BOOLEAN, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, UNITS, ModelSpec, Variable
@@ -109,11 +111,22 @@ def pid_spec(identifier: str = "PID") -> ModelSpec:
                     choices={"anti_windup": ANTI_WINDUP})
 
 
+def cascade_spec(identifier: str = "CascadeController") -> ModelSpec:
+    """CascadeController.fmu: :class:`~grubler.controllers.cascade.CascadeController` over ``ctl_cascade.c``."""
+    return law_spec(CascadeController, identifier, "cascade_law.c", ctypes.sizeof(native.CascadeState) // 8)
+
+
 def encoder_spec(identifier: str = "Encoder") -> ModelSpec:
     """Encoder.fmu: :class:`~grubler.controllers.encoder.Encoder` over ``ctl_encoder.c``."""
     return law_spec(Encoder, identifier, "encoder_law.c", ctypes.sizeof(native.EncoderState) // 8 + ENCODER_CAPACITY,
                     bounds={"counts_per_rev": (0, INT_MAX), "seed": (0, INT_MAX), "delay": (0, ENCODER_CAPACITY - 1)},
                     defines={"ENCODER_CAPACITY": ENCODER_CAPACITY})
+
+
+def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> ModelSpec:
+    """Tachometer.fmu or CurrentSensor.fmu: an :class:`~grubler.controllers.sensors.AnalogSensor` over ``ctl_sensor.c``."""
+    return law_spec(law, identifier or law.__name__, "sensor_law.c", ctypes.sizeof(native.SensorState) // 8,
+                    bounds={"seed": (0, INT_MAX)})
 
 
 def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) -> ModelSpec:
@@ -136,15 +149,17 @@ def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) 
                     leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
 
 
-SPECS = {"PID": pid_spec, "Encoder": encoder_spec, "Trajectory": trajectory_spec}
+SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
+         "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
+         "Trajectory": trajectory_spec}
 
 
 def build_native_law(name: str, dest: str | Path) -> Path:
-    """Build the native FMU of a shipped law (``"PID"``, ``"Encoder"``, ``"Trajectory"``) at ``dest``."""
+    """Build the native FMU of a shipped law (a key of :data:`SPECS`) at ``dest``."""
     dest = Path(dest)
     target = dest if dest.suffix == ".fmu" else dest / f"{name}.fmu"
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "encoder_spec", "law_spec", "pid_spec",
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

@@ -50,7 +50,6 @@ from __future__ import annotations
 import ctypes
 
 from grubler.errors import SceneError
-from grubler.limits import brief
 
 from grubler.controllers import native
 from grubler.controllers.law import Law, Parameter, check_number
@@ -147,16 +146,10 @@ class PID(Law):
 
     def get_state(self) -> dict:
         """The integral, the filtered derivative, the last derivative error and whether a sample ran."""
-        return {name: getattr(self._state, name) for name, _ in native.PidState._fields_}
+        return native.as_plain(self._state)
 
     def set_state(self, state: dict) -> None:
-        if not isinstance(state, dict) or sorted(state) != sorted(n for n, _ in native.PidState._fields_):
-            raise ValueError(f"a state of another law: {brief(repr(state))}")
-        s = native.PidState(**{k: float(v) for k, v in state.items()})
-        bad = native.check("pid", self._params, s, state=True)
-        if bad:
-            raise ValueError(f"state.{bad[0]}: {bad[1]}")
-        self._state = s
+        self._state = native.checked_state("pid", self._params, native.PidState, state)
 
 
 __all__ = ["PID", "ANTI_WINDUP"]

@@ -36,7 +36,10 @@ def _c_fields(header: str, struct: str) -> list[str]:
     ("ctl_encoder.h", "ctl_encoder_params", native.EncoderParams),
     ("ctl_encoder.h", "ctl_encoder_state", native.EncoderState),
     ("ctl_trajectory.h", "ctl_trajectory_params", native.TrajectoryParams),
-    ("ctl_trajectory.h", "ctl_segment", native.Segment), ("ctl_law.h", "ctl_clock", native.Clock)])
+    ("ctl_trajectory.h", "ctl_segment", native.Segment), ("ctl_law.h", "ctl_clock", native.Clock),
+    ("ctl_cascade.h", "ctl_cascade_params", native.CascadeParams),
+    ("ctl_cascade.h", "ctl_cascade_state", native.CascadeState),
+    ("ctl_sensor.h", "ctl_sensor_params", native.SensorParams), ("ctl_sensor.h", "ctl_sensor_state", native.SensorState)])
 def test_the_binding_declares_the_headers_structures_field_for_field(header, struct, py):
     assert _c_fields(header, struct) == [name for name, _ in py._fields_]
 
@@ -111,3 +114,27 @@ def test_a_sample_that_overflows_is_refused_not_a_nan():
     pid = grubler.controllers.PID(K=1e300, Ti=1e-300, Ts=1.0)
     with pytest.raises(ValueError, match="overflowed"):
         pid.compute(1e300, -1e300)
+
+
+def test_a_sensors_bandwidth_gain_and_offset_are_the_continuous_sensors():
+    from grubler.controllers import CurrentSensor, Tachometer
+
+    f, Ts = 20.0, 1e-4
+    tau = 1 / (2 * math.pi * f)
+    # a unit step just after the first sample: the continuous first-order response 1 - exp(-t / tau)
+    s = CurrentSensor(bandwidth=f, Ts=Ts)
+    s.update(0.0, {"current": 0.0})
+    got = np.array([s.update(k * Ts, {"current": 1.0})["measured_current"] for k in range(1, 400)])
+    assert np.max(np.abs(got - (1 - np.exp(-np.arange(1, 400) * Ts / tau)))) < 1e-12
+    # a sine at the bandwidth comes out at 1/sqrt(2) of its amplitude, a quarter turn late at most
+    s = Tachometer(bandwidth=f, Ts=Ts)
+    t = np.arange(0, 0.5, Ts)
+    y = np.array([s.update(x, {"speed": math.sin(2 * math.pi * f * x)})["measured_speed"] for x in t])
+    assert np.max(np.abs(y[t > 0.3])) == pytest.approx(1 / math.sqrt(2), rel=5e-3)
+    # gain error and offset, and the noise's spread
+    s = Tachometer(gain_error=-0.05, offset=0.3, noise_std=0.2, seed=5, Ts=1e-3)
+    y = np.array([s.update(k * 1e-3, {"speed": 10.0})["measured_speed"] for k in range(20000)])
+    assert np.mean(y) == pytest.approx(0.95 * 10 + 0.3, abs=5 * 0.2 / math.sqrt(y.size))
+    assert np.std(y) == pytest.approx(0.2, rel=0.05)
+    with pytest.raises(grubler.SceneError, match="gain_error: must be finite and > -1"):
+        Tachometer(gain_error=-2.0)

@@ -20,22 +20,30 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grubler.controllers import PID, Encoder, Sampler, Trajectory
+from grubler.controllers import PID, CascadeController, CurrentSensor, Encoder, Sampler, Tachometer, Trajectory
 from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, Transcript, craft,  # noqa: F401
                              host, random_calls_hold, sanitize_all)
 
 ROOT = Path(__file__).resolve().parent.parent
-LAWS = ["PID", "Encoder", "Trajectory"]
+LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory"]
 PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "Ts": 1e-3, "u_min": -6.0,
               "u_max": 6.0}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
+CASCADE = {"K_position": 30.0, "Ti_position": 0.5, "K_speed": 0.8, "Ti_speed": 0.05, "speed_limit": 4.0,
+           "u_min": -24.0, "u_max": 24.0, "Ts": 1e-3}
+SENSOR = {"gain_error": 0.03, "offset": 0.2, "noise_std": 0.05, "seed": 3, "bandwidth": 40.0, "Ts": 1e-3}
 TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 100.0, "delay": 0.02,
         "dwell": 0.1, "repeat": 3}
 # each law's parameters and its inputs at step k
 RUNS = {"PID": (PID_PARAMS, lambda k: {"setpoint": 1.0, "measurement": 0.6 * np.sin(0.03 * k), "feedforward": 0.1}),
+        "CascadeController": (CASCADE, lambda k: {"position_setpoint": 1.0, "velocity_setpoint": 0.5,
+                                                  "position": 0.8 * np.sin(0.01 * k), "speed": np.cos(0.01 * k)}),
         "Encoder": (ENC, lambda k: {"position": 0.3 * np.sin(3e-3 * k) + 1e-4 * k}),
+        "Tachometer": (SENSOR, lambda k: {"speed": 30.0 * np.sin(0.02 * k)}),
+        "CurrentSensor": (SENSOR, lambda k: {"current": 2.0 if k % 50 < 25 else -1.0}),
         "Trajectory": (TRAJ, lambda k: {})}
-CLASSES = {"PID": PID, "Encoder": Encoder, "Trajectory": Trajectory}
+CLASSES = {"PID": PID, "CascadeController": CascadeController, "Encoder": Encoder, "Tachometer": Tachometer,
+           "CurrentSensor": CurrentSensor, "Trajectory": Trajectory}
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +127,8 @@ def test_fmpy_validate_passes_and_the_variables_are_the_laws(built, name):
 # -- the C host, empty environment, against the library ------------------------------
 
 @pytest.mark.parametrize("name, step, n", [("PID", 2e-3, 150), ("PID", 0.25e-3, 600), ("Encoder", 1e-3, 400),
-                                           ("Trajectory", 1e-2, 150)])
+                                           ("CascadeController", 1e-3, 300), ("Tachometer", 2e-3, 300),
+                                           ("CurrentSensor", 0.5e-3, 400), ("Trajectory", 1e-2, 150)])
 def test_c_host_with_an_empty_environment_matches_the_library_bit_for_bit(host, built, name, step, n):
     h = law_host(host, built, name)
     t = h.run(h.start(RUNS[name][0], md=built[name][2]) + stepped(h, name, n, step))  # env={} by default
@@ -182,6 +191,9 @@ def test_discard_a_step_the_clock_cannot_take(host, built, h_text, why):
     ("PID", {"Ts": 0.0}, "Ts: sample time must be finite and > 0 (got 0)"),
     ("PID", {"N": -1.0}, "N: must be > 0 (got -1)"),
     ("Encoder", {"noise_std": -0.1}, "noise_std: must be finite and >= 0 (got -0.10000000000000001)"),
+    ("CascadeController", {"speed_limit": 0.0}, "speed_limit: must be finite and > 0 (got 0)"),
+    ("Tachometer", {"gain_error": -1.0}, "gain_error: must be finite and > -1 (the gain stays positive) (got -1)"),
+    ("CurrentSensor", {"bandwidth": -5.0}, "bandwidth: must be finite and >= 0 (0: instantaneous) (got -5)"),
     ("Trajectory", {"kind": "scurve", "j_max": 0.0}, "j_max: must be finite and > 0 (got 0)"),
     ("Trajectory", {"kind": "trapezoid", "distance": 0.0}, "distance: a move needs a non-zero distance (got 0)")])
 def test_error_a_bad_parameter_at_initialisation_names_it_and_the_instance_stays_refused(host, built, name, params,
@@ -277,6 +289,9 @@ def _block_index(built, name: str, field: str) -> int:
     ("Encoder", "law", 5, float("nan"), "state.history: must hold finite readings"),
     ("Encoder", "law", 0, 0.5, "state.started: must be 0 or 1"),
     ("PID", "law", 0, float("inf"), "state.I: must be finite"),
+    ("CascadeController", "law", 7, 0.5, "state.speed_loop: must be 0 or 1"),
+    ("Tachometer", "law", 1, float("nan"), "state.filtered: must be finite"),
+    ("CurrentSensor", "law", 3, -1.0, "state.rng: must be two whole numbers"),
     ("PID", "samples", 0, -1.0, "state.samples: must be a whole number >= 0"),
     ("PID", "t0", 0, 5.0, "state.t0: the start time must be finite and not after t"),
     ("PID", "out", 0, float("nan"), "state.outputs: the held outputs must be finite"),

@@ -66,7 +66,7 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     # the control laws' C sits in grubler.controllers, beside grubler.motors in a source tree and installed
     laws = drives.parent.parent / "controllers" / "kernel"
     return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
-            "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h")),
+            "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h", "law_struct.h")),
             "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
             "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
