@@ -29,7 +29,8 @@ from grubler.errors import SceneError
 from grubler.limits import brief
 
 # enum ctl_status, in ctl_law.h's order
-(OK, BAD_PARAMETER, BAD_STATE, BAD_INPUT, BAD_STEP_SIZE, TOO_MANY_SAMPLES, NOT_FINITE, BAD_ARGUMENT) = range(8)
+(OK, BAD_PARAMETER, BAD_STATE, BAD_INPUT, BAD_STEP_SIZE, TOO_MANY_SAMPLES, NOT_FINITE, BAD_ARGUMENT,
+ LAW_REFUSED) = range(9)
 
 _D = ctypes.c_double
 

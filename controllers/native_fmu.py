@@ -21,17 +21,23 @@ Examples
 from __future__ import annotations
 
 import ctypes
+import math
 import re
+import shutil
+import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 from grubler.controllers import native
 from grubler.controllers.cascade import CascadeController
 from grubler.controllers.encoder import Encoder
-from grubler.controllers.law import Law
+from grubler.controllers.law import Law, Parameter
 from grubler.controllers.pid import ANTI_WINDUP, PID
 from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
 from grubler.controllers.trajectory import KINDS, Trajectory
-from grubler.fmi.build import build_fmu
+from grubler.errors import SceneError
+from grubler.fmi.build import BuildError, build_fmu, check_destination, identifier_for
+from grubler.limits import brief
 from grubler.fmi.variables import BOOLEAN, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, UNITS, ModelSpec, Variable
 
 # readings the Encoder FMU's delay line holds (its state grows with it: 80 kB):
@@ -149,6 +155,128 @@ def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) 
                     leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
 
 
+# -- a law written as one C function (grubler_law.h) -----------------------------------
+_DECLARATION = re.compile(r"^[ \t]*GRUBLER_(\w+)\s*\((.*)\)\s*;?\s*$")
+_QUOTED = r'"((?:[^"\\\n]|\\.)*)"'
+_FORMS = {"PARAMETER": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*([^,]+?)\s*,\s*" + _QUOTED + r"\s*$"),
+          "INPUT": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*" + _QUOTED + r"\s*$"),
+          "OUTPUT": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*" + _QUOTED + r"\s*$"),
+          "STATE": re.compile(r"^\s*(\d+)\s*$")}
+_USAGE = {"PARAMETER": 'GRUBLER_PARAMETER(name, start, "description [unit]")',
+          "INPUT": 'GRUBLER_INPUT(name, "description [unit]")', "OUTPUT": 'GRUBLER_OUTPUT(name, "description [unit]")',
+          "STATE": "GRUBLER_STATE(count)"}
+MAX_LAW_STATE = 100_000  # doubles a C law may keep: 800 kB of FMU state
+
+
+def read_c_law(source: str | Path) -> type[Law]:
+    """The Law declared by a C law file's GRUBLER_* lines (grubler_law.h), for its FMU's variables.
+
+    Raises
+    ------
+    SceneError
+        Naming the file and line of a declaration that cannot be read, or
+        what the law lacks (an output, the parameter Ts, law_step).
+    """
+    path = Path(source)
+    field = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError("law", f"{field}: cannot be read as UTF-8 C source ({type(exc).__name__})") from None
+    found = {"PARAMETER": {}, "INPUT": {}, "OUTPUT": {}}
+    n_state = 0
+    names: set[str] = set()
+    for number, line in enumerate(text.splitlines(), start=1):
+        if "GRUBLER_" not in line or line.lstrip().startswith(("#", "//", "*", "/*")):
+            continue
+        m = _DECLARATION.match(line)
+        kind = m[1] if m else None
+        form = _FORMS.get(kind) if m else None
+        parts = form.match(m[2]) if form else None
+        where = f"{field}:{number}"
+        if parts is None:
+            usage = f"; write {_USAGE[kind]}" if kind in _USAGE else \
+                f"; the declarations are {', '.join(_USAGE.values())}, each on a line of its own"
+            raise SceneError("law", f"{where}: cannot read {brief(line.strip())}{usage}")
+        if kind == "STATE":
+            n_state = int(parts[1])
+            if n_state > MAX_LAW_STATE:
+                raise SceneError("law", f"{where}: GRUBLER_STATE({n_state}): at most {MAX_LAW_STATE} doubles")
+            continue
+        name = parts[1]
+        if name in names:
+            raise SceneError("law", f"{where}: {name} is declared twice")
+        names.add(name)
+        text_at = parts[len(parts.groups())].encode().decode("unicode_escape")
+        if kind == "PARAMETER":
+            try:
+                start = float(parts[2])
+            except ValueError:
+                raise SceneError("law", f"{where}: the start of {name} must be a number, got {parts[2]!r}") from None
+            if not math.isfinite(start):
+                raise SceneError("law", f"{where}: the start of {name} must be finite, got {parts[2]!r}")
+            found[kind][name] = Parameter(start, text_at)
+        else:
+            found[kind][name] = text_at
+    if not found["OUTPUT"]:
+        raise SceneError("law", f'{field}: declares no output; add GRUBLER_OUTPUT(name, "description [unit]")')
+    if "Ts" not in found["PARAMETER"]:
+        raise SceneError("law", f'{field}: declares no sample time; add GRUBLER_PARAMETER(Ts, 1e-3, '
+                                f'"sample time [s]") (0: once per communication step)')
+    if not re.search(r"\bint\s+law_step\s*\(", text):
+        raise SceneError("law", f"{field}: defines no law_step; write int law_step(const double *param, "
+                                "double *state, double t, const double *in, double *out)")
+    attrs = {"inputs": found["INPUT"], "outputs": found["OUTPUT"], "parameters": found["PARAMETER"],
+             "n_state": n_state, "__doc__": f"A control law written in C ({path.name})."}
+    return type(identifier_for(path), (Law,), attrs)
+
+
+def export_law(source: str | Path, dest: str | Path | None = None, field: str = "output") -> Path:
+    """Build a native FMU of a control law written as one C function (``grubler export-law``).
+
+    Parameters
+    ----------
+    source : path
+        The C file: GRUBLER_* declarations and ``law_step`` (grubler_law.h, in
+        ``grubler/fmi/c``, documents them; docs/control.md has a complete example).
+    dest : path, optional
+        The ``.fmu`` to write (default: the source's name with ``.fmu``); its
+        name is the model identifier.
+    field : str
+        The name a refused ``dest`` is reported under (the CLI's option).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    SceneError
+        A declaration that cannot be read, naming the file and line.
+    BuildError
+        The compiler refused the file (its first error attached).
+    """
+    law = read_c_law(source)
+    dest = Path(dest) if dest is not None else Path(Path(source).with_suffix(".fmu").name)
+    if dest.suffix != ".fmu":
+        raise SceneError(field, f"an FMU's file name ends in .fmu, got {dest.name!r}")
+    check_destination(dest, field)
+    defines = {f"PARAM_{n}": k for k, n in enumerate(law.parameters)}
+    defines.update({f"INPUT_{n}": k for k, n in enumerate(law.inputs)})
+    defines.update({f"OUTPUT_{n}": k for k, n in enumerate(law.outputs)})
+    with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
+        staged = Path(tmp) / "law_step.c"  # a fixed name: the user's cannot shadow one of the FMU's own files
+        shutil.copy2(source, staged)
+        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, defines=defines)
+        spec = replace(spec, kernel_sources=(*spec.kernel_sources, "user_law", (Path(tmp), ("law_step.c",))))
+        try:
+            return build_fmu(spec, dest)
+        except BuildError as exc:
+            first = next((ln for ln in str(exc).splitlines() if "error" in ln and "law_step.c" in ln),
+                         str(exc).splitlines()[-1])
+            raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
+
+
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
          "Trajectory": trajectory_spec}
@@ -161,5 +289,6 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "law_spec", "pid_spec", "sensor_spec",
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law",
+           "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

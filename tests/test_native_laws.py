@@ -11,6 +11,7 @@ under AddressSanitizer and UBSan.
 
 from __future__ import annotations
 
+import math
 import struct
 import subprocess
 import sys
@@ -346,3 +347,89 @@ def test_random_crafted_states_never_crash_nor_corrupt_memory(built, sanitized, 
     t = Transcript(proc.stdout)
     assert len(t.statuses("deser")) == 120 and ERROR in t.statuses("deser")
     assert set(t.statuses("step")) <= {OK, WARNING, DISCARD, ERROR}
+
+
+# -- a user's law written in C (grubler export-law) ----------------------------------------
+
+def pi_reference(params: dict, inputs: list[tuple[float, float]]) -> list[float]:
+    """examples/pi_law.c's law, written again here from its comment: PI, clamped, conditional integration."""
+    K, Ti, u_max, Ts = params["K"], params["Ti"], params["u_max"], params["Ts"]
+    integral, out = 0.0, []
+    for r, y in inputs:
+        e = r - y
+        v = K * e + integral
+        u = min(max(v, -u_max), u_max)
+        if u == v:
+            integral += K * Ts / Ti * e
+        out.append(u)
+    return out
+
+
+@pytest.fixture(scope="module")
+def c_law(tmp_path_factory):
+    from fmpy import read_model_description
+
+    from grubler.controllers.native_fmu import export_law
+
+    d = tmp_path_factory.mktemp("c_law")
+    path = export_law(ROOT / "examples" / "pi_law.c", d / "PILaw.fmu")
+    zipfile.ZipFile(path).extractall(d / "x")
+    md = read_model_description(str(path))
+    return path, d / "x", md
+
+
+def test_a_law_written_in_c_runs_in_the_c_host_as_written(host, c_law, tmp_path):
+    from fmpy.validation import validate_fmu
+
+    path, d, md = c_law
+    assert validate_fmu(str(path)) == []
+    assert [v.name for v in md.modelVariables] == ["K", "Ti", "u_max", "Ts", "setpoint", "measurement", "u"]
+    assert {v.name: v.unit for v in md.modelVariables}["Ts"] == "s"
+    h = Host(host, d / "binaries" / "linux64" / "PILaw.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    params = {"K": 3.0, "Ti": 0.02, "u_max": 2.0, "Ts": 1e-3}
+    inputs = [(1.0 if k < 150 else -0.5, 0.4 * math.sin(0.02 * k)) for k in range(300)]
+    script = h.start(params, md=md)
+    for k, (r, y) in enumerate(inputs):
+        script += [f"setr {h.vr['setpoint']} {r!r}", f"setr {h.vr['measurement']} {y!r}",
+                   f"step {k * 1e-3!r} 0.001", h.getr("u")]
+    blob = tmp_path / "s.bin"
+    t = h.run(script[:-4 * 200] + ["save 0", f"ser 0 {blob}"] + script[-4 * 200:] + [f"deser 1 {blob}", "load 1"]
+              + script[-4 * 200:])
+    rows = got(t)[:, 0]
+    assert set(t.statuses("step")) == {OK}
+    ref = pi_reference(params, inputs)
+    assert np.allclose(rows[:300], ref, rtol=0, atol=1e-12) and max(rows) == 2.0  # it clamps
+    assert np.array_equal(rows[300:], rows[100:300])  # the saved state replays
+    # the law refuses a sample: an error naming why, the run ended
+    t = h.run(h.start({**params, "Ti": 0.0}, md=md) + ["step 0 0.001", "step 0.001 0.001"])
+    assert t.statuses("step") == [ERROR, ERROR] and t.logged("law_step returned non-zero"), t.logs
+
+
+def test_a_law_written_in_c_under_the_sanitizers(c_law, tmp_path):
+    path, d, md = c_law
+    (tmp_path / "asan").mkdir()
+    sanitized = sanitize_all({"PILaw": (path, d, md)}, tmp_path / "asan")
+    random_calls_hold(sanitized, "PILaw", md, 4, tmp_path)
+
+
+@pytest.mark.parametrize("text, why", [
+    ('GRUBLER_OUTPUT(u "x")\n', 'law.c:1: cannot read'),
+    ('GRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")\nint law_step(void);\n', "declares no output"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nint law_step(void);\n', "declares no sample time"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")\n', "defines no law_step"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_OUTPUT(u, "again [1]")\n', "law.c:2: u is declared twice"),
+    ('GRUBLER_PARAMETER(Ts, fast, "sample time [s]")\n', "law.c:1: the start of Ts must be a number"),
+    ('GRUBLER_STATE(1000000000)\n', "GRUBLER_STATE(1000000000): at most 100000 doubles"),
+    ('GRUBLER_WHATEVER(x)\n', "the declarations are GRUBLER_PARAMETER"),
+    ('#include "grubler_law.h"\nGRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_PARAMETER(Ts, 1e-3, "s [s]")\n'
+     'int law_step(const double *param, double *state, double t, const double *in, double *out) '
+     '{ return nothing; }\n', "law.c:4:")])
+def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
+    src = tmp_path / "law.c"
+    src.write_text(text)
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
+                           str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert why in proc.stderr, proc.stderr
+    assert not (tmp_path / "L.fmu").exists()

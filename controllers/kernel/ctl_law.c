@@ -18,6 +18,7 @@ const char *ctl_status_message(int status)
     case CTL_TOO_MANY_SAMPLES: return "the step holds more than 100000 samples";
     case CTL_NOT_FINITE: return "a sample overflowed: an output or the law's state is not finite";
     case CTL_BAD_ARGUMENT: return "a NULL pointer or a buffer too small";
+    case CTL_LAW_REFUSED: return "the law's step refused the sample (law_step returned non-zero)";
     default: return "unknown status";
     }
 }

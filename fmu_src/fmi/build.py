@@ -67,6 +67,7 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     laws = drives.parent.parent / "controllers" / "kernel"
     return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
             "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h", "law_struct.h")),
+            "user_law": (C_DIR, ("grubler_law.h",)),
             "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
             "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
@@ -81,8 +82,8 @@ def stage_sources(spec: ModelSpec, sources: Path) -> list[str]:
     """Write an FMU's ``sources/`` folder; the C files to compile, in order."""
     sources.mkdir(parents=True, exist_ok=True)
     dirs = _kernel_dirs()
-    for key in spec.kernel_sources:
-        folder, patterns = dirs[key]
+    for key in spec.kernel_sources:  # a name of _kernel_dirs, or a (folder, patterns) of the caller's own
+        folder, patterns = dirs[key] if isinstance(key, str) else key
         for f in sorted(f for pattern in patterns for f in folder.glob(pattern) if f.suffix in (".c", ".h", ".inc")):
             if f.name not in NOT_IN_FMU and (spec.defines.get(DIRECTIONAL) or not f.name.endswith("_cs.c")):
                 shutil.copy2(f, sources / f.name)
