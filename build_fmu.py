@@ -10,10 +10,12 @@ parameter) are the C models behind one FMI 2.0
 wrapper (``--fmi 3``: its FMI 3.0 adapter, the same model files), compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
 is installed), with its C sources inside.  It runs without Python.
 
-The controllers and the transducers stay pythonfmu FMUs, where Python is the
-point: each carries a copy of the grubler package in its resources/ and runs
-inside a Python interpreter with numpy and scipy installed (see the README's FMU
-section).  Every FMU declares which outputs depend on an input at the same
+PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu
+and Trajectory.fmu are native too: the laws' C (controllers/kernel, the code the
+library's classes run) behind one sampled-law model on the same wrapper.
+LinearController and ComputedTorque stay pythonfmu FMUs: each carries a copy of
+the grubler package in its resources/ and runs inside a Python interpreter with
+numpy and scipy installed (see the README's FMU section).  Every FMU declares which outputs depend on an input at the same
 instant, so a master can tell a state from an algebraic output.  A controller
 FMU carries a C wrapper in front of pythonfmu's linux64 binary that reports the
 status each call deserves (controllers/status_wrapper.c): building one needs a
@@ -25,8 +27,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, LinearController, Trajectory
+from grubler.controllers import ComputedTorque, CurrentSensor, LinearController, Tachometer
 from grubler.controllers.fmu import build_controller_fmu
+from grubler.controllers.native_fmu import cascade_spec, encoder_spec, pid_spec, sensor_spec, trajectory_spec
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
 from grubler.fmi.cylinder import hydraulic_spec, pneumatic_spec
@@ -40,10 +43,16 @@ NATIVE = {
     "DCMotor": lambda: motor_spec(DEFAULT_MOTOR, "DCMotor"),
     "HydraulicCylinder": lambda: hydraulic_spec(),
     "PneumaticCylinder": lambda: pneumatic_spec(),
+    "PID": lambda: pid_spec("PID"),
+    "CascadeController": lambda: cascade_spec("CascadeController"),
+    "Encoder": lambda: encoder_spec("Encoder"),
+    "Tachometer": lambda: sensor_spec(Tachometer),
+    "CurrentSensor": lambda: sensor_spec(CurrentSensor),
+    "Trajectory": lambda: trajectory_spec("Trajectory"),
 }
 
 # grubler.controllers: each law becomes an FMU the way a user's own law does
-LAWS = {law.__name__: law for law in (PID, CascadeController, LinearController, ComputedTorque, Trajectory, Encoder)}
+LAWS = {law.__name__: law for law in (LinearController, ComputedTorque)}
 FMUS = [*NATIVE, *LAWS]
 
 

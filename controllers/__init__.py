@@ -10,7 +10,11 @@ semantics in co-simulation are documented in :mod:`grubler.controllers.law`.
 - :class:`LinearController`: any python-control TF or state space, discretised;
 - :class:`ComputedTorque`: inverse-dynamics feedforward of a one-DOF mechanism;
 - :class:`Trajectory`: constant speed, trapezoid, S-curve, sine and table setpoints;
-- :class:`Encoder`: seeded noise, quantisation, delay and a speed estimate.
+- :class:`Encoder`: seeded noise, quantisation, delay and a speed estimate;
+- :class:`Tachometer`, :class:`CurrentSensor`: gain error, bandwidth, offset and seeded noise.
+
+The laws run in C (``controllers/kernel``); the PID, cascade, encoder,
+trajectory and the two sensors are native FMUs too (no Python at run time).
 
 May import: the base modules (:mod:`grubler.errors`, :mod:`grubler.limits`),
 :mod:`grubler.mechanism` (computed torque runs the inverse dynamics),
@@ -31,7 +35,8 @@ from grubler.controllers.encoder import Encoder
 from grubler.controllers.law import Law, Parameter, Sampler
 from grubler.controllers.linear import LinearController
 from grubler.controllers.pid import PID
+from grubler.controllers.sensors import CurrentSensor, Tachometer
 from grubler.controllers.trajectory import Trajectory
 
-__all__ = ["CascadeController", "ComputedTorque", "Encoder", "Law", "LinearController", "PID", "Parameter",
-           "Sampler", "Trajectory"]
+__all__ = ["CascadeController", "ComputedTorque", "CurrentSensor", "Encoder", "Law", "LinearController", "PID", "Parameter",
+           "Sampler", "Tachometer", "Trajectory"]

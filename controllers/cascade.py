@@ -5,9 +5,11 @@ trajectory's velocity may be added to it (speed feedforward), and the sum is
 limited to ``±speed_limit``.  The inner loop, PI on the speed error, gives the
 output ``u`` (a voltage, current or torque command, limited to
 ``[u_min, u_max]`` with back-calculation anti-windup).  Both loops are
-:class:`~grubler.controllers.pid.PID` instances sampled together at ``Ts``;
+:class:`~grubler.controllers.pid.PID` loops sampled together at ``Ts``;
 the outer one is limited to the speed limit with its own anti-windup, so a long
-move at the limit does not wind its integral up.
+move at the limit does not wind its integral up.  The cascade runs in C
+(``controllers/kernel/ctl_cascade.c`` over ``ctl_pid.c``), as the native
+CascadeController.fmu does.
 
 Examples
 --------
@@ -19,10 +21,10 @@ Examples
 
 from __future__ import annotations
 
-from grubler.errors import SceneError
+import ctypes
 
-from grubler.controllers.law import Law, Parameter, check_number, check_sample_time
-from grubler.controllers.pid import PID
+from grubler.controllers import native
+from grubler.controllers.law import Law, Parameter, check_number
 
 
 class CascadeController(Law):
@@ -70,29 +72,42 @@ class CascadeController(Law):
     def __init__(self, K_position: float = 10.0, Ti_position: float = 0.0, K_speed: float = 1.0,
                  Ti_speed: float = 0.0, velocity_feedforward: float = 1.0, speed_limit: float = 1e300,
                  u_min: float = -1e300, u_max: float = 1e300, Tt_speed: float = 0.0, Ts: float = 1e-3):
-        # checked here so that an error names the cascade's field, not the inner PID's
-        limit = check_number(speed_limit, "speed_limit", low=0.0, low_open=True)
-        self.velocity_feedforward = check_number(velocity_feedforward, "velocity_feedforward")
-        for name, value in (("K_position", K_position), ("K_speed", K_speed)):
-            check_number(value, name)
-        for name, value in (("Ti_position", Ti_position), ("Ti_speed", Ti_speed), ("Tt_speed", Tt_speed)):
-            check_number(value, name, low=0.0)
-        if not check_number(u_min, "u_min") < check_number(u_max, "u_max"):
-            raise SceneError("u_max", f"must exceed u_min = {u_min:g}, got {u_max:g}")
-        Ts = check_sample_time(Ts)
-        self.position_loop = PID(K=K_position, Ti=Ti_position, Ts=Ts, u_min=-limit, u_max=limit)
-        self.speed_loop = PID(K=K_speed, Ti=Ti_speed, Ts=Ts, u_min=u_min, u_max=u_max, Tt=Tt_speed)
-        self.Ts = Ts
-        self.speed_setpoint = 0.0
+        given = {"K_position": K_position, "Ti_position": Ti_position, "K_speed": K_speed, "Ti_speed": Ti_speed,
+                 "velocity_feedforward": velocity_feedforward, "speed_limit": speed_limit, "u_min": u_min,
+                 "u_max": u_max, "Tt_speed": Tt_speed, "Ts": Ts}
+        values = {name: check_number(v, name) for name, v in given.items()}  # numbers; the C judges their range
+        self._params = native.CascadeParams(**values)
+        native.refuse_bad("cascade", self._params)
+        for name, v in values.items():
+            setattr(self, name, v)
+        self._u = ctypes.c_double()
+        self.reset()
+
+    def reset(self) -> None:
+        """Both loops back to the start."""
+        self._state = native.CascadeState()
+        native.call("ctl_cascade_reset", self._params, self._state)
+
+    @property
+    def speed_setpoint(self) -> float:
+        """The last speed setpoint the position loop gave, rad/s."""
+        return self._state.speed_setpoint
 
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
-        ff = self.velocity_feedforward * inputs["velocity_setpoint"]
-        speed_setpoint = self.position_loop.compute(inputs["position_setpoint"], inputs["position"], ff)
-        self.speed_setpoint = speed_setpoint
-        return {"u": self.speed_loop.compute(speed_setpoint, inputs["speed"])}
+        native.call("ctl_cascade_sample", self._params, self._state, inputs["position_setpoint"],
+                    inputs["velocity_setpoint"], inputs["position"], inputs["speed"], self._u)
+        return {"u": self._u.value}
 
     def initial_outputs(self, t0: float) -> dict[str, float]:
-        return self.speed_loop.initial_outputs(t0)
+        native.call("ctl_cascade_initial_output", self._params, self._u)
+        return {"u": self._u.value}
+
+    def get_state(self) -> dict:
+        """Both loops' states and the last speed setpoint, as plain numbers."""
+        return native.as_plain(self._state)
+
+    def set_state(self, state: dict) -> None:
+        self._state = native.checked_state("cascade", self._params, native.CascadeState, state)
 
 
 __all__ = ["CascadeController"]

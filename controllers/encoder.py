@@ -3,8 +3,9 @@
 At each sample ``k`` (period Ts) of the true position ``x_k``:
 
 1. additive Gaussian noise: ``x_k + w_k``, ``w_k ~ N(0, noise_std^2)`` from a
-   seeded generator (numpy PCG64), so a run is reproducible and a restored FMU
-   state replays the same noise;
+   seeded generator (SplitMix64 and Box-Muller, in C), so a run is
+   reproducible, the library and the Encoder FMU draw the same numbers, and a
+   restored FMU state replays the same noise;
 2. quantisation of an incremental encoder with ``counts_per_rev`` counts per
    revolution: ``floor(x / q) q`` with ``q = 2 pi / counts_per_rev`` (0: none);
 3. a pure delay of ``delay`` samples (the first sample fills the history);
@@ -12,7 +13,8 @@ At each sample ``k`` (period Ts) of the true position ``x_k``:
    (0 at the first sample).
 
 Any stage is off at its neutral value (``noise_std = 0``, ``counts_per_rev = 0``,
-``delay = 0``).
+``delay = 0``).  The stages run in C (``controllers/kernel/ctl_encoder.c``), the
+code the native Encoder.fmu compiles.
 
 Examples
 --------
@@ -26,14 +28,16 @@ Examples
 
 from __future__ import annotations
 
+import ctypes
 import math
-from collections import deque
 
 import numpy as np
 
 from grubler.errors import SceneError
+from grubler.limits import brief
 
-from grubler.controllers.law import Law, Parameter, check_count, check_number, check_sample_time
+from grubler.controllers import native
+from grubler.controllers.law import Law, Parameter, check_count, check_number
 
 # the delay line holds delay + 1 readings: a million samples is 1000 s at 1 kHz
 MAX_DELAY = 1_000_000
@@ -73,10 +77,13 @@ class Encoder(Law):
             if isinstance(value, bool) or int(value) != value or value < 0:
                 raise SceneError(name, f"must be a whole number >= 0, got {value!r}")
         self.counts_per_rev = int(counts_per_rev)
-        self.noise_std = check_number(noise_std, "noise_std", low=0.0)
+        self.noise_std = check_number(noise_std, "noise_std")
         self.seed = int(seed)
         self.delay = check_count(delay, "delay", MAX_DELAY)
-        self.Ts = check_sample_time(Ts)
+        self.Ts = check_number(Ts, "Ts")
+        self._params = native.EncoderParams(self.counts_per_rev, self.noise_std, self.seed, self.delay, self.Ts)
+        native.refuse_bad("encoder", self._params, float(MAX_DELAY + 1))
+        self._position, self._speed = ctypes.c_double(), ctypes.c_double()
         self.reset()
 
     @property
@@ -85,26 +92,39 @@ class Encoder(Law):
         return 2 * math.pi / self.counts_per_rev if self.counts_per_rev else 0.0
 
     def reset(self) -> None:
-        self.rng = np.random.Generator(np.random.PCG64(self.seed))
-        self.history: deque[float] = deque(maxlen=self.delay + 1)
-        self.last: float | None = None
+        """Back to the start: the noise generator seeded again, the delay line empty."""
+        self._state = native.EncoderState()
+        self._history = np.zeros(self.delay + 1)
+        native.call("ctl_encoder_reset", self._params, self._state)
 
     def measure(self, x: float) -> float:
         """Noise and quantisation of one reading (advances the noise generator)."""
-        if self.noise_std > 0:
-            x = x + self.noise_std * float(self.rng.standard_normal())
-        q = self.resolution
-        return math.floor(x / q) * q if q else x
+        native.call("ctl_encoder_measure", self._params, self._state, x, self._position)
+        return self._position.value
 
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
-        m = self.measure(inputs["position"])
-        if not self.history:
-            self.history.extend([m] * self.delay)
-        self.history.append(m)
-        out = self.history[0]
-        speed = 0.0 if self.last is None else (out - self.last) / self.Ts
-        self.last = out
-        return {"measured_position": out, "measured_speed": speed}
+        native.call("ctl_encoder_sample", self._params, self._state, self._history.ctypes.data_as(native.DOUBLES),
+                    inputs["position"], self._position, self._speed)
+        return {"measured_position": self._position.value, "measured_speed": self._speed.value}
+
+    def get_state(self) -> dict:
+        """The delay line, the last reading, the generator's state and whether a sample ran."""
+        s = self._state
+        return {"started": s.started, "last": s.last, "rng": [s.rng.hi, s.rng.lo], "head": s.head,
+                "history": self._history.tolist()}
+
+    def set_state(self, state: dict) -> None:
+        keys = ["head", "history", "last", "rng", "started"]
+        if not isinstance(state, dict) or sorted(state) != keys or len(state["history"]) != self.delay + 1 \
+                or len(state["rng"]) != 2:
+            raise ValueError(f"a state of another law: {brief(repr(state))}")
+        s = native.EncoderState(float(state["started"]), float(state["last"]), native.Rng(*map(float, state["rng"])),
+                                float(state["head"]))
+        history = np.array(state["history"], dtype=float)
+        bad = native.check("encoder", self._params, s, history.ctypes.data_as(native.DOUBLES), state=True)
+        if bad:
+            raise ValueError(f"state.{bad[0]}: {bad[1]}")
+        self._state, self._history = s, history
 
 
 __all__ = ["Encoder"]

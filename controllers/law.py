@@ -9,6 +9,9 @@ outputs``, called once per sample.  The same declaration makes its FMU
 
 Sample-time semantics (:class:`Sampler`, shared by Python and the FMUs)
 -------------------------------------------------------------------------
+Written once, in C (``controllers/kernel/ctl_law.c``): the Sampler and every
+native law FMU ask it which sample instants a step holds.
+
 A law with sample time ``Ts > 0`` samples at ``t0 + k Ts`` (``t0`` the start
 time).  A communication step from ``t`` to ``t + h`` runs every sample instant
 in ``[t, t + h)``, each with the inputs as set before the step (held over the
@@ -48,6 +51,7 @@ Examples
 from __future__ import annotations
 
 import copy
+import ctypes
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -57,12 +61,13 @@ import numpy as np
 from grubler.errors import InputError, SceneError
 from grubler.limits import number
 
-# A sample instant within this fraction of Ts of a step's end belongs to the
-# next step: communication points accumulated in floating point (0.1 + 0.2)
-# miss the sample grid by a few ulps.
+from grubler.controllers import native
+
+# ctl_law.h's CTL_GRID_TOL and CTL_MAX_SAMPLES_PER_STEP (a test holds them equal):
+# a sample instant within GRID_TOL Ts of a step's end belongs to the next step
+# (communication points accumulated in floating point miss the grid by a few
+# ulps), and a step holding more samples is refused rather than run for minutes.
 GRID_TOL = 1e-7
-# Samples one communication step may run: a step of 100 s at 1 kHz.  A longer
-# step is refused rather than computed for minutes (or for ever: h = 1e300).
 MAX_SAMPLES_PER_STEP = 100_000
 
 
@@ -234,26 +239,25 @@ class Sampler:
             A step that is not positive and finite, one that holds more than
             ``MAX_SAMPLES_PER_STEP`` samples, or a non-finite input.
         """
-        if not (h > 0 and math.isfinite(h)):
+        law = self.law
+        lib, due, when = native.functions(), ctypes.c_double(), ctypes.c_double()
+        clock = native.Clock(self.t0, law.Ts, 1 if law.continuous else 0)
+        status = lib.ctl_samples_due(ctypes.byref(clock), float(self.samples), t, h, ctypes.byref(due))
+        if status == native.BAD_STEP_SIZE:
             raise ValueError(f"step size must be positive and finite, got {h}")
-        for name in self.law.inputs:
+        for name in law.inputs:
             v = inputs[name]
             if not math.isfinite(v):
                 raise ValueError(f"{name} is {v} at t = {t:g} s: inputs must be finite")
-        law = self.law
-        if law.continuous:
-            self._sample(t + h, inputs)
-        elif law.Ts == 0:
-            self._sample(t, inputs)
-        else:
-            Ts = law.Ts
-            end = t + h - GRID_TOL * Ts
-            due = (end - self.t0) / Ts - self.samples  # a float: inf for a step of 1e300 s
-            if due > MAX_SAMPLES_PER_STEP:
-                raise ValueError(f"a step of {h:g} s holds {due:.3g} samples of Ts = {Ts:g} s; "
-                                 f"at most {MAX_SAMPLES_PER_STEP} per communication step")
-            while self.t0 + self.samples * Ts < end:
-                self._sample(self.t0 + self.samples * Ts, inputs)
+        if status == native.TOO_MANY_SAMPLES:
+            raise ValueError(f"a step of {h:g} s holds {due.value:.3g} samples of Ts = {law.Ts:g} s; "
+                             f"at most {MAX_SAMPLES_PER_STEP} per communication step")
+        if status != native.OK:
+            raise ValueError(f"ctl_samples_due: {native.message(status)}")
+        first = float(self.samples)
+        for i in range(int(due.value)):
+            lib.ctl_sample_instant(ctypes.byref(clock), first, t, h, float(i), ctypes.byref(when))
+            self._sample(when.value, inputs)
         return self.outputs
 
     def _sample(self, t: float, inputs: dict[str, float]) -> None:

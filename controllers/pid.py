@@ -47,11 +47,12 @@ Examples
 
 from __future__ import annotations
 
-import math
+import ctypes
 
 from grubler.errors import SceneError
 
-from grubler.controllers.law import Law, Parameter, check_number, check_sample_time
+from grubler.controllers import native
+from grubler.controllers.law import Law, Parameter, check_number
 
 ANTI_WINDUP = ("back-calculation", "conditional", "none")
 
@@ -99,61 +100,56 @@ class PID(Law):
     def __init__(self, K: float = 1.0, Ti: float = 0.0, Td: float = 0.0, N: float = 10.0, b: float = 1.0,
                  c: float = 1.0, Ts: float = 1e-3, u_min: float = -1e300, u_max: float = 1e300,
                  anti_windup: str = "back-calculation", Tt: float = 0.0):
-        self.K = check_number(K, "K")
-        self.Ti = check_number(Ti, "Ti", low=0.0)
-        self.Td = check_number(Td, "Td", low=0.0)
-        self.N = check_number(N, "N", low=0.0, low_open=True)
-        self.b = check_number(b, "b")
-        self.c = check_number(c, "c")
-        self.Ts = check_sample_time(Ts, "Ts")
-        self.u_min = check_number(u_min, "u_min")
-        self.u_max = check_number(u_max, "u_max")
-        if not self.u_min < self.u_max:
-            raise SceneError("u_max", f"must exceed u_min = {self.u_min:g}, got {self.u_max:g}")
+        given = {"K": K, "Ti": Ti, "Td": Td, "N": N, "b": b, "c": c, "Ts": Ts, "u_min": u_min, "u_max": u_max,
+                 "Tt": Tt}
+        values = {name: check_number(v, name) for name, v in given.items()}  # numbers; the C judges their range
         if anti_windup not in ANTI_WINDUP:
             raise SceneError("anti_windup", f"must be one of {', '.join(ANTI_WINDUP)}, got {anti_windup!r}")
+        self._params = native.PidParams(**values, anti_windup=ANTI_WINDUP.index(anti_windup))
+        native.refuse_bad("pid", self._params)
+        for name, v in values.items():
+            setattr(self, name, v)
         self.anti_windup = anti_windup
-        Tt = check_number(Tt, "Tt", low=0.0)
-        if Tt == 0.0:
-            Tt = math.sqrt(self.Ti * self.Td) if self.Td > 0 else self.Ti
-        self.Tt = Tt
-        # coefficients of the difference equations (Åström and Murray, Feedback Systems, 10.5)
-        Tf = self.Td / self.N
-        self._bi = self.K * self.Ts / self.Ti if self.Ti > 0 else 0.0
-        self._ad = Tf / (Tf + self.Ts)
-        self._bd = self.K * self.Td / (Tf + self.Ts)
-        self._br = self.Ts / self.Tt if (self.Ti > 0 and self.Tt > 0) else 0.0
+        Tt = ctypes.c_double()
+        native.call("ctl_pid_tracking_time", self._params, Tt)
+        self.Tt = Tt.value
+        self._state = native.PidState()
+        self._u = ctypes.c_double()
         self.reset()
 
     def reset(self, integral: float = 0.0) -> None:
         """Back to the start: integral ``integral``, derivative at rest, no history."""
-        self.I = float(integral)
-        self.D = 0.0
-        self.ed_prev: float | None = None
+        native.call("ctl_pid_reset", self._params, float(integral), self._state)
+
+    @property
+    def integral(self) -> float:
+        """The integral action I, unit of u."""
+        return self._state.I
 
     def compute(self, r: float, y: float, u_ff: float = 0.0) -> float:
-        """One sample on plain floats: the output u, and the state advanced."""
-        e = r - y
-        ed = self.c * r - y
-        if self.ed_prev is None:
-            self.ed_prev = ed
-        self.D = self._ad * self.D + self._bd * (ed - self.ed_prev)
-        self.ed_prev = ed
-        v = self.K * (self.b * r - y) + self.I + self.D + u_ff
-        u = min(max(v, self.u_min), self.u_max)
-        di = self._bi * e
-        if self.anti_windup == "back-calculation":
-            di += self._br * (u - v)
-        elif self.anti_windup == "conditional" and ((v > self.u_max and di > 0) or (v < self.u_min and di < 0)):
-            di = 0.0
-        self.I += di
-        return u
+        """One sample on plain floats: the output u, and the state advanced.
+
+        Raises
+        ------
+        ValueError
+            An input that is not finite, or a sample that overflows.
+        """
+        native.call("ctl_pid_sample", self._params, self._state, r, y, u_ff, self._u)
+        return self._u.value
 
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
         return {"u": self.compute(inputs["setpoint"], inputs["measurement"], inputs.get("feedforward", 0.0))}
 
     def initial_outputs(self, t0: float) -> dict[str, float]:
-        return {"u": min(max(0.0, self.u_min), self.u_max)}
+        native.call("ctl_pid_initial_output", self._params, self._u)
+        return {"u": self._u.value}
+
+    def get_state(self) -> dict:
+        """The integral, the filtered derivative, the last derivative error and whether a sample ran."""
+        return native.as_plain(self._state)
+
+    def set_state(self, state: dict) -> None:
+        self._state = native.checked_state("pid", self._params, native.PidState, state)
 
 
 __all__ = ["PID", "ANTI_WINDUP"]

@@ -18,7 +18,9 @@ the last stopped, or going back and forth when ``reverse`` is set.  Before
 ``delay`` every kind holds ``start`` at rest; after a table ends, its last point.
 
 The profile is piecewise polynomial in time and evaluated exactly, so velocity
-is the derivative of position and acceleration that of velocity.
+is the derivative of position and acceleration that of velocity.  It is
+planned and evaluated in C (``controllers/kernel/ctl_trajectory.c``), the code
+the native Trajectory.fmu compiles.
 
 Examples
 --------
@@ -31,7 +33,7 @@ Examples
 
 from __future__ import annotations
 
-import math
+import ctypes
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,14 +41,18 @@ import numpy as np
 from grubler.errors import SceneError
 from grubler.limits import brief
 
+from grubler.controllers import native
 from grubler.controllers.law import Law, Parameter, check_number
 
 KINDS = ("constant", "trapezoid", "scurve", "sine", "table")
+# what a kind does not use still reaches the C as a valid number
+TRAJECTORY_DEFAULTS = {"speed": 1.0, "distance": 1.0, "v_max": 1.0, "a_max": 1.0, "j_max": 10.0, "dwell": 0.0,
+                       "repeat": 1, "reverse": 0.0, "amplitude": 1.0, "frequency": 1.0}
 
 
 @dataclass(frozen=True)
 class Segment:
-    """Constant jerk over ``duration`` from the state (p0, v0, a0) at its start."""
+    """Constant jerk over ``duration`` from the state (p0, v0, a0) at its start (``struct ctl_segment``)."""
 
     t0: float
     duration: float
@@ -55,56 +61,28 @@ class Segment:
     a0: float
     jerk: float
 
-    def at(self, tau: float) -> tuple[float, float, float]:
-        j = self.jerk
-        return (self.p0 + tau * (self.v0 + tau * (self.a0 / 2 + tau * j / 6)),
-                self.v0 + tau * (self.a0 + tau * j / 2),
-                self.a0 + tau * j)
+
+def _params(kind: str, distance: float, v_max: float, a_max: float, j_max: float) -> native.TrajectoryParams:
+    return native.TrajectoryParams(kind=KINDS.index(kind), distance=distance, v_max=v_max, a_max=a_max, j_max=j_max)
 
 
-def _chain(phases: list[tuple[float, float, float]]) -> list[Segment]:
-    """Segments from (duration, acceleration at start, jerk), starting at rest at 0."""
-    segs, t, p, v = [], 0.0, 0.0, 0.0
-    for duration, a0, jerk in phases:
-        if duration <= 0:
-            continue
-        s = Segment(t, duration, p, v, a0, jerk)
-        p, v, _ = s.at(duration)
-        t += duration
-        segs.append(s)
-    return segs
+def _phases(p: native.TrajectoryParams) -> list[tuple[float, float, float]]:
+    out, n = (ctypes.c_double * 21)(), ctypes.c_int()
+    native.call("ctl_move_phases", p, out, ctypes.byref(n))
+    return [(out[3 * k], out[3 * k + 1], out[3 * k + 2]) for k in range(n.value)]
 
 
 def trapezoid_phases(distance: float, v_max: float, a_max: float) -> list[tuple[float, float, float]]:
-    """Accelerate at a_max, cruise at v_max, brake: the shortest move with those limits."""
-    v = min(v_max, math.sqrt(distance * a_max))  # a triangle when v_max is out of reach
-    ta = v / a_max
-    tv = distance / v - ta
-    return [(ta, a_max, 0.0), (tv, 0.0, 0.0), (ta, -a_max, 0.0)]
+    """Accelerate at a_max, cruise at v_max, brake: the shortest move with those limits.
+
+    Phases as (duration, acceleration at start, jerk), from ``ctl_move_phases``.
+    """
+    return _phases(_params("trapezoid", distance, v_max, a_max, 0.0))
 
 
 def scurve_phases(distance: float, v_max: float, a_max: float, j_max: float) -> list[tuple[float, float, float]]:
     """Seven phases of jerk +J, 0, -J, 0, -J, 0, +J (Biagiotti and Melchiorri, 3.4)."""
-
-    def accel_time(v: float) -> tuple[float, float]:
-        # (jerk time, whole acceleration time) to reach speed v from rest
-        if v * j_max >= a_max**2:
-            return a_max / j_max, a_max / j_max + v / a_max
-        tj = math.sqrt(v / j_max)
-        return tj, 2 * tj
-
-    v = v_max
-    tj, ta = accel_time(v)
-    if v * ta > distance:  # v_max out of reach: the peak speed whose move is exactly the distance
-        v = (-a_max / j_max + math.sqrt((a_max / j_max) ** 2 + 4 * distance / a_max)) * a_max / 2
-        if v * j_max < a_max**2:
-            v = (distance * math.sqrt(j_max) / 2) ** (2 / 3)
-        tj, ta = accel_time(v)
-    a_peak = j_max * tj
-    tv = distance / v - ta
-    tc = ta - 2 * tj
-    return [(tj, 0.0, j_max), (tc, a_peak, 0.0), (tj, a_peak, -j_max), (tv, 0.0, 0.0),
-            (tj, 0.0, -j_max), (tc, -a_peak, 0.0), (tj, -a_peak, j_max)]
+    return _phases(_params("scurve", distance, v_max, a_max, j_max))
 
 
 def _floats(value, field: str) -> np.ndarray:
@@ -177,44 +155,41 @@ class Trajectory(Law):
         if kind not in KINDS:
             raise SceneError("kind", f"must be one of {', '.join(KINDS)}, got {kind!r}")
         self.kind = kind
-        self.start = check_number(start, "start")
-        self.delay = check_number(delay, "delay", low=0.0)
-        self.Ts = 0.0
-        if kind == "constant":
-            self.speed = check_number(speed, "speed")
-        elif kind in ("trapezoid", "scurve"):
-            self.distance = check_number(distance, "distance")
-            if self.distance == 0:
-                raise SceneError("distance", "a move needs a non-zero distance")
-            v = check_number(v_max, "v_max", low=0.0, low_open=True)
-            a = check_number(a_max, "a_max", low=0.0, low_open=True)
-            self.dwell = check_number(dwell, "dwell", low=0.0)
+        given = {"start": start, "delay": delay, "speed": speed, "distance": distance, "v_max": v_max,
+                 "a_max": a_max, "j_max": j_max, "dwell": dwell, "amplitude": amplitude, "frequency": frequency}
+        used = {"constant": ("speed",), "sine": ("amplitude", "frequency"), "table": (),
+                "trapezoid": ("distance", "v_max", "a_max", "dwell"),
+                "scurve": ("distance", "v_max", "a_max", "j_max", "dwell")}[kind]
+        # the numbers its kind uses (the C judges their range); the others keep their defaults
+        values = {name: check_number(given[name], name) for name in ("start", "delay", *used)}
+        if kind in ("trapezoid", "scurve"):
             if isinstance(repeat, bool) or int(repeat) != repeat or repeat < 0:
                 raise SceneError("repeat", f"must be a whole number >= 0, got {repeat!r}")
-            self.repeat = int(repeat)
-            self.reverse = bool(reverse)
-            d = abs(self.distance)
-            if kind == "trapezoid":
-                phases = trapezoid_phases(d, v, a)
-            else:
-                phases = scurve_phases(d, v, a, check_number(j_max, "j_max", low=0.0, low_open=True))
-            self._move = _chain(phases)
-            self.move_time = self._move[-1].t0 + self._move[-1].duration
-        elif kind == "sine":
-            self.amplitude = check_number(amplitude, "amplitude")
-            self.frequency = check_number(frequency, "frequency", low=0.0)
-        else:
-            from scipy.interpolate import CubicSpline
-
+            values.update(repeat=int(repeat), reverse=1.0 if reverse else 0.0)
+        self._params = native.TrajectoryParams(**{**TRAJECTORY_DEFAULTS, **values, "kind": KINDS.index(kind)})
+        self._table = None
+        if kind == "table":
             t = _floats(times, "times")
             p = _floats(positions, "positions")
             if len(t) != len(p) or len(t) < 2:
                 raise SceneError("positions", f"needs one position per time and at least two points, got "
                                               f"{len(p)} positions for {len(t)} times")
-            if np.any(np.diff(t) <= 0):
-                raise SceneError("times", "must be strictly increasing")
-            self._table = (t, p)
-            self._spline = CubicSpline(t, p, bc_type="clamped")
+            self._table_arrays = (t, p, np.zeros(len(t)))
+            self._table = native.Table(len(t), *(a.ctypes.data_as(native.DOUBLES) for a in self._table_arrays))
+        native.refuse_bad("trajectory", self._params, self._table and ctypes.byref(self._table))
+        for name, v in values.items():
+            setattr(self, name, v)
+        if kind in ("trapezoid", "scurve"):
+            self.reverse = bool(reverse)
+            self._plan = native.Move()
+            native.call("ctl_move_plan", self._params, self._plan)
+            self._move = [Segment(*(getattr(sg, f) for f, _ in native.Segment._fields_))
+                          for sg in self._plan.seg[:self._plan.n]]
+            self.move_time = self._plan.move_time
+        if kind == "table":
+            native.call("ctl_table_prepare", self._table, np.zeros(len(t)).ctypes.data_as(native.DOUBLES))
+        self.Ts = 0.0
+        self._out = (ctypes.c_double * 3)()
 
     def breakpoints(self, t_end: float) -> list[float]:
         """Times in ``[0, t_end]`` where the motion law changes phase (a move's segments, a table's points).
@@ -231,49 +206,14 @@ class Trajectory(Law):
                 out += [start + seg.t0 for seg in self._move] + [start + self.move_time]
                 k += 1
         elif self.kind == "table":
-            out += [self.delay + float(x) for x in self._table[0][:100_000]]
+            out += [self.delay + float(x) for x in self._table_arrays[0][:100_000]]
         return [x for x in out if 0.0 <= x <= t_end]
 
     def evaluate(self, t: float) -> tuple[float, float, float]:
         """Position, velocity and acceleration at time ``t``."""
-        tau = t - self.delay
-        kind = self.kind
-        if kind == "table":
-            times, pos = self._table
-            tt = t - self.delay
-            if tt <= times[0]:
-                return float(pos[0]), 0.0, 0.0
-            if tt >= times[-1]:
-                return float(pos[-1]), 0.0, 0.0
-            s = self._spline
-            return float(s(tt)), float(s(tt, 1)), float(s(tt, 2))
-        if tau < 0:
-            return self.start, 0.0, 0.0
-        if kind == "constant":
-            return self.start + self.speed * tau, self.speed, 0.0
-        if kind == "sine":
-            w = 2 * math.pi * self.frequency
-            s, c = math.sin(w * tau), math.cos(w * tau)
-            return self.start + self.amplitude * s, self.amplitude * w * c, -self.amplitude * w * w * s
-        period = self.move_time + self.dwell
-        k = int(tau // period) if period > 0 else 0
-        if self.repeat and k >= self.repeat:
-            k, local = self.repeat - 1, period  # finished: rest at the end of the last move
-        else:
-            local = tau - k * period
-        if self.reverse:
-            sign = 1.0 if k % 2 == 0 else -1.0
-            base = self.start + (0.0 if k % 2 == 0 else self.distance)
-        else:
-            sign, base = 1.0, self.start + k * self.distance
-        direction = math.copysign(1.0, self.distance) * sign
-        if local >= self.move_time:
-            return base + direction * abs(self.distance), 0.0, 0.0
-        for seg in self._move:
-            if local < seg.t0 + seg.duration:
-                break
-        p, v, a = seg.at(local - seg.t0)
-        return base + direction * p, direction * v, direction * a
+        plan = self._plan if self.kind in ("trapezoid", "scurve") else None
+        native.call("ctl_trajectory_evaluate", self._params, plan, self._table, float(t), self._out)
+        return self._out[0], self._out[1], self._out[2]
 
     def initial_outputs(self, t0: float) -> dict[str, float]:
         return self.update(t0, {})

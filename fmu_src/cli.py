@@ -1,5 +1,5 @@
 """Command line: ``grubler presets | motors | info | simulate | animate | report | sweep | size | cosim | export |
-linearize | app``.
+export-law | linearize | app``.
 
 A bad scene or option exits with status 2 and one line naming the field and the
 reason; ``--debug`` shows the traceback instead.
@@ -275,6 +275,14 @@ def cmd_export(args) -> int:
     from grubler.fmi.build import export
 
     path = export(args.scene, args.out, field="--out", fmi=args.fmi)
+    print(f"wrote {path}")
+    return 0
+
+
+def cmd_export_law(args) -> int:
+    from grubler.controllers.native_fmu import export_law
+
+    path = export_law(args.source, args.out, field="--out")
     print(f"wrote {path}")
     return 0
 
@@ -591,6 +599,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
     e.set_defaults(func=cmd_export)
+    el = sub.add_parser("export-law", help="a native FMU of a control law written as one C function (grubler_law.h)")
+    el.add_argument("source", help="the C file: GRUBLER_* declarations and law_step")
+    el.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SOURCE.fmu); NAME is its model identifier")
+    el.set_defaults(func=cmd_export_law)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")
     lin.add_argument("--at", default="equilibrium",

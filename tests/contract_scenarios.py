@@ -96,7 +96,7 @@ def states(dist: str, scratch: str) -> dict:
 
     real = from_bytes(blob)
     payload = real.payload
-    payload["sampler"]["law"]["attributes"]["update"] = "shadows the law's method"
+    payload["sampler"]["law"] = {"update": "shadows the law's method"}
     misfit = to_bytes(SlaveState(real.identity, payload))
     now = bytes(a.serializeFMUState(a.getFMUState()))
     t_now = 0.2

@@ -527,8 +527,11 @@ def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
 
 @pytest.fixture(scope="session")
 def sanitized(built, tmp_path_factory):
-    """The FMUs' binaries and the host, rebuilt from sources/ with AddressSanitizer and UBSan."""
-    d = tmp_path_factory.mktemp("asan")
+    return sanitize_all(built, tmp_path_factory.mktemp("asan"))
+
+
+def sanitize_all(built: dict, d: Path) -> dict:
+    """The FMUs' binaries and the host, rebuilt in d from sources/ with AddressSanitizer and UBSan."""
     probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(d / "probe")],
                            input="int main(void){return 0;}", capture_output=True, text=True)
     if probe.returncode != 0:
@@ -597,7 +600,11 @@ def random_script(md, rng, tmp_path, n: int = 40) -> list[str]:
 @BOTH
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_random_call_sequences_never_crash_nor_corrupt_memory(built, sanitized, name, seed, tmp_path):
-    md = built[name][2]
+    random_calls_hold(sanitized, name, built[name][2], seed, tmp_path)
+
+
+def random_calls_hold(sanitized: dict, name: str, md, seed: int, tmp_path: Path) -> None:
+    """random_script's calls on the sanitized binary: no crash, no sanitizer report, never fmi2Fatal."""
     script = random_script(md, np.random.default_rng(seed), tmp_path)
     proc = subprocess.run([str(sanitized["host"]), str(sanitized[name]), md.guid], input="\n".join(script) + "\n",
                           capture_output=True, text=True, timeout=600, env=SANITIZER_ENV)

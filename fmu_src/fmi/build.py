@@ -71,7 +71,11 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     import grubler.motors as motors  # the drives' kernels sit beside them, in a source tree or installed
 
     drives = Path(motors.__file__).resolve().parent / "kernel"
+    # the control laws' C sits in grubler.controllers, beside grubler.motors in a source tree and installed
+    laws = drives.parent.parent / "controllers" / "kernel"
     return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
+            "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h", "law_struct.h")),
+            "user_law": (C_DIR, ("grubler_law.h",)),
             "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
             "pneumatic": (drives, ("pneumatic_cylinder.*", "cylinder.*", "rosenbrock.*"))}
 
@@ -94,8 +98,8 @@ def stage_sources(spec: ModelSpec, sources: Path, fmi: int = 2) -> list[str]:
     adapter, fmi_headers = ADAPTER[check_fmi_version(fmi)]
     sources.mkdir(parents=True, exist_ok=True)
     dirs = _kernel_dirs()
-    for key in spec.kernel_sources:
-        folder, patterns = dirs[key]
+    for key in spec.kernel_sources:  # a name of _kernel_dirs, or a (folder, patterns) of the caller's own
+        folder, patterns = dirs[key] if isinstance(key, str) else key
         for f in sorted(f for pattern in patterns for f in folder.glob(pattern) if f.suffix in (".c", ".h", ".inc")):
             if f.name not in NOT_IN_FMU and (spec.defines.get(DIRECTIONAL) or not f.name.endswith("_cs.c")):
                 shutil.copy2(f, sources / f.name)

@@ -33,6 +33,8 @@ LOG_CATEGORIES = {
 
 
 def _num(x) -> str:
+    if isinstance(x, bool):  # xs:boolean
+        return "true" if x else "false"
     return repr(float(x)) if not isinstance(x, int) else str(x)
 
 

@@ -167,7 +167,7 @@ class ModelSpec:
     n_outputs: int = 0
     slot_order: tuple[str, ...] = ()
     enums: tuple[EnumType, ...] = ()
-    kernel_sources: tuple[str, ...] = ()  # ("fmu_src/kernel", ...) folders relative to the package
+    kernel_sources: tuple = ()  # names of grubler.fmi.build's source folders, or (folder, file patterns)
     state: tuple[tuple[str, int], ...] = ()
 
     def __post_init__(self):

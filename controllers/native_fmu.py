@@ -1,0 +1,294 @@
+"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory.
+
+Each is the law's C (``controllers/kernel``) behind a law file
+(``grubler/fmi/c/pid_law.c``, ``cascade_law.c``, ...), the generic sampled-law model
+(``law_model.c``: the sample-and-hold clock of :mod:`grubler.controllers.law`)
+and the one FMI wrapper every native grubler FMU uses: no Python at run time.
+The variables are the law's own declaration (its ``inputs``, ``outputs`` and
+``parameters``), in the order of the C structures, so the library's class, its
+pythonfmu FMU (:func:`grubler.controllers.fmu.build_controller_fmu`) and its
+native FMU show the same names, units and defaults.
+
+Examples
+--------
+>>> spec = pid_spec()
+>>> [v.name for v in spec.variables if v.causality == "input"]
+['setpoint', 'measurement', 'feedforward']
+>>> spec.variables[spec.vr("anti_windup") - 1].choices
+('back-calculation', 'conditional', 'none')
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import re
+import shutil
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+from grubler.controllers import native
+from grubler.controllers.cascade import CascadeController
+from grubler.controllers.encoder import Encoder
+from grubler.controllers.law import Law, Parameter
+from grubler.controllers.pid import ANTI_WINDUP, PID
+from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
+from grubler.controllers.trajectory import KINDS, Trajectory
+from grubler.errors import SceneError
+from grubler.fmi.build import BuildError, build_fmu, check_destination, identifier_for
+from grubler.limits import brief
+from grubler.fmi.variables import BOOLEAN, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, UNITS, ModelSpec, Variable
+
+# readings the Encoder FMU's delay line holds (its state grows with it: 80 kB):
+# a delay of up to 9999 samples, 10 s at 1 kHz
+ENCODER_CAPACITY = 10_000
+INT_MAX = 2**31 - 1
+
+
+def _unit(description: str) -> str | None:
+    """The FMI unit of a description ending in ``[unit]`` (None for ``[any]`` and units FMI is not told)."""
+    m = re.search(r"\[([^\]]*)\]\s*$", description)
+    unit = m[1].replace(" ", ".") if m else None
+    return unit if unit in UNITS else None
+
+
+def _type(value) -> str:
+    for py, fmi in ((bool, BOOLEAN), (int, INTEGER), (float, REAL), (str, STRING)):
+        if isinstance(value, py):
+            return fmi
+    raise TypeError(f"parameter default {value!r}: an FMU parameter is a float, int, bool or str")
+
+
+def law_spec(law: type[Law], identifier: str, model_source: str, n_state: int, n_scratch: int = 0,
+             choices: dict | None = None, bounds: dict | None = None, leave_out: tuple[str, ...] = (),
+             extra: tuple[Variable, ...] = (), defines: dict | None = None) -> ModelSpec:
+    """The ModelSpec of a native law FMU from the law's declaration.
+
+    Parameters
+    ----------
+    law : type
+        The :class:`Law` whose ``parameters`` (in the order of its C
+        structure), ``inputs`` and ``outputs`` the FMU shows.
+    identifier, model_source : str
+        The modelIdentifier and the law file in ``grubler/fmi/c`` (law.h).
+    n_state, n_scratch : int
+        Doubles of the law's saved state and of its derived constants.
+    choices : dict, optional
+        A String parameter's accepted values (stored as the index, the C enum).
+    bounds : dict, optional
+        An Integer parameter's (min, max).
+    leave_out : tuple of str
+        Parameters the native FMU does not show.
+    extra : tuple of Variable
+        Parameters after the law's (a table's points).
+    """
+    choices, bounds = choices or {}, bounds or {}
+    v = []
+    for name, par in law.parameters.items():
+        if name in leave_out:
+            continue
+        kind = _type(par.fmu_start)
+        lo, hi = bounds.get(name, (None, None))
+        unit = _unit(par.description) if kind == REAL else None  # FMI gives units to Reals only
+        v.append(Variable(name, kind, PARAMETER, par.description, par.fmu_start, unit, lo, hi,
+                          choices=tuple(choices.get(name, ()))))
+    v += list(extra)
+    n_params = len(v)
+    for name, text in law.inputs.items():
+        v.append(Variable(name, REAL, INPUT, text, 0.0, _unit(text)))
+    for k, (name, text) in enumerate(law.outputs.items()):
+        v.append(Variable(name, REAL, OUTPUT, text, unit=_unit(text), level=1, slot=k))
+    state = (("started", 1), ("t0", 1), ("t", 1), ("samples", 1), ("out", len(law.outputs)), ("law", n_state),
+             ("end", 0))
+    lines = (law.__doc__ or law.__name__).strip().splitlines()
+    # the clock: a law of time alone, or the parameter that holds the sample time
+    clock = {"LAW_CONTINUOUS": 1} if law.continuous else {"LAW_CONTINUOUS": 0,
+                                                          "LAW_TS_SLOT": [x.name for x in v].index("Ts")}
+    return ModelSpec(identifier, lines[0].rstrip("."), tuple(v), model_source,
+                     {"LAW_N_PARAMS": n_params, "LAW_N_INPUTS": len(law.inputs), "LAW_N_STATE": n_state,
+                      "LAW_N_SCRATCH": n_scratch, **clock, **(defines or {})},
+                     len(law.outputs), (), (), ("controllers", "law"), state)
+
+
+def pid_spec(identifier: str = "PID") -> ModelSpec:
+    """PID.fmu: :class:`~grubler.controllers.pid.PID` over ``ctl_pid.c``."""
+    return law_spec(PID, identifier, "pid_law.c", ctypes.sizeof(native.PidState) // 8,
+                    choices={"anti_windup": ANTI_WINDUP})
+
+
+def cascade_spec(identifier: str = "CascadeController") -> ModelSpec:
+    """CascadeController.fmu: :class:`~grubler.controllers.cascade.CascadeController` over ``ctl_cascade.c``."""
+    return law_spec(CascadeController, identifier, "cascade_law.c", ctypes.sizeof(native.CascadeState) // 8)
+
+
+def encoder_spec(identifier: str = "Encoder") -> ModelSpec:
+    """Encoder.fmu: :class:`~grubler.controllers.encoder.Encoder` over ``ctl_encoder.c``."""
+    return law_spec(Encoder, identifier, "encoder_law.c", ctypes.sizeof(native.EncoderState) // 8 + ENCODER_CAPACITY,
+                    bounds={"counts_per_rev": (0, INT_MAX), "seed": (0, INT_MAX), "delay": (0, ENCODER_CAPACITY - 1)},
+                    defines={"ENCODER_CAPACITY": ENCODER_CAPACITY})
+
+
+def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> ModelSpec:
+    """Tachometer.fmu or CurrentSensor.fmu: an :class:`~grubler.controllers.sensors.AnalogSensor` over ``ctl_sensor.c``."""
+    return law_spec(law, identifier or law.__name__, "sensor_law.c", ctypes.sizeof(native.SensorState) // 8,
+                    bounds={"seed": (0, INT_MAX)})
+
+
+def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) -> ModelSpec:
+    """Trajectory.fmu: :class:`~grubler.controllers.trajectory.Trajectory` over ``ctl_trajectory.c``.
+
+    Without ``times`` the kinds are constant, trapezoid, scurve and sine; with
+    them the FMU serves 'table' too, its points parameters ``times[k]`` and
+    ``positions[k]`` (k from 1) starting at these values.
+    """
+    n = 0 if times is None else len(times)
+    extra = ()
+    if n:
+        extra = tuple(Variable(f"times[{k + 1}]", REAL, PARAMETER, "table: time of a point [s]", float(x), "s")
+                      for k, x in enumerate(times))
+        extra += tuple(Variable(f"positions[{k + 1}]", REAL, PARAMETER, "table: position at that time [rad]",
+                                float(x), "rad") for k, x in enumerate(positions))
+    plan = (ctypes.sizeof(native.Move) + 7) // 8
+    return law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
+                    choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
+                    leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
+
+
+# -- a law written as one C function (grubler_law.h) -----------------------------------
+_DECLARATION = re.compile(r"^[ \t]*GRUBLER_(\w+)\s*\((.*)\)\s*;?\s*$")
+_QUOTED = r'"((?:[^"\\\n]|\\.)*)"'
+_FORMS = {"PARAMETER": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*([^,]+?)\s*,\s*" + _QUOTED + r"\s*$"),
+          "INPUT": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*" + _QUOTED + r"\s*$"),
+          "OUTPUT": re.compile(r"^\s*([A-Za-z_]\w*)\s*,\s*" + _QUOTED + r"\s*$"),
+          "STATE": re.compile(r"^\s*(\d+)\s*$")}
+_USAGE = {"PARAMETER": 'GRUBLER_PARAMETER(name, start, "description [unit]")',
+          "INPUT": 'GRUBLER_INPUT(name, "description [unit]")', "OUTPUT": 'GRUBLER_OUTPUT(name, "description [unit]")',
+          "STATE": "GRUBLER_STATE(count)"}
+MAX_LAW_STATE = 100_000  # doubles a C law may keep: 800 kB of FMU state
+
+
+def read_c_law(source: str | Path) -> type[Law]:
+    """The Law declared by a C law file's GRUBLER_* lines (grubler_law.h), for its FMU's variables.
+
+    Raises
+    ------
+    SceneError
+        Naming the file and line of a declaration that cannot be read, or
+        what the law lacks (an output, the parameter Ts, law_step).
+    """
+    path = Path(source)
+    field = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError("law", f"{field}: cannot be read as UTF-8 C source ({type(exc).__name__})") from None
+    found = {"PARAMETER": {}, "INPUT": {}, "OUTPUT": {}}
+    n_state = 0
+    names: set[str] = set()
+    for number, line in enumerate(text.splitlines(), start=1):
+        if "GRUBLER_" not in line or line.lstrip().startswith(("#", "//", "*", "/*")):
+            continue
+        m = _DECLARATION.match(line)
+        kind = m[1] if m else None
+        form = _FORMS.get(kind) if m else None
+        parts = form.match(m[2]) if form else None
+        where = f"{field}:{number}"
+        if parts is None:
+            usage = f"; write {_USAGE[kind]}" if kind in _USAGE else \
+                f"; the declarations are {', '.join(_USAGE.values())}, each on a line of its own"
+            raise SceneError("law", f"{where}: cannot read {brief(line.strip())}{usage}")
+        if kind == "STATE":
+            n_state = int(parts[1])
+            if n_state > MAX_LAW_STATE:
+                raise SceneError("law", f"{where}: GRUBLER_STATE({n_state}): at most {MAX_LAW_STATE} doubles")
+            continue
+        name = parts[1]
+        if name in names:
+            raise SceneError("law", f"{where}: {name} is declared twice")
+        names.add(name)
+        text_at = parts[len(parts.groups())].encode().decode("unicode_escape")
+        if kind == "PARAMETER":
+            try:
+                start = float(parts[2])
+            except ValueError:
+                raise SceneError("law", f"{where}: the start of {name} must be a number, got {parts[2]!r}") from None
+            if not math.isfinite(start):
+                raise SceneError("law", f"{where}: the start of {name} must be finite, got {parts[2]!r}")
+            found[kind][name] = Parameter(start, text_at)
+        else:
+            found[kind][name] = text_at
+    if not found["OUTPUT"]:
+        raise SceneError("law", f'{field}: declares no output; add GRUBLER_OUTPUT(name, "description [unit]")')
+    if "Ts" not in found["PARAMETER"]:
+        raise SceneError("law", f'{field}: declares no sample time; add GRUBLER_PARAMETER(Ts, 1e-3, '
+                                f'"sample time [s]") (0: once per communication step)')
+    if not re.search(r"\bint\s+law_step\s*\(", text):
+        raise SceneError("law", f"{field}: defines no law_step; write int law_step(const double *param, "
+                                "double *state, double t, const double *in, double *out)")
+    attrs = {"inputs": found["INPUT"], "outputs": found["OUTPUT"], "parameters": found["PARAMETER"],
+             "n_state": n_state, "__doc__": f"A control law written in C ({path.name})."}
+    return type(identifier_for(path), (Law,), attrs)
+
+
+def export_law(source: str | Path, dest: str | Path | None = None, field: str = "output") -> Path:
+    """Build a native FMU of a control law written as one C function (``grubler export-law``).
+
+    Parameters
+    ----------
+    source : path
+        The C file: GRUBLER_* declarations and ``law_step`` (grubler_law.h, in
+        ``grubler/fmi/c``, documents them; docs/control.md has a complete example).
+    dest : path, optional
+        The ``.fmu`` to write (default: the source's name with ``.fmu``); its
+        name is the model identifier.
+    field : str
+        The name a refused ``dest`` is reported under (the CLI's option).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    SceneError
+        A declaration that cannot be read, naming the file and line.
+    BuildError
+        The compiler refused the file (its first error attached).
+    """
+    law = read_c_law(source)
+    dest = Path(dest) if dest is not None else Path(Path(source).with_suffix(".fmu").name)
+    if dest.suffix != ".fmu":
+        raise SceneError(field, f"an FMU's file name ends in .fmu, got {dest.name!r}")
+    check_destination(dest, field)
+    defines = {f"PARAM_{n}": k for k, n in enumerate(law.parameters)}
+    defines.update({f"INPUT_{n}": k for k, n in enumerate(law.inputs)})
+    defines.update({f"OUTPUT_{n}": k for k, n in enumerate(law.outputs)})
+    with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
+        staged = Path(tmp) / "law_step.c"  # a fixed name: the user's cannot shadow one of the FMU's own files
+        shutil.copy2(source, staged)
+        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, defines=defines)
+        spec = replace(spec, kernel_sources=(*spec.kernel_sources, "user_law", (Path(tmp), ("law_step.c",))))
+        try:
+            return build_fmu(spec, dest)
+        except BuildError as exc:
+            first = next((ln for ln in str(exc).splitlines() if "error" in ln and "law_step.c" in ln),
+                         str(exc).splitlines()[-1])
+            raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
+
+
+SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
+         "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
+         "Trajectory": trajectory_spec}
+
+
+def build_native_law(name: str, dest: str | Path) -> Path:
+    """Build the native FMU of a shipped law (a key of :data:`SPECS`) at ``dest``."""
+    dest = Path(dest)
+    target = dest if dest.suffix == ".fmu" else dest / f"{name}.fmu"
+    return build_fmu(SPECS[name](), target)
+
+
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law",
+           "read_c_law", "law_spec", "pid_spec", "sensor_spec",
+           "trajectory_spec"]

@@ -1,0 +1,44 @@
+/* law.h: what a sampled control law gives the generic law model (law_model.c).
+ *
+ * A law FMU is three pieces on the one FMI wrapper: fmi2_wrapper.c (the FMI
+ * side), law_model.c (the sample-and-hold clock of controllers/law.py, the
+ * run's time, the held outputs, the checks of a restored state) and one law
+ * file that defines the functions below: pid_law.c, encoder_law.c,
+ * trajectory_law.c, or a user's own (grubler export-law).  Nothing here
+ * knows FMI: a law sees arrays of doubles.
+ *
+ *   param    the law's LAW_N_PARAMS parameters, in the FMU's order (a String
+ *            parameter as the index of its value, a Boolean as 0 or 1)
+ *   in       its LAW_N_INPUTS inputs, finite (law_model.c checks them)
+ *   out      its MODEL_N_OUTPUTS outputs, held between samples
+ *   state    LAW_N_STATE doubles the FMU state saves and restores: all the
+ *            law remembers between samples
+ *   scratch  LAW_N_SCRATCH doubles law_prepare derives from param (spline
+ *            coefficients, a plan); rebuilt, never saved
+ *
+ * The law's clock comes from config.h: LAW_CONTINUOUS 1 for a law of time
+ * alone (evaluated at t + h), else LAW_TS_SLOT, the parameter holding the
+ * sample time [s] (0: once per communication step).
+ *
+ * Every function returns a ctl_status (ctl_law.h): CTL_OK, or a reason.
+ */
+#ifndef GRB_LAW_H
+#define GRB_LAW_H
+
+#include "ctl_law.h"
+#include "config.h"
+
+/* CTL_BAD_PARAMETER with *field the index of the offending parameter and *why the rule. */
+int law_check(const double *param, int *field, const char **why);
+/* CTL_BAD_STATE with *field naming a part of the state (law_state_name) and *why the rule. */
+int law_check_state(const double *param, const double *state, int *field, const char **why);
+const char *law_state_name(int field);
+/* Derived constants, once the parameters passed law_check. */
+int law_prepare(const double *param, double *scratch);
+/* The state at the start time t0 and the outputs before the first sample. */
+int law_start(const double *param, const double *scratch, double t0, double *state, double *out);
+/* One sample at time t: state advanced, out the new outputs.  All or nothing:
+ * on any status but CTL_OK, state and out are as they were. */
+int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out);
+
+#endif

@@ -1,0 +1,435 @@
+"""The native control-law FMUs (PID, Encoder, Trajectory) held to the native contract.
+
+As the mechanism and motor FMUs are (test_native_fmu.py, whose C host and
+helpers these tests reuse): the binary needs no Python, ``fmpy validate``
+passes, the C host with an empty environment gets the library's numbers bit
+for bit (the same C: the library's Sampler and classes through ctypes), one
+test per status class, serialised states replay and foreign or crafted ones
+are refused naming the field, and random call sequences and crafted states run
+under AddressSanitizer and UBSan.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grubler.controllers import PID, CascadeController, CurrentSensor, Encoder, Sampler, Tachometer, Trajectory
+from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, Transcript, craft,  # noqa: F401
+                             host, random_calls_hold, sanitize_all)
+
+ROOT = Path(__file__).resolve().parent.parent
+LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory"]
+PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "Ts": 1e-3, "u_min": -6.0,
+              "u_max": 6.0}
+ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
+CASCADE = {"K_position": 30.0, "Ti_position": 0.5, "K_speed": 0.8, "Ti_speed": 0.05, "speed_limit": 4.0,
+           "u_min": -24.0, "u_max": 24.0, "Ts": 1e-3}
+SENSOR = {"gain_error": 0.03, "offset": 0.2, "noise_std": 0.05, "seed": 3, "bandwidth": 40.0, "Ts": 1e-3}
+TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 100.0, "delay": 0.02,
+        "dwell": 0.1, "repeat": 3}
+# each law's parameters and its inputs at step k
+RUNS = {"PID": (PID_PARAMS, lambda k: {"setpoint": 1.0, "measurement": 0.6 * np.sin(0.03 * k), "feedforward": 0.1}),
+        "CascadeController": (CASCADE, lambda k: {"position_setpoint": 1.0, "velocity_setpoint": 0.5,
+                                                  "position": 0.8 * np.sin(0.01 * k), "speed": np.cos(0.01 * k)}),
+        "Encoder": (ENC, lambda k: {"position": 0.3 * np.sin(3e-3 * k) + 1e-4 * k}),
+        "Tachometer": (SENSOR, lambda k: {"speed": 30.0 * np.sin(0.02 * k)}),
+        "CurrentSensor": (SENSOR, lambda k: {"current": 2.0 if k % 50 < 25 else -1.0}),
+        "Trajectory": (TRAJ, lambda k: {})}
+CLASSES = {"PID": PID, "CascadeController": CascadeController, "Encoder": Encoder, "Tachometer": Tachometer,
+           "CurrentSensor": CurrentSensor, "Trajectory": Trajectory}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The law FMUs as build_fmu.py makes them, unzipped too."""
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+    from fmpy import read_model_description
+
+    out = {}
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), LAWS):
+        d = tmp_path_factory.mktemp(path.stem)
+        zipfile.ZipFile(path).extractall(d)
+        out[path.stem] = (path, d, read_model_description(str(path)))
+    return out
+
+
+def law_host(host, built, name: str) -> Host:
+    _, d, md = built[name]
+    return Host(host, d / "binaries" / "linux64" / f"{name}.so", md.guid,
+                {v.name: v.valueReference for v in md.modelVariables})
+
+
+def stepped(h: Host, name: str, n: int, step: float, t0: float = 0.0) -> list[str]:
+    """Script lines: n steps, each setting the inputs of RUNS[name] and reading every output."""
+    inputs = RUNS[name][1]
+    outs = [v for v, _ in _outputs(name)]
+    lines = []
+    for k in range(n):
+        lines += [f"setr {h.vr[i]} {float(x)!r}" for i, x in inputs(k).items()]
+        lines += [f"step {t0 + k * step!r} {step!r}", h.getr(*outs)]
+    return lines
+
+
+def _outputs(name):
+    return list(CLASSES[name].outputs.items())
+
+
+def library(name: str, n: int, step: float, params: dict | None = None) -> np.ndarray:
+    """The library's law through its Sampler, stepped as the host steps the FMU."""
+    s = Sampler(CLASSES[name](**(params or RUNS[name][0])), t0=0.0)
+    rows = []
+    for k in range(n):
+        out = s.step(k * step, step, RUNS[name][1](k))
+        rows.append([out[v] for v, _ in _outputs(name)])
+    return np.array(rows)
+
+
+def got(t: Transcript) -> np.ndarray:
+    return np.array([[float(x) for x in r[2:]] for r in t.results if r[0] == "getr"])
+
+
+# -- the binary ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", LAWS)
+def test_the_binary_needs_no_python_and_exports_only_fmi2(built, name):
+    so = built[name][1] / "binaries" / "linux64" / f"{name}.so"
+    undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
+                               check=True).stdout
+    assert not [ln for ln in undefined.splitlines() if "Py" in ln or "python" in ln.lower()]
+    defined = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True,
+                             check=True).stdout.splitlines()
+    exported = [ln.split()[-1] for ln in defined if ln.strip() and ln.split()[1] in "TD"]
+    assert exported and all(x.startswith("fmi2") for x in exported), exported
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_fmpy_validate_passes_and_the_variables_are_the_laws(built, name):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(built[name][0])) == []
+    md = built[name][2]
+    law = CLASSES[name]
+    assert [v.name for v in md.modelVariables if v.causality == "input"] == list(law.inputs)
+    assert [v.name for v in md.modelVariables if v.causality == "output"] == list(law.outputs)
+    params = [v.name for v in md.modelVariables if v.causality == "parameter"]
+    assert params == [p for p in law.parameters if p not in ("times", "positions")]
+    assert all(u.dependencies == [] for u in md.outputs)  # held outputs: no feed-through
+
+
+# -- the C host, empty environment, against the library ------------------------------
+
+@pytest.mark.parametrize("name, step, n", [("PID", 2e-3, 150), ("PID", 0.25e-3, 600), ("Encoder", 1e-3, 400),
+                                           ("CascadeController", 1e-3, 300), ("Tachometer", 2e-3, 300),
+                                           ("CurrentSensor", 0.5e-3, 400), ("Trajectory", 1e-2, 150)])
+def test_c_host_with_an_empty_environment_matches_the_library_bit_for_bit(host, built, name, step, n):
+    h = law_host(host, built, name)
+    t = h.run(h.start(RUNS[name][0], md=built[name][2]) + stepped(h, name, n, step))  # env={} by default
+    assert set(t.statuses("step")) == {OK}
+    assert np.array_equal(got(t), library(name, n, step))
+
+
+def test_the_encoder_fmu_draws_the_librarys_noise(host, built):
+    h = law_host(host, built, "Encoder")
+    params = {**ENC, "counts_per_rev": 0, "delay": 0, "noise_std": 1.0}
+    t = h.run(h.start(params, md=built["Encoder"][2]) + [h.run_steps(0.0, 1e-3, 50, "measured_position")])
+    enc = Encoder(**params)
+    assert np.array_equal(t.rows()[:, 1], [enc.measure(0.0) for _ in range(50)])
+
+
+# -- one test per status class ----------------------------------------------------------
+
+@pytest.mark.parametrize("name", LAWS)
+def test_ok_a_run_and_a_reset_run_give_the_same_outputs(host, built, name):
+    h = law_host(host, built, name)
+    outs = [v for v, _ in _outputs(name)]
+    t = h.run(h.start(RUNS[name][0], md=built[name][2]) + stepped(h, name, 20, 1e-3)
+              + ["reset", "setup 0", "enter"] + h.set_lines(RUNS[name][0], built[name][2]) + ["exit"]
+              + stepped(h, name, 20, 1e-3))
+    assert set(t.statuses("step")) == {OK} and set(t.statuses("getr")) == {OK} and not t.logs
+    rows = got(t)
+    assert rows.shape == (40, len(outs)) and np.array_equal(rows[:20], rows[20:])
+
+
+def test_warning_none_is_ever_answered_a_run_at_its_limits_is_ok_or_discarded(host, built):
+    # the laws have no warning to give: the largest step they take is OK, the next one is refused
+    h = law_host(host, built, "Encoder")
+    t = h.run(h.start(ENC, md=built["Encoder"][2]) + ["step 0 99.9999", "step 99.9999 100.1"])
+    assert t.statuses("step") == [OK, DISCARD] and not [ln for ln in t.logs if ln.startswith("log 1 ")]
+
+
+@pytest.mark.parametrize("name, inputs, why", [
+    ("PID", {"measurement": float("nan")}, "measurement is nan at t = 0.002 s: inputs must be finite"),
+    ("Encoder", {"position": float("inf")}, "position is inf at t = 0.002 s: inputs must be finite")])
+def test_discard_a_non_finite_input_and_the_run_goes_on(host, built, name, inputs, why):
+    h = law_host(host, built, name)
+    t = h.run(h.start(RUNS[name][0], md=built[name][2]) + stepped(h, name, 2, 1e-3)
+              + [f"setr {h.vr[k]} {v}" for k, v in inputs.items()] + ["step 0.002 0.001"]
+              + stepped(h, name, 3, 1e-3, t0=0.002))
+    assert t.statuses("step") == [OK, OK, DISCARD, OK, OK, OK]
+    assert t.logged(why), t.logs
+
+
+@pytest.mark.parametrize("h_text, why", [("1e300", "at most 100000 per communication step"),
+                                         ("0", "the step size must be positive and finite"),
+                                         ("nan", "the step size must be positive and finite")])
+def test_discard_a_step_the_clock_cannot_take(host, built, h_text, why):
+    h = law_host(host, built, "PID")
+    t = h.run(h.start(PID_PARAMS, md=built["PID"][2]) + [f"step 0 {h_text}", "step 0 0.001"])
+    assert t.statuses("step") == [DISCARD, OK] and t.logged(why), t.logs
+
+
+@pytest.mark.parametrize("name, params, why", [
+    ("PID", {"u_min": 1.0, "u_max": 0.0}, "u_max: must exceed u_min (got 0)"),
+    ("PID", {"Ts": 0.0}, "Ts: sample time must be finite and > 0 (got 0)"),
+    ("PID", {"N": -1.0}, "N: must be > 0 (got -1)"),
+    ("Encoder", {"noise_std": -0.1}, "noise_std: must be finite and >= 0 (got -0.10000000000000001)"),
+    ("CascadeController", {"speed_limit": 0.0}, "speed_limit: must be finite and > 0 (got 0)"),
+    ("Tachometer", {"gain_error": -1.0}, "gain_error: must be finite and > -1 (the gain stays positive) (got -1)"),
+    ("CurrentSensor", {"bandwidth": -5.0}, "bandwidth: must be finite and >= 0 (0: instantaneous) (got -5)"),
+    ("Trajectory", {"kind": "scurve", "j_max": 0.0}, "j_max: must be finite and > 0 (got 0)"),
+    ("Trajectory", {"kind": "trapezoid", "distance": 0.0}, "distance: a move needs a non-zero distance (got 0)")])
+def test_error_a_bad_parameter_at_initialisation_names_it_and_the_instance_stays_refused(host, built, name, params,
+                                                                                       why):
+    h = law_host(host, built, name)
+    t = h.run(h.start(params, md=built[name][2]) + ["step 0 0.001"])
+    assert t.statuses("exit") == [ERROR] and t.statuses("step") == [ERROR]
+    assert t.logged(why), t.logs
+
+
+def test_error_calls_against_the_contract_name_what_is_wrong(host, built):
+    h = law_host(host, built, "Encoder")
+    cases = [(["step 0 0.001"], "fmi2DoStep is not allowed in the state instantiated"),
+             (["enter", "exit", f"setr {h.vr['measured_position']} 1"], "measured_position is an output"),
+             (["enter", "exit", f"seti {h.vr['delay']} 3"], "delay is a fixed parameter"),
+             (["enter", f"seti {h.vr['delay']} 10000"], "delay must be in 0 .. 9999"),
+             (["enter", "getr 999"], "unknown value reference 999"),
+             (["enter", f"setr {h.vr['delay']} 1"], "delay (value reference"),
+             (["enter", f"sets {h.vr['Ts']} x"], "is a Real variable, not String")]
+    for lines, why in cases:
+        t = h.run(["new 0 e", "setup 0"] + lines + ["getr 1"])
+        assert ERROR in [int(r[1]) for r in t.results if r[0] != "new"], (lines, t.text)
+        assert t.logged(why), (why, t.logs)
+    # a sample that overflows ends the run with an error, not a NaN passed on
+    p = law_host(host, built, "PID")
+    t = p.run(p.start({"K": 1e300, "Ti": 1e-300, "Ts": 1.0}, md=built["PID"][2])
+              + [f"setr {p.vr['setpoint']} 1e300", f"setr {p.vr['measurement']} -1e300", "step 0 1", "step 1 1"])
+    assert t.statuses("step") == [ERROR, ERROR] and t.logged("overflowed"), t.logs
+
+
+# -- FMU states ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", LAWS)
+def test_a_serialised_state_replays_and_is_honoured_before_initialisation(host, built, name, tmp_path):
+    h = law_host(host, built, name)
+    md = built[name][2]
+    blob = tmp_path / "s.bin"
+    t = h.run(h.start(RUNS[name][0], md=md) + stepped(h, name, 30, 1e-3) + ["save 0", f"ser 0 {blob}"]
+              + stepped(h, name, 30, 1e-3, t0=0.03) + [f"deser 1 {blob}", "load 1"]
+              + stepped(h, name, 30, 1e-3, t0=0.03))
+    rows = got(t)
+    assert t.statuses("load") == [OK] and np.array_equal(rows[30:60], rows[60:90])
+    assert not np.all(rows[30:60] == rows[30])  # the replayed stretch moves
+    # a fresh instance: parameters, the state, then initialisation
+    t2 = h.run(["new 0 b", "setup 0"] + h.set_lines(RUNS[name][0], md) + [f"deser 0 {blob}", "load 0", "enter",
+                                                                         "exit"]
+               + stepped(h, name, 30, 1e-3, t0=0.03))
+    assert t2.statuses("exit") == [OK] and np.array_equal(got(t2), rows[30:60])
+
+
+@pytest.mark.parametrize("damage, why", [("corrupted", "checksum"), ("truncated", "truncated"),
+                                         ("padded", "bytes"), ("version", "version"), ("foreign", "another model")])
+def test_a_bad_state_blob_is_refused(host, built, tmp_path, damage, why):
+    h = law_host(host, built, "Encoder")
+    good = tmp_path / "good.bin"
+    h.run(h.start(ENC, md=built["Encoder"][2]) + stepped(h, "Encoder", 5, 1e-3) + ["save 0", f"ser 0 {good}"])
+    data = bytearray(good.read_bytes())
+    if damage == "corrupted":
+        data[len(data) // 2] ^= 0x10
+    elif damage == "truncated":
+        data = data[:-8]
+    elif damage == "padded":
+        data += b"\0" * 8
+    elif damage == "version":
+        data[8] = 99
+    else:
+        data[24] ^= 0xFF
+    bad = tmp_path / "bad.bin"
+    bad.write_bytes(bytes(data))
+    t = h.run(h.start(ENC, md=built["Encoder"][2]) + [f"deser 1 {bad}", "load 1", "step 0 0.001"])
+    assert t.statuses("deser") == [ERROR] and t.logged(why), t.logs
+    assert t.statuses("load") == [ERROR] and t.statuses("step") == [ERROR]
+
+
+def test_a_state_of_another_law_fmu_is_refused(host, built, tmp_path):
+    blob = tmp_path / "pid.bin"
+    p = law_host(host, built, "PID")
+    p.run(p.start(PID_PARAMS, md=built["PID"][2]) + ["step 0 0.001", "save 0", f"ser 0 {blob}"])
+    e = law_host(host, built, "Encoder")
+    t = e.run(e.start(ENC, md=built["Encoder"][2]) + [f"deser 0 {blob}"])
+    assert t.statuses("deser") == [ERROR] and t.logged("the state belongs to another model"), t.logs
+
+
+def _block_index(built, name: str, field: str) -> int:
+    """Index in the persistent block of a field of the law model's state (P_*), from config.h."""
+    text = (built[name][1] / "sources" / "config.h").read_text()
+    return int(next(ln.split()[2] for ln in text.splitlines() if ln.startswith(f"#define P_{field.upper()} ")))
+
+
+@pytest.mark.parametrize("name, field, offset, value, why", [
+    ("Encoder", "law", 4, 3.0, "state.head: must be a whole number in [0, delay]"),
+    ("Encoder", "law", 2, 2.0**40, "state.rng: must be two whole numbers"),
+    ("Encoder", "law", 5, float("nan"), "state.history: must hold finite readings"),
+    ("Encoder", "law", 0, 0.5, "state.started: must be 0 or 1"),
+    ("PID", "law", 0, float("inf"), "state.I: must be finite"),
+    ("CascadeController", "law", 7, 0.5, "state.speed_loop: must be 0 or 1"),
+    ("Tachometer", "law", 1, float("nan"), "state.filtered: must be finite"),
+    ("CurrentSensor", "law", 3, -1.0, "state.rng: must be two whole numbers"),
+    ("PID", "samples", 0, -1.0, "state.samples: must be a whole number >= 0"),
+    ("PID", "t0", 0, 5.0, "state.t0: the start time must be finite and not after t"),
+    ("PID", "out", 0, float("nan"), "state.outputs: the held outputs must be finite"),
+    ("Trajectory", "started", 0, 2.0, "state.started: must be 0 or 1")])
+def test_a_crafted_state_is_refused_naming_the_field(host, built, tmp_path, name, field, offset, value, why):
+    h = law_host(host, built, name)
+    md = built[name][2]
+    good = tmp_path / "good.bin"
+    h.run(h.start(RUNS[name][0], md=md) + stepped(h, name, 5, 1e-3) + ["save 0", f"ser 0 {good}"])
+    bad = tmp_path / "bad.bin"
+    bad.write_bytes(craft(good.read_bytes(), {_block_index(built, name, field) + offset: value}))
+    t = h.run(h.start(RUNS[name][0], md=md) + [f"deser 1 {bad}", "load 1", "reset", "setup 0", "enter", "exit",
+                                                "step 0 0.001"])
+    assert t.statuses("deser") == [ERROR] and t.logged(why), t.logs
+    assert t.statuses("step") == [OK]  # reset brings the instance back
+
+
+# -- sanitizers ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def sanitized(built, tmp_path_factory):
+    return sanitize_all(built, tmp_path_factory.mktemp("asan"))
+
+
+@pytest.mark.parametrize("name", LAWS)
+@pytest.mark.parametrize("seed", [1, 2])
+def test_random_call_sequences_never_crash_nor_corrupt_memory(built, sanitized, name, seed, tmp_path):
+    random_calls_hold(sanitized, name, built[name][2], seed, tmp_path)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_random_crafted_states_never_crash_nor_corrupt_memory(built, sanitized, name, tmp_path):
+    md = built[name][2]
+    h = Host(sanitized["host"], sanitized[name], md.guid, {v.name: v.valueReference for v in md.modelVariables})
+    good = tmp_path / "good.bin"
+    t = h.run(h.start(RUNS[name][0], md=md) + stepped(h, name, 5, 1e-3) + ["save 0", f"ser 0 {good}"],
+              env=SANITIZER_ENV)
+    n = struct.unpack_from("<I", good.read_bytes(), 16)[0]
+    rng = np.random.default_rng(7)
+    awkward = [float("nan"), float("inf"), -float("inf"), 1e300, -1e300, 1e9, -3.0, -1.0, 0.0, 0.5, 2.5, 1000.0]
+    script = h.start(RUNS[name][0], md=md)
+    for k in range(120):
+        blob = tmp_path / f"c{k}.bin"
+        # the first doubles (parameters, the run's state) and the rest alike
+        picks = rng.choice(min(n, 80), size=int(rng.integers(1, 4)), replace=False)
+        blob.write_bytes(craft(good.read_bytes(), {int(i): float(rng.choice(awkward)) for i in picks}))
+        script += [f"deser 1 {blob}", "load 1", "step 0.005 0.001", "getr 1", "reset", "setup 0", "enter", "exit"]
+    proc = subprocess.run(h.cmd, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=600,
+                          env=SANITIZER_ENV)
+    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+        proc.stderr[-3000:]
+    t = Transcript(proc.stdout)
+    assert len(t.statuses("deser")) == 120 and ERROR in t.statuses("deser")
+    assert set(t.statuses("step")) <= {OK, WARNING, DISCARD, ERROR}
+
+
+# -- a user's law written in C (grubler export-law) ----------------------------------------
+
+def pi_reference(params: dict, inputs: list[tuple[float, float]]) -> list[float]:
+    """examples/pi_law.c's law, written again here from its comment: PI, clamped, conditional integration."""
+    K, Ti, u_max, Ts = params["K"], params["Ti"], params["u_max"], params["Ts"]
+    integral, out = 0.0, []
+    for r, y in inputs:
+        e = r - y
+        v = K * e + integral
+        u = min(max(v, -u_max), u_max)
+        if u == v:
+            integral += K * Ts / Ti * e
+        out.append(u)
+    return out
+
+
+@pytest.fixture(scope="module")
+def c_law(tmp_path_factory):
+    from fmpy import read_model_description
+
+    from grubler.controllers.native_fmu import export_law
+
+    d = tmp_path_factory.mktemp("c_law")
+    path = export_law(ROOT / "examples" / "pi_law.c", d / "PILaw.fmu")
+    zipfile.ZipFile(path).extractall(d / "x")
+    md = read_model_description(str(path))
+    return path, d / "x", md
+
+
+def test_a_law_written_in_c_runs_in_the_c_host_as_written(host, c_law, tmp_path):
+    from fmpy.validation import validate_fmu
+
+    path, d, md = c_law
+    assert validate_fmu(str(path)) == []
+    assert [v.name for v in md.modelVariables] == ["K", "Ti", "u_max", "Ts", "setpoint", "measurement", "u"]
+    assert {v.name: v.unit for v in md.modelVariables}["Ts"] == "s"
+    h = Host(host, d / "binaries" / "linux64" / "PILaw.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    params = {"K": 3.0, "Ti": 0.02, "u_max": 2.0, "Ts": 1e-3}
+    inputs = [(1.0 if k < 150 else -0.5, 0.4 * math.sin(0.02 * k)) for k in range(300)]
+    script = h.start(params, md=md)
+    for k, (r, y) in enumerate(inputs):
+        script += [f"setr {h.vr['setpoint']} {r!r}", f"setr {h.vr['measurement']} {y!r}",
+                   f"step {k * 1e-3!r} 0.001", h.getr("u")]
+    blob = tmp_path / "s.bin"
+    t = h.run(script[:-4 * 200] + ["save 0", f"ser 0 {blob}"] + script[-4 * 200:] + [f"deser 1 {blob}", "load 1"]
+              + script[-4 * 200:])
+    rows = got(t)[:, 0]
+    assert set(t.statuses("step")) == {OK}
+    ref = pi_reference(params, inputs)
+    assert np.allclose(rows[:300], ref, rtol=0, atol=1e-12) and max(rows) == 2.0  # it clamps
+    assert np.array_equal(rows[300:], rows[100:300])  # the saved state replays
+    # the law refuses a sample: an error naming why, the run ended
+    t = h.run(h.start({**params, "Ti": 0.0}, md=md) + ["step 0 0.001", "step 0.001 0.001"])
+    assert t.statuses("step") == [ERROR, ERROR] and t.logged("law_step returned non-zero"), t.logs
+
+
+def test_a_law_written_in_c_under_the_sanitizers(c_law, tmp_path):
+    path, d, md = c_law
+    (tmp_path / "asan").mkdir()
+    sanitized = sanitize_all({"PILaw": (path, d, md)}, tmp_path / "asan")
+    random_calls_hold(sanitized, "PILaw", md, 4, tmp_path)
+
+
+@pytest.mark.parametrize("text, why", [
+    ('GRUBLER_OUTPUT(u "x")\n', 'law.c:1: cannot read'),
+    ('GRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")\nint law_step(void);\n', "declares no output"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nint law_step(void);\n', "declares no sample time"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")\n', "defines no law_step"),
+    ('GRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_OUTPUT(u, "again [1]")\n', "law.c:2: u is declared twice"),
+    ('GRUBLER_PARAMETER(Ts, fast, "sample time [s]")\n', "law.c:1: the start of Ts must be a number"),
+    ('GRUBLER_STATE(1000000000)\n', "GRUBLER_STATE(1000000000): at most 100000 doubles"),
+    ('GRUBLER_WHATEVER(x)\n', "the declarations are GRUBLER_PARAMETER"),
+    ('#include "grubler_law.h"\nGRUBLER_OUTPUT(u, "u [1]")\nGRUBLER_PARAMETER(Ts, 1e-3, "s [s]")\n'
+     'int law_step(const double *param, double *state, double t, const double *in, double *out) '
+     '{ return nothing; }\n', "law.c:4:")])
+def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
+    src = tmp_path / "law.c"
+    src.write_text(text)
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
+                           str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert why in proc.stderr, proc.stderr
+    assert not (tmp_path / "L.fmu").exists()
