@@ -46,6 +46,17 @@ def _finite(name: str):
     return _number(name)
 
 
+def _actuator_force(text: str) -> tuple[str, float]:
+    """--actuator-force NAME=N: an actuator's name and its constant force."""
+    name, eq, value = text.partition("=")
+    if not eq or not name.strip():
+        raise argparse.ArgumentTypeError(f"must be NAME=N (an actuator's name and its force in N), got {text!r}")
+    try:
+        return name.strip(), limits.number(value, "--actuator-force", unit="N")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(exc.reason) from None
+
+
 def _output(name: str, kinds: tuple[str, ...] | str | None = None):
     """An argparse type for a file to write: checked before any work (folder, extension)."""
     def parse(text: str) -> str:
@@ -184,10 +195,15 @@ def _print_branches(m, z0) -> None:
 
 def cmd_simulate(args) -> int:
     scene = load_scene(args.scene)
-    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else [])
+    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators"]
+    names = scene.mechanism.actuator_names
+    for name, _ in args.actuator_force or []:
+        if name not in names:
+            raise InputError("--actuator-force", f"no actuator named {name!r}; {scene.name or 'the scene'}'s "
+                                                 f"actuators: {', '.join(names) if names else 'none'}")
     res = simulate(scene, t_end=args.t_end, dt_out=args.dt_out, method=args.method, rtol=args.rtol,
                    atol=args.atol if args.atol else args.rtol, integrator=args.integrator, step=args.step,
-                   torque=args.torque)
+                   torque=args.torque, actuator_forces=dict(args.actuator_force or []))
     _warn(res.warnings)
     if args.csv:
         res.to_csv(args.csv, groups)
@@ -487,6 +503,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--step", type=_positive("--step", "s"),
                    help="fixed step for rk4, s (default 1e-3; cut to --dt-out when longer, with a warning)")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
+    s.add_argument("--actuator-force", type=_actuator_force, action="append", metavar="NAME=N",
+                   help="constant force of the scene's actuator NAME, N, positive pushing its points apart "
+                        "(repeat for each; an actuator not given pushes with 0)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
     s.add_argument("--plot", type=_output("--plot", "figure"), help="write a plot to this PNG file")

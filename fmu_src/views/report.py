@@ -23,7 +23,7 @@ BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
 
 
 def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
-    """E(t) - E(0) minus the drive's work plus what the joint dampers took (J).
+    """E(t) - E(0) minus the work of the drive and the actuators plus what the joint dampers took (J).
 
     Zero for an exact run: what is left is integration error (and the trapezoid
     rule's error on the output grid for the work).  In a co-simulation the drive
@@ -35,6 +35,11 @@ def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarr
     qd = np.column_stack([columns[f"{n}_d"] for n in model.coordinate_names])
     zd = np.array([model.zd_from_qd(row) for row in qd])
     power = columns.get("P_drive", np.zeros_like(t)) - (zd**2) @ model.arrays.damping
+    for name in model.actuator_names:  # an actuator's power, force x rate, in the record or from them
+        if f"{name}_power" in columns:
+            power = power + columns[f"{name}_power"]
+        elif f"{name}_force" in columns and f"{name}_rate" in columns:
+            power = power + columns[f"{name}_force"] * columns[f"{name}_rate"]
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
     e = columns["E"]
     return e - e[0] - work
