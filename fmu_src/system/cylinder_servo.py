@@ -59,6 +59,9 @@ class CylinderServoDesign:
         The move's speed and acceleration limits, m/s and m/s2.
     delay : float
         Rest before the move, s.
+    setpoint : dict, optional
+        Trajectory FMU parameters that replace the trapezoid move (e.g. a
+        ``table`` of lengths over time).
     pid : dict
         Parameters of the PID FMU; its output is the valve command.
     load_torque : float
@@ -76,6 +79,7 @@ class CylinderServoDesign:
     speed: float = 0.1
     acceleration: float = 0.5
     delay: float = 0.5
+    setpoint: dict | None = None
     pid: dict = field(default_factory=lambda: {"K": 20.0, "Ti": 0.0, "Td": 0.0, "N": 10.0, "Ts": 1e-3,
                                                "u_min": -1.0, "u_max": 1.0})
     load_torque: float = 0.0
@@ -152,8 +156,9 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
                                  f"{cylinder.stroke * 1e3:g} mm stroke) driving {model.name or 'a mechanism'} "
                                  "under PID position control of its length", start_time=0.0,
                stop_time=design.t_end, step=design.step)
-    s.add("trajectory", d / "Trajectory.fmu", kind="trapezoid", start=length0, delay=design.delay,
-          distance=design.move, v_max=design.speed, a_max=design.acceleration, repeat=1)
+    move = dict(kind="trapezoid", start=length0, delay=design.delay, distance=design.move, v_max=design.speed,
+                a_max=design.acceleration, repeat=1)
+    s.add("trajectory", d / "Trajectory.fmu", **(design.setpoint or move))
     s.add("controller", d / "PID.fmu", **design.pid)
     s.add("cylinder", d / FMU_OF[design.cylinder], **cylinder_parameters(cylinder), **start)
     mech_fmu, scene_params = scene_fmu(scene, d)
