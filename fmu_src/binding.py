@@ -40,7 +40,7 @@ class Model(ctypes.Structure):
 
     _fields_ = [("n_links", c_int), ("n_closures", c_int), ("links", c_void_p), ("closures", c_void_p),
                 ("theta1", c_double), ("gravity", c_double), ("drive", c_int), ("load", c_int),
-                ("drive_inertia", c_double)]
+                ("drive_inertia", c_double), ("n_actuators", c_int), ("actuators", c_void_p)]
 
 
 class Settings(ctypes.Structure):
@@ -85,6 +85,8 @@ _SIGNATURES = {
     "grb_evaluate": (c_int, [_M, c_int, _P, c_double, c_double, _P]),
     "grb_observe": (c_int, [_M, c_int, _P, c_double, c_double, c_int, _P, _P]),
     "grb_observe_rows": (c_int, [_M, c_int, c_int, _P, _P, c_double, c_double, c_int, _P, _P]),
+"grb_set_actuator_forces": (c_int, [_M, _P, _P]),
+    "grb_actuator_lines": (c_int, [_M, c_int, _P, _P, _P]),
     "grb_point_on_link": (c_int, [_M, _P, c_int, c_double, c_double, _P, _P]),
     "grb_link_points_rows": (c_int, [_M, c_int, _P, c_int, _P, _P, _P, _P]),
     "grb_joint_reactions": (c_int, [_M, _P, _P]),
@@ -103,6 +105,7 @@ _SIGNATURES = {
     # complex-step twins (kernel/grubler_cs.h): complex128 buffers, efforts by address
     "grb_cs_rhs_at": (c_int, [_M, c_int, _P, _P, _P, _P]),
     "grb_cs_observe_at": (c_int, [_M, c_int, _P, _P, c_int, _P, _P]),
+    "grb_cs_set_actuator_forces": (c_int, [_M, _P, _P]),
     "grb_cs_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
     "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, _P, c_double, c_double, _P, _P, _P, _P]),
@@ -131,10 +134,26 @@ def address(a: np.ndarray) -> int:
 
 
 def model_struct(links: np.ndarray, closures: np.ndarray, theta1: float, gravity: float, drive: int, load: int,
-                 drive_inertia: float) -> Model:
-    """A ``grb_model`` over two tables (the caller keeps them alive)."""
+                 drive_inertia: float, actuators: np.ndarray | None = None) -> Model:
+    """A ``grb_model`` over its tables: links, closures and actuators (the caller keeps them alive)."""
+    n_act = 0 if actuators is None else actuators.shape[0]
     return Model(links.shape[0], closures.shape[0], address(links), address(closures) if closures.size else None,
-                 float(theta1), float(gravity), int(drive), int(load), float(drive_inertia))
+                 float(theta1), float(gravity), int(drive), int(load), float(drive_inertia), n_act,
+                 address(actuators) if n_act else None)
+
+
+def set_actuator_forces(model: int, work: np.ndarray, forces) -> None:
+    """Put the actuators' forces (N, positive pushing apart) into a workspace (grb_set_actuator_forces).
+
+    ``model`` is a grb_model's address (``ModelArrays.c``); a complex workspace
+    (the complex-step twin's) takes complex forces.
+    """
+    dtype = complex if work.dtype == complex else float
+    f = np.ascontiguousarray(forces, dtype=dtype)
+    fn = library().grb_cs_set_actuator_forces if dtype is complex else library().grb_set_actuator_forces
+    status = fn(model, address(work), address(f) if f.size else None)
+    if status != OK:
+        raise ValueError(f"actuator forces: {status_message(status)}")
 
 
 def scene_tables(revolute: np.ndarray, parent: np.ndarray, link_fields: np.ndarray, a1: float, theta1: float,

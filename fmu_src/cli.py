@@ -46,6 +46,17 @@ def _finite(name: str):
     return _number(name)
 
 
+def _actuator_force(text: str) -> tuple[str, float]:
+    """--actuator-force NAME=N: an actuator's name and its constant force."""
+    name, eq, value = text.partition("=")
+    if not eq or not name.strip():
+        raise argparse.ArgumentTypeError(f"must be NAME=N (an actuator's name and its force in N), got {text!r}")
+    try:
+        return name.strip(), limits.number(value, "--actuator-force", unit="N")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(exc.reason) from None
+
+
 def _output(name: str, kinds: tuple[str, ...] | str | None = None):
     """An argparse type for a file to write: checked before any work (folder, extension)."""
     def parse(text: str) -> str:
@@ -184,10 +195,15 @@ def _print_branches(m, z0) -> None:
 
 def cmd_simulate(args) -> int:
     scene = load_scene(args.scene)
-    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else [])
+    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators"]
+    names = scene.mechanism.actuator_names
+    for name, _ in args.actuator_force or []:
+        if name not in names:
+            raise InputError("--actuator-force", f"no actuator named {name!r}; {scene.name or 'the scene'}'s "
+                                                 f"actuators: {', '.join(names) if names else 'none'}")
     res = simulate(scene, t_end=args.t_end, dt_out=args.dt_out, method=args.method, rtol=args.rtol,
                    atol=args.atol if args.atol else args.rtol, integrator=args.integrator, step=args.step,
-                   torque=args.torque)
+                   torque=args.torque, actuator_forces=dict(args.actuator_force or []))
     _warn(res.warnings)
     if args.csv:
         res.to_csv(args.csv, groups)
@@ -379,6 +395,8 @@ def cmd_size(args) -> int:
     else:
         cycle = DutyCycle.constant_speed(args.speed, load=args.load_torque, start=start)
         trajectory = {"kind": "constant", "speed": args.speed}
+    if args.cylinder:
+        return _size_cylinder(args, scene, model, cycle)
     names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
     _, ratios = parse_axis(f"ratios={args.ratios}")
     # the currents are predicted under the servo's own position loop, the one --check co-simulates
@@ -420,6 +438,37 @@ def cmd_size(args) -> int:
         chk = closed_loop_check(study.best, cycle, args.scene, trajectory, args.check,
                                 load_joint=model.load if args.load_torque else None, load_torque=args.load_torque)
         print("\n".join(chk.lines()))
+    elif args.check:
+        print("no combination fits: nothing to co-simulate (--check)")
+    return 0
+
+
+def _size_cylinder(args, scene, model, cycle) -> int:
+    """grubler size --cylinder: a hydraulic cylinder's bore and supply pressure for the drive joint's cycle."""
+    from grubler.studies.cylinder_sizing import cylinder_check, size_cylinder
+    from grubler.studies.sweep import parse_axis
+
+    _, bores = parse_axis(f"bores={args.bores}")
+    _, pressures = parse_axis(f"pressures={args.pressures}")
+    study = size_cylinder(model, args.cylinder, cycle, [b * 1e-3 for b in bores], [p * 1e5 for p in pressures],
+                          rod_ratio=args.rod_ratio, constants={"stroke": args.stroke})
+    d = study.demand
+    print(f"{scene.name}, {cycle.name}: actuator {args.cylinder} force {d.force.min() / 1e3:.4g} to "
+          f"{d.force.max() / 1e3:.4g} kN, speed up to {abs(d.rate).max():.4g} m/s, length {d.length.min():.4g} to "
+          f"{d.length.max():.4g} m (period {cycle.period:.4g} s)")
+    print(f"{len(study.ranked)} of {len(study.assessments)} bore x pressure combinations fit; least installed "
+          "power first:")
+    for k, a in enumerate(study.ranked[:10]):
+        print(f"  {k + 1:2d}. {a.candidate.label:<22} margin {a.min_margin:5.2f} ({a.binding}); "
+              f"{a.power / 1e3:.3g} kW at the peak flow")
+    shown = 10 if args.verbose else 5
+    for a in study.rejected[:shown]:
+        print(f"  x  {a.candidate.label:<22} {a.failures[0]}" + (f" (+{len(a.failures) - 1} more)"
+                                                                 if len(a.failures) > 1 else ""))
+    if len(study.rejected) > shown:
+        print(f"  ... {len(study.rejected) - shown} more rejected (--verbose lists more)")
+    if args.check and study.best is not None:
+        print("\n".join(cylinder_check(study, args.scene, args.cylinder, args.check).lines()))
     elif args.check:
         print("no combination fits: nothing to co-simulate (--check)")
     return 0
@@ -495,6 +544,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--step", type=_positive("--step", "s"),
                    help="fixed step for rk4, s (default 1e-3; cut to --dt-out when longer, with a warning)")
     s.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (N on a slide)")
+    s.add_argument("--actuator-force", type=_actuator_force, action="append", metavar="NAME=N",
+                   help="constant force of the scene's actuator NAME, N, positive pushing its points apart "
+                        "(repeat for each; an actuator not given pushes with 0)")
     s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
     s.add_argument("--plot", type=_output("--plot", "figure"), help="write a plot to this PNG file")
@@ -567,6 +619,13 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--plot", type=_output("--plot", "figure"),
                    help="write envelopes and margin against ratio to this PNG")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
+    z.add_argument("--cylinder", metavar="ACTUATOR", help="size a hydraulic cylinder for the scene's actuator "
+                                                         "instead of a motor (bores x supply pressures)")
+    z.add_argument("--bores", default="32,40,50,63,80,100", help="cylinder bores, mm: V1,V2,... or START:STOP:N")
+    z.add_argument("--pressures", default="100,160,210", help="supply pressures, bar: V1,V2,... or START:STOP:N")
+    z.add_argument("--rod-ratio", type=_number("--rod-ratio", low=0.0, high=1.0, low_open=True), default=0.56,
+                   help="rod diameter over bore (below 1)")
+    z.add_argument("--stroke", type=_positive("--stroke", "m"), default=0.3, help="cylinder stroke, m")
     z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
                                                      "(FMUs from FMU_DIR, e.g. dist) and compare")
     z.set_defaults(func=cmd_size)

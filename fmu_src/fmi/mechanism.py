@@ -46,22 +46,25 @@ _UNPUBLISHED = {"E", "tau_drive", "P_drive"}
 
 # per-link fields in slot order (the C model addresses them as SLOT_LINKS + k * LINK_STRIDE + field)
 LINK_FIELDS = ("joint", "a", "p", "q", "m", "I", "damping", "parent")
+ACTUATOR_FIELDS = ("from_link", "from_point_x", "from_point_y", "to_link", "to_point_x", "to_point_y")
 CLOSURE_FIELDS = ("type", "link", "to_link", "at_x", "at_y", "point_x", "point_y", "angle", "psi", "gain",
                   "damping")
 GLOBALS = ("method", "integrator", "rtol", "atol", "max_step", "step", "gravity", "ground.a1", "ground.theta1",
            "drive_joint", "load_joint", "drive.inertia")
 
 
-def run_state(n_links: int) -> tuple[tuple[str, int], ...]:
+def run_state(n_links: int, n_actuators: int = 0) -> tuple[tuple[str, int], ...]:
     """The model's own part of a mechanism FMU's persistent block (``mechanism_model.c``'s ``P_*``).
 
     The run's flag, time, integrator step and counters, the joint state y = (z,
-    zd) and its derivative f (2 ``n_links`` each), then the integrator's
-    workspace (sized by the kernel).
+    zd) and its derivative f (2 ``n_links`` each), the actuators' forces f was
+    computed with (when there are actuators), then the integrator's workspace
+    (sized by the kernel).
     """
     scalars = ("started", "t", "h", "have_f", "steps", "rejected", "evals", "passages", "kappa_seen",
                "drive_used", "load_used")
-    return (*((f, 1) for f in scalars), ("y", 2 * n_links), ("f", 2 * n_links), ("stepper", 0))
+    forces = (("actuator_forces_used", n_actuators),) if n_actuators else ()
+    return (*((f, 1) for f in scalars), ("y", 2 * n_links), ("f", 2 * n_links), *forces, ("stepper", 0))
 
 
 def _coordinate_unit(name: str, order: int) -> str:
@@ -96,6 +99,10 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
                   f"{pre}.to_link": c.to_link, f"{pre}.at_x": c.point[0], f"{pre}.at_y": c.point[1],
                   f"{pre}.point_x": c.to_point[0], f"{pre}.point_y": c.to_point[1], f"{pre}.angle": c.angle,
                   f"{pre}.psi": c.psi, f"{pre}.gain": c.gain, f"{pre}.damping": c.damping})
+    for a in m.actuators:
+        p.update({f"{a.name}.from_link": a.from_link, f"{a.name}.from_point_x": a.from_point[0],
+                  f"{a.name}.from_point_y": a.from_point[1], f"{a.name}.to_link": a.to_link,
+                  f"{a.name}.to_point_x": a.to_point[0], f"{a.name}.to_point_y": a.to_point[1]})
     qd = m.S @ scene.initial_rates
     for i, x in enumerate(m.coordinate_names):
         p[f"initial.{x}"] = float(m.q_ref[i])
@@ -107,8 +114,8 @@ STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fm
 
 
 def same_shape(a: Mechanism, b: Mechanism) -> bool:
-    """Whether one mechanism FMU serves both (same number of links and of closures)."""
-    return (a.n_links, len(a.closures)) == (b.n_links, len(b.closures))
+    """Whether one mechanism FMU serves both (same number of links, of closures and the same actuators)."""
+    return (a.n_links, len(a.closures), a.actuator_names) == (b.n_links, len(b.closures), b.actuator_names)
 
 
 def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
@@ -219,14 +226,33 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     for k in range(2, n + 2):  # last: the value references above are those of an FMU before trees
         par(f"link{k}.parent", INTEGER, f"link {k}: the link its joint pair hangs from, 1: the ground "
                                         "(structural; the previous link for a serial chain)", None, 1, k - 1)
+    # the actuators after everything else: an FMU without them keeps its value references
+    n_out = len(obs) + 2 + 3 * max(nc - 1, 0)
+    for j, a in enumerate(m.actuators):
+        for end in ("from", "to"):
+            par(f"{a.name}.{end}_link", INTEGER, f"actuator {a.name}: the link carrying its {end} point, 1: the "
+                                                 "ground (structural)", None, 1, n + 1)
+            for axis, words in (("x", "along"), ("y", "across")):
+                par(f"{a.name}.{end}_point_{axis}", REAL, f"actuator {a.name}: its {end} point, {words} its link's "
+                                                          "vector (world axes on the ground)", "m")
+        v.append(Variable(f"{a.name}_force", REAL, INPUT, f"actuator {a.name}'s force along its line, positive "
+                                                          "pushing its points apart", 0.0, "N"))
+        # kinematics: the state alone gives them, no input at the same instant
+        v.append(Variable(f"{a.name}_length", REAL, OUTPUT, f"actuator {a.name}'s length (its points' distance)",
+                          unit="m", level=LEVEL_DRIVE, slot=n_out + 2 * j))
+        v.append(Variable(f"{a.name}_rate", REAL, OUTPUT, f"actuator {a.name}'s rate of extension", unit="m/s",
+                          level=LEVEL_DRIVE, slot=n_out + 2 * j + 1))
 
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]
     slot_order += [f"{closure_prefix(nc, j)}.{f}" for j in range(nc) for f in CLOSURE_FIELDS]
     slot_order += [f"initial.{x}" for x in names] + [f"initial.{x}_d" for x in names]
     slot_order += ["motor_torque", "load_torque"]
+    slot_order += [f"{a.name}.{f}" for a in m.actuators for f in ACTUATOR_FIELDS]
+    slot_order += [f"{a.name}_force" for a in m.actuators]
     defines = {"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
-               "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": len(obs)}
+               "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": len(obs), "N_ACTUATORS": len(m.actuators),
+               "ACTUATOR_STRIDE": len(ACTUATOR_FIELDS), "OUT_ACTUATORS": n_out}
     defines.update({f"SLOT_{g.upper().replace('.', '_')}": k for k, g in enumerate(GLOBALS)})
     defines["SLOT_LINKS"] = len(GLOBALS)
     defines["SLOT_CLOSURES"] = defines["SLOT_LINKS"] + n * len(LINK_FIELDS)
@@ -234,6 +260,9 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     defines["SLOT_QD0"] = defines["SLOT_Q0"] + 2 * n
     defines["SLOT_MOTOR_TORQUE"] = defines["SLOT_QD0"] + 2 * n
     defines["SLOT_LOAD_TORQUE"] = defines["SLOT_MOTOR_TORQUE"] + 1
+    defines["SLOT_ACTUATORS"] = defines["SLOT_LOAD_TORQUE"] + 1
+    defines["SLOT_ACTUATOR_FORCE"] = defines["SLOT_ACTUATORS"] + len(m.actuators) * len(ACTUATOR_FIELDS)
+    defines.update({f"AF_{f.upper()}": k for k, f in enumerate(ACTUATOR_FIELDS)})
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
     # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
@@ -241,6 +270,6 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
-                     tuple(v), "mechanism_model.c", defines, len(obs) + 2 + 3 * max(nc - 1, 0), tuple(slot_order),
+                     tuple(v), "mechanism_model.c", defines, n_out + 2 * len(m.actuators), tuple(slot_order),
                      (JOINT, CLOSURE),
-                     ("kernel",), run_state(n))
+                     ("kernel",), run_state(n, len(m.actuators)))

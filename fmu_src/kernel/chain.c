@@ -22,6 +22,8 @@
 typedef char grb_link_columns_check[(offsetof(grb_link, revolute) == GRB_L_REV * sizeof(double) &&
                                      offsetof(grb_link, parent) == GRB_L_PARENT * sizeof(double) &&
                                      sizeof(grb_link) == GRB_L_COLUMNS * sizeof(double)) ? 1 : -1];
+typedef char grb_actuator_columns_check[(offsetof(grb_actuator, to_point) == GRB_A_TO_X * sizeof(double) &&
+                                         sizeof(grb_actuator) == GRB_A_COLUMNS * sizeof(double)) ? 1 : -1];
 typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_CL_TX * sizeof(double) &&
                                         offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
                                         sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
@@ -62,18 +64,22 @@ grb_status GRB(work_init)(int n, int n_closures, real *buffer, size_t length) {
     buffer[WORK_LINKS] = n;
     buffer[WORK_CLOSURES] = n_closures;
     buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
+    for (int a = 0; a < GRB_MAX_ACTUATORS; a++) buffer[WORK_ACTUATOR_FORCE + a] = 0.0;
     return GRB_OK;
 }
 
 grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled needs) {
     int n = md->n_links, n_closures = md->n_closures, m = 2 * n_closures;
     if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer) return GRB_BAD_ARGUMENT;
+    if (md->n_actuators < 0 || md->n_actuators > GRB_MAX_ACTUATORS || (md->n_actuators > 0 && !md->actuators))
+        return GRB_BAD_ARGUMENT;
     if (RE(buffer[WORK_TAG]) != GRB_WORK_TAG) {
         /* a buffer no call has used: the caller sized it (grb_work_size) */
         if (needs != GRB_FILLED_NOTHING) return GRB_BAD_ARGUMENT;
         buffer[WORK_TAG] = GRB_WORK_TAG;
         buffer[WORK_LINKS] = n;
         buffer[WORK_CLOSURES] = n_closures;
+        for (int a = 0; a < GRB_MAX_ACTUATORS; a++) buffer[WORK_ACTUATOR_FORCE + a] = 0.0;
     } else if (RE(buffer[WORK_LINKS]) != n || RE(buffer[WORK_CLOSURES]) != n_closures ||
                RE(buffer[WORK_FILLED]) < needs)
         return GRB_BAD_ARGUMENT;
@@ -82,6 +88,7 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     ws_offsets(n, m, off);
     dynamics_offsets(n, m, off, dyn);
     w->header = buffer;
+    w->actuator_force = buffer + WORK_ACTUATOR_FORCE;
     w->n = n;
     w->m = m;
     w->sc = n + m + 1;
@@ -195,6 +202,49 @@ void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, r
     r[1] = ry;
     r[2] = w->frame[k].o_bias[0] - w2 * armx;
     r[3] = w->frame[k].o_bias[1] - w2 * army;
+}
+
+/* One end of actuator a (end 0 its first point, 1 its second): position and
+ * Jacobian (2 x N, row stride N) from the frames in w; a ground point is fixed. */
+static void actuator_end(const grb_model *md, const grb_ws *w, int a, int end, real *J, real *r) {
+    const grb_actuator *act = &grb_actuators(md)[a];
+    int k = (int)(end == 0 ? act->from_link : act->to_link);
+    const double *local = end == 0 ? act->from_point : act->to_point;
+    if (k >= 0) {
+        GRB(point)(md, w, k, local[0], local[1], J, r);
+        return;
+    }
+    for (int j = 0; j < 2 * md->n_links; j++) J[j] = 0.0;
+    r[0] = local[0];
+    r[1] = local[1];
+}
+
+/* Actuator a's line at the frames in w: its length L, returned, the unit
+ * vector u from its first point to its second, both points (ends[0..1] the
+ * first, ends[2..3] the second) and the Jacobian of its length, dL/dz =
+ * u^T (J_second - J_first), into jl (N).  A zero length has no direction: u
+ * and jl are then zero (assembly refuses such a start; a motion through it
+ * feels no actuator force there). */
+static real actuator_line(const grb_model *md, const grb_ws *w, int a, real *u, real *ends, real *jl) {
+    int n = md->n_links;
+    real J0[2 * GRB_MAX_LINKS], J1[2 * GRB_MAX_LINKS], r0[4], r1[4];
+    actuator_end(md, w, a, 0, J0, r0);
+    actuator_end(md, w, a, 1, J1, r1);
+    real dx = r1[0] - r0[0], dy = r1[1] - r0[1];
+    real length = RSQRT(dx * dx + dy * dy);
+    ends[0] = r0[0];
+    ends[1] = r0[1];
+    ends[2] = r1[0];
+    ends[3] = r1[1];
+    if (RE(length) == 0.0) {
+        u[0] = u[1] = 0.0;
+        for (int i = 0; i < n; i++) jl[i] = 0.0;
+        return length;
+    }
+    u[0] = dx / length;
+    u[1] = dy / length;
+    for (int i = 0; i < n; i++) jl[i] = u[0] * (J1[i] - J0[i]) + u[1] * (J1[n + i] - J0[n + i]);
+    return length;
 }
 
 /* Constraint rows of every closure (MODEL.md section 3), any pair of links:
@@ -314,6 +364,13 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
     }
     if (md->drive >= 0) f[md->drive] += tau_drive;
     if (md->load >= 0) f[md->load] += tau_load;
+    /* each actuator's force F along its line: virtual work F dL = F J_L dz */
+    for (int a = 0; a < md->n_actuators; a++) {
+        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real force = w->actuator_force[a];
+        actuator_line(md, w, a, u, ends, jl);
+        for (int i = 0; i < n; i++) f[i] += jl[i] * force;
+    }
 }
 
 /* Relative eigenvalue below which a closure direction counts as lost.  At a
@@ -473,6 +530,22 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
             out[3 * k + 2] += sign * (mz + (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx);
         }
     }
+    /* then the actuators' forces on the links they join: +F u on the second
+     * point's link, -F u on the first's (the ground takes its own) */
+    for (int a = 0; a < md->n_actuators; a++) {
+        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real force = w->actuator_force[a];
+        actuator_line(md, w, a, u, ends, jl);
+        for (int end = 0; end < 2; end++) {
+            int k = (int)(end == 0 ? grb_actuators(md)[a].from_link : grb_actuators(md)[a].to_link);
+            if (k < 0) continue;
+            real sign = end == 0 ? -1.0 : 1.0, fx = sign * force * u[0], fy = sign * force * u[1];
+            real px = ends[2 * end], py = ends[2 * end + 1];
+            out[3 * k] += fx;
+            out[3 * k + 1] += fy;
+            out[3 * k + 2] += (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx;
+        }
+    }
     for (int k = n - 1; k >= 0; k--) {
         real ax = w->frame[k].com_bias[0], ay = w->frame[k].com_bias[1], alpha = 0.0;
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
@@ -590,6 +663,37 @@ grb_status GRB(evaluate)(const grb_model *md, int method, const real *y, real ta
     if (status != GRB_OK) return status;
     return GRB(accelerations)(md, method, y, y + md->n_links, tau_drive, tau_load, &w);
 }
+
+grb_status GRB(set_actuator_forces)(const grb_model *md, real *work, const real *force) {
+    grb_ws w;
+    grb_status status = GRB(ws_init)(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    if (md->n_actuators > 0 && !force) return GRB_BAD_ARGUMENT;
+    for (int a = 0; a < md->n_actuators; a++) w.actuator_force[a] = force[a];
+    return GRB_OK;
+}
+
+#ifndef GRB_COMPLEX_STEP
+grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, double *work, double *out) {
+    grb_ws w;
+    int n = md->n_links, na = md->n_actuators;
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    if (rows < 0) return GRB_BAD_ARGUMENT;
+    for (int i = 0; i < rows; i++) {
+        const double *yi = y + (size_t)i * 2 * n;
+        grb_chain(md, yi, yi + n, &w);
+        for (int a = 0; a < na; a++) {
+            double u[2], ends[4], jl[GRB_MAX_LINKS], rate = 0.0;
+            double *o = out + ((size_t)i * na + a) * 2;
+            o[0] = actuator_line(md, &w, a, u, ends, jl);
+            for (int j = 0; j < n; j++) rate += jl[j] * yi[n + j];
+            o[1] = rate;
+        }
+    }
+    return GRB_OK;
+}
+#endif
 
 grb_status GRB(point_on_link)(const grb_model *md, real *work, int k, real lx, real ly, real *J, real *r) {
     grb_ws w;

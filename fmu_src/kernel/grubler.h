@@ -86,6 +86,26 @@ typedef struct grb_closure {
     double gain, damping; /* the penalty method's spring, N/m, and damper, N s/m */
 } grb_closure;
 
+/* Columns of the actuator table, one row per linear actuator (a cylinder, a
+ * solenoid, a strut): the link carrying its first point (0-based moving-link
+ * index, -1 the ground) and that point in the link's frame (along, across its
+ * vector; the world's on the ground), then the same of its second point. */
+enum { GRB_A_FROM_LINK, GRB_A_FROM_X, GRB_A_FROM_Y, GRB_A_TO_LINK, GRB_A_TO_X, GRB_A_TO_Y, GRB_A_COLUMNS };
+/* One row of the actuator table by name.  The actuator's force acts along the
+ * line through its two points, positive pushing them apart: on the to-link
+ * +F u at to_point, on the from-link -F u at from_point, u the unit vector from
+ * the first point to the second.  Its generalised force is F J_L^T, J_L the
+ * Jacobian of its length L = |to - from|.  The forces are inputs: they live in
+ * the workspace (grb_set_actuator_forces), not in the model. */
+typedef struct grb_actuator {
+    double from_link;     /* the link of the first point (moving-link index, -1 the ground) */
+    double from_point[2]; /* the first point, in from_link's frame, m */
+    double to_link;       /* the link of the second point */
+    double to_point[2];   /* the second point, in to_link's frame, m */
+} grb_actuator;
+/* The most actuators a model may have (their forces sit in the workspace's header). */
+#define GRB_MAX_ACTUATORS 16
+
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
 
@@ -103,6 +123,8 @@ typedef struct grb_model {
     double gravity;           /* g along -y, m/s^2 */
     int drive, load;          /* index in z of the drive and load joints, -1 none */
     double drive_inertia;     /* reflected rotor inertia on z[drive] */
+    int n_actuators;          /* A linear actuators, 0 .. GRB_MAX_ACTUATORS */
+    const double *actuators;  /* A x GRB_A_COLUMNS, row-major (NULL when A = 0) */
 } grb_model;
 
 /* Number of outputs of grb_observe for N links: coordinates, rates and
@@ -120,6 +142,17 @@ typedef struct grb_model {
  * zeros, say) is laid out by the first call, which must trust its length. */
 GRB_API size_t grb_work_size(int n_links, int n_closures);
 GRB_API grb_status grb_work_init(int n_links, int n_closures, double *work, size_t length);
+
+/* The actuators' forces (N, positive pushing their points apart: A of them),
+ * held in the workspace until set again: an input like the drive effort, read
+ * by every evaluation that uses this buffer (grb_rhs, grb_observe, grb_advance,
+ * grb_joint_reactions ...).  A buffer grb_work_init laid out holds zeros. */
+GRB_API grb_status grb_set_actuator_forces(const grb_model *m, double *work, const double *force);
+
+/* Length (m) and rate (m/s) of every actuator over rows states y (rows x 2N):
+ * out[(i * A + a) * 2 + 0..1] for actuator a in row i.  Kinematics only (the
+ * forces are not read); the workspace is left holding no dynamics. */
+GRB_API grb_status grb_actuator_lines(const grb_model *m, int rows, const double *y, double *work, double *out);
 
 /* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */

@@ -21,6 +21,10 @@ extern "C" {
 /* grb_work_init over a complex buffer */
 GRB_API grb_status grb_cs_work_init(int n_links, int n_closures, double complex *work, size_t length);
 
+/* grb_set_actuator_forces over a complex buffer: the forces complex, so that a
+ * derivative can be taken along them */
+GRB_API grb_status grb_cs_set_actuator_forces(const grb_model *m, double complex *work, const double complex *force);
+
 /* efforts: (drive, load); the complex-step rules are in real.h */
 GRB_API grb_status grb_cs_rhs_at(const grb_model *m, int method, const double complex *y, const double complex *efforts,
                           double complex *work, double complex *out);

@@ -55,7 +55,9 @@ typedef struct grb_row {
 /* The header: a tag, the links and closures the buffer is laid out for (set by
  * grb_work_init, or by the first call that uses a buffer that has none) and
  * how far it is filled at the present state. */
-enum { WORK_TAG, WORK_LINKS, WORK_CLOSURES, WORK_FILLED, WORK_HEADER };
+/* The actuators' forces (inputs, grb_set_actuator_forces) follow in the header. */
+enum { WORK_TAG, WORK_LINKS, WORK_CLOSURES, WORK_FILLED, WORK_ACTUATOR_FORCE,
+       WORK_HEADER = WORK_ACTUATOR_FORCE + GRB_MAX_ACTUATORS };
 #define GRB_WORK_TAG 4.2347e-297 /* an unlikely value for a number the kernel computes */
 /* what the tables hold (WORK_FILLED), and what a call needs them to hold */
 typedef enum grb_filled {
@@ -80,6 +82,7 @@ typedef struct grb_ws {
     real *eigval;     /* M: their eigenvalues (not sorted) */
     real *S;
     real *header;     /* the buffer's header (WORK_*) */
+    real *actuator_force; /* the actuators' forces, in the header (A) */
     /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
      * the ground), set by the kinematic pass: the inner loops over a link's
      * path test a bit instead of walking parents */
@@ -99,6 +102,7 @@ static inline const grb_link *grb_links(const grb_model *m) { return (const grb_
 static inline const grb_closure *grb_closures(const grb_model *m) { return (const grb_closure *)m->closures; }
 /* the predecessor of link k: an earlier moving link, or -1 the ground */
 static inline int grb_parent(const grb_model *m, int k) { return (int)grb_links(m)[k].parent; }
+static inline const grb_actuator *grb_actuators(const grb_model *m) { return (const grb_actuator *)m->actuators; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
 static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }

@@ -71,10 +71,30 @@ class Inputs:
         Motor torque (N m) or force (N, prismatic) on the model's drive joint.
     load : float
         Load torque or force on the model's load joint.
+    actuators : tuple of float
+        Force of each of the model's actuators, in its order, N (positive
+        pushing its points apart); missing ones are 0.
     """
 
     drive: float = 0.0
     load: float = 0.0
+    actuators: tuple[float, ...] = ()
+
+
+def actuator_forces(model: Mechanism, inputs: Inputs) -> np.ndarray:
+    """The actuators' forces of ``inputs`` as an array of the model's length (missing ones 0)."""
+    f = np.zeros(len(model.actuators))
+    given = np.asarray(inputs.actuators, dtype=float)
+    if given.size > f.size:
+        raise ValueError(f"actuators: {given.size} forces for {f.size} actuators")
+    f[:given.size] = given
+    return f
+
+
+def put_actuator_forces(model: Mechanism, work: np.ndarray, inputs: Inputs) -> None:
+    """Write the actuators' forces of ``inputs`` into a kernel workspace (nothing to do without actuators)."""
+    if model.actuators:
+        binding.set_actuator_forces(model.arrays.c, work, actuator_forces(model, inputs))
 
 
 def observation_names(n: int) -> list[str]:
@@ -138,6 +158,7 @@ def forward_dynamics(
         and without a closure to carry it).
     """
     tab = tables(model)
+    put_actuator_forces(model, tab.work, inputs)
     if not evaluate_into(model, tab, z, zd, METHOD_CODE[method], float(inputs.drive), float(inputs.load)):
         raise np.linalg.LinAlgError("Singular matrix")
     K = tab.K
@@ -181,6 +202,7 @@ def inverse_dynamics(
         raise ValueError("inverse_dynamics needs a model with a drive joint")
     inputs = inputs or Inputs()
     tab = tables(model)
+    put_actuator_forces(model, tab.work, inputs)
     y = np.concatenate([np.asarray(z, dtype=float), np.asarray(zd, dtype=float)])
     zdd = np.ascontiguousarray(zdd, dtype=float)
     residual = np.empty(model.n_links)
@@ -199,6 +221,7 @@ __all__ = [
     "PENALTY",
     "METHODS",
     "Inputs",
+    "actuator_forces",
     "Dynamics",
     "forward_dynamics",
     "inverse_dynamics",

@@ -127,10 +127,17 @@ class StateEquation:
         self.work = binding.work(self.model.n_links, len(self.model.closures))
         # scipy's implicit solvers call this once per evaluation: buffers and
         # their addresses made once (numpy's .ctypes costs about a microsecond)
+        self.actuator_forces = np.zeros(len(self.model.actuators))
         n = 2 * self.model.n_links
         self._y, self._out = np.zeros(n), np.zeros(n)
         self._call = (binding.library().grb_rhs, self.model.arrays.c, binding.address(self._y),
                       binding.address(self.work), binding.address(self._out))
+
+    def set_actuator_forces(self, forces) -> None:
+        """The actuators' forces (N, in the model's order), held in the kernel's workspace until set again."""
+        self.actuator_forces = np.array(forces, dtype=float)
+        if self.model.actuators:
+            binding.set_actuator_forces(self.model.arrays.c, self.work, self.actuator_forces)
 
     def drive_at(self, t: float) -> float:
         return self.drive if self.drive_function is None else float(self.drive_function(t))
@@ -151,6 +158,8 @@ class StateEquation:
                         np.zeros(self.work.size, dtype=complex), np.zeros(2, dtype=complex))
         yc, out, work, efforts = self._cs
         efforts[:] = (self.drive_at(float(t)), self.load)
+        if self.model.actuators:
+            binding.set_actuator_forces(self.model.arrays.c, work, self.actuator_forces.astype(complex))
         jac = np.empty((n2, n2))
         rhs = binding.library().grb_cs_rhs_at
         h = 1e-30 * max(1.0, float(np.max(np.abs(y))))

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -135,6 +136,38 @@ class Closure:
         return 2
 
 
+@dataclass(frozen=True)
+class Actuator:
+    """A linear actuator (a hydraulic or pneumatic cylinder, a solenoid, a strut) between two links.
+
+    Its force acts along the line through its two points, positive pushing them
+    apart; the mechanism takes that force as an input and gives the actuator's
+    length and rate.
+
+    Parameters
+    ----------
+    name : str
+        Names its input and outputs (``<name>_force``, ``<name>_length``,
+        ``<name>_rate``): a letter, then letters, digits or underscores.
+    from_link, to_link : int
+        The links carrying its two points, thesis numbering (1 the ground).
+    from_point, to_point : (float, float)
+        The points in their link's frame (along, across its vector), m; a
+        ground point is in the world frame.
+    """
+
+    name: str
+    from_link: int
+    from_point: tuple[float, float]
+    to_link: int
+    to_point: tuple[float, float]
+
+
+MAX_ACTUATORS = 16  # the kernel's GRB_MAX_ACTUATORS
+ACTUATOR_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
+# columns of the actuator table (ModelArrays.actuators), one row per actuator
+A_FROM_LINK, A_FROM_X, A_FROM_Y, A_TO_LINK, A_TO_X, A_TO_Y = range(6)
+
 # columns of the link table (ModelArrays.links), one row per moving link
 L_M, L_I, L_P, L_Q, L_A, L_APRED, L_DAMP, L_REV, L_SLIDE0, L_THETA0, L_PARENT = range(11)
 # columns of the closure table (ModelArrays.closures), one row per closure
@@ -159,6 +192,7 @@ class ModelArrays:
 
     links: np.ndarray  # (N, 11) float
     closures: np.ndarray  # (C, 11) float
+    actuators: np.ndarray  # (A, 6) float
     m: np.ndarray
     I: np.ndarray
     p: np.ndarray
@@ -179,7 +213,7 @@ class ModelArrays:
 
     def _struct(self):
         return binding.model_struct(self.links, self.closures, self.theta1, self.gravity, self.drive, self.load,
-                                    self.drive_inertia)
+                                    self.drive_inertia, self.actuators)
 
     # the struct holds the tables' addresses: never carry it to another process
     def __getstate__(self):
@@ -208,9 +242,12 @@ class ModelArrays:
         C.setflags(write=False)
         drive = -1 if model.drive is None else model.free_index(model.drive)
         load = -1 if model.load is None else model.free_index(model.load)
-        struct = binding.model_struct(L, C, model.theta1, model.gravity, drive, load, model.drive_inertia)
+        A = np.array([(a.from_link - 2, *a.from_point, a.to_link - 2, *a.to_point) for a in model.actuators],
+                     dtype=float).reshape(len(model.actuators), 6)
+        A.setflags(write=False)
+        struct = binding.model_struct(L, C, model.theta1, model.gravity, drive, load, model.drive_inertia, A)
         return ModelArrays(
-            links=L, closures=C,
+            links=L, closures=C, actuators=A,
             m=L[:, L_M], I=L[:, L_I], p=L[:, L_P], q=L[:, L_Q], a=L[:, L_A], a_pred=L[:, L_APRED],
             damping=L[:, L_DAMP], revolute=L[:, L_REV] != 0.0,
             gain=np.repeat(C[:, CL_GAIN], 2), closure_damping=np.repeat(C[:, CL_DAMP], 2),
@@ -297,6 +334,9 @@ class Mechanism:
         away, because the rotor often outweighs the linkage.
     name, kind, description : str
         Labels: preset name, mechanism type, free text.
+    actuators : sequence of Actuator
+        Linear actuators between links: each takes a force as an input and
+        gives its length and rate.
     """
 
     links: tuple[Link, ...]
@@ -311,6 +351,7 @@ class Mechanism:
     name: str = ""
     kind: str = ""
     description: str = ""
+    actuators: tuple[Actuator, ...] = ()
     # derived structure, filled in __post_init__
     _S: np.ndarray = field(init=False, repr=False, compare=False)
     _q_locked: np.ndarray = field(init=False, repr=False, compare=False)
@@ -320,6 +361,7 @@ class Mechanism:
     def __post_init__(self):
         object.__setattr__(self, "links", tuple(self.links))
         object.__setattr__(self, "closures", tuple(self.closures))
+        object.__setattr__(self, "actuators", tuple(self.actuators))
         n = len(self.links)
         if n < 1:
             raise SceneError("links", "a chain needs at least one moving link")
@@ -341,6 +383,7 @@ class Mechanism:
             raise SceneError("gravity", f"must be >= 0 (it acts along -y), got {g}")
         self._validate_links()
         self._validate_closures()
+        self._validate_actuators()
         self._build_structure()
         self._validate_topology()
         j = _finite("drive.inertia", self.drive_inertia)
@@ -385,6 +428,38 @@ class Mechanism:
                 raise SceneError(f"{f}.gain", f"penalty gain must be positive, got {cl.gain}")
             if _finite(f"{f}.damping", cl.damping) < 0:
                 raise SceneError(f"{f}.damping", f"penalty damping must be >= 0, got {cl.damping}")
+
+    def _validate_actuators(self):
+        n = len(self.links)
+        if len(self.actuators) > MAX_ACTUATORS:
+            raise SceneError("actuator", f"a mechanism has at most {MAX_ACTUATORS} actuators (the kernel's "
+                                         f"GRB_MAX_ACTUATORS), got {len(self.actuators)}")
+        seen, clean = set(), []
+        for j, act in enumerate(self.actuators):
+            f = f"actuator[{j}]"
+            if not (isinstance(act.name, str) and ACTUATOR_NAME.fullmatch(act.name)):
+                raise SceneError(f"{f}.name", "must be a letter, then up to 31 letters, digits or underscores "
+                                              f"(it names the columns <name>_length, <name>_rate), got {act.name!r}")
+            if act.name in seen:
+                raise SceneError(f"{f}.name", f"{act.name!r} names another actuator already")
+            seen.add(act.name)
+            for key in ("from_link", "to_link"):
+                k = getattr(act, key)
+                if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= n + 1:
+                    raise SceneError(f"{f}.{key}", f"link {k!r} does not exist: the mechanism has the ground (1) "
+                                                   f"and links 2..{n + 1}")
+            if act.from_link == act.to_link:
+                raise SceneError(f"{f}.to_link", f"must be another link than from_link ({act.from_link}): an "
+                                                 "actuator within one link has a constant length and does nothing")
+            points = {}
+            for key in ("from_point", "to_point"):
+                v = getattr(act, key)
+                if not (isinstance(v, (tuple, list)) and len(v) == 2):
+                    raise SceneError(f"{f}.{key}", f"must be [x, y], got {v!r}")
+                points[key] = tuple(_finite(f"{f}.{key}", x) for x in v)
+            clean.append(Actuator(act.name, int(act.from_link), points["from_point"], int(act.to_link),
+                                  points["to_point"]))
+        object.__setattr__(self, "actuators", tuple(clean))
 
     def _validate_topology(self):
         # A loop needs two revolutes to move; two prismatic pairs on one link
@@ -560,6 +635,11 @@ class Mechanism:
             rel[2 * i + 1] = qd[2 * i + 1] - (0.0 if pk == 1 else qd[2 * pk - 3])
         return np.array([rel[i] for i in self._free])
 
+    @property
+    def actuator_names(self) -> list[str]:
+        """The actuators' names, in scene order."""
+        return [a.name for a in self.actuators]
+
     def joint_is_revolute(self) -> np.ndarray:
         return self.arrays.revolute
 
@@ -567,6 +647,6 @@ class Mechanism:
         """A copy with some fields changed (re-validated)."""
         kw = {f: getattr(self, f) for f in (
             "links", "closures", "q_ref", "a1", "theta1", "gravity", "drive", "load", "drive_inertia",
-            "name", "kind", "description")}
+            "name", "kind", "description", "actuators")}
         kw.update(changes)
         return Mechanism(**kw)

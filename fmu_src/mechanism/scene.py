@@ -28,7 +28,7 @@ from grubler.mechanism.builders import BUILDERS
 from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, Problems, SceneError, raise_all
 from grubler.limits import brief, did_you_mean, number, parse_angle, parse_angle_or_number, parse_toml, read_text
-from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names, link_problems
+from grubler.mechanism.model import Actuator, Closure, Link, Mechanism, coordinate_names, link_problems
 
 def parse_coordinate(name: str, value, field: str) -> float:
     """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
@@ -92,7 +92,8 @@ class Scene:
 
 
 _TOP = {"name", "description", "kind", "gravity", "mechanism", "ground", "closure", "drive", "load",
-        "initial", "simulate"}
+        "initial", "simulate", "actuator"}
+_ACTUATOR_KEYS = {"name", "from_link", "from_point", "to_link", "to_point"}
 _LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping", "parent"}
 _CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain", "damping"}
 
@@ -239,6 +240,9 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     theta1 = _collect(found, ground.get("theta1", 0.0), "ground.theta1")
     gravity = _collect(found, data.get("gravity", 9.81), "gravity")
     drive_inertia = _collect(found, drive.get("inertia", 0.0), "drive.inertia")
+    actuators = []
+    with found.check():
+        actuators = _actuators(data.get("actuator", []), n)
     found.raise_all()
     # what needs the whole chain (its loops, its joints' names) is checked on it
     mechanism = Mechanism(
@@ -254,6 +258,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         name=str(data.get("name", name)),
         kind=str(data.get("kind", "")),
         description=str(data.get("description", "")),
+        actuators=tuple(actuators),
     )
     for x, v in zip(names, qd0):
         if v != 0.0 and x not in mechanism.free_names:
@@ -302,6 +307,38 @@ def _link(d: dict, f: str, k: int, count: int, found: Problems) -> Link | None:
     for problem in link_problems(link, f, k):
         found.add(problem)
     return link if len(found) == before else None
+
+
+def _link_number(value, field: str, n: int) -> int:
+    """A link of an n-link chain (thesis numbering, 1 the ground) from "ground", "linkK" or the number K."""
+    if isinstance(value, str):
+        text = value.strip()
+        match = re.fullmatch(r"link(\d+)", text)
+        value = 1 if text == "ground" else int(match.group(1)) if match else value
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= n + 1:
+        raise SceneError(field, f'link {brief(value)} does not exist: name the ground ("ground" or 1) or a moving '
+                                f'link ("link2" .. "link{n + 1}")')
+    return value
+
+
+def _actuators(given, n: int) -> list[Actuator]:
+    """The scene's [[actuator]] tables: a name and two points, each on a link or the ground."""
+    if isinstance(given, dict):
+        given = [given]
+    if not (isinstance(given, list) and all(isinstance(d, dict) for d in given)):
+        raise SceneError("actuator", "must be an array of tables [[actuator]]")
+    out = []
+    for j, d in enumerate(given):
+        f = f"actuator[{j}]"
+        _check_keys(d, _ACTUATOR_KEYS, f)
+        for key in ("name", "from_link", "from_point", "to_link", "to_point"):
+            if key not in d:
+                raise SceneError(f"{f}.{key}", "is required (an actuator has a name and two points, each on a link "
+                                               "or the ground)")
+        out.append(Actuator(str(d["name"]) if isinstance(d["name"], str) else d["name"],
+                            _link_number(d["from_link"], f"{f}.from_link", n), _pair(d["from_point"], f"{f}.from_point"),
+                            _link_number(d["to_link"], f"{f}.to_link", n), _pair(d["to_point"], f"{f}.to_point")))
+    return out
 
 
 def _closure_tables(built: dict, data: dict) -> list[tuple[dict, str]]:

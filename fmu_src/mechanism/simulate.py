@@ -27,10 +27,11 @@ import numpy as np
 from grubler import binding
 from grubler.mechanism.assembly import POSITION_TOL, assemble
 from grubler.mechanism.analysis import explain_singular_start
-from grubler.mechanism.dynamics import EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, forward_dynamics, observation_names
+from grubler.mechanism.dynamics import (EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, actuator_forces,
+                                        forward_dynamics, observation_names, put_actuator_forces)
 from grubler.errors import Cancelled, IntegrationError, LimitError, SceneError
 from grubler.mechanism.integrators import Integrator, StateEquation, StepBudgetError
-from grubler.limits import check_size
+from grubler.limits import check_size, number
 from grubler.mechanism.model import Mechanism, coordinate_names
 from grubler.mechanism.scene import Scene, load_scene
 
@@ -38,8 +39,10 @@ from grubler.mechanism.scene import Scene, load_scene
 # serves 'state', 'dynamics' and 'energy' alike; only 'reactions' adds work, a
 # Newton-Euler pass, and only when asked for.  The joint coordinates and rates
 # need no evaluation at all: they are the stored states.
-GROUPS = ("state", "dynamics", "energy", "reactions")
-DEFAULT_GROUPS = ("state", "dynamics", "energy")
+GROUPS = ("state", "dynamics", "energy", "reactions", "actuators")
+DEFAULT_GROUPS = ("state", "dynamics", "energy", "actuators")
+# each actuator's columns: <name>_length, _rate (kinematics), _force (the input), _power (force x rate)
+ACTUATOR_COLUMNS = (("length", "m"), ("rate", "m/s"), ("force", "N"), ("power", "W"))
 
 DEFAULT_RTOL = 1e-9
 DEFAULT_ATOL = 1e-9
@@ -47,11 +50,11 @@ DEFAULT_ATOL = 1e-9
 
 def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> list[str]:
     """Column names, in CSV order, for the chosen output groups."""
-    return list(_columns(model.n_links, frozenset(groups), len(model.closures)))
+    return list(_columns(model.n_links, frozenset(groups), len(model.closures), tuple(model.actuator_names)))
 
 
 @functools.lru_cache(maxsize=64)
-def _columns(n_links: int, groups: frozenset, n_closures: int = 1) -> tuple[str, ...]:
+def _columns(n_links: int, groups: frozenset, n_closures: int = 1, actuators: tuple[str, ...] = ()) -> tuple[str, ...]:
     names = coordinate_names(n_links)
     cols = ["t"]
     if "state" in groups:
@@ -72,6 +75,8 @@ def _columns(n_links: int, groups: frozenset, n_closures: int = 1) -> tuple[str,
         # the first closure's force is Fx, Fy, Mz; the others' are closureJ_*
         for j in range(1, n_closures):
             cols += [f"closure{j}_Fx", f"closure{j}_Fy", f"closure{j}_Mz"]
+    if "actuators" in groups:
+        cols += [f"{a}_{c}" for a in actuators for c, _ in ACTUATOR_COLUMNS]
     return tuple(cols)
 
 
@@ -83,6 +88,9 @@ def unit_of(column: str) -> str:
     """Unit of an output column, for labels."""
     if column in UNITS:
         return UNITS[column]
+    for c, unit in ACTUATOR_COLUMNS:
+        if column.endswith(f"_{c}"):
+            return unit
     base, _, suffix = column.partition("_")
     if (base.startswith("R") or base.startswith("closure")) and suffix:
         return "N m" if suffix == "Mz" else "N"
@@ -109,6 +117,7 @@ def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndar
     n = model.n_links
     if work is None:
         work = binding.work(n, len(model.closures))
+    put_actuator_forces(model, work, inputs)
     y = np.empty(2 * n)
     y[:n], y[n:] = z, zd
     values = np.zeros(9 * n + 11)
@@ -124,6 +133,28 @@ def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndar
     if "reactions" in groups and len(model.closures) > 1:
         for j, f in enumerate(closure_forces(model, method, z, zd, inputs)[1:], start=1):
             out[f"closure{j}_Fx"], out[f"closure{j}_Fy"], out[f"closure{j}_Mz"] = f
+    if "actuators" in groups and model.actuators:
+        lines = actuator_lines(model, y[None, :], work)[0]
+        for a, force in zip(model.actuators, actuator_forces(model, inputs)):
+            length, rate = lines[model.actuators.index(a)]
+            out.update({f"{a.name}_length": length, f"{a.name}_rate": rate, f"{a.name}_force": force,
+                        f"{a.name}_power": force * rate})
+    return out
+
+
+def actuator_lines(model: Mechanism, y: np.ndarray, work: np.ndarray | None = None) -> np.ndarray:
+    """Each actuator's length (m) and rate (m/s) at states ``y`` (rows x 2N): shape (rows, A, 2).
+
+    Kinematics only: the kernel's ``grb_actuator_lines``.
+    """
+    y = np.ascontiguousarray(y, dtype=float)
+    out = np.empty((y.shape[0], len(model.actuators), 2))
+    if work is None:
+        work = binding.work(model.n_links, len(model.closures))
+    status = binding.library().grb_actuator_lines(model.arrays.c, y.shape[0], binding.address(y),
+                                                  binding.address(work), binding.address(out))
+    if status != binding.OK:
+        raise ValueError(f"actuators: {binding.status_message(status)}")
     return out
 
 
@@ -188,6 +219,19 @@ def closure_warnings(model: Mechanism, t: np.ndarray, closure_error: np.ndarray)
             out.append(f"closure: the loop opened by up to {worst:.3g} {unit} at t = {times[k]:.4g} s, {share}: the "
                        "motion does not describe the linkage; use the exact method, or a stiffer closure.gain")
     return out
+
+
+def _check_actuator_lengths(model: Mechanism, z: np.ndarray) -> None:
+    """An actuator of zero length at the start has no line for its force to act along."""
+    if not model.actuators:
+        return
+    y = np.concatenate([z, np.zeros(model.n_free)])[None, :]
+    lengths = actuator_lines(model, y)[0, :, 0]
+    for j, (act, length) in enumerate(zip(model.actuators, lengths)):
+        if not length > 1e-9 * mechanism_size(model):
+            raise SceneError(f"actuator[{j}].to_point",
+                             f"{act.name}'s two points coincide at the start (length {length:.3g} m): its force "
+                             "has no line to act along; move from_point or to_point")
 
 
 def default_integrator(method: str) -> str:
@@ -257,6 +301,7 @@ class Simulator:
             z, zd = assemble(m, z, zd)
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
+        _check_actuator_lengths(m, z)
         self._n = m.n_free
         ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_function=self.drive_function,
                             project_state=self.method == EXACT and m.n_constraints > 0,
@@ -264,12 +309,13 @@ class Simulator:
         self._integ = Integrator(ode, self.t0, np.concatenate([z, zd]), method=self.integrator,
                                  rtol=self.rtol, atol=self.atol, h=self.step if self.integrator == "rk4" else 0.0,
                                  h_max=self.max_step)
+        ode.set_actuator_forces(actuator_forces(m, self.inputs))
 
     # -- the ODE -------------------------------------------------------------
     def _inputs_at(self, t: float) -> Inputs:
         if self.drive_function is None:
             return self.inputs
-        return Inputs(float(self.drive_function(t)), self.inputs.load)
+        return Inputs(float(self.drive_function(t)), self.inputs.load, self.inputs.actuators)
 
     def _rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """The state equation at (t, y): ``(zd, zdd)``."""
@@ -293,13 +339,16 @@ class Simulator:
         y = self._integ.y
         return float(y[i]), float(y[self._n + i])
 
-    def set_inputs(self, drive: float | None = None, load: float | None = None) -> None:
-        """Change the efforts; they hold until changed again."""
+    def set_inputs(self, drive: float | None = None, load: float | None = None, actuators=None) -> None:
+        """Change the efforts (``actuators``: every actuator's force, N, in the model's order); they hold until
+        changed again."""
         drive = self.inputs.drive if drive is None else float(drive)
         load = self.inputs.load if load is None else float(load)
-        if drive != self.inputs.drive or load != self.inputs.load:
-            self.inputs = Inputs(drive, load)
+        forces = self.inputs.actuators if actuators is None else tuple(float(f) for f in actuators)
+        if drive != self.inputs.drive or load != self.inputs.load or forces != self.inputs.actuators:
+            self.inputs = Inputs(drive, load, forces)
             self._integ.ode.drive, self._integ.ode.load = drive, load
+            self._integ.ode.set_actuator_forces(actuator_forces(self.model, self.inputs))
             self._integ.reset_derivative()
 
     def advance_to(self, t: float) -> None:
@@ -334,11 +383,13 @@ class Simulator:
 
     def snapshot(self) -> dict:
         """The whole run state, for rollback."""
-        return {"integ": self._integ.snapshot(), "inputs": (self.inputs.drive, self.inputs.load)}
+        return {"integ": self._integ.snapshot(),
+                "inputs": (self.inputs.drive, self.inputs.load, self.inputs.actuators)}
 
     def restore(self, snap: dict) -> None:
         self._integ.restore(snap["integ"])
         self.inputs = Inputs(*snap["inputs"])
+        self._integ.ode.set_actuator_forces(actuator_forces(self.model, self.inputs))
 
     @property
     def stats(self) -> dict[str, int]:
@@ -405,6 +456,20 @@ class Result:
         y = np.ascontiguousarray(np.hstack([self.z, self.zd]), dtype=float)
         width = 9 * n + 11
         values, work = np.zeros((rows, width)), binding.work(n, len(m.closures))
+        # the actuators' forces are constant through a run (only the drive may follow a function of time)
+        held = self.constant_inputs or (self.inputs_at(float(self.t[0])) if rows else Inputs())
+        forces = actuator_forces(m, held)
+        if "actuators" in todo:
+            lines = actuator_lines(m, y, work)
+            self._cache["actuators"] = {}
+            for a, act in enumerate(m.actuators):
+                self._cache["actuators"].update({
+                    f"{act.name}_length": lines[:, a, 0].copy(), f"{act.name}_rate": lines[:, a, 1].copy(),
+                    f"{act.name}_force": np.full(rows, forces[a]), f"{act.name}_power": forces[a] * lines[:, a, 1]})
+            todo = [g for g in todo if g != "actuators"]
+            if not todo:
+                return
+        put_actuator_forces(m, work, held)
         if self.constant_inputs is not None:
             tau, drive, load = None, float(self.constant_inputs.drive), float(self.constant_inputs.load)
         else:
@@ -469,6 +534,7 @@ def simulate(
     torque: TorqueLike | None = None,
     load_torque: float | None = None,
     cancel=None,
+    actuator_forces: dict[str, float] | None = None,
 ) -> Result:
     """Simulate a scene and return its trajectory.
 
@@ -495,6 +561,9 @@ def simulate(
     cancel : threading.Event, optional
         Checked between slices of the output grid (some 1 % of the run each):
         once it is set, the run stops with :class:`grubler.errors.Cancelled`.
+    actuator_forces : dict, optional
+        A constant force (N, positive pushing the points apart) per actuator
+        name; an actuator not named pushes with 0.
 
     Returns
     -------
@@ -519,9 +588,10 @@ def simulate(
     if scene.mechanism.drive is None and (callable(torque) or torque != 0.0):
         raise SceneError("torque", f"{scene.name or 'this scene'} has no drive joint to apply it to")
     warnings = _step_warnings(integrator, method, step, dt_out)
+    forces = named_actuator_forces(scene.mechanism, actuator_forces or {})
     sim = Simulator(scene.mechanism, method=method, rtol=rtol, atol=atol, integrator=integrator,
                     step=1e-3 if step is None else step, zd0=scene.initial_rates,
-                    inputs=Inputs(0.0 if callable(torque) else float(torque), load),
+                    inputs=Inputs(0.0 if callable(torque) else float(torque), load, forces),
                     drive_function=torque if callable(torque) else None)
     n_out = int(math.floor(t_end / dt_out + 1e-9)) + 1
     times = np.arange(n_out) * dt_out
@@ -561,6 +631,23 @@ def simulate(
     return res
 
 
+def named_actuator_forces(model: Mechanism, forces: dict[str, float]) -> tuple[float, ...]:
+    """Every actuator's force in the model's order from ``{name: force}`` (0 for one not named).
+
+    Raises
+    ------
+    SceneError
+        Naming ``actuator_forces`` for a name the mechanism has no actuator of,
+        or a force that is not a finite number.
+    """
+    names = model.actuator_names
+    for name in forces:
+        if name not in names:
+            have = ", ".join(names) if names else "none"
+            raise SceneError("actuator_forces", f"no actuator named {name!r}; the mechanism's actuators: {have}")
+    return tuple(number(forces.get(name, 0.0), f"actuator_forces.{name}", unit="N") for name in names)
+
+
 def _step_warnings(integrator: str | None, method: str, step: float | None, dt_out: float) -> list[str]:
     """What becomes of a fixed step given to :func:`simulate`: cut to the output interval, or unused."""
     if step is None:
@@ -575,5 +662,5 @@ def _step_warnings(integrator: str | None, method: str, step: float | None, dt_o
     return []
 
 
-__all__ = ["Simulator", "Result", "simulate", "CLOSURE_WARNING", "mechanism_size", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
+__all__ = ["Simulator", "Result", "simulate", "actuator_lines", "named_actuator_forces", "CLOSURE_WARNING", "mechanism_size", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
            "POSITION_TOL", "PENALTY", "EXACT"]

@@ -39,6 +39,8 @@ JOINT_COLOUR = "#d62728"  # used for revolute joints only: tests find them by it
 BLOCK_COLOUR = "#2ca02c"
 GUIDE_COLOUR = "#7f7f7f"
 TRACE_COLOUR = "#ff7f0e"
+CYLINDER_COLOUR = "#17becf"  # an actuator's barrel
+BARREL_SHARE = 0.55  # of an actuator's length, the barrel drawn from its first point (the rod runs the whole line)
 
 
 @dataclass
@@ -52,9 +54,11 @@ class FrameGeometry:
     guides: list = field(default_factory=list)  # (point, axis angle, fixed?)
     plates: list = field(default_factory=list)  # links with three or more corners: their corners, in order
     trace: np.ndarray | None = None  # the traced point, if any
+    actuators: list = field(default_factory=list)  # [(first point, second point), ...]: a barrel and its rod
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
+        pts += [p for line in self.actuators for p in line]
         return np.array(pts, dtype=float).reshape(-1, 2)
 
 
@@ -78,6 +82,8 @@ class Sketch:
         self.closure_b = [self._add(cl.to_link - 2 if cl.to_link > 1 else -1, *cl.to_point) for cl in model.closures]
         self.trace_link = trace[0] if trace else None
         self.trace = self._add(trace[0], *trace[1]) if trace else None
+        self.actuator_ends = [(self._add(a.from_link - 2, *a.from_point), self._add(a.to_link - 2, *a.to_point))
+                              for a in model.actuators]
         self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
         self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
@@ -148,6 +154,18 @@ class Sketch:
                 base = 0.0 if cl.to_link == 1 else self._angle(pos, self.origin[k], self.along[k])
                 geo.guides.append((b_pt, base + cl.angle, cl.to_link == 1))
                 geo.blocks.append((a_pt, base + cl.angle))
+        for act, (i0, i1) in zip(m.actuators, self.actuator_ends):
+            geo.actuators.append((pos[i0], pos[i1]))
+            for link, i in ((act.from_link, i0), (act.to_link, i1)):  # pinned at both ends
+                geo.joints.append(pos[i])
+                if link == 1:
+                    geo.fixed.append(pos[i])
+            for link, i in ((act.from_link, i0), (act.to_link, i1)):  # off its link's line: a plate corner
+                if link > 1:
+                    k = link - 2
+                    if min(np.linalg.norm(pos[i] - O[k]), np.linalg.norm(pos[i] - E[k])) > 1e-9:
+                        geo.bars.append((O[k], pos[i]) if np.linalg.norm(pos[i] - O[k]) < np.linalg.norm(
+                            pos[i] - E[k]) else (E[k], pos[i]))
         return geo
 
 
@@ -231,6 +249,11 @@ class Drawer:
         for p0, p1 in geo.bars:
             A += ax.plot([p0[0], p1[0]], [p0[1], p1[1]], "-", color=LINK_COLOUR, lw=4, solid_capstyle="round",
                          zorder=2)
+        for p0, p1 in geo.actuators:
+            barrel = p0 + BARREL_SHARE * (np.asarray(p1) - p0)
+            A += ax.plot([p0[0], p1[0]], [p0[1], p1[1]], "-", color="0.25", lw=2.5, zorder=2.5)
+            A += ax.plot([p0[0], barrel[0]], [p0[1], barrel[1]], "-", color=CYLINDER_COLOUR, lw=9,
+                         solid_capstyle="butt", zorder=2.6)
         for c, angle in geo.blocks:
             u = np.array([math.cos(angle), math.sin(angle)])
             v = np.array([-u[1], u[0]])
@@ -274,6 +297,7 @@ CURSOR_COLOUR = "#d62728"
 # a frame stores only what moved, not the rectangle around everything that did)
 _INKS = {"white": "#ffffff", "black": "#000000", "link": LINK_COLOUR, "plate": PLATE_COLOUR, "joint": JOINT_COLOUR,
          "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR,
+         "cylinder": CYLINDER_COLOUR, "rod": "#404040",
          "clear": "#ff00ff"}
 
 
@@ -495,6 +519,10 @@ class _Film:
             d.line([tuple(a), tuple(b)], fill=ink["link"], width=_BAR)
             for c in (a, b):  # round caps
                 d.ellipse([c[0] - _BAR / 2, c[1] - _BAR / 2, c[0] + _BAR / 2, c[1] + _BAR / 2], fill=ink["link"])
+        for p0, p1 in geo.actuators:
+            a, b = px(p0), px(p1)
+            d.line([tuple(a), tuple(b)], fill=ink["rod"], width=3)
+            d.line([tuple(a), tuple(a + BARREL_SHARE * (b - a))], fill=ink["cylinder"], width=2 * _BAR)
         for c, angle in geo.blocks:
             c = px(c)
             u = np.array([math.cos(angle), -math.sin(angle)])

@@ -106,12 +106,16 @@ def result_figure(res: Result):
     ax = axes[1, 1]
     for c, words in (("KE", "kinetic KE"), ("PE", "potential PE"), ("E", "total E = KE + PE")):
         ax.plot(res.t, res[c], label=words)
-    if "P_drive" in res.columns and not _all_zero(res["P_drive"]):
+    power = sum((res[c] for c in ["P_drive"] + [f"{a}_power" for a in m.actuator_names] if c in res.columns),
+                np.zeros_like(res.t))
+    if not _all_zero(power):
         import scipy.integrate  # here: a second of imports that the film's strips do not need
 
-        work = scipy.integrate.cumulative_trapezoid(res["P_drive"], res.t, initial=0.0)
-        ax.plot(res.t, work, "--", label="work done by the drive")
-        ax.plot(res.t, res["E"][0] + work, ":", color="0.3", label="E(0) + drive work (E without losses)")
+        who = "drive" if not m.actuators else "drive and actuators" if "P_drive" in res.columns and not \
+            _all_zero(res["P_drive"]) else "actuators"
+        work = scipy.integrate.cumulative_trapezoid(power, res.t, initial=0.0)
+        ax.plot(res.t, work, "--", label=f"work done by the {who}")
+        ax.plot(res.t, res["E"][0] + work, ":", color="0.3", label=f"E(0) + {who} work (E without losses)")
     else:
         damped = any(getattr(lk, "damping", 0.0) for lk in m.links)
         ax.set_title("no drive work" + ("; E falls by what the dampers take" if damped else ""), fontsize=9)

@@ -23,7 +23,7 @@ BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
 
 
 def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
-    """E(t) - E(0) minus the drive's work plus what the joint dampers took (J).
+    """E(t) - E(0) minus the work of the drive and the actuators plus what the joint dampers took (J).
 
     Zero for an exact run: what is left is integration error (and the trapezoid
     rule's error on the output grid for the work).  In a co-simulation the drive
@@ -35,6 +35,11 @@ def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarr
     qd = np.column_stack([columns[f"{n}_d"] for n in model.coordinate_names])
     zd = np.array([model.zd_from_qd(row) for row in qd])
     power = columns.get("P_drive", np.zeros_like(t)) - (zd**2) @ model.arrays.damping
+    for name in model.actuator_names:  # an actuator's power, force x rate, in the record or from them
+        if f"{name}_power" in columns:
+            power = power + columns[f"{name}_power"]
+        elif f"{name}_force" in columns and f"{name}_rate" in columns:
+            power = power + columns[f"{name}_force"] * columns[f"{name}_rate"]
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
     e = columns["E"]
     return e - e[0] - work
@@ -58,6 +63,14 @@ def _closure_unit(model: Mechanism | None) -> str:
     return "m, rad (norm)"
 
 
+def servo_target(columns: dict[str, np.ndarray], drive: str | None, model: Mechanism | None) -> tuple[str, str]:
+    """What a record's setpoint is for, and its unit: the first actuator's length when the mechanism has
+    actuators (a cylinder's position loop), else the drive coordinate."""
+    if model is not None and model.actuators and f"{model.actuator_names[0]}_length" in columns:
+        return f"{model.actuator_names[0]}_length", "m"
+    return drive or "", _drive_units(drive)[0]
+
+
 def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechanism | None = None,
                 cosim: bool = False) -> list[tuple[str, str]]:
     """The figures a reader wants from a run, as (label, value with unit) pairs."""
@@ -77,11 +90,19 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechan
         w = float(np.max(np.abs(columns[f"{drive}_d"])))
         rpm = f" ({w * RPM:.4g} rpm)" if unit == "rad" else ""
         out.append(("peak |drive speed|", f"{w:.4g} {speed_unit}{rpm}"))
-    if drive and "setpoint" in columns and drive in columns:
-        err = np.abs(columns["setpoint"] - columns[drive])
-        deg = f" ({math.degrees(err.max()):.3g} deg)" if unit == "rad" else ""
-        out.append(("peak |tracking error|", f"{err.max():.3g} {unit}{deg}"))
-        out.append(("RMS tracking error", f"{np.sqrt(np.mean(err**2)):.3g} {unit}"))
+    target, target_unit = servo_target(columns, drive, model)
+    if target and "setpoint" in columns and target in columns:
+        err = np.abs(columns["setpoint"] - columns[target])
+        deg = f" ({math.degrees(err.max()):.3g} deg)" if target_unit == "rad" else ""
+        out.append(("peak |tracking error|", f"{err.max():.3g} {target_unit}{deg}"))
+        out.append(("RMS tracking error", f"{np.sqrt(np.mean(err**2)):.3g} {target_unit}"))
+        out.append(("final tracking error", f"{err[-1]:.3g} {target_unit}"))
+    if "cylinder_force" in columns:
+        out.append(("peak |cylinder force|", f"{np.max(np.abs(columns['cylinder_force'])):.4g} N"))
+    for c, words in (("pressure_a", "cap side"), ("pressure_b", "rod side")):
+        if c in columns:
+            out.append((f"{words} pressure (min to max)",
+                        f"{columns[c].min() / 1e5:.3g} to {columns[c].max() / 1e5:.3g} bar"))
     if "tau_drive" in columns:
         tau = columns["tau_drive"]
         out.append(("peak |drive torque|", f"{np.max(np.abs(tau)):.4g} {effort_unit}"))
@@ -149,11 +170,25 @@ def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[st
     """(axis label with unit, [(legend, values, colour)], scale, note) of each quantity there is."""
     unit, speed_unit, effort_unit = _drive_units(drive)
     panels = []
+    target, target_unit = servo_target(columns, drive, model)
+    for name in model.actuator_names if model is not None else []:
+        if f"{name}_length" in columns:
+            lines = [("length", columns[f"{name}_length"], BLUE)]
+            if target == f"{name}_length" and "setpoint" in columns:
+                lines.append(("setpoint", columns["setpoint"], ORANGE))
+            panels.append((f"actuator {name} [m]", lines, "linear", ""))
     if drive and drive in columns:
         panels.append((f"drive {drive} [{unit}]", [("", columns[drive], BLUE)], "linear", ""))
-    if drive and drive in columns and "setpoint" in columns:  # a servo's key figure
-        panels.append((f"tracking error [{unit}]", [("", columns["setpoint"] - columns[drive], BLUE)], "linear",
-                       "setpoint - response"))
+    if target and target in columns and "setpoint" in columns:  # a servo's key figure
+        panels.append((f"tracking error [{target_unit}]", [("", columns["setpoint"] - columns[target], BLUE)],
+                       "linear", "setpoint - response"))
+    pressures = [(w, columns[c] / 1e5, col) for c, w, col in (("pressure_a", "cap side A", BLUE),
+                                                              ("pressure_b", "rod side B", ORANGE),
+                                                              ("supply_pressure", "supply", GREEN)) if c in columns]
+    if pressures:
+        panels.append(("cylinder pressure [bar]", pressures, "linear", ""))
+    if "cylinder_force" in columns:
+        panels.append(("cylinder force [N]", [("", columns["cylinder_force"], BLUE)], "linear", "pushing apart"))
     if drive and f"{drive}_d" in columns:
         panels.append((f"drive speed [{speed_unit}]", [("", columns[f"{drive}_d"], BLUE)], "linear", ""))
     if "tau_drive" in columns and np.ptp(columns["tau_drive"]) > 0.0:  # a constant one is in the table

@@ -54,10 +54,15 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
     for n, v in raw.items():
         if n.startswith(head):
             cols[n[len(head):]] = v
-    for n, v in raw.items():  # the first current, voltage and position setpoint of another component
+    for n, v in raw.items():  # the first current, voltage, position setpoint and cylinder of another component
         leaf = n.rsplit(".", 1)[-1]
-        if not n.startswith(head) and leaf in ("current", "voltage", "setpoint") and leaf not in cols:
+        leaf = "cylinder_force" if leaf == "force" else leaf
+        if not n.startswith(head) and leaf in ("current", "voltage", "setpoint", "pressure_a", "pressure_b",
+                                               "supply_pressure", "cylinder_force") and leaf not in cols:
             cols[leaf] = v
+    if model is not None and len(model.actuators) == 1 and "cylinder_force" in cols:
+        # the mechanism's actuator force is its input, which a record keeps as the cylinder's output
+        cols.setdefault(f"{model.actuator_names[0]}_force", cols["cylinder_force"])
     if "motor_torque" in cols:
         cols["tau_drive"] = cols["motor_torque"]
         if "drive_speed" in cols:

@@ -37,6 +37,7 @@
 #define N N_LINKS
 #define NC N_CLOSURES
 #define NS (2 * N_LINKS)
+#define NA N_ACTUATORS
 
 /* The model's part of the persistent block, after the parameter and input
  * slots: its fields' indices P_* come with config.h, from the ModelSpec's state
@@ -50,6 +51,7 @@
  *   P_DRIVE_USED, P_LOAD_USED  the efforts f was computed with
  *   P_Y           y = (z, zd), 2N
  *   P_F           f = ydot, 2N
+ *   P_ACTUATOR_FORCES_USED  the actuators' forces f was computed with (NA; only with actuators)
  *   P_STEPPER     the integrator's own workspace (written before it is read) */
 
 enum { LEVEL_DRIVE = 1, LEVEL_OBSERVE = 2, LEVEL_REACTIONS = 3 };
@@ -59,6 +61,7 @@ typedef struct mech {
     grb_settings s;
     double links[N * GRB_L_COLUMNS];
     double closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS];
+    double actuators[(NA > 0 ? NA : 1) * GRB_A_COLUMNS];
     int revolute[N];
     int parent[N];              /* each link's predecessor, 0-based (-1 the ground) */
     int q_index[N];             /* index in q of each pair's real coordinate */
@@ -101,6 +104,15 @@ void model_reset(grb_instance *inst) {
 
 static double link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
 static double closure_field(const double *p, int j, int f) { return p[SLOT_CLOSURES + j * CLOSURE_STRIDE + f]; }
+static double actuator_field(const double *p, int a, int f) { return p[SLOT_ACTUATORS + a * ACTUATOR_STRIDE + f]; }
+/* the name of the variable in parameter or input slot `slot` (for messages) */
+static const char *slot_name(int slot) {
+    int v;
+    for (v = 0; v < MODEL_N_VARIABLES; v++)
+        if (model_variables[v].causality != GRB_C_OUTPUT && model_variables[v].slot == slot)
+            return model_variables[v].name;
+    return "?";
+}
 /* the predecessor of link k (thesis numbering, 2 .. N+1), thesis numbering (1 the ground) */
 static int parent_link(const double *p, int k) { return (int)link_field(p, k - 2, LF_PARENT); }
 
@@ -132,7 +144,8 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
     int revolute[N], q_index[N];
     int i, j, k;
     for (k = 0; k < MODEL_N_STORED; k++)
-        if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE) {
+        if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE &&
+            !(k >= SLOT_ACTUATOR_FORCE && k < SLOT_ACTUATOR_FORCE + NA)) {
             int v;
             for (v = 0; v < MODEL_N_VARIABLES; v++)
                 if (model_variables[v].causality == GRB_C_PARAMETER && model_variables[v].slot == k)
@@ -217,6 +230,11 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
                     BAD("%s: link %d has two prismatic joints with parallel axes (%s and %s): that adds a "
                         "redundant freedom", field[y], owner[x], field[x], field[y]);
     }
+    for (k = 0; k < NA; k++)
+        if (actuator_field(p, k, AF_FROM_LINK) == actuator_field(p, k, AF_TO_LINK))
+            BAD("%s: must be another link than from_link (%d): an actuator within one link has a constant length "
+                "and does nothing", slot_name(SLOT_ACTUATORS + k * ACTUATOR_STRIDE + AF_TO_LINK),
+                (int)actuator_field(p, k, AF_FROM_LINK));
     if (p[SLOT_DRIVE_INERTIA] < 0) BAD("drive.inertia: must be >= 0, got %g", p[SLOT_DRIVE_INERTIA]);
     if (p[SLOT_DRIVE_INERTIA] > 0 && (int)p[SLOT_DRIVE_JOINT] == 0)
         BAD("drive.inertia: a drive inertia needs the joint it acts on (drive_joint)");
@@ -317,6 +335,17 @@ fmi2Status model_prepare(grb_instance *inst) {
                           p + SLOT_Q0, cf, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
+    for (j = 0; j < NA; j++) {  /* thesis numbering to the kernel's 0-based links (-1 the ground) */
+        double *row = mm->actuators + j * GRB_A_COLUMNS;
+        row[GRB_A_FROM_LINK] = actuator_field(p, j, AF_FROM_LINK) - 2;
+        row[GRB_A_FROM_X] = actuator_field(p, j, AF_FROM_POINT_X);
+        row[GRB_A_FROM_Y] = actuator_field(p, j, AF_FROM_POINT_Y);
+        row[GRB_A_TO_LINK] = actuator_field(p, j, AF_TO_LINK) - 2;
+        row[GRB_A_TO_X] = actuator_field(p, j, AF_TO_POINT_X);
+        row[GRB_A_TO_Y] = actuator_field(p, j, AF_TO_POINT_Y);
+    }
+    mm->m.n_actuators = NA;
+    mm->m.actuators = NA > 0 ? mm->actuators : NULL;
     mm->m.n_links = N;
     mm->m.n_closures = NC;
     mm->m.links = mm->links;
@@ -390,6 +419,19 @@ fmi2Status model_prepare(grb_instance *inst) {
                     "(a link with I = 0 and its mass centre on its joint), so the imaginary joint's spring would "
                     "accelerate it without bound; give that link a positive I or use the exact closure");
         }
+#if N_ACTUATORS > 0
+        {
+            /* an actuator whose points coincide has no line for its force (the library's check) */
+            double lines[2 * NA];
+            st = grb_actuator_lines(&mm->m, 1, y, mm->work, lines);
+            if (st != GRB_OK) BAD("actuators: %s", status_text(st));
+            for (i = 0; i < NA; i++)
+                if (!(lines[2 * i] > 1e-9 * mm->scale))
+                    BAD("%s: the actuator's two points coincide at the start (length %.3g m): its force has no line "
+                        "to act along; move from_point or to_point",
+                        slot_name(SLOT_ACTUATORS + i * ACTUATOR_STRIDE + AF_TO_POINT_X), lines[2 * i]);
+        }
+#endif
         p[P_T] = inst->start_time;
         p[P_H] = 0.0;
         p[P_HAVE_F] = 0.0;
@@ -450,8 +492,23 @@ fmi2Status model_compute(grb_instance *inst, int level) {
     if (inst->level < LEVEL_DRIVE) {
         mm->out[N_OBSERVED] = d >= 0 ? y[d] : 0.0;
         mm->out[N_OBSERVED + 1] = d >= 0 ? y[N + d] : 0.0;
+#if N_ACTUATORS > 0
+        /* the actuators' lengths and rates: kinematics of the state, no input */
+        st = grb_actuator_lines(&mm->m, 1, y, mm->work, mm->out + OUT_ACTUATORS);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Warning, "actuators at t = %.12g s: %s", p[P_T], status_text(st));
+            return fmi2Warning;
+        }
+#endif
     }
     if (level >= LEVEL_OBSERVE && inst->level < level) {
+#if N_ACTUATORS > 0
+        st = grb_set_actuator_forces(&mm->m, mm->work, p + SLOT_ACTUATOR_FORCE);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Warning, "actuator forces at t = %.12g s: %s", p[P_T], status_text(st));
+            return fmi2Warning;
+        }
+#endif
         st = grb_observe(&mm->m, mm->s.method, y, p[SLOT_MOTOR_TORQUE], p[SLOT_LOAD_TORQUE],
                          level >= LEVEL_REACTIONS, mm->work, mm->out);
         if (st != GRB_OK) {
@@ -486,6 +543,28 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
         p[P_DRIVE_USED] = drive;
         p[P_LOAD_USED] = load;
     }
+#if N_ACTUATORS > 0
+    {
+        int a;
+        for (a = 0; a < NA; a++) {
+            double force = p[SLOT_ACTUATOR_FORCE + a];
+            if (!isfinite(force)) {
+                grb_log(inst, fmi2Discard, "%s is %g at t = %.12g s: inputs must be finite",
+                        slot_name(SLOT_ACTUATOR_FORCE + a), force, t);
+                return fmi2Discard;
+            }
+            if (force != p[P_ACTUATOR_FORCES_USED + a]) {
+                p[P_HAVE_F] = 0.0;
+                p[P_ACTUATOR_FORCES_USED + a] = force;
+            }
+        }
+        st = grb_set_actuator_forces(&mm->m, mm->work, p + SLOT_ACTUATOR_FORCE);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Discard, "actuator forces at t = %.12g s: %s", t, status_text(st));
+            return fmi2Discard;
+        }
+    }
+#endif
     mm->s.tau_drive = drive;
     mm->s.tau_load = load;
     /* as grubler.mechanism.integrators.Integrator._advance: the counts are per advance */
@@ -540,18 +619,29 @@ fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueRefer
     const double *p = inst->p, *y = p + P_Y;
     double complex *cwork = (double complex *)((char *)inst->model + complex_offset());
     double complex *cy = cwork + grb_work_size(N, NC), *cout = cy + NS, efforts[2];
-    double seed[2] = {0.0, 0.0};
+    double seed[2 + NA];  /* motor_torque, load_torque, then each actuator's force */
     size_t k;
     int i, st;
+    for (i = 0; i < 2 + NA; i++) seed[i] = 0.0;
     for (k = 0; k < n_known; k++) {
         int slot = model_variables[known[k] - 1].slot;
-        seed[slot == SLOT_MOTOR_TORQUE ? 0 : 1] += dv_known[k];
+        seed[slot == SLOT_MOTOR_TORQUE ? 0 : slot == SLOT_LOAD_TORQUE ? 1 : 2 + (slot - SLOT_ACTUATOR_FORCE)] +=
+            dv_known[k];
     }
     for (i = 0; i < NS; i++) cy[i] = y[i];
     efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
     efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
+#if N_ACTUATORS > 0
+    {
+        double complex forces[NA];
+        for (i = 0; i < NA; i++) forces[i] = p[SLOT_ACTUATOR_FORCE + i] + I * (CS_STEP * seed[2 + i]);
+        st = grb_cs_set_actuator_forces(&mm->m, cwork, forces);
+        if (st != GRB_OK) return fmi2Error;
+    }
+#endif
     st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
     cout[N_OBSERVED] = cout[N_OBSERVED + 1] = 0.0;  /* drive_angle, drive_speed */
+    for (i = 0; i < 2 * NA; i++) cout[OUT_ACTUATORS + i] = 0.0;  /* the actuators' lengths and rates: states */
 #if N_CLOSURES > 1
     closure_forces_cs(mm, cwork, cout + N_OBSERVED + 2);
 #endif

@@ -1,0 +1,191 @@
+"""A cylinder-driven linkage as an SSP system: setpoint, PID on the valve, cylinder, mechanism.
+
+The design is data (:class:`CylinderServoDesign`); :func:`cylinder_servo_system`
+turns it into a :class:`grubler.system.ssp.System` that ``grubler cosim`` (or
+any SSP tool) runs.  A position controller holds the actuator's length: the
+scene's actuator (an ``[[actuator]]`` of its TOML) joins the mechanism FMU to a
+HydraulicCylinder or PneumaticCylinder FMU.
+
+Signal flow::
+
+    trajectory.position --> controller.setpoint
+    mechanism.<actuator>_length --> controller.measurement, cylinder.length
+    mechanism.<actuator>_rate --> cylinder.rate
+    controller.u --> cylinder.command           (the valve, in [-1, 1])
+    cylinder.force --> mechanism.<actuator>_force
+
+The cylinder's ``retracted_length`` is set so that its piston starts
+``start_position`` from the cap end at the mechanism's assembled start.
+
+Examples
+--------
+>>> from grubler.mechanism.scene import load_scene
+>>> boom = load_scene("luffing-boom")
+>>> round(start_length(boom, "lift"), 4), round(holding_force(boom, "lift"))
+(1.226, 10816)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from grubler.errors import SceneError
+from grubler.system.ssp import Plot, System
+
+CYLINDERS = ("hydraulic", "pneumatic")
+FMU_OF = {"hydraulic": "HydraulicCylinder.fmu", "pneumatic": "PneumaticCylinder.fmu"}
+
+
+@dataclass
+class CylinderServoDesign:
+    """What a cylinder-driven linkage under position control is made of.
+
+    Parameters
+    ----------
+    scene : str
+        Preset name or scene TOML text of a mechanism with an actuator.
+    actuator : str, optional
+        The actuator the cylinder is (default: the scene's first).
+    cylinder : {'hydraulic', 'pneumatic'}
+    constants : dict
+        The cylinder's constants where they differ from the FMU's defaults
+        (:data:`grubler.motors.hydraulic.DEFAULT`, :data:`grubler.motors.pneumatic.DEFAULT`).
+    start_position : float
+        The piston's distance from the cap end at the start, m.
+    move : float
+        How far the setpoint moves the actuator's length, m (negative: retract).
+    speed, acceleration : float
+        The move's speed and acceleration limits, m/s and m/s2.
+    delay : float
+        Rest before the move, s.
+    setpoint : dict, optional
+        Trajectory FMU parameters that replace the trapezoid move (e.g. a
+        ``table`` of lengths over time).
+    pid : dict
+        Parameters of the PID FMU; its output is the valve command.
+    load_torque : float
+        A constant effort on the scene's load joint (N m, or N on a slide).
+    t_end, step : float
+        The default experiment: run length and communication step, s.
+    """
+
+    scene: str
+    actuator: str | None = None
+    cylinder: str = "hydraulic"
+    constants: dict = field(default_factory=dict)
+    start_position: float = 0.05
+    move: float = 0.1
+    speed: float = 0.1
+    acceleration: float = 0.5
+    delay: float = 0.5
+    setpoint: dict | None = None
+    pid: dict = field(default_factory=lambda: {"K": 20.0, "Ti": 0.0, "Td": 0.0, "N": 10.0, "Ts": 1e-3,
+                                               "u_min": -1.0, "u_max": 1.0})
+    load_torque: float = 0.0
+    t_end: float = 5.0
+    step: float = 1e-3
+
+
+def start_length(scene, actuator: str) -> float:
+    """The actuator's length at the scene's assembled start, m."""
+    from grubler.mechanism.simulate import Simulator
+
+    sim = Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)
+    return float(sim.outputs(["actuators"])[f"{actuator}_length"])
+
+
+def holding_force(scene, actuator: str) -> float:
+    """The actuator force that holds the scene's mechanism still at its assembled start, N.
+
+    The accelerations are affine in the force: two evaluations of the forward
+    dynamics at rest give the force that zeroes the first real joint's.
+    """
+    import numpy as np
+
+    from grubler.mechanism.assembly import assemble
+    from grubler.mechanism.dynamics import Inputs, forward_dynamics
+
+    m = scene.mechanism
+    z, zd = assemble(m, m.z_from_q(m.q_ref), np.zeros(m.n_free))
+    unit = np.zeros(len(m.actuators))
+    unit[m.actuator_names.index(actuator)] = 1.0
+    free = forward_dynamics(m, z, zd, Inputs(load=scene.load_torque)).zdd
+    pushed = forward_dynamics(m, z, zd, Inputs(load=scene.load_torque, actuators=tuple(unit))).zdd
+    i = int(np.argmax(np.abs(pushed - free)))
+    return float(-free[i] / (pushed[i] - free[i]))
+
+
+def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name: str = "cylinder_servo") -> System:
+    """The SSP system of a cylinder-driven linkage under position control (FMUs taken from ``fmu_dir``).
+
+    Raises
+    ------
+    SceneError
+        Naming ``cylinder`` or ``actuator`` for one the design cannot have, or a
+        cylinder constant the cylinder refuses.
+    """
+    from grubler.fmi.build import scene_fmu
+    from grubler.fmi.cylinder import cylinder_parameters
+    from grubler.mechanism.scene import load_scene
+    from grubler.motors.hydraulic import HydraulicCylinder
+    from grubler.motors.pneumatic import PneumaticCylinder
+
+    if design.cylinder not in CYLINDERS:
+        raise SceneError("cylinder", f"must be one of {', '.join(CYLINDERS)}, got {design.cylinder!r}")
+    scene = load_scene(design.scene)
+    model = scene.mechanism
+    names = model.actuator_names
+    if not names:
+        raise SceneError("actuator", f"{model.name or 'the scene'} has no [[actuator]] for a cylinder to be")
+    act = design.actuator or names[0]
+    if act not in names:
+        raise SceneError("actuator", f"no actuator named {act!r}; the scene's: {', '.join(names)}")
+    length0 = start_length(scene, act)
+    kind = HydraulicCylinder if design.cylinder == "hydraulic" else PneumaticCylinder
+    cylinder = kind(**{"retracted_length": length0 - design.start_position, **design.constants})
+    if design.load_torque and model.load is None:
+        raise SceneError("load_torque", f"{model.name or 'the scene'} has no load joint ([load] joint) to apply it to")
+    scene = replace(scene, load_torque=float(design.load_torque))
+    # the cylinder starts holding the mechanism still: the load on the cap side (or, pulled, the rod side)
+    hold = holding_force(scene, act)
+    area_a, area_b = cylinder.areas
+    start = {"initial_pressure_a": max(hold, 0.0) / area_a, "initial_pressure_b": max(-hold, 0.0) / area_b}
+    d = Path(fmu_dir)
+    s = System(name, description=f"a {design.cylinder} cylinder ({cylinder.bore * 1e3:g} mm bore, "
+                                 f"{cylinder.stroke * 1e3:g} mm stroke) driving {model.name or 'a mechanism'} "
+                                 "under PID position control of its length", start_time=0.0,
+               stop_time=design.t_end, step=design.step)
+    move = dict(kind="trapezoid", start=length0, delay=design.delay, distance=design.move, v_max=design.speed,
+                a_max=design.acceleration, repeat=1)
+    s.add("trajectory", d / "Trajectory.fmu", **(design.setpoint or move))
+    s.add("controller", d / "PID.fmu", **design.pid)
+    s.add("cylinder", d / FMU_OF[design.cylinder], **cylinder_parameters(cylinder), **start)
+    mech_fmu, scene_params = scene_fmu(scene, d)
+    s.add("mechanism", mech_fmu, **scene_params, **({"load_torque": scene.load_torque} if model.load else {}))
+    s.connect("trajectory.position", "controller.setpoint")
+    s.connect(f"mechanism.{act}_length", "controller.measurement")
+    s.connect("controller.u", "cylinder.command")
+    s.connect(f"mechanism.{act}_length", "cylinder.length")
+    s.connect(f"mechanism.{act}_rate", "cylinder.rate")
+    s.connect("cylinder.force", f"mechanism.{act}_force")
+    # the PID samples at the start of a step; the cylinder steps on the mechanism's
+    # length and rate there and gives the force the mechanism then steps with
+    s.order = ["controller", "cylinder", "mechanism", "trajectory"]
+    pressures = ["cylinder.pressure_a", "cylinder.pressure_b"] + (
+        ["cylinder.supply_pressure"] if design.cylinder == "hydraulic" else [])
+    s.plots += [
+        Plot("actuator length [m]", ["trajectory.position", f"mechanism.{act}_length"],
+             {"trajectory.position": "setpoint", f"mechanism.{act}_length": "response"}),
+        Plot("tracking error [m]", ["trajectory.position", f"mechanism.{act}_length"],
+             {"difference": "setpoint - response"}, difference=True),
+        Plot("valve command [1]", ["controller.u", "cylinder.spool"],
+             {"controller.u": "command", "cylinder.spool": "spool"}),
+        Plot("pressure [Pa]", pressures, {"cylinder.pressure_a": "cap side A", "cylinder.pressure_b": "rod side B",
+                                         "cylinder.supply_pressure": "supply"}),
+        Plot("cylinder force [N]", ["cylinder.force"], {"cylinder.force": "on the rod, pushing apart"}),
+    ]
+    return s
+
+
+__all__ = ["CylinderServoDesign", "cylinder_servo_system", "holding_force", "start_length"]
