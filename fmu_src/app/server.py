@@ -297,8 +297,14 @@ def a_edit(server, session, body):
 
 
 def a_drag(server, session, body):
-    moved = actions.drag(_data(body), body.get("handle"), body.get("x"), body.get("y"))
-    return a_analyse(server, session, {**body, "scene": moved})
+    data, handle, x, y = _data(body), body.get("handle"), body.get("x"), body.get("y")
+    moved = actions.drag(data, handle, x, y)
+    out = {"scene": moved, "fields": actions.fields(moved)}
+    try:
+        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True))
+    except GrublerError as exc:
+        out["error"] = actions.error_of(exc)
+    return out
 
 
 def a_pick(server, session, body):

@@ -52,7 +52,7 @@ function show(out, opts = {}) {
   $("grashof").title = c && c.grashof ? c.grashof.detail : "";
   $("mobility").textContent = c ? String(c.mobility) : "–";
   $("branch").textContent = out.branch
-    ? `${out.branch.angles.length ? out.branch.angles.join(", ") + " deg" : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
+    ? `${out.branch.angles.length ? out.branch.angles.join(", ") : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
     : (out.closed === false ? "the loop does not close" : "–");
   const problem = $("problem");
   problem.hidden = !out.problem;
