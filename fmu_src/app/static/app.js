@@ -150,10 +150,22 @@ function remember() {
 
 // -- the drawing ---------------------------------------------------------------------------------------
 function fitView(things) {
-  const pts = points(things).concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
-  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
-  if (!xs.length) return;
-  let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
+  // the links and handles, and of a curve what lies near them: a conchoid runs off to infinity
+  const core = points(things.filter((f) => f && !Array.isArray(f)))
+    .concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
+  const box = (pts) => {
+    const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+    return [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
+  };
+  let near = [];
+  if (core.length) {
+    const [a0, a1, b0, b1] = box(core), reach = 1.5 * Math.max(a1 - a0, b1 - b0, 1e-3);
+    near = points(things.filter(Array.isArray)).filter((p) =>
+      p[0] > a0 - reach && p[0] < a1 + reach && p[1] > b0 - reach && p[1] < b1 + reach);
+  }
+  const pts = core.length ? core.concat(near) : points(things);
+  if (!pts.length) return;
+  let [x0, x1, y0, y1] = box(pts);
   const span = Math.max(x1 - x0, y1 - y0, 1e-3);
   const pad = 0.15 * span;
   state.box = { x: x0 - pad, y: y0 - pad, w: x1 - x0 + 2 * pad, h: y1 - y0 + 2 * pad, span };
@@ -258,6 +270,7 @@ function setupDrag() {
     if (!id || !state.scene) return;
     stopRun();
     state.dragging = { id, start: state.scene };
+    state.lastMove = null;
     svg.setPointerCapture(evt.pointerId);
     evt.preventDefault();
   });
@@ -282,14 +295,23 @@ function setupDrag() {
   const end = () => {
     if (!state.dragging) return;
     state.dragging = null;
+    state.settling = true;  // until the drag's last answer is on the page
     const settle = async () => {
-      if (state.analysis && state.analysis.scene) await analyse({ scene: state.scene });  // the full curve
+      // the last move again, with the full curve: as a drag, so a joint the builder cannot place keeps its
+      // message and the sketch it was dragged from
+      const last = state.lastMove;
+      if (last && !last.full && state.analysis && state.analysis.scene) {
+        try {
+          show(await api("drag", { scene: last.drag.start, handle: last.drag.id, x: last.x, y: last.y, trace: state.trace }));
+        } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+      }
       // the drag may have carried the mechanism out of view: bring it back, handles included
       const a = state.analysis;
       if (a && a.frame && !inView([a.frame, (a.handles || []).map((h) => h.xy)])) {
         fitView([a.frame, a.curve]);
         drawScene(a);
       }
+      state.settling = false;
     };
     const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : settle());
     wait();
@@ -305,9 +327,12 @@ async function pump() {
   state.inflight = true;
   try {
     const live = state.dragging === drag;  // the move after the release gets the full curve
+    const move = { x, y, drag };
+    state.lastMove = move;
     const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live });
     show(out, { dragging: true });
     window.grublerStats.drag.push(performance.now() - at);
+    move.full = !live;  // an answer with the full curve: nothing to settle
   } catch (e) {
     notice(`${e.field}: ${e.message}`, true);
   } finally {
