@@ -219,6 +219,38 @@ def test_the_drag_applies_to_each_handle_what_it_stands_for():
     assert actions.analyse(moved)["closed"]
 
 
+def test_the_branch_search_finds_what_assembling_each_start_alone_finds():
+    """branches() closes its 256 starts with buffers made once; the reference assembles each start by itself."""
+    import numpy as np
+
+    from grubler.errors import AssemblyError
+    from grubler.mechanism.assembly import assemble, branches, held_coordinates
+
+    for name in ("stephenson-ii", "watt-i", "fourbar-triple-rocker", "thesis-quick-return", "conchoidal"):
+        m = scene_from_dict(actions.preset_data(name)).mechanism
+        z0 = m.z_from_q(m.q_ref)
+        found, default = branches(m, z0, starts=64, seed=3)
+        free = np.ones(m.n_free, bool)
+        free[held_coordinates(m, z0)] = False
+        turns, slides = free & m.arrays.revolute, free & ~m.arrays.revolute
+        rng, reference = np.random.default_rng(3), [assemble(m, z0)[0]]
+        for _ in range(64):
+            z = z0.copy()
+            z[turns] = rng.uniform(-np.pi, np.pi, int(turns.sum()))
+            z[slides] = z0[slides] + rng.uniform(-max(1.0, max(abs(l.a) for l in m.links)),
+                                                  max(1.0, max(abs(l.a) for l in m.links)), int(slides.sum()))
+            try:
+                z = assemble(m, z)[0]
+            except AssemblyError:
+                continue
+            d = np.array(reference) - z
+            d[:, m.arrays.revolute] = (d[:, m.arrays.revolute] + np.pi) % (2 * np.pi) - np.pi
+            if np.all(np.abs(d).max(axis=1) >= 1e-6):
+                reference.append(z)
+        assert default == 0 and len(found) == len(reference), name
+        assert np.abs(np.array(found) - np.array(reference)).max() < 1e-9, name  # each closed to 1e-12
+
+
 # handles held to a line or a circle (a pivot on its axis, a block on its slide, a length along its
 # link): dragged off it, they come nearer the pointer without reaching it
 ON_A_LINE = {"O4", "pivot", "slide", "shaft2", "slot", "block1", "arm", "rod", "lever"}

@@ -175,10 +175,7 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
 
 
 def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    errors = watch_console(page)
-    page.goto(app.url)
-    page.wait_for_selector("#drawing circle.handle")
+    page, errors = open_app(browser, app.url)
     page.select_option("#type", label="stephenson-iii")
     page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
     assert page.inner_text("#branch").endswith("one of 4 found with theta2 held")
@@ -196,6 +193,15 @@ def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
     page.wait_for_selector('[data-err="link2.a"]:not(:empty)')
     assert "link2.a" not in page.inner_text("#error")
     assert errors == []
+
+
+def open_app(browser, url: str, **options):
+    """A new page on the app, its drawing there, and the console errors it will collect."""
+    page = browser.new_page(viewport={"width": 1400, "height": 1000}, **options)
+    errors = watch_console(page)
+    page.goto(url)
+    page.wait_for_selector("#drawing circle.handle")
+    return page, errors
 
 
 def pick_preset(page, name: str) -> None:
@@ -227,10 +233,7 @@ NEW_HANDLES = [
 
 @pytest.mark.parametrize("preset, handle, to, line, reads", NEW_HANDLES, ids=[f"{p}-{h}" for p, h, *_ in NEW_HANDLES])
 def test_dragging_each_new_kind_of_joint(app, browser, shots, preset, handle, to, line, reads):
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    errors = watch_console(page)
-    page.goto(app.url)
-    page.wait_for_selector("#drawing circle.handle")
+    page, errors = open_app(browser, app.url)
     pick_preset(page, preset)
     before = curve_of(page)
     assert before, "a coupler curve to begin with"
@@ -246,10 +249,7 @@ def test_dragging_each_new_kind_of_joint(app, browser, shots, preset, handle, to
 
 
 def test_a_six_bar_pivot_dragged_beyond_its_links_reads_where_the_loop_opens(app, browser, shots):
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    errors = watch_console(page)
-    page.goto(app.url)
-    page.wait_for_selector("#drawing circle.handle")
+    page, errors = open_app(browser, app.url)
     pick_preset(page, "stephenson-i")
     drag_handle(page, "E", 0.1, 0.12)  # a joint of the rocker's triangle: the loop still closes
     assert page.is_hidden("#problem") and "one of" in page.inner_text("#branch")
