@@ -219,22 +219,19 @@ def branches(model: Mechanism, z0: np.ndarray, starts: int = 256, seed: int = 0)
     sketches = np.repeat(z0[None, :], starts, axis=0)
     sketches[:, turns] = -np.pi + (np.pi - -np.pi) * u[:, :int(turns.sum())]
     sketches[:, slides] += -scale + (scale - -scale) * u[:, int(turns.sum()):]
-    found: list[np.ndarray] = []
-    default, first_error = -1, None
+    found = np.empty((starts + 1, model.n_free))  # the branches so far: found[:count]
+    count, default, first_error = 0, -1, None
     kernel = _Assembly(model) if model.n_constraints else None
     zd = np.zeros(model.n_free)
 
     def new(z) -> bool:  # no branch found yet within 1e-6 of z (angles modulo a turn)
-        if not found:
-            return True
-        d = np.array(found) - z
+        d = found[:count] - z
         d[:, revolute] = (d[:, revolute] + np.pi) % (2 * np.pi) - np.pi
-        return bool(np.all(np.max(np.abs(d), axis=1) >= 1e-6))
+        return bool(np.all(np.max(np.abs(d), axis=1, initial=0.0) >= 1e-6))
 
     try:
-        z, _ = assemble(model, z0)
-        default = 0
-        found.append(z)
+        found[0], _ = assemble(model, z0)
+        count, default = 1, 0
     except AssemblyError as exc:
         first_error = exc
     for z in sketches:
@@ -243,7 +240,8 @@ def branches(model: Mechanism, z0: np.ndarray, starts: int = 256, seed: int = 0)
         if kernel is not None and kernel.close(z, zd) != binding.OK:
             continue
         if new(z):
-            found.append(z)
-    if not found:
+            found[count] = z
+            count += 1
+    if not count:
         raise first_error
-    return found, default
+    return list(found[:count]), default

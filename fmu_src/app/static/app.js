@@ -10,15 +10,36 @@ const state = {
   playing: false, t: 0, last: 0, panels: [], zoom: null,
   inflight: false, queued: null, dragging: null,
 };
-// latencies the benchmark reads (ms): a drag move to its redraw, a click on Simulate to the first frame
-window.grublerStats = { drag: [], simulate: [] };
+// latencies the benchmark reads (ms), each to the frame that shows its answer: a drag move, a click on
+// Simulate, a servo re-run; and for each, where the time went (``parts``: see record below)
+window.grublerStats = { drag: [], simulate: [], servo: [], parts: { drag: [], simulate: [], servo: [] } };
+
+// one latency, once its answer is painted: the wait before the request, the server's action (its
+// Server-Timing), the transfer (the rest of the round trip, JSON parsing included), the page's drawing,
+// and the wait for the frame that shows it
+function record(kind, start, timing) {
+  const drawn = performance.now();
+  requestAnimationFrame(() => setTimeout(() => {
+    const shown = performance.now();
+    window.grublerStats[kind].push(shown - start);
+    window.grublerStats.parts[kind].push({
+      before: timing.sent - start, server: timing.server, transfer: timing.answered - timing.sent - timing.server,
+      draw: drawn - timing.answered, paint: shown - drawn,
+    });
+  }, 0));
+}
 
 // -- talking to the server --------------------------------------------------------------------------
-async function api(name, body) {
+async function api(name, body, timing) {
+  const sent = performance.now();
   const r = await fetch("/api/" + name, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
   });
   const out = await r.json();
+  if (timing) {
+    const server = /dur=([0-9.]+)/.exec(r.headers.get("Server-Timing") || "");
+    Object.assign(timing, { sent, answered: performance.now(), server: server ? Number(server[1]) : NaN });
+  }
   if (out.error && !out.scene) {
     const e = new Error(out.error.reason);
     e.field = out.error.field;
@@ -329,9 +350,10 @@ async function pump() {
     const live = state.dragging === drag;  // the move after the release gets the full curve
     const move = { x, y, drag };
     state.lastMove = move;
-    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live });
+    const timing = {};
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live }, timing);
     show(out, { dragging: true });
-    window.grublerStats.drag.push(performance.now() - at);
+    record("drag", at, timing);
     move.full = !live;  // an answer with the full curve: nothing to settle
   } catch (e) {
     notice(`${e.field}: ${e.message}`, true);
@@ -350,9 +372,10 @@ async function simulate() {
   $("field-t_end").textContent = "";
   stopRun();
   try {
+    const timing = {};
     const run = await api("simulate", {
       scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
-    });
+    }, timing);
     decodeColumns(run.columns);
     state.run = run;
     state.t = 0;
@@ -366,7 +389,7 @@ async function simulate() {
     drawRunFrame();
     if (!state.panels.length) defaultPanels();
     drawPanels();
-    window.grublerStats.simulate.push(performance.now() - t0);
+    record("simulate", t0, timing);
     $("run-status").textContent = run.summary;
     play();
   } catch (e) {
@@ -648,7 +671,8 @@ async function runServo() {
   $("servo-error").textContent = "";
   $("servo-status").textContent = "co-simulating…";
   try {
-    const out = await api("servo", { scene: state.scene, servo: servoSettings() });
+    const timing = {};
+    const out = await api("servo", { scene: state.scene, servo: servoSettings() }, timing);
     decodeColumns(out.columns);
     state.servo = out;
     const col = (n) => out.columns.find((c) => c.name === n);
@@ -667,7 +691,7 @@ async function runServo() {
       host.appendChild(svg);
       plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits });
     }
-    window.grublerStats.servo = (window.grublerStats.servo || []).concat([performance.now() - t0]);
+    record("servo", t0, timing);
     $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
