@@ -3,8 +3,9 @@
     python benchmarks/app_latency.py [--moves 60] [--runs 5] [--out docs/app.md]
 
 Each latency runs to the frame that shows its answer (``record`` in app.js),
-and is split into where the time went: the server's action (its
-``Server-Timing``), the transfer (the rest of the round trip, JSON parsing
+and is split into where the time went: the wait before its request leaves
+(the page's event handling), the server's action (its ``Server-Timing``), the
+transfer (the rest of the round trip, JSON parsing
 included), the page's drawing and the wait for the frame that paints it.
 
 - drag: a handle is dragged in ``--moves`` small mouse moves round a circle, one
@@ -117,10 +118,9 @@ DRAGS = [("fourbar-crank-rocker", "B"), ("stephenson-i", "rocker_pivot"), ("step
 
 def row_text(row) -> str:
     what, ms, parts, target, load = row
-    median = {k: statistics.median(p[k] for p in parts) for k in ("server", "transfer", "draw", "paint")}
+    median = [statistics.median(p[k] for p in parts) for k in ("before", "server", "transfer", "draw", "paint")]
     return (f"| {what} | {len(ms)} | {percentile(ms, 0.5):.1f} ms | {percentile(ms, 0.95):.1f} ms | {target} ms | "
-            f"{load:.1f} | {median['server']:.1f}, {median['transfer']:.1f}, {median['draw']:.1f}, "
-            f"{median['paint']:.1f} ms |")
+            f"{load:.1f} | {', '.join(f'{v:.1f}' for v in median)} ms |")
 
 
 def main() -> None:
@@ -156,7 +156,7 @@ def main() -> None:
         add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs), 1000)
         browser.close()
     server.shutdown()
-    lines = ["| what | samples | p50 | p95 | target | load | median parts: server, transfer, draw, frame |",
+    lines = ["| what | samples | p50 | p95 | target | load | median parts: before, server, transfer, draw, frame |",
              "|---|---|---|---|---|---|---|"] + [row_text(r) for r in rows]
     machine = (f"Machine: {os.cpu_count()} cores ({platform.processor() or platform.machine()}), shared with other "
                f"jobs: *load* is the 1-minute load average (as `uptime` prints it) when the row was measured. "

@@ -482,13 +482,22 @@ def _deg(angle: float) -> str:
 
 def _sketch(data: dict):
     """The scene's mechanism and where its sketch closes (or the sketch itself, where it does not)."""
-    scene = scene_from_dict(data)
+    return _sketch_of(json.dumps(data, sort_keys=True))
+
+
+@lru_cache(maxsize=8)
+def _sketch_of(text: str):
+    # every move of a drag starts from the same scene: built and closed once (Stephenson II's builder
+    # alone takes some 3 ms), the mechanism immutable and its coordinates read-only
+    scene = scene_from_dict(json.loads(text))
     m = scene.mechanism
-    z0 = m.z_from_q(m.q_ref)
+    z = m.z_from_q(m.q_ref)
     try:
-        return m, assemble(m, z0, scene.initial_rates)[0]
+        z = assemble(m, z, scene.initial_rates)[0]
     except AssemblyError:
-        return m, z0
+        pass
+    z.flags.writeable = False
+    return m, z
 
 
 def drag(data: dict, handle: str, x: float, y: float) -> dict:
