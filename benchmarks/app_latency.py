@@ -2,27 +2,38 @@
 
     python benchmarks/app_latency.py [--moves 60] [--runs 5] [--out docs/app.md]
 
-- drag: a pivot is dragged in ``--moves`` small mouse moves, one at a time;
-  each is timed from the page's ``pointermove`` event to the redraw of its
-  answer (mechanism, handles, class, branch and the coupler curve over a full
-  sweep of the crank), as the page records it (``window.grublerStats.drag``).
-  For a four-bar (fourbar-crank-rocker, its rocker-coupler pin) and a six-bar
-  (stephenson-i, its rocker pivot).
+Each latency runs to the frame that shows its answer (``record`` in app.js),
+and is split into where the time went: the wait before its request leaves
+(the page's event handling), the server's action (its ``Server-Timing``), the
+transfer (the rest of the round trip, JSON parsing
+included), the page's drawing and the wait for the frame that paints it.
+
+- drag: a handle is dragged in ``--moves`` small mouse moves round a circle, one
+  at a time; each is timed from the page's ``pointermove`` event to the frame
+  that shows its answer (mechanism, handles, class, branch count with grubler
+  info's 256 starts, and the coupler curve over a sweep of the crank).  For a
+  four-bar (fourbar-crank-rocker, its rocker-coupler pin), the six-bars'
+  pivots and moving joints (Stephenson I's rocker pivot and rocker joint E,
+  Stephenson II's floating ternary joint P, Watt II's rocker joint C) and the
+  four-link inversions' new handles (scotch yoke, double slider, conchoidal,
+  Oldham).
 - simulate: a click on Simulate for a 10 s run of fourbar-crank-rocker
-  (1001 output rows, 400 frames) to its first frame and graphs on screen
-  (``window.grublerStats.simulate``), ``--runs`` times.
+  (1001 output rows, 400 frames) to its first frame and graphs on screen,
+  ``--runs`` times.
 - servo: the servo four-bar (thesis-fourbar, the default design, 10 s at 1 ms
   steps) re-run after a change of the PID gain K, from the change to its three
-  graphs on screen (``window.grublerStats.servo``), ``--runs`` times after a
-  first run.  The FMUs are built first (build_fmu.py) into the app's folder.
+  graphs on screen, ``--runs`` times after a first run.  The FMUs are built
+  first (build_fmu.py) into the app's folder.
 
-Prints p50 and p95 (ms) of each; ``--out`` replaces the results section of
+Prints p50 and p95 (ms) of each, the load average when it was measured and
+the medians of its parts; ``--out`` replaces the results section of
 docs/app.md.  Chromium is the system's (``/usr/bin/chromium``).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
 import re
@@ -54,48 +65,62 @@ def screen_of(page, x: float, y: float):
     }""", [x, y])
 
 
-def drag_latencies(page, preset: str, handle: str, moves: int, radius: float) -> list[float]:
+def drag_latencies(page, preset: str, handle: str, moves: int) -> tuple[list[float], list[dict]]:
     page.select_option("#preset", preset)
-    page.wait_for_selector(f'circle.handle[data-handle="{handle}"]')
+    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
+                           arg=preset)
     page.wait_for_timeout(300)
     hx, hy = page.evaluate(f"""() => state.analysis.handles.find((h) => h.id === "{handle}").xy""")
-    page.evaluate("() => { window.grublerStats.drag = []; }")
+    # a circle of 1.5 % of the drawing's size about the handle: every position closes, so each answer has its curve
+    radius = 0.015 * page.evaluate("() => state.box.span")
+    page.evaluate("() => { window.grublerStats.drag = []; window.grublerStats.parts.drag = []; }")
     x0, y0 = screen_of(page, hx, hy)
     page.mouse.move(x0, y0)
     page.mouse.down()
-    import math
-
     for k in range(moves):
-        # a small circle about the start: every position closes, so each answer has its curve
         a = 2 * math.pi * k / moves
         x, y = screen_of(page, hx + radius * math.sin(a), hy + radius * (1 - math.cos(a)))
         page.mouse.move(x, y)
         page.wait_for_function(f"() => window.grublerStats.drag.length >= {k + 1}")
     page.mouse.up()
-    return page.evaluate("() => window.grublerStats.drag")
+    page.wait_for_function("() => !state.settling")
+    return page.evaluate("() => [window.grublerStats.drag, window.grublerStats.parts.drag]")
 
 
 def simulate_latencies(page, runs: int) -> list[float]:
     page.select_option("#preset", "fourbar-crank-rocker")
     page.wait_for_selector("circle.handle")
     page.fill("#t_end", "10")
-    page.evaluate("() => { window.grublerStats.simulate = []; }")
+    page.evaluate("() => { window.grublerStats.simulate = []; window.grublerStats.parts.simulate = []; }")
     for k in range(runs):
         page.click("#simulate")
         page.wait_for_function(f"() => window.grublerStats.simulate.length >= {k + 1}")
-    return page.evaluate("() => window.grublerStats.simulate")
+    return page.evaluate("() => [window.grublerStats.simulate, window.grublerStats.parts.simulate]")
 
 
 def servo_latencies(page, runs: int) -> list[float]:
     page.select_option("#preset", "thesis-fourbar")
     page.wait_for_selector("circle.handle")
     page.click("#servo-run")
-    page.wait_for_function("() => (window.grublerStats.servo || []).length >= 1", timeout=300_000)
+    page.wait_for_function("() => window.grublerStats.servo.length >= 1", timeout=300_000)
     for k in range(runs):
         page.fill('#servo-form [data-key="K"]', str(300 - 20 * (k + 1)))
         page.press('#servo-form [data-key="K"]', "Enter")
         page.wait_for_function(f"() => window.grublerStats.servo.length >= {k + 2}", timeout=300_000)
-    return page.evaluate("() => window.grublerStats.servo.slice(1)")
+    return page.evaluate("() => [window.grublerStats.servo.slice(1), window.grublerStats.parts.servo.slice(1)]")
+
+
+# (preset, handle) for the drag rows: a four-bar, the six-bars' pivots and moving joints, the new inversions'
+DRAGS = [("fourbar-crank-rocker", "B"), ("stephenson-i", "rocker_pivot"), ("stephenson-i", "E"),
+         ("stephenson-ii", "P"), ("watt-ii", "C"), ("scotch-yoke", "A"), ("double-slider", "block2"),
+         ("conchoidal", "block"), ("oldham", "shaft2")]
+
+
+def row_text(row) -> str:
+    what, ms, parts, target, load = row
+    median = [statistics.median(p[k] for p in parts) for k in ("before", "server", "transfer", "draw", "paint")]
+    return (f"| {what} | {len(ms)} | {percentile(ms, 0.5):.1f} ms | {percentile(ms, 0.95):.1f} ms | {target} ms | "
+            f"{load:.1f} | {', '.join(f'{v:.1f}' for v in median)} ms |")
 
 
 def main() -> None:
@@ -113,27 +138,28 @@ def main() -> None:
     server = AppServer("127.0.0.1", 0, root)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     rows = []
+
+    def add(what, measured, target):
+        ms, parts = measured
+        rows.append((what, ms, parts, target, os.getloadavg()[0]))
+        print(row_text(rows[-1]), flush=True)
+
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
         page = browser.new_page(viewport={"width": 1400, "height": 1000})
         page.goto(server.url)
         page.wait_for_selector("circle.handle")
-        for preset, handle, radius in (("fourbar-crank-rocker", "B", 0.02), ("stephenson-i", "rocker_pivot", 0.01)):
-            ms = drag_latencies(page, preset, handle, args.moves, radius)
-            rows.append((f"drag redrawn with its coupler curve, {preset} ({handle})", ms, 50))
-        ms = simulate_latencies(page, args.runs)
-        rows.append(("10 s simulation on screen after the click, fourbar-crank-rocker", ms, 300))
-        ms = servo_latencies(page, args.runs)
-        rows.append(("10 s servo co-simulation re-run after a gain change, on screen", ms, 1000))
+        for preset, handle in DRAGS:
+            add(f"drag redrawn with its coupler curve, {preset} ({handle})", drag_latencies(page, preset, handle,
+                                                                                           args.moves), 50)
+        add("10 s simulation on screen after the click, fourbar-crank-rocker", simulate_latencies(page, args.runs), 300)
+        add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs), 1000)
         browser.close()
     server.shutdown()
-    lines = ["| what | samples | p50 | p95 | target |", "|---|---|---|---|---|"]
-    for what, ms, target in rows:
-        lines.append(f"| {what} | {len(ms)} | {percentile(ms, 0.5):.1f} ms | {percentile(ms, 0.95):.1f} ms | "
-                     f"{target} ms |")
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    machine = (f"Machine: {os.cpu_count()} cores ({platform.processor() or platform.machine()}, load average "
-               f"{load} at the end: other jobs shared it), "
+    lines = ["| what | samples | p50 | p95 | target | load | median parts: before, server, transfer, draw, frame |",
+             "|---|---|---|---|---|---|---|"] + [row_text(r) for r in rows]
+    machine = (f"Machine: {os.cpu_count()} cores ({platform.processor() or platform.machine()}), shared with other "
+               f"jobs: *load* is the 1-minute load average (as `uptime` prints it) when the row was measured. "
                f"Python {platform.python_version()}, Chromium from {chromium}, headless. Command: "
                f"`python benchmarks/app_latency.py --moves {args.moves} --runs {args.runs}`.")
     text = "\n".join(lines) + "\n\n" + machine + "\n"

@@ -219,6 +219,114 @@ def test_the_drag_applies_to_each_handle_what_it_stands_for():
     assert actions.analyse(moved)["closed"]
 
 
+def test_the_branch_search_finds_what_assembling_each_start_alone_finds():
+    """branches() closes its 256 starts with buffers made once; the reference assembles each start by itself."""
+    import numpy as np
+
+    from grubler.errors import AssemblyError
+    from grubler.mechanism.assembly import assemble, branches, held_coordinates
+
+    for name in ("stephenson-ii", "watt-i", "fourbar-triple-rocker", "thesis-quick-return", "conchoidal"):
+        m = scene_from_dict(actions.preset_data(name)).mechanism
+        z0 = m.z_from_q(m.q_ref)
+        found, default = branches(m, z0, starts=64, seed=3)
+        free = np.ones(m.n_free, bool)
+        free[held_coordinates(m, z0)] = False
+        turns, slides = free & m.arrays.revolute, free & ~m.arrays.revolute
+        rng, reference = np.random.default_rng(3), [assemble(m, z0)[0]]
+        for _ in range(64):
+            z = z0.copy()
+            z[turns] = rng.uniform(-np.pi, np.pi, int(turns.sum()))
+            z[slides] = z0[slides] + rng.uniform(-max(1.0, max(abs(l.a) for l in m.links)),
+                                                  max(1.0, max(abs(l.a) for l in m.links)), int(slides.sum()))
+            try:
+                z = assemble(m, z)[0]
+            except AssemblyError:
+                continue
+            d = np.array(reference) - z
+            d[:, m.arrays.revolute] = (d[:, m.arrays.revolute] + np.pi) % (2 * np.pi) - np.pi
+            if np.all(np.abs(d).max(axis=1) >= 1e-6):
+                reference.append(z)
+        assert default == 0 and len(found) == len(reference), name
+        assert np.abs(np.array(found) - np.array(reference)).max() < 1e-9, name  # each closed to 1e-12
+
+
+# handles held to a line or a circle (a pivot on its axis, a block on its slide, a length along its
+# link): dragged off it, they come nearer the pointer without reaching it
+ON_A_LINE = {"O4", "pivot", "slide", "shaft2", "slot", "block1", "arm", "rod", "lever"}
+
+
+def test_every_handle_of_every_preset_follows_the_pointer():
+    import math
+
+    for name in preset_names():
+        data = actions.preset_data(name)
+        start = actions.analyse(data)
+        assert start["handles"], f"{name}: nothing to drag"
+        if name == "coupling-rod":
+            continue  # three equal parallel cranks: any pivot moved alone breaks the parallel, and the loop opens
+        span = max(max(abs(v) for h in start["handles"] for v in h["xy"]), 0.05)
+        for h in start["handles"]:
+            target = (h["xy"][0] + 0.03 * span, h["xy"][1] + 0.02 * span)
+            moved = actions.drag(data, h["id"], *target)
+            out = actions.analyse_drag(data, moved, h["id"], *target)
+            assert out["closed"] and out["problem"] is None, (name, h["id"])
+            now = next(g["xy"] for g in out["handles"] if g["id"] == h["id"])
+            if h["id"] in ON_A_LINE:
+                assert math.dist(now, target) < math.dist(h["xy"], target), (name, h["id"])
+            else:  # to a tenth of a millimetre, the scene's rounding of what a drag sets
+                assert math.dist(now, target) < 3e-4, (name, h["id"], now, target)
+
+
+def test_a_six_bar_joint_dragged_keeps_every_other_joint_where_it_was():
+    import math
+
+    for kind, spec in actions.SIX_BAR_JOINTS.items():
+        data = actions.preset_data(kind)
+        start = {h["id"]: h["xy"] for h in actions.analyse(data)["handles"]}
+        moving = set(spec["chain"][1:] + spec["closures"]) - set(spec["pivots"]) - {spec["pin"]}
+        assert moving < set(start) and len(start) == 6, kind  # seven joints, the origin O2 not dragged
+        for joint in moving:
+            target = (start[joint][0] - 0.02, start[joint][1] + 0.015)
+            out = actions.analyse_drag(data, actions.drag(data, joint, *target), joint, *target)
+            assert out["closed"] and out["class"]["mobility"] == 1 and out["branch"]["count"] >= 1, (kind, joint)
+            assert len(out["curve"]) > 10
+            for h in out["handles"]:
+                assert math.dist(h["xy"], target if h["id"] == joint else start[h["id"]]) < 3e-4, (kind, joint, h)
+    # which numbers a joint stands for: the lengths it ends, the sides it decides (Watt II's rocker triangle)
+    moved = actions.drag(actions.preset_data("watt-ii"), "C", 0.6, 0.1)["mechanism"]  # O4 (0.3, 0), B above it
+    assert moved["rocker_side"] == "right" and moved["rocker_arm"] == round(math.hypot(0.3, 0.1), 4)
+
+
+def test_a_six_bar_pivot_beyond_its_links_shows_where_the_loop_opens_in_the_words_of_info(app, tmp_path, capsys):
+    data = actions.preset_data("stephenson-i")
+    out, _ = post(app, "drag", {"scene": data, "handle": "rocker_pivot", "x": 0.9, "y": 0.0, "live": True})
+    assert out["scene"]["mechanism"]["rocker_pivot"] == [0.9, 0.0] and "error" not in out
+    assert not out["closed"] and out["curve"] == [] and out["class"]["mobility"] == 1
+    assert {"id": "rocker_pivot", "xy": [0.9, 0.0], "sets": "mechanism.rocker_pivot"} in out["handles"]
+    assert "triangle A-B-O4: its ends are 0.814933 m apart" in out["problem"]["reason"]
+    scene = tmp_path / "far.toml"
+    scene.write_text(actions.scene_toml(out["scene"]))
+    assert cli.run(["info", str(scene)]) == 2
+    assert capsys.readouterr().err.strip() == f"grubler: error: {out['problem']['field']}: {out['problem']['reason']}"
+
+
+def test_the_branches_the_page_counts_are_those_grubler_info_lists():
+    """One computation: the live count is `grubler info`'s (a sample of 16 starts found 3 of Stephenson I's 4)."""
+    import re
+
+    for name in preset_names():
+        data = actions.preset_data(name)
+        out = actions.analyse(data, live=True)
+        if out["branch"] is None:
+            continue
+        info = capture_info(data)
+        count = int(re.search(r"^branches +(\d+) with", info, re.M).group(1))
+        assert out["branch"]["count"] == count, name
+        default = re.search(r"^  \[\d+\] (.*)  <- the scene's", info, re.M).group(1)
+        assert ", ".join(out["branch"]["angles"]) == default, name
+
+
 def test_a_double_clicked_point_is_traced_on_the_link_under_it(app):
     data = actions.preset_data("fourbar-crank-rocker")
     point = actions.analyse(data, trace="link3:0.45,0.225")["curve"][0]  # where that coupler point is now

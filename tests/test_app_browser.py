@@ -72,9 +72,9 @@ def drag_handle(page, handle: str, x: float, y: float) -> None:
                         start["y"] + start["height"] / 2 + f * (target[1] - start["y"] - start["height"] / 2))
         page.wait_for_timeout(30)
     page.mouse.up()
-    # the last move's answer is on the page once no request is in flight
-    page.wait_for_function("() => window.grublerStats.drag.length > 0")
-    page.wait_for_timeout(300)
+    # the last move's answer is on the page once no request is in flight and the drag has settled
+    page.wait_for_function("""() => window.grublerStats.drag.length > 0 && !state.inflight && !state.queued
+        && !state.dragging && !state.settling""")
 
 
 def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
@@ -175,10 +175,7 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
 
 
 def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    errors = watch_console(page)
-    page.goto(app.url)
-    page.wait_for_selector("#drawing circle.handle")
+    page, errors = open_app(browser, app.url)
     page.select_option("#type", label="stephenson-iii")
     page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
     assert page.inner_text("#branch").endswith("one of 4 found with theta2 held")
@@ -195,6 +192,76 @@ def test_a_six_bar_by_type_and_a_refused_link(app, browser, shots):
     page.reload()
     page.wait_for_selector('[data-err="link2.a"]:not(:empty)')
     assert "link2.a" not in page.inner_text("#error")
+    assert errors == []
+
+
+def open_app(browser, url: str, **options):
+    """A new page on the app, its drawing there, and the console errors it will collect."""
+    page = browser.new_page(viewport={"width": 1400, "height": 1000}, **options)
+    errors = watch_console(page)
+    page.goto(url)
+    page.wait_for_selector("#drawing circle.handle")
+    return page, errors
+
+
+def pick_preset(page, name: str) -> None:
+    """Pick a preset from the menu and wait until its drawing is on the page (not the one before)."""
+    page.select_option("#preset", name)
+    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
+                           arg=name)
+
+
+def handle_at(page, handle: str) -> list:
+    return page.evaluate(f"() => state.analysis.handles.find((h) => h.id === {handle!r}).xy")
+
+
+def curve_of(page) -> str:
+    return page.get_attribute("#drawing polyline.curve", "points") or ""
+
+
+# the joints the four-link inversions and a six-bar gained: (preset or type, handle, where to, what the
+# feedback then reads: the #id of the line and the text it holds)
+NEW_HANDLES = [
+    ("scotch-yoke", "A", (0.05, 0.11), "#kind", "Scotch yoke"),
+    ("oldham", "shaft2", (0.03, 0.0), "#mobility", "1"),
+    ("double-slider", "block2", (0.3, 0.45), "#branch", "one of 1 found with theta3 held"),
+    ("conchoidal", "block", (0.35, 0.6), "#branch", "one of 1 found with theta2 held"),
+    ("watt-ii", "B", (0.37, 0.26), "#kind", "Watt II six-bar"),
+    ("stephenson-ii", "Q", (-0.08, 0.3), "#branch", "one of 2 found with theta2 held"),
+]
+
+
+@pytest.mark.parametrize("preset, handle, to, line, reads", NEW_HANDLES, ids=[f"{p}-{h}" for p, h, *_ in NEW_HANDLES])
+def test_dragging_each_new_kind_of_joint(app, browser, shots, preset, handle, to, line, reads):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, preset)
+    before = curve_of(page)
+    assert before, "a coupler curve to begin with"
+    drag_handle(page, handle, *to)
+    assert reads in page.inner_text(line)
+    assert page.is_hidden("#problem") and page.inner_text("#error") == ""
+    # the handle sits where the mouse left it (a block on its slide as near as the slide lets it)
+    at = handle_at(page, handle)
+    assert abs(at[0] - to[0]) < 2e-3 and (handle == "shaft2" or abs(at[1] - to[1]) < 2e-3), at
+    assert curve_of(page) != before  # the coupler curve was drawn again, for the new dimensions
+    page.screenshot(path=str(shots / f"7-drag-{preset}-{handle}.png"))
+    assert errors == []
+
+
+def test_a_six_bar_pivot_dragged_beyond_its_links_reads_where_the_loop_opens(app, browser, shots):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "stephenson-i")
+    drag_handle(page, "E", 0.1, 0.12)  # a joint of the rocker's triangle: the loop still closes
+    assert page.is_hidden("#problem") and "one of" in page.inner_text("#branch")
+    drag_handle(page, "rocker_pivot", 0.9, 0.0)
+    page.wait_for_selector("#problem:not([hidden])")
+    problem = page.inner_text("#problem")
+    assert problem.startswith("mechanism.input_angle: loop 1 (crank, coupler, rocker): triangle A-B-O4: its ends are")
+    assert page.inner_text("#mobility") == "1" and page.inner_text("#branch") == "the loop does not close"
+    assert page.locator("#drawing g.open").count() == 1  # the sketch drawn open
+    page.screenshot(path=str(shots / "8-stephenson-i-open.png"))
+    drag_handle(page, "rocker_pivot", 0.3, 0.0)  # and back: it closes again
+    page.wait_for_function("() => document.querySelector('#problem').hidden")
     assert errors == []
 
 

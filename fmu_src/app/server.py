@@ -25,6 +25,7 @@ import secrets
 import socket
 import sys
 import threading
+import time
 import traceback
 import webbrowser
 from dataclasses import dataclass, field
@@ -237,8 +238,12 @@ class Handler(BaseHTTPRequestHandler):
             action = ACTIONS.get(name)
             if action is None:
                 raise InputError("action", f"no such action: {limits.brief(name)}")
+            began = time.perf_counter()
             out = action(self.server, session, body)
-            self._send_json(200, out, extra)
+            text = json.dumps(out, allow_nan=False).encode()
+            # the server's share of the answer (the action, and its JSON), for the page's latency figures
+            timing = f"action;dur={(time.perf_counter() - began) * 1e3:.2f}"
+            self._send(200, text, "application/json", {**extra, "Server-Timing": timing})
         except (GrublerError, OSError, MemoryError, ValueError) as exc:
             if isinstance(exc, MemoryError):
                 exc = GrublerError("out of memory: make the run smaller")
@@ -297,8 +302,14 @@ def a_edit(server, session, body):
 
 
 def a_drag(server, session, body):
-    moved = actions.drag(_data(body), body.get("handle"), body.get("x"), body.get("y"))
-    return a_analyse(server, session, {**body, "scene": moved})
+    data, handle, x, y = _data(body), body.get("handle"), body.get("x"), body.get("y")
+    moved = actions.drag(data, handle, x, y)
+    out = {"scene": moved, "fields": actions.fields(moved)}
+    try:
+        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True))
+    except GrublerError as exc:
+        out["error"] = actions.error_of(exc)
+    return out
 
 
 def a_pick(server, session, body):

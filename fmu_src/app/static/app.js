@@ -10,15 +10,36 @@ const state = {
   playing: false, t: 0, last: 0, panels: [], zoom: null,
   inflight: false, queued: null, dragging: null,
 };
-// latencies the benchmark reads (ms): a drag move to its redraw, a click on Simulate to the first frame
-window.grublerStats = { drag: [], simulate: [] };
+// latencies the benchmark reads (ms), each to the frame that shows its answer: a drag move, a click on
+// Simulate, a servo re-run; and for each, where the time went (``parts``: see record below)
+window.grublerStats = { drag: [], simulate: [], servo: [], parts: { drag: [], simulate: [], servo: [] } };
+
+// one latency, once its answer is painted: the wait before the request, the server's action (its
+// Server-Timing), the transfer (the rest of the round trip, JSON parsing included), the page's drawing,
+// and the wait for the frame that shows it
+function record(kind, start, timing) {
+  const drawn = performance.now();
+  requestAnimationFrame(() => setTimeout(() => {
+    const shown = performance.now();
+    window.grublerStats[kind].push(shown - start);
+    window.grublerStats.parts[kind].push({
+      before: timing.sent - start, server: timing.server, transfer: timing.answered - timing.sent - timing.server,
+      draw: drawn - timing.answered, paint: shown - drawn,
+    });
+  }, 0));
+}
 
 // -- talking to the server --------------------------------------------------------------------------
-async function api(name, body) {
+async function api(name, body, timing) {
+  const sent = performance.now();
   const r = await fetch("/api/" + name, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
   });
   const out = await r.json();
+  if (timing) {
+    const server = /dur=([0-9.]+)/.exec(r.headers.get("Server-Timing") || "");
+    Object.assign(timing, { sent, answered: performance.now(), server: server ? Number(server[1]) : NaN });
+  }
   if (out.error && !out.scene) {
     const e = new Error(out.error.reason);
     e.field = out.error.field;
@@ -52,7 +73,7 @@ function show(out, opts = {}) {
   $("grashof").title = c && c.grashof ? c.grashof.detail : "";
   $("mobility").textContent = c ? String(c.mobility) : "–";
   $("branch").textContent = out.branch
-    ? `${out.branch.angles.length ? out.branch.angles.join(", ") + " deg" : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
+    ? `${out.branch.angles.length ? out.branch.angles.join(", ") : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
     : (out.closed === false ? "the loop does not close" : "–");
   const problem = $("problem");
   problem.hidden = !out.problem;
@@ -150,10 +171,22 @@ function remember() {
 
 // -- the drawing ---------------------------------------------------------------------------------------
 function fitView(things) {
-  const pts = points(things).concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
-  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
-  if (!xs.length) return;
-  let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
+  // the links and handles, and of a curve what lies near them: a conchoid runs off to infinity
+  const core = points(things.filter((f) => f && !Array.isArray(f)))
+    .concat((state.analysis && state.analysis.handles || []).map((h) => h.xy));
+  const box = (pts) => {
+    const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+    return [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
+  };
+  let near = [];
+  if (core.length) {
+    const [a0, a1, b0, b1] = box(core), reach = 1.5 * Math.max(a1 - a0, b1 - b0, 1e-3);
+    near = points(things.filter(Array.isArray)).filter((p) =>
+      p[0] > a0 - reach && p[0] < a1 + reach && p[1] > b0 - reach && p[1] < b1 + reach);
+  }
+  const pts = core.length ? core.concat(near) : points(things);
+  if (!pts.length) return;
+  let [x0, x1, y0, y1] = box(pts);
   const span = Math.max(x1 - x0, y1 - y0, 1e-3);
   const pad = 0.15 * span;
   state.box = { x: x0 - pad, y: y0 - pad, w: x1 - x0 + 2 * pad, h: y1 - y0 + 2 * pad, span };
@@ -258,6 +291,7 @@ function setupDrag() {
     if (!id || !state.scene) return;
     stopRun();
     state.dragging = { id, start: state.scene };
+    state.lastMove = null;
     svg.setPointerCapture(evt.pointerId);
     evt.preventDefault();
   });
@@ -282,14 +316,23 @@ function setupDrag() {
   const end = () => {
     if (!state.dragging) return;
     state.dragging = null;
+    state.settling = true;  // until the drag's last answer is on the page
     const settle = async () => {
-      if (state.analysis && state.analysis.scene) await analyse({ scene: state.scene });  // the full curve
+      // the last move again, with the full curve: as a drag, so a joint the builder cannot place keeps its
+      // message and the sketch it was dragged from
+      const last = state.lastMove;
+      if (last && !last.full && state.analysis && state.analysis.scene) {
+        try {
+          show(await api("drag", { scene: last.drag.start, handle: last.drag.id, x: last.x, y: last.y, trace: state.trace }));
+        } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+      }
       // the drag may have carried the mechanism out of view: bring it back, handles included
       const a = state.analysis;
       if (a && a.frame && !inView([a.frame, (a.handles || []).map((h) => h.xy)])) {
         fitView([a.frame, a.curve]);
         drawScene(a);
       }
+      state.settling = false;
     };
     const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : settle());
     wait();
@@ -305,9 +348,13 @@ async function pump() {
   state.inflight = true;
   try {
     const live = state.dragging === drag;  // the move after the release gets the full curve
-    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live });
+    const move = { x, y, drag };
+    state.lastMove = move;
+    const timing = {};
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live }, timing);
     show(out, { dragging: true });
-    window.grublerStats.drag.push(performance.now() - at);
+    record("drag", at, timing);
+    move.full = !live;  // an answer with the full curve: nothing to settle
   } catch (e) {
     notice(`${e.field}: ${e.message}`, true);
   } finally {
@@ -325,9 +372,10 @@ async function simulate() {
   $("field-t_end").textContent = "";
   stopRun();
   try {
+    const timing = {};
     const run = await api("simulate", {
       scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
-    });
+    }, timing);
     decodeColumns(run.columns);
     state.run = run;
     state.t = 0;
@@ -341,7 +389,7 @@ async function simulate() {
     drawRunFrame();
     if (!state.panels.length) defaultPanels();
     drawPanels();
-    window.grublerStats.simulate.push(performance.now() - t0);
+    record("simulate", t0, timing);
     $("run-status").textContent = run.summary;
     play();
   } catch (e) {
@@ -623,7 +671,8 @@ async function runServo() {
   $("servo-error").textContent = "";
   $("servo-status").textContent = "co-simulating…";
   try {
-    const out = await api("servo", { scene: state.scene, servo: servoSettings() });
+    const timing = {};
+    const out = await api("servo", { scene: state.scene, servo: servoSettings() }, timing);
     decodeColumns(out.columns);
     state.servo = out;
     const col = (n) => out.columns.find((c) => c.name === n);
@@ -642,7 +691,7 @@ async function runServo() {
       host.appendChild(svg);
       plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits });
     }
-    window.grublerStats.servo = (window.grublerStats.servo || []).concat([performance.now() - t0]);
+    record("servo", t0, timing);
     $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
