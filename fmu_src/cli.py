@@ -272,10 +272,13 @@ def cmd_app(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from grubler.fmi.build import export
+    from grubler.fmi.build import export, platforms_note, select_targets
 
-    path = export(args.scene, args.out, field="--out")
+    platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
+    path = export(args.scene, args.out, platforms, field="--out")
     print(f"wrote {path}")
+    if args.platforms is None and platforms_note():
+        print(platforms_note())
     return 0
 
 
@@ -589,6 +592,8 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
+    e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
+                                       "(default: every one this machine can build)")
     e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")
     lin.add_argument("scene", help="preset name or TOML file")
