@@ -56,7 +56,8 @@ FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 # importer's compiler has) only in a model that provides directional derivatives
 NOT_IN_FMU = {"_module.c"}
 DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
-CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
+# no variable-length arrays: Visual Studio's C, which compiles sources/ on Windows, has none
+CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
 
 

@@ -26,11 +26,13 @@ typedef double complex real;
  * C89 maths loads wherever it is copied */
 static inline real grb_ccos(real z) { return cos(creal(z)) * cosh(cimag(z)) - I * (sin(creal(z)) * sinh(cimag(z))); }
 static inline real grb_csin(real z) { return sin(creal(z)) * cosh(cimag(z)) + I * (cos(creal(z)) * sinh(cimag(z))); }
-/* the principal root, on the side of the cut the imaginary part's sign gives */
+/* the principal root, on the side of the cut the imaginary part's sign gives
+ * (|z| without hypot, whose glibc symbol is from 2.35: overflow as the real
+ * path's own squares overflow) */
 static inline real grb_csqrt(real z) {
     double a = creal(z), b = cimag(z), t;
     if (a == 0.0 && b == 0.0) return z;
-    t = sqrt(0.5 * (fabs(a) + hypot(a, b)));
+    t = sqrt(0.5 * (fabs(a) + sqrt(a * a + b * b)));
     return a >= 0.0 ? t + I * (0.5 * b / t) : 0.5 * fabs(b) / t + I * copysign(t, b);
 }
 #define RE(x) creal(x)
