@@ -1,14 +1,19 @@
 """Build the project's FMUs into dist/.
 
-    python build_fmu.py [--dest dist] [--fmi 2|3] [NAME ...]
+    python build_fmu.py [--dest dist] [--fmi 2|3] [--platforms linux64,win64,...] [NAME ...]
 
 The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
 defaults; every scene quantity a parameter), DCMotor.fmu (the maxon RE 40's
 data; every datasheet number a parameter) and HydraulicCylinder.fmu and
 PneumaticCylinder.fmu (a valve, a cylinder and its supply; every constant a
 parameter) are the C models behind one FMI 2.0
-wrapper (``--fmi 3``: its FMI 3.0 adapter, the same model files), compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
-is installed), with its C sources inside.  It runs without Python.
+wrapper (``--fmi 3``: its FMI 3.0 adapter, the same model files), with its C
+sources inside.  It runs without Python.  With the ``cross`` extra (``pip
+install 'grubler[cross]'``, the zig C compiler) each carries binaries for
+linux64 (glibc 2.17 and later), win64, darwin64 (Intel and Apple silicon in one
+file) and aarch64-linux; without it, for this machine with ``cc`` (and win64
+when a MinGW-w64 cross compiler is installed), and one line says which
+platforms were left out.  ``--platforms`` chooses.
 
 PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu
 and Trajectory.fmu are native too: the laws' C (controllers/kernel, the code the
@@ -30,7 +35,8 @@ from pathlib import Path
 from grubler.controllers import ComputedTorque, CurrentSensor, LinearController, Tachometer
 from grubler.controllers.fmu import build_controller_fmu
 from grubler.controllers.native_fmu import cascade_spec, encoder_spec, pid_spec, sensor_spec, trajectory_spec
-from grubler.fmi.build import build_fmu
+from grubler.errors import InputError
+from grubler.fmi.build import TARGETS, build_fmu, platforms_note, select_targets
 from grubler.fmi.mechanism import mechanism_spec
 from grubler.fmi.cylinder import hydraulic_spec, pneumatic_spec
 from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
@@ -56,11 +62,13 @@ LAWS = {law.__name__: law for law in (LinearController, ComputedTorque)}
 FMUS = [*NATIVE, *LAWS]
 
 
-def build(dest: Path = HERE / "dist", names: list[str] | None = None, fmi: int = 2) -> list[Path]:
+def build(dest: Path = HERE / "dist", names: list[str] | None = None, fmi: int = 2, platforms=None) -> list[Path]:
     """Build the named FMUs (default: all) and return their paths.
 
     With ``fmi=3`` the native FMUs are FMI 3.0; the controllers (pythonfmu,
-    FMI 2.0 only) are not built.
+    FMI 2.0 only) are not built.  ``platforms`` (FMI 2.0 folders or FMI 3.0
+    tuples, a list or comma-separated) chooses the native FMUs' binaries
+    (default: every one this machine can build).
     """
     unknown = set(names or ()) - set(FMUS)
     if unknown:
@@ -68,11 +76,16 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None, fmi: int =
     python_only = sorted(set(names or ()) & set(LAWS)) if fmi != 2 else []
     if python_only:
         raise SystemExit(f"build_fmu: {', '.join(python_only)}: pythonfmu FMUs are FMI 2 only (--fmi 2)")
+    try:
+        platforms = select_targets(platforms)
+    except InputError as exc:
+        raise SystemExit(f"build_fmu: --{exc}") from None
+    platforms = [t.name for t in platforms]
     dest.mkdir(parents=True, exist_ok=True)
     built = []
     for name, spec in NATIVE.items():
         if not names or name in names:
-            built.append(build_fmu(spec(), dest / f"{name}.fmu", fmi=fmi))
+            built.append(build_fmu(spec(), dest / f"{name}.fmu", platforms, fmi=fmi))
     for name, law in LAWS.items():
         if (not names or name in names) and fmi == 2:
             built.append(build_controller_fmu(law, dest / f"{name}.fmu"))
@@ -84,10 +97,14 @@ def main() -> None:
     ap.add_argument("--dest", type=Path, default=HERE / "dist")
     ap.add_argument("--fmi", type=int, choices=[2, 3], default=2,
                     help="FMI version of the native FMUs (default 2; the pythonfmu controllers are FMI 2 only)")
+    ap.add_argument("--platforms", help="the native FMUs' binaries, comma-separated (default: every one this "
+                                        f"machine can build; of {', '.join(dict.fromkeys(t.fmi2 for t in TARGETS))})")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default all: {', '.join(FMUS)})")
     args = ap.parse_args()
-    for path in build(args.dest, args.names, args.fmi):
+    for path in build(args.dest, args.names, args.fmi, args.platforms):
         print(f"built {path}")
+    if args.platforms is None and platforms_note():
+        print(f"build_fmu: {platforms_note()}")
 
 
 if __name__ == "__main__":

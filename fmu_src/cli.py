@@ -288,10 +288,13 @@ def cmd_app(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from grubler.fmi.build import export
+    from grubler.fmi.build import export, platforms_note, select_targets
 
-    path = export(args.scene, args.out, field="--out", fmi=args.fmi)
+    platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
+    path = export(args.scene, args.out, platforms, field="--out", fmi=args.fmi)
     print(f"wrote {path}")
+    if args.platforms is None and platforms_note():
+        print(platforms_note())
     return 0
 
 
@@ -657,6 +660,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
+    e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
+                                       "(default: every one this machine can build)")
     e.set_defaults(func=cmd_export)
     el = sub.add_parser("export-law", help="a native FMU of a control law written as one C function (grubler_law.h)")
     el.add_argument("source", help="the C file: GRUBLER_* declarations and law_step")

@@ -15,6 +15,7 @@
  *   save K | load K | drop K           fmi2GetFMUstate / SetFMUstate / FreeFMUstate in state slot K
  *   ser K FILE | deser K FILE          serialise state slot K to a file / from a file into slot K
  *   bench N T H VRIN VROUT...          N x (setReal VRIN, doStep, getReal VROUT...): ns per step
+ *   ddr VRIN VROUT...                  fmi2GetDirectionalDerivative of the outputs along input VRIN (seed 1)
  *   null            call fmi2DoStep on a NULL instance (must not crash)
  */
 #include <stdio.h>
@@ -75,6 +76,7 @@ int main(int argc, char **argv) {
         LOAD(fmi2SetReal); LOAD(fmi2SetInteger); LOAD(fmi2SetString); LOAD(fmi2GetReal); LOAD(fmi2GetInteger);
         LOAD(fmi2GetString); LOAD(fmi2DoStep); LOAD(fmi2GetFMUstate); LOAD(fmi2SetFMUstate); LOAD(fmi2FreeFMUstate);
         LOAD(fmi2SerializedFMUstateSize); LOAD(fmi2SerializeFMUstate); LOAD(fmi2DeSerializeFMUstate);
+        LOAD(fmi2GetDirectionalDerivative);
         if (!fmi2Instantiate || !fmi2DoStep || !fmi2DeSerializeFMUstate) {
             fprintf(stderr, "missing fmi2 symbols\n");
             return 2;
@@ -155,6 +157,21 @@ int main(int argc, char **argv) {
                     printf("gets %d", (int)s);
                     for (k = 0; k < m && s <= fmi2Warning; k++) printf(" [%s]", v[k]);
                 }
+                printf("\n");
+            } else if (!strcmp(cmd, "ddr")) {
+                fmi2ValueReference known, vr[512];
+                double seed = 1.0, v[512];
+                int m = 0, used;
+                char *p = rest;
+                sscanf(p, "%u%n", &known, &used);
+                p += used;
+                while (m < 512 && sscanf(p, "%u%n", &vr[m], &used) == 1) {
+                    m++;
+                    p += used;
+                }
+                s = fmi2GetDirectionalDerivative(c, vr, m, &known, 1, &seed, v);
+                printf("ddr %d", (int)s);
+                for (k = 0; k < m && s <= fmi2Warning; k++) printf(" %.17g", v[k]);
                 printf("\n");
             } else if (!strcmp(cmd, "step")) {
                 double t, h;

@@ -4,11 +4,15 @@ The FMU holds the C sources in ``sources/`` (the kernel, the generic wrapper
 with the adapter of its FMI version, the model file, the generated
 ``config.h`` and ``model_variables.c``, and the FMI headers fmpy ships), listed
 in the model description (FMI 3.0: in ``sources/buildDescription.xml``), and
-the binaries compiled from exactly those files: ``binaries/linux64`` (FMI 3.0:
-``binaries/x86_64-linux``) with ``cc`` and, when a MinGW-w64 cross compiler is
-installed (Debian: ``apt-get install gcc-mingw-w64-x86-64``),
-``binaries/win64`` (``x86_64-windows``).  Only the ``fmi2*`` (``fmi3*``)
-functions are exported; the binary needs libc and libm, no Python.
+the binaries compiled from exactly those files (:data:`TARGETS`): with the
+``cross`` extra (the zig C compiler), ``linux64`` (for glibc 2.17 and later),
+``win64``, ``darwin64`` (one universal binary for Intel and Apple silicon) and
+``aarch64-linux`` (FMI 3.0: ``x86_64-linux``, ``x86_64-windows``,
+``x86_64-darwin`` and ``aarch64-darwin``, ``aarch64-linux``); without it, this
+machine's own platform with ``cc``, and ``win64`` when a MinGW-w64 cross
+compiler is installed (Debian: ``apt-get install gcc-mingw-w64-x86-64``).  Only
+the ``fmi2*`` (``fmi3*``) functions are exported; a binary needs the C library
+and its maths, no Python.
 
 Examples
 --------
@@ -16,7 +20,7 @@ Examples
 >>> from grubler.fmi.mechanism import mechanism_spec
 >>> import tempfile, zipfile, pathlib
 >>> with tempfile.TemporaryDirectory() as d:
-...     path = build_fmu(mechanism_spec(load_scene("thesis-fourbar")), pathlib.Path(d) / "M.fmu", win64=False)
+...     path = build_fmu(mechanism_spec(load_scene("thesis-fourbar")), pathlib.Path(d) / "M.fmu", "linux64")
 ...     names = zipfile.ZipFile(path).namelist()
 >>> "binaries/linux64/Mechanism.so" in names and "sources/fmi2_wrapper.c" in names
 True
@@ -24,14 +28,17 @@ True
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import platform
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
 import zipfile
-from dataclasses import replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from grubler.errors import GrublerError, InputError, SceneError
@@ -51,14 +58,13 @@ FMI_VERSIONS = (2, 3)
 # each FMI version's adapter around the same model files, and its headers
 ADAPTER = {2: ("fmi2_wrapper.c", FMI_HEADERS),
            3: ("fmi3_wrapper.c", ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h"))}
-# FMI 3.0 names a binary's folder by architecture and system
-FMI3_PLATFORM = {"linux64": "x86_64-linux", "win64": "x86_64-windows", "darwin64": "x86_64-darwin"}
 # not part of an FMU: the Python module entry of grubler._kernel; the complex-step
 # twins of the equations (*_cs.c, C99 complex arithmetic, which not every
 # importer's compiler has) only in a model that provides directional derivatives
 NOT_IN_FMU = {"_module.c"}
 DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
-CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function"]
+# no variable-length arrays: Visual Studio's C, which compiles sources/ on Windows, has none
+CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
 
 
@@ -113,19 +119,53 @@ def stage_sources(spec: ModelSpec, sources: Path, fmi: int = 2) -> list[str]:
     return sorted(p.name for p in sources.glob("*.c"))
 
 
-def compile_binary(sources: Path, files: list[str], out: Path, compiler: str = "cc", windows: bool = False) -> Path:
-    """Compile the C files into the FMU's shared library ``out`` (a DLL with a MinGW ``compiler``)."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [compiler, "-shared", *CFLAGS, "-I", str(sources), "-o", str(out), *(str(sources / f) for f in files)]
-    cmd += ["-static-libgcc"] if windows else ["-fPIC", "-lm"]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-    except FileNotFoundError:
-        raise BuildError(f"no C compiler {compiler!r} on PATH: a native FMU is compiled from C (install gcc or "
-                         "clang)") from None
-    if proc.returncode != 0:
-        raise BuildError(f"{compiler} failed:\n{proc.stderr}")
-    return out
+@dataclass(frozen=True)
+class Target:
+    """One platform an FMU can carry a binary for.
+
+    ``name`` is the FMI 3.0 platform tuple; ``fmi2`` the folder an FMI 2.0 FMU
+    keeps it in (targets that share one, the two macOS ones, are put together
+    in one universal binary there); ``zig`` the target the ``cross`` extra's
+    compiler builds it for (for Linux, the oldest glibc it loads on).
+    """
+
+    name: str
+    fmi2: str
+    zig: str
+    suffix: str
+
+
+# FMI 2.0 names win64, linux64 and darwin64 and lets vendors add others: ARM
+# Linux takes its FMI 3.0 tuple, as fmpy and the Reference FMUs name it there
+TARGETS = (
+    Target("x86_64-linux", "linux64", "x86_64-linux-gnu.2.17", ".so"),
+    Target("x86_64-windows", "win64", "x86_64-windows-gnu", ".dll"),
+    Target("x86_64-darwin", "darwin64", "x86_64-macos.11.0", ".dylib"),
+    Target("aarch64-darwin", "darwin64", "aarch64-macos.11.0", ".dylib"),
+    Target("aarch64-linux", "aarch64-linux", "aarch64-linux-gnu.2.17", ".so"),
+)
+CROSS_HINT = "pip install 'grubler[cross]' (the zig C compiler, about 400 MB)"
+
+
+def _folders(targets) -> str:
+    """The FMI 2.0 folders of ``targets``, each once, in TARGETS order."""
+    return ", ".join(dict.fromkeys(t.fmi2 for t in targets))
+
+
+def host_target() -> Target | None:
+    """The target this machine's own C compiler builds for (None: none of TARGETS)."""
+    system = "windows" if sys.platform.startswith("win") else "darwin" if sys.platform == "darwin" else \
+        "linux" if sys.platform.startswith("linux") else None
+    arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64"}.get(
+        platform.machine().lower())
+    return next((t for t in TARGETS if t.name == f"{arch}-{system}"), None)
+
+
+def zig_compiler() -> list[str] | None:
+    """The ``cross`` extra's C compiler (``python -m ziglang cc``), if installed."""
+    if importlib.util.find_spec("ziglang") is None:
+        return None
+    return [sys.executable, "-m", "ziglang", "cc"]
 
 
 def cross_compiler() -> str | None:
@@ -133,17 +173,174 @@ def cross_compiler() -> str | None:
     return shutil.which(MINGW)
 
 
-def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None, fmi: int = 2) -> Path:
+def compiler_for(target: Target) -> list[str] | None:
+    """The command that compiles ``target``'s binary here, or None when nothing installed can.
+
+    The ``cross`` extra's zig builds every target (and Linux ones for an old
+    glibc); without it, the machine's ``cc`` builds its own platform and
+    MinGW-w64 win64.
+    """
+    zig = zig_compiler()
+    if zig is not None:
+        return [*zig, "-target", target.zig]
+    if target == host_target():
+        if not sys.platform.startswith("win"):
+            return ["cc"]
+        return ["gcc"] if shutil.which("gcc") else None  # else Visual Studio, through fmpy (build_fmu)
+    if target.fmi2 == "win64" and not sys.platform.startswith("win") and cross_compiler():
+        return [cross_compiler()]
+    return None
+
+
+def buildable() -> list[Target]:
+    """The targets this machine can build binaries for (on Windows, its own always: see build_fmu)."""
+    return [t for t in TARGETS if compiler_for(t) is not None or (t == host_target() and t.fmi2 == "win64")]
+
+
+def _is_zig(compiler: list[str]) -> bool:
+    return compiler[1:3] == ["-m", "ziglang"]
+
+
+def select_targets(platforms=None, field: str = "platforms") -> list[Target]:
+    """The targets named in ``platforms`` (FMI 2.0 folders or FMI 3.0 tuples; None: every one buildable here).
+
+    ``field`` is the name a refusal is reported under (the CLI's option).
+
+    Raises
+    ------
+    InputError
+        A name no target has, or a platform this machine cannot build for.
+    """
+    if platforms is None:
+        return buildable()
+    if isinstance(platforms, str):
+        platforms = [p.strip() for p in platforms.split(",") if p.strip()]
+    chosen = []
+    for name in platforms:
+        match = [t for t in TARGETS if name in (t.name, t.fmi2)]
+        if not match:
+            raise InputError(field, f"no platform {name!r} (have: "
+                                          f"{', '.join(dict.fromkeys(n for t in TARGETS for n in (t.fmi2, t.name)))})")
+        chosen += [t for t in match if t not in chosen]
+    if not chosen:
+        raise InputError(field, "name at least one platform")
+    missing = [t for t in chosen if t not in buildable()]
+    if missing:
+        raise InputError(field, f"{_folders(missing)}: no compiler here builds for it; {CROSS_HINT}")
+    return [t for t in TARGETS if t in chosen]
+
+
+def platforms_note() -> str | None:
+    """One line naming the platforms a default build leaves out here and how to get them (None: none left out)."""
+    missing = [t for t in TARGETS if t not in buildable()]
+    if not missing:
+        return None
+    return (f"binaries for {_folders(buildable()) or 'no platform'} only; {_folders(missing)} left out: "
+            f"{CROSS_HINT} builds them all")
+
+
+def _run(cmd: list[str]) -> subprocess.Popen:
+    try:
+        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    except FileNotFoundError:
+        raise BuildError(f"no C compiler {cmd[0]!r} on PATH: a native FMU is compiled from C (install gcc or "
+                         "clang)") from None
+
+
+def compile_command(compiler: list[str], target: Target, sources: Path, files: list[str], out: Path) -> list[str]:
+    """The command line that compiles ``files`` into ``target``'s shared library ``out``."""
+    cmd = [*compiler, "-shared", *CFLAGS, "-I", str(sources), "-o", str(out), *(str(sources / f) for f in files)]
+    if _is_zig(compiler):
+        cmd.append("-s")  # no debug information: a tenth of the size
+    if target.fmi2 == "win64":
+        return cmd + ([] if _is_zig(compiler) else ["-static-libgcc"])
+    return cmd + (["-fPIC"] if target.suffix == ".so" else []) + ["-lm"]
+
+
+def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, identifier: str,
+                     fmi: int = 2) -> list[Path]:
+    """Compile the C files for each target into ``binaries/<folder>/<identifier><suffix>``.
+
+    The folder is the target's FMI 2.0 folder, or with ``fmi=3`` its FMI 3.0
+    platform tuple.
+
+    The targets compile side by side, each in a scratch folder (a Windows link
+    leaves a .pdb and an import library beside the DLL, which the FMU does not
+    need); the two macOS targets become one universal binary.
+
+    Raises
+    ------
+    BuildError
+        A compiler is missing or failed (its output attached).
+    """
+    jobs = []
+    with tempfile.TemporaryDirectory(prefix="grubler_cc_") as tmp:
+        for t in targets:
+            compiler = compiler_for(t)
+            if compiler is None:
+                raise BuildError(f"{t.fmi2}: no compiler here builds for it; {CROSS_HINT}")
+            out = Path(tmp) / t.name / f"{identifier}{t.suffix}"
+            out.parent.mkdir()
+            jobs.append((t, compiler, out, _run(compile_command(compiler, t, sources, files, out))))
+        failed = []
+        for t, compiler, out, proc in jobs:
+            log = proc.communicate()[0]
+            if proc.returncode != 0:
+                failed.append(f"{'zig cc -target ' + t.zig if _is_zig(compiler) else compiler[0]} failed for "
+                              f"{t.name}:\n{log}")
+        if failed:
+            raise BuildError("\n".join(failed))
+        written = []
+        folder_of = (lambda t: t.fmi2) if fmi == 2 else (lambda t: t.name)
+        for folder in dict.fromkeys(folder_of(t) for t, *_ in jobs):
+            parts = [out for t, _, out, _ in jobs if folder_of(t) == folder]
+            dest = binaries / folder / parts[0].name
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            if len(parts) > 1:
+                dest.write_bytes(universal_binary([p.read_bytes() for p in parts]))
+            else:
+                shutil.copyfile(parts[0], dest)
+            written.append(dest)
+    return written
+
+
+def universal_binary(slices: list[bytes]) -> bytes:
+    """One Mach-O universal ("fat") file of thin Mach-O libraries, as Apple's lipo makes it.
+
+    A fat header (big-endian: magic, count; per slice its CPU type and subtype
+    from the slice's own header, offset, size, alignment as a power of two),
+    then each slice at a 16 KiB boundary: macOS on Intel and on Apple silicon
+    loads its own slice from the one darwin64 file.
+    """
+    align = 14
+    header = struct.pack(">II", 0xCAFEBABE, len(slices))
+    offset = (len(header) + 20 * len(slices) + (1 << align) - 1) >> align << align
+    entries, body = b"", b""
+    for data in slices:
+        magic, cputype, cpusubtype = struct.unpack_from("<IiI", data)
+        if magic != 0xFEEDFACF:
+            raise BuildError("a macOS binary is not a 64-bit Mach-O file")
+        entries += struct.pack(">iIIII", cputype, cpusubtype, offset + len(body), len(data), align)
+        body += data + b"\0" * (-len(data) % (1 << align))
+    head = header + entries
+    return head + b"\0" * (offset - len(head)) + body
+
+
+def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path:
     """Build a native FMU of ``spec`` at ``dest`` (a ``.fmu`` path).
 
     Parameters
     ----------
     spec : ModelSpec
     dest : path
-    win64 : bool, optional
-        Also cross-compile ``binaries/win64`` (default: when MinGW-w64 is installed).
-        On Windows the binary is ``win64`` anyway: with MinGW's ``gcc`` if on
-        PATH, else with Visual Studio through fmpy's CMake project.
+    platforms : str or list of str, optional
+        The binaries to ship, by FMI 2.0 folder (``linux64``, ``win64``,
+        ``darwin64``, ``aarch64-linux``) or FMI 3.0 platform tuple (default:
+        every one this machine can build; :func:`platforms_note` names the
+        others).  With the ``cross`` extra (zig) that is all of them; without
+        it, ``cc`` builds this machine's own and MinGW-w64 win64.  On Windows
+        without zig the binary is ``win64``: with MinGW's ``gcc`` if on PATH,
+        else with Visual Studio through fmpy's CMake project.
     fmi : {2, 3}
         The FMI version of the co-simulation interface: the same model behind
         the FMI 2.0 or the FMI 3.0 adapter.
@@ -151,13 +348,16 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None, fmi: int =
     Returns
     -------
     Path
+
+    Raises
+    ------
+    InputError
+        ``platforms`` names an unknown platform or one no compiler here builds for.
+    BuildError
+        A compiler failed.
     """
     dest = Path(dest)
-    if win64 is None:
-        win64 = cross_compiler() is not None
-    if sys.platform.startswith("win") and not shutil.which("gcc") and spec.defines.get(DIRECTIONAL):
-        # Visual Studio's C has no C99 complex arithmetic: no directional derivatives
-        spec = replace(spec, defines={**spec.defines, DIRECTIONAL: 0})
+    targets = select_targets(platforms)
     with tempfile.TemporaryDirectory(prefix="grubler_native_") as tmp:
         root = Path(tmp)
         files = stage_sources(spec, root / "sources", fmi)
@@ -167,28 +367,15 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None, fmi: int =
         else:
             (root / "modelDescription.xml").write_bytes(model_description(spec, files))
         name, src = spec.identifier, root / "sources"
-        if sys.platform.startswith("linux"):
-            compile_binary(src, files, root / "binaries" / "linux64" / f"{name}.so")
-        elif sys.platform == "darwin":
-            compile_binary(src, files, root / "binaries" / "darwin64" / f"{name}.dylib")
-        elif sys.platform.startswith("win"):
-            if shutil.which("gcc"):  # MinGW-w64 on PATH
-                compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", "gcc", windows=True)
-            else:  # Visual Studio, through fmpy's CMake project
-                try:
-                    from fmpy.build import build_platform_binary
-                except ImportError:  # fmpy before 0.3.26
-                    raise BuildError("a win64 binary without MinGW-w64 gcc on PATH is built by fmpy.build, which "
-                                     "needs fmpy 0.3.26 or later (and numpy 2.1.3 or later)") from None
-                build_platform_binary(root)
-        if win64 and not sys.platform.startswith("win"):
-            compiler = cross_compiler()
-            if compiler is None:
-                raise BuildError(f"win64 binaries need the MinGW-w64 cross compiler ({MINGW}); Debian/Ubuntu: "
-                                 "apt-get install gcc-mingw-w64-x86-64")
-            compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", compiler, windows=True)
-        if fmi == 3:
-            fmi3_binary_folders(root / "binaries")
+        native_windows = [t for t in targets if compiler_for(t) is None]  # Windows' own, without zig or gcc
+        if native_windows:  # Visual Studio, through fmpy's CMake project
+            try:
+                from fmpy.build import build_platform_binary
+            except ImportError:  # fmpy before 0.3.26
+                raise BuildError("a win64 binary without MinGW-w64 gcc on PATH is built by fmpy.build, which "
+                                 "needs fmpy 0.3.26 or later (and numpy 2.1.3 or later)") from None
+            build_platform_binary(root)
+        compile_binaries(src, files, [t for t in targets if t not in native_windows], root / "binaries", name, fmi)
         dest.parent.mkdir(parents=True, exist_ok=True)
         partial = dest.with_name(dest.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
@@ -199,21 +386,6 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None, fmi: int =
     return dest
 
 
-def fmi3_binary_folders(binaries: Path) -> None:
-    """Rename FMI 2.0's binary folders (``linux64``, ...) to FMI 3.0's (``x86_64-linux``, ...)."""
-    import platform
-
-    # the folder compiled by this machine's own cc holds its own architecture
-    native = "darwin64" if sys.platform == "darwin" else "linux64"
-    arm = platform.machine().lower() in ("arm64", "aarch64")
-    for folder in list(binaries.iterdir()):
-        name = FMI3_PLATFORM.get(folder.name, folder.name)
-        if folder.name == native and arm:
-            name = name.replace("x86_64", "aarch64")
-        if name != folder.name:
-            folder.rename(binaries / name)
-
-
 def identifier_for(path: Path) -> str:
     """A modelIdentifier (a C identifier) from an FMU's file name."""
     ident = re.sub(r"\W", "_", Path(path).stem)
@@ -222,7 +394,7 @@ def identifier_for(path: Path) -> str:
     return ident
 
 
-def export(scene, dest: Path | None = None, win64: bool | None = None, field: str = "output", fmi: int = 2) -> Path:
+def export(scene, dest: Path | None = None, platforms=None, field: str = "output", fmi: int = 2) -> Path:
     """Export a scene as a native mechanism FMU whose parameters default to the scene's values.
 
     Parameters
@@ -231,6 +403,8 @@ def export(scene, dest: Path | None = None, win64: bool | None = None, field: st
         A scene, a preset name or a scene TOML path.
     dest : path, optional
         The ``.fmu`` to write (default: ``<scene name>.fmu`` in the working folder).
+    platforms : str or list of str, optional
+        The binaries to ship (:func:`build_fmu`; default: every one this machine can build).
     field : str
         The name a refused ``dest`` is reported under (the CLI's option).
     fmi : {2, 3}
@@ -246,7 +420,7 @@ def export(scene, dest: Path | None = None, win64: bool | None = None, field: st
     # a scene that cannot start is refused as simulate refuses it (the loop that
     # does not close, a penalty closure without inertia), not found out by the importer
     Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)
-    return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, win64, fmi)
+    return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, platforms, fmi)
 
 
 def scene_fmu(scene: Scene, fmu_dir) -> tuple:

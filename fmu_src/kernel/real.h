@@ -20,10 +20,25 @@
 #ifdef GRB_COMPLEX_STEP
 #include <complex.h>
 typedef double complex real;
+/* cos, sin and sqrt of a complex number from the real functions (C99's own
+ * formulas: the same values to rounding), not ccos, csin, csqrt from the C
+ * library: wine's C runtime has none, and a binary that needs only the
+ * C89 maths loads wherever it is copied */
+static inline real grb_ccos(real z) { return cos(creal(z)) * cosh(cimag(z)) - I * (sin(creal(z)) * sinh(cimag(z))); }
+static inline real grb_csin(real z) { return sin(creal(z)) * cosh(cimag(z)) + I * (cos(creal(z)) * sinh(cimag(z))); }
+/* the principal root, on the side of the cut the imaginary part's sign gives
+ * (|z| without hypot, whose glibc symbol is from 2.35: overflow as the real
+ * path's own squares overflow) */
+static inline real grb_csqrt(real z) {
+    double a = creal(z), b = cimag(z), t;
+    if (a == 0.0 && b == 0.0) return z;
+    t = sqrt(0.5 * (fabs(a) + sqrt(a * a + b * b)));
+    return a >= 0.0 ? t + I * (0.5 * b / t) : 0.5 * fabs(b) / t + I * copysign(t, b);
+}
 #define RE(x) creal(x)
-#define RCOS(x) ccos(x)
-#define RSIN(x) csin(x)
-#define RSQRT(x) csqrt(x)
+#define RCOS(x) grb_ccos(x)
+#define RSIN(x) grb_csin(x)
+#define RSQRT(x) grb_csqrt(x)
 #define GRB(name) grb_cs_##name
 #else
 typedef double real;

@@ -19,7 +19,8 @@
 #include "fmi2_model.h"
 #include "grb_scene.h"
 #include "grubler.h"
-#if MODEL_DIRECTIONAL_DERIVATIVE
+#include "complex_step.h"
+#if MODEL_DIRECTIONAL_DERIVATIVE && GRB_HAVE_COMPLEX
 #include <complex.h>
 
 #include "grubler_cs.h"  /* the kernel over complex numbers: exact directional derivatives */
@@ -480,7 +481,7 @@ enum { ROW_LAM = 3, ROW_NORMAL = 4 };
         }                                                                                                      \
     }
 CLOSURE_FORCES(closure_forces, double)
-#if MODEL_DIRECTIONAL_DERIVATIVE
+#if MODEL_DIRECTIONAL_DERIVATIVE && GRB_HAVE_COMPLEX
 CLOSURE_FORCES(closure_forces_cs, double complex)
 #endif
 #endif
@@ -603,31 +604,22 @@ fmi2Status model_do_step(grb_instance *inst, double t_now, double h) {
 /* ---- directional derivatives ------------------------------------------------- */
 
 #if MODEL_DIRECTIONAL_DERIVATIVE
+#if GRB_HAVE_COMPLEX
 /* Complex step: any tiny h gives the exact slope (kernel/real.h). */
 #define CS_STEP 1e-30
 
-/* d(outputs)/d(motor_torque, load_torque) along the seed: the kernel's
+/* The slope of every output along the efforts' direction seed: the kernel's
  * observations compiled over complex numbers (grb_cs_observe_at, the same
  * equations grb_observe runs) at the present state, with the efforts moved by
  * i h times the seed, and the other closures' forces from its multipliers as
  * model_compute takes them; the imaginary parts over h are the exact
- * derivatives.  The drive joint's angle and speed are states: zero. */
-fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
-                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
-                                        fmi2Real dv_unknown[]) {
+ * derivatives. */
+static int output_slopes(grb_instance *inst, const double seed[2 + NA], double *slope) {
     mech *mm = (mech *)inst->model;
     const double *p = inst->p, *y = p + P_Y;
     double complex *cwork = (double complex *)((char *)inst->model + complex_offset());
     double complex *cy = cwork + grb_work_size(N, NC), *cout = cy + NS, efforts[2];
-    double seed[2 + NA];  /* motor_torque, load_torque, then each actuator's force */
-    size_t k;
     int i, st;
-    for (i = 0; i < 2 + NA; i++) seed[i] = 0.0;
-    for (k = 0; k < n_known; k++) {
-        int slot = model_variables[known[k] - 1].slot;
-        seed[slot == SLOT_MOTOR_TORQUE ? 0 : slot == SLOT_LOAD_TORQUE ? 1 : 2 + (slot - SLOT_ACTUATOR_FORCE)] +=
-            dv_known[k];
-    }
     for (i = 0; i < NS; i++) cy[i] = y[i];
     efforts[0] = p[SLOT_MOTOR_TORQUE] + I * (CS_STEP * seed[0]);
     efforts[1] = p[SLOT_LOAD_TORQUE] + I * (CS_STEP * seed[1]);
@@ -636,16 +628,80 @@ fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueRefer
         double complex forces[NA];
         for (i = 0; i < NA; i++) forces[i] = p[SLOT_ACTUATOR_FORCE + i] + I * (CS_STEP * seed[2 + i]);
         st = grb_cs_set_actuator_forces(&mm->m, cwork, forces);
-        if (st != GRB_OK) return fmi2Error;
+        if (st != GRB_OK) return st;
     }
 #endif
     st = grb_cs_observe_at(&mm->m, mm->s.method, cy, efforts, 1, cwork, cout);
-    cout[N_OBSERVED] = cout[N_OBSERVED + 1] = 0.0;  /* drive_angle, drive_speed */
+    cout[N_OBSERVED] = cout[N_OBSERVED + 1] = 0.0;  /* drive_angle, drive_speed: states */
     for (i = 0; i < 2 * NA; i++) cout[OUT_ACTUATORS + i] = 0.0;  /* the actuators' lengths and rates: states */
 #if N_CLOSURES > 1
     closure_forces_cs(mm, cwork, cout + N_OBSERVED + 2);
 #endif
-    for (k = 0; k < n_unknown; k++) dv_unknown[k] = cimag(cout[model_variables[unknown[k] - 1].slot]) / CS_STEP;
+    for (i = 0; i < MODEL_N_OUTPUTS; i++) slope[i] = cimag(cout[i]) / CS_STEP;
+    return st;
+}
+#else
+/* Without C99 complex arithmetic (Visual Studio's C): at a fixed state every
+ * output is affine in the efforts, since they enter only the right-hand side
+ * of the forward dynamics' linear solve, whose matrix, pivots and dropped
+ * closure directions depend on the state alone, and the reactions, forces and
+ * power are linear in its solution.  So two evaluations a step s apart differ
+ * by s times the slope; with s = 2^100, the rest of each output (gravity, the
+ * present efforts' share) rounds away against the moved one and the
+ * difference over s carries the rounding of one evaluation, as the complex
+ * step's imaginary part does.  The scratch that holds the complex workspace
+ * holds the real one and both evaluations' outputs. */
+static int output_slopes(grb_instance *inst, const double seed[2 + NA], double *slope) {
+    mech *mm = (mech *)inst->model;
+    const double *p = inst->p, *y = p + P_Y;
+    double *work = (double *)((char *)inst->model + complex_offset());
+    double *at = work + grb_work_size(N, NC), *moved = at + MODEL_N_OUTPUTS, s = ldexp(1.0, 100);
+    int i, st, moved_st;
+#if N_ACTUATORS > 0
+    double forces[NA];
+    st = grb_set_actuator_forces(&mm->m, work, p + SLOT_ACTUATOR_FORCE);
+    if (st != GRB_OK) return st;
+#endif
+    st = grb_observe(&mm->m, mm->s.method, y, p[SLOT_MOTOR_TORQUE], p[SLOT_LOAD_TORQUE], 1, work, at);
+#if N_CLOSURES > 1
+    closure_forces(mm, work, at + N_OBSERVED + 2);
+#endif
+#if N_ACTUATORS > 0
+    for (i = 0; i < NA; i++) forces[i] = p[SLOT_ACTUATOR_FORCE + i] + s * seed[2 + i];
+    moved_st = grb_set_actuator_forces(&mm->m, work, forces);
+    if (moved_st != GRB_OK) return moved_st;
+#endif
+    moved_st = grb_observe(&mm->m, mm->s.method, y, p[SLOT_MOTOR_TORQUE] + s * seed[0],
+                           p[SLOT_LOAD_TORQUE] + s * seed[1], 1, work, moved);
+#if N_CLOSURES > 1
+    closure_forces(mm, work, moved + N_OBSERVED + 2);
+#endif
+    /* states: the drive joint's angle and speed, the actuators' lengths and rates */
+    at[N_OBSERVED] = at[N_OBSERVED + 1] = moved[N_OBSERVED] = moved[N_OBSERVED + 1] = 0.0;
+    for (i = 0; i < 2 * NA; i++) at[OUT_ACTUATORS + i] = moved[OUT_ACTUATORS + i] = 0.0;
+    for (i = 0; i < MODEL_N_OUTPUTS; i++) slope[i] = (moved[i] - at[i]) / s;
+    return st != GRB_OK ? st : moved_st;
+}
+#endif
+
+/* d(outputs)/d(motor_torque, load_torque, actuator forces) along the seed
+ * (output_slopes); the drive joint's angle and speed and the actuators' lengths
+ * and rates are states, with slope zero. */
+fmi2Status model_directional_derivative(grb_instance *inst, const fmi2ValueReference unknown[], size_t n_unknown,
+                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[]) {
+    const double *p = inst->p;
+    double seed[2 + NA], slope[MODEL_N_OUTPUTS];  /* motor_torque, load_torque, then each actuator's force */
+    size_t k;
+    int i, st;
+    for (i = 0; i < 2 + NA; i++) seed[i] = 0.0;
+    for (k = 0; k < n_known; k++) {
+        int slot = model_variables[known[k] - 1].slot;
+        seed[slot == SLOT_MOTOR_TORQUE ? 0 : slot == SLOT_LOAD_TORQUE ? 1 : 2 + (slot - SLOT_ACTUATOR_FORCE)] +=
+            dv_known[k];
+    }
+    st = output_slopes(inst, seed, slope);
+    for (k = 0; k < n_unknown; k++) dv_unknown[k] = slope[model_variables[unknown[k] - 1].slot];
     if (st != GRB_OK) {
         grb_log(inst, fmi2Warning, "directional derivative at t = %.12g s: %s; it reads as NaN", p[P_T],
                 status_text(st));

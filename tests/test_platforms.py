@@ -1,0 +1,276 @@
+"""Native FMUs for every platform from one Linux build, and sources any C compiler takes.
+
+Two halves:
+
+* ``sources/`` compiles where C99 complex arithmetic is missing (Visual Studio's
+  C, which ``fmpy compile`` uses on Windows): built here as an importer would,
+  with ``cc`` and ``-D__STDC_NO_COMPLEX__`` (and strict ISO C99 with no
+  variable-length arrays), its directional derivatives are those of the normal
+  build (complex step) to rounding.
+* With the ``cross`` extra (zig), every binary the FMU carries is checked as a
+  file: what it imports (ELF: the C library and its maths at glibc 2.17
+  versions or older; PE: KERNEL32 and the C runtime DLLs; Mach-O: libSystem)
+  and that it exports the fmi2 functions and nothing else; and the win64 and
+  aarch64-linux ones run in tests/fmi_host.c (cross-compiled) under wine and
+  qemu-user, matching the linux64 binary.  The file formats are read here
+  (tests/binaries.py), not by the tools that wrote them.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import grubler
+from grubler.fmi.build import TARGETS, build_fmu, export, zig_compiler
+from grubler.fmi.mechanism import fmu_parameters
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+from fmi_child import instance  # noqa: E402
+
+SCENES = ["thesis-fourbar", "slider-crank", "stephenson-iii", "watt-ii"]
+# (scene, closure method): a four-bar both ways, a slider, two loops of each kind
+CASES = [("thesis-fourbar", "exact"), ("thesis-fourbar", "penalty"), ("slider-crank", "exact"),
+         ("stephenson-iii", "exact"), ("watt-ii", "exact")]
+STRICT = ["-std=c99", "-pedantic", "-Werror", "-Wall", "-Wvla", "-Wno-unused-function"]
+
+
+def importer_build(unzipped: Path, *flags: str) -> Path:
+    """Compile the FMU's sources/ (the files its model description lists) with cc into binaries/linux64."""
+    from fmpy import read_model_description
+
+    md = read_model_description(str(unzipped))
+    ident, src = md.coSimulation.modelIdentifier, unzipped / "sources"
+    out = unzipped / "binaries" / "linux64" / f"{ident}.so"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run(["cc", "-shared", "-fPIC", "-O2", "-fvisibility=hidden", *flags, "-I", str(src), "-o", str(out),
+                    *(str(src / f) for f in md.buildConfigurations[0].sourceFileSets[0].sourceFiles), "-lm"], check=True,
+                   capture_output=True, text=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def two_builds(tmp_path_factory):
+    """Per scene: the FMU's sources compiled with and without C99 complex, unzipped side by side."""
+    out = {}
+    for name in SCENES:
+        d = tmp_path_factory.mktemp(name)
+        fmu = export(name, d / "M.fmu", platforms="linux64")
+        pair = {}
+        for kind, flags in (("complex", []), ("no_complex", ["-D__STDC_NO_COMPLEX__"])):
+            zipfile.ZipFile(fmu).extractall(d / kind)
+            try:
+                pair[kind] = importer_build(d / kind, *STRICT, *flags)
+            except subprocess.CalledProcessError as exc:
+                pytest.fail(f"{name} sources ({kind}) do not compile as strict C99:\n{exc.stderr}")
+        out[name] = pair
+    return out
+
+
+@pytest.mark.parametrize("name", ["DCMotor", "HydraulicCylinder", "PneumaticCylinder"])
+def test_every_native_fmus_sources_are_strict_c99_without_complex(name, tmp_path):
+    # (the mechanism's: two_builds) what Visual Studio's C lacks: complex arithmetic, arrays sized at run time
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    fmu = build_fmu.build(tmp_path, [name], "linux64")[0]
+    zipfile.ZipFile(fmu).extractall(tmp_path / "u")
+    try:
+        importer_build(tmp_path / "u", *STRICT, "-D__STDC_NO_COMPLEX__")
+    except subprocess.CalledProcessError as exc:
+        pytest.fail(f"{name} sources do not compile as strict C99 without complex:\n{exc.stderr}")
+
+
+def test_without_complex_the_complex_step_twins_are_left_out(two_builds):
+    # the fallback is what the other build measures: no grb_cs_* code in it at all
+    for pair in two_builds.values():
+        symbols = {k: subprocess.run(["nm", str(so)], capture_output=True, text=True, check=True).stdout
+                   for k, so in pair.items()}
+        assert "grb_cs_observe_at" in symbols["complex"] and "grb_cs_" not in symbols["no_complex"]
+
+
+@pytest.mark.parametrize("steps", [0, 150])
+@pytest.mark.parametrize("name, method", CASES)
+def test_without_complex_the_directional_derivatives_are_the_same(two_builds, name, method, steps):
+    from fmpy import read_model_description
+
+    scene = grubler.load_scene(name)
+    params = {**fmu_parameters(scene), "method": method}
+    params["load_joint"] = params["drive_joint"]  # an effort on each input
+    slopes = {}
+    for kind, so in two_builds[name].items():
+        unzipped = so.parents[2]
+        md = read_model_description(str(unzipped))
+        messages: list[str] = []
+        s = instance(md, str(unzipped), kind, messages, params)
+        assert s.init_status == "ok", messages
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        outputs = [vr[v.name] for v in md.modelVariables if v.causality == "output"]
+        s.setReal([vr["motor_torque"], vr["load_torque"]], [0.7, -0.2])
+        for k in range(steps):
+            s.doStep(k * 1e-3, 1e-3)
+        slopes[kind] = np.array([s.getDirectionalDerivative(outputs, [vr[i]], [1.0])
+                                 for i in ("motor_torque", "load_torque")])
+        s.terminate()
+        s.freeInstance()
+    exact, fallback = slopes["complex"], slopes["no_complex"]
+    scale = np.abs(exact).max(axis=1, keepdims=True)
+    assert np.all(scale > 1e-3)
+    # both carry the rounding of one evaluation of the same equations: far below
+    # what a finite difference of small step would give (1e-8 relative or worse)
+    np.testing.assert_allclose(fallback, exact, rtol=0, atol=1e-12 * scale.max())
+    assert np.array_equal(exact == 0.0, fallback == 0.0)  # the states' slopes stay exactly zero
+
+
+# -- without the cross extra ---------------------------------------------------------
+
+def test_without_zig_the_host_builds_its_own_and_one_line_names_the_rest(monkeypatch):
+    from grubler.errors import InputError
+    from grubler.fmi import build
+
+    monkeypatch.setattr(build, "zig_compiler", lambda: None)
+    monkeypatch.setattr(build, "cross_compiler", lambda: None)  # nor MinGW-w64
+    assert build.buildable() == [build.host_target()]
+    note = build.platforms_note()
+    assert note is not None and "\n" not in note and "pip install 'grubler[cross]'" in note
+    assert all(folder in note for folder in ("win64", "darwin64", "aarch64-linux"))
+    with pytest.raises(InputError, match=r"darwin64: no compiler here builds for it; pip install 'grubler\[cross\]'"):
+        build.select_targets("darwin64")
+
+
+def test_platforms_are_named_by_either_standards_names():
+    from grubler.errors import InputError
+    from grubler.fmi.build import select_targets
+
+    host = select_targets(None)[0]
+    assert select_targets(host.fmi2) == select_targets([host.name]) == [t for t in TARGETS if t.fmi2 == host.fmi2]
+    with pytest.raises(InputError, match="no platform 'macos'"):
+        select_targets("macos")
+
+
+# -- with it: every platform ---------------------------------------------------------
+
+needs_zig = pytest.mark.skipif(zig_compiler() is None,
+                               reason="cross-building needs the cross extra: pip install 'grubler[cross]' (zig)")
+NATIVE = ["Mechanism", "DCMotor", "HydraulicCylinder", "PneumaticCylinder"]
+FOLDERS = list(dict.fromkeys(t.fmi2 for t in TARGETS))
+GLIBC_OLDEST = (2, 17)
+
+
+@pytest.fixture(scope="module")
+def cross_built(tmp_path_factory):
+    """build_fmu.py's native FMUs, every platform, unzipped."""
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+    from fmpy import read_model_description
+
+    out = {}
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), NATIVE):
+        d = tmp_path_factory.mktemp(path.stem)
+        zipfile.ZipFile(path).extractall(d)
+        out[path.stem] = (d, read_model_description(str(path)))
+    return out
+
+
+def library(cross_built, name: str, folder: str) -> Path:
+    suffix = next(t.suffix for t in TARGETS if t.fmi2 == folder)
+    return cross_built[name][0] / "binaries" / folder / f"{name}{suffix}"
+
+
+@needs_zig
+@pytest.mark.parametrize("folder", FOLDERS)
+@pytest.mark.parametrize("name", NATIVE)
+def test_each_binary_needs_only_the_c_library_and_exports_only_fmi2(cross_built, name, folder):
+    from binaries import read
+
+    slices = read(library(cross_built, name, folder).read_bytes())
+    archs = sorted(arch for arch, _ in slices)
+    assert archs == sorted(t.name.split("-")[0] for t in TARGETS if t.fmi2 == folder)  # darwin64: both
+    for arch, link in slices:
+        exports = set(link.exports) - {"_mh_dylib_header", "__dso_handle"}  # every Mach-O dylib's own
+        assert "fmi2DoStep" in exports and all(e.startswith("fmi2") for e in exports), (arch, sorted(exports))
+        if folder in ("linux64", "aarch64-linux"):
+            assert set(link.libraries) <= {"libc.so.6", "libm.so.6"}, link.libraries
+            for symbol, version in link.imports.items():
+                assert version.startswith("GLIBC_"), (symbol, version)
+                assert tuple(int(x) for x in version[6:].split(".")[:2]) <= GLIBC_OLDEST, (symbol, version)
+        elif folder == "win64":
+            dlls = {d.lower() for d in link.libraries}
+            assert "kernel32.dll" in dlls
+            assert all(d in ("kernel32.dll", "msvcrt.dll", "ucrtbase.dll") or d.startswith("api-ms-win-crt-")
+                       for d in dlls), dlls
+        else:
+            assert link.libraries == ["/usr/lib/libSystem.B.dylib"] and link.min_os <= (11, 0), (arch, link)
+
+
+def host_build(tmp_path: Path, target: str) -> Path:
+    """tests/fmi_host.c cross-compiled for a zig target."""
+    from grubler.fmi.build import fmi_headers_dir
+
+    exe = tmp_path / f"fmi_host_{target}{'.exe' if 'windows' in target else ''}"
+    subprocess.run([*zig_compiler(), "-target", target, "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I",
+                    str(fmi_headers_dir()), str(HERE / "fmi_host.c"), "-o", str(exe),
+                    *([] if "windows" in target else ["-ldl"])], check=True, capture_output=True)
+    return exe
+
+
+def agree_with_linux64(cross_built, name, folder, wrapper, exe, env, tmp_path):
+    """The script of test_native_fmu (100 steps, outputs read after each) and each output's slope along
+    each input at the end, through the C host on ``folder``'s binary and on linux64's: the same to rounding."""
+    from test_native_fmu import MATCH, SCRIPTS, Host
+
+    d, md = cross_built[name]
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    native = Host(host_build(tmp_path, "x86_64-linux-gnu.2.17"), library(cross_built, name, "linux64"), md.guid, vr)
+    other = Host(exe, library(cross_built, name, folder), md.guid, vr, wrapper=wrapper)
+    script = native.start(md=md) + SCRIPTS[name](native)
+    if md.coSimulation.providesDirectionalDerivative:
+        outputs = " ".join(str(v.valueReference) for v in md.modelVariables if v.causality == "output")
+        script += [f"ddr {vr[i]} {outputs}" for i in ("motor_torque", "load_torque")]
+    ours, theirs = native.run(script), other.run(script, env=env)
+    assert ours.rows().shape[0] == 100
+    np.testing.assert_allclose(theirs.rows(), ours.rows(), rtol=0, atol=MATCH)
+    slopes = [np.array(t.values(k), float) for t in (ours, theirs) for k in range(len(t.results))
+              if t.results[k][0] == "ddr"]
+    for a, b in zip(slopes[:len(slopes) // 2], slopes[len(slopes) // 2:]):
+        np.testing.assert_allclose(b, a, rtol=0, atol=MATCH * np.abs(a).max())
+
+
+@pytest.fixture(scope="module")
+def wine_prefix(tmp_path_factory):
+    """One wine prefix for the module's runs (making one takes seconds)."""
+    wine = shutil.which("wine") or shutil.which("wine64")
+    if wine is None:
+        pytest.skip("running win64 binaries here needs wine (Debian: apt-get install wine64)")
+    d = tmp_path_factory.mktemp("wine")
+    return wine, {"WINEDEBUG": "-all", "WINEPREFIX": str(d / "prefix"), "HOME": str(d), "PATH": "/usr/bin:/bin"}
+
+
+@needs_zig
+@pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
+def test_win64_binary_under_wine_agrees(cross_built, wine_prefix, name, tmp_path):
+    wine, env = wine_prefix
+    agree_with_linux64(cross_built, name, "win64", [wine], host_build(tmp_path, "x86_64-windows-gnu"), env, tmp_path)
+
+
+SYSROOT = Path("/usr/aarch64-linux-gnu")
+
+
+@needs_zig
+@pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
+def test_aarch64_linux_binary_under_qemu_agrees(cross_built, name, tmp_path):
+    qemu = shutil.which("qemu-aarch64") or shutil.which("qemu-aarch64-static")
+    if qemu is None or not (SYSROOT / "lib" / "ld-linux-aarch64.so.1").is_file():
+        pytest.skip("running aarch64 binaries here needs qemu-user and an aarch64 C library "
+                    "(Debian: apt-get install qemu-user libc6-arm64-cross)")
+    agree_with_linux64(cross_built, name, "aarch64-linux", [qemu, "-L", str(SYSROOT)],
+                       host_build(tmp_path, "aarch64-linux-gnu.2.17"), {}, tmp_path)
