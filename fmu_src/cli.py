@@ -272,6 +272,12 @@ def cmd_app(args) -> int:
 
 
 def cmd_export(args) -> int:
+    if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU around its FMUs
+        from grubler.system.container import export_system
+
+        path = export_system(args.scene, args.out, fmi_version=int(getattr(args, "fmi", 2) or 2), field="--out")
+        print(f"wrote {path}")
+        return 0
     from grubler.fmi.build import export
 
     path = export(args.scene, args.out, field="--out")
@@ -586,8 +592,11 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     ap.add_argument("--no-browser", action="store_true", help="print the URL without opening a browser")
     ap.set_defaults(func=cmd_app)
-    e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it)")
-    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
+    e = sub.add_parser("export", help="a native FMI 2.0 co-simulation FMU of a scene (no Python needed to run it), "
+                                      "or one FMU of a whole system (.ssd or .ssp)")
+    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values. Or a system "
+                                 "(.ssd, .ssp): its FMUs nested in fmpy's container FMU, stepped as `grubler cosim "
+                                 "--master jacobi` steps them")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.set_defaults(func=cmd_export)
     lin = sub.add_parser("linearize", help="linear state-space model about an operating point (python-control)")

@@ -160,13 +160,19 @@ def build_fmu(spec: ModelSpec, dest: Path, win64: bool | None = None) -> Path:
                 raise BuildError(f"win64 binaries need the MinGW-w64 cross compiler ({MINGW}); Debian/Ubuntu: "
                                  "apt-get install gcc-mingw-w64-x86-64")
             compile_binary(src, files, root / "binaries" / "win64" / f"{name}.dll", compiler, windows=True)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        partial = dest.with_name(dest.name + ".part")
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    z.write(path, path.relative_to(root).as_posix())
-        os.replace(partial, dest)  # an importer never sees half an FMU
+        pack_fmu(root, dest)
+    return dest
+
+
+def pack_fmu(root: Path, dest: Path) -> Path:
+    """Zip the folder ``root`` into the FMU ``dest``, written whole or not at all."""
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    partial = dest.with_name(dest.name + ".part")
+    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+        for path in sorted(root.rglob("*")):
+            if path.is_file():
+                z.write(path, path.relative_to(root).as_posix())
+    os.replace(partial, dest)  # an importer never sees half an FMU
     return dest
 
 

@@ -590,8 +590,14 @@ class UnpackedFMUs:
         self.close()
 
 
-def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: "UnpackedFMUs", cancel=None) -> CosimResult:
+def interfaces_of(system: System, unzipped: "UnpackedFMUs") -> dict[str, FmuInterface]:
+    """Every component's interface, its FMU unpacked in ``unzipped``, once the system is checked.
+
+    Raises
+    ------
+    SystemDescriptionError
+        Naming every problem :func:`check` finds, and every FMU that is missing or unreadable.
+    """
     interfaces = {}
     problems = []
     for name, comp in system.components.items():
@@ -613,6 +619,12 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     if problems:
         raise SystemDescriptionError(f"system {brief(system.name)}: cannot run, {len(problems)} "
                                      f"problem{'s' if len(problems) > 1 else ''}:\n  " + "\n  ".join(problems))
+    return interfaces
+
+
+def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
+         step_order, unzipped: "UnpackedFMUs", cancel=None) -> CosimResult:
+    interfaces = interfaces_of(system, unzipped)
     seq = order(system, interfaces)  # also what finds an algebraic loop
     warnings = step_warnings(step, time_scales(system, interfaces))
     chosen = step_order if step_order is not None else system.order
@@ -633,10 +645,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             raise SystemDescriptionError(f"record {r!r}: not an output of a component, nor a connected input")
         record_set.append(r)
 
-    # value slots: one per connected output
-    slot: dict[str, int] = {}
-    for c in system.connections:
-        slot.setdefault(c.start, len(slot))
+    slot = _slots(system)
     values = [0.0] * len(slot)
     units = {}
     columns: list[str] = []
@@ -646,28 +655,16 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     try:
         for name in seq:
             itf = interfaces[name]
-            inst = insts[name] = _Instance(name, itf, str(unzipped[itf.path]), t0)
-            _call(inst, "set parameters", lambda: inst.set_parameters(system.components[name].parameters), t0)
-            conn_out = [c.start_connector for c in system.connections if c.start_element == name]
-            conn_out = list(dict.fromkeys(conn_out))
             outs = [p for p in itf.ports.values() if p.causality == "output" and p.type == "Real"]
             rec = [p.name for p in outs] if record_set is None else [
                 r.split(".", 1)[1] for r in record_set if r.split(".", 1)[0] == name]
-            inputs = [(itf.ports[c.end_connector].vr, slot[c.start]) for c in system.connections
-                      if c.end_element == name]
-            inst.wire(inputs, [itf.ports[o].vr for o in conn_out], [itf.ports[o].vr for o in rec])
-            inst.out_slots = [slot[f"{name}.{o}"] for o in conn_out]
-            reads = list(dict.fromkeys(conn_out + rec))
+            reads = _set_up(insts, system, itf, name, unzipped, t0, slot, rec)
             for i, o in enumerate(reads):
                 if o in rec:
                     columns.append(f"{name}.{o}")
                     col_src.append((name, i))
                 units[f"{name}.{o}"] = system.components[name].units.get(o, itf.ports[o].unit)
-        for inst in insts.values():
-            _call(inst, "enter initialisation mode", inst.fmu.enterInitializationMode, t0)
-        _initialise(insts, seq, values, t0)
-        for inst in insts.values():
-            _call(inst, "exit initialisation mode", inst.fmu.exitInitializationMode, t0)
+        _initialise_all(insts, seq, values, t0)
 
         # connected inputs are recorded too: their value is the output feeding them
         for c in system.connections:
@@ -743,6 +740,58 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     finally:
         for inst in insts.values():
             inst.free()
+
+
+def _slots(system: System) -> dict[str, int]:
+    """One value slot per connected output, by ``component.output``."""
+    slot: dict[str, int] = {}
+    for c in system.connections:
+        slot.setdefault(c.start, len(slot))
+    return slot
+
+
+def _set_up(insts: dict[str, _Instance], system: System, itf: FmuInterface, name: str, unzipped: "UnpackedFMUs",
+            t0: float, slot: dict[str, int], recorded: list[str]) -> list[str]:
+    """Instantiate ``name`` into ``insts``, set its parameters and wire it; returns the outputs it reads.
+
+    The connected outputs come first in what it reads, then the rest of ``recorded``.
+    """
+    inst = insts[name] = _Instance(name, itf, str(unzipped[itf.path]), t0)  # in insts at once: freed on failure
+    _call(inst, "set parameters", lambda: inst.set_parameters(system.components[name].parameters), t0)
+    conn_out = list(dict.fromkeys(c.start_connector for c in system.connections if c.start_element == name))
+    inputs = [(itf.ports[c.end_connector].vr, slot[c.start]) for c in system.connections if c.end_element == name]
+    inst.wire(inputs, [itf.ports[o].vr for o in conn_out], [itf.ports[o].vr for o in recorded])
+    inst.out_slots = [slot[f"{name}.{o}"] for o in conn_out]
+    return list(dict.fromkeys(conn_out + recorded))
+
+
+def _initialise_all(insts: dict[str, _Instance], seq: list[str], values: list[float], t0: float) -> None:
+    """Initialisation mode from enter to exit, the coupled inputs settled in between."""
+    for inst in insts.values():
+        _call(inst, "enter initialisation mode", inst.fmu.enterInitializationMode, t0)
+    _initialise(insts, seq, values, t0)
+    for inst in insts.values():
+        _call(inst, "exit initialisation mode", inst.fmu.exitInitializationMode, t0)
+
+
+def initial_inputs(system: System, interfaces: dict[str, FmuInterface], unzipped: "UnpackedFMUs",
+                   t0: float = 0.0) -> dict[str, float]:
+    """The coupled inputs' values once initialisation settles, by ``component.input``: what a run starts from.
+
+    Every FMU is instantiated, initialised as :func:`run` does it, and freed.
+    """
+    seq = order(system, interfaces)
+    slot = _slots(system)
+    values = [0.0] * len(slot)
+    insts: dict[str, _Instance] = {}
+    try:
+        for name in seq:
+            _set_up(insts, system, interfaces[name], name, unzipped, t0, slot, [])
+        _initialise_all(insts, seq, values, t0)
+    finally:
+        for inst in insts.values():
+            inst.free()
+    return {c.end: values[slot[c.start]] for c in system.connections}
 
 
 def _initialise(insts: dict[str, _Instance], seq: list[str], values: list[float], t0: float) -> None:
