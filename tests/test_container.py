@@ -198,3 +198,23 @@ def test_a_system_that_cannot_be_exported_is_named(plant, tmp_path):
     assert not (tmp_path / "Bad.fmu").exists()
     with pytest.raises(ContainerError, match="fmi_version: must be 2 or 3"):
         export_system(ssd, tmp_path / "X.fmu", fmi_version=4)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="fmi/c/fmi2_wrapper.c logs through the importer's callback struct pointer, which FMI 2.0 "
+                          "(2.1.5, clarified in 2.0.5) makes valid during fmi2Instantiate only; fmpy's container "
+                          "passes a struct on its stack, so a nested native FMU's first message crashes the host")
+def test_a_nested_fmu_that_logs_reaches_the_host(plant, host, tmp_path):  # noqa: F811
+    from fmpy import read_model_description
+
+    s = ssp.System("hot", stop_time=0.01, step=STEP)  # the winding passes its maximum at once: a warning
+    s.add("motor", plant / "DCMotor.fmu", voltage=12.0, max_winding_temperature=25.0)
+    fmu = export_system(s, tmp_path / "Hot.fmu")
+    folder = tmp_path / "unzipped"
+    zipfile.ZipFile(fmu).extractall(folder)
+    md = read_model_description(str(fmu))
+    proc = subprocess.run([str(host), str(folder / "binaries" / "linux64" / "container_fmu.so"), md.guid,
+                           (folder / "resources").as_uri()], input="new 0 s\nsetup 0.0\nenter\nexit\nstep 0.0 0.001\n",
+                          capture_output=True, text=True, env={}, timeout=600)
+    assert proc.returncode == 0, f"the host died (exit {proc.returncode})"
+    assert "exceeds the datasheet's maximum" in proc.stdout
