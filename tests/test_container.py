@@ -218,3 +218,41 @@ def test_a_nested_fmu_that_logs_reaches_the_host(plant, host, tmp_path):  # noqa
                           capture_output=True, text=True, env={}, timeout=600)
     assert proc.returncode == 0, f"the host died (exit {proc.returncode})"
     assert "exceeds the datasheet's maximum" in proc.stdout
+
+
+FMPY_CHILD = """
+import os, sys
+import numpy as np
+from fmpy import simulate_fmu
+fmu, out, t_end, step, names = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5].split(",")
+res = simulate_fmu(fmu, stop_time=t_end, step_size=step, output_interval=step, output=names)
+np.savez(out, t=res["time"], **{n: res[n] for n in names})
+os._exit(0)  # a pythonfmu FMU may crash the interpreter's teardown (PythonFMU issue 228): the file is what counts
+"""
+
+
+def test_the_readmes_servo_exported_runs_in_fmpy_as_grubler_cosim_jacobi(tmp_path):
+    # the README's system as it is built today, controllers and all (five FMUs, String,
+    # Integer and Boolean parameters, a PID and an encoder sampling at 1 kHz)
+    import dataclasses
+
+    sys.path[:0] = [str(ROOT), str(ROOT / "examples")]
+    import build_fmu
+    import servo_fourbar
+    from grubler.system.servo import servo_system
+
+    d = tmp_path / "dist"
+    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    ssd = servo_system(dataclasses.replace(servo_fourbar.DESIGN, t_end=0.3), d, name="servo_fourbar").write(
+        d / "servo_fourbar.ssd")
+    fmu = tmp_path / "ServoFourbar.fmu"
+    proc = grubler("export", ssd, "-o", fmu)
+    assert proc.returncode == 0, proc.stderr
+    names = compared(ssd)
+    assert {"mechanism.drive_angle", "motor.current", "controller.u", "encoder.measured_position"} <= set(names)
+    out = tmp_path / "container.npz"
+    proc = subprocess.run([sys.executable, "-c", FMPY_CHILD, str(fmu), str(out), "0.3", str(STEP), ",".join(names)],
+                          capture_output=True, text=True, timeout=600)
+    assert out.exists(), proc.stderr[-3000:]
+    got = dict(np.load(out))
+    assert_matches(got, jacobi_run(ssd, tmp_path), names)
