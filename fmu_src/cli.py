@@ -276,7 +276,7 @@ def cmd_export(args) -> int:
         from grubler.system.container import export_system
 
         path = export_system(args.scene, args.out, fmi_version=int(getattr(args, "fmi", 2) or 2), field="--out")
-        print(f"wrote {path}")
+        print(f"wrote {path} (fmpy's container FMU: its FMUs coupled as `grubler cosim --master jacobi` couples them)")
         return 0
     from grubler.fmi.build import export
 

@@ -177,6 +177,12 @@ def test_what_the_exported_fmu_shows_and_how_its_engine_is_told(plant, tmp_path)
     assert float(by_name["motor.gear_ratio"].start) == 50.0 and by_name["motor.gear_ratio"].causality == "parameter"
     assert float(by_name["motor.voltage"].start) == 12.0 and by_name["motor.voltage"].causality == "input"
     assert "mechanism.motor_torque" not in by_name and "motor.shaft_speed" not in by_name
+    # the engine's binary only where every nested FMU has one (here: the motor and the mechanism as built)
+    names = zipfile.ZipFile(fmu).namelist()
+    nested = [{n.split("/")[3] for n in names if n.startswith(f"resources/{f}/binaries/")}
+              for f in ("DCMotor", "Mechanism")]
+    ours = {n.split("/")[1] for n in names if n.startswith("binaries/")}
+    assert "linux64" in ours and ours == set.intersection(*nested)
     config = json.loads(zipfile.ZipFile(fmu).read("resources/container.json"))
     assert {c["variableType"] for c in config["connections"]} == {"Float64"}  # never FMI 2's "Real"
     # the torque (which depends on the motor's speed now) is read before the speed is set

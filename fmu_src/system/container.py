@@ -66,13 +66,15 @@ CONTAINER_TYPES = {
     "String": ("String", "String", "String"),
 }
 
-# the engine's binaries in fmpy: fmpy's folder, the FMI 2 and the FMI 3 platform folder, the file
+# the engine's binaries in fmpy: its folder (the FMI 3 platform), the FMI 2 platform folder, the file
 BINARIES = (
-    ("x86_64-linux", "linux64", "x86_64-linux", "container_fmu.so"),
-    ("x86_64-windows", "win64", "x86_64-windows", "container_fmu.dll"),
-    ("x86_64-darwin", "darwin64", "x86_64-darwin", "container_fmu.dylib"),
-    ("aarch64-darwin", None, "aarch64-darwin", "container_fmu.dylib"),  # FMI 2 has one darwin64 folder
+    ("x86_64-linux", "linux64", "container_fmu.so"),
+    ("x86_64-windows", "win64", "container_fmu.dll"),
+    ("x86_64-darwin", "darwin64", "container_fmu.dylib"),
+    ("aarch64-darwin", None, "container_fmu.dylib"),  # FMI 2 has one darwin64 folder, given to x86_64
 )
+FMI2_PLATFORMS = {"x86_64-linux": "linux64", "x86_64-windows": "win64", "x86_64-darwin": "darwin64",
+                  "aarch64-darwin": "darwin64"}
 IDENTIFIER = "container_fmu"  # the engine's binary name, hence every container's model identifier
 
 
@@ -109,7 +111,7 @@ def engine() -> tuple[Path, str]:
         raise ContainerError("fmpy", "has no container FMU here: exporting a system needs fmpy 0.3.32 or later "
                                      "(pip install -U fmpy)") from None
     folder = Path(cf.__file__).parent / "binaries"
-    if not (folder / BINARIES[0][0] / BINARIES[0][3]).is_file() or not hasattr(cf, "__version__"):
+    if not (folder / BINARIES[0][0] / BINARIES[0][2]).is_file() or not hasattr(cf, "__version__"):
         raise ContainerError("fmpy", f"its container FMU binaries are missing from {brief(str(folder))}: "
                                      "exporting a system needs fmpy 0.3.32 or later from PyPI")
     return folder, cf.__version__
@@ -151,6 +153,20 @@ def _text(value, fmi_type: str) -> str:
     if fmi_type in ("Integer", "Enumeration"):
         return str(int(value))
     return str(value)
+
+
+def shared_platforms(resources: Path, folders: list[str]) -> set[str]:
+    """The platforms (FMI 3 names) on which every nested FMU has a binary: the container's, no others.
+
+    A container binary for a platform where a nested FMU has none would load
+    there and fail to instantiate it.
+    """
+    out = set()
+    for platform, fmi2 in FMI2_PLATFORMS.items():
+        if all((resources / f / "binaries" / fmi2).is_dir() or (resources / f / "binaries" / platform).is_dir()
+               for f in folders):
+            out.add(platform)
+    return out
 
 
 def connection_order(system: System, interfaces: dict[str, FmuInterface]) -> list:
@@ -329,7 +345,9 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     SystemDescriptionError
         A system that cannot run (every problem named, as ``grubler cosim`` names them).
     ContainerError
-        An fmpy without the container engine, a nested FMU it cannot nest.
+        An fmpy without the container engine, a nested FMU it cannot nest, FMUs
+        with no platform in common (the engine's binary goes only where every
+        nested FMU has one).
     """
     from grubler.fmi.build import check_destination, pack_fmu
 
@@ -366,11 +384,15 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
         (root / "resources" / "container.json").write_text(json.dumps(config, indent=1), encoding="utf-8")
         (root / "modelDescription.xml").write_bytes(
             model_description(system, interfaces, exposed, step, t0, t_end, token, fmi_version))
-        for there, fmi2_folder, fmi3_folder, library in BINARIES:
-            folder = fmi2_folder if fmi_version == 2 else fmi3_folder
-            if folder is not None:
+        platforms = shared_platforms(root / "resources", list(folders.values()))
+        if not platforms:
+            raise ContainerError(f"system {brief(system.name)}", "its FMUs have no binary for one same platform "
+                                 "(linux64, win64, darwin64): the container would load on none")
+        for platform, fmi2_folder, library in BINARIES:
+            folder = fmi2_folder if fmi_version == 2 else platform
+            if folder is not None and platform in platforms:
                 (root / "binaries" / folder).mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(binaries / there / library, root / "binaries" / folder / library)
+                shutil.copyfile(binaries / platform / library, root / "binaries" / folder / library)
         pack_fmu(root, dest)
     finally:
         remove_temp_dir(root)
