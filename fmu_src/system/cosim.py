@@ -706,8 +706,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         data = np.empty((n_rec, len(columns)))
         # the first row, after initialisation with the inputs consistent; then the C loop steps and records
         for name in seq:
-            insts[name].publish(values)
-            insts[name].pull(True)
+            insts[name].publish(values, True)
         seq_insts = [insts[n] for n in seq]
         column_fmu = [seq.index(c) if c else -1 for c, _ in col_src]
         times[0] = t0
@@ -857,5 +856,5 @@ def _last_message(inst: _Instance) -> str:
     return f": {inst.messages[-1]}" if inst.messages else ""
 
 
-__all__ = ["run", "UnpackedFMUs", "check", "order", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
+__all__ = ["run", "UnpackedFMUs", "check", "order", "interfaces_of", "initial_inputs", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
            "GAUSS_SEIDEL", "JACOBI", "MASTERS"]
