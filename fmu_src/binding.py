@@ -73,6 +73,29 @@ class TableauData(ctypes.Structure):
                 ("dense_d", POINTER(c_double))]
 
 
+class MasterFmu(ctypes.Structure):
+    """``grb_fmu`` (system/c/master.c): one FMU instance as the master's stepping loop drives it."""
+
+    _fields_ = [("instance", c_void_p), ("set_real", c_void_p), ("get_real", c_void_p), ("do_step", c_void_p),
+                ("n_in", c_size_t), ("in_vr", c_void_p), ("in_slot", c_void_p), ("in_buf", c_void_p),
+                ("n_conn", c_size_t), ("n_read", c_size_t), ("read_vr", c_void_p), ("read_buf", c_void_p),
+                ("out_slot", c_void_p), ("seconds", c_void_p)]
+
+
+class MasterRun(ctypes.Structure):
+    """``grb_run`` (system/c/master.c): the master, its clock, and where recorded rows go."""
+
+    _fields_ = [("jacobi", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
+                ("n_steps", c_long), ("record_every", c_long), ("n_columns", c_size_t), ("column_fmu", c_void_p),
+                ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p)]
+
+
+class MasterFailure(ctypes.Structure):
+    """``grb_failure`` (system/c/master.c): the FMU, the call (0 setReal, 1 doStep, 2 getReal), its status, t."""
+
+    _fields_ = [("fmu", c_int), ("call", c_int), ("status", c_int), ("t", c_double)]
+
+
 _P = c_void_p  # a numpy buffer's address
 _M = c_void_p  # a grb_model's address (ModelArrays.c): the struct may come from another import of this module
 _SIGNATURES = {
@@ -109,6 +132,9 @@ _SIGNATURES = {
     "grb_cs_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
     "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, _P, c_double, c_double, _P, _P, _P, _P]),
+    # the co-simulation master's stepping loop (system/c/master.c)
+    "grb_master_steps": (c_int, [POINTER(MasterFmu), c_int, _P, POINTER(MasterRun), c_long, c_long,
+                                 POINTER(c_double), POINTER(c_long), POINTER(MasterFailure)]),
 }
 
 

@@ -288,6 +288,12 @@ def cmd_app(args) -> int:
 
 
 def cmd_export(args) -> int:
+    if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU around its FMUs
+        from grubler.system.container import export_system
+
+        path = export_system(args.scene, args.out, fmi_version=args.fmi, field="--out")
+        print(f"wrote {path} (fmpy's container FMU: its FMUs coupled as `grubler cosim --master jacobi` couples them)")
+        return 0
     from grubler.fmi.build import export, platforms_note, select_targets
 
     platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
@@ -656,8 +662,11 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     ap.add_argument("--no-browser", action="store_true", help="print the URL without opening a browser")
     ap.set_defaults(func=cmd_app)
-    e = sub.add_parser("export", help="a native FMI 2.0 or 3.0 co-simulation FMU of a scene (no Python needed to run it)")
-    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values")
+    e = sub.add_parser("export", help="a native FMI 2.0 or 3.0 co-simulation FMU of a scene (no Python needed to "
+                                      "run it), or one FMU of a whole system (.ssd or .ssp)")
+    e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values. Or a system "
+                                 "(.ssd, .ssp): its FMUs nested in fmpy's container FMU, stepped as `grubler cosim "
+                                 "--master jacobi` steps them")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
     e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "

@@ -1,8 +1,9 @@
 /* A minimal FMI 2.0 co-simulation host for the tests: no Python in the process.
  *
- *     fmi_host LIBRARY GUID < script
+ *     fmi_host LIBRARY GUID [RESOURCES_URI] < script
  *
- * loads the FMU's binary (dlopen, or LoadLibrary when built with MinGW) and runs
+ * (RESOURCES_URI, e.g. file:///tmp/x/resources, for an FMU that reads its
+ * resources: the container FMU of a system) loads the FMU's binary (dlopen, or LoadLibrary when built with MinGW) and runs
  * a script of one command per line, printing one line per command:
  * "<command> <status> [values]"; the FMU's log lines come as "log <status>
  * <category> <message>".  Commands:
@@ -61,8 +62,9 @@ int main(int argc, char **argv) {
     fmi2FMUstate saved[16] = {0};
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
     char line[65536], cmd[64];
-    if (argc != 3) {
-        fprintf(stderr, "usage: fmi_host LIBRARY GUID < script\n");
+    const char *resources = argc == 4 ? argv[3] : "";
+    if (argc != 3 && argc != 4) {
+        fprintf(stderr, "usage: fmi_host LIBRARY GUID [RESOURCES_URI] < script\n");
         return 2;
     }
     lib = open_library(argv[1]);
@@ -91,7 +93,7 @@ int main(int argc, char **argv) {
                 char name[256];
                 sscanf(rest, "%d %255s", &k, name);
                 if (inst[k] != NULL) fmi2FreeInstance(inst[k]);  /* the slot's previous instance */
-                c = inst[k] = fmi2Instantiate(name, fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
+                c = inst[k] = fmi2Instantiate(name, fmi2CoSimulation, argv[2], resources, &cb, fmi2False, fmi2False);
                 printf("new %s\n", c ? "ok" : "null");
             } else if (!strcmp(cmd, "use")) {
                 sscanf(rest, "%d", &k);
@@ -274,7 +276,7 @@ int main(int argc, char **argv) {
             for (k = 0; k < 16; k++) if (inst[k] != NULL) any = inst[k];
             for (j = 0; j < 16; j++) left |= saved[j] != NULL;
             if (left && any == NULL)
-                any = inst[0] = fmi2Instantiate("cleanup", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
+                any = inst[0] = fmi2Instantiate("cleanup", fmi2CoSimulation, argv[2], resources, &cb, fmi2False, fmi2False);
             for (j = 0; j < 16 && any != NULL; j++)
                 if (saved[j]) fmi2FreeFMUstate(any, &saved[j]);
             for (k = 0; k < 16; k++) {

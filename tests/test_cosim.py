@@ -273,3 +273,30 @@ def test_fmus_unpacked_once_serve_every_run_until_the_file_changes(mechanism_fmu
         cosim.run(path, unpacked=unpacked)
         assert unpacked[fmu] != folder
     assert not folder.exists() and not unpacked._folders  # close removed every folder
+
+
+@pytest.mark.parametrize("master", cosim.MASTERS)
+def test_a_step_an_fmu_refuses_is_named_with_its_time_and_message(mechanism_fmu, master):
+    # the stepping loop is C: a refusal inside it reaches the user as the FMU's own words
+    s = ssp.System("refused", stop_time=0.1, step=0.01)
+    s.add("calm", mechanism_fmu)
+    s.add("m", mechanism_fmu, motor_torque=float("nan"))
+    with pytest.raises(cosim.CosimError, match=r"^m: doStep from t = 0 s failed \(status discard\): "
+                                               r"m: motor_torque is nan at t = 0 s: inputs must be finite$"):
+        cosim.run(s, master=master)
+
+
+def test_a_profiled_run_times_each_call_and_changes_no_result(mechanism_fmu):
+    s = ssp.System("profiled", stop_time=0.2, step=0.01)
+    s.add("a", mechanism_fmu, **{"initial.theta2_d": 2.0})
+    s.add("b", mechanism_fmu, load_joint="theta2")
+    s.connect("a.drive_speed", "b.load_torque")
+    s.components["b"].units["load_torque"] = "any"
+    plain = cosim.run(s)
+    timed = cosim.run(s, profile=True)
+    assert plain.profile == {} and np.array_equal(plain.data, timed.data) and np.array_equal(plain.t, timed.t)
+    assert set(timed.profile) == {"a", "b"}
+    set_a, step_a, get_a = timed.profile["a"]
+    set_b, step_b, get_b = timed.profile["b"]
+    assert set_a == 0.0 and set_b > 0  # a has no connected input: the loop makes no setReal call for it
+    assert min(step_a, step_b, get_a, get_b) > 0 and step_a + step_b < timed.wall_time

@@ -376,13 +376,19 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path
                                  "needs fmpy 0.3.26 or later (and numpy 2.1.3 or later)") from None
             build_platform_binary(root)
         compile_binaries(src, files, [t for t in targets if t not in native_windows], root / "binaries", name, fmi)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        partial = dest.with_name(dest.name + ".part")
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    z.write(path, path.relative_to(root).as_posix())
-        os.replace(partial, dest)  # an importer never sees half an FMU
+        pack_fmu(root, dest)
+    return dest
+
+
+def pack_fmu(root: Path, dest: Path) -> Path:
+    """Zip the folder ``root`` into the FMU ``dest``, written whole or not at all."""
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    partial = dest.with_name(dest.name + ".part")
+    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+        for path in sorted(root.rglob("*")):
+            if path.is_file():
+                z.write(path, path.relative_to(root).as_posix())
+    os.replace(partial, dest)  # an importer never sees half an FMU
     return dest
 
 

@@ -13,7 +13,8 @@ What it does that a bare loop does not:
 - initialises coupled inputs consistently, in that same order, during the FMUs'
   initialisation mode, instead of starting every connector at zero;
 - reads the FMUs' outputs in one call per component and sets inputs through
-  preallocated buffers, so the master's own cost per step is small;
+  preallocated buffers, and makes the communication steps' FMI calls from a C
+  loop (system/c/master.c), so the master's own cost per step is small;
 - reports a failed step with the FMU's own logged message, and frees every FMU.
 
 Examples
@@ -255,6 +256,7 @@ class CosimResult:
     units: dict[str, str] = field(default_factory=dict)
     messages: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)  # why the result may not be trusted, one line each
+    profile: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # run(..., profile=True)
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name == "t":
@@ -401,19 +403,21 @@ class _Instance:
             else:
                 f.setString([port.vr], [str(v)])
 
-    def wire(self, inputs: list[tuple[int, int]], outputs: list[int], recorded: list[int]):
-        """Inputs as (value reference, slot), the connected outputs' and recorded value references."""
+    def wire(self, inputs: list[tuple[int, int]], outputs: list[tuple[int, int]], recorded: list[int]):
+        """Inputs and connected outputs as (value reference, slot), the recorded value references."""
         n = len(inputs)
         self.in_vr = (ctypes.c_uint * n)(*[vr for vr, _ in inputs])
-        self.in_slot = [s for _, s in inputs]
+        self.in_slot = (ctypes.c_int * n)(*[s for _, s in inputs])
         self.in_buf = (ctypes.c_double * n)()
         self.n_in = n
-        reads = list(dict.fromkeys(outputs + recorded))  # connected first, then the rest recorded
+        conn = [vr for vr, _ in outputs]
+        self.out_slots = (ctypes.c_int * len(outputs))(*[s for _, s in outputs])
+        reads = list(dict.fromkeys(conn + recorded))  # connected first, then the rest recorded
         self.read_vr = (ctypes.c_uint * len(reads))(*reads)
         self.read_buf = (ctypes.c_double * len(reads))()
         self.n_read = len(reads)
         self.n_conn = len(outputs)
-        self.conn_vr = (ctypes.c_uint * len(outputs))(*outputs)
+        self.conn_vr = (ctypes.c_uint * len(outputs))(*conn)
 
     def bind_calls(self) -> None:
         """The FMU's C functions themselves: fmpy's wrappers cost more than a step here."""
@@ -443,16 +447,26 @@ class _Instance:
         for i, s in enumerate(self.out_slots):
             values[s] = buf[i]
 
-    def do_step(self, t: float, h: float) -> None:
-        status = self._step(self._c, t, h, 1)
-        if status > 1:  # discard, error or fatal
-            raise CosimError(f"{self.name}: doStep from t = {t:.6g} s failed (status {_STATUS.get(status, status)})"
-                             + _last_message(self))
-
     def _check(self, status: int, what: str) -> None:
         if status > 1:
-            raise CosimError(f"{self.name}: {what} failed (status {_STATUS.get(status, status)})"
-                             + _last_message(self))
+            raise self.refused(what, status)
+
+    def refused(self, what: str, status: int) -> CosimError:
+        """The error of a call this FMU refused, with the last message it logged."""
+        return CosimError(f"{self.name}: {what} failed (status {_STATUS.get(status, status)})" + _last_message(self))
+
+    def loop_view(self, seconds: int | None) -> "binding.MasterFmu":
+        """This instance as the C stepping loop sees it (``seconds``: where it sums its call times, or None)."""
+        from grubler import binding
+
+        def at(fn) -> int:
+            return ctypes.cast(fn, ctypes.c_void_p).value
+
+        return binding.MasterFmu(self._c, at(self._set), at(self._get), at(self._step), self.n_in,
+                                 ctypes.addressof(self.in_vr), ctypes.addressof(self.in_slot),
+                                 ctypes.addressof(self.in_buf), self.n_conn, self.n_read,
+                                 ctypes.addressof(self.read_vr), ctypes.addressof(self.read_buf),
+                                 ctypes.addressof(self.out_slots), seconds)
 
     def free(self):
         for call in (self.fmu.terminate, self.fmu.freeInstance):
@@ -465,7 +479,7 @@ class _Instance:
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
         start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
         record_every: int = 1, step_order: list[str] | None = None, cancel=None,
-        unpacked: "UnpackedFMUs | None" = None) -> CosimResult:
+        unpacked: "UnpackedFMUs | None" = None, profile: bool = False) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -499,6 +513,10 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     unpacked : UnpackedFMUs, optional
         Where the FMUs are unpacked and kept for later runs (default: unpacked
         for this run alone and removed after it).
+    profile : bool
+        Time each component's setReal, doStep and getReal calls of the
+        communication steps (the result's ``profile``: seconds by component;
+        the clock readings add a little to the run).
 
     Returns
     -------
@@ -531,7 +549,8 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     own = unpacked is None  # each FMU unpacked once, into a folder removed on the way out
     unzipped = UnpackedFMUs() if own else unpacked
     try:
-        return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel)
+        return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel,
+                    profile)
     finally:
         if own:
             unzipped.close()
@@ -590,8 +609,14 @@ class UnpackedFMUs:
         self.close()
 
 
-def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: "UnpackedFMUs", cancel=None) -> CosimResult:
+def interfaces_of(system: System, unzipped: "UnpackedFMUs") -> dict[str, FmuInterface]:
+    """Every component's interface, its FMU unpacked in ``unzipped``, once the system is checked.
+
+    Raises
+    ------
+    SystemDescriptionError
+        Naming every problem :func:`check` finds, and every FMU that is missing or unreadable.
+    """
     interfaces = {}
     problems = []
     for name, comp in system.components.items():
@@ -613,6 +638,12 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     if problems:
         raise SystemDescriptionError(f"system {brief(system.name)}: cannot run, {len(problems)} "
                                      f"problem{'s' if len(problems) > 1 else ''}:\n  " + "\n  ".join(problems))
+    return interfaces
+
+
+def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
+         step_order, unzipped: "UnpackedFMUs", cancel=None, profile: bool = False) -> CosimResult:
+    interfaces = interfaces_of(system, unzipped)
     seq = order(system, interfaces)  # also what finds an algebraic loop
     warnings = step_warnings(step, time_scales(system, interfaces))
     chosen = step_order if step_order is not None else system.order
@@ -633,11 +664,8 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             raise SystemDescriptionError(f"record {r!r}: not an output of a component, nor a connected input")
         record_set.append(r)
 
-    # value slots: one per connected output
-    slot: dict[str, int] = {}
-    for c in system.connections:
-        slot.setdefault(c.start, len(slot))
-    values = [0.0] * len(slot)
+    slot = _slots(system)
+    values = (ctypes.c_double * max(1, len(slot)))()  # the C loop reads and writes them
     units = {}
     columns: list[str] = []
     col_src: list[tuple[str, int]] = []  # (component, index in its read buffer)
@@ -646,28 +674,16 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     try:
         for name in seq:
             itf = interfaces[name]
-            inst = insts[name] = _Instance(name, itf, str(unzipped[itf.path]), t0)
-            _call(inst, "set parameters", lambda: inst.set_parameters(system.components[name].parameters), t0)
-            conn_out = [c.start_connector for c in system.connections if c.start_element == name]
-            conn_out = list(dict.fromkeys(conn_out))
             outs = [p for p in itf.ports.values() if p.causality == "output" and p.type == "Real"]
             rec = [p.name for p in outs] if record_set is None else [
                 r.split(".", 1)[1] for r in record_set if r.split(".", 1)[0] == name]
-            inputs = [(itf.ports[c.end_connector].vr, slot[c.start]) for c in system.connections
-                      if c.end_element == name]
-            inst.wire(inputs, [itf.ports[o].vr for o in conn_out], [itf.ports[o].vr for o in rec])
-            inst.out_slots = [slot[f"{name}.{o}"] for o in conn_out]
-            reads = list(dict.fromkeys(conn_out + rec))
+            reads = _set_up(insts, system, itf, name, unzipped, t0, slot, rec)
             for i, o in enumerate(reads):
                 if o in rec:
                     columns.append(f"{name}.{o}")
                     col_src.append((name, i))
                 units[f"{name}.{o}"] = system.components[name].units.get(o, itf.ports[o].unit)
-        for inst in insts.values():
-            _call(inst, "enter initialisation mode", inst.fmu.enterInitializationMode, t0)
-        _initialise(insts, seq, values, t0)
-        for inst in insts.values():
-            _call(inst, "exit initialisation mode", inst.fmu.exitInitializationMode, t0)
+        _initialise_all(insts, seq, values, t0)
 
         # connected inputs are recorded too: their value is the output feeding them
         for c in system.connections:
@@ -688,64 +704,124 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
                            "t_end, step or record_every (--t-end, --step, --dt-out)")
         times = np.empty(n_rec)
         data = np.empty((n_rec, len(columns)))
-        col_index = {n: [(j, i) for j, (c, i) in enumerate(col_src) if c == n] for n in seq}
-        input_cols = [(j, i) for j, (c, i) in enumerate(col_src) if c == ""]
-        k = 0
-
-        def record_row(t, pulled):
-            # `pulled`: the components whose every recorded output was read this step
-            nonlocal k
-            times[k] = t
-            row = data[k]
-            for name in seq:
-                if not col_index[name]:
-                    continue
-                inst = insts[name]
-                buf = inst.read_buf if name in pulled else inst.pull(True)
-                for j, i in col_index[name]:
-                    row[j] = buf[i]
-            for j, i in input_cols:
-                row[j] = values[i]
-            k += 1
-
-        for name in seq:  # outputs after initialisation, with inputs consistent
-            insts[name].publish(values)
-        record_row(t0, ())
+        # the first row, after initialisation with the inputs consistent; then the C loop steps and records
+        for name in seq:
+            insts[name].publish(values, True)
         seq_insts = [insts[n] for n in seq]
-        everyone = set(seq)
-        t = t0
-        for n in range(n_steps):
-            if cancel is not None and cancel.is_set():
-                raise Cancelled("run", f"cancelled at t = {t:.6g} s")
-            h = min(step, t_end - t) if n == n_steps - 1 else step
-            recording = (n + 1) % record_every == 0 or n == n_steps - 1
-            # on a recorded step one read per component serves both the
-            # connections and the record (the connected outputs come first)
-            if master == GAUSS_SEIDEL:
-                for inst in seq_insts:
-                    inst.push(values)
-                    inst.do_step(t, h)
-                    inst.publish(values, recording)
-            else:
-                for inst in seq_insts:
-                    inst.push(values)
-                for inst in seq_insts:
-                    inst.do_step(t, h)
-                for inst in seq_insts:
-                    inst.publish(values, recording)
-            t = t0 + (n + 1) * step if n < n_steps - 1 else t_end
-            if recording:
-                record_row(t, everyone)
+        column_fmu = [seq.index(c) if c else -1 for c, _ in col_src]
+        times[0] = t0
+        for j, (c, i) in enumerate(col_src):
+            data[0, j] = insts[c].read_buf[i] if c else values[i]
+        loop = _Loop(seq_insts, values, master, t0, step, t_end, n_steps, record_every, column_fmu,
+                     [i for _, i in col_src], times, data, profile)
+        if cancel is None:
+            loop.steps(0, n_steps)
+        else:  # the flag is read before each communication step
+            for n in range(n_steps):
+                if cancel.is_set():
+                    raise Cancelled("run", f"cancelled at t = {loop.t.value:.6g} s")
+                loop.steps(n, 1)
+        k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
         return CosimResult(times[:k].copy(), columns, data[:k].copy(), system, seq, master, step, wall, units,
-                           messages, warnings)
+                           messages, warnings, loop.profile(seq))
     finally:
         for inst in insts.values():
             inst.free()
 
 
-def _initialise(insts: dict[str, _Instance], seq: list[str], values: list[float], t0: float) -> None:
+def _slots(system: System) -> dict[str, int]:
+    """One value slot per connected output, by ``component.output``."""
+    slot: dict[str, int] = {}
+    for c in system.connections:
+        slot.setdefault(c.start, len(slot))
+    return slot
+
+
+def _set_up(insts: dict[str, _Instance], system: System, itf: FmuInterface, name: str, unzipped: "UnpackedFMUs",
+            t0: float, slot: dict[str, int], recorded: list[str]) -> list[str]:
+    """Instantiate ``name`` into ``insts``, set its parameters and wire it; returns the outputs it reads.
+
+    The connected outputs come first in what it reads, then the rest of ``recorded``.
+    """
+    inst = insts[name] = _Instance(name, itf, str(unzipped[itf.path]), t0)  # in insts at once: freed on failure
+    _call(inst, "set parameters", lambda: inst.set_parameters(system.components[name].parameters), t0)
+    conn_out = list(dict.fromkeys(c.start_connector for c in system.connections if c.start_element == name))
+    inputs = [(itf.ports[c.end_connector].vr, slot[c.start]) for c in system.connections if c.end_element == name]
+    inst.wire(inputs, [(itf.ports[o].vr, slot[f"{name}.{o}"]) for o in conn_out], [itf.ports[o].vr for o in recorded])
+    return list(dict.fromkeys(conn_out + recorded))
+
+
+def _initialise_all(insts: dict[str, _Instance], seq: list[str], values, t0: float) -> None:
+    """Initialisation mode from enter to exit, the coupled inputs settled in between."""
+    for inst in insts.values():
+        _call(inst, "enter initialisation mode", inst.fmu.enterInitializationMode, t0)
+    _initialise(insts, seq, values, t0)
+    for inst in insts.values():
+        _call(inst, "exit initialisation mode", inst.fmu.exitInitializationMode, t0)
+
+
+def initial_inputs(system: System, interfaces: dict[str, FmuInterface], unzipped: "UnpackedFMUs",
+                   t0: float = 0.0) -> dict[str, float]:
+    """The coupled inputs' values once initialisation settles, by ``component.input``: what a run starts from.
+
+    Every FMU is instantiated, initialised as :func:`run` does it, and freed.
+    """
+    seq = order(system, interfaces)
+    slot = _slots(system)
+    values = (ctypes.c_double * max(1, len(slot)))()  # the C loop reads and writes them
+    insts: dict[str, _Instance] = {}
+    try:
+        for name in seq:
+            _set_up(insts, system, interfaces[name], name, unzipped, t0, slot, [])
+        _initialise_all(insts, seq, values, t0)
+    finally:
+        for inst in insts.values():
+            inst.free()
+    return {c.end: values[slot[c.start]] for c in system.connections}
+
+
+class _Loop:
+    """The communication steps, made by the C loop (system/c/master.c) over the instances in stepping order.
+
+    It makes the FMI calls the Python loop it replaced made, in the same order,
+    with the same arithmetic for the time: the same results, bit for bit.
+    """
+
+    def __init__(self, insts: list[_Instance], values, master: str, t0: float, step: float, t_end: float,
+                 n_steps: int, record_every: int, column_fmu: list[int], column_index: list[int],
+                 times: np.ndarray, data: np.ndarray, profile: bool):
+        from grubler import binding
+
+        self.insts, self.values = insts, values
+        self.seconds = np.zeros((len(insts), 3)) if profile else None
+        self.fmus = (binding.MasterFmu * len(insts))(*[
+            inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data)
+            for k, inst in enumerate(insts)])
+        self._columns = (np.asarray(column_fmu, dtype=np.intc), np.asarray(column_index, dtype=np.intc))
+        self.run = binding.MasterRun(master == JACOBI, t0, step, t_end, n_steps, record_every, len(column_fmu),
+                                     self._columns[0].ctypes.data, self._columns[1].ctypes.data,
+                                     times.ctypes.data, data.ctypes.data)
+        self.t, self.row, self.failure = ctypes.c_double(t0), ctypes.c_long(1), binding.MasterFailure()
+        self._steps = binding.library().grb_master_steps
+
+    def steps(self, first: int, count: int) -> None:
+        """Communication steps ``first`` .. ``first + count - 1``, each recorded row written."""
+        if self._steps(self.fmus, len(self.insts), ctypes.addressof(self.values), ctypes.byref(self.run), first,
+                       count, ctypes.byref(self.t), ctypes.byref(self.row), ctypes.byref(self.failure)):
+            f = self.failure
+            what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal")[f.call]
+            raise self.insts[f.fmu].refused(what, f.status)
+
+    def profile(self, seq: list[str]) -> dict[str, tuple[float, float, float]]:
+        """Seconds in setReal, doStep and getReal by component (empty unless profiled)."""
+        if self.seconds is None:
+            return {}
+        return {name: tuple(float(x) for x in self.seconds[k]) for k, name in enumerate(seq)}
+
+
+def _initialise(insts: dict[str, _Instance], seq: list[str], values, t0: float) -> None:
     """Propagate outputs to inputs in step order until they settle (states first)."""
     for sweep in range(len(seq) + 2):
         change = 0.0
@@ -780,5 +856,5 @@ def _last_message(inst: _Instance) -> str:
     return f": {inst.messages[-1]}" if inst.messages else ""
 
 
-__all__ = ["run", "UnpackedFMUs", "check", "order", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
+__all__ = ["run", "UnpackedFMUs", "check", "order", "interfaces_of", "initial_inputs", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
            "GAUSS_SEIDEL", "JACOBI", "MASTERS"]
