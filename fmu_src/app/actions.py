@@ -328,9 +328,10 @@ def coupler_curve(model, z: np.ndarray, point, steps: int = SWEEP_STEPS) -> list
 # -- dragging: which scene numbers a point of the drawing stands for ----------------------------------
 # The six-bars by their joints, as the builders name them: each link's joint with the link before it
 # (links 2 to 6), the two closures' joints, and which of the builder's numbers each joint takes part in.
-# A moving joint dragged keeps every other joint where it is: the lengths it ends, and the sides and
-# branches it decides, follow it (the sketch always closes).  The crank pin and the ground pivots keep the
-# lengths instead, as the four-bar's do, so a pivot dragged too far shows where the loop stops closing.
+# A moving joint (and the origin O2) dragged keeps every other joint where it is: the lengths it ends, and
+# the sides and branches it decides, follow it (the sketch always closes).  The crank pin and the other
+# ground pivots keep the lengths instead, as the four-bar's do, so a pivot dragged too far shows where the
+# loop stops closing.
 SIX_BAR_JOINTS = {
     "watt-ii": {"chain": ("O2", "A", "B", "C", "D"), "closures": ("O4", "O6"), "pin": "A",
                 "pivots": {"O4": "rocker_pivot", "O6": "output_pivot"},
