@@ -395,8 +395,8 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
     """The points a user can drag, where they are now, and what each changes (in words).
 
     Every builder gets its joints (a crank pin, the ground pivots, the blocks,
-    each six-bar joint but the origin O2 the others are measured from), a link
-    table the ends of its pinned links and its ground closures.
+    every six-bar joint), a link table its ground closures and the ends of its
+    crank (of every link, in an open chain).
     """
     out = []
     mech = data.get("mechanism")
