@@ -56,14 +56,18 @@ def watch_console(page) -> list:
     return errors
 
 
+def screen_of(page, x: float, y: float) -> list:
+    """Where the world point (x, y), m, of the drawing is on the screen, px."""
+    return page.evaluate("""([x, y]) => {
+        const p = new DOMPoint(x, y).matrixTransform(document.querySelector('#drawing g').getScreenCTM());
+        return [p.x, p.y];
+    }""", [x, y])
+
+
 def drag_handle(page, handle: str, x: float, y: float) -> None:
     """Drag a handle of the drawing to world point (x, y), m, with the mouse, in steps."""
     start = page.locator(f'circle.handle[data-handle="{handle}"]').bounding_box()
-    target = page.evaluate("""([x, y]) => {
-        const g = document.querySelector('#drawing g');
-        const p = new DOMPoint(x, y).matrixTransform(g.getScreenCTM());
-        return [p.x, p.y];
-    }""", [x, y])
+    target = screen_of(page, x, y)
     page.mouse.move(start["x"] + start["width"] / 2, start["y"] + start["height"] / 2)
     page.mouse.down()
     for k in range(1, 9):
@@ -89,11 +93,7 @@ def test_a_user_journey_from_preset_to_exports(app, browser, shots, tmp_path):
     assert page.inner_text("#mobility") == "1"
     assert "one of 2 found with theta2 held" in page.inner_text("#branch")
     # a double click on the rocker traces that point of it
-    x, y = page.evaluate("""() => {
-        const p = new DOMPoint(1.0, 0.35).matrixTransform(document.querySelector('#drawing g').getScreenCTM());
-        return [p.x, p.y];
-    }""")
-    page.mouse.dblclick(x, y)
+    page.mouse.dblclick(*screen_of(page, 1.0, 0.35))
     page.wait_for_function("() => document.querySelector('#trace').value.startsWith('link4:')")
     page.screenshot(path=str(shots / "1-preset.png"))
 
@@ -228,6 +228,7 @@ NEW_HANDLES = [
     ("conchoidal", "block", (0.35, 0.6), "#branch", "one of 1 found with theta2 held"),
     ("watt-ii", "B", (0.37, 0.26), "#kind", "Watt II six-bar"),
     ("stephenson-ii", "Q", (-0.08, 0.3), "#branch", "one of 2 found with theta2 held"),
+    ("watt-i", "O2", (-0.03, 0.02), "#kind", "Watt I six-bar"),
 ]
 
 
@@ -237,11 +238,21 @@ def test_dragging_each_new_kind_of_joint(app, browser, shots, preset, handle, to
     pick_preset(page, preset)
     before = curve_of(page)
     assert before, "a coupler curve to begin with"
+    target = screen_of(page, *to)  # where the mouse will leave the handle, on the screen
+    pivot = screen_of(page, *handle_at(page, "rocker_pivot")) if handle == "O2" else None
     drag_handle(page, handle, *to)
     assert reads in page.inner_text(line)
     assert page.is_hidden("#problem") and page.inner_text("#error") == ""
-    # the handle sits where the mouse left it (a block on its slide as near as the slide lets it)
+    # the handle sits where the mouse left it (a block on its slide as near as the slide lets it); the
+    # origin's answer is in the moved origin's coordinates, and the view moved with them: on the screen, the
+    # origin is where the mouse left it and every other joint where it was
     at = handle_at(page, handle)
+    if handle == "O2":
+        assert at == [0.0, 0.0] and page.evaluate("() => state.analysis.shift") is None
+        for other, (x, y) in [(handle, target), ("rocker_pivot", pivot)]:
+            box = page.locator(f'circle.handle[data-handle="{other}"]').bounding_box()
+            assert abs(box["x"] + box["width"] / 2 - x) < 1 and abs(box["y"] + box["height"] / 2 - y) < 1, other
+        to = at
     assert abs(at[0] - to[0]) < 2e-3 and (handle == "shaft2" or abs(at[1] - to[1]) < 2e-3), at
     assert curve_of(page) != before  # the coupler curve was drawn again, for the new dimensions
     page.screenshot(path=str(shots / f"7-drag-{preset}-{handle}.png"))

@@ -328,9 +328,10 @@ def coupler_curve(model, z: np.ndarray, point, steps: int = SWEEP_STEPS) -> list
 # -- dragging: which scene numbers a point of the drawing stands for ----------------------------------
 # The six-bars by their joints, as the builders name them: each link's joint with the link before it
 # (links 2 to 6), the two closures' joints, and which of the builder's numbers each joint takes part in.
-# A moving joint dragged keeps every other joint where it is: the lengths it ends, and the sides and
-# branches it decides, follow it (the sketch always closes).  The crank pin and the ground pivots keep the
-# lengths instead, as the four-bar's do, so a pivot dragged too far shows where the loop stops closing.
+# A moving joint (and the origin O2) dragged keeps every other joint where it is: the lengths it ends, and
+# the sides and branches it decides, follow it (the sketch always closes).  The crank pin and the other
+# ground pivots keep the lengths instead, as the four-bar's do, so a pivot dragged too far shows where the
+# loop stops closing.
 SIX_BAR_JOINTS = {
     "watt-ii": {"chain": ("O2", "A", "B", "C", "D"), "closures": ("O4", "O6"), "pin": "A",
                 "pivots": {"O4": "rocker_pivot", "O6": "output_pivot"},
@@ -394,8 +395,8 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
     """The points a user can drag, where they are now, and what each changes (in words).
 
     Every builder gets its joints (a crank pin, the ground pivots, the blocks,
-    each six-bar joint but the origin O2 the others are measured from), a link
-    table the ends of its pinned links and its ground closures.
+    every six-bar joint), a link table its ground closures and the ends of its
+    crank (of every link, in an open chain).
     """
     out = []
     mech = data.get("mechanism")
@@ -409,6 +410,10 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
         if kind in SIX_BAR_JOINTS:
             spec, at = SIX_BAR_JOINTS[kind], six_bar_joints(kind, model, z)
             add("A", at[spec["pin"]], "mechanism.crank, mechanism.input_angle")
+            # the origin: the others are measured from it, so each ground pivot and the crank pin move by what it does
+            keys = [k for k, ends in {**spec["lengths"], **spec["sides"]}.items() if "O2" in ends]
+            add("O2", at["O2"], ", ".join(f"mechanism.{k}" for k in ["crank", "input_angle", *keys,
+                                                                     *spec["pivots"].values()]))
             for name, xy in at.items():
                 if name in spec["pivots"]:
                     add(spec["pivots"][name], xy, f"mechanism.{spec['pivots'][name]}")
@@ -519,10 +524,16 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
         mech[angle_key] = _deg(math.atan2(y, x))
     elif kind in SIX_BAR_JOINTS and handle in ("rocker_pivot", "output_pivot"):
         mech[handle] = [_r(x), _r(y)]
-    elif kind in SIX_BAR_JOINTS and handle in _moving_joints(SIX_BAR_JOINTS[kind]):
+    elif kind in SIX_BAR_JOINTS and handle in _moving_joints(SIX_BAR_JOINTS[kind]) | {"O2"}:
         spec = SIX_BAR_JOINTS[kind]
         at = six_bar_joints(kind, *_sketch(data))
         at[handle] = np.array([x, y])
+        if handle == "O2":  # the scene measured from the moved origin: the others move back by as much
+            at = {name: xy - at["O2"] for name, xy in at.items()}
+            pin = at[spec["pin"]]
+            mech["crank"], mech["input_angle"] = _r(math.hypot(*pin)), _deg(math.atan2(pin[1], pin[0]))
+            for name, key in spec["pivots"].items():
+                mech[key] = [_r(v) for v in at[name]]
         for key, (p, q) in spec["lengths"].items():
             if handle in (p, q):
                 mech[key] = _r(math.dist(at[p], at[q]))
@@ -598,10 +609,15 @@ def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace
     Where a builder cannot lay its links through the moved joints (a six-bar's
     pivot beyond its links' reach), its reason is the ``problem``, in the words
     ``grubler info`` prints for that scene, and the sketch drawn is the drag's
-    start, open, with the dragged handle at the pointer.
+    start, open, with the dragged handle at the pointer.  A six-bar's origin O2
+    dragged comes with ``shift``, the pointer: the answer is in the moved
+    origin's coordinates, which the page draws shifted by it.
     """
     try:
-        return analyse(moved, trace, live)
+        out = analyse(moved, trace, live)
+        if handle == "O2":  # drawn where the drag began: the origin under the pointer, the rest where it was
+            out["shift"] = [x, y]
+        return out
     except AssemblyError:
         raise
     except SceneError as exc:

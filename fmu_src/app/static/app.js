@@ -190,9 +190,12 @@ function fitView(things) {
   const span = Math.max(x1 - x0, y1 - y0, 1e-3);
   const pad = 0.15 * span;
   state.box = { x: x0 - pad, y: y0 - pad, w: x1 - x0 + 2 * pad, h: y1 - y0 + 2 * pad, span };
-  const svg = $("drawing");
+  setViewBox();
+}
+
+function setViewBox() {
   // world y points up: the content is drawn in a group flipped about y = 0
-  svg.setAttribute("viewBox", `${state.box.x} ${-(state.box.y + state.box.h)} ${state.box.w} ${state.box.h}`);
+  $("drawing").setAttribute("viewBox", `${state.box.x} ${-(state.box.y + state.box.h)} ${state.box.w} ${state.box.h}`);
 }
 
 function points(things) {
@@ -240,14 +243,16 @@ function polyline(points, cls) {
 
 function drawScene(out) {
   const s = state.box.span;
-  let html = `<g transform="scale(1,-1)">`;
+  // a six-bar's origin being dragged: its answer is measured from the moved origin, drawn where the drag began
+  const [sx, sy] = out.shift || [0, 0];
+  let html = `<g transform="scale(1,-1)"><g transform="translate(${sx},${sy})">`;
   // the curve over the links' plates, which would hide it where it crosses them
   html += frameMarkup(out.frame, out.closed === false ? "open" : "");
   html += polyline(out.curve, "curve");
   for (const h of out.handles || []) {
     html += `<circle class="handle${state.dragging && state.dragging.id === h.id ? " active" : ""}" data-handle="${h.id}" cx="${h.xy[0]}" cy="${h.xy[1]}" r="${0.028 * s}"><title>drag: sets ${h.sets}</title></circle>`;
   }
-  $("drawing").innerHTML = html + "</g>";
+  $("drawing").innerHTML = html + "</g></g>";
 }
 
 function drawRunFrame() {
@@ -326,8 +331,15 @@ function setupDrag() {
           show(await api("drag", { scene: last.drag.start, handle: last.drag.id, x: last.x, y: last.y, trace: state.trace }));
         } catch (e) { notice(`${e.field}: ${e.message}`, true); }
       }
-      // the drag may have carried the mechanism out of view: bring it back, handles included
       const a = state.analysis;
+      if (a && a.shift) {  // the moved origin's coordinates from now on: the view moves with them, the drawing stays
+        state.box.x -= a.shift[0];
+        state.box.y -= a.shift[1];
+        a.shift = null;
+        setViewBox();
+        drawScene(a);
+      }
+      // the drag may have carried the mechanism out of view: bring it back, handles included
       if (a && a.frame && !inView([a.frame, (a.handles || []).map((h) => h.xy)])) {
         fitView([a.frame, a.curve]);
         drawScene(a);
