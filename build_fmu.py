@@ -62,7 +62,7 @@ LAWS = {law.__name__: law for law in (LinearController, ComputedTorque)}
 FMUS = [*NATIVE, *LAWS]
 
 
-def build(dest: Path = HERE / "dist", names: list[str] | None = None, fmi: int = 2, platforms=None) -> list[Path]:
+def build(dest: Path = HERE / "dist", names: list[str] | None = None, platforms=None, fmi: int = 2) -> list[Path]:
     """Build the named FMUs (default: all) and return their paths.
 
     With ``fmi=3`` the native FMUs are FMI 3.0; the controllers (pythonfmu,
@@ -101,7 +101,7 @@ def main() -> None:
                                         f"machine can build; of {', '.join(dict.fromkeys(t.fmi2 for t in TARGETS))})")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default all: {', '.join(FMUS)})")
     args = ap.parse_args()
-    for path in build(args.dest, args.names, args.fmi, args.platforms):
+    for path in build(args.dest, args.names, args.platforms, args.fmi):
         print(f"built {path}")
     if args.platforms is None and platforms_note():
         print(f"build_fmu: {platforms_note()}")
