@@ -513,9 +513,11 @@ def test_fmusim_runs_fmi3_as_fmi2_with_an_empty_environment(built2, built3, name
     assert max(np.ptp(r3[k]) for k in outputs(built3[name][2])) > 0  # it moved
 
 
-def test_fmusim_saves_and_resumes_an_fmi3_state(built3, tmp_path):
-    # fmusim serialises the final state and starts a run from it (fmi3DeserializeFMUState before initialisation)
-    fmu, state = built3["Mechanism"][0], tmp_path / "state.bin"
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_fmusim_saves_and_resumes_a_state(built2, built3, fmi, tmp_path):
+    # fmusim serialises the final state and starts a run from it (deserialised and set before
+    # initialisation, then stepped without initialising)
+    fmu, state = {2: built2, 3: built3}[fmi]["Mechanism"][0], tmp_path / "state.bin"
     whole = run_fmusim(fmu, tmp_path / "whole.csv", "Mechanism")
     run_fmusim(fmu, tmp_path / "first.csv", "Mechanism", "--final-fmu-state-file", str(state))
     assert state.stat().st_size > 48 and state.read_bytes()[:8] == b"GRBFMI2S"
