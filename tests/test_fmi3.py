@@ -164,6 +164,25 @@ def test_the_fmi3_description_declares_fmi3_types_units_structure_and_capabiliti
     assert "fmi3_wrapper.c" in files and "mechanism_model.c" in files and "fmi2_wrapper.c" not in files
 
 
+@EVERY
+def test_value_references_agree_between_binary_and_fmi3_description(hosts, built3, name):
+    # what the binary reads at each value reference, through the getter of its FMI 3.0 type,
+    # is the start the description declares there
+    h, md = host3(hosts, built3, name), built3[name][2]
+    stored = [v for v in md.modelVariables if v.causality in ("parameter", "input")]
+    getter = {"Float64": "getr", "String": "gets", "Int32": "geti", "Enumeration": "getl"}
+    t = h.run(h.start(md=md)[:-1] + [f"{getter[v.type]} {v.valueReference}" for v in stored] + ["getr 0"])
+    assert t.values(-1) == ["0"]  # time, at the start time
+    for v, r in zip(stored, t.results[-len(stored) - 1:-1]):
+        assert r[1] == "0", (v.name, r)
+        if v.type == "Float64":
+            assert float(r[2]) == float(v.start), v.name
+        elif v.type == "String":
+            assert r[2] == f"[{v.start}]", v.name
+        else:
+            assert int(r[2]) == int(v.start), v.name
+
+
 # -- the same numbers as the FMI 2.0 build ------------------------------------------------
 
 @EVERY
