@@ -127,7 +127,8 @@ const double *model_outputs(const grb_instance *inst);
 int model_input_free_level(void);
 /* The time of the run (a started run). */
 double model_time(const grb_instance *inst);
-/* Does the model provide fmi2GetDirectionalDerivative (config.h, from its ModelSpec)? */
+/* Does the model provide directional derivatives (fmi2GetDirectionalDerivative,
+ * fmi3GetDirectionalDerivative; config.h, from its ModelSpec)? */
 #ifndef MODEL_DIRECTIONAL_DERIVATIVE
 #define MODEL_DIRECTIONAL_DERIVATIVE 0
 #endif
@@ -136,9 +137,9 @@ double model_time(const grb_instance *inst);
  * and inputs: dv_unknown[k] for output unknown[k], the direction dv_known[j] of
  * input known[j] (value references the wrapper has checked: Real outputs and
  * Real inputs, seeds finite, the model prepared). */
-grb_fmi_status model_directional_derivative(grb_instance *inst, const grb_value_reference unknown[], size_t n_unknown,
-                                        const grb_value_reference known[], size_t n_known, const double dv_known[],
-                                        double dv_unknown[]);
+grb_fmi_status model_directional_derivative(grb_instance *inst, const grb_value_reference unknown[],
+                                            size_t n_unknown, const grb_value_reference known[], size_t n_known,
+                                            const double dv_known[], double dv_unknown[]);
 #endif
 /* One communication step of h from t (the run's time, as the importer states
  * it); GRB_FMI_DISCARD with a logged reason when the inputs are not finite or the
