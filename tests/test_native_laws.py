@@ -433,3 +433,38 @@ def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert why in proc.stderr, proc.stderr
     assert not (tmp_path / "L.fmu").exists()
+
+
+# -- a python-control controller as a native FMU -------------------------------------------
+
+def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameters(host, tmp_path):
+    import control
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    from grubler.controllers import LinearController
+    from grubler.controllers.native_fmu import linear_spec
+    from grubler.fmi.build import build_fmu
+
+    def make():
+        return LinearController(control.tf([0.5, 3.0, 2.0], [1.0, 8.0, 0.0]), Ts=1e-2, method="tustin")
+
+    path = build_fmu(linear_spec(make(), "Lead"), tmp_path / "Lead.fmu")
+    assert validate_fmu(str(path)) == []
+    md = read_model_description(str(path))
+    zipfile.ZipFile(path).extractall(tmp_path / "x")
+    h = Host(host, tmp_path / "x" / "binaries" / "linux64" / "Lead.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    start = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+    assert list(start) == ["Ts", "A[1,1]", "A[1,2]", "A[2,1]", "A[2,2]", "B[1]", "B[2]", "C[1]", "C[2]", "D"]
+    assert np.array_equal(list(start.values())[1:], make().matrices)
+    inputs = [{"setpoint": 1.0, "measurement": 0.3 * math.sin(0.1 * k), "feedforward": 0.05 * k} for k in range(200)]
+    script = h.start(md=md)
+    for k, i in enumerate(inputs):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-2!r} 0.01", h.getr("u")]
+    t = h.run(script)
+    s = Sampler(make())
+    ref = [s.step(k * 1e-2, 1e-2, i)["u"] for k, i in enumerate(inputs)]
+    assert np.array_equal(got(t)[:, 0], ref)  # the same C, bit for bit
+    t = h.run(h.start({"A[2,1]": float("inf")}, md=md))
+    assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
