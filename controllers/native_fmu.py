@@ -35,7 +35,7 @@ from grubler.controllers.law import Law, Parameter
 from grubler.controllers.linear import LinearController
 from grubler.controllers.pid import ANTI_WINDUP, PID
 from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
-from grubler.controllers.trajectory import KINDS, Trajectory
+from grubler.controllers.trajectory import KINDS, Trajectory, read_profile
 from grubler.errors import SceneError
 from grubler.fmi.build import BuildError, build_fmu, check_destination, identifier_for
 from grubler.limits import brief
@@ -297,6 +297,20 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
             raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
 
 
+def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
+    """A native Trajectory FMU of kind 'table' whose points are a CSV profile's (:func:`~grubler.controllers.trajectory.read_profile`).
+
+    The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
+    ``kind`` starts at 'table'.
+    """
+    times, positions = read_profile(profile)
+    dest = Path(dest)
+    check_destination(dest, field)
+    spec = trajectory_spec(identifier_for(dest), times, positions)
+    spec = replace(spec, variables=tuple(replace(v, start="table") if v.name == "kind" else v for v in spec.variables))
+    return build_fmu(spec, dest)
+
+
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
          "Trajectory": trajectory_spec}
@@ -309,6 +323,6 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law", "linear_spec",
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law", "export_profile", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]
