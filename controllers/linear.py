@@ -8,7 +8,10 @@ realised as
 
     u_k = C x_k + D e_k + u_ff,k,        x_{k+1} = A x_k + B e_k.
 
-The FMU takes the controller as parameters: ``num`` and ``den`` (coefficient
+The update runs in C (``controllers/kernel/ctl_linear.c``), which a native FMU
+of one controller (:func:`grubler.controllers.native_fmu.linear_spec`: its
+discretised matrices as parameters) compiles too.  The pythonfmu FMU takes the
+controller as parameters: ``num`` and ``den`` (coefficient
 strings, highest power first) or ``state_space`` (TOML text with matrices
 ``A``, ``B``, ``C``, ``D``), with ``method`` and ``Ts``; ``method = 'none'`` says
 the coefficients are already those of a discrete system in z at ``Ts``.
@@ -24,6 +27,7 @@ Examples
 
 from __future__ import annotations
 
+import ctypes
 import re
 import tomllib
 
@@ -32,6 +36,7 @@ import numpy as np
 from grubler.errors import SceneError
 from grubler.limits import brief
 
+from grubler.controllers import native
 from grubler.controllers.law import Law, Parameter, check_sample_time
 
 DISCRETE = "none"
@@ -123,6 +128,7 @@ class LinearController(Law):
         self.method = method
         self.A, self.B, self.C, self.D = (np.asarray(m, dtype=float) for m in (ss.A, ss.B, ss.C, ss.D))
         self.system = sysd
+        self._u = ctypes.c_double()
         self.reset()
 
     @classmethod
@@ -154,18 +160,32 @@ class LinearController(Law):
 
     def reset(self) -> None:
         self.x = np.zeros(self.A.shape[0])
+        self._work = np.zeros(self.A.shape[0])
+
+    @property
+    def matrices(self) -> np.ndarray:
+        """A (row-major), B, C and D in one array, as ``ctl_linear.h`` and the native FMU's parameters hold them."""
+        return np.concatenate([self.A.ravel(), self.B.ravel(), self.C.ravel(), self.D.ravel()])
 
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
-        e = np.array([inputs["setpoint"] - inputs["measurement"]])
-        u = self.C @ self.x + self.D @ e
-        self.x = self.A @ self.x + self.B @ e
-        return {"u": float(u[0]) + inputs.get("feedforward", 0.0)}
+        if not hasattr(self, "_packed"):
+            self._packed = np.ascontiguousarray(self.matrices)
+        native.call("ctl_linear_sample", len(self.x), self._packed.ctypes.data_as(native.DOUBLES),
+                    self.x.ctypes.data_as(native.DOUBLES), inputs["setpoint"], inputs["measurement"],
+                    inputs.get("feedforward", 0.0), self._u, self._work.ctypes.data_as(native.DOUBLES))
+        return {"u": self._u.value}
 
     def get_state(self):
-        return self.x.copy()
+        return self.x.tolist()
 
     def set_state(self, state) -> None:
-        self.x = np.array(state, dtype=float)
+        x = np.array(state, dtype=float)
+        if x.shape != self.x.shape:
+            raise ValueError(f"a state of another controller: {x.size} numbers for order {self.x.size}")
+        bad = native.check("linear", len(x), x.ctypes.data_as(native.DOUBLES), state=True)
+        if bad:
+            raise ValueError(f"state.{bad[0]}: {bad[1]}")
+        self.x = x
 
 
 __all__ = ["LinearController"]

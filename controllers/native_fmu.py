@@ -32,9 +32,10 @@ from grubler.controllers import native
 from grubler.controllers.cascade import CascadeController
 from grubler.controllers.encoder import Encoder
 from grubler.controllers.law import Law, Parameter
+from grubler.controllers.linear import LinearController
 from grubler.controllers.pid import ANTI_WINDUP, PID
 from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
-from grubler.controllers.trajectory import KINDS, Trajectory
+from grubler.controllers.trajectory import KINDS, Trajectory, read_profile
 from grubler.errors import SceneError
 from grubler.fmi.build import BuildError, build_fmu, check_destination, identifier_for
 from grubler.limits import brief
@@ -127,6 +128,25 @@ def encoder_spec(identifier: str = "Encoder") -> ModelSpec:
     return law_spec(Encoder, identifier, "encoder_law.c", ctypes.sizeof(native.EncoderState) // 8 + ENCODER_CAPACITY,
                     bounds={"counts_per_rev": (0, INT_MAX), "seed": (0, INT_MAX), "delay": (0, ENCODER_CAPACITY - 1)},
                     defines={"ENCODER_CAPACITY": ENCODER_CAPACITY})
+
+
+def linear_spec(controller: LinearController, identifier: str = "Linear") -> ModelSpec:
+    """The native FMU of one :class:`~grubler.controllers.linear.LinearController`.
+
+    Its matrices, discretised as the library discretises them, are the FMU's
+    parameters ``A[i,j]``, ``B[i]``, ``C[i]``, ``D`` (indices from 1), after
+    ``Ts``, the sample time they are discrete at (change them together).
+    """
+    n = controller.A.shape[0]
+    m = controller.matrices
+    names = ([f"A[{i + 1},{j + 1}]" for i in range(n) for j in range(n)] + [f"B[{i + 1}]" for i in range(n)]
+             + [f"C[{i + 1}]" for i in range(n)] + ["D"])
+    params = {"Ts": Parameter(float(controller.Ts), "sample time the matrices are discrete at [s]")}
+    params.update({name: Parameter(float(x), f"x_k+1 = A x_k + B e_k, u_k = C x_k + D e_k + u_ff: {name} [1]")
+                   for name, x in zip(names, m)})
+    law = type(identifier, (Law,), {"inputs": LinearController.inputs, "outputs": LinearController.outputs,
+                                    "parameters": params, "__doc__": f"A discrete linear controller of order {n}."})
+    return law_spec(law, identifier, "linear_law.c", n, defines={"LINEAR_ORDER": n})
 
 
 def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> ModelSpec:
@@ -277,6 +297,20 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
             raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
 
 
+def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
+    """A native Trajectory FMU of kind 'table' whose points are a CSV profile's (:func:`~grubler.controllers.trajectory.read_profile`).
+
+    The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
+    ``kind`` starts at 'table'.
+    """
+    times, positions = read_profile(profile)
+    dest = Path(dest)
+    check_destination(dest, field)
+    spec = trajectory_spec(identifier_for(dest), times, positions)
+    spec = replace(spec, variables=tuple(replace(v, start="table") if v.name == "kind" else v for v in spec.variables))
+    return build_fmu(spec, dest)
+
+
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
          "Trajectory": trajectory_spec}
@@ -289,6 +323,6 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law",
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law", "export_profile", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

@@ -34,12 +34,13 @@ Examples
 from __future__ import annotations
 
 import ctypes
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from grubler.errors import SceneError
-from grubler.limits import brief
+from grubler.limits import PATH_CHARS, brief, clip
 
 from grubler.controllers import native
 from grubler.controllers.law import Law, Parameter, check_number
@@ -98,6 +99,69 @@ def _floats(value, field: str) -> np.ndarray:
     return arr
 
 
+# a profile's points: a cam table of 100 000 rows is a typing error, not a motion
+MAX_PROFILE_ROWS = 100_000
+
+
+def read_profile(path) -> tuple[np.ndarray, np.ndarray]:
+    """A table or cam profile from a CSV file: times, s, and positions, rad.
+
+    Two columns, time and position, one point a row, strictly increasing
+    times; a first row of names (``time,position``) and lines starting with
+    ``#`` are skipped.
+
+    Raises
+    ------
+    SceneError
+        One line naming the file, the row and the column of what is wrong.
+    """
+    import csv
+
+    name = clip(str(path), PATH_CHARS)
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(line for line in f if not line.lstrip().startswith("#")))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise SceneError("profile", f"{name}: cannot be read as a UTF-8 CSV file ({type(exc).__name__})") from None
+    numbered = [(k + 1, r) for k, r in enumerate(rows) if any(c.strip() for c in r)]
+    if numbered and not _numeric(numbered[0][1][0]):
+        numbered = numbered[1:]  # a row of names
+    if len(numbered) > MAX_PROFILE_ROWS:
+        raise SceneError("profile", f"{name}: {len(numbered)} rows; a profile has at most {MAX_PROFILE_ROWS}")
+    times, positions = [], []
+    for row_number, row in numbered:
+        if len(row) != 2:
+            raise SceneError("profile", f"{name}: row {row_number}: {len(row)} columns; a profile has two, "
+                                        "time [s] and position [rad]")
+        values = []
+        for column, (cell, what) in enumerate(zip(row, ("time", "position")), start=1):
+            try:
+                x = float(cell)
+            except ValueError:
+                raise SceneError("profile", f"{name}: row {row_number}, column {column} ({what}): not a number, "
+                                            f"got {brief(cell.strip())}") from None
+            if not math.isfinite(x):
+                raise SceneError("profile", f"{name}: row {row_number}, column {column} ({what}): must be finite, "
+                                            f"got {cell.strip()}")
+            values.append(x)
+        if times and values[0] <= times[-1]:
+            raise SceneError("profile", f"{name}: row {row_number}, column 1 (time): times must increase, got "
+                                        f"{values[0]:g} after {times[-1]:g}")
+        times.append(values[0])
+        positions.append(values[1])
+    if len(times) < 2:
+        raise SceneError("profile", f"{name}: {len(times)} points; a profile needs at least two")
+    return np.array(times), np.array(positions)
+
+
+def _numeric(cell: str) -> bool:
+    try:
+        float(cell)
+        return True
+    except ValueError:
+        return False
+
+
 class Trajectory(Law):
     """A setpoint generator: position, velocity and acceleration at time t.
 
@@ -124,6 +188,8 @@ class Trajectory(Law):
     times, positions : sequence of float or str
         'table': increasing times, s, and positions, rad (a string of numbers in
         the FMU).
+    profile : path, optional
+        'table': a CSV file of the points instead (:func:`read_profile`).
     """
 
     inputs: dict[str, str] = {}
@@ -151,7 +217,7 @@ class Trajectory(Law):
     def __init__(self, kind: str = "trapezoid", start: float = 0.0, delay: float = 0.0, speed: float = 1.0,
                  distance: float = 1.0, v_max: float = 1.0, a_max: float = 1.0, j_max: float = 10.0,
                  dwell: float = 0.0, repeat: int = 1, reverse: bool = False, amplitude: float = 1.0,
-                 frequency: float = 1.0, times="0 1", positions="0 0"):
+                 frequency: float = 1.0, times="0 1", positions="0 0", profile=None):
         if kind not in KINDS:
             raise SceneError("kind", f"must be one of {', '.join(KINDS)}, got {kind!r}")
         self.kind = kind
@@ -169,8 +235,10 @@ class Trajectory(Law):
         self._params = native.TrajectoryParams(**{**TRAJECTORY_DEFAULTS, **values, "kind": KINDS.index(kind)})
         self._table = None
         if kind == "table":
-            t = _floats(times, "times")
-            p = _floats(positions, "positions")
+            if profile is not None:
+                t, p = read_profile(profile)
+            else:
+                t, p = _floats(times, "times"), _floats(positions, "positions")
             if len(t) != len(p) or len(t) < 2:
                 raise SceneError("positions", f"needs one position per time and at least two points, got "
                                               f"{len(p)} positions for {len(t)} times")
@@ -229,4 +297,4 @@ class Trajectory(Law):
         pass
 
 
-__all__ = ["Trajectory", "KINDS", "Segment", "scurve_phases", "trapezoid_phases"]
+__all__ = ["Trajectory", "KINDS", "Segment", "read_profile", "scurve_phases", "trapezoid_phases"]

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import grubler
 from grubler.controllers import PID, CascadeController, CurrentSensor, Encoder, Sampler, Tachometer, Trajectory
 from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, Transcript, craft,  # noqa: F401
                              host, random_calls_hold, sanitize_all)
@@ -433,3 +434,96 @@ def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert why in proc.stderr, proc.stderr
     assert not (tmp_path / "L.fmu").exists()
+
+
+# -- a python-control controller as a native FMU -------------------------------------------
+
+def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameters(host, tmp_path):
+    import control
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    from grubler.controllers import LinearController
+    from grubler.controllers.native_fmu import linear_spec
+    from grubler.fmi.build import build_fmu
+
+    def make():
+        return LinearController(control.tf([0.5, 3.0, 2.0], [1.0, 8.0, 0.0]), Ts=1e-2, method="tustin")
+
+    path = build_fmu(linear_spec(make(), "Lead"), tmp_path / "Lead.fmu")
+    assert validate_fmu(str(path)) == []
+    md = read_model_description(str(path))
+    zipfile.ZipFile(path).extractall(tmp_path / "x")
+    h = Host(host, tmp_path / "x" / "binaries" / "linux64" / "Lead.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    start = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+    assert list(start) == ["Ts", "A[1,1]", "A[1,2]", "A[2,1]", "A[2,2]", "B[1]", "B[2]", "C[1]", "C[2]", "D"]
+    assert np.array_equal(list(start.values())[1:], make().matrices)
+    inputs = [{"setpoint": 1.0, "measurement": 0.3 * math.sin(0.1 * k), "feedforward": 0.05 * k} for k in range(200)]
+    script = h.start(md=md)
+    for k, i in enumerate(inputs):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-2!r} 0.01", h.getr("u")]
+    t = h.run(script)
+    s = Sampler(make())
+    ref = [s.step(k * 1e-2, 1e-2, i)["u"] for k, i in enumerate(inputs)]
+    assert np.array_equal(got(t)[:, 0], ref)  # the same C, bit for bit
+    t = h.run(h.start({"A[2,1]": float("inf")}, md=md))
+    assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
+
+
+# -- a table or cam profile from CSV --------------------------------------------------------
+
+@pytest.mark.parametrize("text, why", [
+    ("time,position\n0,0\n0.5,abc\n", "row 3, column 2 (position): not a number, got 'abc'"),
+    ("0,0\n0.5\n", "row 2: 1 columns; a profile has two"),
+    ("0,0,1\n", "row 1: 3 columns"),
+    ("0,0\n1,1\n1,2\n", "row 3, column 1 (time): times must increase, got 1 after 1"),
+    ("0,0\n# a comment\n0.5,inf\n", "row 2, column 2 (position): must be finite"),
+    ("time,position\n0,1\n", "1 points; a profile needs at least two"),
+    ("", "0 points"),
+    ("\xff\xfe", "cannot be read as a UTF-8 CSV file")])
+def test_a_bad_profile_is_one_line_naming_the_row_and_column(tmp_path, text, why):
+    from grubler.controllers.native_fmu import export_profile
+
+    src = tmp_path / "cam.csv"
+    src.write_bytes(text.encode("latin-1"))
+    with pytest.raises(grubler.SceneError) as err:
+        Trajectory(kind="table", profile=src)
+    assert err.value.field == "profile" and why in err.value.reason and "\n" not in str(err.value)
+    with pytest.raises(grubler.SceneError, match="profile"):
+        export_profile(src, tmp_path / "Cam.fmu")
+    assert not (tmp_path / "Cam.fmu").exists()
+
+
+def test_a_cam_profile_fmu_runs_in_the_c_host_as_the_library_evaluates_it(host, tmp_path):
+    from fmpy import read_model_description
+
+    from grubler.controllers.native_fmu import export_profile
+
+    src = tmp_path / "cam.csv"
+    src.write_text("time,position\n# a cam: rise, dwell, return\n0,0\n0.1,0.02\n0.3,0.5\n0.5,0.52\n0.8,0.0\n")
+    path = export_profile(src, tmp_path / "Cam.fmu")
+    md = read_model_description(str(path))
+    zipfile.ZipFile(path).extractall(tmp_path / "x")
+    h = Host(host, tmp_path / "x" / "binaries" / "linux64" / "Cam.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    t = h.run(h.start({"delay": 0.05}, md=md) + [h.run_steps(0.0, 1e-3, 1000, "position", "velocity",
+                                                                "acceleration")])
+    rows = t.rows()
+    tr = Trajectory(kind="table", profile=src, delay=0.05)
+    # the FMU evaluates at the step's start plus its size, as the host steps: (k h) + h
+    assert np.array_equal(rows[:, 1:], [tr.evaluate(k * 1e-3 + 1e-3) for k in range(1000)])
+    assert rows[-1, 1] == 0.0 and max(rows[:, 1]) > 0.5
+
+
+def test_the_example_systems_use_native_fmus_only():
+    import xml.etree.ElementTree as ET
+
+    sys.path.insert(0, str(ROOT))
+    import build_fmu
+
+    for name in ("servo_fourbar.ssd", "servo_slider_crank.ssd"):
+        root = ET.parse(ROOT / "examples" / name).getroot()
+        used = [Path(c.get("source")).stem for c in root.iter("{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+                                                               "Component")]
+        assert len(used) == 5 and set(used) <= set(build_fmu.NATIVE), (name, used)

@@ -27,12 +27,6 @@ int law_check_state(const double *param, const double *state, int *field, const 
 
 const char *law_state_name(int field) { return ctl_encoder_field_name(field); }
 
-int law_prepare(const double *param, double *scratch) {
-    (void)param;
-    (void)scratch;
-    return CTL_OK;
-}
-
 int law_start(const double *param, const double *scratch, double t0, double *state, double *out) {
     ctl_encoder_params p;
     ctl_encoder_state s;

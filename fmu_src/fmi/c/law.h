@@ -33,7 +33,8 @@ int law_check(const double *param, int *field, const char **why);
 /* CTL_BAD_STATE with *field naming a part of the state (law_state_name) and *why the rule. */
 int law_check_state(const double *param, const double *state, int *field, const char **why);
 const char *law_state_name(int field);
-/* Derived constants, once the parameters passed law_check. */
+/* Derived constants, once the parameters passed law_check: only a law with
+ * scratch (LAW_N_SCRATCH > 0) defines it. */
 int law_prepare(const double *param, double *scratch);
 /* The state at the start time t0 and the outputs before the first sample. */
 int law_start(const double *param, const double *scratch, double t0, double *state, double *out);

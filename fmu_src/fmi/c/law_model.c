@@ -84,8 +84,10 @@ fmi2Status model_prepare(grb_instance *inst) {
     int st;
     fmi2Status status = model_check(inst, p);
     if (status != fmi2OK) return status;
+#if LAW_N_SCRATCH > 0
     st = law_prepare(p, ls->derived);
     if (st != CTL_OK) BAD("the law's parameters: %s", ctl_status_message(st));
+#endif
     if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
     p[P_T0] = p[P_T] = inst->start_time;
     p[P_SAMPLES] = 0.0;

@@ -37,12 +37,6 @@ int law_check_state(const double *param, const double *state, int *field, const 
 
 const char *law_state_name(int field) { return LAW_FIELD_NAME(field); }
 
-int law_prepare(const double *param, double *scratch) {
-    (void)param;
-    (void)scratch;
-    return CTL_OK;
-}
-
 int law_start(const double *param, const double *scratch, double t0, double *state, double *out) {
     LAW_PARAMS p;
     LAW_STATE s;

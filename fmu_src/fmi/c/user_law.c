@@ -32,12 +32,6 @@ const char *law_state_name(int field) {
     return "law";
 }
 
-int law_prepare(const double *param, double *scratch) {
-    (void)param;
-    (void)scratch;
-    return CTL_OK;
-}
-
 int law_start(const double *param, const double *scratch, double t0, double *state, double *out) {
     int k;
     (void)param;
