@@ -164,6 +164,7 @@ needs_zig = pytest.mark.skipif(zig_compiler() is None,
 NATIVE = ["Mechanism", "DCMotor", "HydraulicCylinder", "PneumaticCylinder"]
 FOLDERS = list(dict.fromkeys(t.fmi2 for t in TARGETS))
 GLIBC_OLDEST = (2, 17)
+RELATIVE = 1e-12  # another platform's binary against linux64's, of each output's size
 
 
 @pytest.fixture(scope="module")
@@ -238,11 +239,14 @@ def agree_with_linux64(cross_built, name, folder, wrapper, exe, env, tmp_path):
         script += [f"ddr {vr[i]} {outputs}" for i in ("motor_torque", "load_torque")]
     ours, theirs = native.run(script), other.run(script, env=env)
     assert ours.rows().shape[0] == 100
-    np.testing.assert_allclose(theirs.rows(), ours.rows(), rtol=0, atol=MATCH)
+    # each platform's maths library rounds sin and cos its own way in the last bit
+    # (the Windows binary has zig's, from musl; linux64 glibc's): over 100 steps
+    # that leaves 7e-14 of an output's size (measured), so the verdict is relative
+    np.testing.assert_allclose(theirs.rows(), ours.rows(), rtol=RELATIVE, atol=MATCH)
     slopes = [np.array(t.values(k), float) for t in (ours, theirs) for k in range(len(t.results))
               if t.results[k][0] == "ddr"]
     for a, b in zip(slopes[:len(slopes) // 2], slopes[len(slopes) // 2:]):
-        np.testing.assert_allclose(b, a, rtol=0, atol=MATCH * np.abs(a).max())
+        np.testing.assert_allclose(b, a, rtol=RELATIVE, atol=MATCH * np.abs(a).max())
 
 
 @pytest.fixture(scope="module")

@@ -233,6 +233,11 @@ def compile_command(compiler: list[str], target: Target, sources: Path, files: l
     cmd = [*compiler, "-shared", *CFLAGS, "-I", str(sources), "-o", str(out), *(str(sources / f) for f in files)]
     if _is_zig(compiler):
         cmd.append("-s")  # no debug information: a tenth of the size
+        if target.suffix == ".so":
+            # the C library's own sin and cos, as cc's binaries and the library use, not
+            # zig's (musl's, a last bit apart now and then); complex products and
+            # quotients inline (textbook formulas), as glibc has no __muldc3, __divdc3
+            cmd += ["-rtlib=none", "-fcx-limited-range"]
     if target.fmi2 == "win64":
         return cmd + ([] if _is_zig(compiler) else ["-static-libgcc"])
     return cmd + (["-fPIC"] if target.suffix == ".so" else []) + ["-lm"]
