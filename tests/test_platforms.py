@@ -151,10 +151,29 @@ def test_platforms_are_named_by_either_standards_names():
     from grubler.errors import InputError
     from grubler.fmi.build import select_targets
 
-    host = select_targets(None)[0]
-    assert select_targets(host.fmi2) == select_targets([host.name]) == [t for t in TARGETS if t.fmi2 == host.fmi2]
+    from grubler.fmi.build import buildable, host_target
+
+    host = host_target()
+    assert select_targets([host.name]) == [host]
+    assert select_targets(host.fmi2) == [t for t in buildable() if t.fmi2 == host.fmi2]
+    assert select_targets(f"{host.fmi2}, {host.name}") == select_targets(host.fmi2)  # each once
     with pytest.raises(InputError, match="no platform 'macos'"):
         select_targets("macos")
+
+
+def test_export_refuses_a_platform_it_cannot_build_in_one_line(capsys, monkeypatch, tmp_path):
+    from grubler.cli import main
+    from grubler.fmi import build
+
+    monkeypatch.setattr(build, "zig_compiler", lambda: None)
+    monkeypatch.setattr(build, "cross_compiler", lambda: None)
+    other = next(t.fmi2 for t in TARGETS if t.fmi2 not in ("win64", build.host_target().fmi2))
+    for value, says in ((other, f"{other}: no compiler here builds for it; pip install"),
+                        ("linux64,macos", "no platform 'macos'")):
+        code = main(["export", "thesis-fourbar", "-o", str(tmp_path / "M.fmu"), "--platforms", value])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and f"--platforms: {says}" in err, err
+    assert list(tmp_path.iterdir()) == []  # refused before compiling
 
 
 # -- with it: every platform ---------------------------------------------------------

@@ -117,7 +117,7 @@ class Target:
 
 
 # FMI 2.0 names win64, linux64 and darwin64 and lets vendors add others: ARM
-# Linux takes its FMI 3.0 tuple, as fmpy and the Reference FMUs name it there
+# Linux takes its FMI 3.0 platform tuple
 TARGETS = (
     Target("x86_64-linux", "linux64", "x86_64-linux-gnu.2.17", ".so"),
     Target("x86_64-windows", "win64", "x86_64-windows-gnu", ".dll"),
@@ -196,18 +196,17 @@ def select_targets(platforms=None, field: str = "platforms") -> list[Target]:
         return buildable()
     if isinstance(platforms, str):
         platforms = [p.strip() for p in platforms.split(",") if p.strip()]
-    chosen = []
+    chosen, names = [], ", ".join(dict.fromkeys(n for t in TARGETS for n in (t.fmi2, t.name)))
     for name in platforms:
         match = [t for t in TARGETS if name in (t.name, t.fmi2)]
         if not match:
-            raise InputError(field, f"no platform {name!r} (have: "
-                                          f"{', '.join(dict.fromkeys(n for t in TARGETS for n in (t.fmi2, t.name)))})")
-        chosen += [t for t in match if t not in chosen]
+            raise InputError(field, f"no platform {name!r} (have: {names})")
+        # a folder of two targets (darwin64) takes those built here: a Mac's cc builds its own
+        if not [t for t in match if t in buildable()]:
+            raise InputError(field, f"{name}: no compiler here builds for it; {CROSS_HINT}")
+        chosen += [t for t in match if t in buildable() and t not in chosen]
     if not chosen:
         raise InputError(field, "name at least one platform")
-    missing = [t for t in chosen if t not in buildable()]
-    if missing:
-        raise InputError(field, f"{_folders(missing)}: no compiler here builds for it; {CROSS_HINT}")
     return [t for t in TARGETS if t in chosen]
 
 
