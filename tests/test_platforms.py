@@ -176,6 +176,24 @@ def test_export_refuses_a_platform_it_cannot_build_in_one_line(capsys, monkeypat
     assert list(tmp_path.iterdir()) == []  # refused before compiling
 
 
+def test_the_universal_macos_binary_holds_each_slice_whole_at_a_page_boundary():
+    import struct
+
+    from binaries import read
+    from grubler.fmi.build import BuildError, universal_binary
+
+    # two thin 64-bit Mach-O dylibs with no load commands: x86_64 (7) and arm64 (12), each with 64-bit ABI bit
+    thin = [struct.pack("<IiIIIIII", 0xFEEDFACF, cpu | 0x01000000, sub, 6, 0, 0, 0, 0) + b"slice %d" % k
+            for k, (cpu, sub) in enumerate(((7, 3), (12, 0)))]
+    fat = universal_binary(thin)
+    assert [arch for arch, _ in read(fat)] == ["x86_64", "aarch64"]
+    for k, data in enumerate(thin):
+        cpu, sub, offset, size, align = struct.unpack_from(">iIIII", fat, 8 + 20 * k)
+        assert fat[offset:offset + size] == data and offset % (1 << align) == 0 and align == 14
+    with pytest.raises(BuildError, match="not a 64-bit Mach-O"):
+        universal_binary([b"\x7fELF" + bytes(28)])
+
+
 # -- with it: every platform ---------------------------------------------------------
 
 needs_zig = pytest.mark.skipif(zig_compiler() is None,
