@@ -242,12 +242,15 @@ def compile_command(compiler: list[str], target: Target, sources: Path, files: l
     return cmd + (["-fPIC"] if target.suffix == ".so" else []) + ["-lm"]
 
 
-def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, identifier: str) -> list[Path]:
-    """Compile the C files for each target into ``binaries/<FMI 2.0 folder>/<identifier><suffix>``.
+def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, identifier: str,
+                     folder=lambda t: t.fmi2) -> list[Path]:
+    """Compile the C files for each target into ``binaries/<folder(target)>/<identifier><suffix>``.
 
     The targets compile side by side, each in a scratch folder (a Windows link
     leaves a .pdb and an import library beside the DLL, which the FMU does not
-    need); the two macOS targets become one universal binary.
+    need); targets that share a folder (FMI 2.0's darwin64: ``folder`` gives
+    the FMI 2.0 name by default, ``lambda t: t.name`` the FMI 3.0 one) become
+    one universal binary.
 
     Raises
     ------
@@ -272,9 +275,9 @@ def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, i
         if failed:
             raise BuildError("\n".join(failed))
         written = []
-        for folder in dict.fromkeys(t.fmi2 for t, *_ in jobs):
-            parts = [out for t, _, out, _ in jobs if t.fmi2 == folder]
-            dest = binaries / folder / parts[0].name
+        for name in dict.fromkeys(folder(t) for t, *_ in jobs):
+            parts = [out for t, _, out, _ in jobs if folder(t) == name]
+            dest = binaries / name / parts[0].name
             dest.parent.mkdir(parents=True, exist_ok=True)
             if len(parts) > 1:
                 dest.write_bytes(universal_binary([p.read_bytes() for p in parts]))
