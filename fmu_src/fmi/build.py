@@ -136,7 +136,7 @@ class Target:
 
 
 # FMI 2.0 names win64, linux64 and darwin64 and lets vendors add others: ARM
-# Linux takes its FMI 3.0 tuple, as fmpy and the Reference FMUs name it there
+# Linux takes its FMI 3.0 platform tuple
 TARGETS = (
     Target("x86_64-linux", "linux64", "x86_64-linux-gnu.2.17", ".so"),
     Target("x86_64-windows", "win64", "x86_64-windows-gnu", ".dll"),
@@ -215,18 +215,17 @@ def select_targets(platforms=None, field: str = "platforms") -> list[Target]:
         return buildable()
     if isinstance(platforms, str):
         platforms = [p.strip() for p in platforms.split(",") if p.strip()]
-    chosen = []
+    chosen, names = [], ", ".join(dict.fromkeys(n for t in TARGETS for n in (t.fmi2, t.name)))
     for name in platforms:
         match = [t for t in TARGETS if name in (t.name, t.fmi2)]
         if not match:
-            raise InputError(field, f"no platform {name!r} (have: "
-                                          f"{', '.join(dict.fromkeys(n for t in TARGETS for n in (t.fmi2, t.name)))})")
-        chosen += [t for t in match if t not in chosen]
+            raise InputError(field, f"no platform {name!r} (have: {names})")
+        # a folder of two targets (darwin64) takes those built here: a Mac's cc builds its own
+        if not [t for t in match if t in buildable()]:
+            raise InputError(field, f"{name}: no compiler here builds for it; {CROSS_HINT}")
+        chosen += [t for t in match if t in buildable() and t not in chosen]
     if not chosen:
         raise InputError(field, "name at least one platform")
-    missing = [t for t in chosen if t not in buildable()]
-    if missing:
-        raise InputError(field, f"{_folders(missing)}: no compiler here builds for it; {CROSS_HINT}")
     return [t for t in TARGETS if t in chosen]
 
 
@@ -252,21 +251,25 @@ def compile_command(compiler: list[str], target: Target, sources: Path, files: l
     cmd = [*compiler, "-shared", *CFLAGS, "-I", str(sources), "-o", str(out), *(str(sources / f) for f in files)]
     if _is_zig(compiler):
         cmd.append("-s")  # no debug information: a tenth of the size
+        if target.suffix == ".so":
+            # the C library's own sin and cos, as cc's binaries and the library use, not
+            # zig's (musl's, a last bit apart now and then); complex products and
+            # quotients inline (textbook formulas), as glibc has no __muldc3, __divdc3
+            cmd += ["-rtlib=none", "-fcx-limited-range"]
     if target.fmi2 == "win64":
         return cmd + ([] if _is_zig(compiler) else ["-static-libgcc"])
     return cmd + (["-fPIC"] if target.suffix == ".so" else []) + ["-lm"]
 
 
 def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, identifier: str,
-                     fmi: int = 2) -> list[Path]:
-    """Compile the C files for each target into ``binaries/<folder>/<identifier><suffix>``.
-
-    The folder is the target's FMI 2.0 folder, or with ``fmi=3`` its FMI 3.0
-    platform tuple.
+                     folder=lambda t: t.fmi2) -> list[Path]:
+    """Compile the C files for each target into ``binaries/<folder(target)>/<identifier><suffix>``.
 
     The targets compile side by side, each in a scratch folder (a Windows link
     leaves a .pdb and an import library beside the DLL, which the FMU does not
-    need); the two macOS targets become one universal binary.
+    need); targets that share a folder (FMI 2.0's darwin64: ``folder`` gives
+    the FMI 2.0 name by default, ``lambda t: t.name`` the FMI 3.0 one) become
+    one universal binary.
 
     Raises
     ------
@@ -291,10 +294,9 @@ def compile_binaries(sources: Path, files: list[str], targets, binaries: Path, i
         if failed:
             raise BuildError("\n".join(failed))
         written = []
-        folder_of = (lambda t: t.fmi2) if fmi == 2 else (lambda t: t.name)
-        for folder in dict.fromkeys(folder_of(t) for t, *_ in jobs):
-            parts = [out for t, _, out, _ in jobs if folder_of(t) == folder]
-            dest = binaries / folder / parts[0].name
+        for name in dict.fromkeys(folder(t) for t, *_ in jobs):
+            parts = [out for t, _, out, _ in jobs if folder(t) == name]
+            dest = binaries / name / parts[0].name
             dest.parent.mkdir(parents=True, exist_ok=True)
             if len(parts) > 1:
                 dest.write_bytes(universal_binary([p.read_bytes() for p in parts]))
@@ -375,7 +377,8 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path
                 raise BuildError("a win64 binary without MinGW-w64 gcc on PATH is built by fmpy.build, which "
                                  "needs fmpy 0.3.26 or later (and numpy 2.1.3 or later)") from None
             build_platform_binary(root)
-        compile_binaries(src, files, [t for t in targets if t not in native_windows], root / "binaries", name, fmi)
+        compile_binaries(src, files, [t for t in targets if t not in native_windows], root / "binaries", name,
+                         (lambda t: t.fmi2) if fmi == 2 else (lambda t: t.name))
         pack_fmu(root, dest)
     return dest
 
