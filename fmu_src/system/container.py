@@ -102,8 +102,8 @@ def engine() -> tuple[Path, str]:
     Raises
     ------
     ContainerError
-        When the installed fmpy has no container engine (it came with 0.3.26's
-        Rust rewrite; this module is tested with 0.3.32).
+        When the installed fmpy has no container engine (this module is tested
+        with fmpy 0.3.32's).
     """
     try:
         import fmpy.container_fmu as cf
