@@ -1,8 +1,7 @@
 """Build the compiled physics kernel into the package (``grubler._kernel``).
 
-The kernel (``fmu_src/kernel/*.c``), the motor model (``motors/kernel/*.c``)
-and the co-simulation master's stepping loop (``fmu_src/system/c/*.c``) are
-plain C99 with libm only.  They are compiled as one shared library that the
+The kernel (``fmu_src/kernel/*.c``) and the motor model (``motors/kernel/*.c``)
+are plain C99 with libm only.  They are compiled as one shared library that the
 Python binding (:mod:`grubler.binding`) loads with ctypes; ``_module.c`` gives it
 the module entry point Python's build tools expect.  The native FMUs compile the
 same sources again without Python (:mod:`grubler.fmi.build`).
@@ -14,14 +13,13 @@ from setuptools import Extension, setup
 
 SOURCES = sorted(glob("fmu_src/kernel/*.c") + glob("motors/kernel/*.c"))
 
-# the co-simulation master's stepping loop (grubler.system.cosim), in the same library
-MASTER = sorted(glob("fmu_src/system/c/*.c"))
+SOURCES += sorted(glob("fmu_src/system/c/*.c"))  # the co-simulation master's stepping loop (grubler.system.cosim)
 
 setup(
     ext_modules=[
         Extension(
             "grubler._kernel",
-            sources=SOURCES + MASTER,
+            sources=SOURCES,
             include_dirs=["fmu_src/kernel", "motors/kernel"],
             define_macros=[("GRB_SHARED", "1")],
             extra_compile_args=["-O2", "-std=c99"] if not __import__("sys").platform.startswith("win") else [],
