@@ -155,6 +155,15 @@ def _text(value, fmi_type: str) -> str:
     return str(value)
 
 
+def execution_tools(system: System) -> list[str]:
+    """The components whose FMU needs an execution tool where it runs (a pythonfmu FMU: a Python).
+
+    The exported FMU then needs one too (its ``needsExecutionTool``).
+    """
+    return [name for name, comp in system.components.items()
+            if FmuInterface.of(system.source_path(comp)).model_description.coSimulation.needsExecutionTool]
+
+
 def shared_platforms(resources: Path, folders: list[str]) -> set[str]:
     """The platforms (FMI 3 names) on which every nested FMU has a binary: the container's, no others.
 
@@ -259,7 +268,8 @@ def model_description(system: System, interfaces: dict[str, FmuInterface], expos
     common = {"modelName": system.name or "system", "description": words,
               "generationTool": f"grubler {__version__} (grubler.system.container, fmpy's container FMU)",
               "generationDateAndTime": stamp, "variableNamingConvention": "structured"}
-    cs = {"modelIdentifier": IDENTIFIER, "needsExecutionTool": "false",
+    tool = "true" if any(i.model_description.coSimulation.needsExecutionTool for i in interfaces.values()) else "false"
+    cs = {"modelIdentifier": IDENTIFIER, "needsExecutionTool": tool,
           "canHandleVariableCommunicationStepSize": "false", "canGetAndSetFMUstate": "false",
           "canSerializeFMUstate": "false", "providesDirectionalDerivative" if fmi_version == 2 else
           "providesDirectionalDerivatives": "false"}
@@ -345,9 +355,7 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     SystemDescriptionError
         A system that cannot run (every problem named, as ``grubler cosim`` names them).
     ContainerError
-        An fmpy without the container engine, a nested FMU it cannot nest, FMUs
-        with no platform in common (the engine's binary goes only where every
-        nested FMU has one).
+        An fmpy without the container engine, a nested FMU it cannot nest.
     """
     from grubler.fmi.build import check_destination, pack_fmu
 
@@ -384,10 +392,8 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
         (root / "resources" / "container.json").write_text(json.dumps(config, indent=1), encoding="utf-8")
         (root / "modelDescription.xml").write_bytes(
             model_description(system, interfaces, exposed, step, t0, t_end, token, fmi_version))
+        # never empty: every FMU was instantiated here, so all have this machine's binary
         platforms = shared_platforms(root / "resources", list(folders.values()))
-        if not platforms:
-            raise ContainerError(f"system {brief(system.name)}", "its FMUs have no binary for one same platform "
-                                 "(linux64, win64, darwin64): the container would load on none")
         for platform, fmi2_folder, library in BINARIES:
             folder = fmi2_folder if fmi_version == 2 else platform
             if folder is not None and platform in platforms:
@@ -399,5 +405,5 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     return dest
 
 
-__all__ = ["export_system", "exposed_variables", "connection_order", "configuration", "model_description",
+__all__ = ["export_system", "execution_tools", "exposed_variables", "connection_order", "configuration", "model_description",
            "engine", "ContainerError", "CONTAINER_TYPES"]
