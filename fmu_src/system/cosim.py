@@ -630,7 +630,12 @@ def interfaces_of(system: System, unzipped: "UnpackedFMUs") -> dict[str, FmuInte
             if not (folder / "modelDescription.xml").is_file():
                 problems.append(f"component {name}: {clip(comp.source)} is not an FMU (no modelDescription.xml)")
                 continue
-            interfaces[name] = FmuInterface.of(path, folder)
+            itf = FmuInterface.of(path, folder)
+            if itf.model_description.fmiVersion != "2.0":
+                problems.append(f"component {name}: {brief(path.name)} is an FMI {itf.model_description.fmiVersion} "
+                                "FMU; this master runs FMI 2.0 co-simulation FMUs (build it as FMI 2.0)")
+                continue
+            interfaces[name] = itf
         except InputError as exc:
             problems.append(f"component {name}: cannot read {exc.reason}")
         except Exception as exc:  # noqa: BLE001 - a broken FMU is one of the problems listed
