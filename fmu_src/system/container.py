@@ -243,10 +243,7 @@ def configuration(system: System, interfaces: dict[str, FmuInterface], exposed: 
                             "dstComponent": names.index(c.end_element), "dstValueReferences": [b.vr], "size": 1})
     components = []
     for name in names:
-        md = interfaces[name].model_description
-        if md.fmiVersion not in ("2.0", "3.0"):
-            raise ContainerError(f"component {name}", f"is FMI {md.fmiVersion}: the container nests FMI 2.0 "
-                                                      "and 3.0 co-simulation FMUs")
+        md = interfaces[name].model_description  # FMI 2.0: the master that settles the inputs refuses others
         components.append({"fmiMajorVersion": md.fmiVersion[0], "name": name, "path": paths[name],
                            "modelIdentifier": md.coSimulation.modelIdentifier,
                            "instantiationToken": md.guid})
@@ -355,7 +352,7 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     SystemDescriptionError
         A system that cannot run (every problem named, as ``grubler cosim`` names them).
     ContainerError
-        An fmpy without the container engine, a nested FMU it cannot nest.
+        An fmpy without the container engine, an FMI version other than 2 or 3.
     """
     from grubler.fmi.build import check_destination, pack_fmu
 
