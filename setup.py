@@ -14,15 +14,13 @@ from glob import glob
 from setuptools import Extension, setup
 
 SOURCES = sorted(glob("fmu_src/kernel/*.c") + glob("motors/kernel/*.c") + glob("controllers/kernel/*.c"))
-
-# the co-simulation master's stepping loop (grubler.system.cosim), in the same library
-MASTER = sorted(glob("fmu_src/system/c/*.c"))
+SOURCES += sorted(glob("fmu_src/system/c/*.c"))  # the co-simulation master's stepping loop (grubler.system.cosim)
 
 setup(
     ext_modules=[
         Extension(
             "grubler._kernel",
-            sources=SOURCES + MASTER,
+            sources=SOURCES,
             include_dirs=["fmu_src/kernel", "motors/kernel", "controllers/kernel"],
             define_macros=[("GRB_SHARED", "1")],
             extra_compile_args=["-O2", "-std=c99"] if not __import__("sys").platform.startswith("win") else [],

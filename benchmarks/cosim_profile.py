@@ -31,18 +31,21 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=10.0)
     ap.add_argument("--step", type=float, default=1e-3)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--system", type=Path, default=SSD, help="the .ssd to run (default: the README's servo four-bar)")
     args = ap.parse_args()
-    if not all((HERE.parent / "dist" / f"{n}.fmu").exists() for n in build_fmu.FMUS):
+    if args.system == SSD and not all((HERE.parent / "dist" / f"{n}.fmu").exists() for n in build_fmu.FMUS):
         build_fmu.build()
-    cosim.run(SSD, t_end=0.1, step=args.step)  # warm: extraction, first loads
+    system = args.system
+    cosim.run(system, t_end=0.1, step=args.step)  # warm: extraction, first loads
     walls = []
     for _ in range(args.repeat):
-        res = cosim.run(SSD, t_end=args.t_end, step=args.step)
+        res = cosim.run(system, t_end=args.t_end, step=args.step)
         walls.append(res.wall_time)
-    res = cosim.run(SSD, t_end=args.t_end, step=args.step, profile=True)
+    res = cosim.run(system, t_end=args.t_end, step=args.step, profile=True)
     steps = round(args.t_end / args.step)
+    where = "" if system == SSD else f" --system {system}"
     print(f"Command: `python benchmarks/cosim_profile.py --t-end {args.t_end:g} --step {args.step:g} "
-          f"--repeat {args.repeat}`\n")
+          f"--repeat {args.repeat}{where}`\n")
     print(f"Wall time of {args.t_end:g} s at {args.step:g} s ({steps} steps), grubler's master: median "
           f"{statistics.median(walls):.3f} s (runs: {', '.join(f'{w:.3f}' for w in walls)}).\n")
     print("| component | setReal (us/step) | doStep (us/step) | getReal (us/step) | total (s) | share |")

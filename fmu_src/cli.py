@@ -289,10 +289,16 @@ def cmd_app(args) -> int:
 
 def cmd_export(args) -> int:
     if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU around its FMUs
-        from grubler.system.container import export_system
+        from grubler.system.container import execution_tools, export_system
+        from grubler.system.ssp import read
 
-        path = export_system(args.scene, args.out, fmi_version=args.fmi, field="--out")
+        system = read(args.scene)
+        path = export_system(system, args.out, fmi_version=args.fmi, field="--out")
         print(f"wrote {path} (fmpy's container FMU: its FMUs coupled as `grubler cosim --master jacobi` couples them)")
+        tools = execution_tools(system)
+        if tools:
+            _warn([f"{path.name} needs an execution tool where it runs, as {', '.join(tools)} do (pythonfmu FMUs: "
+                   "a Python with their packages installed); fmusim or a C host cannot run it"])
         return 0
     from grubler.fmi.build import export, platforms_note, select_targets
 

@@ -172,6 +172,7 @@ def test_what_the_exported_fmu_shows_and_how_its_engine_is_told(plant, tmp_path)
     md = read_model_description(str(fmu))
     by_name = {v.name: v for v in md.modelVariables}
     assert md.coSimulation.modelIdentifier == "container_fmu"
+    assert md.coSimulation.needsExecutionTool is False  # native FMUs only: no Python where it runs
     assert min(v.valueReference for v in md.modelVariables) == 1  # the engine keeps 0 for the time
     # the system's parameters are the FMU's defaults; the connected inputs are not shown
     assert float(by_name["motor.gear_ratio"].start) == 50.0 and by_name["motor.gear_ratio"].causality == "parameter"
@@ -254,6 +255,14 @@ def test_the_readmes_servo_exported_runs_in_fmpy_as_grubler_cosim_jacobi(tmp_pat
     fmu = tmp_path / "ServoFourbar.fmu"
     proc = grubler("export", ssd, "-o", fmu)
     assert proc.returncode == 0, proc.stderr
+    # pythonfmu FMUs need a Python where they run: the exported FMU says so, and so does the command
+    from fmpy import read_model_description
+
+    from grubler.system.container import execution_tools
+
+    tools = execution_tools(ssp.read(ssd))
+    assert read_model_description(str(fmu)).coSimulation.needsExecutionTool == bool(tools)
+    assert ("needs an execution tool where it runs, as " in proc.stderr) == bool(tools), proc.stderr
     names = compared(ssd)
     assert {"mechanism.drive_angle", "motor.current", "controller.u", "encoder.measured_position"} <= set(names)
     out = tmp_path / "container.npz"

@@ -300,3 +300,18 @@ def test_a_profiled_run_times_each_call_and_changes_no_result(mechanism_fmu):
     set_b, step_b, get_b = timed.profile["b"]
     assert set_a == 0.0 and set_b > 0  # a has no connected input: the loop makes no setReal call for it
     assert min(step_a, step_b, get_a, get_b) > 0 and step_a + step_b < timed.wall_time
+
+
+def test_an_fmi3_component_is_refused_by_name_not_at_its_binary(mechanism_fmu, tmp_path):
+    # an FMI 3.0 FMU keeps its binary under x86_64-linux/...: the FMI 2.0 loader would look
+    # for linux64/ and report a missing library, which says nothing of the reason
+    from grubler.system.container import export_system
+
+    inner = ssp.System("inner", stop_time=0.01, step=0.01)
+    inner.add("m", mechanism_fmu)
+    fmi3 = export_system(inner, tmp_path / "Inner3.fmu", fmi_version=3)
+    s = ssp.System("outer", stop_time=0.01, step=0.01)
+    s.add("nested", fmi3)
+    with pytest.raises(ssp.SystemDescriptionError, match=r"component nested: 'Inner3.fmu' is an FMI 3.0 FMU; this "
+                                                         r"master runs FMI 2.0 co-simulation FMUs"):
+        cosim.run(s)

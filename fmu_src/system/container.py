@@ -102,8 +102,8 @@ def engine() -> tuple[Path, str]:
     Raises
     ------
     ContainerError
-        When the installed fmpy has no container engine (it came with 0.3.26's
-        Rust rewrite; this module is tested with 0.3.32).
+        When the installed fmpy has no container engine (this module is tested
+        with fmpy 0.3.32's).
     """
     try:
         import fmpy.container_fmu as cf
@@ -153,6 +153,15 @@ def _text(value, fmi_type: str) -> str:
     if fmi_type in ("Integer", "Enumeration"):
         return str(int(value))
     return str(value)
+
+
+def execution_tools(system: System) -> list[str]:
+    """The components whose FMU needs an execution tool where it runs (a pythonfmu FMU: a Python).
+
+    The exported FMU then needs one too (its ``needsExecutionTool``).
+    """
+    return [name for name, comp in system.components.items()
+            if FmuInterface.of(system.source_path(comp)).model_description.coSimulation.needsExecutionTool]
 
 
 def shared_platforms(resources: Path, folders: list[str]) -> set[str]:
@@ -234,10 +243,7 @@ def configuration(system: System, interfaces: dict[str, FmuInterface], exposed: 
                             "dstComponent": names.index(c.end_element), "dstValueReferences": [b.vr], "size": 1})
     components = []
     for name in names:
-        md = interfaces[name].model_description
-        if md.fmiVersion not in ("2.0", "3.0"):
-            raise ContainerError(f"component {name}", f"is FMI {md.fmiVersion}: the container nests FMI 2.0 "
-                                                      "and 3.0 co-simulation FMUs")
+        md = interfaces[name].model_description  # FMI 2.0: the master that settles the inputs refuses others
         components.append({"fmiMajorVersion": md.fmiVersion[0], "name": name, "path": paths[name],
                            "modelIdentifier": md.coSimulation.modelIdentifier,
                            "instantiationToken": md.guid})
@@ -259,7 +265,8 @@ def model_description(system: System, interfaces: dict[str, FmuInterface], expos
     common = {"modelName": system.name or "system", "description": words,
               "generationTool": f"grubler {__version__} (grubler.system.container, fmpy's container FMU)",
               "generationDateAndTime": stamp, "variableNamingConvention": "structured"}
-    cs = {"modelIdentifier": IDENTIFIER, "needsExecutionTool": "false",
+    tool = "true" if any(i.model_description.coSimulation.needsExecutionTool for i in interfaces.values()) else "false"
+    cs = {"modelIdentifier": IDENTIFIER, "needsExecutionTool": tool,
           "canHandleVariableCommunicationStepSize": "false", "canGetAndSetFMUstate": "false",
           "canSerializeFMUstate": "false", "providesDirectionalDerivative" if fmi_version == 2 else
           "providesDirectionalDerivatives": "false"}
@@ -345,9 +352,7 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     SystemDescriptionError
         A system that cannot run (every problem named, as ``grubler cosim`` names them).
     ContainerError
-        An fmpy without the container engine, a nested FMU it cannot nest, FMUs
-        with no platform in common (the engine's binary goes only where every
-        nested FMU has one).
+        An fmpy without the container engine, an FMI version other than 2 or 3.
     """
     from grubler.fmi.build import check_destination, pack_fmu
 
@@ -384,10 +389,8 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
         (root / "resources" / "container.json").write_text(json.dumps(config, indent=1), encoding="utf-8")
         (root / "modelDescription.xml").write_bytes(
             model_description(system, interfaces, exposed, step, t0, t_end, token, fmi_version))
+        # never empty: every FMU was instantiated here, so all have this machine's binary
         platforms = shared_platforms(root / "resources", list(folders.values()))
-        if not platforms:
-            raise ContainerError(f"system {brief(system.name)}", "its FMUs have no binary for one same platform "
-                                 "(linux64, win64, darwin64): the container would load on none")
         for platform, fmi2_folder, library in BINARIES:
             folder = fmi2_folder if fmi_version == 2 else platform
             if folder is not None and platform in platforms:
@@ -399,5 +402,5 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
     return dest
 
 
-__all__ = ["export_system", "exposed_variables", "connection_order", "configuration", "model_description",
+__all__ = ["export_system", "execution_tools", "exposed_variables", "connection_order", "configuration", "model_description",
            "engine", "ContainerError", "CONTAINER_TYPES"]

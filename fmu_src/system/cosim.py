@@ -353,6 +353,7 @@ def _default_panels(res: CosimResult):
 
 
 _STATUS = {2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+_CHUNK = 1000  # communication steps per call of the C loop when nothing is to be read between steps
 
 
 class _Instance:
@@ -629,7 +630,12 @@ def interfaces_of(system: System, unzipped: "UnpackedFMUs") -> dict[str, FmuInte
             if not (folder / "modelDescription.xml").is_file():
                 problems.append(f"component {name}: {clip(comp.source)} is not an FMU (no modelDescription.xml)")
                 continue
-            interfaces[name] = FmuInterface.of(path, folder)
+            itf = FmuInterface.of(path, folder)
+            if itf.model_description.fmiVersion != "2.0":
+                problems.append(f"component {name}: {brief(path.name)} is an FMI {itf.model_description.fmiVersion} "
+                                "FMU; this master runs FMI 2.0 co-simulation FMUs (build it as FMI 2.0)")
+                continue
+            interfaces[name] = itf
         except InputError as exc:
             problems.append(f"component {name}: cannot read {exc.reason}")
         except Exception as exc:  # noqa: BLE001 - a broken FMU is one of the problems listed
@@ -714,13 +720,13 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             data[0, j] = insts[c].read_buf[i] if c else values[i]
         loop = _Loop(seq_insts, values, master, t0, step, t_end, n_steps, record_every, column_fmu,
                      [i for _, i in col_src], times, data, profile)
-        if cancel is None:
-            loop.steps(0, n_steps)
-        else:  # the flag is read before each communication step
-            for n in range(n_steps):
-                if cancel.is_set():
-                    raise Cancelled("run", f"cancelled at t = {loop.t.value:.6g} s")
-                loop.steps(n, 1)
+        # the flag, if any, is read before each communication step; without one the
+        # loop returns to Python every _CHUNK steps, where a Ctrl-C is raised
+        chunk = 1 if cancel is not None else _CHUNK
+        for n in range(0, n_steps, chunk):
+            if cancel is not None and cancel.is_set():
+                raise Cancelled("run", f"cancelled at t = {loop.t.value:.6g} s")
+            loop.steps(n, chunk)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
