@@ -156,6 +156,7 @@ def main() -> None:
         add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs), 1000)
         browser.close()
     server.shutdown()
+    shutil.rmtree(root, ignore_errors=True)  # the FMUs built for the run, and what the app wrote
     lines = ["| what | samples | p50 | p95 | target | load | median parts: before, server, transfer, draw, frame |",
              "|---|---|---|---|---|---|---|"] + [row_text(r) for r in rows]
     machine = (f"Machine: {os.cpu_count()} cores ({platform.processor() or platform.machine()}), shared with other "

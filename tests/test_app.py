@@ -204,6 +204,8 @@ def test_the_drag_applies_to_each_handle_what_it_stands_for():
     assert moved["mechanism"]["output_pivot"] == [0.5, -0.1]
     moved = actions.drag(data, "A", 0.0, 0.12)
     assert moved["mechanism"]["crank"] == 0.12 and moved["mechanism"]["input_angle"] == "90 deg"
+    del data["mechanism"]["input_angle"]  # a six-bar's crank angle is its input angle, written or not
+    assert actions.drag(data, "A", 0.0, 0.12)["mechanism"]["input_angle"] == "90 deg"
     for preset, handle, xy, key, value in (("swinging-block", "pivot", (0.35, 0.02), "ground", 0.35),
                                            ("quick-return", "pivot", (0.01, -0.3), "ground", 0.3),
                                            ("pendulum-pump", "slide", (0.25, 0.1), "offset", 0.25)):

@@ -381,6 +381,11 @@ def six_bar_joints(kind: str, model, z: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
+def _crank_angle_key(kind) -> str:
+    """The builder's name for its crank's angle: the six-bars call it the input angle."""
+    return "input_angle" if kind in SIX_BAR_JOINTS else "crank_angle"
+
+
 def _moving_joints(spec: dict) -> set[str]:
     """A six-bar's joints that are neither on the ground nor the crank pin."""
     return set(spec["chain"][1:] + spec["closures"]) - set(spec["pivots"]) - {spec["pin"]}
@@ -406,7 +411,7 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
 
     if isinstance(mech, dict):
         kind = mech.get("type")
-        angle_key = "crank_angle" if "input_angle" not in mech else "input_angle"
+        angle_key = _crank_angle_key(kind)
         if kind in SIX_BAR_JOINTS:
             spec, at = SIX_BAR_JOINTS[kind], six_bar_joints(kind, model, z)
             add("A", at[spec["pin"]], "mechanism.crank, mechanism.input_angle")
@@ -519,7 +524,7 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
     kind = mech.get("type") if isinstance(mech, dict) else None
     if handle == "A" and kind in (*SIX_BAR_JOINTS, "four-bar", "slider-crank", "quick-return", "swinging-block",
                                   "pendulum-pump", "scotch-yoke"):
-        angle_key = "crank_angle" if "input_angle" not in mech else "input_angle"
+        angle_key = _crank_angle_key(kind)
         mech["crank"] = _r(math.hypot(x, y))
         mech[angle_key] = _deg(math.atan2(y, x))
     elif kind in SIX_BAR_JOINTS and handle in ("rocker_pivot", "output_pivot"):
