@@ -304,6 +304,15 @@ def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
     ``kind`` starts at 'table'.
     """
     times, positions = read_profile(profile)
+    return export_table(times, positions, dest, field)
+
+
+def export_table(times, positions, dest: str | Path, field: str = "output") -> Path:
+    """A native Trajectory FMU of kind 'table' through the points (``times`` [s], ``positions``).
+
+    The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
+    ``kind`` starts at 'table'.
+    """
     dest = Path(dest)
     check_destination(dest, field)
     spec = trajectory_spec(identifier_for(dest), times, positions)

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -308,6 +309,7 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
     ``fmu_dir`` holds HydraulicCylinder.fmu, PID.fmu and Trajectory.fmu (``python
     build_fmu.py``); the mechanism's FMU is exported there if needed.
     """
+    from grubler.controllers.native_fmu import export_table
     from grubler.system.cosim import run
     from grubler.system.cylinder_servo import CylinderServoDesign, cylinder_servo_system
 
@@ -321,12 +323,13 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
     start_position = float(d.length[0] - d.length.min()) + 0.1 * spare
     t_end = float(d.t[-1]) + settle
     keep = np.concatenate([[True], np.diff(d.t) > 1e-9])  # a sampler's breakpoints may repeat a time
-    setpoint = {"kind": "table", "times": " ".join(repr(float(x)) for x in d.t[keep]),
-                "positions": " ".join(repr(float(x)) for x in d.length[keep])}
+    # the native Trajectory FMU holds a table as parameters of its own build
+    table = export_table(d.t[keep], d.length[keep], Path(fmu_dir) / "Trajectory_cylinder_check.fmu")
     constants = asdict(best.candidate.cylinder())
     del constants["retracted_length"]  # the design sets it from the start
     design = CylinderServoDesign(scene, actuator=actuator, cylinder="hydraulic", constants=constants,
-                                 start_position=start_position, setpoint=setpoint, t_end=t_end,
+                                 start_position=start_position, setpoint={"kind": "table"},
+                                 trajectory_fmu=table.name, t_end=t_end,
                                  **({"pid": pid} if pid else {}))
     system = cylinder_servo_system(design, fmu_dir, name="cylinder_check")
     res = run(system)

@@ -60,8 +60,11 @@ class CylinderServoDesign:
     delay : float
         Rest before the move, s.
     setpoint : dict, optional
-        Trajectory FMU parameters that replace the trapezoid move (e.g. a
-        ``table`` of lengths over time).
+        Trajectory FMU parameters that replace the trapezoid move.
+    trajectory_fmu : str
+        The setpoint's FMU in the FMU folder: ``Trajectory.fmu``, or one whose
+        table of lengths over time is built in
+        (:func:`grubler.controllers.native_fmu.export_table`).
     pid : dict
         Parameters of the PID FMU; its output is the valve command.
     load_torque : float
@@ -80,6 +83,7 @@ class CylinderServoDesign:
     acceleration: float = 0.5
     delay: float = 0.5
     setpoint: dict | None = None
+    trajectory_fmu: str = "Trajectory.fmu"
     pid: dict = field(default_factory=lambda: {"K": 20.0, "Ti": 0.0, "Td": 0.0, "N": 10.0, "Ts": 1e-3,
                                                "u_min": -1.0, "u_max": 1.0})
     load_torque: float = 0.0
@@ -158,7 +162,7 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
                stop_time=design.t_end, step=design.step)
     move = dict(kind="trapezoid", start=length0, delay=design.delay, distance=design.move, v_max=design.speed,
                 a_max=design.acceleration, repeat=1)
-    s.add("trajectory", d / "Trajectory.fmu", **(design.setpoint or move))
+    s.add("trajectory", d / design.trajectory_fmu, **(design.setpoint or move))
     s.add("controller", d / "PID.fmu", **design.pid)
     s.add("cylinder", d / FMU_OF[design.cylinder], **cylinder_parameters(cylinder), **start)
     mech_fmu, scene_params = scene_fmu(scene, d)
