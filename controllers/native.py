@@ -168,6 +168,7 @@ _SIGNATURES = {
     "ctl_move_phases": (_I, [_R, _DP, _IP]),
     "ctl_move_plan": (_I, [_R, _R]),
     "ctl_table_prepare": (_I, [_R, _DP]),
+    "ctl_segment_at": (_I, [_R, _D, _DP]),
     "ctl_trajectory_evaluate": (_I, [_R, _R, _R, _D, _DP]),
 }
 

@@ -62,6 +62,13 @@ class Segment:
     a0: float
     jerk: float
 
+    def at(self, tau: float) -> tuple[float, float, float]:
+        """Position, velocity and acceleration ``tau`` seconds into the segment (``ctl_segment_at``)."""
+        out = (ctypes.c_double * 3)()
+        native.call("ctl_segment_at", native.Segment(self.t0, self.duration, self.p0, self.v0, self.a0, self.jerk),
+                    float(tau), out)
+        return out[0], out[1], out[2]
+
 
 def _params(kind: str, distance: float, v_max: float, a_max: float, j_max: float) -> native.TrajectoryParams:
     return native.TrajectoryParams(kind=KINDS.index(kind), distance=distance, v_max=v_max, a_max=a_max, j_max=j_max)

@@ -138,3 +138,12 @@ def test_a_sensors_bandwidth_gain_and_offset_are_the_continuous_sensors():
     assert np.std(y) == pytest.approx(0.2, rel=0.05)
     with pytest.raises(grubler.SceneError, match="gain_error: must be finite and > -1"):
         Tachometer(gain_error=-2.0)
+
+
+def test_a_moves_segments_chain_end_to_start():
+    tr = Trajectory("scurve", distance=1.0, v_max=2.0, a_max=8.0, j_max=100.0)
+    for a, b in zip(tr._move, tr._move[1:]):
+        p, v, _ = a.at(a.duration)
+        assert (p, v) == pytest.approx((b.p0, b.v0), abs=1e-15) and b.t0 == pytest.approx(a.t0 + a.duration)
+    last = tr._move[-1]
+    assert last.at(last.duration) == pytest.approx((1.0, 0.0, 0.0), abs=1e-12)

@@ -123,12 +123,15 @@ int ctl_move_phases(const ctl_trajectory_params *p, double *phases, int *n)
     return CTL_OK;
 }
 
-static void segment_at(const ctl_segment *s, double tau, double *out)
+int ctl_segment_at(const ctl_segment *s, double tau, double *out)
 {
-    double j = s->jerk;
+    double j;
+    if (!s || !out) return CTL_BAD_ARGUMENT;
+    j = s->jerk;
     out[0] = s->p0 + tau * (s->v0 + tau * (s->a0 / 2 + tau * j / 6));
     out[1] = s->v0 + tau * (s->a0 + tau * j / 2);
     out[2] = s->a0 + tau * j;
+    return CTL_OK;
 }
 
 int ctl_move_plan(const ctl_trajectory_params *p, ctl_move *move)
@@ -147,7 +150,7 @@ int ctl_move_plan(const ctl_trajectory_params *p, ctl_move *move)
         s->v0 = vel;
         s->a0 = phases[3 * k + 1];
         s->jerk = phases[3 * k + 2];
-        segment_at(s, s->duration, end);
+        ctl_segment_at(s, s->duration, end);
         pos = end[0];
         vel = end[1];
         t += s->duration;
@@ -280,7 +283,7 @@ int ctl_trajectory_evaluate(const ctl_trajectory_params *p, const ctl_move *move
             break;
         }
     }
-    segment_at(seg, local - seg->t0, seg_out);
+    ctl_segment_at(seg, local - seg->t0, seg_out);
     out[0] = base + direction * seg_out[0];
     out[1] = direction * seg_out[1];
     out[2] = direction * seg_out[2];

@@ -70,6 +70,8 @@ CTL_API int ctl_trajectory_check(const ctl_trajectory_params *p, const ctl_table
  * trapezoid, 7 for an S-curve, in phases[3 * k ..]; *n their count. */
 CTL_API int ctl_move_phases(const ctl_trajectory_params *p, double *phases, int *n);
 CTL_API int ctl_move_plan(const ctl_trajectory_params *p, ctl_move *move);
+/* out = position, velocity and acceleration tau [s] into the segment. */
+CTL_API int ctl_segment_at(const ctl_segment *s, double tau, double *out);
 CTL_API int ctl_table_prepare(ctl_table *tab, double *work);
 /* move: planned for moves (else unused, may be NULL); tab: prepared for tables. */
 CTL_API int ctl_trajectory_evaluate(const ctl_trajectory_params *p, const ctl_move *move, const ctl_table *tab,
