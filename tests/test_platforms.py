@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 import grubler
-from grubler.fmi.build import TARGETS, build_fmu, export, zig_compiler
+from grubler.fmi.build import TARGETS, export, zig_compiler
 from grubler.fmi.mechanism import fmu_parameters
 
 HERE = Path(__file__).parent
