@@ -108,7 +108,7 @@ _SIGNATURES = {
     "grb_evaluate": (c_int, [_M, c_int, _P, c_double, c_double, _P]),
     "grb_observe": (c_int, [_M, c_int, _P, c_double, c_double, c_int, _P, _P]),
     "grb_observe_rows": (c_int, [_M, c_int, c_int, _P, _P, c_double, c_double, c_int, _P, _P]),
-"grb_set_actuator_forces": (c_int, [_M, _P, _P]),
+    "grb_set_actuator_forces": (c_int, [_M, _P, _P]),
     "grb_actuator_lines": (c_int, [_M, c_int, _P, _P, _P]),
     "grb_point_on_link": (c_int, [_M, _P, c_int, c_double, c_double, _P, _P]),
     "grb_link_points_rows": (c_int, [_M, c_int, _P, c_int, _P, _P, _P, _P]),
@@ -145,11 +145,38 @@ def library() -> ctypes.CDLL:
     if spec is None or spec.origin is None:
         raise KernelMissing("grubler's compiled kernel (grubler._kernel) is not built: run `pip install -e .` "
                             "in the project folder on a machine with a C compiler")
-    lib = ctypes.CDLL(spec.origin)
+    return declare(ctypes.CDLL(spec.origin))
+
+
+def declare(lib: ctypes.CDLL) -> ctypes.CDLL:
+    """Give the kernel library's functions their C signatures.
+
+    The complex-step twins (``grb_cs_*``) are absent from a kernel compiled
+    without C99 complex arithmetic (Visual Studio's C: kernel/complex_step.h);
+    everything else works there, and :func:`complex_step` says what needs them.
+    """
     for name, (restype, argtypes) in _SIGNATURES.items():
+        if name.startswith("grb_cs_") and not hasattr(lib, name):
+            continue
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = restype, argtypes
     return lib
+
+
+def complex_step(name: str, lib: ctypes.CDLL | None = None):
+    """The kernel's complex-step twin ``name`` (``grb_cs_*``: exact derivatives to rounding).
+
+    Raises
+    ------
+    KernelMissing
+        The kernel was compiled without C99 complex arithmetic, so it has none.
+    """
+    lib = library() if lib is None else lib
+    if not hasattr(lib, name):
+        raise KernelMissing(f"{name}: this kernel was compiled without C99 complex arithmetic (Visual Studio's C), "
+                            "which linearisation, actuator derivatives and the implicit integrators' exact Jacobians "
+                            "need; build it with clang or MinGW-w64 gcc")
+    return getattr(lib, name)
 
 
 def address(a: np.ndarray) -> int:
@@ -176,7 +203,7 @@ def set_actuator_forces(model: int, work: np.ndarray, forces) -> None:
     """
     dtype = complex if work.dtype == complex else float
     f = np.ascontiguousarray(forces, dtype=dtype)
-    fn = library().grb_cs_set_actuator_forces if dtype is complex else library().grb_set_actuator_forces
+    fn = complex_step("grb_cs_set_actuator_forces") if dtype is complex else library().grb_set_actuator_forces
     status = fn(model, address(work), address(f) if f.size else None)
     if status != OK:
         raise ValueError(f"actuator forces: {status_message(status)}")

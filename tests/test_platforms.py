@@ -315,3 +315,40 @@ def test_aarch64_linux_binary_under_qemu_agrees(cross_built, name, tmp_path):
                     "(Debian: apt-get install qemu-user libc6-arm64-cross)")
     agree_with_linux64(cross_built, name, "aarch64-linux", [qemu, "-L", str(SYSROOT)],
                        host_build(tmp_path, "aarch64-linux-gnu.2.17"), {}, tmp_path)
+
+
+def test_the_python_library_loads_a_kernel_compiled_without_complex(tmp_path):
+    # Visual Studio's C compiles the kernel without its complex-step twins: the
+    # binding declares what is there, simulates with it, and names what is missing
+    import ctypes
+
+    from grubler import binding
+    from grubler.mechanism.scene import load_scene
+    from grubler.mechanism.simulate import Simulator
+
+    # the folders setup.py compiles into grubler._kernel, less its Python module entry
+    folders = [ROOT / d for d in ("fmu_src/kernel", "motors/kernel", "controllers/kernel", "fmu_src/system/c")]
+    sources = [str(f) for d in folders for f in sorted(d.glob("*.c")) if f.name != "_module.c"]
+    out = tmp_path / "kernel_no_complex.so"
+    subprocess.run(["cc", "-shared", "-fPIC", "-O2", "-std=c99", "-D__STDC_NO_COMPLEX__",
+                    *(f"-I{d}" for d in folders), "-o", str(out), *sources, "-lm"],
+                   check=True, capture_output=True, text=True)
+    lib = binding.declare(ctypes.CDLL(str(out)))
+    assert not hasattr(lib, "grb_cs_rhs_at")
+    with pytest.raises(binding.KernelMissing, match="grb_cs_rhs_at: .*without C99 complex arithmetic"):
+        binding.complex_step("grb_cs_rhs_at", lib)
+    # the real equations are whole: the observed quantities at the assembled start (positions to
+    # reactions, through the forward dynamics) agree with the full kernel's to the bit
+    model = load_scene("thesis-fourbar").mechanism
+    sim = Simulator(model, method="exact")
+    z, zd = sim.z, sim.zd
+    n = model.n_links
+    y = np.concatenate([z, zd])
+    observed = []
+    for kernel_lib in (binding.library(), lib):
+        work = binding.work(n, len(model.closures))
+        values = np.zeros(9 * n + 11)
+        assert kernel_lib.grb_observe(model.arrays.c, 0, binding.address(y), 1.5, 0.0, 1, binding.address(work),
+                                      binding.address(values)) == binding.OK
+        observed.append(values)
+    assert np.array_equal(observed[0], observed[1]) and np.any(observed[0] != 0.0)

@@ -161,7 +161,7 @@ class StateEquation:
         if self.model.actuators:
             binding.set_actuator_forces(self.model.arrays.c, work, self.actuator_forces.astype(complex))
         jac = np.empty((n2, n2))
-        rhs = binding.library().grb_cs_rhs_at
+        rhs = binding.complex_step("grb_cs_rhs_at")
         h = 1e-30 * max(1.0, float(np.max(np.abs(y))))
         for k in range(n2):
             yc[:] = y

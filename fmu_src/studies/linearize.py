@@ -288,20 +288,22 @@ class _Plant:
         F, T, H = np.empty((2 * n, k_dirs)), np.empty((2 * n, k_dirs)), np.empty((n_obs, k_dirs))
         out, obs = np.empty(2 * n, dtype=complex), np.empty(n_obs, dtype=complex)
         m = self.model.arrays.c
+        cs_minimal_state, cs_rhs, cs_observe = (binding.complex_step(f"grb_cs_{f}")
+                                                for f in ("minimal_state", "rhs_at", "observe_at"))
         for k in range(k_dirs):
             yc = y.astype(complex)
             efforts = np.array([drive, load], dtype=complex)
             if k < len(rows):
                 yc[rows[k]] += 1j * H_STEP
-                status = self.lib.grb_cs_minimal_state(m, len(self.ind), binding.address(self.ind), self.scale,
-                                                       binding.address(yc), binding.address(self.cwork))
+                status = cs_minimal_state(m, len(self.ind), binding.address(self.ind), self.scale,
+                                          binding.address(yc), binding.address(self.cwork))
                 self._check(status, "at", yc)
             else:
                 efforts[k - len(rows)] += 1j * H_STEP
-            s1 = self.lib.grb_cs_rhs_at(m, 0, binding.address(yc), binding.address(efforts),
-                                        binding.address(self.cwork), binding.address(out))
-            s2 = self.lib.grb_cs_observe_at(m, 0, binding.address(yc), binding.address(efforts), 1,
-                                            binding.address(self.cwork), binding.address(obs))
+            s1 = cs_rhs(m, 0, binding.address(yc), binding.address(efforts),
+                        binding.address(self.cwork), binding.address(out))
+            s2 = cs_observe(m, 0, binding.address(yc), binding.address(efforts), 1,
+                            binding.address(self.cwork), binding.address(obs))
             if s1 != binding.OK or s2 != binding.OK:
                 raise SceneError("at", "the equations of motion are singular at this state")
             F[:, k], H[:, k], T[:, k] = out.imag / H_STEP, obs.imag / H_STEP, yc.imag / H_STEP
