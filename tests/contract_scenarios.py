@@ -20,7 +20,7 @@ import resource
 import shutil
 import sys
 
-from fmi_child import instance, report, status  # beside this script
+from fmi_child import instance, recording_callbacks, report, status  # beside this script
 
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
 
@@ -222,7 +222,7 @@ def _reframe(blob: bytes, body: bytes) -> bytes:
 
 
 def sequence(dist: str) -> dict:
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import FMU2Slave
 
     md, d = _open(os.path.join(dist, "Encoder.fmu"))
     vr, out = _refs(md), _outputs(md)
@@ -232,9 +232,8 @@ def sequence(dist: str) -> dict:
     def fresh(name):
         s = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
                       instanceName=name)
-        s.instantiate(loggingOn=True)
-        s.callbacks.logger = fmi2CallbackLoggerTYPE(
-            lambda comp, inst, level, cat, message: msgs.append(f"{level}:{message.decode()}"))
+        s.instantiate(loggingOn=True, callbacks=recording_callbacks(
+            lambda comp, inst, level, cat, message: msgs.append(f"{level}:{message.decode()}")))
         return s
 
     def record(key, call):
@@ -313,18 +312,13 @@ def reload(dist: str, scratch: str) -> dict:
 
 def versions(dist: str, other: str) -> dict:
     """The FMU of this build, then one of another build of the package, in one process."""
-    from fmpy.fmi2 import defaultCallbacks, fmi2CallbackLoggerTYPE
-
     res: dict = {}
     md, d = _open(os.path.join(dist, "PID.fmu"))
     msgs: list[str] = []
     a = instance(md, d, "a", msgs, {})
     res["first"] = status(lambda: a.doStep(0.0, 1e-3))
     md_b, d_b = _open(other)
-    msgs_b: list[str] = []
-    # what the FMU logs while it is instantiated goes to fmpy's shared default callbacks
-    keep = fmi2CallbackLoggerTYPE(lambda comp, inst, level, cat, message: msgs_b.append(f"{level}:{message.decode()}"))
-    defaultCallbacks.logger = keep
+    msgs_b: list[str] = []  # what it logs while it is instantiated too: instance() gives its logger then
 
     def second():
         instance(md_b, d_b, "b", msgs_b, {})

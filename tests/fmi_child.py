@@ -17,6 +17,19 @@ def status(call) -> str:
         return str(exc)
 
 
+def recording_callbacks(log):
+    """fmpy callbacks whose logger is ``log(env, instance, status, category, message)``, for ``instantiate``.
+
+    A native FMU copies its logger when it is instantiated (as the Reference
+    FMUs do: a host may free its callback struct after fmi2Instantiate), so a
+    logger is given then, not put into fmpy's struct afterwards.
+    """
+    from fmpy.fmi2 import defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+    return fmi2CallbackFunctions(logger=fmi2CallbackLoggerTYPE(log), allocateMemory=defaultCallbacks.allocateMemory,
+                                 freeMemory=defaultCallbacks.freeMemory)
+
+
 def instance(md, unzipped: str, name: str, messages: list[str], params: dict | None = None, start: float = 0.0):
     """An FMU2Slave instantiated, its parameters set by their declared type, initialised.
 
@@ -25,7 +38,7 @@ def instance(md, unzipped: str, name: str, messages: list[str], params: dict | N
     instance's ``init_status``: a failed initialisation leaves an instance that
     refuses its steps, which the scenarios test.
     """
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import FMU2Slave
 
     def logger(component, instance_name, level, category, message):
         messages.append(f"{level}:{message.decode()}")
@@ -34,9 +47,8 @@ def instance(md, unzipped: str, name: str, messages: list[str], params: dict | N
     types = {v.name: v.type for v in md.modelVariables}
     s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
                   instanceName=name)
-    s.instantiate(loggingOn=True)
     # fmpy's default logger prints; record the messages instead
-    s.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    s.instantiate(loggingOn=True, callbacks=recording_callbacks(logger))
     s.setupExperiment(startTime=start)
     s.enterInitializationMode()
     for k, v in (params or {}).items():

@@ -365,7 +365,8 @@ def test_fmu_dependencies_and_directional_derivatives_of_the_force(lift_fmu):
 
 def test_fmu_refuses_an_actuator_on_one_link_or_of_zero_length(lift_fmu):
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import FMU2Slave
+    from fmi_child import recording_callbacks
 
     md = read_model_description(str(lift_fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -375,8 +376,8 @@ def test_fmu_refuses_an_actuator_on_one_link_or_of_zero_length(lift_fmu):
         messages = []
         slave = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
                           instanceName="bad")
-        slave.instantiate(loggingOn=True)
-        slave.callbacks.logger = fmi2CallbackLoggerTYPE(lambda env, inst, status, cat, msg: messages.append(msg.decode()))
+        slave.instantiate(loggingOn=True, callbacks=recording_callbacks(
+            lambda env, inst, status, cat, msg: messages.append(msg.decode())))
         try:
             slave.setupExperiment(startTime=0.0)
             if value is None:  # the ground point onto the coupler's point at the assembled start

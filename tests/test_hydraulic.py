@@ -260,7 +260,8 @@ def cylinder_fmu(tmp_path_factory):
 
 
 def _slave(cylinder_fmu, name="c", messages=None):
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import FMU2Slave
+    from fmi_child import recording_callbacks
 
     path, d, md = cylinder_fmu
     s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier,
@@ -270,8 +271,7 @@ def _slave(cylinder_fmu, name="c", messages=None):
     else:
         def log(env, instance, status, category, message):
             messages.append(message.decode())
-        s.instantiate(loggingOn=True)
-        s.callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        s.instantiate(loggingOn=True, callbacks=recording_callbacks(log))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     return s, vr
 

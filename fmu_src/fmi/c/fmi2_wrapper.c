@@ -56,9 +56,8 @@
     if (!grb_allowed(inst, call, MASK_##F)) return fmi2Error
 
 static void logger(const grb_instance *inst, grb_fmi_status status, const char *category, const char *message) {
-    const fmi2CallbackFunctions *f = (const fmi2CallbackFunctions *)inst->host;
-    if (f->logger != NULL)
-        f->logger(f->componentEnvironment, inst->name, (fmi2Status)status, category, message);
+    fmi2CallbackLogger log = (fmi2CallbackLogger)inst->host_log;
+    if (log != NULL) log((fmi2ComponentEnvironment)inst->host, inst->name, (fmi2Status)status, category, message);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -82,7 +81,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     adapter.allocate = functions->allocateMemory;
     adapter.release = functions->freeMemory;
     adapter.logger = logger;
-    adapter.host = functions;
+    /* the logger and its environment are copied, as the memory functions are: a
+     * host may free its callback struct once fmi2Instantiate returns (fmpy's
+     * container FMU does), and the Reference FMUs copy them too */
+    adapter.host = functions->componentEnvironment;
+    adapter.host_log = (void (*)(void))functions->logger;
     adapter.name = (char *)(instanceName ? instanceName : "");
     if (fmuType != fmi2CoSimulation) {
         grb_log(&adapter, GRB_FMI_ERROR, "fmi2Instantiate: %s is a co-simulation FMU (no model exchange)", MODEL_NAME);

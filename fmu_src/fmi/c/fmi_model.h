@@ -72,10 +72,10 @@ struct grb_instance {
     void *(*allocate)(size_t n, size_t size);  /* zeroed memory: the importer's (FMI 2.0) or calloc (FMI 3.0) */
     void (*release)(void *p);
     grb_logger logger;          /* the adapter's */
-    const void *host;           /* the adapter's: FMI 2.0 the importer's callback struct, valid until
-                                 * fmi2FreeInstance (its logger is read at each message, as hosts replace
-                                 * it); FMI 3.0 the instanceEnvironment */
-    void (*host_log)(void);     /* the adapter's: FMI 3.0 the importer's logMessage (cast back to call it) */
+    const void *host;           /* the adapter's: the importer's componentEnvironment (FMI 2.0) or
+                                 * instanceEnvironment (FMI 3.0), handed back with each message */
+    void (*host_log)(void);     /* the adapter's: the importer's logger (FMI 2.0) or logMessage (FMI 3.0),
+                                 * copied at instantiation (cast back to call it) */
     char *name;
     int state;                  /* one of the bits above */
     int resume;                 /* a state saved while stepping, restored while instantiated: GRB_STEP_COMPLETE,
