@@ -10,10 +10,11 @@ parameter) are the C models behind one FMI 2.0
 wrapper, compiled with ``cc`` (and a MinGW-w64 cross compiler for win64 when one
 is installed), with its C sources inside.  It runs without Python.
 
-PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu
-and Trajectory.fmu are native too: the laws' C (controllers/kernel, the code the
-library's classes run) behind one sampled-law model on the same wrapper.
-LinearController and ComputedTorque stay pythonfmu FMUs: each carries a copy of
+PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu,
+Trajectory.fmu and ComputedTorque.fmu (the thesis four-bar's scene as parameters,
+its drive demand the kernel's) are native too: the laws' C (controllers/kernel and
+the mechanism kernel, the code the library's classes run) behind one sampled-law
+model on the same wrapper.  LinearController stays a pythonfmu FMU: it carries a copy of
 the grubler package in its resources/ and runs inside a Python interpreter with
 numpy and scipy installed (see the README's FMU section).  Every FMU declares which outputs depend on an input at the same
 instant, so a master can tell a state from an algebraic output.  A controller
@@ -27,9 +28,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from grubler.controllers import ComputedTorque, CurrentSensor, LinearController, Tachometer
+from grubler.controllers import CurrentSensor, LinearController, Tachometer
 from grubler.controllers.fmu import build_controller_fmu
-from grubler.controllers.native_fmu import cascade_spec, encoder_spec, pid_spec, sensor_spec, trajectory_spec
+from grubler.controllers.native_fmu import (cascade_spec, computed_torque_spec, encoder_spec, pid_spec, sensor_spec,
+                                            trajectory_spec)
 from grubler.fmi.build import build_fmu
 from grubler.fmi.mechanism import mechanism_spec
 from grubler.fmi.cylinder import hydraulic_spec, pneumatic_spec
@@ -49,10 +51,11 @@ NATIVE = {
     "Tachometer": lambda: sensor_spec(Tachometer),
     "CurrentSensor": lambda: sensor_spec(CurrentSensor),
     "Trajectory": lambda: trajectory_spec("Trajectory"),
+    "ComputedTorque": lambda: computed_torque_spec(load_scene("thesis-fourbar"), "ComputedTorque"),
 }
 
 # grubler.controllers: each law becomes an FMU the way a user's own law does
-LAWS = {law.__name__: law for law in (LinearController, ComputedTorque)}
+LAWS = {law.__name__: law for law in (LinearController,)}
 FMUS = [*NATIVE, *LAWS]
 
 
