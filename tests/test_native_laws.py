@@ -520,6 +520,38 @@ def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameter
     assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
 
 
+def test_a_six_bar_gets_a_computed_torque_fmu_of_its_own_shape_that_runs_as_the_library(host, tmp_path):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    from grubler.controllers.native_fmu import export_computed_torque
+    from grubler.system.servo import ServoDesign, servo_system
+
+    scene = load_scene("watt-ii")  # five links, two closures: not ComputedTorque.fmu's shape
+    with pytest.raises(grubler.SceneError, match="feedforward: ComputedTorque.fmu serves mechanisms of the thesis "
+                                                 "four-bar's shape; this scene needs ComputedTorque_watt_ii.fmu"):
+        servo_system(ServoDesign(scene="watt-ii", feedforward=True), tmp_path)
+    path, params = export_computed_torque(scene, tmp_path)
+    assert path.name == "ComputedTorque_watt_ii.fmu" and "closure[1].at_x" in params
+    assert validate_fmu(str(path)) == []
+    md = read_model_description(str(path))
+    zipfile.ZipFile(path).extractall(tmp_path / "x")
+    h = Host(host, tmp_path / "x" / "binaries" / "linux64" / f"{path.stem}.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    z0 = float(scene.mechanism.z_from_q(scene.mechanism.q_ref)[0])
+    swing = [{"position": z0 + 0.3 * math.sin(0.02 * k), "velocity": 6.0 * math.cos(0.02 * k),
+              "acceleration": -120.0 * math.sin(0.02 * k)} for k in range(150)]
+    script = h.start(CT, md=md)
+    for k, i in enumerate(swing):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-3!r} 0.001",
+                                                                     h.getr("torque", "motor_torque", "voltage")]
+    t = h.run(script)
+    assert t.statuses("step") == [OK] * 150
+    s = Sampler(ComputedTorque(scene, **CT))
+    assert np.array_equal(got(t), [list(s.step(k * 1e-3, 1e-3, i).values()) for k, i in enumerate(swing)])
+    assert servo_system(ServoDesign(scene="watt-ii", feedforward=True), tmp_path).components["feedforward"]
+
+
 # -- a table or cam profile from CSV --------------------------------------------------------
 
 @pytest.mark.parametrize("text, why", [
