@@ -15,10 +15,11 @@ file) and aarch64-linux; without it, for this machine with ``cc`` (and win64
 when a MinGW-w64 cross compiler is installed), and one line says which
 platforms were left out.  ``--platforms`` chooses.
 
-PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu
-and Trajectory.fmu are native too: the laws' C (controllers/kernel, the code the
-library's classes run) behind one sampled-law model on the same wrapper.
-LinearController and ComputedTorque stay pythonfmu FMUs: each carries a copy of
+PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu,
+Trajectory.fmu and ComputedTorque.fmu (the thesis four-bar's scene as parameters,
+its drive demand the kernel's) are native too: the laws' C (controllers/kernel and
+the mechanism kernel, the code the library's classes run) behind one sampled-law
+model on the same wrapper.  LinearController stays a pythonfmu FMU: it carries a copy of
 the grubler package in its resources/ and runs inside a Python interpreter with
 numpy and scipy installed (see the README's FMU section).  Every FMU declares which outputs depend on an input at the same
 instant, so a master can tell a state from an algebraic output.  A controller
@@ -32,9 +33,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from grubler.controllers import ComputedTorque, CurrentSensor, LinearController, Tachometer
+from grubler.controllers import CurrentSensor, LinearController, Tachometer
 from grubler.controllers.fmu import build_controller_fmu
-from grubler.controllers.native_fmu import cascade_spec, encoder_spec, pid_spec, sensor_spec, trajectory_spec
+from grubler.controllers.native_fmu import (cascade_spec, computed_torque_spec, encoder_spec, pid_spec, sensor_spec,
+                                            trajectory_spec)
 from grubler.errors import InputError
 from grubler.fmi.build import TARGETS, build_fmu, platforms_note, select_targets
 from grubler.fmi.mechanism import mechanism_spec
@@ -55,10 +57,11 @@ NATIVE = {
     "Tachometer": lambda: sensor_spec(Tachometer),
     "CurrentSensor": lambda: sensor_spec(CurrentSensor),
     "Trajectory": lambda: trajectory_spec("Trajectory"),
+    "ComputedTorque": lambda: computed_torque_spec(load_scene("thesis-fourbar"), "ComputedTorque"),
 }
 
 # grubler.controllers: each law becomes an FMU the way a user's own law does
-LAWS = {law.__name__: law for law in (LinearController, ComputedTorque)}
+LAWS = {law.__name__: law for law in (LinearController,)}
 FMUS = [*NATIVE, *LAWS]
 
 

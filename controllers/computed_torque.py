@@ -4,8 +4,10 @@ Given the drive joint's position, velocity and acceleration from a trajectory,
 :func:`grubler.mechanism.inverse.drive_demand` closes the loop at that drive position
 (starting from the last sample's configuration, so the branch stays the one the
 scene sketches), makes the dependent rates and accelerations consistent with
-the closures, and gives the drive torque by :func:`grubler.inverse_dynamics`
-(gravity, damping, the drive inertia and the closure forces included).
+the closures, and gives the drive torque by the inverse dynamics (gravity,
+damping, the drive inertia and the closure forces included): the kernel's
+``grb_drive_demand``, the C the native ``ComputedTorque.fmu`` runs too
+(:func:`grubler.controllers.native_fmu.computed_torque_spec`).
 
 Optionally, through a gearbox of ratio ``gear_ratio`` (motor turns per drive
 joint turn) and efficiency ``efficiency``, the motor torque is

@@ -30,7 +30,7 @@ from grubler.limits import brief
 
 # enum ctl_status, in ctl_law.h's order
 (OK, BAD_PARAMETER, BAD_STATE, BAD_INPUT, BAD_STEP_SIZE, TOO_MANY_SAMPLES, NOT_FINITE, BAD_ARGUMENT,
- LAW_REFUSED) = range(9)
+ LAW_REFUSED, MECHANISM_REFUSED) = range(10)
 
 _D = ctypes.c_double
 

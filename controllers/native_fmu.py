@@ -28,6 +28,7 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from grubler.binding import library
 from grubler.controllers import native
 from grubler.controllers.cascade import CascadeController
 from grubler.controllers.encoder import Encoder
@@ -37,7 +38,7 @@ from grubler.controllers.pid import ANTI_WINDUP, PID
 from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
 from grubler.controllers.trajectory import KINDS, Trajectory, read_profile
 from grubler.errors import SceneError
-from grubler.fmi.build import BuildError, build_fmu, check_destination, identifier_for
+from grubler.fmi.build import BuildError, build_fmu, check_destination, computed_torque_fmu, identifier_for
 from grubler.limits import brief
 from grubler.fmi.variables import BOOLEAN, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, UNITS, ModelSpec, Variable
 
@@ -173,6 +174,68 @@ def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) 
     return law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
                     choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
                     leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
+
+
+def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> ModelSpec:
+    """ComputedTorque.fmu: :class:`~grubler.controllers.computed_torque.ComputedTorque` over the kernel's drive demand.
+
+    The law's parameters, then the scene's as the Mechanism FMU shows them
+    (:func:`grubler.fmi.mechanism.mechanism_spec`: gravity, the ground vector,
+    ``drive_joint``, every link's and closure's fields and the sketch
+    ``initial.*``), starting at ``scene``'s values (default the thesis
+    four-bar): one FMU serves every mechanism of that shape.
+
+    Raises
+    ------
+    SceneError
+        A scene without a drive joint or of mobility other than one.
+    """
+    from grubler.controllers.computed_torque import ComputedTorque
+    from grubler.fmi.mechanism import (CLOSURE, CLOSURE_FIELDS, JOINT, LINK_FIELDS, STANDARD_SCENE, closure_prefix,
+                                       mechanism_spec, scene_parameters)
+    from grubler.mechanism.scene import Scene, load_scene
+
+    scene = scene if isinstance(scene, Scene) else load_scene(scene or STANDARD_SCENE)
+    m = scene.mechanism
+    if m.drive is None:
+        raise SceneError("drive.joint", "computed torque needs the joint the drive acts on")
+    if m.mobility != 1:
+        raise SceneError("mechanism", f"computed torque follows one drive coordinate; this mechanism has mobility "
+                                      f"{m.mobility}")
+    n, nc = m.n_links, len(m.closures)
+    plant = {v.name: v for v in mechanism_spec(scene).variables}
+    scene_names = list(scene_parameters(scene))
+    law_names = [x for x in ComputedTorque.parameters if x != "mechanism"]
+    slot = {x: k for k, x in enumerate(law_names + scene_names)}
+    defines = {f"PARAM_{x}": slot[x] for x in law_names}
+    defines.update({"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
+                    "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "SLOT_GRAVITY": slot["gravity"],
+                    "SLOT_GROUND_A1": slot["ground.a1"], "SLOT_GROUND_THETA1": slot["ground.theta1"],
+                    "SLOT_DRIVE_JOINT": slot["drive_joint"], "SLOT_LINKS": slot["link2.joint"],
+                    "SLOT_CLOSURES": slot[f"{closure_prefix(nc, 0)}.type"] if nc else len(slot),
+                    "SLOT_Q0": slot[f"initial.{m.coordinate_names[0]}"],
+                    "CT_WORK_SIZE": int(library().grb_work_size(n, nc))})
+    defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
+    defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
+    tables = m.arrays.links.size + m.arrays.closures.size
+    # as every control FMU's, a description ends in its unit ([1]: none, or a joint's that slides or turns)
+    extra = tuple(v if v.description.endswith("]") else replace(v, description=f"{v.description} [{v.unit or '1'}]")
+                  for v in (plant[x] for x in scene_names))
+    spec = law_spec(ComputedTorque, identifier, "computed_torque_law.c", n, tables + defines["CT_WORK_SIZE"],
+                    leave_out=("mechanism",), extra=extra, defines=defines)
+    variables = tuple(replace(v, start=float(m.drive_inertia)) if v.name == "drive_inertia" else v
+                      for v in spec.variables)
+    return replace(spec, variables=variables, enums=(JOINT, CLOSURE),
+                   kernel_sources=("kernel", *spec.kernel_sources))
+
+
+def export_computed_torque(scene, fmu_dir) -> tuple[Path, dict]:
+    """The ComputedTorque FMU that serves ``scene`` (:func:`grubler.fmi.build.computed_torque_fmu`), built
+    into ``fmu_dir`` when the scene's shape is not ``ComputedTorque.fmu``'s; and the scene's parameters."""
+    path, params = computed_torque_fmu(scene, fmu_dir)
+    if path.name != "ComputedTorque.fmu":
+        build_fmu(computed_torque_spec(scene, path.stem), path)
+    return path, params
 
 
 # -- a law written as one C function (grubler_law.h) -----------------------------------
@@ -322,7 +385,7 @@ def export_table(times, positions, dest: str | Path, field: str = "output") -> P
 
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
-         "Trajectory": trajectory_spec}
+         "Trajectory": trajectory_spec, "ComputedTorque": computed_torque_spec}
 
 
 def build_native_law(name: str, dest: str | Path) -> Path:
@@ -332,6 +395,7 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "encoder_spec", "export_law", "export_profile", "linear_spec",
+__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec", "export_computed_torque",
+           "encoder_spec", "export_law", "export_profile", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

@@ -20,6 +20,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import importlib.util
+from dataclasses import dataclass
 from ctypes import POINTER, c_double, c_int, c_long, c_size_t, c_void_p
 
 import numpy as np
@@ -123,6 +124,8 @@ _SIGNATURES = {
     "grb_advance": (c_int, [_M, POINTER(Settings), POINTER(Clock), _P, _P, _P, c_int, _P, _P, _P,
                             POINTER(Failure)]),
     "grb_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
+    "grb_drive_demand": (c_int, [_M, c_double, c_int, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, POINTER(c_int),
+                                 POINTER(c_double), _P]),
     "grb_lstsq": (c_int, [_P, c_int, c_int, _P, c_double, _P, _P]),
     "grb_tableau": (POINTER(TableauData), [c_int]),
     # complex-step twins (kernel/grubler_cs.h): complex128 buffers, efforts by address
@@ -242,6 +245,41 @@ def work(n_links: int, n_closures: int) -> np.ndarray:
     if status != OK:
         raise ValueError(f"n_links, n_closures: {status_message(status)} ({n_links} links, {n_closures} closures)")
     return buffer
+
+
+@dataclass
+class DriveDemandRun:
+    """What grb_drive_demand returned: its status, the sample it stopped at
+    (-1: none, or the model), the smallest violation assembly reached there,
+    and the rows it filled (see grubler.h)."""
+
+    status: int
+    at: int
+    closest: float
+    z: np.ndarray
+    zd: np.ndarray
+    zdd: np.ndarray
+    torque: np.ndarray
+    closing_force: np.ndarray
+
+
+def drive_demand(model, scale: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
+                 load: np.ndarray, z_guess: np.ndarray) -> DriveDemandRun:
+    """grb_drive_demand over the samples of a drive motion (``model``: ModelArrays)."""
+    n, nc = model.links.shape[0], model.closures.shape[0]
+    pos, vel, acc, tau_load = (np.ascontiguousarray(a, dtype=float) for a in (position, velocity, acceleration, load))
+    guess = np.ascontiguousarray(z_guess, dtype=float)
+    rows = pos.shape[0]
+    if not (vel.shape == acc.shape == tau_load.shape == (rows,) and guess.shape == (n,)):
+        raise ValueError("position, velocity, acceleration and load need one value per sample, z_guess one per joint")
+    z, zd, zdd = (np.zeros((rows, n)) for _ in range(3))
+    torque, force = np.zeros(rows), np.zeros((rows, 2))
+    at, closest, buffer = c_int(-1), c_double(0.0), work(n, nc)
+    status = library().grb_drive_demand(model.c, float(scale), rows, address(pos), address(vel), address(acc),
+                                        address(tau_load), address(guess), address(z), address(zd), address(zdd),
+                                        address(torque), address(force), ctypes.byref(at), ctypes.byref(closest),
+                                        address(buffer))
+    return DriveDemandRun(int(status), int(at.value), float(closest.value), z, zd, zdd, torque, force)
 
 
 def status_message(status: int) -> str:

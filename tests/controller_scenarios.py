@@ -52,7 +52,7 @@ CASCADE = {"K_position": 10.0, "K_speed": 50.0, "Ti_speed": 0.05, "speed_limit":
 TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 100.0, "delay": 0.02,
         "dwell": 0.1, "repeat": 2, "reverse": True}
 LIN = {"num": "0.5 2 1", "den": "0.02 1 0", "method": "tustin", "Ts": 1e-2}
-CT = {"mechanism": "thesis-fourbar", "gear_ratio": 10.0, "efficiency": 0.9, "R": 1.2, "k_t": 0.05, "k_e": 0.05,
+CT = {"gear_ratio": 10.0, "efficiency": 0.9, "R": 1.2, "k_t": 0.05, "k_e": 0.05,
       "drive_inertia": 0.01}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
 
@@ -201,7 +201,8 @@ def run_all(dist: str) -> dict:
     res["bad_param"] = status(lambda: bad.s.doStep(0.0, 1e-3))
     res["messages_param"] = list(msgs)
     msgs.clear()
-    badct = FmuBlock(f("ComputedTorque"), {"mechanism": "no-such-mechanism"}, "badct", msgs)
+    # a crank longer than coupler and rocker can reach from its sketch: the loop does not close there
+    badct = FmuBlock(f("ComputedTorque"), {"link2.a": 9.0}, "badct", msgs)
     res["bad_mechanism_init"] = badct.s.init_status
     res["bad_mechanism"] = status(lambda: badct.s.doStep(0.0, 1e-3))
     res["messages_mechanism"] = list(msgs)

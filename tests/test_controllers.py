@@ -430,4 +430,4 @@ def test_controller_fmus_report_bad_inputs_and_parameters(child):
     assert any("u_max: must exceed u_min" in m for m in child["messages_param"])
     assert "status 3 (error)" in child["bad_mechanism_init"]
     assert "status 3 (error)" in child["bad_mechanism"]
-    assert any("no-such-mechanism" in m for m in child["messages_mechanism"])
+    assert any("initial.theta2: the loop cannot be closed at the sketch" in m for m in child["messages_mechanism"])

@@ -107,13 +107,14 @@ def dist(tmp_path_factory):
     from controller_scenarios import RateLimiter  # a user's own law
     from grubler.controllers.fmu import build_controller_fmu
 
-    from grubler.controllers import PID, CascadeController, Encoder, Trajectory
+    from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, Trajectory
 
     folder = tmp_path_factory.mktemp("contract_dist")
-    build_fmu.build(folder, ["LinearController", "ComputedTorque"])
-    # the shipped PID, cascade, encoder and trajectory are native FMUs (test_native_laws.py); the
-    # pythonfmu route, which users' own laws take, is held to its contract on them too
-    for law in (PID, CascadeController, Encoder, Trajectory, RateLimiter):
+    build_fmu.build(folder, ["LinearController"])
+    # the shipped PID, cascade, encoder, trajectory and computed torque are native FMUs
+    # (test_native_laws.py); the pythonfmu route, which users' own laws take, is held to its
+    # contract on them too
+    for law in (PID, CascadeController, Encoder, Trajectory, ComputedTorque, RateLimiter):
         build_controller_fmu(law, folder)
     return folder
 

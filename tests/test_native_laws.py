@@ -22,19 +22,22 @@ import numpy as np
 import pytest
 
 import grubler
-from grubler.controllers import (PID, CascadeController, CurrentSensor, Encoder, LinearController, Sampler, Tachometer,
-                                 Trajectory)
+from grubler.fmi.mechanism import mechanism_spec
+from grubler.mechanism.scene import load_scene
+from grubler.controllers import (PID, CascadeController, ComputedTorque, CurrentSensor, Encoder, LinearController,
+                                 Sampler, Tachometer, Trajectory)
 from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, Transcript, craft,  # noqa: F401
                              host, random_calls_hold, sanitize_all)
 
 ROOT = Path(__file__).resolve().parent.parent
-LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory"]
+LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory", "ComputedTorque"]
 PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "Ts": 1e-3, "u_min": -6.0,
               "u_max": 6.0}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
 CASCADE = {"K_position": 30.0, "Ti_position": 0.5, "K_speed": 0.8, "Ti_speed": 0.05, "speed_limit": 4.0,
            "u_min": -24.0, "u_max": 24.0, "Ts": 1e-3}
 SENSOR = {"gain_error": 0.03, "offset": 0.2, "noise_std": 0.05, "seed": 3, "bandwidth": 40.0, "Ts": 1e-3}
+CT = {"gear_ratio": 10.0, "efficiency": 0.8, "R": 2.0, "k_t": 0.1, "k_e": 0.1, "Ts": 1e-3, "drive_inertia": 0.01}
 TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 100.0, "delay": 0.02,
         "dwell": 0.1, "repeat": 3}
 # each law's parameters and its inputs at step k
@@ -45,11 +48,15 @@ RUNS = {"PID": (PID_PARAMS, lambda k: {"setpoint": 1.0, "measurement": 0.6 * np.
         "Tachometer": (SENSOR, lambda k: {"speed": 30.0 * np.sin(0.02 * k)}),
         "CurrentSensor": (SENSOR, lambda k: {"current": 2.0 if k % 50 < 25 else -1.0}),
         "Trajectory": (TRAJ, lambda k: {}),
+        # the thesis four-bar's crank swinging 2 rad either way of its sketch (theta2 = 0)
+        "ComputedTorque": (CT, lambda k: {"position": 2.0 * np.sin(0.01 * k), "velocity": 20.0 * np.cos(0.01 * k),
+                                          "acceleration": -200.0 * np.sin(0.01 * k)}),
         # the one-instance FMUs: a linear controller's, a CSV profile's
         "Lead": ({}, lambda k: {"setpoint": 1.0, "measurement": 0.2 * math.sin(0.1 * k), "feedforward": 0.0}),
         "Cam": ({"delay": 0.001}, lambda k: {})}
 CLASSES = {"PID": PID, "CascadeController": CascadeController, "Encoder": Encoder, "Tachometer": Tachometer,
-           "CurrentSensor": CurrentSensor, "Trajectory": Trajectory, "Lead": LinearController, "Cam": Trajectory}
+           "CurrentSensor": CurrentSensor, "Trajectory": Trajectory, "ComputedTorque": ComputedTorque,
+           "Lead": LinearController, "Cam": Trajectory}
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +133,11 @@ def test_fmpy_validate_passes_and_the_variables_are_the_laws(built, name):
     assert [v.name for v in md.modelVariables if v.causality == "input"] == list(law.inputs)
     assert [v.name for v in md.modelVariables if v.causality == "output"] == list(law.outputs)
     params = [v.name for v in md.modelVariables if v.causality == "parameter"]
-    assert params == [p for p in law.parameters if p not in ("times", "positions")]
+    own = [p for p in law.parameters if p not in ("times", "positions", "mechanism")]
+    assert params[:len(own)] == own
+    # computed torque's mechanism is the scene as the Mechanism FMU shows it
+    scene = [v.name for v in mechanism_spec(load_scene("thesis-fourbar")).variables if v.causality == "parameter"]
+    assert set(params[len(own):]) <= set(scene) and ("link4.m" in params) == (name == "ComputedTorque")
     assert all(u.dependencies == [] for u in md.outputs)  # held outputs: no feed-through
 
 
@@ -134,7 +145,8 @@ def test_fmpy_validate_passes_and_the_variables_are_the_laws(built, name):
 
 @pytest.mark.parametrize("name, step, n", [("PID", 2e-3, 150), ("PID", 0.25e-3, 600), ("Encoder", 1e-3, 400),
                                            ("CascadeController", 1e-3, 300), ("Tachometer", 2e-3, 300),
-                                           ("CurrentSensor", 0.5e-3, 400), ("Trajectory", 1e-2, 150)])
+                                           ("CurrentSensor", 0.5e-3, 400), ("Trajectory", 1e-2, 150),
+                                           ("ComputedTorque", 1e-3, 700), ("ComputedTorque", 2.5e-3, 200)])
 def test_c_host_with_an_empty_environment_matches_the_library_bit_for_bit(host, built, name, step, n):
     h = law_host(host, built, name)
     t = h.run(h.start(RUNS[name][0], md=built[name][2]) + stepped(h, name, n, step))  # env={} by default
@@ -201,7 +213,12 @@ def test_discard_a_step_the_clock_cannot_take(host, built, h_text, why):
     ("Tachometer", {"gain_error": -1.0}, "gain_error: must be finite and > -1 (the gain stays positive) (got -1)"),
     ("CurrentSensor", {"bandwidth": -5.0}, "bandwidth: must be finite and >= 0 (0: instantaneous) (got -5)"),
     ("Trajectory", {"kind": "scurve", "j_max": 0.0}, "j_max: must be finite and > 0 (got 0)"),
-    ("Trajectory", {"kind": "trapezoid", "distance": 0.0}, "distance: a move needs a non-zero distance (got 0)")])
+    ("Trajectory", {"kind": "trapezoid", "distance": 0.0}, "distance: a move needs a non-zero distance (got 0)"),
+    ("ComputedTorque", {"efficiency": 0.0}, "efficiency: must be in (0, 1] (got 0)"),
+    ("ComputedTorque", {"link3.m": -1.0}, "link3.m: mass must be positive (got -1)"),
+    ("ComputedTorque", {"drive_joint": ""}, "drive_joint: must name a real joint"),
+    ("ComputedTorque", {"link2.a": 9.0}, "initial.theta2: the loop cannot be closed at the sketch with the drive "
+                                         "held there")])
 def test_error_a_bad_parameter_at_initialisation_names_it_and_the_instance_stays_refused(host, built, name, params,
                                                                                        why):
     h = law_host(host, built, name)
@@ -289,6 +306,29 @@ def _block_index(built, name: str, field: str) -> int:
     return int(next(ln.split()[2] for ln in text.splitlines() if ln.startswith(f"#define P_{field.upper()} ")))
 
 
+def test_one_computed_torque_fmu_serves_another_mechanism_of_its_shape_and_refuses_where_it_cannot_close(host,
+                                                                                                          built):
+    from grubler.fmi.mechanism import fmu_parameters
+
+    scene = load_scene("fourbar-double-rocker")  # theta2 = 1.047 at the sketch; it cannot pass 1.4
+    h = law_host(host, built, "ComputedTorque")
+    md = built["ComputedTorque"][2]
+    params = {**CT, **{k: v for k, v in fmu_parameters(scene).items() if k in h.vr}}
+    swing = lambda k: {"position": 1.047 + 0.3 * np.sin(0.02 * k), "velocity": 6.0 * np.cos(0.02 * k),  # noqa: E731
+                       "acceleration": -120.0 * np.sin(0.02 * k)}
+    lines = []
+    for k in range(100):
+        lines += [f"setr {h.vr[i]} {float(x)!r}" for i, x in swing(k).items()]
+        lines += [f"step {k * 1e-3!r} 0.001", h.getr("torque", "motor_torque", "voltage")]
+    t = h.run(h.start(params, md=md) + lines + [f"setr {h.vr['position']} 1.6", "step 0.1 0.001"])
+    s = Sampler(ComputedTorque(scene, **CT), t0=0.0)
+    ref = [list(s.step(k * 1e-3, 1e-3, swing(k)).values()) for k in range(100)]
+    assert np.array_equal(got(t), np.array(ref))
+    assert t.statuses("step") == [OK] * 100 + [ERROR]
+    assert t.logged("sample at t = 0.1 s: the mechanism cannot take that drive position: its loop does not close"), \
+        t.logs
+
+
 @pytest.mark.parametrize("name, field, offset, value, why", [
     ("Encoder", "law", 4, 3.0, "state.head: must be a whole number in [0, delay]"),
     ("Encoder", "law", 2, 2.0**40, "state.rng: must be two whole numbers"),
@@ -301,7 +341,8 @@ def _block_index(built, name: str, field: str) -> int:
     ("PID", "samples", 0, -1.0, "state.samples: must be a whole number >= 0"),
     ("PID", "t0", 0, 5.0, "state.t0: the start time must be finite and not after t"),
     ("PID", "out", 0, float("nan"), "state.outputs: the held outputs must be finite"),
-    ("Trajectory", "started", 0, 2.0, "state.started: must be 0 or 1")])
+    ("Trajectory", "started", 0, 2.0, "state.started: must be 0 or 1"),
+    ("ComputedTorque", "law", 1, float("inf"), "state.z: must be finite")])
 def test_a_crafted_state_is_refused_naming_the_field(host, built, tmp_path, name, field, offset, value, why):
     h = law_host(host, built, name)
     md = built[name][2]
@@ -477,6 +518,38 @@ def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameter
     assert np.array_equal(got(t)[:, 0], ref)  # the same C, bit for bit
     t = h.run(h.start({"A[2,1]": float("inf")}, md=md))
     assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
+
+
+def test_a_six_bar_gets_a_computed_torque_fmu_of_its_own_shape_that_runs_as_the_library(host, tmp_path):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    from grubler.controllers.native_fmu import export_computed_torque
+    from grubler.system.servo import ServoDesign, servo_system
+
+    scene = load_scene("watt-ii")  # five links, two closures: not ComputedTorque.fmu's shape
+    with pytest.raises(grubler.SceneError, match="feedforward: ComputedTorque.fmu serves mechanisms of the thesis "
+                                                 "four-bar's shape; this scene needs ComputedTorque_watt_ii.fmu"):
+        servo_system(ServoDesign(scene="watt-ii", feedforward=True), tmp_path)
+    path, params = export_computed_torque(scene, tmp_path)
+    assert path.name == "ComputedTorque_watt_ii.fmu" and "closure[1].at_x" in params
+    assert validate_fmu(str(path)) == []
+    md = read_model_description(str(path))
+    zipfile.ZipFile(path).extractall(tmp_path / "x")
+    h = Host(host, tmp_path / "x" / "binaries" / "linux64" / f"{path.stem}.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    z0 = float(scene.mechanism.z_from_q(scene.mechanism.q_ref)[0])
+    swing = [{"position": z0 + 0.3 * math.sin(0.02 * k), "velocity": 6.0 * math.cos(0.02 * k),
+              "acceleration": -120.0 * math.sin(0.02 * k)} for k in range(150)]
+    script = h.start(CT, md=md)
+    for k, i in enumerate(swing):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-3!r} 0.001",
+                                                                     h.getr("torque", "motor_torque", "voltage")]
+    t = h.run(script)
+    assert t.statuses("step") == [OK] * 150
+    s = Sampler(ComputedTorque(scene, **CT))
+    assert np.array_equal(got(t), [list(s.step(k * 1e-3, 1e-3, i).values()) for k, i in enumerate(swing)])
+    assert servo_system(ServoDesign(scene="watt-ii", feedforward=True), tmp_path).components["feedforward"]
 
 
 # -- a table or cam profile from CSV --------------------------------------------------------

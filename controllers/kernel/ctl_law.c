@@ -19,6 +19,9 @@ const char *ctl_status_message(int status)
     case CTL_NOT_FINITE: return "a sample overflowed: an output or the law's state is not finite";
     case CTL_BAD_ARGUMENT: return "a NULL pointer or a buffer too small";
     case CTL_LAW_REFUSED: return "the law's step refused the sample (law_step returned non-zero)";
+    case CTL_MECHANISM_REFUSED:
+        return "the mechanism cannot take that drive position: its loop does not close there, or two assembly "
+               "branches meet (a change point), where the drive's motion does not fix the others'";
     default: return "unknown status";
     }
 }

@@ -41,7 +41,8 @@ typedef enum ctl_status {
     CTL_TOO_MANY_SAMPLES,  /* a step holding more than CTL_MAX_SAMPLES_PER_STEP samples */
     CTL_NOT_FINITE,        /* a sample made an output or the state overflow to inf or NaN */
     CTL_BAD_ARGUMENT,      /* a NULL pointer, or a buffer too small */
-    CTL_LAW_REFUSED        /* a user's law_step (grubler_law.h) returned a failure */
+    CTL_LAW_REFUSED,       /* a user's law_step (grubler_law.h) returned a failure */
+    CTL_MECHANISM_REFUSED  /* the mechanism cannot take the motion asked (computed torque) */
 } ctl_status;
 
 /* A sample instant within this fraction of Ts of a step's end belongs to the

@@ -47,12 +47,12 @@ from grubler.fmi.header import config_header, variables_source
 from grubler.limits import PATH_CHARS, brief, output_file
 from grubler.mechanism.scene import Scene, load_scene
 from grubler.mechanism.simulate import Simulator
-from grubler.fmi.mechanism import STANDARD_SCENE, fmu_parameters, mechanism_spec, same_shape
+from grubler.fmi.mechanism import STANDARD_SCENE, fmu_parameters, mechanism_spec, same_shape, scene_parameters
 from grubler.fmi.variables import ModelSpec
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "c"
-WRAPPER = ("fmi_common.c", "fmi_common.h", "fmi_model.h", "fmi2_model.h")
+WRAPPER = ("fmi_common.c", "fmi_common.h", "fmi_model.h", "fmi2_model.h", "scene_slots.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 FMI_VERSIONS = (2, 3)
 # each FMI version's adapter around the same model files, and its headers
@@ -452,6 +452,26 @@ def scene_fmu(scene: Scene, fmu_dir) -> tuple:
     path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
     export(scene, path)
     return path, fmu_parameters(scene)
+
+
+def computed_torque_fmu(scene: Scene, fmu_dir) -> tuple:
+    """The ComputedTorque FMU in ``fmu_dir`` that serves ``scene``, and the parameters that make it so.
+
+    ``ComputedTorque.fmu`` (``python build_fmu.py``) serves every scene of
+    ``Mechanism.fmu``'s shape through its parameters; a scene of another shape
+    needs its own, ``ComputedTorque_<scene>.fmu``, which
+    :func:`grubler.controllers.native_fmu.export_computed_torque` builds there.
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        The scene's quantities, by FMU variable name (:func:`scene_parameters`).
+    """
+    d = Path(fmu_dir)
+    if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
+        return d / "ComputedTorque.fmu", scene_parameters(scene)
+    return d / f"{identifier_for(Path('ComputedTorque_' + (scene.name or 'scene')))}.fmu", scene_parameters(scene)
 
 
 def check_destination(dest: Path, field: str = "output") -> None:

@@ -110,6 +110,23 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
     return p
 
 
+def scene_parameters(scene: Scene) -> dict[str, float | int | str]:
+    """The scene alone as FMU parameters: gravity, the ground vector, the drive
+    joint, every link's and closure's fields and the sketch (``initial.*``).
+
+    What a model of the mechanism that does not integrate it takes (the
+    ComputedTorque FMU): :func:`fmu_parameters` less the integration's and the
+    run's (method, load joint, drive inertia, initial rates), in slot order.
+    """
+    m = scene.mechanism
+    p = fmu_parameters(scene)
+    names = ["gravity", "ground.a1", "ground.theta1", "drive_joint"]
+    names += [f"link{k}.{f}" for k in range(2, m.n_links + 2) for f in LINK_FIELDS]
+    names += [f"{closure_prefix(len(m.closures), j)}.{f}" for j in range(len(m.closures)) for f in CLOSURE_FIELDS]
+    names += [f"initial.{x}" for x in m.coordinate_names]
+    return {x: p[x] for x in names}
+
+
 STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fmu
 
 

@@ -248,6 +248,35 @@ GRB_API int grb_lstsq(const double *J, int m, int n, const double *b, double rco
  * complex twin (grubler_cs.h) carries the tangent of the constraint manifold. */
 GRB_API grb_status grb_minimal_state(const grb_model *m, int n_ind, const int *ind, double scale, double *y, double *work);
 
+/* The conditioning (smallest over largest singular value) of the closure
+ * Jacobian's dependent columns below which a configuration is a change point
+ * or dead centre (two assembly branches meet): linearisation and the drive
+ * demand refuse it (grubler.mechanism.assembly.SINGULAR_RCOND, the same). */
+#define GRB_CHANGE_POINT_RCOND 1e-4
+
+/* The drive demand (demand.c): what the drive of a mechanism of mobility one
+ * (N = 2C + 1, with a drive joint) must deliver to move its drive joint along
+ * rows samples of position, velocity and acceleration, with load[k] on the
+ * load joint (NULL: none).  At sample k the loop is closed with the drive held
+ * at position[k], by Newton from the last sample's configuration (z_guess for
+ * the first; from the third on, a secant through the last two where the
+ * position moved, so that a passage through a change point keeps its branch),
+ * the other rates follow from J zd = 0 and the accelerations from
+ * J zdd = gamma, and the effort from the inverse dynamics
+ * M zdd + h - Q = tau e_drive + J^T lambda.  Out, rows x N each: z, zd, zdd;
+ * torque (rows) the drive's effort, N m or N; closing_force (rows x 2) the
+ * first closure's force on its closing link, world frame, N.
+ * GRB_BAD_ARGUMENT for a model that is not of that kind (*at = -1) or a
+ * non-finite sample (*at = k); GRB_NOT_CLOSED when the loop cannot close at
+ * sample *at (z's row there holds the guess Newton started from, *closest the
+ * smallest violation reached); GRB_SINGULAR when sample *at is at a change point (the dependent
+ * columns' conditioning at or below GRB_CHANGE_POINT_RCOND).  Rows before *at
+ * are filled all the same. */
+GRB_API grb_status grb_drive_demand(const grb_model *m, double scale, int rows, const double *position,
+                                    const double *velocity, const double *acceleration, const double *load,
+                                    const double *z_guess, double *z, double *zd, double *zdd, double *torque,
+                                    double *closing_force, int *at, double *closest, double *work);
+
 /* A drive effort given as a function of time (NULL: the constant tau_drive). */
 typedef double (*grb_drive_fn)(void *ctx, double t);
 

@@ -5,10 +5,10 @@ At each sample the loop is closed with the drive coordinate held at the
 trajectory's position (starting from the previous solution, so the assembly
 branch is the one the scene sketches), the dependent rates follow from the
 closures' velocity equation, the dependent accelerations from ``J zdd = gamma``
-with the drive's acceleration given, and :func:`grubler.inverse_dynamics` gives
-the drive effort (gravity, joint damping, the drive inertia, the load and the
-closure forces all included).  Computed-torque feedforward and motor sizing are
-both this one computation.
+with the drive's acceleration given, and the inverse dynamics give the drive
+effort (gravity, joint damping, the drive inertia, the load and the closure
+forces all included).  It is the kernel's ``grb_drive_demand`` (kernel/demand.c):
+computed-torque feedforward and motor sizing are both this one computation.
 
 Examples
 --------
@@ -27,10 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grubler.mechanism.assembly import SINGULAR_RCOND, assemble
-from grubler.mechanism.dynamics import Inputs, inverse_dynamics
-from grubler.errors import SceneError
-from grubler.mechanism.kinematics import chain_kinematics, closure_kinematics
+from grubler import binding
+from grubler.errors import AssemblyError, SceneError
+from grubler.mechanism.assembly import _scale, assemble
 from grubler.mechanism.model import Mechanism
 
 
@@ -108,41 +107,27 @@ def drive_demand(model: Mechanism, position, velocity, acceleration, load=0.0,
             raise SceneError(f"trajectory.{name}", "must be finite at every sample")
     if model.load is None and np.any(loads != 0.0):
         raise SceneError("load.joint", "a load needs the joint it acts on")
-    d = model.free_index(model.drive)
-    dep = [i for i in range(model.n_free) if i != d]
-    z = model.z_from_q(model.q_ref) if z_guess is None else np.array(z_guess, float)
-    out_z, out_zd, out_zdd = (np.empty((n, model.n_free)) for _ in range(3))
-    tau, force = np.empty(n), np.zeros((n, 2))
-    for k in range(n):
-        z = z.copy()
-        if k >= 2 and pos[k - 1] != pos[k - 2]:
-            # the next sample's guess continues the last two (a secant predictor): through a change
-            # point, where the closure's Jacobian is singular and a guess from the last sample alone
-            # cannot move, the motion goes on along the branch it came along, as the simulator's does
-            z = out_z[k - 1] + (out_z[k - 1] - out_z[k - 2]) * ((pos[k] - pos[k - 1]) / (pos[k - 1] - pos[k - 2]))
-        z[d] = pos[k]
-        zd = np.zeros(model.n_free)
-        zd[d] = vel[k]
-        z, zd = assemble(model, z, zd, field=f"trajectory at sample {k} (drive {pos[k]:.6g})")
-        zdd = np.zeros(model.n_free)
-        zdd[d] = acc[k]
-        ck = closure_kinematics(model, chain_kinematics(model, z, zd))
-        if model.n_constraints:
-            sv = np.linalg.svd(ck.J[:, dep], compute_uv=False)
-            if sv[-1] <= SINGULAR_RCOND * sv[0]:
-                # the other joints' rates are not determined by the drive's: a least-squares answer
-                # here would be one of many, and the torque from it an artefact
-                raise SceneError(f"trajectory at sample {k} (drive {pos[k]:.6g})",
-                                 "the drive passes a change point or dead centre here (the closure Jacobian's "
-                                 "dependent columns are singular: two assembly branches meet), where the other "
-                                 "joints' speeds, and so the drive torque, do not follow from the drive's motion; "
-                                 "give a motion that stays clear of it")
-            zdd[dep] = np.linalg.lstsq(ck.J[:, dep], ck.gamma - ck.J[:, d] * acc[k], rcond=None)[0]
-        tau[k], lam = inverse_dynamics(model, z, zd, zdd, Inputs(0.0, float(loads[k])))
-        if model.closures:
-            force[k] = ck.force_dir[0] @ lam[:2]
-        out_z[k], out_zd[k], out_zdd[k] = z, zd, zdd
-    return DriveDemand(pos, vel, acc, tau, out_z, out_zd, out_zdd, force)
+    z0 = model.z_from_q(model.q_ref) if z_guess is None else np.asarray(z_guess, float)
+    run = binding.drive_demand(model.arrays, _scale(model), pos, vel, acc, loads, z0)
+    if run.status != binding.OK:
+        k = run.at
+        field = f"trajectory at sample {k} (drive {pos[k]:.6g})" if k >= 0 else "mechanism"
+        if run.status == binding.NOT_CLOSED:
+            # z's row holds the guess the kernel started from: assembly from it says what was held and
+            # which loop stays open, in the words every assembly failure uses
+            zd0 = np.zeros(model.n_free)
+            zd0[model.free_index(model.drive)] = vel[k]
+            assemble(model, run.z[k], zd0, field=field)
+            raise AssemblyError(field, f"the loop cannot be closed (closest {run.closest:.3g} from its closure)")
+        if run.status == binding.SINGULAR:
+            # the other joints' rates are not determined by the drive's: a least-squares answer
+            # there would be one of many, and the torque from it an artefact
+            raise SceneError(field, "the drive passes a change point or dead centre here (the closure Jacobian's "
+                                    "dependent columns are singular: two assembly branches meet), where the other "
+                                    "joints' speeds, and so the drive torque, do not follow from the drive's motion; "
+                                    "give a motion that stays clear of it")
+        raise SceneError(field, binding.status_message(run.status))
+    return DriveDemand(pos, vel, acc, run.torque, run.z, run.zd, run.zdd, run.closing_force)
 
 
 __all__ = ["DriveDemand", "drive_demand"]

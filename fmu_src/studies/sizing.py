@@ -929,6 +929,8 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
         temperature rise): predicted, co-simulated, their difference, margin
         and verdict.
     """
+    from grubler.controllers.native_fmu import export_computed_torque
+    from grubler.mechanism.scene import load_scene
     from grubler.system.cosim import run
     from grubler.system.servo import ServoDesign, servo_system
 
@@ -941,6 +943,8 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
                          trajectory=dict(trajectory), pid=dict(control.pid), encoder=dict(control.encoder),
                          feedforward=control.feedforward, load_joint=load_joint,
                          load_torque=load_torque, t_end=periods * cycle.period, step=step)
+    if control.feedforward:  # a mechanism of another shape than ComputedTorque.fmu's gets its own
+        export_computed_torque(load_scene(scene), fmu_dir)
     res = run(servo_system(design, fmu_dir, name="sizing_check"),
               record=["motor.current", "mechanism.drive_angle", "trajectory.position", "mechanism.drive_speed",
                       "motor.terminal_voltage"])

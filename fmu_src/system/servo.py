@@ -102,7 +102,8 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     System
     """
     from grubler.motors import DCMotor, Drive, Gearbox, load_motor
-    from grubler.fmi.build import scene_fmu
+    from grubler.errors import SceneError
+    from grubler.fmi.build import computed_torque_fmu, scene_fmu
     from grubler.fmi.motor import motor_parameters
     from grubler.mechanism.scene import load_scene
 
@@ -136,8 +137,13 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     s.connect("motor.shaft_torque", "mechanism.motor_torque")
     s.connect("mechanism.drive_speed", "motor.shaft_speed")
     if design.feedforward:
-        s.add("feedforward", d / "ComputedTorque.fmu", mechanism=design.scene,
-              drive_inertia=motor.reflected_inertia, gear_ratio=float(design.gear_ratio),
+        # the native computed-torque FMU is made this mechanism through the same scene parameters
+        ct_fmu, ct_scene = computed_torque_fmu(scene, d)
+        if ct_fmu.name != "ComputedTorque.fmu" and not ct_fmu.exists():
+            raise SceneError("feedforward", f"ComputedTorque.fmu serves mechanisms of the thesis four-bar's shape; "
+                                            f"this scene needs {ct_fmu.name} in {d}: build it with "
+                                            "grubler.controllers.native_fmu.export_computed_torque(scene, fmu_dir)")
+        s.add("feedforward", ct_fmu, **ct_scene, drive_inertia=motor.reflected_inertia, gear_ratio=float(design.gear_ratio),
               efficiency=float(design.gear_efficiency), R=data.resistance, k_t=data.torque_constant,
               k_e=data.back_emf_constant, Ts=float(design.pid.get("Ts", 0.0)))
         for sig in ("position", "velocity", "acceleration"):

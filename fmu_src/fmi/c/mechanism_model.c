@@ -20,6 +20,7 @@
 #include "grb_scene.h"
 #include "grubler.h"
 #include "complex_step.h"
+#include "scene_slots.h"
 #if MODEL_DIRECTIONAL_DERIVATIVE && GRB_HAVE_COMPLEX
 #include <complex.h>
 
@@ -304,36 +305,10 @@ static const char *status_text(int status) { return grb_status_message((grb_stat
 fmi2Status model_prepare(grb_instance *inst) {
     mech *mm = (mech *)inst->model;
     double *p = inst->p;
-    double lf[N * GRB_SL_COLUMNS], cf[(NC > 0 ? NC : 1) * GRB_SC_COLUMNS];
     int i, j, st, method, tableau;
     fmi2Status s = model_check(inst, p);
     if (s != fmi2OK) return s;
-    for (i = 0; i < N; i++) {
-        mm->revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
-        mm->parent[i] = parent_link(p, i + 2) - 2;
-        lf[i * GRB_SL_COLUMNS + GRB_SL_A] = link_field(p, i, LF_A);
-        lf[i * GRB_SL_COLUMNS + GRB_SL_P] = link_field(p, i, LF_P);
-        lf[i * GRB_SL_COLUMNS + GRB_SL_Q] = link_field(p, i, LF_Q);
-        lf[i * GRB_SL_COLUMNS + GRB_SL_M] = link_field(p, i, LF_M);
-        lf[i * GRB_SL_COLUMNS + GRB_SL_I] = link_field(p, i, LF_I);
-        lf[i * GRB_SL_COLUMNS + GRB_SL_DAMP] = link_field(p, i, LF_DAMPING);
-    }
-    for (j = 0; j < NC; j++) {
-        double *row = cf + j * GRB_SC_COLUMNS;
-        row[GRB_SC_KIND] = (int)closure_field(p, j, CF_TYPE) == 2 ? 1.0 : 0.0;
-        row[GRB_SC_LINK] = closure_field(p, j, CF_LINK);
-        row[GRB_SC_TO] = closure_field(p, j, CF_TO_LINK);
-        row[GRB_SC_PX] = closure_field(p, j, CF_AT_X);
-        row[GRB_SC_PY] = closure_field(p, j, CF_AT_Y);
-        row[GRB_SC_TX] = closure_field(p, j, CF_POINT_X);
-        row[GRB_SC_TY] = closure_field(p, j, CF_POINT_Y);
-        row[GRB_SC_ANGLE] = closure_field(p, j, CF_ANGLE);
-        row[GRB_SC_PSI] = closure_field(p, j, CF_PSI);
-        row[GRB_SC_GAIN] = closure_field(p, j, CF_GAIN);
-        row[GRB_SC_DAMP] = closure_field(p, j, CF_DAMPING);
-    }
-    st = grb_scene_tables(N, NC, mm->revolute, mm->parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
-                          p + SLOT_Q0, cf, mm->links, mm->closures);
+    st = scene_tables_of(p, mm->revolute, mm->parent, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
     for (j = 0; j < NA; j++) {  /* thesis numbering to the kernel's 0-based links (-1 the ground) */

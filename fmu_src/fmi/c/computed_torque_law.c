@@ -1,0 +1,195 @@
+/* The computed-torque law file (law.h) over the mechanism kernel's drive
+ * demand (grb_drive_demand, kernel/demand.c): the code
+ * grubler.controllers.ComputedTorque runs through the binding.
+ *
+ * Parameters (slots from config.h, written by
+ * grubler.controllers.native_fmu.computed_torque_spec): the law's
+ * (drive_inertia, gear_ratio, efficiency, R, k_t, k_e, Ts; PARAM_*), then the
+ * scene as the Mechanism FMU shows it: gravity, the ground vector, the drive
+ * joint, each link's fields (SLOT_LINKS + k LINK_STRIDE + LF_*), each
+ * closure's (SLOT_CLOSURES + j CLOSURE_STRIDE + CF_*) and the sketch q
+ * (SLOT_Q0, 2N), whose branch the first sample closes on.
+ * Inputs: the drive's position, velocity and acceleration.  Outputs: torque,
+ * motor_torque, voltage.  State: z (N), the last sample's configuration, the
+ * next one's guess.  Scratch: the kernel's link and closure tables, then its
+ * workspace (CT_WORK_SIZE doubles).
+ *
+ * The scratch is const in law.h because a law's derived constants do not
+ * change in a sample; the kernel's workspace in it is overwritten by each
+ * call and carries nothing from one to the next, so law_sample writes it
+ * (law_model.c owns the buffer writable). */
+#include <math.h>
+#include <string.h>
+
+#include "grb_scene.h"
+#include "grubler.h"
+#include "law.h"
+#include "scene_slots.h"
+
+#define N N_LINKS
+#define NC N_CLOSURES
+#define TABLE_LINKS 0
+#define TABLE_CLOSURES (N * GRB_L_COLUMNS)
+#define TABLE_WORK (TABLE_CLOSURES + NC * GRB_CL_COLUMNS)
+typedef char scratch_fits[LAW_N_SCRATCH == TABLE_WORK + CT_WORK_SIZE ? 1 : -1];
+typedef char state_fits[LAW_N_STATE == N ? 1 : -1];
+typedef char mobility_one[N - 2 * NC == 1 ? 1 : -1];
+
+/* index in z of the drive joint (drive_joint: 0 none, else 1 + its index in q), -1 when not a real joint */
+static int drive_index(const double *p, const int *revolute) {
+    int q_index[N], q = (int)p[SLOT_DRIVE_JOINT] - 1;
+    grb_real_coordinates(N, revolute, q_index);
+    return q >= 0 && q_index[q / 2] == q ? q / 2 : -1;
+}
+
+/* The model over the kernel's tables, and the length scale of the closure
+ * tolerance (grubler.mechanism.assembly._scale: the longest link, at least 1 m). */
+static void describe(const double *p, const double *links, const double *closures, grb_model *m, double *scale) {
+    int revolute[N], i;
+    *scale = 1.0;
+    for (i = 0; i < N; i++) {
+        revolute[i] = (int)scene_link_field(p, i, LF_JOINT) == 1;
+        if (fabs(scene_link_field(p, i, LF_A)) > *scale) *scale = fabs(scene_link_field(p, i, LF_A));
+    }
+    m->n_links = N;
+    m->n_closures = NC;
+    m->links = links;
+    m->closures = closures;
+    m->theta1 = p[SLOT_GROUND_THETA1];
+    m->gravity = p[SLOT_GRAVITY];
+    m->drive = drive_index(p, revolute);
+    m->load = -1;
+    m->drive_inertia = p[PARAM_drive_inertia];
+}
+
+/* The kernel's tables of the parameters (as the Mechanism FMU builds them) and the model over them. */
+static int build(const double *p, double *links, double *closures, grb_model *m, double *scale) {
+    int revolute[N], parent[N];
+    if (scene_tables_of(p, revolute, parent, links, closures) != GRB_OK) return CTL_BAD_PARAMETER;
+    describe(p, links, closures, m, scale);
+    return CTL_OK;
+}
+
+/* The sketch's joint coordinates z (N). */
+static void sketch(const double *p, double *z) {
+    int revolute[N], parent[N], i;
+    for (i = 0; i < N; i++) {
+        revolute[i] = (int)scene_link_field(p, i, LF_JOINT) == 1;
+        parent[i] = (int)scene_link_field(p, i, LF_PARENT) - 2;
+    }
+    grb_z_from_q(N, revolute, parent, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
+}
+
+/* The demand of one sample from the guess z into z_out; the effort into *tau. */
+static int demand(const grb_model *m, double scale, double *work, const double *z, double position, double velocity,
+                  double acceleration, double *z_out, double *tau) {
+    double zd[N], zdd[N], force[2], closest;
+    int at;
+    grb_status st = grb_drive_demand(m, scale, 1, &position, &velocity, &acceleration, NULL, z, z_out, zd, zdd, tau,
+                                     force, &at, &closest, work);
+    return st == GRB_OK ? CTL_OK : CTL_MECHANISM_REFUSED;
+}
+
+int law_check(const double *param, int *field, const char **why) {
+    int k, i, j, revolute[N];
+    for (k = 0; k < LAW_N_PARAMS; k++)
+        if (!isfinite(param[k])) return ctl_refuse(k, LAW_N_PARAMS, "must be finite", field, why);
+    /* the library's checks (ComputedTorque, Mechanism), with its words */
+    if (param[PARAM_drive_inertia] < 0) return ctl_refuse(PARAM_drive_inertia, LAW_N_PARAMS, "must be >= 0", field, why);
+    if (param[PARAM_gear_ratio] == 0) return ctl_refuse(PARAM_gear_ratio, LAW_N_PARAMS, "must be non-zero", field, why);
+    if (!(param[PARAM_efficiency] > 0 && param[PARAM_efficiency] <= 1))
+        return ctl_refuse(PARAM_efficiency, LAW_N_PARAMS, "must be in (0, 1]", field, why);
+    if (param[PARAM_R] < 0) return ctl_refuse(PARAM_R, LAW_N_PARAMS, "must be >= 0", field, why);
+    if (param[PARAM_k_t] < 0) return ctl_refuse(PARAM_k_t, LAW_N_PARAMS, "must be >= 0", field, why);
+    if (param[PARAM_k_e] < 0) return ctl_refuse(PARAM_k_e, LAW_N_PARAMS, "must be >= 0", field, why);
+    if (param[PARAM_Ts] < 0)
+        return ctl_refuse(PARAM_Ts, LAW_N_PARAMS, "sample time must be finite and >= 0", field, why);
+    if (param[SLOT_GRAVITY] < 0)
+        return ctl_refuse(SLOT_GRAVITY, LAW_N_PARAMS, "must be >= 0 (it acts along -y)", field, why);
+    if (param[SLOT_GROUND_A1] < 0) return ctl_refuse(SLOT_GROUND_A1, LAW_N_PARAMS, "length must be >= 0", field, why);
+    for (i = 0; i < N; i++) {
+        int base = SLOT_LINKS + i * LINK_STRIDE, parent = (int)scene_link_field(param, i, LF_PARENT);
+        if (parent < 1 || parent > i + 1)
+            return ctl_refuse(base + LF_PARENT, LAW_N_PARAMS, "must be the ground (1) or an earlier link", field,
+                              why);
+        if (scene_link_field(param, i, LF_A) < 0)
+            return ctl_refuse(base + LF_A, LAW_N_PARAMS, "length must be >= 0", field, why);
+        if (!(scene_link_field(param, i, LF_M) > 0))
+            return ctl_refuse(base + LF_M, LAW_N_PARAMS, "mass must be positive", field, why);
+        if (scene_link_field(param, i, LF_I) < 0)
+            return ctl_refuse(base + LF_I, LAW_N_PARAMS, "moment of inertia must be >= 0", field, why);
+        if (scene_link_field(param, i, LF_DAMPING) < 0)
+            return ctl_refuse(base + LF_DAMPING, LAW_N_PARAMS, "damping must be >= 0", field, why);
+        revolute[i] = (int)scene_link_field(param, i, LF_JOINT) == 1;
+    }
+    for (j = 0; j < NC; j++)
+        if (scene_closure_field(param, j, CF_LINK) == scene_closure_field(param, j, CF_TO_LINK))
+            return ctl_refuse(SLOT_CLOSURES + j * CLOSURE_STRIDE + CF_TO_LINK, LAW_N_PARAMS,
+                              "must be another link than the closing one", field, why);
+    if (drive_index(param, revolute) < 0)
+        return ctl_refuse(SLOT_DRIVE_JOINT, LAW_N_PARAMS, "must name a real joint: the drive demand needs the "
+                          "joint the drive acts on", field, why);
+    {
+        /* the sketch must close with the drive held there, as the library's constructor asks */
+        double links[N * GRB_L_COLUMNS], closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS], work[CT_WORK_SIZE];
+        double z[N], z_out[N], tau, scale;
+        grb_model m;
+        if (build(param, links, closures, &m, &scale) != CTL_OK ||
+            grb_work_init(N, NC, work, CT_WORK_SIZE) != GRB_OK)
+            return ctl_refuse(SLOT_CLOSURES, LAW_N_PARAMS, "a closure's link is out of range", field, why);
+        sketch(param, z);
+        if (demand(&m, scale, work, z, z[m.drive], 0.0, 0.0, z_out, &tau) != CTL_OK)
+            return ctl_refuse(SLOT_Q0 + 2 * m.drive + (revolute[m.drive] ? 1 : 0), LAW_N_PARAMS,
+                              "the loop cannot be closed at the sketch with the drive held there (or it is a "
+                              "change point)", field, why);
+    }
+    return CTL_OK;
+}
+
+int law_check_state(const double *param, const double *state, int *field, const char **why) {
+    int k;
+    (void)param;
+    for (k = 0; k < N; k++)
+        if (!isfinite(state[k])) return ctl_refuse(LAW_N_PARAMS, LAW_N_PARAMS, "must be finite", field, why);
+    return CTL_OK;
+}
+
+const char *law_state_name(int field) {
+    (void)field;
+    return "z";
+}
+
+int law_prepare(const double *param, double *scratch) {
+    grb_model m;
+    double scale;
+    if (build(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, &m, &scale) != CTL_OK)
+        return CTL_BAD_PARAMETER;
+    return grb_work_init(N, NC, scratch + TABLE_WORK, CT_WORK_SIZE) == GRB_OK ? CTL_OK : CTL_BAD_ARGUMENT;
+}
+
+int law_start(const double *param, const double *scratch, double t0, double *state, double *out) {
+    (void)scratch;
+    (void)t0;
+    sketch(param, state);  /* ComputedTorque.reset: the first sample starts from the sketch */
+    out[0] = out[1] = out[2] = 0.0;
+    return CTL_OK;
+}
+
+int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+    grb_model m;
+    double z[N], tau, tau_m, voltage, n = param[PARAM_gear_ratio], eta = param[PARAM_efficiency], scale;
+    double *work = (double *)scratch + TABLE_WORK; /* see the head of this file */
+    int i, st;
+    (void)t;
+    describe(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, &m, &scale);
+    if ((st = demand(&m, scale, work, state, in[0], in[1], in[2], z, &tau)) != CTL_OK) return st;
+    /* ComputedTorque.motor: through the gearbox, motoring or braking; the steady-current voltage */
+    tau_m = tau * in[1] >= 0 ? tau / (n * eta) : tau * eta / n;
+    voltage = param[PARAM_k_t] > 0 ? param[PARAM_R] * tau_m / param[PARAM_k_t] + param[PARAM_k_e] * n * in[1] : 0.0;
+    if (!isfinite(tau) || !isfinite(tau_m) || !isfinite(voltage)) return CTL_NOT_FINITE;
+    out[0] = tau;
+    out[1] = tau_m;
+    out[2] = voltage;
+    for (i = 0; i < N; i++) state[i] = z[i];
+    return CTL_OK;
+}

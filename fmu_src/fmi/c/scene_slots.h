@@ -1,0 +1,42 @@
+/* scene_slots.h: the kernel's tables from a scene held as FMU parameters, for
+ * every model file that serves a scene (mechanism_model.c, computed_torque_law.c).
+ *
+ * config.h places the scene's parameters (grubler.fmi.mechanism): N_LINKS,
+ * N_CLOSURES; link k's fields at SLOT_LINKS + k LINK_STRIDE + LF_*, closure
+ * j's at SLOT_CLOSURES + j CLOSURE_STRIDE + CF_*; the ground vector at
+ * SLOT_GROUND_A1 and SLOT_GROUND_THETA1; the sketch q at SLOT_Q0 (2N).
+ * JointType and ClosureType count from 1: R and revolute. */
+#ifndef GRB_SCENE_SLOTS_H
+#define GRB_SCENE_SLOTS_H
+
+#include "grb_scene.h"
+
+static double scene_link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
+static double scene_closure_field(const double *p, int j, int f) {
+    return p[SLOT_CLOSURES + j * CLOSURE_STRIDE + f];
+}
+
+/* Each link's joint (1: the revolute is real) and predecessor (0-based, -1 the
+ * ground), and the link and closure tables (grb_scene_tables, as the library's
+ * ModelArrays.of builds them): GRB_BAD_ARGUMENT for a link number or a
+ * parent out of range. */
+static int scene_tables_of(const double *p, int *revolute, int *parent, double *links, double *closures) {
+    double lf[N_LINKS * GRB_SL_COLUMNS], cf[(N_CLOSURES > 0 ? N_CLOSURES : 1) * GRB_SC_COLUMNS];
+    static const int link_column[GRB_SL_COLUMNS] = {LF_A, LF_P, LF_Q, LF_M, LF_I, LF_DAMPING};
+    static const int closure_column[GRB_SC_COLUMNS] = {CF_TYPE, CF_LINK, CF_TO_LINK, CF_AT_X, CF_AT_Y, CF_POINT_X,
+                                                       CF_POINT_Y, CF_ANGLE, CF_PSI, CF_GAIN, CF_DAMPING};
+    int i, j;
+    for (i = 0; i < N_LINKS; i++) {
+        revolute[i] = (int)scene_link_field(p, i, LF_JOINT) == 1;
+        parent[i] = (int)scene_link_field(p, i, LF_PARENT) - 2;
+        for (j = 0; j < GRB_SL_COLUMNS; j++) lf[i * GRB_SL_COLUMNS + j] = scene_link_field(p, i, link_column[j]);
+    }
+    for (j = 0; j < N_CLOSURES; j++) {
+        for (i = 0; i < GRB_SC_COLUMNS; i++) cf[j * GRB_SC_COLUMNS + i] = scene_closure_field(p, j, closure_column[i]);
+        cf[j * GRB_SC_COLUMNS + GRB_SC_KIND] = (int)scene_closure_field(p, j, CF_TYPE) == 2 ? 1.0 : 0.0;
+    }
+    return grb_scene_tables(N_LINKS, N_CLOSURES, revolute, parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
+                            p + SLOT_Q0, cf, links, closures);
+}
+
+#endif
