@@ -60,6 +60,9 @@ static void describe(const double *p, const double *links, const double *closure
     m->drive = drive_index(p, revolute);
     m->load = -1;
     m->drive_inertia = p[PARAM_drive_inertia];
+    /* the demand is the drive's alone: no actuator pushes (the library's runs with their forces at 0) */
+    m->n_actuators = 0;
+    m->actuators = NULL;
 }
 
 /* The kernel's tables of the parameters (as the Mechanism FMU builds them) and the model over them. */
