@@ -23,12 +23,12 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path[:0] = [str(HERE.parent), str(HERE.parent / "tests")]
 
 import build_fmu  # noqa: E402
 from fmpy import extract, read_model_description  # noqa: E402
 
-from grubler.fmi.build import fmi_headers_dir  # noqa: E402
+from c_host import compile_host  # noqa: E402
 
 SCRIPT = "new 0 bench\nsetup 0\nenter\nexit\nterm\nfree\n"
 LIBRARY = "import grubler; grubler.simulate('thesis-fourbar', t_end=1.0)"
@@ -43,9 +43,7 @@ def main() -> None:
     md = read_model_description(str(fmu))
     unzipped = Path(extract(str(fmu)))
     lib = unzipped / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
-    host = tmp / "fmi_host"
-    subprocess.run(["cc", "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(HERE.parent / "tests" / "fmi_host.c"), "-o", str(host), "-ldl"], check=True)
+    host = compile_host(tmp / "fmi_host")
 
     def fmu_run():
         out = subprocess.run([str(host), str(lib), md.guid], input=SCRIPT, capture_output=True, text=True, env={},

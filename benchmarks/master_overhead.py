@@ -42,12 +42,12 @@ import zipfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE.parent), str(HERE)]
+sys.path[:0] = [str(HERE.parent), str(HERE), str(HERE.parent / "tests")]
 
 import build_fmu  # noqa: E402
 
 from grubler import cosim, ssp  # noqa: E402
-from grubler.fmi.build import fmi_headers_dir  # noqa: E402
+from c_host import compile_host  # noqa: E402
 from grubler.system.container import export_system  # noqa: E402
 
 STEP = 1e-3
@@ -61,13 +61,6 @@ def chain(motor: Path, n: int, folder: Path) -> ssp.System:
             s.connect(f"m{k - 1}.terminal_voltage", f"m{k}.voltage")
     s.write(folder / "motor_chain.ssd")
     return s
-
-
-def c_host(folder: Path) -> Path:
-    out = folder / "fmi_host"
-    subprocess.run(["cc", "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(HERE.parent / "tests" / "fmi_host.c"), "-o", str(out), "-ldl"], check=True)
-    return out
 
 
 def bench(host: Path, fmu: Path, folder: Path, start: list[str], vr_in: int, vr_out: list[int], steps: int,
@@ -99,7 +92,7 @@ def main() -> None:
         archive = system.write(tmp / "motor_chain.ssp")
         container = export_system(system, tmp / "MotorChain.fmu")
         record = [f"m{k}.current" for k in range(args.fmus)]
-        host = c_host(tmp)
+        host = compile_host(tmp / "fmi_host")
         from fmpy import read_model_description, simulate_fmu
         from fmpy.ssp.simulation import simulate_ssp
         from fmpy.ssp.ssd import Parameter, ParameterSet

@@ -2,7 +2,7 @@
 
 The references: the FMI 2.0 build of the same model (the same C on the same
 code path, so the results agree to the bit), run by the same script through
-the FMI 2.0 C host (tests/fmi_host.c) and its FMI 3.0 twin (tests/fmi3_host.c),
+the C host (tests/fmi_host.c) built for FMI 2.0 and for FMI 3.0 (-DHOST_FMI=3),
 both with an empty environment; fmpy (validate, simulate) and fmusim, an
 importer that shares no code with ours; and the FMI 3.0 contract itself.
 
@@ -26,6 +26,8 @@ import numpy as np
 import pytest
 
 from grubler.fmi.build import fmi_headers_dir
+
+from c_host import compile_host
 from test_native_fmu import (DISCARD, ERROR, OK, SANITIZE, SANITIZER_ENV, Host, Transcript, random_script,
                              sanitized_binary)
 
@@ -66,16 +68,10 @@ def built2(tmp_path_factory):
     return _build(tmp_path_factory, 2)
 
 
-def _compile_host(source: str, out: Path, flags=("-O2",)) -> Path:
-    subprocess.run(["cc", "-std=c99", *flags, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(HERE / source), "-o", str(out), "-ldl"], check=True)
-    return out
-
-
 @pytest.fixture(scope="session")
 def hosts(tmp_path_factory):
     d = tmp_path_factory.mktemp("hosts")
-    return {2: _compile_host("fmi_host.c", d / "fmi_host"), 3: _compile_host("fmi3_host.c", d / "fmi3_host")}
+    return {2: compile_host(d / "fmi_host"), 3: compile_host(d / "fmi3_host", fmi=3)}
 
 
 class Host3(Host):
@@ -485,7 +481,7 @@ def sanitized3(built3, tmp_path_factory):
                            input="int main(void){return 0;}", capture_output=True, text=True)
     if probe.returncode != 0:
         pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
-    out = {"host": _compile_host("fmi3_host.c", d / "fmi3_host", SANITIZE[1:])}
+    out = {"host": compile_host(d / "fmi3_host", fmi=3, flags=SANITIZE)}
     for name in ("Mechanism", "DCMotor"):
         _, unzipped_dir, desc = built3[name]
         out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")

@@ -23,6 +23,8 @@ import grubler
 from grubler.fmi.build import FMI_HEADERS, fmi_headers_dir
 from grubler.fmi.mechanism import fmu_parameters
 
+from c_host import compile_host
+
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
@@ -63,10 +65,7 @@ def md(built):
 @pytest.fixture(scope="session")
 def host(tmp_path_factory):
     """tests/fmi_host.c, compiled against the FMI headers fmpy ships."""
-    out = tmp_path_factory.mktemp("host") / "fmi_host"
-    subprocess.run(["cc", "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(HERE / "fmi_host.c"), "-o", str(out), "-ldl"], check=True)
-    return out
+    return compile_host(tmp_path_factory.mktemp("host") / "fmi_host")
 
 
 class Host:
@@ -536,9 +535,7 @@ def sanitize_all(built: dict, d: Path) -> dict:
                            input="int main(void){return 0;}", capture_output=True, text=True)
     if probe.returncode != 0:
         pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
-    out = {"host": d / "fmi_host"}
-    subprocess.run(["cc", *SANITIZE, "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(HERE / "fmi_host.c"), "-o", str(out["host"]), "-ldl"], check=True)
+    out = {"host": compile_host(d / "fmi_host", flags=SANITIZE)}
     for name, (_, unzipped_dir, desc) in built.items():
         out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")
     return out
@@ -728,9 +725,7 @@ def test_win64_binary_under_wine_agrees(host, built, name, tmp_path):
     if gcc is None or wine is None:
         pytest.skip("needs the MinGW-w64 cross compiler and wine (Debian: gcc-mingw-w64-x86-64, wine64)")
     assert dll.is_file(), "MinGW-w64 is installed, so build_fmu.py must ship binaries/win64"
-    exe = tmp_path / "fmi_host.exe"
-    subprocess.run([gcc, "-std=c99", "-O2", "-I", str(fmi_headers_dir()), str(HERE / "fmi_host.c"), "-o", str(exe)],
-                   check=True)
+    exe = compile_host(tmp_path / "fmi_host.exe", compiler=(gcc,))
     env = {"WINEDEBUG": "-all", "WINEPREFIX": str(tmp_path / "wine"), "HOME": str(tmp_path),
            "PATH": "/usr/bin:/bin"}
     win = Host(exe, dll, md.guid, native.vr, wrapper=[wine])

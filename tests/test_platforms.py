@@ -252,13 +252,10 @@ def test_each_binary_needs_only_the_c_library_and_exports_only_fmi2(cross_built,
 
 def host_build(tmp_path: Path, target: str) -> Path:
     """tests/fmi_host.c cross-compiled for a zig target."""
-    from grubler.fmi.build import fmi_headers_dir
+    from c_host import compile_host
 
-    exe = tmp_path / f"fmi_host_{target}{'.exe' if 'windows' in target else ''}"
-    subprocess.run([*zig_compiler(), "-target", target, "-std=c99", "-O2", "-D_POSIX_C_SOURCE=199309L", "-I",
-                    str(fmi_headers_dir()), str(HERE / "fmi_host.c"), "-o", str(exe),
-                    *([] if "windows" in target else ["-ldl"])], check=True, capture_output=True)
-    return exe
+    return compile_host(tmp_path / f"fmi_host_{target}{'.exe' if 'windows' in target else ''}",
+                        compiler=(*zig_compiler(), "-target", target))
 
 
 def agree_with_linux64(cross_built, name, folder, wrapper, exe, env, tmp_path):
