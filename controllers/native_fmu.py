@@ -264,8 +264,10 @@ def read_c_law(source: str | Path) -> type[Law]:
     field = str(path)
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError("law", f"{field}: cannot be read as UTF-8 C source ({type(exc).__name__})") from None
+    except UnicodeDecodeError:
+        raise SceneError("law", f"{field}: not UTF-8 text: a law is C source") from None
+    except OSError as exc:
+        raise SceneError("law", f"{field}: cannot be read ({exc.strerror or type(exc).__name__})") from None
     found = {"PARAMETER": {}, "INPUT": {}, "OUTPUT": {}}
     n_state = 0
     names: set[str] = set()

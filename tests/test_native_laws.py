@@ -485,6 +485,18 @@ def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
     assert not (tmp_path / "L.fmu").exists()
 
 
+@pytest.mark.parametrize("make, why", [(None, "cannot be read (No such file or directory)"),
+                                       (b"\x89PNG\r\n\x1a\n\xff", "not UTF-8 text: a law is C source")])
+def test_export_law_says_why_a_file_cannot_be_its_source(tmp_path, make, why):
+    src = tmp_path / "law.c"
+    if make is not None:
+        src.write_bytes(make)
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
+                           str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert why in proc.stderr, proc.stderr
+
+
 # -- a python-control controller as a native FMU -------------------------------------------
 
 def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameters(host, tmp_path):
