@@ -1,13 +1,17 @@
-"""Cascaded position and speed loops, the servo drive's structure.
+"""Cascaded position, speed and current loops, the servo drive's structure.
 
 The outer loop, P or PI on the position error, gives a speed setpoint; the
 trajectory's velocity may be added to it (speed feedforward), and the sum is
-limited to ``±speed_limit``.  The inner loop, PI on the speed error, gives the
+limited to ``±speed_limit``.  The speed loop, PI on the speed error, gives the
 output ``u`` (a voltage, current or torque command, limited to
-``[u_min, u_max]`` with back-calculation anti-windup).  Both loops are
+``[u_min, u_max]`` with back-calculation anti-windup).  With ``K_current > 0``
+a current loop is innermost: the speed loop's output, limited to
+``±current_limit``, is the current setpoint, and PI on the current error (the
+measured winding current, input ``current``) gives ``u``, the voltage, limited
+to ``[u_min, u_max]``.  The loops are
 :class:`~grubler.controllers.pid.PID` loops sampled together at ``Ts``;
-the outer one is limited to the speed limit with its own anti-windup, so a long
-move at the limit does not wind its integral up.  The cascade runs in C
+each outer one is limited with its own anti-windup, so a long move at the
+limit does not wind its integral up.  The cascade runs in C
 (``controllers/kernel/ctl_cascade.c`` over ``ctl_pid.c``), as the native
 CascadeController.fmu does.
 
@@ -17,6 +21,11 @@ Examples
 >>> out = ctl.update(0.0, {"position_setpoint": 0.1, "velocity_setpoint": 0.0, "position": 0.0, "speed": 0.0})
 >>> round(out["u"], 12)            # K_speed * (K_position * 0.1)
 1.0
+>>> inner = CascadeController(K_position=20.0, K_speed=0.5, K_current=4.0, current_limit=0.8, Ts=1e-3)
+>>> out = inner.update(0.0, {"position_setpoint": 0.1, "velocity_setpoint": 0.0, "position": 0.0, "speed": 0.0,
+...                          "current": 0.3})
+>>> round(out["u"], 12)            # K_current * (min(1.0, current_limit) - 0.3)
+2.0
 """
 
 from __future__ import annotations
@@ -28,7 +37,7 @@ from grubler.controllers.law import Law, Parameter, check_number
 
 
 class CascadeController(Law):
-    """Outer position loop (P or PI) feeding an inner speed loop (PI).
+    """Outer position loop (P or PI) feeding a speed loop (PI), and optionally a current loop (PI).
 
     Parameters
     ----------
@@ -49,12 +58,19 @@ class CascadeController(Law):
     Tt_speed : float
         Tracking time of the speed loop's anti-windup, s; 0 for Ti_speed.
     Ts : float
-        Sample time of both loops, s.
+        Sample time of the loops, s.
+    K_current : float
+        Current loop gain, (unit of u)/A, >= 0; 0 (default): no current loop.
+    Ti_current : float
+        Integral time of the current loop, s; 0 for a P current loop.
+    current_limit : float
+        Limit of the current setpoint, A (> 0; with a current loop).
     """
 
     inputs = {"position_setpoint": "position setpoint [rad]",
               "velocity_setpoint": "velocity of the setpoint, for speed feedforward [rad/s]",
-              "position": "measured position [rad]", "speed": "measured speed [rad/s]"}
+              "position": "measured position [rad]", "speed": "measured speed [rad/s]",
+              "current": "measured winding current, read when K_current > 0 [A]"}
     outputs = {"u": "controller output [any]"}
     parameters = {
         "K_position": Parameter(10.0, "position loop gain, (rad/s)/rad [1/s]"),
@@ -66,15 +82,20 @@ class CascadeController(Law):
         "u_min": Parameter(-1e300, "lower output limit [any]"),
         "u_max": Parameter(1e300, "upper output limit [any]"),
         "Tt_speed": Parameter(0.0, "speed loop tracking time, 0 for Ti_speed [s]"),
-        "Ts": Parameter(1e-3, "sample time of both loops [s]"),
+        "Ts": Parameter(1e-3, "sample time of the loops [s]"),
+        "K_current": Parameter(0.0, "current loop gain, unit of u per A; 0: no current loop [any]"),
+        "Ti_current": Parameter(0.0, "current loop integral time, 0 for a P loop [s]"),
+        "current_limit": Parameter(1e300, "limit of the current setpoint (with a current loop) [A]"),
     }
 
     def __init__(self, K_position: float = 10.0, Ti_position: float = 0.0, K_speed: float = 1.0,
                  Ti_speed: float = 0.0, velocity_feedforward: float = 1.0, speed_limit: float = 1e300,
-                 u_min: float = -1e300, u_max: float = 1e300, Tt_speed: float = 0.0, Ts: float = 1e-3):
+                 u_min: float = -1e300, u_max: float = 1e300, Tt_speed: float = 0.0, Ts: float = 1e-3,
+                 K_current: float = 0.0, Ti_current: float = 0.0, current_limit: float = 1e300):
         given = {"K_position": K_position, "Ti_position": Ti_position, "K_speed": K_speed, "Ti_speed": Ti_speed,
                  "velocity_feedforward": velocity_feedforward, "speed_limit": speed_limit, "u_min": u_min,
-                 "u_max": u_max, "Tt_speed": Tt_speed, "Ts": Ts}
+                 "u_max": u_max, "Tt_speed": Tt_speed, "Ts": Ts, "K_current": K_current,
+                 "Ti_current": Ti_current, "current_limit": current_limit}
         values = {name: check_number(v, name) for name, v in given.items()}  # numbers; the C judges their range
         self._params = native.CascadeParams(**values)
         native.refuse_bad("cascade", self._params)
@@ -93,9 +114,16 @@ class CascadeController(Law):
         """The last speed setpoint the position loop gave, rad/s."""
         return self._state.speed_setpoint
 
+    @property
+    def current_setpoint(self) -> float:
+        """The last current setpoint the speed loop gave, A (0 without a current loop)."""
+        return self._state.current_setpoint
+
     def update(self, t: float, inputs: dict[str, float]) -> dict[str, float]:
+        # the current is read only by a current loop: a cascade without one needs no current sensor
+        current = inputs["current"] if self.K_current > 0.0 else inputs.get("current", 0.0)
         native.call("ctl_cascade_sample", self._params, self._state, inputs["position_setpoint"],
-                    inputs["velocity_setpoint"], inputs["position"], inputs["speed"], self._u)
+                    inputs["velocity_setpoint"], inputs["position"], inputs["speed"], current, self._u)
         return {"u": self._u.value}
 
     def initial_outputs(self, t0: float) -> dict[str, float]:
@@ -103,7 +131,7 @@ class CascadeController(Law):
         return {"u": self._u.value}
 
     def get_state(self) -> dict:
-        """Both loops' states and the last speed setpoint, as plain numbers."""
+        """The loops' states and the last speed and current setpoints, as plain numbers."""
         return native.as_plain(self._state)
 
     def set_state(self, state: dict) -> None:

@@ -67,13 +67,14 @@ class CascadeParams(ctypes.Structure):
     """struct ctl_cascade_params."""
 
     _fields_ = _doubles("K_position", "Ti_position", "K_speed", "Ti_speed", "velocity_feedforward", "speed_limit",
-                        "u_min", "u_max", "Tt_speed", "Ts")
+                        "u_min", "u_max", "Tt_speed", "Ts", "K_current", "Ti_current", "current_limit")
 
 
 class CascadeState(ctypes.Structure):
-    """struct ctl_cascade_state: both loops' states and the last speed setpoint."""
+    """struct ctl_cascade_state: the loops' states and the last speed and current setpoints."""
 
-    _fields_ = [("position_loop", PidState), ("speed_loop", PidState), ("speed_setpoint", _D)]
+    _fields_ = [("position_loop", PidState), ("speed_loop", PidState), ("speed_setpoint", _D),
+                ("current_loop", PidState), ("current_setpoint", _D)]
 
 
 class EncoderParams(ctypes.Structure):
@@ -147,7 +148,7 @@ _SIGNATURES = {
     "ctl_cascade_check": (_I, [_R, _IP, _SP]),
     "ctl_cascade_check_state": (_I, [_R, _R, _IP, _SP]),
     "ctl_cascade_reset": (_I, [_R, _R]),
-    "ctl_cascade_sample": (_I, [_R, _R, _D, _D, _D, _D, _DP]),
+    "ctl_cascade_sample": (_I, [_R, _R, _D, _D, _D, _D, _D, _DP]),
     "ctl_cascade_initial_output": (_I, [_R, _DP]),
     "ctl_encoder_field_name": (ctypes.c_char_p, [_I]),
     "ctl_encoder_check": (_I, [_R, _D, _IP, _SP]),

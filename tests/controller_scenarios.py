@@ -81,7 +81,7 @@ def pid_loop(block, h: float, n: int) -> list[list[float]]:
 
 
 def cascade_loop(block, traj, h: float, n: int) -> list[list[float]]:
-    """Trajectory -> cascade controller -> motor, position and speed fed back."""
+    """Trajectory -> cascade controller -> motor, position and speed fed back (no current loop)."""
     A, B = plant_matrices(h)
     x = np.zeros(2)
     rows = []
@@ -89,7 +89,7 @@ def cascade_loop(block, traj, h: float, n: int) -> list[list[float]]:
     for k in range(n):
         t = k * h
         out = block.step(t, h, {"position_setpoint": p["position"], "velocity_setpoint": p["velocity"],
-                                "position": float(x[0]), "speed": float(x[1])})
+                                "position": float(x[0]), "speed": float(x[1]), "current": 0.0})
         x = A @ x + B * out["u"]
         p = traj.step(t, h, {})
         rows.append([t + h, out["u"], float(x[0]), p["position"]])

@@ -162,6 +162,43 @@ def test_cascade_speed_feedforward_reduces_the_tracking_error():
     assert errs[1.0] < 0.1 * errs[0.0], errs
 
 
+def test_cascade_current_loop_is_the_innermost_pi_as_python_control_has_it():
+    # no limits reached: u = C_i(z) (C_s(z) (C_p(z) e_position - speed) - current), each C a discrete PI
+    # K (1 + (Ts/Ti) / (z - 1)) as the PID module's docstring writes it; python-control composes them
+    Ts, n = 1e-3, 200
+    gains = dict(K_position=20.0, Ti_position=0.05, K_speed=0.5, Ti_speed=0.02, K_current=4.0, Ti_current=0.004)
+    ctl = CascadeController(**gains, velocity_feedforward=0.0, Ts=Ts)
+    rng = np.random.default_rng(7)
+    e_pos, speed, current = rng.normal(0, 0.1, n), rng.normal(0, 1.0, n), rng.normal(0, 0.5, n)
+    u = np.array([ctl.update(k * Ts, {"position_setpoint": e_pos[k], "velocity_setpoint": 0.0, "position": 0.0,
+                                      "speed": speed[k], "current": current[k]})["u"] for k in range(n)])
+    z = control.tf([1, 0], [1], Ts)
+
+    def pi(K, Ti):
+        return K * (1 + (Ts / Ti) / (z - 1))
+
+    Cp, Cs, Ci = pi(20.0, 0.05), pi(0.5, 0.02), pi(4.0, 0.004)
+    t = np.arange(n) * Ts
+    ref = sum(control.forced_response(G, t, x).outputs
+              for G, x in ((Ci * Cs * Cp, e_pos), (-Ci * Cs, speed), (-Ci, current)))
+    assert np.max(np.abs(u - ref)) < 1e-9 * np.max(np.abs(ref))
+    assert ctl.current_setpoint != 0.0
+
+
+def test_cascade_current_setpoint_is_held_to_the_current_limit():
+    ctl = CascadeController(K_position=100.0, K_speed=10.0, K_current=2.0, current_limit=1.5, u_min=-24.0,
+                            u_max=24.0, Ts=1e-3)
+    out = ctl.update(0.0, {"position_setpoint": 1.0, "velocity_setpoint": 0.0, "position": 0.0, "speed": 0.0,
+                           "current": 0.5})
+    assert ctl.current_setpoint == 1.5 and out["u"] == pytest.approx(2.0 * (1.5 - 0.5))
+    with pytest.raises(KeyError):  # a current loop needs its measurement
+        ctl.update(1e-3, {"position_setpoint": 1.0, "velocity_setpoint": 0.0, "position": 0.0, "speed": 0.0})
+    with pytest.raises(grubler.SceneError, match="K_current: must be finite and >= 0"):
+        CascadeController(K_current=-1.0)
+    with pytest.raises(grubler.SceneError, match="current_limit: must be finite and > 0"):
+        CascadeController(K_current=1.0, current_limit=0.0)
+
+
 # -- linear controller --------------------------------------------------------------
 @pytest.mark.parametrize("method", ["zoh", "tustin", "foh", "backward_diff"])
 def test_linear_controller_matches_python_control(method):

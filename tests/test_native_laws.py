@@ -35,7 +35,7 @@ PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "T
               "u_max": 6.0}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
 CASCADE = {"K_position": 30.0, "Ti_position": 0.5, "K_speed": 0.8, "Ti_speed": 0.05, "speed_limit": 4.0,
-           "u_min": -24.0, "u_max": 24.0, "Ts": 1e-3}
+           "u_min": -24.0, "u_max": 24.0, "Ts": 1e-3, "K_current": 2.0, "Ti_current": 0.05, "current_limit": 2.5}
 SENSOR = {"gain_error": 0.03, "offset": 0.2, "noise_std": 0.05, "seed": 3, "bandwidth": 40.0, "Ts": 1e-3}
 CT = {"gear_ratio": 10.0, "efficiency": 0.8, "R": 2.0, "k_t": 0.1, "k_e": 0.1, "Ts": 1e-3, "drive_inertia": 0.01}
 TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 100.0, "delay": 0.02,
@@ -43,7 +43,8 @@ TRAJ = {"kind": "scurve", "distance": 1.2, "v_max": 3.0, "a_max": 5.0, "j_max": 
 # each law's parameters and its inputs at step k
 RUNS = {"PID": (PID_PARAMS, lambda k: {"setpoint": 1.0, "measurement": 0.6 * np.sin(0.03 * k), "feedforward": 0.1}),
         "CascadeController": (CASCADE, lambda k: {"position_setpoint": 1.0, "velocity_setpoint": 0.5,
-                                                  "position": 0.8 * np.sin(0.01 * k), "speed": np.cos(0.01 * k)}),
+                                                  "position": 0.8 * np.sin(0.01 * k), "speed": np.cos(0.01 * k),
+                                                  "current": 1.5 * np.sin(0.05 * k)}),
         "Encoder": (ENC, lambda k: {"position": 0.3 * np.sin(3e-3 * k) + 1e-4 * k}),
         "Tachometer": (SENSOR, lambda k: {"speed": 30.0 * np.sin(0.02 * k)}),
         "CurrentSensor": (SENSOR, lambda k: {"current": 2.0 if k % 50 < 25 else -1.0}),
