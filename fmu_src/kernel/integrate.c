@@ -254,10 +254,41 @@ static grb_status fail(grb_failure *why, grb_status status, double where, double
     return status;
 }
 
-static grb_status advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
-                          const double *t_out, int n_out, double *out, double *work, double *stepper,
-                          grb_failure *why) {
-    const grb_tableau_data *tab = grb_tableau(st->tableau);
+/* What one advance carries from step to step.  Three parties share it, each
+ * with its own fields and its own functions below: the integrator's step
+ * (t, h, the stepper rows), the change-point watch (the closure's
+ * conditioning and branch orientation at the current and the proposed
+ * state) and the chart that carries the motion through a change point. */
+typedef struct run {
+    const grb_tableau_data *tab;
+    const grb_settings *st;
+    problem p;
+    int N, s, dense;
+    double *Y, *cur, *der, *nw, *proj;
+    /* the integrator's step */
+    double t, h, exponent;
+    int have_f;
+    long steps, rejected, evals;
+    /* the outputs: t_out[o] is the next to fill */
+    const double *t_out;
+    double *out;
+    int o, last;
+    /* the change-point watch: conditioning and orientation at the current
+     * state, kept from the step that ended there (the projection after it
+     * moves them by rounding only), and at the proposed state */
+    int passing, square, uncharted; /* uncharted: near a zone where no chart could be made */
+    double kappa_seen, cur_kappa, cur_orient, nw_kappa, nw_orient;
+    int cur_watched, nw_watched;
+    /* the chart */
+    grb_chart chart;
+    long passages, charts;
+    long passages_before; /* the clock's, for the passage log's ring index */
+} run;
+
+/* The request is well formed: a known tableau, tolerances, step limits and
+ * output times that do not go back before the clock. */
+static grb_status request_ok(const grb_tableau_data *tab, const grb_settings *st, const grb_clock *clock,
+                             const double *t_out, int n_out, grb_failure *why) {
     if (!tab || n_out < 1 || !(st->rtol > 0.0) || !(st->atol > 0.0) || !isfinite(st->rtol) ||
         !isfinite(st->atol) || !(st->h_max > 0.0) || st->max_steps < 0)
         return fail(why, GRB_BAD_ARGUMENT, clock->t, 0.0);
@@ -267,240 +298,345 @@ static grb_status advance(const grb_model *md, const grb_settings *st, grb_clock
         double lo = i ? t_out[i - 1] : clock->t - 1e-12 * fmax(1.0, fabs(clock->t));
         if (!isfinite(t_out[i]) || !(t_out[i] >= lo)) return fail(why, GRB_BAD_ARGUMENT, t_out[i], 0.0);
     }
-    problem p = {md, st, {0}, work, 2 * md->n_links, NULL};
-    grb_status status = grb_ws_init(&p.ws, md, work, GRB_FILLED_NOTHING);
-    if (status != GRB_OK) return fail(why, status, clock->t, 0.0);
-    int N = p.N, s = tab->stages, dense = tab->dense_stages > 0;
+    return GRB_OK;
+}
+
+/* Set the run up from the clock and the state y, f.  Change points are
+ * followed on a chart of their branch where the motion has a continuous
+ * extension (DOP853), the closure is kept by projection and the mechanism has
+ * one degree of freedom. */
+static grb_status run_start(run *r, const grb_model *md, const grb_settings *st, const grb_clock *clock,
+                            const double *y, const double *f, const double *t_out, int n_out, double *out,
+                            double *work, double *stepper) {
+    const grb_tableau_data *tab = grb_tableau(st->tableau);
+    memset(r, 0, sizeof *r);
+    r->tab = tab;
+    r->st = st;
+    r->p.md = md;
+    r->p.s = st;
+    r->p.work = work;
+    r->p.N = r->N = 2 * md->n_links;
+    r->p.chart = NULL;
+    grb_status status = grb_ws_init(&r->p.ws, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    int N = r->N;
     rows rw = rows_of(tab);
+    r->s = tab->stages;
+    r->dense = tab->dense_stages > 0;
+    r->Y = stepper;
     double *Y = stepper;
-    /* change points are followed on a chart of their branch where the motion
-     * has a continuous extension (DOP853), the closure is kept by projection
-     * and the mechanism has one degree of freedom */
-    grb_chart chart;
-    int square = md->n_links == 2 * md->n_closures + 1; /* mobility one, no redundant closure rows */
-    int passing = dense && st->project && md->n_closures > 0 &&
-                  (square || (md->n_links <= 2 * md->n_closures && grb_closure_freedom(md, y, &p.ws) == 1));
-    double kappa_seen = clock->kappa_seen;
-    long passages = 0, charts = 0;
-    int uncharted = 0; /* near a zone where no chart could be made */
-    /* the current state's conditioning and orientation, kept from the step that
-     * ended there (the projection after it moves them by rounding only) */
-    double cur_kappa = 1.0, cur_orient = 0.0, nw_kappa = 1.0, nw_orient = 0.0;
-    int cur_watched = 0, nw_watched = 0;
-    if (passing) {
-        grb_chart_init(&chart, md->n_links, ROW(Y, rw.chart));
-        grb_chart_resume(&chart, y, st->scale);
-        p.chart = &chart;
+    r->cur = ROW(Y, rw.cur);
+    r->der = ROW(Y, rw.der);
+    r->nw = ROW(Y, rw.new_);
+    r->proj = ROW(Y, rw.proj);
+    r->square = md->n_links == 2 * md->n_closures + 1; /* mobility one, no redundant closure rows */
+    r->passing = r->dense && st->project && md->n_closures > 0 &&
+                 (r->square || (md->n_links <= 2 * md->n_closures && grb_closure_freedom(md, y, &r->p.ws) == 1));
+    r->kappa_seen = clock->kappa_seen;
+    r->cur_kappa = r->nw_kappa = 1.0;
+    r->cur_orient = r->nw_orient = 0.0;
+    if (r->passing) {
+        grb_chart_init(&r->chart, md->n_links, ROW(Y, rw.chart));
+        grb_chart_resume(&r->chart, y, st->scale);
+        r->p.chart = &r->chart;
     }
-    double *cur = ROW(Y, rw.cur), *der = ROW(Y, rw.der), *nw = ROW(Y, rw.new_), *proj = ROW(Y, rw.proj);
-    memcpy(cur, y, sizeof(double) * N);
-    int have_f = clock->have_f;
-    if (have_f) memcpy(der, f, sizeof(double) * N);
-    double t = clock->t, h = tab->adaptive ? clock->h : st->h_fixed;
-    long steps = 0, rejected_total = 0, evals = 0;
-    double exponent = -1.0 / (tab->error_order + 1);
-    int last = n_out - 1, o = 0;
-    while (o <= last) {
-        /* with a continuous extension the steps aim at the last time and the
-         * others are interpolated; without, each time is a step's end */
-        double t_target = dense ? t_out[last] : t_out[o];
-        while (t_target - t > 1e-12 * fmax(1.0, fabs(t_target))) {
-            if (passing && !chart.active) {
-                if (!cur_watched) watch(&p, &kappa_seen, cur, NULL, &cur_kappa, &cur_orient);
-                cur_watched = 1;
-                double k_cur = cur_kappa;
-                if (k_cur >= CONDITIONING_NEAR)
-                    uncharted = 0;
-                else if (!uncharted) {
-                    /* near a change point: from here on along the branch's chart.
-                     * Where none can be made (the closure is ill-conditioned
-                     * but no branch crosses: a joint at a limit of its travel)
-                     * the ordinary steps go on, watched by the projection,
-                     * until the conditioning recovers. */
-                    charts++;
-                    if (grb_chart_build(md, st->scale, cur, kappa_seen, CONDITIONING_NEAR, &chart, &p.ws) == GRB_OK) {
-                        grb_chart_put(&chart, cur);
-                        have_f = 0;
-                        cur_watched = 0;
-                    } else
-                        uncharted = 1;
-                }
-            }
-            if (!have_f) {
-                rhs(&p, t, cur, der);
-                evals++;
-                if (!all_finite(der, N)) return fail(why, GRB_NONFINITE_DERIVATIVE, t, 0.0);
-                have_f = 1;
-            }
-            memcpy(ROW(Y, 0), der, sizeof(double) * N);
-            double step;
-            int have_new_f;
-            if (!tab->adaptive) {
-                step = fmin(h, t_target - t);
-                try_step(tab, &p, t, step, Y, &evals);
-                if (!all_finite(nw, N)) return fail(why, GRB_NONFINITE_FIXED_STEP, t + step, step);
-                have_new_f = 0;
-            } else {
-                if (!(h > 0.0)) {
-                    h = initial_step(tab, &p, t, Y, st->h_max);
-                    evals++;
-                }
-                double proposed = fmin(h, st->h_max);
-                if (passing && chart.active) {
-                    /* on a chart, a step ends a little past its far end at most
-                     * (its stages may read the chart only a little beyond) */
-                    double xd = cur[N / 2 + chart.held], x = cur[chart.held];
-                    double room = (xd > 0.0 ? chart.hi - x : x - chart.lo) + 0.02 * chart.half;
-                    if (room > 0.0 && fabs(xd) * proposed > room) proposed = room / fabs(xd);
-                }
-                step = fmin(proposed, t_target - t);
-                int clipped = step < proposed, rejected = 0;
-                double h_min = 1e-13 * fmax(1.0, fabs(t)), err;
-                for (;;) {
-                    /* (a nan step fails this test too: no endless rejection loop) */
-                    if (!(step >= h_min)) return fail(why, GRB_STEP_UNDERFLOW, t, h_min);
-                    err = try_step(tab, &p, t, step, Y, &evals);
-                    if (err <= 1.0 && passing && !chart.active && !uncharted) {
-                        /* a step that ends deep in a change point's zone, or
-                         * steps over one (the branch orientation flips while
-                         * the motion goes on the same way), is shortened so
-                         * that the chart takes over at its edge */
-                        const double *vc = cur + N / 2, *vn = nw + N / 2;
-                        double same_way = 0.0;
-                        for (int r = 0; r < N / 2; r++) same_way += vc[r] * vn[r];
-                        /* (with redundant rows, along the rows' dominant
-                         * directions at the step's start; the chart's buffer
-                         * is free while no chart is followed) */
-                        const double *basis = NULL;
-                        double o_cur = cur_orient;
-                        if (!square && grb_closure_row_basis(md, cur, &p.ws, chart.c) == GRB_OK) {
-                            basis = chart.c;
-                            o_cur = grb_branch_orientation(md, cur, basis, &p.ws);
-                        }
-                        watch(&p, &kappa_seen, nw, basis, &nw_kappa, &nw_orient);
-                        nw_watched = basis == NULL;
-                        int over = same_way > 0.0 && o_cur * nw_orient < 0.0;
-                        double k_nw = nw_kappa;
-                        if (over || k_nw < 0.5 * CONDITIONING_NEAR) {
-                            /* aim at the zone's edge: the conditioning falls
-                             * about linearly towards a change point */
-                            double k_cur = cur_kappa, frac = 0.5;
-                            if (!over && k_cur > k_nw)
-                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
-                            else if (over) /* down to the pinch and up again */
-                                frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur + k_nw);
-                            frac = fmin(0.9, fmax(0.05, frac));
-                            rejected_total++;
-                            step *= frac;
-                            clipped = 0;
-                            continue;
-                        }
-                    }
-                    if (err <= 1.0) break;
-                    rejected_total++;
-                    rejected = 1;
-                    if (isfinite(err))
-                        step *= fmax(MIN_FACTOR, SAFETY * pow(err, exponent));
-                    else
-                        step *= MIN_FACTOR;
-                    clipped = 0;
-                }
-                double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, exponent));
-                if (rejected) factor = fmin(1.0, factor);
-                /* a step shortened only to land on t_target keeps the controller's proposal */
-                h = clipped ? fmax(proposed, step * factor) : step * factor;
-                have_new_f = 1;
-                double t_end = t + step;
-                if (dense && o < last && t_out[o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
-                    dense_stages(tab, &p, t, step, Y, &evals);
-                    while (o < last && t_out[o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
-                        double *row = out + (size_t)o * N;
-                        interpolate(tab, (t_out[o] - t) / step, step, Y, N, row);
-                        if (st->project) put_on_closure(&p, row);
-                        o++;
-                    }
-                }
-            }
-            int charted = 0;
-            if (passing && chart.active) {
-                /* on the chart: the new state is put on it exactly; a passage is
-                 * the motion crossing the chart's pinch */
-                int held = chart.held;
-                if (chart.pinch_kappa < CONDITIONING_PINCH && (cur[held] - chart.pinch) * (nw[held] - chart.pinch) < 0.0) {
-                    double at = t + step * crossing(cur[held], step * cur[N / 2 + held], nw[held],
-                                                    step * nw[N / 2 + held], chart.pinch);
-                    if (st->passage_log && st->passage_capacity > 0)
-                        st->passage_log[(clock->passages + passages) % st->passage_capacity] = at;
-                    passages++;
-                }
-                charted = grb_chart_put(&chart, nw);
-                if (charted) have_new_f = 0;
-                /* off the chart (well conditioned there; beyond its reach, the
-                 * projection below puts the state on the closure) */
-                if (!charted || nw[held] < chart.lo || nw[held] > chart.hi) chart.active = 0;
-            }
-            if (!charted && st->project && md->n_closures > 0) {
-                memcpy(proj, nw, sizeof(double) * N);
-                grb_project_ws(md, st->scale, proj, &p.ws);
-                /* a step's correction is of the order of the tolerance; one that
-                 * takes a good part of the speed away means the step crossed a
-                 * position where two assembly branches meet (a change point) and
-                 * landed on the other: the motion would go on, closed but with
-                 * energy gone.  (Relative to the speed, and far above the
-                 * tolerance: a resting linkage's last 1e-9 rad/s may well go.) */
-                int half = N / 2;
-                double dv2 = 0.0, v2 = 0.0;
-                for (int r = half; r < N; r++) {
-                    dv2 += (proj[r] - nw[r]) * (proj[r] - nw[r]);
-                    v2 += nw[r] * nw[r];
-                }
-                if (dv2 > BRANCH_JUMP * BRANCH_JUMP * v2 && dv2 > (1e3 * st->atol) * (1e3 * st->atol))
-                    return fail(why, GRB_BRANCH_JUMP, t, sqrt(dv2 / v2));
-                if (!all_finite(proj, N)) return fail(why, GRB_NONFINITE_DERIVATIVE, t, 0.0);
-                /* a correction far below the tolerance leaves the derivative valid */
-                if (have_new_f) {
-                    double d = 0.0;
-                    for (int r = 0; r < N; r++) {
-                        double v = (proj[r] - nw[r]) / (st->atol + st->rtol * fabs(proj[r]));
-                        d += v * v;
-                    }
-                    if (sqrt(d / N) > 1e-3) have_new_f = 0;
-                }
-                memcpy(nw, proj, sizeof(double) * N);
-            }
-            t += step;
-            memcpy(cur, nw, sizeof(double) * N);
-            /* what was watched at the step's end is the new current state's */
-            cur_watched = nw_watched && !chart.active;
-            cur_kappa = nw_kappa;
-            cur_orient = nw_orient;
-            nw_watched = 0;
-            if (have_new_f) memcpy(der, ROW(Y, s), sizeof(double) * N);
-            have_f = have_new_f;
-            steps++;
-            if (steps > st->max_steps) return fail(why, GRB_TOO_MANY_STEPS, t_target, (double)st->max_steps);
-            /* times the step ended on (to rounding) take its projected state */
-            while (dense && o < last && t_out[o] - t <= 1e-12 * fmax(1.0, fabs(t_out[o]))) {
-                memcpy(out + (size_t)o * N, cur, sizeof(double) * N);
-                o++;
+    memcpy(r->cur, y, sizeof(double) * N);
+    r->have_f = clock->have_f;
+    if (r->have_f) memcpy(r->der, f, sizeof(double) * N);
+    r->t = clock->t;
+    r->h = tab->adaptive ? clock->h : st->h_fixed;
+    r->exponent = -1.0 / (tab->error_order + 1);
+    r->t_out = t_out;
+    r->out = out;
+    r->last = n_out - 1;
+    r->passages_before = clock->passages;
+    return GRB_OK;
+}
+
+/* The change-point watch before a step: near a change point (the closure's
+ * conditioning fallen below CONDITIONING_NEAR), the motion goes on along the
+ * branch's chart.  Where none can be made (the closure is ill-conditioned but
+ * no branch crosses: a joint at a limit of its travel) the ordinary steps go
+ * on, watched by the projection, until the conditioning recovers. */
+static void watch_before_step(run *r) {
+    if (!r->passing || r->chart.active) return;
+    if (!r->cur_watched) watch(&r->p, &r->kappa_seen, r->cur, NULL, &r->cur_kappa, &r->cur_orient);
+    r->cur_watched = 1;
+    if (r->cur_kappa >= CONDITIONING_NEAR)
+        r->uncharted = 0;
+    else if (!r->uncharted) {
+        r->charts++;
+        if (grb_chart_build(r->p.md, r->st->scale, r->cur, r->kappa_seen, CONDITIONING_NEAR, &r->chart, &r->p.ws) ==
+            GRB_OK) {
+            grb_chart_put(&r->chart, r->cur);
+            r->have_f = 0;
+            r->cur_watched = 0;
+        } else
+            r->uncharted = 1;
+    }
+}
+
+/* The derivative at the current state, evaluated unless the last step left it. */
+static grb_status derivative_at_current(run *r, grb_failure *why) {
+    if (!r->have_f) {
+        rhs(&r->p, r->t, r->cur, r->der);
+        r->evals++;
+        if (!all_finite(r->der, r->N)) return fail(why, GRB_NONFINITE_DERIVATIVE, r->t, 0.0);
+        r->have_f = 1;
+    }
+    memcpy(r->Y, r->der, sizeof(double) * r->N);
+    return GRB_OK;
+}
+
+/* The change-point watch on a step the error control accepted: a step that
+ * ends deep in a change point's zone, or steps over one (the branch
+ * orientation flips while the motion goes on the same way), is shortened so
+ * that the chart takes over at its edge.  Returns the fraction of the step to
+ * try instead, or 0 to keep it. */
+static double change_point_ahead(run *r) {
+    const grb_model *md = r->p.md;
+    int N = r->N;
+    const double *vc = r->cur + N / 2, *vn = r->nw + N / 2;
+    double same_way = 0.0;
+    for (int i = 0; i < N / 2; i++) same_way += vc[i] * vn[i];
+    /* (with redundant rows, along the rows' dominant directions at the step's
+     * start; the chart's buffer is free while no chart is followed) */
+    const double *basis = NULL;
+    double o_cur = r->cur_orient;
+    if (!r->square && grb_closure_row_basis(md, r->cur, &r->p.ws, r->chart.c) == GRB_OK) {
+        basis = r->chart.c;
+        o_cur = grb_branch_orientation(md, r->cur, basis, &r->p.ws);
+    }
+    watch(&r->p, &r->kappa_seen, r->nw, basis, &r->nw_kappa, &r->nw_orient);
+    r->nw_watched = basis == NULL;
+    int over = same_way > 0.0 && o_cur * r->nw_orient < 0.0;
+    double k_nw = r->nw_kappa;
+    if (!over && !(k_nw < 0.5 * CONDITIONING_NEAR)) return 0.0;
+    /* aim at the zone's edge: the conditioning falls about linearly towards a
+     * change point */
+    double k_cur = r->cur_kappa, frac = 0.5;
+    if (!over && k_cur > k_nw)
+        frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
+    else if (over) /* down to the pinch and up again */
+        frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur + k_nw);
+    return fmin(0.9, fmax(0.05, frac));
+}
+
+/* On a chart, a step ends a little past its far end at most (its stages may
+ * read the chart only a little beyond). */
+static double within_chart(const run *r, double proposed) {
+    if (!(r->passing && r->chart.active)) return proposed;
+    const grb_chart *ch = &r->chart;
+    double xd = r->cur[r->N / 2 + ch->held], x = r->cur[ch->held];
+    double room = (xd > 0.0 ? ch->hi - x : x - ch->lo) + 0.02 * ch->half;
+    if (room > 0.0 && fabs(xd) * proposed > room) proposed = room / fabs(xd);
+    return proposed;
+}
+
+/* The output times inside the step just accepted, from the continuous
+ * extension, put on the closure. */
+static void interpolate_outputs(run *r, double step) {
+    double t_end = r->t + step;
+    if (!(r->dense && r->o < r->last && r->t_out[r->o] < t_end - 1e-12 * fmax(1.0, fabs(t_end)))) return;
+    dense_stages(r->tab, &r->p, r->t, step, r->Y, &r->evals);
+    while (r->o < r->last && r->t_out[r->o] < t_end - 1e-12 * fmax(1.0, fabs(t_end))) {
+        double *row = r->out + (size_t)r->o * r->N;
+        interpolate(r->tab, (r->t_out[r->o] - r->t) / step, step, r->Y, r->N, row);
+        if (r->st->project) put_on_closure(&r->p, row);
+        r->o++;
+    }
+}
+
+/* One step of the fixed-step tableau towards t_target. */
+static grb_status fixed_step(run *r, double t_target, double *step, int *have_new_f, grb_failure *why) {
+    *step = fmin(r->h, t_target - r->t);
+    try_step(r->tab, &r->p, r->t, *step, r->Y, &r->evals);
+    if (!all_finite(r->nw, r->N)) return fail(why, GRB_NONFINITE_FIXED_STEP, r->t + *step, *step);
+    *have_new_f = 0;
+    return GRB_OK;
+}
+
+/* One accepted step of the adaptive tableau towards t_target: tried, and
+ * shortened until the error control and the change-point watch accept it;
+ * then the next step's size, and the outputs inside this one. */
+static grb_status adaptive_step(run *r, double t_target, double *step_out, int *have_new_f, grb_failure *why) {
+    const grb_settings *st = r->st;
+    if (!(r->h > 0.0)) {
+        r->h = initial_step(r->tab, &r->p, r->t, r->Y, st->h_max);
+        r->evals++;
+    }
+    double proposed = within_chart(r, fmin(r->h, st->h_max));
+    double step = fmin(proposed, t_target - r->t);
+    int clipped = step < proposed, rejected = 0;
+    double h_min = 1e-13 * fmax(1.0, fabs(r->t)), err;
+    for (;;) {
+        /* (a nan step fails this test too: no endless rejection loop) */
+        if (!(step >= h_min)) return fail(why, GRB_STEP_UNDERFLOW, r->t, h_min);
+        err = try_step(r->tab, &r->p, r->t, step, r->Y, &r->evals);
+        if (err <= 1.0 && r->passing && !r->chart.active && !r->uncharted) {
+            double frac = change_point_ahead(r);
+            if (frac > 0.0) {
+                r->rejected++;
+                step *= frac;
+                clipped = 0;
+                continue;
             }
         }
-        t = t_target;
-        memcpy(out + (size_t)o * N, cur, sizeof(double) * N);
-        o++;
+        if (err <= 1.0) break;
+        r->rejected++;
+        rejected = 1;
+        if (isfinite(err))
+            step *= fmax(MIN_FACTOR, SAFETY * pow(err, r->exponent));
+        else
+            step *= MIN_FACTOR;
+        clipped = 0;
     }
-    memcpy(y, cur, sizeof(double) * N);
-    if (have_f) memcpy(f, der, sizeof(double) * N);
-    if (passing) grb_chart_save(&chart);
-    clock->t = t;
-    clock->h = tab->adaptive ? h : clock->h;
-    clock->have_f = have_f;
-    clock->steps += steps;
-    clock->rejected += rejected_total;
-    clock->evals += evals;
-    clock->passages += passages;
-    clock->charts += charts;
-    clock->kappa_seen = kappa_seen;
+    double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, r->exponent));
+    if (rejected) factor = fmin(1.0, factor);
+    /* a step shortened only to land on t_target keeps the controller's proposal */
+    r->h = clipped ? fmax(proposed, step * factor) : step * factor;
+    *have_new_f = 1;
+    interpolate_outputs(r, step);
+    *step_out = step;
+    return GRB_OK;
+}
+
+/* On the chart: the new state is put on it exactly, and a passage is the
+ * motion crossing the chart's pinch.  Returns 1 when the chart placed the new
+ * state (it then needs no projection).  Off the chart (well conditioned there;
+ * beyond its reach, the projection puts the state on the closure) the chart
+ * is let go. */
+static int follow_chart(run *r, double step, int *have_new_f) {
+    if (!(r->passing && r->chart.active)) return 0;
+    grb_chart *ch = &r->chart;
+    const grb_settings *st = r->st;
+    int N = r->N, held = ch->held;
+    if (ch->pinch_kappa < CONDITIONING_PINCH && (r->cur[held] - ch->pinch) * (r->nw[held] - ch->pinch) < 0.0) {
+        double at = r->t + step * crossing(r->cur[held], step * r->cur[N / 2 + held], r->nw[held],
+                                           step * r->nw[N / 2 + held], ch->pinch);
+        if (st->passage_log && st->passage_capacity > 0)
+            st->passage_log[(r->passages_before + r->passages) % st->passage_capacity] = at;
+        r->passages++;
+    }
+    int charted = grb_chart_put(ch, r->nw);
+    if (charted) *have_new_f = 0;
+    if (!charted || r->nw[held] < ch->lo || r->nw[held] > ch->hi) ch->active = 0;
+    return charted;
+}
+
+/* The new state projected onto the closures.  A step's correction is of the
+ * order of the tolerance; one that takes a good part of the speed away means
+ * the step crossed a position where two assembly branches meet (a change
+ * point) and landed on the other: the motion would go on, closed but with
+ * energy gone.  (Relative to the speed, and far above the tolerance: a
+ * resting linkage's last 1e-9 rad/s may well go.)  A correction far below
+ * the tolerance leaves the step's derivative valid. */
+static grb_status project_step(run *r, int *have_new_f, grb_failure *why) {
+    const grb_settings *st = r->st;
+    int N = r->N, half = N / 2;
+    double *proj = r->proj, *nw = r->nw;
+    memcpy(proj, nw, sizeof(double) * N);
+    grb_project_ws(r->p.md, st->scale, proj, &r->p.ws);
+    double dv2 = 0.0, v2 = 0.0;
+    for (int i = half; i < N; i++) {
+        dv2 += (proj[i] - nw[i]) * (proj[i] - nw[i]);
+        v2 += nw[i] * nw[i];
+    }
+    if (dv2 > BRANCH_JUMP * BRANCH_JUMP * v2 && dv2 > (1e3 * st->atol) * (1e3 * st->atol))
+        return fail(why, GRB_BRANCH_JUMP, r->t, sqrt(dv2 / v2));
+    if (!all_finite(proj, N)) return fail(why, GRB_NONFINITE_DERIVATIVE, r->t, 0.0);
+    if (*have_new_f) {
+        double d = 0.0;
+        for (int i = 0; i < N; i++) {
+            double v = (proj[i] - nw[i]) / (st->atol + st->rtol * fabs(proj[i]));
+            d += v * v;
+        }
+        if (sqrt(d / N) > 1e-3) *have_new_f = 0;
+    }
+    memcpy(nw, proj, sizeof(double) * N);
+    return GRB_OK;
+}
+
+/* The new state becomes the current one, with what was watched at its end
+ * and its derivative when still valid. */
+static void accept_step(run *r, double step, int have_new_f) {
+    int N = r->N;
+    r->t += step;
+    memcpy(r->cur, r->nw, sizeof(double) * N);
+    r->cur_watched = r->nw_watched && !r->chart.active;
+    r->cur_kappa = r->nw_kappa;
+    r->cur_orient = r->nw_orient;
+    r->nw_watched = 0;
+    if (have_new_f) memcpy(r->der, ROW(r->Y, r->s), sizeof(double) * N);
+    r->have_f = have_new_f;
+    r->steps++;
+}
+
+/* Output times the step just taken ended on (to rounding) take its state. */
+static void outputs_at_step_end(run *r) {
+    int N = r->N;
+    while (r->dense && r->o < r->last && r->t_out[r->o] - r->t <= 1e-12 * fmax(1.0, fabs(r->t_out[r->o]))) {
+        memcpy(r->out + (size_t)r->o * N, r->cur, sizeof(double) * N);
+        r->o++;
+    }
+}
+
+/* Steps from the current time to t_target: the watch, the integrator's step,
+ * the chart or the projection, then the step taken. */
+static grb_status steps_to(run *r, double t_target, grb_failure *why) {
+    const grb_settings *st = r->st;
+    grb_status status;
+    while (t_target - r->t > 1e-12 * fmax(1.0, fabs(t_target))) {
+        double step;
+        int have_new_f;
+        watch_before_step(r);
+        if ((status = derivative_at_current(r, why)) != GRB_OK) return status;
+        status = r->tab->adaptive ? adaptive_step(r, t_target, &step, &have_new_f, why)
+                                  : fixed_step(r, t_target, &step, &have_new_f, why);
+        if (status != GRB_OK) return status;
+        int charted = follow_chart(r, step, &have_new_f);
+        if (!charted && st->project && r->p.md->n_closures > 0 &&
+            (status = project_step(r, &have_new_f, why)) != GRB_OK)
+            return status;
+        accept_step(r, step, have_new_f);
+        if (r->steps > st->max_steps) return fail(why, GRB_TOO_MANY_STEPS, t_target, (double)st->max_steps);
+        outputs_at_step_end(r);
+    }
+    r->t = t_target;
+    memcpy(r->out + (size_t)r->o * r->N, r->cur, sizeof(double) * r->N);
+    r->o++;
+    return GRB_OK;
+}
+
+/* The run's end state into y, f and the clock (only after success: all or nothing). */
+static void run_finish(run *r, grb_clock *clock, double *y, double *f) {
+    memcpy(y, r->cur, sizeof(double) * r->N);
+    if (r->have_f) memcpy(f, r->der, sizeof(double) * r->N);
+    if (r->passing) grb_chart_save(&r->chart);
+    clock->t = r->t;
+    clock->h = r->tab->adaptive ? r->h : clock->h;
+    clock->have_f = r->have_f;
+    clock->steps += r->steps;
+    clock->rejected += r->rejected;
+    clock->evals += r->evals;
+    clock->passages += r->passages;
+    clock->charts += r->charts;
+    clock->kappa_seen = r->kappa_seen;
+}
+
+static grb_status advance(const grb_model *md, const grb_settings *st, grb_clock *clock, double *y, double *f,
+                          const double *t_out, int n_out, double *out, double *work, double *stepper,
+                          grb_failure *why) {
+    run r;
+    grb_status status = request_ok(grb_tableau(st->tableau), st, clock, t_out, n_out, why);
+    if (status != GRB_OK) return status;
+    if ((status = run_start(&r, md, st, clock, y, f, t_out, n_out, out, work, stepper)) != GRB_OK)
+        return fail(why, status, clock->t, 0.0);
+    /* with a continuous extension the steps aim at the last time and the
+     * others are interpolated; without, each time is a step's end */
+    while (r.o <= r.last)
+        if ((status = steps_to(&r, r.dense ? t_out[r.last] : t_out[r.o], why)) != GRB_OK) return status;
+    run_finish(&r, clock, y, f);
     return GRB_OK;
 }
 
