@@ -284,10 +284,12 @@ def test_every_handle_of_every_preset_follows_the_pointer():
 def test_a_six_bar_joint_dragged_keeps_every_other_joint_where_it_was():
     import math
 
-    for kind, spec in actions.SIX_BAR_JOINTS.items():
+    from grubler.mechanism.builders import SIX_BARS
+
+    for kind, sb in SIX_BARS.items():
         data = actions.preset_data(kind)
         start = {h["id"]: h["xy"] for h in actions.analyse(data)["handles"]}
-        moving = set(spec["chain"][1:] + spec["closures"]) - set(spec["pivots"]) - {spec["pin"]}
+        moving = set(sb.joints[1:]) - set(sb.pivots) - {sb.pin}
         assert moving | {"O2"} < set(start) and len(start) == 7, kind  # every joint has its handle
         for joint in moving | {"O2"}:
             target = (start[joint][0] - 0.02, start[joint][1] + 0.015)
@@ -496,3 +498,16 @@ def test_a_cancel_while_the_outputs_are_computed_is_honoured_too():
 
     with pytest.raises(Cancelled, match="its outputs were being computed"):
         actions.run_simulation(actions.preset_data("thesis-fourbar"), 2.0, None, None, cancel=LateFlag())
+
+
+def test_every_builder_owns_its_geometry_both_ways_and_the_app_names_none():
+    """A builder registers beside its build where its handles are and what a drag sets (builders.HANDLES,
+    MOVES); the app reads those and keeps no branch of its own per mechanism type."""
+    import inspect
+
+    from grubler.mechanism.builders import BUILDERS, HANDLES, MOVES
+
+    assert set(HANDLES) == set(BUILDERS) == set(MOVES)
+    source = inspect.getsource(actions)
+    named = [kind for kind in BUILDERS if f'"{kind}"' in source]
+    assert named == [], f"the app branches on builder types: {named}"

@@ -33,7 +33,7 @@ from grubler.errors import AssemblyError, Cancelled, GrublerError, InputError, S
 from grubler.limits import brief, did_you_mean, parse_toml
 from grubler.mechanism.analysis import SIX_BAR_INVERSIONS, classify
 from grubler.mechanism.assembly import assemble, branches
-from grubler.mechanism.builders import BUILDER_DOCS
+from grubler.mechanism.builders import BUILDER_DOCS, HANDLES, MOVES, Drawing, value
 from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import coordinate_text, preset_names, preset_text, scene_from_dict
 from grubler.mechanism.simulate import output_columns, simulate, unit_of
@@ -325,161 +325,40 @@ def coupler_curve(model, z: np.ndarray, point, steps: int = SWEEP_STEPS) -> list
     return np.round(xy, 6).tolist()
 
 
-# -- dragging: which scene numbers a point of the drawing stands for ----------------------------------
-# The six-bars by their joints, as the builders name them: each link's joint with the link before it
-# (links 2 to 6), the two closures' joints, and which of the builder's numbers each joint takes part in.
-# A moving joint (and the origin O2) dragged keeps every other joint where it is: the lengths it ends, and
-# the sides and branches it decides, follow it (the sketch always closes).  The crank pin and the other
-# ground pivots keep the lengths instead, as the four-bar's do, so a pivot dragged too far shows where the
-# loop stops closing.
-SIX_BAR_JOINTS = {
-    "watt-ii": {"chain": ("O2", "A", "B", "C", "D"), "closures": ("O4", "O6"), "pin": "A",
-                "pivots": {"O4": "rocker_pivot", "O6": "output_pivot"},
-                "lengths": {"coupler": "AB", "rocker": ("O4", "B"), "rocker_arm": ("O4", "C"), "rocker_web": "BC",
-                            "coupler2": "CD", "output": ("D", "O6")},
-                "sides": {"rocker_side": ("O4", "B", "C"), "branch1": ("A", "O4", "B"), "branch2": ("C", "O6", "D")}},
-    "watt-i": {"chain": ("O2", "C", "D", "E", "B"), "closures": ("O4", "A"), "pin": "A",
-               "pivots": {"O4": "rocker_pivot"},
-               "lengths": {"crank_arm": ("O2", "C"), "crank_web": "AC", "coupler": "AB", "coupler_arm": "AE",
-                           "coupler_web": "BE", "rocker": ("B", "O4"), "link5": "CD", "link6": "DE"},
-               "sides": {"crank_side": ("O2", "A", "C"), "coupler_side": ("A", "B", "E"), "branch1": ("A", "O4", "B"),
-                         "branch2": ("C", "E", "D")}},
-    "stephenson-i": {"chain": ("O2", "C", "D", "E", "B"), "closures": ("O4", "A"), "pin": "A",
-                     "pivots": {"O4": "rocker_pivot"},
-                     "lengths": {"crank_arm": ("O2", "C"), "crank_web": "AC", "coupler": "AB", "rocker": ("O4", "B"),
-                                 "rocker_arm": ("O4", "E"), "rocker_web": "BE", "link5": "CD", "link6": "DE"},
-                     "sides": {"crank_side": ("O2", "A", "C"), "rocker_side": ("O4", "B", "E"),
-                               "branch1": ("A", "O4", "B"), "branch2": ("C", "E", "D")}},
-    "stephenson-ii": {"chain": ("O2", "E", "P", "R", "S"), "closures": ("O6", "Q"), "pin": "E",
-                      "pivots": {"O6": "rocker_pivot"},
-                      "lengths": {"coupler_p": "EP", "coupler_q": "EQ", "coupler_web": "PQ", "link_p": "PR",
-                                  "link_q": "QS", "rocker_r": ("O6", "R"), "rocker_s": ("O6", "S"),
-                                  "rocker_web": "RS"},
-                      "sides": {"coupler_side": ("E", "P", "Q"), "rocker_side": ("O6", "R", "S"),
-                                "branch": ("P", "O6", "R")}},
-    "stephenson-iii": {"chain": ("O2", "A", "B", "C", "D"), "closures": ("O4", "O6"), "pin": "A",
-                       "pivots": {"O4": "rocker_pivot", "O6": "output_pivot"},
-                       "lengths": {"coupler": "AB", "coupler_arm": "AC", "coupler_web": "BC", "rocker": ("B", "O4"),
-                                   "link5": "CD", "link6": ("D", "O6")},
-                       "sides": {"coupler_side": ("A", "B", "C"), "branch1": ("A", "O4", "B"),
-                                 "branch2": ("C", "O6", "D")}},
-}
-_SIDE_WORDS = {True: ("left", "open"), False: ("right", "crossed")}
-
-
-def _at(model, z: np.ndarray, k: int, u: float = 0.0, v: float = 0.0) -> np.ndarray:
-    """Where the point (u, v) of moving link ``k`` (0-based; -1 the ground) is, m."""
-    return link_points(model, z[None, :], [k], [(u, v)])[0, 0]
-
-
-def six_bar_joints(kind: str, model, z: np.ndarray) -> dict[str, np.ndarray]:
-    """A six-bar's seven joints by name, where they are at ``z``: the links' origins and the closures' joints."""
-    spec = SIX_BAR_JOINTS[kind]
-    out = {name: _at(model, z, k) for k, name in enumerate(spec["chain"])}
-    for name, cl in zip(spec["closures"], model.closures):
-        out[name] = _at(model, z, cl.to_link - 2, *cl.to_point)
-    return out
-
-
-def _crank_angle_key(kind) -> str:
-    """The builder's name for its crank's angle: the six-bars call it the input angle."""
-    return "input_angle" if kind in SIX_BAR_JOINTS else "crank_angle"
-
-
-def _moving_joints(spec: dict) -> set[str]:
-    """A six-bar's joints that are neither on the ground nor the crank pin."""
-    return set(spec["chain"][1:] + spec["closures"]) - set(spec["pivots"]) - {spec["pin"]}
-
-
-def _left(p, q, x) -> bool:
-    """Whether x lies left of the line p -> q (the builders' 'left' and 'open')."""
-    return (q[0] - p[0]) * (x[1] - p[1]) - (q[1] - p[1]) * (x[0] - p[0]) >= 0
-
-
 def handles(data: dict, model, z: np.ndarray) -> list[dict]:
     """The points a user can drag, where they are now, and what each changes (in words).
 
-    Every builder gets its joints (a crank pin, the ground pivots, the blocks,
-    every six-bar joint), a link table its ground closures and the ends of its
-    crank (of every link, in an open chain).
+    A builder's scene gets the handles its builder registers beside its build
+    (:data:`grubler.mechanism.builders.HANDLES`: a crank pin, the ground pivots,
+    the blocks, every six-bar joint); a link table its ground closures and the
+    ends of its crank (of every link, in an open chain).
     """
     out = []
-    mech = data.get("mechanism")
 
     def add(hid, xy, sets):
         out.append({"id": hid, "xy": [round(float(v), 6) for v in xy], "sets": sets})
 
+    mech = data.get("mechanism")
     if isinstance(mech, dict):
-        kind = mech.get("type")
-        angle_key = _crank_angle_key(kind)
-        if kind in SIX_BAR_JOINTS:
-            spec, at = SIX_BAR_JOINTS[kind], six_bar_joints(kind, model, z)
-            add("A", at[spec["pin"]], "mechanism.crank, mechanism.input_angle")
-            # the origin: the others are measured from it, so each ground pivot and the crank pin move by what it does
-            keys = [k for k, ends in {**spec["lengths"], **spec["sides"]}.items() if "O2" in ends]
-            add("O2", at["O2"], ", ".join(f"mechanism.{k}" for k in ["crank", "input_angle", *keys,
-                                                                     *spec["pivots"].values()]))
-            for name, xy in at.items():
-                if name in spec["pivots"]:
-                    add(spec["pivots"][name], xy, f"mechanism.{spec['pivots'][name]}")
-                elif name in _moving_joints(spec):
-                    keys = [k for k, ends in {**spec["lengths"], **spec["sides"]}.items() if name in ends]
-                    keys += ["coupler_angle"] if kind == "stephenson-ii" else []
-                    add(name, xy, ", ".join(f"mechanism.{k}" for k in keys))
-        elif kind == "scotch-yoke":
-            add("A", _at(model, z, 2), f"mechanism.crank, mechanism.{angle_key}")
-        elif kind in ("four-bar", "slider-crank", "quick-return", "swinging-block", "pendulum-pump"):
-            add("A", _at(model, z, 0, model.links[0].a), f"mechanism.crank, mechanism.{angle_key}")
-        if kind == "four-bar":
-            add("B", _at(model, z, 1, model.links[1].a), "mechanism.coupler, mechanism.rocker, mechanism.branch")
-            add("O4", [_num(mech.get("ground")), 0.0], "mechanism.ground")
-        elif kind == "slider-crank":
-            add("slider", _at(model, z, 2), "mechanism.rod, mechanism.offset")
-        elif kind == "swinging-block":  # the block's ground pivot, the lever's, the pump's slide line
-            add("pivot", [_num(mech.get("ground")), 0.0], "mechanism.ground")
-        elif kind == "quick-return":
-            add("pivot", [0.0, -_num(mech.get("ground"))], "mechanism.ground")
-            add("lever", _at(model, z, 2), "mechanism.lever")
-        elif kind == "pendulum-pump":
-            add("slide", [_num(mech.get("offset")), 0.0], "mechanism.offset")
-            add("C", _at(model, z, 2), "mechanism.link, mechanism.offset")
-            add("rod", _at(model, z, 2, model.links[2].a), "mechanism.rod")
-        elif kind == "oldham":  # the output shaft's pivot; a point on the input shaft's slot, offset from its pivot
-            th = _num(mech.get("shaft_angle", 0.0)) + math.pi / 2
-            d = _num(mech.get("offset"))
-            add("shaft2", _at(model, z, -1, *model.closures[0].to_point), "mechanism.offset")
-            add("slot", [d * math.cos(th), d * math.sin(th)], "mechanism.shaft_angle")
-        elif kind == "double-slider":
-            add("block1", _at(model, z, 0), "mechanism.coupler, mechanism.coupler_angle")
-            add("block2", _at(model, z, 2), "mechanism.coupler, mechanism.coupler_angle, mechanism.axes_angle")
-        elif kind == "conchoidal":
-            add("block", _at(model, z, 2), "mechanism.height, mechanism.rod_angle")
-            add("arm", _at(model, z, 0, model.links[0].a), "mechanism.arm, mechanism.rod_angle")
-    else:
-        closures = data.get("closure")
-        tables = [closures] if isinstance(closures, dict) else closures if _is_tables(closures) else []
-        for j, cl in enumerate(tables):
-            if cl.get("to_link", 1) == 1 and isinstance(cl.get("point"), list):
-                key = "closure" if isinstance(closures, dict) else f"closure[{j}]"
-                add(f"{key}.point", [_num(v) for v in cl["point"]], f"{key}.point")
-        # a pinned link's far end: its length and its start angle (the ground's closures win a shared spot); in
-        # a closed chain only the first link's, whose angle is held: the others' are the assembly's to find
-        for k, link in enumerate(model.links):
-            name = f"link{k + 2}"
-            if link.joint == "R" and link.a and isinstance(data.get(name), dict) and (k == 0 or not model.closures):
-                xy = _at(model, z, k, link.a)
-                if all(math.dist(xy, h["xy"]) > 1e-9 for h in out):
-                    add(f"{name}.end", xy, f"{name}.a, initial.theta{k + 2}")
+        where = HANDLES.get(mech.get("type"))
+        for hid, xy, sets in where(mech, Drawing(model, z)) if where else ():
+            add(hid, xy, sets)
+        return out
+    closures = data.get("closure")
+    tables = [closures] if isinstance(closures, dict) else closures if _is_tables(closures) else []
+    for j, cl in enumerate(tables):
+        if cl.get("to_link", 1) == 1 and isinstance(cl.get("point"), list):
+            key = "closure" if isinstance(closures, dict) else f"closure[{j}]"
+            add(f"{key}.point", [value(v) for v in cl["point"]], f"{key}.point")
+    # a pinned link's far end: its length and its start angle (the ground's closures win a shared spot); in
+    # a closed chain only the first link's, whose angle is held: the others' are the assembly's to find
+    for k, link in enumerate(model.links):
+        name = f"link{k + 2}"
+        if link.joint == "R" and link.a and isinstance(data.get(name), dict) and (k == 0 or not model.closures):
+            xy = Drawing(model, z).at(k, link.a)
+            if all(math.dist(xy, h["xy"]) > 1e-9 for h in out):
+                add(f"{name}.end", xy, f"{name}.a, initial.theta{k + 2}")
     return out
-
-
-def _num(v) -> float:
-    try:
-        from grubler.limits import parse_angle_or_number
-
-        return parse_angle_or_number(v, "value")
-    except InputError:
-        return 0.0
 
 
 def _r(v: float) -> float:
@@ -514,7 +393,9 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
     """Scene data with the numbers behind ``handle`` set so that it sits at (x, y), m.
 
     ``data`` is the scene as the drag started: the numbers a handle does not
-    set stay as they were then.
+    set stay as they were then.  A builder's scene is moved by its builder
+    (:data:`grubler.mechanism.builders.MOVES`); a link table by its ground
+    closures' points and its links' ends.
     """
     x, y = (_finite(v, "drag") for v in (x, y))
     if not isinstance(handle, str):
@@ -522,89 +403,19 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
     out = json.loads(json.dumps(data))
     mech = out.get("mechanism")
     kind = mech.get("type") if isinstance(mech, dict) else None
-    if handle == "A" and kind in (*SIX_BAR_JOINTS, "four-bar", "slider-crank", "quick-return", "swinging-block",
-                                  "pendulum-pump", "scotch-yoke"):
-        angle_key = _crank_angle_key(kind)
-        mech["crank"] = _r(math.hypot(x, y))
-        mech[angle_key] = _deg(math.atan2(y, x))
-    elif kind in SIX_BAR_JOINTS and handle in ("rocker_pivot", "output_pivot"):
-        mech[handle] = [_r(x), _r(y)]
-    elif kind in SIX_BAR_JOINTS and handle in _moving_joints(SIX_BAR_JOINTS[kind]) | {"O2"}:
-        spec = SIX_BAR_JOINTS[kind]
-        at = six_bar_joints(kind, *_sketch(data))
-        at[handle] = np.array([x, y])
-        if handle == "O2":  # the scene measured from the moved origin: the others move back by as much
-            at = {name: xy - at["O2"] for name, xy in at.items()}
-            pin = at[spec["pin"]]
-            mech["crank"], mech["input_angle"] = _r(math.hypot(*pin)), _deg(math.atan2(pin[1], pin[0]))
-            for name, key in spec["pivots"].items():
-                mech[key] = [_r(v) for v in at[name]]
-        for key, (p, q) in spec["lengths"].items():
-            if handle in (p, q):
-                mech[key] = _r(math.dist(at[p], at[q]))
-        for key, (p, q, s) in spec["sides"].items():
-            if handle in (p, q, s):
-                mech[key] = _SIDE_WORDS[_left(at[p], at[q], at[s])][key.startswith("branch")]
-        if kind == "stephenson-ii":  # the root the builder picks is the one nearest this direction
-            mech["coupler_angle"] = _deg(math.atan2(*(at["P"] - at["E"])[::-1]))
-    elif kind == "four-bar" and handle == "B":
-        th = _num(mech.get("crank_angle", 0.0))
-        crank, ground = _num(mech.get("crank")), _num(mech.get("ground"))
-        ax, ay = crank * math.cos(th), crank * math.sin(th)
-        mech["coupler"] = _r(math.hypot(x - ax, y - ay))
-        mech["rocker"] = _r(math.hypot(x - ground, y))
-        mech["branch"] = _SIDE_WORDS[_left((ax, ay), (ground, 0.0), (x, y))][1]
-    elif (kind, handle) in (("four-bar", "O4"), ("swinging-block", "pivot"), ("quick-return", "pivot")):
-        mech["ground"] = _r(-y if kind == "quick-return" else x)  # the pivot's distance, on its axis
-    elif kind == "pendulum-pump" and handle == "slide":
-        mech["offset"] = _r(x)
-    elif kind == "slider-crank" and handle == "slider":
-        # the block: the slide line through it, the rod from the crank pin to it
-        pin = _crank_pin(mech)
-        mech["rod"], mech["offset"] = _r(math.dist(pin, (x, y))), _r(y)
-    elif kind == "quick-return" and handle == "lever":
-        mech["lever"] = _r(math.dist((0.0, -_num(mech.get("ground"))), (x, y)))
-    elif kind == "pendulum-pump" and handle == "C":  # the pump's link and rod pin: on the slide line, which follows it
-        mech["link"], mech["offset"] = _r(math.dist(_crank_pin(mech), (x, y))), _r(x)
-    elif kind == "pendulum-pump" and handle == "rod":
-        model, z = _sketch(data)
-        mech["rod"] = _r(math.dist(_at(model, z, 2), (x, y)))
-    elif kind == "oldham" and handle == "shaft2":
-        mech["offset"] = _r(x)
-    elif kind == "oldham" and handle == "slot":
-        mech["shaft_angle"] = _deg(math.atan2(y, x) - math.pi / 2)
-    elif kind == "double-slider" and handle in ("block1", "block2"):
-        # one block moved, the other kept: the coupler between them
-        model, z = _sketch(data)
-        one, two = _at(model, z, 0), _at(model, z, 2)
-        if handle == "block1":
-            one = np.array([x, 0.0])  # the first slide: the x axis
-        else:
-            two = np.array([x, y])
-            mech["axes_angle"] = _deg(math.atan2(y, x))
-        mech["coupler"] = _r(math.dist(one, two))
-        mech["coupler_angle"] = _deg(math.atan2(two[1] - one[1], two[0] - one[0]))
-    elif kind == "conchoidal" and handle in ("block", "arm"):
-        # the rod passes the pivot at `arm` and through the blocks' pin
-        model, z = _sketch(data)
-        pin = _at(model, z, 2)
-        if handle == "block":
-            pin = np.array([x, y])
-            mech["height"] = _r(y)
-        else:
-            mech["arm"] = _r(math.hypot(x, y))
-        mech["rod_angle"] = _deg(_rod_angle(pin, _num(mech.get("arm", 0.0))))
-    elif re.fullmatch(r"closure(\[\d+\])?\.point", handle) and not kind:
+    move = MOVES.get(kind) if isinstance(kind, str) else None
+    if move and move(mech, handle, x, y, lambda: Drawing(*_sketch(data))):
+        return out
+    if re.fullmatch(r"closure(\[\d+\])?\.point", handle) and not kind:
         return edit(out, handle, [_r(x), _r(y)])
-    elif re.fullmatch(r"link\d+\.end", handle) and not kind and isinstance(out.get(handle.removesuffix(".end")), dict):
+    if re.fullmatch(r"link\d+\.end", handle) and not kind and isinstance(out.get(handle.removesuffix(".end")), dict):
         name = handle.removesuffix(".end")
         model, z = _sketch(data)
-        o = _at(model, z, int(name[4:]) - 2)
+        o = Drawing(model, z).at(int(name[4:]) - 2)
         out[name]["a"] = _r(math.hypot(x - o[0], y - o[1]))
         out.setdefault("initial", {})[f"theta{name[4:]}"] = _deg(math.atan2(y - o[1], x - o[0]))
-    else:
-        raise InputError("drag", f"this scene has no point {brief(handle)} to drag")
-    return out
+        return out
+    raise InputError("drag", f"this scene has no point {brief(handle)} to drag")
 
 
 def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace: str | None = None,
@@ -633,18 +444,6 @@ def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace
         if h["id"] == handle:
             h["xy"] = [x, y]
     return out
-
-
-def _crank_pin(mech: dict) -> tuple[float, float]:
-    """A builder's crank pin from its crank and crank angle (the crank turns about the origin)."""
-    crank, th = _num(mech.get("crank")), _num(mech.get("crank_angle", 0.0))
-    return crank * math.cos(th), crank * math.sin(th)
-
-
-def _rod_angle(pin, arm: float) -> float:
-    """The conchoidal's rod direction through ``pin`` that passes the pivot at ``arm`` (its foot's side)."""
-    d = max(math.hypot(*pin), arm)  # a pin nearer than the arm: the rod as near as it can pass
-    return math.atan2(pin[1], pin[0]) - math.acos(arm / d) + math.pi / 2
 
 
 def _finite(v, field: str) -> float:
