@@ -349,7 +349,7 @@ def test_a_double_clicked_point_is_traced_on_the_link_under_it(app):
 
 def test_the_form_names_each_value_as_the_toml_does_with_its_unit():
     f = {x["key"]: x for x in actions.fields(actions.preset_data("thesis-fourbar"))}
-    assert f["link2.a"]["unit"] == "m" and f["link2.m"]["unit"] == "kg" and f["link2.I"]["unit"] == "kg m²"
+    assert f["link2.a"]["unit"] == "m" and f["link2.m"]["unit"] == "kg" and f["link2.I"]["unit"] == "kg m^2"
     assert f["initial.theta3"]["value"] == "pi/3" and f["initial.theta3"]["unit"].startswith("rad")
     assert f["closure.point"]["value"] == [1.0, 0.0]
     edited = actions.edit(actions.preset_data("thesis-fourbar"), "closure.point", "[1.2, 0.1]")

@@ -15,7 +15,8 @@ ROOT = Path(__file__).resolve().parents[1]
 # own folder and any lower layer; within a layer, only its own folder (the base
 # and front layers are loose modules, which may import each other).
 LAYERS = [
-    ("base", ["grubler._version", "grubler.errors", "grubler.limits", "grubler.records", "grubler.binding"]),
+    ("base", ["grubler._version", "grubler.errors", "grubler.limits", "grubler.records", "grubler.quantities",
+              "grubler.binding"]),
     ("mechanism", ["grubler.mechanism", "grubler.motors"]),
     ("views", ["grubler.views"]),
     ("fmi", ["grubler.fmi"]),

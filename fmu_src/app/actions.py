@@ -37,6 +37,7 @@ from grubler.mechanism.builders import BUILDER_DOCS, HANDLES, MOVES, Drawing, va
 from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import coordinate_text, preset_names, preset_text, scene_from_dict
 from grubler.mechanism.simulate import output_columns, simulate, unit_of
+from grubler.quantities import mechanism_output, scene_field
 from grubler.views.animation import Sketch, trace_point
 
 SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 degrees apart)
@@ -114,11 +115,6 @@ def _value(v) -> str:
 
 
 # -- the form: every number of the scene, named as the TOML names it, with its unit ------------------
-_UNITS = {"m": "kg", "I": "kg m²", "damping": "N m s/rad", "gravity": "m/s²", "torque": "N m",
-          "inertia": "kg m²", "t_end": "s", "dt_out": "s", "mass_per_length": "kg/m", "block_mass": "kg",
-          "slider_mass": "kg", "gain": "N/m", "point": "m", "at": "m", "rocker_pivot": "m",
-          "output_pivot": "m", "a1": "m"}
-_ANGLES = re.compile(r"(theta\d+|.*_angle|angle|psi|theta1)$")
 _TEXT = {"name", "description", "kind", "type", "joint", "existence", "parent", "link", "to_link", "method"}
 
 
@@ -142,16 +138,7 @@ def choices(key: str) -> list[str] | None:
 
 def unit(key: str) -> str:
     """The unit a scene field is written in, for the form's label ('' for words and counts)."""
-    leaf = key.rsplit(".", 1)[-1]
-    if leaf.endswith("_d") and _ANGLES.match(leaf[:-2]):
-        return "rad/s"
-    if _ANGLES.match(leaf):
-        return "rad, or '30 deg'"
-    if leaf in _UNITS:
-        return _UNITS[leaf]
-    if re.fullmatch(r"B\d+(_d)?", leaf):
-        return "m" + ("/s" if leaf.endswith("_d") else "")
-    return "" if leaf in _TEXT or leaf.startswith("branch") or leaf.endswith("_side") else "m"
+    return scene_field(key).unit
 
 
 def fields(data: dict) -> list[dict]:
@@ -453,26 +440,12 @@ def _finite(v, field: str) -> float:
 
 
 # -- runs ----------------------------------------------------------------------------------------
-_WORDS = {"t": "time", "tip_x": "tip x", "tip_y": "tip y", "closure_error": "loop closure error",
-          "Fx": "closing joint force x", "Fy": "closing joint force y", "Mz": "closing joint moment",
-          "KE": "kinetic energy", "PE": "potential energy", "E": "total energy",
-          "tau_drive": "drive torque", "P_drive": "drive power"}
 
 
-def describe(column: str) -> str:
+def describe(column: str, actuators=()) -> str:
     """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
-    if column in _WORDS:
-        words = _WORDS[column]
-    else:
-        m = re.fullmatch(r"(theta|B)(\d+)(_d|_dd)?", column)
-        if m:
-            what = {"theta": ("angle", "angular rate", "angular acceleration"),
-                    "B": ("slide", "slide rate", "slide acceleration")}[m.group(1)]
-            # theta_k is link k's absolute angle, B_k the slide of its joint
-            words = f"{what[(None, '_d', '_dd').index(m.group(3))]} of {'link' if m.group(1) == 'theta' else 'joint'} " \
-                    f"{m.group(2)}"
-        else:
-            words = column
+    q = mechanism_output(column, actuators)
+    words = q.label if q else column
     u = unit_of(column)
     return f"{words} ({column})" + (f", {u}" if u else "")
 
@@ -513,7 +486,8 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
-            "columns": [{"name": c, "label": describe(c), "f32": _f32(res[c])} for c in columns],
+            "columns": [{"name": c, "label": describe(c, scene.mechanism.actuator_names), "f32": _f32(res[c])}
+                        for c in columns],
             "summary": _summary(scene, res)}
     return res, view
 

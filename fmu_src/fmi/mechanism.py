@@ -29,6 +29,7 @@ from grubler.errors import SceneError
 from grubler.mechanism.model import PRISMATIC, Mechanism
 from grubler.mechanism.scene import Scene
 from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL
+from grubler.quantities import fmi_text, fmi_unit, mechanism_output, scene_field
 from grubler.fmi.variables import ENUMERATION, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, EnumType, ModelSpec, Variable
 
 JOINT = EnumType("JointType", "which joint of a link's pair is real",
@@ -65,11 +66,6 @@ def run_state(n_links: int, n_actuators: int = 0) -> tuple[tuple[str, int], ...]
                "drive_used", "load_used")
     forces = (("actuator_forces_used", n_actuators),) if n_actuators else ()
     return (*((f, 1) for f in scalars), ("y", 2 * n_links), ("f", 2 * n_links), *forces, ("stepper", 0))
-
-
-def _coordinate_unit(name: str, order: int) -> str:
-    base = "m" if name.startswith("B") else "rad"
-    return base + ("", "/s", "/s2")[order]
 
 
 def closure_prefix(n_closures: int, j: int) -> str:
@@ -159,23 +155,21 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     par("atol", REAL, "absolute tolerance of the internal integration [rad, m]", None, 0.0)
     par("max_step", REAL, "largest internal step (0: no limit)", "s", 0.0)
     par("step", REAL, "fixed internal step of rk4", "s", 0.0)
-    par("gravity", REAL, "gravity g, acting along -y", "m/s2", 0.0)
+    field = scene_field("gravity")
+    par("gravity", REAL, field.description, fmi_unit(field.unit), 0.0)
     par("ground.a1", REAL, "ground vector length a1 (link 1)", "m", 0.0)
     par("ground.theta1", REAL, "ground vector angle theta1", "rad")
     coord_choices = ("",) + tuple(names)
     par("drive_joint", STRING, "real joint the motor acts on (e.g. theta2; empty: none)", choices=coord_choices)
     par("load_joint", STRING, "real joint the load acts on (empty: none)", choices=coord_choices)
-    par("drive.inertia", REAL, "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2 "
-                               "[kg m2, or kg on a slide]", None, 0.0)
-    link_text = {"a": ("link vector length", "m", 0.0), "p": ("mass centre along the link vector", "m", None),
-                 "q": ("mass centre across the link vector", "m", None), "m": ("mass (> 0)", "kg", 0.0),
-                 "I": ("centroidal moment of inertia", "kg.m2", 0.0),
-                 "damping": ("viscous damping of its real joint [N m s/rad or N s/m]", None, 0.0)}
+    field = scene_field("drive.inertia")
+    par("drive.inertia", REAL, fmi_text(field), fmi_unit(field.unit), 0.0)
+    lowest = {"a": 0.0, "m": 0.0, "I": 0.0, "damping": 0.0}
     for k in range(2, n + 2):
         par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
         for f in LINK_FIELDS[1:-1]:
-            text, unit, lo = link_text[f]
-            par(f"link{k}.{f}", REAL, f"link {k}: {text}", unit, lo)
+            field = scene_field(f"link{k}.{f}")
+            par(f"link{k}.{f}", REAL, f"link {k}: {fmi_text(field)}", fmi_unit(field.unit), lowest.get(f))
     for j in range(nc):
         pre = closure_prefix(nc, j)
         par(f"{pre}.type", ENUMERATION, "closing joint type (structural)", enum=CLOSURE)
@@ -188,58 +182,41 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
         par(f"{pre}.point_y", REAL, "target point (or a point of the line) in to_link's frame, y", "m")
         par(f"{pre}.angle", REAL, "prismatic: direction of the line in to_link's frame", "rad")
         par(f"{pre}.psi", REAL, "prismatic: held orientation of the link relative to to_link", "rad")
-        par(f"{pre}.gain", REAL, "penalty closure stiffness G [N/m, N m/rad]", None, 0.0)
-        par(f"{pre}.damping", REAL, "penalty closure damping C [N s/m, N m s/rad]", None, 0.0)
+        for f in ("gain", "damping"):
+            field = scene_field(f"{pre}.{f}")
+            par(f"{pre}.{f}", REAL, fmi_text(field), fmi_unit(field.unit), 0.0)
     for x in names:
         par(f"initial.{x}", REAL, f"initial {x} (a guess for the coordinates assembly solves for)",
-            _coordinate_unit(x, 0))
-        par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)", _coordinate_unit(x, 1))
+            fmi_unit(mechanism_output(x).unit))
+        par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)",
+            fmi_unit(mechanism_output(f"{x}_d").unit))
     v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint [N m, or N on a slide]", 0.0))
     v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint [N m, or N on a slide]", 0.0))
 
     obs = observation_names(n)
     index = {name: i for i, name in enumerate(obs)}
-    units = {"tip_x": "m", "tip_y": "m", "Fx": "N", "Fy": "N", "Mz": "N.m", "KE": "J", "PE": "J"}
-    texts = {"tip_x": "chain tip (the closing point of the last link), x", "tip_y": "chain tip, y",
-             "closure_error": "largest closure violation [m or rad]",
-             "Fx": "force the ground exerts on the last link at the closing joint, x",
-             "Fy": "force the ground exerts on the last link at the closing joint, y",
-             "Mz": "moment the ground exerts on the last link at the closing joint",
-             "KE": "kinetic energy", "PE": "potential energy (gravity, plus the penalty springs')"}
     # published in today's order: state, dynamics, energy, reactions
     order = ([*names, *(f"{x}_d" for x in names), "tip_x", "tip_y", "closure_error",
               *(f"{x}_dd" for x in names), "Fx", "Fy", "Mz", "KE", "PE"]
              + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
     assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
+    def output(name, level, feed, slot):
+        q = mechanism_output(name, m.actuator_names)
+        v.append(Variable(name, REAL, OUTPUT, fmi_text(q), unit=fmi_unit(q.unit), level=level, feedthrough=feed,
+                          slot=slot))
+
     for name in order:
-        base, _, suffix = name.partition("_")
-        if name in units or name == "closure_error":
-            unit, text, feed = units.get(name), texts[name], name in ("Fx", "Fy", "Mz")
-        elif name.startswith("R") and name[1].isdigit():
-            k = int(name[1:name.index("_")])
-            unit = "N.m" if suffix == "Mz" else "N"
-            # link k+1's predecessor: link k in a serial chain, its parent in a tree
-            text = f"{suffix[1:]}-component of the reaction link {k + 1}'s predecessor exerts on it at its joint"
-            if suffix == "Mz":
-                text = f"moment link {k + 1}'s predecessor exerts on it at its joint"
-            feed = True
-        else:
-            order_ = {"": 0, "d": 1, "dd": 2}[suffix]
-            unit = _coordinate_unit(base, order_)
-            text = (f"{base} (absolute)", f"rate of {base}", f"acceleration of {base}")[order_]
-            feed = order_ == 2
-        level = LEVEL_REACTIONS if name.startswith("R") and name[1].isdigit() else LEVEL_OBSERVE
-        v.append(Variable(name, REAL, OUTPUT, text, unit=unit, level=level, feedthrough=feed, slot=index[name]))
-    v.append(Variable("drive_angle", REAL, OUTPUT, "coordinate of the drive joint (relative) [rad or m]", level=LEVEL_DRIVE, slot=len(obs)))
-    v.append(Variable("drive_speed", REAL, OUTPUT, "rate of the drive joint [rad/s or m/s]",
-                      level=LEVEL_DRIVE, slot=len(obs) + 1))
+        reaction = name.startswith("R") and name[1].isdigit()
+        # the efforts reach the accelerations and the constraint forces at once
+        feed = reaction or name in ("Fx", "Fy", "Mz") or name.endswith("_dd")
+        output(name, LEVEL_REACTIONS if reaction else LEVEL_OBSERVE, feed, index[name])
+    output("drive_angle", LEVEL_DRIVE, False, len(obs))
+    output("drive_speed", LEVEL_DRIVE, False, len(obs) + 1)
     # the first closure's force is Fx, Fy, Mz; a chain of several loops (a
     # six-bar) publishes the others' as the library names them, closureJ_*
     for j in range(1, nc):
-        for c, (what, unit) in enumerate((("force, x", "N"), ("force, y", "N"), ("moment", "N.m"))):
-            v.append(Variable(f"closure{j}_{('Fx', 'Fy', 'Mz')[c]}", REAL, OUTPUT,
-                              f"{what} closure[{j}] exerts on its closing link (world axes)", unit=unit,
-                              level=LEVEL_REACTIONS, feedthrough=True, slot=len(obs) + 2 + 3 * (j - 1) + c))
+        for c, comp in enumerate(("Fx", "Fy", "Mz")):
+            output(f"closure{j}_{comp}", LEVEL_REACTIONS, True, len(obs) + 2 + 3 * (j - 1) + c)
     for k in range(2, n + 2):  # last: the value references above are those of an FMU before trees
         par(f"link{k}.parent", INTEGER, f"link {k}: the link its joint pair hangs from, 1: the ground "
                                         "(structural; the previous link for a serial chain)", None, 1, k - 1)
@@ -252,13 +229,11 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
             for axis, words in (("x", "along"), ("y", "across")):
                 par(f"{a.name}.{end}_point_{axis}", REAL, f"actuator {a.name}: its {end} point, {words} its link's "
                                                           "vector (world axes on the ground)", "m")
-        v.append(Variable(f"{a.name}_force", REAL, INPUT, f"actuator {a.name}'s force along its line, positive "
-                                                          "pushing its points apart", 0.0, "N"))
+        force = mechanism_output(f"{a.name}_force", [a.name])
+        v.append(Variable(force.name, REAL, INPUT, force.description, 0.0, fmi_unit(force.unit)))
         # kinematics: the state alone gives them, no input at the same instant
-        v.append(Variable(f"{a.name}_length", REAL, OUTPUT, f"actuator {a.name}'s length (its points' distance)",
-                          unit="m", level=LEVEL_DRIVE, slot=n_out + 2 * j))
-        v.append(Variable(f"{a.name}_rate", REAL, OUTPUT, f"actuator {a.name}'s rate of extension", unit="m/s",
-                          level=LEVEL_DRIVE, slot=n_out + 2 * j + 1))
+        output(f"{a.name}_length", LEVEL_DRIVE, False, n_out + 2 * j)
+        output(f"{a.name}_rate", LEVEL_DRIVE, False, n_out + 2 * j + 1)
 
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]

@@ -596,11 +596,11 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
     int o = 6 * n;
     real tip[4];
     GRB(point)(md, w, n - 1, grb_links(md)[n - 1].a, 0.0, w->J + m * n, tip);
-    out[o] = tip[0];
-    out[o + 1] = tip[1];
+    out[o + GRB_OBS_TIP_X] = tip[0];
+    out[o + GRB_OBS_TIP_Y] = tip[1];
     real err = 0.0;
     for (int r = 0; r < m; r++) err += w->row[r].phi * w->row[r].phi;
-    out[o + 2] = RSQRT(err);
+    out[o + GRB_OBS_CLOSURE_ERROR] = RSQRT(err);
     real fx = 0.0, fy = 0.0, mz = 0.0;
     if (m > 0) {
         if (grb_closures(md)[0].kind != 0.0) {
@@ -612,9 +612,9 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
             fy = w->row[1].lambda;
         }
     }
-    out[o + 3] = fx;
-    out[o + 4] = fy;
-    out[o + 5] = mz;
+    out[o + GRB_OBS_FX] = fx;
+    out[o + GRB_OBS_FY] = fy;
+    out[o + GRB_OBS_MZ] = mz;
     real ke = 0.0, pe = 0.0;
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++) ke += zd[i] * MASS_(w, i, j) * zd[j];
@@ -622,12 +622,12 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
     pe *= md->gravity;
     if (method == GRB_PENALTY) /* the penalty springs store energy too */
         for (int r = 0; r < m; r++) pe += 0.5 * grb_closures(md)[r / 2].gain * w->row[r].phi * w->row[r].phi;
-    out[o + 6] = 0.5 * ke;
-    out[o + 7] = pe;
-    out[o + 8] = 0.5 * ke + pe;
-    out[o + 9] = md->drive >= 0 ? tau_drive : 0.0;
-    out[o + 10] = md->drive >= 0 ? tau_drive * zd[md->drive] : 0.0;
-    if (want_reactions) GRB(reactions)(md, w, out + o + 11);
+    out[o + GRB_OBS_KE] = 0.5 * ke;
+    out[o + GRB_OBS_PE] = pe;
+    out[o + GRB_OBS_E] = 0.5 * ke + pe;
+    out[o + GRB_OBS_TAU_DRIVE] = md->drive >= 0 ? tau_drive : 0.0;
+    out[o + GRB_OBS_P_DRIVE] = md->drive >= 0 ? tau_drive * zd[md->drive] : 0.0;
+    if (want_reactions) GRB(reactions)(md, w, out + o + GRB_OBS_FIXED);
     return status;
 }
 

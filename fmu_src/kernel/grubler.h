@@ -127,10 +127,29 @@ typedef struct grb_model {
     const double *actuators;  /* A x GRB_A_COLUMNS, row-major (NULL when A = 0) */
 } grb_model;
 
+/* The fixed outputs of grb_observe, in order after the coordinates, rates and
+ * accelerations (6N), before the joint reactions (3N).  grubler.quantities
+ * (FIXED_OBSERVATIONS) names, units and describes them; a test holds the two
+ * lists together. */
+typedef enum grb_observation {
+    GRB_OBS_TIP_X,         /* the chain's tip (last link's closing point), m */
+    GRB_OBS_TIP_Y,
+    GRB_OBS_CLOSURE_ERROR, /* largest closure violation, m or rad */
+    GRB_OBS_FX,            /* the first closure's force on the closing link, N */
+    GRB_OBS_FY,
+    GRB_OBS_MZ,            /* ... and moment, N m */
+    GRB_OBS_KE,            /* kinetic energy, J */
+    GRB_OBS_PE,            /* potential energy (gravity and penalty springs), J */
+    GRB_OBS_E,             /* KE + PE, J */
+    GRB_OBS_TAU_DRIVE,     /* the drive effort, N m or N */
+    GRB_OBS_P_DRIVE,       /* its power, W */
+    GRB_OBS_FIXED          /* their count */
+} grb_observation;
+
 /* Number of outputs of grb_observe for N links: coordinates, rates and
- * accelerations in thesis order (2N each), tip_x, tip_y, closure_error, Fx, Fy,
- * Mz, KE, PE, E, tau_drive, P_drive (11), the joint reactions (3N). */
-#define GRB_N_OBSERVED(n) (9 * (n) + 11)
+ * accelerations in thesis order (2N each), the fixed outputs above, the joint
+ * reactions (3N). */
+#define GRB_N_OBSERVED(n) (9 * (n) + GRB_OBS_FIXED)
 
 /* The data (pinocchio's Data beside its Model): every table the kernel fills
  * for one model, in one caller-owned buffer of grb_work_size doubles.  Its

@@ -54,6 +54,7 @@ from grubler.mechanism.kinematics import (
     tables,
 )
 from grubler.mechanism.model import Mechanism, coordinate_names
+from grubler.quantities import FIXED_OBSERVATIONS
 
 EXACT = "exact"
 PENALTY = "penalty"
@@ -101,7 +102,7 @@ def observation_names(n: int) -> list[str]:
     """Names of the kernel's observations (``grb_observe``), in order, for N links."""
     names = coordinate_names(n)
     return (names + [f"{x}_d" for x in names] + [f"{x}_dd" for x in names]
-            + ["tip_x", "tip_y", "closure_error", "Fx", "Fy", "Mz", "KE", "PE", "E", "tau_drive", "P_drive"]
+            + [q.name for q in FIXED_OBSERVATIONS]
             + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
 
 

@@ -25,6 +25,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from grubler import binding
+from grubler.quantities import ACTUATOR_OUTPUTS, mechanism_output
 from grubler.mechanism.assembly import POSITION_TOL, assemble
 from grubler.mechanism.analysis import explain_singular_start
 from grubler.mechanism.dynamics import (EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, actuator_forces,
@@ -42,7 +43,6 @@ from grubler.mechanism.scene import Scene, load_scene
 GROUPS = ("state", "dynamics", "energy", "reactions", "actuators")
 DEFAULT_GROUPS = ("state", "dynamics", "energy", "actuators")
 # each actuator's columns: <name>_length, _rate (kinematics), _force (the input), _power (force x rate)
-ACTUATOR_COLUMNS = (("length", "m"), ("rate", "m/s"), ("force", "N"), ("power", "W"))
 
 DEFAULT_RTOL = 1e-9
 DEFAULT_ATOL = 1e-9
@@ -76,26 +76,20 @@ def _columns(n_links: int, groups: frozenset, n_closures: int = 1, actuators: tu
         for j in range(1, n_closures):
             cols += [f"closure{j}_Fx", f"closure{j}_Fy", f"closure{j}_Mz"]
     if "actuators" in groups:
-        cols += [f"{a}_{c}" for a in actuators for c, _ in ACTUATOR_COLUMNS]
+        cols += [f"{a}_{q.name}" for a in actuators for q in ACTUATOR_OUTPUTS]
     return tuple(cols)
 
 
-UNITS = {"t": "s", "tip_x": "m", "tip_y": "m", "closure_error": "m or rad", "Fx": "N", "Fy": "N",
-         "Mz": "N m", "KE": "J", "PE": "J", "E": "J", "P_drive": "W", "tau_drive": "N m or N"}
-
-
 def unit_of(column: str) -> str:
-    """Unit of an output column, for labels."""
-    if column in UNITS:
-        return UNITS[column]
-    for c, unit in ACTUATOR_COLUMNS:
-        if column.endswith(f"_{c}"):
-            return unit
-    base, _, suffix = column.partition("_")
-    if (base.startswith("R") or base.startswith("closure")) and suffix:
-        return "N m" if suffix == "Mz" else "N"
-    per = {"": "", "d": "/s", "dd": "/s^2"}[suffix]
-    return ("m" if base.startswith("B") else "rad") + per
+    """Unit of an output column, for labels ('' for a name that is no output of a mechanism).
+
+    One table says it (:func:`grubler.quantities.mechanism_output`); an
+    actuator's column is known by its last part.
+    """
+    q = mechanism_output(column)
+    if q is not None:
+        return q.unit
+    return next((q.unit for q in ACTUATOR_OUTPUTS if column.endswith(f"_{q.name}")), "")
 
 
 @functools.lru_cache(maxsize=64)

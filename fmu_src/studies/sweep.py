@@ -476,12 +476,6 @@ def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol:
     return out
 
 
-# units of scene parameters (grubler.mechanism.scene.parameter_names), a link's by its last part; on a slide
-# joint a damping is in N s/m and an effort in N
-_LINK_UNITS = {"a": "m", "p": "m", "q": "m", "m": "kg", "I": "kg m2", "damping": "N m s/rad"}
-_PARAMETER_UNITS = {"gravity": "m/s2", "drive.inertia": "kg m2", "drive.torque": "N m", "load.torque": "N m"}
-
-
 def scene_point_units(scene, names=()) -> dict[str, str]:
     """The unit of each of :func:`scene_point`'s metrics for ``scene``, and of the parameters ``names``.
 
@@ -493,6 +487,7 @@ def scene_point_units(scene, names=()) -> dict[str, str]:
     ('m', 'N m', 'rad/s', 'N')
     """
     from grubler.mechanism.simulate import unit_of
+    from grubler.quantities import ANGLE_UNIT, scene_field
 
     m = scene.mechanism
     drive = m.drive
@@ -500,16 +495,18 @@ def scene_point_units(scene, names=()) -> dict[str, str]:
     units = {"final_drive_angle": unit_of(drive) if drive else "", "peak_drive_speed": unit_of(f"{drive}_d") if drive
              else "", "peak_closure_force": "N", "max_closure_error": unit_of("closure_error"), "energy_balance": "J",
              "run_seconds": "s"}
-    for name in names:
+    for name in names:  # scene parameters (grubler.mechanism.scene.parameter_names)
         head, _, last = name.partition(".")
         if head == "initial":
             units[name] = unit_of(last)
-        elif head.startswith("link") and head[4:].isdigit() and last in _LINK_UNITS:
-            on_slide = 0 <= int(head[4:]) - 2 < m.n_links and m.links[int(head[4:]) - 2].joint != "R"
-            units[name] = "N s/m" if on_slide and last == "damping" else _LINK_UNITS[last]
-        else:
-            load_slide = name == "load.torque" and bool(m.load and m.load.startswith("B"))
-            units[name] = "N" if (slide and name == "drive.torque") or load_slide else _PARAMETER_UNITS.get(name, "")
+            continue
+        # on a slide joint a damping is in N s/m and an effort in N
+        link_slide = head.startswith("link") and head[4:].isdigit() and 0 <= int(head[4:]) - 2 < m.n_links \
+            and m.links[int(head[4:]) - 2].joint != "R"
+        effort_slide = (name in ("drive.torque", "drive.inertia") and slide) or (name == "load.torque" and bool(m.load and
+                                                                                          m.load.startswith("B")))
+        q = scene_field(name, on_slide=link_slide or effort_slide)
+        units[name] = "" if q.unit == ANGLE_UNIT else q.unit
     return units
 
 

@@ -1,0 +1,236 @@
+"""The quantities grubler reads and writes: each named once, with its unit and what it is.
+
+Two families live here, each in one table that every surface reads:
+
+- the mechanism's outputs (:func:`mechanism_output`): the kernel's
+  observations (its coordinates, rates and accelerations, the eleven fixed
+  ones of ``enum grb_observation`` in ``kernel/grubler.h``, the joint
+  reactions), the other closures' forces, the drive's and the actuators'.  The
+  CSV headings, plot labels, the native FMU's output variables, the app's
+  menus and the sweep's metrics take their unit and words from it;
+- the scene's fields (:func:`scene_field`): the numbers a scene, the native
+  FMU's parameters, the app's form and a sweep's axes set.
+
+A unit is written once, in ASCII as a reader writes it (``N m``, ``kg m^2``,
+``rad/s^2``); :func:`fmi_unit` spells it as a model description declares it
+(``N.m``, ``kg.m2``).  Where the joint decides the unit (an effort on a
+revolute is in N m, on a slide in N) the unit reads ``N m or N``, and an FMU
+declares none: the words say it.
+
+The models beside the mechanism (motor, cylinders, laws) each declare their
+variables in one table of their own (``grubler.fmi.motor``, ``grubler.fmi.cylinder``,
+``grubler.controllers.native_fmu``); a co-simulation's CSV reads the units from
+their model descriptions.
+
+Examples
+--------
+>>> q = mechanism_output("theta3_d")
+>>> q.unit, q.label
+('rad/s', 'angular rate of link 3')
+>>> mechanism_output("R2_Mz").unit, fmi_unit(mechanism_output("R2_Mz").unit)
+('N m', 'N.m')
+>>> scene_field("link2.I").unit, fmi_unit(scene_field("link2.I").unit)
+('kg m^2', 'kg.m2')
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+__all__ = ["Quantity", "FIXED_OBSERVATIONS", "ACTUATOR_OUTPUTS", "mechanism_output", "scene_field", "fmi_unit", "fmi_text"]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A named quantity: its unit, a few words for menus and labels, a sentence for model descriptions.
+
+    Examples
+    --------
+    >>> Quantity("KE", "J", "kinetic energy", "kinetic energy").unit
+    'J'
+    """
+
+    name: str
+    unit: str  # SI, ASCII ('' for a word or a count; 'N m or N' where the joint decides)
+    label: str
+    description: str
+
+
+# The kernel's fixed observations, in its order (enum grb_observation, kernel/grubler.h; a test holds the two
+# together): after the 6N coordinates, rates and accelerations, before the 3N joint reactions.
+FIXED_OBSERVATIONS = (
+    Quantity("tip_x", "m", "tip x", "chain tip (the closing point of the last link), x"),
+    Quantity("tip_y", "m", "tip y", "chain tip, y"),
+    Quantity("closure_error", "m or rad", "loop closure error", "largest closure violation"),
+    Quantity("Fx", "N", "closing joint force x", "force the ground exerts on the last link at the closing joint, x"),
+    Quantity("Fy", "N", "closing joint force y", "force the ground exerts on the last link at the closing joint, y"),
+    Quantity("Mz", "N m", "closing joint moment", "moment the ground exerts on the last link at the closing joint"),
+    Quantity("KE", "J", "kinetic energy", "kinetic energy"),
+    Quantity("PE", "J", "potential energy", "potential energy (gravity, plus the penalty springs')"),
+    Quantity("E", "J", "total energy", "kinetic plus potential energy"),
+    Quantity("tau_drive", "N m or N", "drive torque", "drive effort at the drive joint"),
+    Quantity("P_drive", "W", "drive power", "power of the drive effort"),
+)
+# an actuator's outputs, each column '<actuator>_<name>'
+ACTUATOR_OUTPUTS = (
+    Quantity("length", "m", "length", "length (its points' distance)"),
+    Quantity("rate", "m/s", "rate", "rate of extension"),
+    Quantity("force", "N", "force", "force along its line, positive pushing its points apart"),
+    Quantity("power", "W", "power", "power it puts in"),
+)
+_OTHER_OUTPUTS = (
+    Quantity("t", "s", "time", "time"),
+    Quantity("drive_angle", "rad or m", "drive angle", "coordinate of the drive joint (relative)"),
+    Quantity("drive_speed", "rad/s or m/s", "drive speed", "rate of the drive joint"),
+)
+_OUTPUTS = {q.name: q for q in FIXED_OBSERVATIONS + _OTHER_OUTPUTS}
+_FORCE = {"Fx": ("N", "x"), "Fy": ("N", "y"), "Mz": ("N m", "")}
+_ORDER = {"": 0, "_d": 1, "_dd": 2}
+_PER = ("", "/s", "/s^2")
+
+
+def mechanism_output(name: str, actuators=()) -> Quantity | None:
+    """The mechanism's output ``name`` (a CSV column, an FMU output), or None for a name that is none.
+
+    ``actuators``: the scene's actuator names, whose columns are '<actuator>_length' and so on.
+
+    Examples
+    --------
+    >>> mechanism_output("B2_dd").unit, mechanism_output("closure1_Fy").label
+    ('m/s^2', 'closure 1 force y')
+    >>> mechanism_output("lift_force", ["lift"]).description
+    "actuator lift's force along its line, positive pushing its points apart"
+    >>> mechanism_output("nonsense") is None
+    True
+    """
+    if name in _OUTPUTS:
+        return _OUTPUTS[name]
+    m = re.fullmatch(r"(theta|B)(\d+)(_d|_dd)?", name)
+    if m:
+        kind, k, order = m.group(1), m.group(2), _ORDER[m.group(3) or ""]
+        unit = ("rad" if kind == "theta" else "m") + _PER[order]
+        # theta_k is link k's absolute angle, B_k the slide of its joint
+        what = {"theta": ("angle", "angular rate", "angular acceleration"),
+                "B": ("slide", "slide rate", "slide acceleration")}[kind][order]
+        base = f"{kind}{k}"
+        return Quantity(name, unit, f"{what} of {'link' if kind == 'theta' else 'joint'} {k}",
+                        (f"{base} (absolute)", f"rate of {base}", f"acceleration of {base}")[order])
+    m = re.fullmatch(r"R(\d+)_(Fx|Fy|Mz)", name)
+    if m:
+        k, c = int(m.group(1)), m.group(2)
+        unit, axis = _FORCE[c]
+        # link k+1's predecessor: link k in a serial chain, its parent in a tree
+        text = (f"moment link {k + 1}'s predecessor exerts on it at its joint" if c == "Mz" else
+                f"{axis}-component of the reaction link {k + 1}'s predecessor exerts on it at its joint")
+        return Quantity(name, unit, f"joint {k + 1} reaction {'moment' if c == 'Mz' else 'force ' + axis}", text)
+    m = re.fullmatch(r"closure(\d+)_(Fx|Fy|Mz)", name)
+    if m:
+        j, c = int(m.group(1)), m.group(2)
+        unit, axis = _FORCE[c]
+        what = "moment" if c == "Mz" else f"force, {axis}"
+        return Quantity(name, unit, f"closure {j} {'moment' if c == 'Mz' else 'force ' + axis}",
+                        f"{what} closure[{j}] exerts on its closing link (world axes)")
+    for a in actuators:
+        for q in ACTUATOR_OUTPUTS:
+            if name == f"{a}_{q.name}":
+                return Quantity(name, q.unit, f"actuator {a} {q.label}", f"actuator {a}'s {q.description}")
+    return None
+
+
+# -- the scene's fields ------------------------------------------------------------------------------------
+ANGLE_UNIT = "rad, or '30 deg'"  # a scene's angles: a number in rad, or a string with its unit
+# a field by the last part of its dotted key: (unit, unit on a slide joint or None, description)
+_FIELDS = {
+    "a": ("m", None, "link vector length"),
+    "p": ("m", None, "mass centre along the link vector"),
+    "q": ("m", None, "mass centre across the link vector"),
+    "m": ("kg", None, "mass (> 0)"),
+    "I": ("kg m^2", None, "centroidal moment of inertia"),
+    "damping": ("N m s/rad", "N s/m", "viscous damping of its real joint"),
+    "gravity": ("m/s^2", None, "gravity g, acting along -y"),
+    "inertia": ("kg m^2", "kg", "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2"),
+    "torque": ("N m", "N", "a constant effort at the joint"),
+    "t_end": ("s", None, "end time"),
+    "dt_out": ("s", None, "output interval"),
+    "max_step": ("s", None, "largest internal step (0: no limit)"),
+    "step": ("s", None, "fixed internal step of rk4"),
+    "mass_per_length": ("kg/m", None, "mass of a bar per metre"),
+    "block_mass": ("kg", None, "mass of a block"),
+    "slider_mass": ("kg", None, "mass of the slider"),
+    "yoke_mass": ("kg", None, "mass of the yoke"),
+    "disc_mass": ("kg", None, "mass of the disc"),
+    "shaft_mass": ("kg", None, "mass of a shaft"),
+    "disc_inertia": ("kg m^2", None, "the disc's moment of inertia"),
+    "shaft_inertia": ("kg m^2", None, "a shaft's moment of inertia"),
+}
+# fields that are words, choices or counts: no unit
+_WORDS = {"name", "description", "kind", "type", "joint", "existence", "parent", "link", "to_link", "method",
+          "from_link", "rtol", "atol", "integrator", "drive_joint", "load_joint", "drive", "load"}
+# a closure's penalty spring and damper act along a line or about a pin: the closure's type decides
+_CLOSURE_FIELDS = {
+    "gain": ("N/m or N m/rad", "penalty closure stiffness G"),
+    "damping": ("N s/m or N m s/rad", "penalty closure damping C"),
+}
+_ANGLE = re.compile(r"(theta\d+|.*_angle|angle|psi|theta1)$")
+
+
+def scene_field(key: str, on_slide: bool | None = None) -> Quantity:
+    """A scene field by its dotted key (``link2.I``, ``gravity``, ``initial.theta3_d``), with its unit.
+
+    ``on_slide``: whether the field belongs to a prismatic joint (a damping in
+    N s/m, an effort in N), None where that is not known (both units, 'N m s/rad
+    or N s/m').  A builder's other numbers are lengths in m.
+
+    Examples
+    --------
+    >>> scene_field("link3.damping", on_slide=False).unit, scene_field("link3.damping", on_slide=True).unit
+    ('N m s/rad', 'N s/m')
+    >>> scene_field("link3.damping").unit
+    'N m s/rad or N s/m'
+    >>> scene_field("initial.theta2_d").unit, scene_field("mechanism.crank_angle").unit
+    ('rad/s', "rad, or '30 deg'")
+    >>> scene_field("mechanism.branch1").unit, scene_field("closure[1].gain").unit
+    ('', 'N/m or N m/rad')
+    """
+    leaf = key.rsplit(".", 1)[-1]
+    if leaf.endswith("_d") and (_ANGLE.match(leaf[:-2]) or re.fullmatch(r"B\d+", leaf[:-2])):
+        return Quantity(key, "rad/s" if _ANGLE.match(leaf[:-2]) else "m/s", leaf, f"initial rate of {leaf[:-2]}")
+    if _ANGLE.match(leaf):
+        return Quantity(key, ANGLE_UNIT, leaf, "an angle")
+    if key.startswith("closure") and leaf in _CLOSURE_FIELDS:
+        return Quantity(key, *_CLOSURE_FIELDS[leaf][:1], leaf, _CLOSURE_FIELDS[leaf][1])
+    if leaf in _FIELDS:
+        unit, slide_unit, text = _FIELDS[leaf]
+        if slide_unit:
+            unit = f"{unit} or {slide_unit}" if on_slide is None else slide_unit if on_slide else unit
+        return Quantity(key, unit, leaf, text)
+    if leaf in _WORDS or leaf.startswith("branch") or leaf.endswith("_side"):
+        return Quantity(key, "", leaf, "")
+    return Quantity(key, "m", leaf, "a length")
+
+
+def fmi_text(q: Quantity) -> str:
+    """A quantity's description as a model description gives it: with its unit in brackets where the
+    joint decides the unit (the variable then declares none).
+
+    Examples
+    --------
+    >>> fmi_text(mechanism_output("closure_error"))
+    'largest closure violation [m or rad]'
+    """
+    return f"{q.description} [{q.unit}]" if q.unit and fmi_unit(q.unit) is None else q.description
+
+
+def fmi_unit(unit: str) -> str | None:
+    """A unit as a model description declares it (``N m`` -> ``N.m``, ``kg m^2`` -> ``kg.m2``); None where the
+    joint decides it (``N m or N``) or there is none.
+
+    Examples
+    --------
+    >>> fmi_unit("N m s/rad"), fmi_unit("rad/s^2"), fmi_unit("N m or N"), fmi_unit("")
+    ('N.m.s/rad', 'rad/s2', None, None)
+    """
+    if not unit or " or " in unit or "," in unit:
+        return None
+    return unit.replace("^", "").replace(" ", ".")
