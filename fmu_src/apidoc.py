@@ -37,6 +37,8 @@ PUBLIC_MODULES = [
     "grubler",
     "grubler.mechanism.inverse",
     "grubler.studies.sizing",
+    "grubler.motors",
+    "grubler.controllers",
 ]
 
 # numpydoc's section titles: a title underlined by dashes becomes a heading
