@@ -37,6 +37,8 @@ PUBLIC_MODULES = [
     "grubler",
     "grubler.mechanism.inverse",
     "grubler.studies.sizing",
+    "grubler.studies.sweep",
+    "grubler.system.ssp",
     "grubler.motors",
     "grubler.controllers",
 ]

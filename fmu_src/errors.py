@@ -177,7 +177,18 @@ class Cancelled(GrublerError):
 
 
 class SystemDescriptionError(GrublerError):
-    """A system description that cannot be run: names the element and the reason."""
+    """A system description that cannot be run: names the element and the reason.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> from grubler.errors import SystemDescriptionError
+    >>> try:
+    ...     ssp.from_xml("<not-an-ssd/>")
+    ... except SystemDescriptionError as e:
+    ...     print(e)
+    SSD: the root element is not-an-ssd, not ssd:SystemStructureDescription
+    """
 
 
 class IntegrationError(GrublerError, RuntimeError):
