@@ -198,6 +198,22 @@ def module_page(module_name: str) -> str:
     return "\n".join(parts)
 
 
+def anchor(name: str, seen: dict[str, int]) -> str:
+    """The anchor a Markdown renderer gives heading ``## name``: lower case, ``-1`` on from the second alike.
+
+    Examples
+    --------
+    >>> from grubler.apidoc import anchor
+    >>> seen = {}
+    >>> anchor("Grashof", seen), anchor("grashof", seen)     # a class and a function on one page
+    ('grashof', 'grashof-1')
+    """
+    key = name.lower()
+    n = seen.get(key, 0)
+    seen[key] = n + 1
+    return key if n == 0 else f"{key}-{n}"
+
+
 def index_page(modules) -> str:
     """``index.md``: every public module and name, each with its one-line summary.
 
@@ -214,9 +230,11 @@ def index_page(modules) -> str:
     for module_name in modules:
         module = importlib.import_module(module_name)
         parts += [f"## [`{module_name}`]({module_name}.md)", "", summary(module), ""]
+        seen: dict[str, int] = {}
         for name in public_names(module):
             obj = getattr(module, name)
-            parts.append(f"- [`{name}`]({module_name}.md#{name.lower()}): {summary(obj) if callable(obj) else ''}".rstrip())
+            parts.append(f"- [`{name}`]({module_name}.md#{anchor(name, seen)}): "
+                         f"{summary(obj) if callable(obj) else ''}".rstrip())
         parts.append("")
     return "\n".join(parts)
 

@@ -95,9 +95,10 @@ def test_the_builder_writes_every_public_name(tmp_path):
     for module_name in apidoc.PUBLIC_MODULES:
         page = (tmp_path / f"{module_name}.md").read_text(encoding="utf-8")
         assert f"[`{module_name}`]({module_name}.md)" in index
+        seen = {}
         for name in apidoc.public_names(importlib.import_module(module_name)):
             assert f"\n## {name}\n" in page, f"{module_name}.{name} missing from its page"
-            assert f"[`{name}`]({module_name}.md#{name.lower()})" in index
+            assert f"[`{name}`]({module_name}.md#{apidoc.anchor(name, seen)})" in index
         assert "```python\n>>> " in page  # the examples come out as code
 
 

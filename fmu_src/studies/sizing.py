@@ -95,6 +95,7 @@ class DutyCycle:
 
     @property
     def period(self) -> float:
+        """Length of one period, s."""
         return float(self.t[-1] - self.t[0])
 
     @staticmethod
