@@ -39,6 +39,7 @@ PUBLIC_MODULES = [
     "grubler.studies.sizing",
     "grubler.studies.sweep",
     "grubler.system.ssp",
+    "grubler.system.servo",
     "grubler.fmi.motor",
     "grubler.motors",
     "grubler.controllers",
