@@ -42,6 +42,8 @@ PUBLIC_MODULES = [
     "grubler.system.servo",
     "grubler.fmi.motor",
     "grubler.motors",
+    "grubler.motors.hydraulic",
+    "grubler.motors.pneumatic",
     "grubler.controllers",
 ]
 
