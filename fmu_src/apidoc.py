@@ -37,6 +37,7 @@ PUBLIC_MODULES = [
     "grubler",
     "grubler.mechanism.inverse",
     "grubler.studies.sizing",
+    "grubler.studies.cylinder_sizing",
     "grubler.studies.sweep",
     "grubler.system.ssp",
     "grubler.system.servo",
