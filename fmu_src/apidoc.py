@@ -40,6 +40,7 @@ PUBLIC_MODULES = [
     "grubler.studies.cylinder_sizing",
     "grubler.studies.sweep",
     "grubler.system.ssp",
+    "grubler.system.cosim",
     "grubler.system.servo",
     "grubler.fmi.motor",
     "grubler.motors",

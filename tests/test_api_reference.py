@@ -20,6 +20,8 @@ NEEDS_BUILT_FMUS = {
     "grubler.studies.sizing.closed_loop_check": "co-simulates the servo system of the built FMUs (python3 build_fmu.py)",
     # tests/test_cylinder_sizing.py::test_the_winner_is_checked_by_co_simulation
     "grubler.studies.cylinder_sizing.cylinder_check": "co-simulates HydraulicCylinder, PID and Trajectory FMUs",
+    # tests/test_container.py::test_what_the_exported_fmu_shows_and_how_its_engine_is_told (the settled starts)
+    "grubler.system.cosim.initial_inputs": "instantiates and initialises every FMU: their binaries, two compiles",
 }
 
 
