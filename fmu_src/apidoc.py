@@ -41,6 +41,7 @@ PUBLIC_MODULES = [
     "grubler.studies.sweep",
     "grubler.system.ssp",
     "grubler.system.cosim",
+    "grubler.system.container",
     "grubler.system.servo",
     "grubler.fmi.motor",
     "grubler.motors",
