@@ -65,6 +65,14 @@ class CascadeController(Law):
         Integral time of the current loop, s; 0 for a P current loop.
     current_limit : float
         Limit of the current setpoint, A (> 0; with a current loop).
+
+    Examples
+    --------
+    >>> from grubler.controllers import CascadeController
+    >>> c = CascadeController(K_position=10.0, K_speed=0.5, Ts=1e-3)
+    >>> c.update(0.0, {"position_setpoint": 0.1, "velocity_setpoint": 0.0, "position": 0.0, "speed": 0.0,
+    ...                "current": 0.0})        # 0.1 rad short: speed setpoint 1 rad/s, voltage 0.5 x 1
+    {'u': 0.5}
     """
 
     inputs = {"position_setpoint": "position setpoint [rad]",

@@ -67,6 +67,14 @@ class ComputedTorque(Law):
         constant (V s/rad), for the voltage feedforward; ``k_t = 0`` gives none.
     Ts : float
         Sample time, s; 0 for once per communication step.
+
+    Examples
+    --------
+    >>> from grubler.controllers import ComputedTorque
+    >>> ff = ComputedTorque("thesis-fourbar")            # no motor: the torque at the crank
+    >>> out = ff.update(0.0, {"position": 0.0, "velocity": 0.0, "acceleration": 0.0})
+    >>> round(out["torque"], 3)                          # N m that holds the crank still at 0 rad
+    5.395
     """
 
     inputs = {"position": "drive joint position from the trajectory [rad]",

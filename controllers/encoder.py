@@ -58,6 +58,17 @@ class Encoder(Law):
         Pure delay, samples (at most ``MAX_DELAY``).
     Ts : float
         Sample time, s.
+
+    Examples
+    --------
+    >>> import math
+    >>> from grubler.controllers import Encoder
+    >>> enc = Encoder(counts_per_rev=1024, Ts=1e-3)
+    >>> first = enc.update(0.0, {"position": 0.01})
+    >>> round(first["measured_position"] / (2 * math.pi / 1024), 6)         # one count
+    1.0
+    >>> round(enc.update(1e-3, {"position": 0.02})["measured_speed"], 3)    # two counts in 1 ms, rad/s
+    12.272
     """
 
     inputs = {"position": "true position [rad]"}

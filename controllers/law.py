@@ -85,6 +85,13 @@ class Parameter:
         What it is, ending with its unit in square brackets, e.g. ``"gain [1]"``.
     start : float, int, str or bool, optional
         The FMU's start value when ``default`` is None.
+
+    Examples
+    --------
+    >>> from grubler.controllers import Parameter
+    >>> p = Parameter(12.0, "output level [V]")
+    >>> p.default, p.description
+    (12.0, 'output level [V]')
     """
 
     default: Any
@@ -114,6 +121,22 @@ class Law:
         once per communication step.
     continuous : bool
         True for a law of time alone, evaluated at the end of each step.
+
+    Examples
+    --------
+    >>> from grubler.controllers import Law, Parameter, Sampler
+    >>> class Bang(Law):
+    ...     inputs = {"error": "position error [rad]"}
+    ...     outputs = {"u": "voltage [V]"}
+    ...     parameters = {"level": Parameter(12.0, "output level [V]"), "Ts": Parameter(1e-3, "sample time [s]")}
+    ...     def __init__(self, level=12.0, Ts=1e-3):
+    ...         self.level, self.Ts = level, Ts
+    ...     def update(self, t, inputs):
+    ...         return {"u": self.level if inputs["error"] > 0 else -self.level}
+    >>> Bang(level=5.0).update(0.0, {"error": -0.1})
+    {'u': -5.0}
+    >>> Sampler(Bang()).step(0.0, 0.01, {"error": 0.2})     # ten samples in a 10 ms step, inputs held
+    {'u': 12.0}
     """
 
     inputs: ClassVar[dict[str, str]] = {}
@@ -222,6 +245,14 @@ class Sampler:
         The held outputs (those of the last sample).
     samples : int
         Number of samples run so far.
+
+    Examples
+    --------
+    >>> from grubler.controllers import PID, Sampler
+    >>> s = Sampler(PID(K=2.0, Ti=0.5, Ts=1e-3))
+    >>> out = s.step(0.0, 0.1, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})  # 100 samples held
+    >>> round(out["u"], 3)              # 2 e + the integral 2/0.5 of e over the step's samples
+    2.396
     """
 
     def __init__(self, law: Law, t0: float = 0.0):

@@ -89,6 +89,15 @@ class LinearController(Law):
     method : str
         Discretisation method of :func:`control.sample_system`; ignored for a
         discrete system.
+
+    Examples
+    --------
+    >>> import control
+    >>> from grubler.controllers import LinearController, Sampler
+    >>> lag = LinearController(control.tf([1.0], [0.1, 1.0]), Ts=1e-3)    # first-order lag, 0.1 s
+    >>> out = Sampler(lag).step(0.0, 0.5, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})
+    >>> round(out["u"], 3)              # 1 - exp(-5) after five time constants
+    0.993
     """
 
     inputs = {"setpoint": "setpoint r [any]", "measurement": "measured process value y [any]",

@@ -78,6 +78,15 @@ class PID(Law):
     Tt : float
         Tracking time of the back-calculation, s; 0 takes ``sqrt(Ti Td)``
         (``Ti`` when Td = 0).
+
+    Examples
+    --------
+    >>> from grubler.controllers import PID
+    >>> pid = PID(K=2.0, Ti=0.5, Ts=1e-3)
+    >>> pid.update(0.0, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})
+    {'u': 2.0}
+    >>> pid.update(1e-3, {"setpoint": 1.0, "measurement": 0.0, "feedforward": 0.0})  # the integral grows K Ts / Ti
+    {'u': 2.004}
     """
 
     inputs = {"setpoint": "setpoint r [any]", "measurement": "measured process value y [any]",

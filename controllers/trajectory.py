@@ -197,6 +197,13 @@ class Trajectory(Law):
         the FMU).
     profile : path, optional
         'table': a CSV file of the points instead (:func:`read_profile`).
+
+    Examples
+    --------
+    >>> from grubler.controllers import Trajectory
+    >>> move = Trajectory(kind="trapezoid", distance=1.0, v_max=1.0, a_max=2.0)   # 1 rad, 1 rad/s, 2 rad/s2
+    >>> [tuple(round(x, 4) for x in move.evaluate(t)) for t in (0.25, 0.75, 1.25, 2.0)]  # (pos, vel, acc)
+    [(0.0625, 0.5, 2.0), (0.5, 1.0, 0.0), (0.9375, 0.5, -2.0), (1.0, 0.0, 0.0)]
     """
 
     inputs: dict[str, str] = {}

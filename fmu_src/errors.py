@@ -6,7 +6,17 @@ import contextlib
 
 
 class GrublerError(Exception):
-    """Base class of every error the library raises on purpose."""
+    """Base class of every error the library raises on purpose.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> try:
+    ...     grubler.load_scene("no-such-scene")
+    ... except grubler.GrublerError as e:       # every refusal of the library is one
+    ...     print(type(e).__name__, "|", e.field)
+    SceneError | scene
+    """
 
 
 class InputError(GrublerError, ValueError):
@@ -42,7 +52,17 @@ class LimitError(InputError):
 
 
 class SceneError(InputError):
-    """A mechanism or scene description that makes no sense (see :class:`InputError`)."""
+    """A mechanism or scene description that makes no sense (see :class:`InputError`).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> try:
+    ...     grubler.scene_from_dict({"link2": {"joint": "R", "a": -1.0, "m": 1.0}})
+    ... except grubler.SceneError as e:
+    ...     print(e.field, "|", e.reason)
+    link2.a | length must be >= 0, got -1.0
+    """
 
 
 class SceneErrors(SceneError):
@@ -131,7 +151,18 @@ class Problems:
 
 
 class AssemblyError(SceneError):
-    """The loop cannot be closed for the given dimensions or initial state."""
+    """The loop cannot be closed for the given dimensions or initial state.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> try:
+    ...     grubler.assemble(m, [0.0, 0.0, 0.0])     # the crank held at 0: the loop cannot close
+    ... except grubler.AssemblyError as e:
+    ...     print(e.field, "|", e.reason[:45])
+    initial | the loop cannot be closed with theta2 = 0 hel
+    """
 
 
 class Cancelled(GrublerError):
@@ -146,7 +177,18 @@ class Cancelled(GrublerError):
 
 
 class SystemDescriptionError(GrublerError):
-    """A system description that cannot be run: names the element and the reason."""
+    """A system description that cannot be run: names the element and the reason.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> from grubler.errors import SystemDescriptionError
+    >>> try:
+    ...     ssp.from_xml("<not-an-ssd/>")
+    ... except SystemDescriptionError as e:
+    ...     print(e)
+    SSD: the root element is not-an-ssd, not ssd:SystemStructureDescription
+    """
 
 
 class IntegrationError(GrublerError, RuntimeError):
@@ -154,6 +196,13 @@ class IntegrationError(GrublerError, RuntimeError):
 
     Its message starts with the field ``integration:``, like every refusal the
     CLI prints: what failed is the run itself, at the time the reason gives.
+
+    Examples
+    --------
+    >>> from grubler import IntegrationError, GrublerError
+    >>> e = IntegrationError("step size underflow at t = 0.25 s")
+    >>> str(e), isinstance(e, GrublerError), isinstance(e, RuntimeError)
+    ('integration: step size underflow at t = 0.25 s', True, True)
     """
 
     field = "integration"

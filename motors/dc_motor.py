@@ -69,6 +69,12 @@ class Gearbox:
         N >= 1: motor speed / output speed.
     efficiency : float
         eta in (0, 1], applied in the direction of power flow.
+
+    Examples
+    --------
+    >>> from grubler.motors import Gearbox
+    >>> Gearbox(ratio=50.0, efficiency=0.9), Gearbox()
+    (Gearbox(ratio=50.0, efficiency=0.9), Gearbox(ratio=1.0, efficiency=1.0))
     """
 
     ratio: float = 1.0
@@ -93,6 +99,12 @@ class Drive:
         V_supply [V]: the terminal voltage is clamped to ±V_supply.
     current_limit : float
         I_max [A] of the current limiter (``math.inf``: none).
+
+    Examples
+    --------
+    >>> from grubler.motors import Drive
+    >>> Drive(24.0)                                   # 24 V supply, no current limit
+    Drive(supply_voltage=24.0, current_limit=inf)
     """
 
     supply_voltage: float
@@ -128,6 +140,10 @@ class DCMotor:
     0.00134
     >>> m.drive.supply_voltage
     48.0
+    >>> from grubler.motors import DCMotor, Drive, Gearbox, load_motor
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(ratio=50.0, efficiency=0.9), Drive(48.0, current_limit=10.0))
+    >>> round(m.reflected_inertia, 4)                 # J_rotor N^2, kg m2: the mechanism's drive.inertia
+    0.0335
     """
 
     data: MotorData
@@ -194,6 +210,15 @@ class MotorState:
         Winding current i [A].
     temperature : float
         Winding temperature T [degC].
+
+    Examples
+    --------
+    >>> from grubler.motors import DCMotor, MotorState, load_motor, step
+    >>> m = DCMotor(load_motor("maxon-re40-148877"))
+    >>> s = MotorState(current=0.0, temperature=25.0)
+    >>> s2, _ = step(m, s, 12.0, 0.0, 1e-3)           # a new state; s is unchanged
+    >>> s.current, round(s2.current, 3)
+    (0.0, 10.037)
     """
 
     current: float
@@ -208,6 +233,18 @@ def initial_state(motor: DCMotor, current: float = 0.0, temperature: float | Non
     SceneError
         ``initial_current`` beyond the current limit or not finite;
         ``initial_temperature`` not finite or below where R(T) vanishes.
+
+    Examples
+    --------
+    >>> from grubler.motors import DCMotor, Drive, initial_state, load_motor
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), drive=Drive(48.0, current_limit=10.0))
+    >>> initial_state(m)                              # at rest, winding at ambient
+    MotorState(current=0.0, temperature=25.0)
+    >>> try:
+    ...     initial_state(m, current=20.0)
+    ... except Exception as e:
+    ...     print(type(e).__name__, e.field)
+    SceneError initial_current
     """
     t = motor.ambient_temperature if temperature is None else temperature
     for name, value in (("initial_current", current), ("initial_temperature", t)):
@@ -242,6 +279,14 @@ class MotorOutputs:
         k_e x motor speed [V].
     terminal_voltage : float
         The voltage the drive applies [V] (command after the clamp and the current limiter).
+
+    Examples
+    --------
+    >>> from grubler.motors import DCMotor, Gearbox, initial_state, load_motor, outputs
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(50.0, 0.9))
+    >>> out = outputs(m, initial_state(m), voltage=12.0, shaft_speed=1.0)
+    >>> out.current, round(out.motor_speed, 1), round(out.back_emf, 3), out.terminal_voltage
+    (0.0, 50.0, 3.022, 12.0)
     """
 
     shaft_torque: float
@@ -336,6 +381,11 @@ def current_for_torque(motor: DCMotor, torque, motor_speed):
     >>> i = current_for_torque(m, 2.0, 500.0)
     >>> round(float(shaft_torque(m, float(i), 500.0)), 12)
     2.0
+    >>> from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque, load_motor, shaft_torque
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(50.0, 0.9), Drive(48.0, 10.0))
+    >>> i = current_for_torque(m, 5.0, 0.0)          # 5 N m at the gearbox output, at standstill
+    >>> round(float(i), 4), round(float(shaft_torque(m, i, 0.0)), 6)
+    (1.6584, 5.0)
     """
     torque, w = np.broadcast_arrays(np.asarray(torque, float), np.asarray(motor_speed, float))
     current = np.empty(torque.shape)  # before ascontiguousarray, which makes a 0-d array 1-d
@@ -384,6 +434,11 @@ def linearization(motor: DCMotor, state: MotorState, shaft_speed: float) -> Moto
     True
     >>> round(lin.dtau_di, 6) == round(50.0 * d.torque_constant, 6)       # N k_t at standstill
     True
+    >>> from grubler.motors import DCMotor, Gearbox, initial_state, linearization, load_motor
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(50.0, 0.9))
+    >>> lin = linearization(m, initial_state(m), shaft_speed=1.0)
+    >>> round(lin.di_dvoltage, 1), round(lin.dtau_di, 4)      # 1/L (A/s per V), k_t N eta (N m per A)
+    (3030.3, 3.35)
     """
     out = (ctypes.c_double * 5)()
     _call(native.functions().dcm_linearize(ctypes.byref(motor._params),
@@ -419,6 +474,11 @@ def step(motor: DCMotor, state: MotorState, voltage: float, shaft_speed: float,
     >>> s, out = step(m, initial_state(m), 1.0, 0.0, 0.005)
     >>> round(out.current, 6), round(1.0 / 1.16, 6)
     (0.862069, 0.862069)
+    >>> from grubler.motors import DCMotor, Drive, Gearbox, initial_state, load_motor, step
+    >>> m = DCMotor(load_motor("maxon-re40-148877"), Gearbox(50.0, 0.9), Drive(48.0, current_limit=10.0))
+    >>> state, out = step(m, initial_state(m), voltage=24.0, shaft_speed=0.0, dt=1e-3)
+    >>> state.current, round(out.shaft_torque, 2)     # the current limiter holds 10 A
+    (10.0, 30.15)
     """
     voltage, shaft_speed, dt = float(voltage), float(shaft_speed), float(dt)
     s, out = native.State(state.current, state.temperature), native.Outputs()

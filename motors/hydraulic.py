@@ -19,6 +19,14 @@ Examples
 (170, 0)
 >>> round(out["force"] / 1e3, 1)                                    # kN, p_A times the bore's area
 33.3
+
+:data:`FIELDS` describes each constant (description, unit, lower bound) and
+:data:`OUTPUT_FIELDS` names what a step returns:
+
+>>> FIELDS["relief_pressure"]
+('cracking pressure of the relief valve (gauge)', 'Pa', 0.0)
+>>> OUTPUT_FIELDS[:4]
+('force', 'pressure_a', 'pressure_b', 'supply_pressure')
 """
 
 from __future__ import annotations
@@ -129,6 +137,15 @@ class CylinderSimulator(CylinderRun):
 
     Methods ``step(command, length, rate, dt)`` and ``observe(command, length,
     rate)`` return the outputs by name (:data:`OUTPUT_FIELDS`).
+
+    Examples
+    --------
+    >>> sim = CylinderSimulator(DEFAULT, pressure_a=50e5)     # 50 bar in the cap side at the start
+    >>> out = sim.observe(command=0.0, length=0.6, rate=0.0)  # the outputs now, without stepping
+    >>> round(out["force"])                # N: 50 bar on the 50 mm bore
+    9817
+    >>> round(out["position"], 3)          # m: 0.6 m between the attachments, 0.5 m retracted
+    0.1
     """
 
     def __init__(self, cylinder: HydraulicCylinder, pressure_a: float | None = None,

@@ -136,6 +136,16 @@ float or None
     0.001
     >>> round(m.mechanical_time_constant, 6)  # J R / (k_t k_e)
     0.004
+    >>> from grubler.motors import MotorData, load_motor
+    >>> d = load_motor("maxon-re40-148877")
+    >>> d.resistance, d.torque_constant, d.nominal_voltage     # Ohm, N m/A, V
+    (1.16, 0.0603, 48.0)
+    >>> mine = MotorData.from_datasheet(name="my-motor", source="my datasheet", terminal_resistance_ohm=2.0,
+    ...                                 terminal_inductance_mH=0.5, torque_constant_mNm_per_A=30.0,
+    ...                                 rotor_inertia_gcm2=20.0, thermal_resistance_K_per_W=8.0,
+    ...                                 thermal_time_constant_s=600.0)
+    >>> mine.torque_constant, round(mine.rotor_inertia, 9)    # in SI units
+    (0.03, 2e-06)
     """
 
     name: str
@@ -462,6 +472,9 @@ def two_node_slow_time_constant(r1: float, r2: float, tau_w: float, tau_m: float
     1223.8
     >>> round(two_node_slow_time_constant(1.0, 1.0, 1e-6, 100.0), 3)  # a massless winding: tau_m
     100.0
+    >>> from grubler.motors import two_node_slow_time_constant
+    >>> round(two_node_slow_time_constant(1.65, 4.65, 41.6, 1120.0), 1)   # RE 40's datasheet figures
+    1241.3
     """
     a, b, c = 1.0 / tau_w, r2 / (r1 * tau_m), 1.0 / tau_m
     trace, det = -(a + b + c), a * c
@@ -535,6 +548,10 @@ def load_motor(spec: str | Path) -> MotorData:
     Traceback (most recent call last):
     ...
     grubler.errors.SceneError: datasheet.rotor_inertia_gcm2: must be positive, got -3.0 (motor 'bad')
+    >>> from grubler.motors import load_motor
+    >>> d = load_motor("maxon-re40-148877")            # a shipped data set (or a TOML file's path, or TOML text)
+    >>> d.name, round(d.rotor_inertia * 1e7, 1)       # g cm2
+    ('maxon-re40-148877', 134.0)
     """
     text, where = _read_spec(spec)
     try:
@@ -612,6 +629,10 @@ def motor_listing(names=None) -> list[str]:
     ['[V]', '[mN', 'm]']
     >>> lines[3].split()[:3]
     ['maxon-re40-148877', '48', '187']
+    >>> from grubler.motors import motor_listing
+    >>> rows = motor_listing(["maxon-re40-148877"])
+    >>> rows[3].split()[:5]                           # name, nominal voltage, torque, speed, stall torque
+    ['maxon-re40-148877', '48', '187', '6920', '2500']
     """
     motors = [load_motor(n) for n in (list_motors() if names is None else names)]
     width = max([len("motor")] + [len(m.name) for m in motors])

@@ -15,6 +15,14 @@ Examples
 (6.0, 0.0)
 >>> round(out["force"])                                             # N: 6 bar on a 32 mm bore, less nothing
 483
+
+:data:`FIELDS` describes each constant (description, unit, lower bound) and
+:data:`OUTPUT_FIELDS` names what a step returns:
+
+>>> FIELDS["bore"]
+('piston diameter D', 'm', 0.0)
+>>> OUTPUT_FIELDS[:3]
+('force', 'pressure_a', 'pressure_b')
 """
 
 from __future__ import annotations
@@ -115,6 +123,15 @@ class PneumaticSimulator(CylinderRun):
 
     Methods ``step(command, length, rate, dt)`` and ``observe(command, length,
     rate)`` return the outputs by name (:data:`OUTPUT_FIELDS`).
+
+    Examples
+    --------
+    >>> sim = PneumaticSimulator(DEFAULT, pressure_a=3e5)     # 3 bar in the cap side at the start
+    >>> out = sim.observe(command=0.0, length=0.25, rate=0.0)  # the outputs now, without stepping
+    >>> round(out["force"])                # N: 3 bar on the 32 mm bore
+    241
+    >>> round(out["position"], 3)          # m: 0.25 m between the attachments, 0.2 m retracted
+    0.05
     """
 
     def __init__(self, cylinder: PneumaticCylinder, pressure_a: float | None = None,

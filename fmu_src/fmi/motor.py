@@ -21,6 +21,8 @@ from grubler.fmi.variables import INPUT, OUTPUT, PARAMETER, REAL, ModelSpec, Var
 
 DEFAULT_MOTOR = "maxon-re40-148877"
 
+__all__ = ["motor_parameters", "motor_spec"]
+
 # the C model's dcm_params, in its field order: name -> (description, unit, min)
 DATA = {
     "resistance": ("winding resistance at reference_temperature", "Ohm", 0.0),
@@ -81,6 +83,17 @@ def motor_parameters(motor=DEFAULT_MOTOR) -> dict[str, float]:
 
     The supply defaults to the motor's nominal voltage, the start to ambient
     temperature and no current.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> from grubler.fmi.motor import motor_parameters
+    >>> p = motor_parameters("maxon-re40-148877")
+    >>> p["resistance"], p["torque_constant"], p["supply_voltage"]      # Ohm, N m/A, V
+    (1.16, 0.0603, 48.0)
+    >>> motor = ssp.System("pair").add("motor", "DCMotor.fmu", **p, gear_ratio=50.0)   # the FMU made that motor
+    >>> len(motor.parameters)
+    15
     """
     from grubler.motors.motor_data import MotorData, load_motor
 
@@ -95,7 +108,15 @@ def motor_parameters(motor=DEFAULT_MOTOR) -> dict[str, float]:
 
 
 def motor_spec(motor=DEFAULT_MOTOR, identifier: str = "DCMotor") -> ModelSpec:
-    """The variables of a DC motor FMU whose parameters default to a data set's."""
+    """The variables of a DC motor FMU whose parameters default to a data set's.
+
+    Examples
+    --------
+    >>> from grubler.fmi.motor import motor_spec
+    >>> spec = motor_spec("maxon-re40-148877")
+    >>> spec.identifier, spec.variables[spec.vr("resistance") - 1].start
+    ('DCMotor', 1.16)
+    """
     start = {"gear_ratio": 1.0, "gear_efficiency": 1.0, "current_limit": 0.0, "ambient_temperature": 25.0,
              "max_substep": 0.01, "initial_current": 0.0, "initial_temperature": 25.0}
     start.update(motor_parameters(motor))

@@ -39,6 +39,13 @@ class Grashof:
         The two sides of the condition, m.
     detail : str
         One line for people.
+
+    Examples
+    --------
+    >>> from grubler import grashof
+    >>> g = grashof(ground=1.0, crank=0.2, coupler=0.8, rocker=0.8)
+    >>> g.kind, g.grashof, round(g.s_plus_l, 3), round(g.p_plus_q, 3)
+    ('crank-rocker', True, 1.2, 1.6)
     """
 
     kind: str
@@ -125,7 +132,15 @@ def _pin_lengths(model: "Mechanism") -> tuple[float, float, float, float]:
 
 
 def classify(model: "Mechanism") -> Classification:
-    """Chain type and inversion of a mechanism (MODEL.md section 1)."""
+    """Chain type and inversion of a mechanism (MODEL.md section 1).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> c = grubler.classify(grubler.load_scene("thesis-fourbar").mechanism)
+    >>> c.name, c.mobility, c.grashof.kind
+    ('four-bar (crank-rocker)', 1, 'crank-rocker')
+    """
     mob = model.mobility
     if not model.closures:
         return Classification("open", model.kind or f"open chain of {model.n_links} links", mob, None, None)

@@ -110,6 +110,15 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
     ------
     AssemblyError
         When the loop cannot close with the held coordinate at its value.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> guess = m.z_from_q(m.q_ref) + [0.0, 0.05, -0.05]   # the crank's angle is held, the rest closed
+    >>> z, zd = grubler.assemble(m, guess)
+    >>> z.round(4), zd
+    (array([ 0.    ,  1.0472, -2.0944]), array([0., 0., 0.]))
     """
     z = np.array(z0, dtype=float)
     zd = np.zeros(model.n_free) if zd0 is None else np.array(zd0, dtype=float)

@@ -75,6 +75,12 @@ class Inputs:
     actuators : tuple of float
         Force of each of the model's actuators, in its order, N (positive
         pushing its points apart); missing ones are 0.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> grubler.Inputs(drive=3.0)          # 3 N m on the drive joint, nothing else
+    Inputs(drive=3.0, load=0.0, actuators=())
     """
 
     drive: float = 0.0
@@ -157,6 +163,15 @@ def forward_dynamics(
     numpy.linalg.LinAlgError
         When the matrix to solve is singular (a real coordinate without inertia
         and without a closure to carry it).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z, zd = m.z_from_q(m.q_ref), [0.0, 0.0, 0.0]      # the start, at rest
+    >>> dyn = grubler.forward_dynamics(m, z, zd, grubler.Inputs(drive=3.0))
+    >>> dyn.zdd[:2].round(3), dyn.lam.round(3)   # crank and coupler accelerations (rad/s^2), closing force (N)
+    (array([-10.359,  12.949]), array([-8.687, 28.596]))
     """
     tab = tables(model)
     put_actuator_forces(model, tab.work, inputs)
@@ -178,6 +193,17 @@ def joint_reactions(model: Mechanism, dyn: Dynamics, inputs: Inputs) -> np.ndarr
     Returns
     -------
     ndarray, shape (N, 3)
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z, zd = m.z_from_q(m.q_ref), [0.0, 0.0, 0.0]
+    >>> dyn = grubler.forward_dynamics(m, z, zd, grubler.Inputs(drive=3.0))
+    >>> grubler.joint_reactions(m, dyn, grubler.Inputs(drive=3.0)).round(3)   # rows: links 2, 3, 4; Fx, Fy, Mz
+    array([[ 4.202, 24.567,  2.741],
+           [ 4.202, 15.792, -1.295],
+           [ 5.996, -0.72 , -0.777]])
     """
     out = np.empty(3 * model.n_links)
     binding.library().grb_joint_reactions(model.arrays.c, binding.address(dyn.tables.work), binding.address(out))
@@ -198,6 +224,16 @@ def inverse_dynamics(
         Effort at the drive joint, N m or N.
     lam : ndarray
         Closure multipliers (force on the closing link).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z, zd = m.z_from_q(m.q_ref), [0.0, 0.0, 0.0]
+    >>> dyn = grubler.forward_dynamics(m, z, zd, grubler.Inputs(drive=3.0))
+    >>> drive, lam = grubler.inverse_dynamics(m, z, zd, dyn.zdd)   # the torque that makes that motion
+    >>> round(drive, 9)
+    3.0
     """
     if model.drive is None:
         raise ValueError("inverse_dynamics needs a model with a drive joint")

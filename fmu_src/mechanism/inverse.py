@@ -47,6 +47,18 @@ class DriveDemand:
         Every real joint's coordinates, rates and accelerations.
     closing_force : ndarray, shape (n_samples, 2)
         Force (N) of the first closure on the closing link, world frame.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> from grubler.mechanism.inverse import drive_demand
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> d = drive_demand(m, [0.0, 0.5], [0.0, 0.0], [0.0, 0.0])   # the crank held still at 0 and 0.5 rad
+    >>> d.torque.round(3), d.z.shape                               # holding torque, N m; 3 real joints
+    (array([5.395, 3.5  ]), (2, 3))
+    >>> d.closing_force.round(3)                                   # the ground pin's force on link 4, N
+    array([[-7.08 , 26.978],
+           [-7.072, 30.15 ]])
     """
 
     position: np.ndarray
@@ -90,6 +102,16 @@ def drive_demand(model: Mechanism, position, velocity, acceleration, load=0.0,
         No drive joint, mobility other than one, or inconsistent sample counts.
     AssemblyError
         Where the loop cannot close at a sample's drive position.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.mechanism.inverse import drive_demand
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> t = np.linspace(0.0, 1.0, 5)                     # one turn a second
+    >>> d = drive_demand(m, 2 * np.pi * t, np.full(5, 2 * np.pi), np.zeros(5))
+    >>> d.torque.round(3)
+    array([ 2.653,  0.129, -6.991,  3.259,  2.653])
     """
     if model.drive is None:
         raise SceneError("drive.joint", "a drive demand needs the joint the drive acts on")

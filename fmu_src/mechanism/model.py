@@ -48,6 +48,16 @@ def kutzbach_mobility(n_bodies: int, n_lower_pairs: int, n_higher_pairs: int = 0
         One-freedom joints (revolute, prismatic).
     n_higher_pairs : int
         Two-freedom joints (cam, rolling with slip).
+
+    Examples
+    --------
+    >>> from grubler import kutzbach_mobility
+    >>> kutzbach_mobility(4, 4)       # four-bar: 4 links (ground included), 4 revolutes
+    1
+    >>> kutzbach_mobility(6, 7)       # Watt or Stephenson six-bar
+    1
+    >>> kutzbach_mobility(5, 5)       # five-bar: two inputs
+    2
     """
     return 3 * (n_bodies - 1) - 2 * n_lower_pairs - n_higher_pairs
 
@@ -79,6 +89,13 @@ class Link:
         point (a, B) as in the serial chain, so two links hanging from one
         predecessor differ in their slide B: a ternary link carries its two
         children on the line across its vector's end.
+
+    Examples
+    --------
+    >>> from grubler import Link
+    >>> crank = Link("R", a=0.2, p=0.1, m=1.0, I=0.1)   # a 0.2 m crank turning about its revolute
+    >>> crank.joint, crank.a, crank.m, crank.existence
+    ('R', 0.2, 1.0, (0, 1))
     """
 
     joint: str
@@ -119,6 +136,13 @@ class Closure:
     gain, damping : float
         Penalty closure only (the thesis's imaginary joint): stiffness G
         (N/m and N m/rad) and damping C (N s/m and N m s/rad).
+
+    Examples
+    --------
+    >>> from grubler import Closure
+    >>> pin = Closure("revolute", link=4, point=(0.8, 0.0), to_point=(1.0, 0.0))  # link 4's tip on the ground pivot (1, 0)
+    >>> pin.to_link, pin.to_point
+    (1, (1.0, 0.0))
     """
 
     kind: str
@@ -337,6 +361,18 @@ class Mechanism:
     actuators : sequence of Actuator
         Linear actuators between links: each takes a force as an input and
         gives its length and rate.
+
+    Examples
+    --------
+    >>> import math
+    >>> from grubler import Closure, Link, Mechanism
+    >>> fourbar = Mechanism(
+    ...     links=(Link("R", a=0.2, p=0.1, m=1.0, I=0.1), Link("R", a=0.8, p=0.4, m=2.0, I=0.2),
+    ...            Link("R", a=0.8, p=0.4, m=3.0, I=0.3)),
+    ...     closures=(Closure("revolute", link=4, point=(0.8, 0.0), to_point=(1.0, 0.0)),),
+    ...     q_ref=(0.0, 0.0, 0.0, math.pi / 3, 0.0, -math.pi / 3))
+    >>> fourbar.mobility, fourbar.free_names
+    (1, ['theta2', 'theta3', 'theta4'])
     """
 
     links: tuple[Link, ...]

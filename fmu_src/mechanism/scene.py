@@ -76,6 +76,13 @@ class Scene:
         Closure method, 'exact' or 'penalty'.
     t_end, dt_out : float
         Default run length and output interval, s.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> sc = grubler.load_scene("slider-crank")
+    >>> sc.torque, sc.method, sc.t_end, sc.mechanism.n_links
+    (1.0, 'exact', 10.0, 3)
     """
 
     mechanism: Mechanism
@@ -158,6 +165,14 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         Naming the field at fault; :class:`~grubler.errors.SceneErrors` (one
         line per problem) when a scene has several problems: every check that
         does not need another's result runs before anything is refused.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> sc = grubler.scene_from_dict({"link2": {"joint": "R", "a": 0.5, "m": 1.0}, "closure": {"type": "none"},
+    ...                               "drive": {"joint": "theta2", "torque": 0.5}}, name="pendulum")
+    >>> sc.mechanism.name, sc.torque
+    ('pendulum', 0.5)
     """
     data = dict(data)
     found = Problems()
@@ -398,7 +413,15 @@ def _pair(v, field: str) -> tuple[float, float]:
 
 
 def preset_names() -> list[str]:
-    """Names of the presets shipped with the package."""
+    """Names of the presets shipped with the package.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> names = grubler.preset_names()
+    >>> "thesis-fourbar" in names, "watt-ii" in names
+    (True, True)
+    """
     folder = resources.files("grubler") / "presets"
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
@@ -414,6 +437,22 @@ def load_scene(source: str | Path) -> Scene:
     ------
     SceneError
         Naming the field at fault.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> grubler.load_scene("thesis-slider-crank").mechanism.name     # a preset
+    'thesis-slider-crank'
+    >>> pendulum = grubler.load_scene('''
+    ... [link2]
+    ... joint = "R"
+    ... a = 0.5
+    ... m = 1.0
+    ... [closure]
+    ... type = "none"
+    ... ''')                                                          # TOML text (or a file's path)
+    >>> pendulum.mechanism.n_links, pendulum.mechanism.mobility
+    (1, 1)
     """
     src = str(source)
     if src in preset_names():

@@ -71,6 +71,19 @@ class ActuatorDemand:
         must give along its line (N, positive pushing apart).
     lever : ndarray
         dL/dx: how its length changes with the drive joint (m/rad, or m/m).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism           # the jib lifted 0.1 rad
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> d = actuator_demand(boom, "lift", cycle)
+    >>> round(float(d.length.min()), 3), round(float(d.length.max()), 3)     # m: the cylinder's lengths
+    (1.226, 1.311)
+    >>> round(float(abs(d.force).max()) / 1e3, 1)                            # kN: the peak force it must give
+    11.7
     """
 
     t: np.ndarray
@@ -89,6 +102,21 @@ def actuator_demand(model: Mechanism, actuator: str, cycle: DutyCycle) -> Actuat
         Naming ``actuator`` for one the mechanism does not have, or
         ``duty_cycle`` where the actuator's length does not change with the
         drive joint (it cannot drive the mechanism there).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> d = actuator_demand(boom, "lift", cycle)
+    >>> round(float(d.lever[0]), 3)           # m/rad: the cylinder lengthens 0.86 m per radian of the jib
+    0.864
+    >>> actuator_demand(boom, "tilt", cycle)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: actuator: no actuator named 'tilt'; the mechanism's: lift
     """
     from grubler.mechanism.simulate import actuator_lines
 
@@ -119,6 +147,15 @@ class CylinderCandidate:
     ``constants`` are :class:`grubler.motors.hydraulic.HydraulicCylinder` fields
     (the valve, pump, seals, stroke); the rod is ``rod_ratio`` of the bore and
     the supply pressure is the relief valve's cracking pressure.
+
+    Examples
+    --------
+    >>> c = CylinderCandidate(bore=0.063, pressure=100e5)
+    >>> c.label
+    '63 mm bore, 100 bar'
+    >>> cyl = c.cylinder()                      # a HydraulicCylinder: the rod 0.56 of the bore, relief at the pressure
+    >>> round(cyl.rod * 1e3, 2), cyl.relief_pressure
+    (35.28, 10000000.0)
     """
 
     bore: float
@@ -141,7 +178,21 @@ class CylinderCandidate:
 
 @dataclass
 class CylinderAssessment:
-    """One candidate held against a demand: its margins and, where they fall short, why."""
+    """One candidate held against a demand: its margins and, where they fall short, why.
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> a = assess_cylinder(actuator_demand(boom, "lift", cycle), CylinderCandidate(0.063, 100e5))
+    >>> a.feasible, a.binding                   # every margin at least 1; the rod's buckling is the nearest
+    (True, 'buckling')
+    >>> {k: round(m, 2) for k, m in a.margins.items()}
+    {'force': 2.56, 'flow': 3.72, 'stroke': 3.53, 'buckling': 2.19}
+    """
 
     candidate: CylinderCandidate
     margins: dict[str, float]
@@ -167,7 +218,21 @@ class CylinderAssessment:
 
 
 def assess_cylinder(demand: ActuatorDemand, candidate: CylinderCandidate) -> CylinderAssessment:
-    """Margins of one candidate over the demand (see the module's notes)."""
+    """Margins of one candidate over the demand (see the module's notes).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> a = assess_cylinder(actuator_demand(boom, "lift", cycle), CylinderCandidate(0.04, 100e5))
+    >>> a.feasible
+    False
+    >>> a.failures                              # the 22 mm rod of a 40 mm bore buckles
+    ['buckling: the 22.4 mm rod at 1.31 m buckles at 14.9 kN, 3.5 times the peak push 11.95 kN needs more (margin 0.356)']
+    """
     c = candidate.cylinder()
     area_a, area_b = c.areas
     k = c.nominal_flow / math.sqrt(c.nominal_pressure_drop)
@@ -209,7 +274,21 @@ def assess_cylinder(demand: ActuatorDemand, candidate: CylinderCandidate) -> Cyl
 
 @dataclass
 class CylinderStudy:
-    """Every candidate's assessment; ``ranked`` the feasible ones, least installed power first."""
+    """Every candidate's assessment; ``ranked`` the feasible ones, least installed power first.
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> study = size_cylinder(boom, "lift", cycle, bores=[0.05, 0.063], pressures=[100e5, 160e5])
+    >>> [a.candidate.label for a in study.ranked]     # least installed power first
+    ['63 mm bore, 100 bar', '63 mm bore, 160 bar']
+    >>> [a.candidate.label for a in study.rejected]
+    ['50 mm bore, 100 bar', '50 mm bore, 160 bar']
+    """
 
     demand: ActuatorDemand
     assessments: list[CylinderAssessment]
@@ -253,6 +332,21 @@ def size_cylinder(model: Mechanism, actuator: str, cycle: DutyCycle, bores, pres
     SceneError
         Naming the field: an empty or non-positive bore or pressure list, a rod
         ratio outside (0, 1), the actuator (see :func:`actuator_demand`).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> study = size_cylinder(boom, "lift", cycle, bores=[0.063], pressures=[100e5, 160e5])
+    >>> study.best.candidate.label, round(study.best.power)      # W: the supply pressure times the peak flow
+    ('63 mm bore, 100 bar', 1343)
+    >>> size_cylinder(boom, "lift", cycle, bores=[0.063], pressures=[])
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: pressures: needs at least one candidate
     """
     from grubler.errors import InputError
     from grubler.limits import number
@@ -276,7 +370,17 @@ def size_cylinder(model: Mechanism, actuator: str, cycle: DutyCycle, bores, pres
 
 @dataclass
 class CylinderCheck:
-    """The winner co-simulated: what the prediction said against what the run did."""
+    """The winner co-simulated: what the prediction said against what the run did.
+
+    Examples
+    --------
+    >>> check = CylinderCheck(predicted_force=30e3, simulated_force=31e3, peak_pressure=95e5,
+    ...                       supply_pressure=100e5, peak_error=0.004, final_error=0.0002, sweep=0.1)
+    >>> check.fits                              # at the end, within the supply, the force as predicted to 20 %
+    True
+    >>> print(check.lines()[0])
+    co-simulated: peak cylinder force 31 kN (predicted 30 kN), peak chamber pressure 95 bar of 100, tracking error peak 4 mm, final 0.2 mm over a 100 mm sweep: it fits
+    """
 
     predicted_force: float
     simulated_force: float
@@ -308,6 +412,18 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
 
     ``fmu_dir`` holds HydraulicCylinder.fmu, PID.fmu and Trajectory.fmu (``python
     build_fmu.py``); the mechanism's FMU is exported there if needed.
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> from grubler.controllers.trajectory import Trajectory
+    >>> boom = load_scene("luffing-boom").mechanism
+    >>> move = Trajectory("trapezoid", distance=0.1, v_max=0.05, a_max=0.2)
+    >>> cycle = DutyCycle.from_trajectory(move, move.move_time + 0.5, n=101, start=boom.q_ref[1])
+    >>> study = size_cylinder(boom, "lift", cycle, bores=[0.063], pressures=[100e5])
+    >>> check = cylinder_check(study, "luffing-boom", "lift", "dist")  # doctest: +SKIP
+    >>> check.fits                                                       # doctest: +SKIP
+    True
     """
     from grubler.controllers.native_fmu import export_table
     from grubler.system.cosim import run

@@ -99,6 +99,13 @@ class OperatingPoint:
         The motor's winding current (A) and the voltage that holds it (V), with a motor.
     effort_units : dict
         The units of ``drive`` and ``load``: 'N m' on a revolute, 'N' on a slide.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> op = grubler.operating_point("thesis-fourbar-damped")    # at rest under gravity
+    >>> op.kind, op.independent, round(float(op.coordinates["theta2"]), 4), op.drive
+    ('equilibrium', ('theta2',), -1.9649, 0.0)
     """
 
     kind: str

@@ -67,6 +67,23 @@ class DutyCycle:
     t, position, velocity, acceleration, load : ndarray
         Samples over one period (``t`` from 0 to the period, both ends).
     name : str
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.studies.sizing import DutyCycle, required_drive
+    >>> cycle = DutyCycle.constant_speed(2 * np.pi, n=5)     # one turn at 1 rev/s, 5 samples
+    >>> cycle.t, cycle.position.round(3), cycle.period, cycle.name
+    (array([0.  , 0.25, 0.5 , 0.75, 1.  ]), array([0.   , 1.571, 3.142, 4.712, 6.283]), 1.0, 'constant 6.28319 rad/s')
+    >>> from grubler.controllers import Trajectory             # a half-turn move and back, from a setpoint generator
+    >>> move = Trajectory(kind="trapezoid", distance=np.pi, v_max=2 * np.pi, a_max=8 * np.pi, dwell=0.25,
+    ...                   reverse=True, repeat=0)                     # 0.75 s moving, 0.25 s still, then back
+    >>> back_and_forth = DutyCycle.from_trajectory(move, period=2.0, n=201)
+    >>> round(float(back_and_forth.position.max()), 4), round(float(back_and_forth.velocity.max()), 4)
+    (3.1416, 6.2832)
+    >>> rec = DutyCycle.recorded(np.linspace(0, 1, 11), np.sin(np.linspace(0, 1, 11)))  # measured positions
+    >>> round(float(rec.velocity[0]), 2)                       # d/dt sin(t) at 0, from the spline
+    1.0
     """
 
     t: np.ndarray
@@ -78,6 +95,7 @@ class DutyCycle:
 
     @property
     def period(self) -> float:
+        """Length of one period, s."""
         return float(self.t[-1] - self.t[0])
 
     @staticmethod
@@ -121,7 +139,16 @@ class DutyCycle:
 
 @dataclass(frozen=True)
 class Candidate:
-    """A motor, a gear ratio and the power stage it would run on."""
+    """A motor, a gear ratio and the power stage it would run on.
+
+    Examples
+    --------
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import Candidate
+    >>> c = Candidate(load_motor("maxon-re40-148877"), ratio=50.0, supply_voltage=48.0, current_limit=10.0)
+    >>> c.label, c.efficiency
+    ('maxon-re40-148877 x 50', 0.9)
+    """
 
     motor: object  # grubler.motors.MotorData
     ratio: float
@@ -144,7 +171,22 @@ SUMMARY_UNITS = {"peak_motor_torque": "N m", "rms_motor_torque": "N m", "peak_mo
 
 @dataclass
 class Assessment:
-    """What one candidate needs over the cycle and its margins."""
+    """What one candidate needs over the cycle and its margins.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import Candidate, DutyCycle, assess, required_drive
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> cycle = DutyCycle.constant_speed(2 * np.pi, n=200)
+    >>> a = assess(required_drive(m, cycle), cycle, Candidate(load_motor("maxon-re40-148877"), 50.0))
+    >>> a.feasible, a.binding, round(a.min_margin, 3)
+    (True, 'continuous torque', 2.052)
+    >>> s = a.summary()
+    >>> round(s["peak_current"], 3), round(s["peak_voltage"], 2), round(s["temperature_rise"], 2)
+    (2.748, 22.41, 18.71)
+    """
 
     candidate: Candidate
     motor_torque: np.ndarray  # at the motor shaft, N m
@@ -251,7 +293,17 @@ def _rms(x: np.ndarray, t: np.ndarray | None = None) -> float:
 
 
 def required_drive(model: Mechanism, cycle: DutyCycle) -> DriveDemand:
-    """The drive joint's torque over the cycle, without any motor's rotor inertia."""
+    """The drive joint's torque over the cycle, without any motor's rotor inertia.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.studies.sizing import DutyCycle, required_drive
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> demand = required_drive(m, DutyCycle.constant_speed(2 * np.pi, n=5))
+    >>> demand.torque.round(3)                  # N m at the crank, over one turn at 1 rev/s
+    array([ 2.653,  0.129, -6.991,  3.259,  2.653])
+    """
     return drive_demand(model.replace(drive_inertia=0.0), cycle.position, cycle.velocity, cycle.acceleration,
                         cycle.load)
 
@@ -262,6 +314,15 @@ def drive_inertia(model: Mechanism, cycle: DutyCycle, demand: DriveDemand) -> np
     The drive effort is linear in the drive's acceleration at a given position
     and speed (the dependent accelerations are), so one more inverse-dynamics
     pass with the acceleration raised by 1 gives ``M_eff = tau(a + 1) - tau(a)``.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.studies.sizing import DutyCycle, drive_inertia, required_drive
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> cycle = DutyCycle.constant_speed(2 * np.pi, n=5)
+    >>> drive_inertia(m, cycle, required_drive(m, cycle)).round(3)     # kg m2 seen at the crank
+    array([0.231, 0.204, 0.186, 0.166, 0.231])
     """
     more = drive_demand(model.replace(drive_inertia=0.0), cycle.position, cycle.velocity, cycle.acceleration + 1.0,
                         cycle.load)
@@ -276,6 +337,13 @@ class Control:
     (:func:`closed_loop_check`) both take the controller from here, so they
     judge the same servo.  :meth:`servo` is the servo co-simulation's own
     (:class:`grubler.system.servo.ServoDesign`'s PID and encoder) with feedforward.
+
+    Examples
+    --------
+    >>> from grubler.studies.sizing import Control
+    >>> c = Control.servo()          # the servo co-simulation's PID and encoder, with feedforward
+    >>> c.pid["K"], c.pid["Ts"], c.encoder["counts_per_rev"], c.feedforward
+    (300.0, 0.001, 16384, True)
     """
 
     pid: dict
@@ -296,6 +364,18 @@ class ClosedLoop:
 
     Samples at the controller's sample instants over the last simulated period,
     sorted by their phase in the cycle (``t`` from 0 to the period).
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import Control, DutyCycle, size
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> cycle = DutyCycle.constant_speed(4 * np.pi, n=100)     # a turn in 0.5 s
+    >>> a = size(m, cycle, [load_motor("maxon-re40-148877")], ratios=[50], control=Control.servo()).assessments[0]
+    >>> loop = a.closed_loop
+    >>> loop.method, loop.stable, bool(loop.rms_current > a.closed_loop.ideal_current.std())
+    ('simulated', True, True)
     """
 
     t: np.ndarray
@@ -382,6 +462,21 @@ def closed_loop_current(model: Mechanism, cycle: DutyCycle, demand: DriveDemand,
     more than ``LOOP_SAMPLES`` samples gets a bound instead
     (:func:`quantisation_bound`, ``method`` says which).  A loop that diverges
     gives an infinite current (``stable`` False).
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import (Candidate, Control, DutyCycle, assess, closed_loop_current,
+    ...                                     drive_inertia, required_drive)
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> cycle = DutyCycle.constant_speed(4 * np.pi, n=100)
+    >>> demand = required_drive(m, cycle)
+    >>> cand = Candidate(load_motor("maxon-re40-148877"), 50.0)
+    >>> ideal = assess(demand, cycle, cand).current                # the perfect drive's current, A
+    >>> loop = closed_loop_current(m, cycle, demand, drive_inertia(m, cycle, demand), cand, ideal, Control.servo())
+    >>> loop.stable, bool(np.max(np.abs(loop.current)) > np.max(np.abs(ideal)))   # the PID's kicks add current
+    (True, True)
     """
     from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
     from scipy.interpolate import CubicHermiteSpline
@@ -523,6 +618,17 @@ def periodic_temperature(t: np.ndarray, current: np.ndarray, data, ambient: floa
     ``C dT/dt = i² R_ref (1 + alpha (T - T_ref)) - (T - T_amb) / R_th`` is linear
     in T, so each sample interval maps T affinely and the whole cycle too:
     ``T_end = A T_0 + B``; the periodic state is ``T_0 = B / (1 - A)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import periodic_temperature
+    >>> motor = load_motor("maxon-re40-148877")
+    >>> t = np.linspace(0.0, 1.0, 11)
+    >>> T = periodic_temperature(t, np.full(11, 2.0), motor, ambient=25.0)    # 2 A for ever
+    >>> round(float(T[0]), 2), bool(np.allclose(T, T[0]))                     # steady: degC, the same all cycle
+    (59.66, True)
     """
     R_th, C = data.thermal_resistance, data.thermal_capacity
     alpha, R_ref, T_ref = data.temperature_coefficient, data.resistance, data.reference_temperature
@@ -556,6 +662,17 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
     computed when not given) the currents are the position loop's
     (:func:`closed_loop_current`): peak current, RMS torque, voltage and winding
     temperature are judged on them.  Without, on the ideal drive's.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import Candidate, DutyCycle, assess, required_drive
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> cycle = DutyCycle.constant_speed(2 * np.pi, n=200)
+    >>> a = assess(required_drive(m, cycle), cycle, Candidate(load_motor("maxon-re40-148877"), 20.0))
+    >>> a.feasible, a.failures
+    (False, ['continuous torque: needs 0.2271 N m, limit 0.187 N m', 'temperature rise: needs 187.3 K, limit 130 K'])
     """
     from grubler.motors import DCMotor, Drive, Gearbox, current_for_torque
 
@@ -620,7 +737,22 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
 
 @dataclass
 class SizingStudy:
-    """Every candidate's assessment; ``ranked`` holds the feasible ones, best first."""
+    """Every candidate's assessment; ``ranked`` holds the feasible ones, best first.
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import DutyCycle, size
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> study = size(m, DutyCycle.constant_speed(2 * np.pi, n=200), [load_motor("maxon-re40-148877")], ratios=[20, 50])
+    >>> study.best.candidate.label, [a.candidate.label for a in study.rejected]
+    ('maxon-re40-148877 x 50', ['maxon-re40-148877 x 20'])
+    >>> study.rejected[0].failures[0]
+    'continuous torque: needs 0.2271 N m, limit 0.187 N m'
+    >>> [(row["rank"], row["ratio"], row["feasible"]) for row in study.table()]
+    [(1, 50, True), ('rejected', 20, False)]
+    """
 
     demand: DriveDemand
     cycle: DutyCycle
@@ -824,6 +956,17 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
     Returns
     -------
     SizingStudy
+
+    Examples
+    --------
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import DutyCycle, size
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> study = size(m, DutyCycle.constant_speed(2 * np.pi, n=200), [load_motor("maxon-re40-148877")],
+    ...              ratios=[20, 35, 50], supply_voltage=48.0, current_limit=10.0)
+    >>> [a.candidate.ratio for a in study.ranked], round(study.best.min_margin, 2)
+    ([50, 35], 2.05)
     """
     if not motors:
         raise SceneError("motors", "name at least one motor")
@@ -849,7 +992,15 @@ def size(model: Mechanism, cycle: DutyCycle, motors, ratios, efficiency: float =
 
 @dataclass
 class CheckRow:
-    """One limit in a closed-loop check: what was predicted, what the co-simulation needed, the verdict."""
+    """One limit in a closed-loop check: what was predicted, what the co-simulation needed, the verdict.
+
+    Examples
+    --------
+    >>> from grubler.studies.sizing import CheckRow
+    >>> row = CheckRow("peak current", "A", predicted=2.75, cosimulated=2.9, allowed=10.0)
+    >>> round(row.difference, 2), round(row.margin, 3), row.fits      # %, limit over the co-simulated need
+    (-5.17, 3.448, True)
+    """
 
     limit: str
     unit: str
@@ -876,7 +1027,19 @@ class CheckRow:
 
 @dataclass
 class CheckResult:
-    """The co-simulated check of one candidate (:func:`closed_loop_check`)."""
+    """The co-simulated check of one candidate (:func:`closed_loop_check`).
+
+    Examples
+    --------
+    >>> from grubler.studies.sizing import CheckResult, CheckRow
+    >>> check = CheckResult("maxon-re40-148877 x 50", [CheckRow("peak current", "A", 2.75, 2.9, 10.0),
+    ...                                                CheckRow("voltage", "V", 22.4, 23.0, 48.0)],
+    ...                     max_tracking_error=0.004, periods=3, ideal_peak_current=2.75)
+    >>> check.fits, check.row("voltage").cosimulated
+    (True, 23.0)
+    >>> check.lines()[-1]
+    '  fits in closed loop; tracking within 0.004 rad'
+    """
 
     label: str
     rows: list[CheckRow]
@@ -928,6 +1091,20 @@ def closed_loop_check(assessment: Assessment, cycle: DutyCycle, scene: str, traj
         Per limit (peak current, continuous torque, speed, voltage, winding
         temperature rise): predicted, co-simulated, their difference, margin
         and verdict.
+
+    Examples
+    --------
+    Needs the built FMUs (``python3 build_fmu.py`` writes them to ``dist/``) and
+    compiles the feedforward's FMU, so it is not run here:
+
+    >>> import numpy as np, grubler
+    >>> from grubler.motors import load_motor
+    >>> from grubler.studies.sizing import DutyCycle, closed_loop_check, size
+    >>> cycle = DutyCycle.constant_speed(2 * np.pi, n=200)
+    >>> study = size(grubler.load_scene("thesis-fourbar").mechanism, cycle, [load_motor("maxon-re40-148877")], [50])
+    >>> check = closed_loop_check(study.best, cycle, "thesis-fourbar",
+    ...                           {"kind": "constant", "speed": 2 * np.pi}, "dist")  # doctest: +SKIP
+    >>> print("\\n".join(check.lines()))                                           # doctest: +SKIP
     """
     from grubler.controllers.native_fmu import export_computed_torque
     from grubler.mechanism.scene import load_scene

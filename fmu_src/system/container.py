@@ -79,7 +79,20 @@ IDENTIFIER = "container_fmu"  # the engine's binary name, hence every container'
 
 
 class ContainerError(InputError):
-    """A system that cannot become one FMU, or an fmpy without the container engine (field, reason)."""
+    """A system that cannot become one FMU, or an fmpy without the container engine (field, reason).
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> from grubler.system.ssp import System
+    >>> s = System("one")
+    >>> _ = s.add("move", "Trajectory.fmu")
+    >>> try:
+    ...     export_system(s, pathlib.Path("one.fmu"), fmi_version=4)
+    ... except ContainerError as exc:                 # an InputError: a field and a reason
+    ...     print(exc.field, "|", exc.reason)
+    fmi_version | must be 2 or 3, got 4
+    """
 
 
 @dataclass(frozen=True)
@@ -104,6 +117,12 @@ def engine() -> tuple[Path, str]:
     ContainerError
         When the installed fmpy has no container engine (this module is tested
         with fmpy 0.3.32's).
+
+    Examples
+    --------
+    >>> folder, version = engine()                 # fmpy's compiled container, for linux, windows and darwin
+    >>> (folder / "x86_64-linux").is_dir(), isinstance(version, str)
+    (True, True)
     """
     try:
         import fmpy.container_fmu as cf
@@ -124,7 +143,31 @@ def _settable_start(system: System, name: str, var) -> object:
 
 
 def exposed_variables(system: System, interfaces: dict[str, FmuInterface]) -> list[Exposed]:
-    """What the exported FMU shows, in the system's order: every parameter, unconnected input and output."""
+    """What the exported FMU shows, in the system's order: every parameter, unconnected input and output.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.system.interface import FmuInterface
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description as description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # their model descriptions are what is read
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {name: FmuInterface.of(d / f"{file}.fmu") for name, file in (("pid", "PID"), ("move", "Trajectory"))}
+    >>> shown = {e.name: e for e in exposed_variables(s, itf)}
+    >>> shown["pid.K"].causality, shown["pid.K"].start      # the system's value is the exported FMU's default
+    ('parameter', 2.0)
+    >>> "pid.setpoint" in shown, "pid.measurement" in shown  # a connected input is not shown, a free one is
+    (False, True)
+    >>> tmp.cleanup()
+    """
     connected = {c.end for c in system.connections}
     out = []
     for k, name in enumerate(system.components):
@@ -159,6 +202,26 @@ def execution_tools(system: System) -> list[str]:
     """The components whose FMU needs an execution tool where it runs (a pythonfmu FMU: a Python).
 
     The exported FMU then needs one too (its ``needsExecutionTool``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.system.interface import FmuInterface
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description as description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # their model descriptions are what is read
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {name: FmuInterface.of(d / f"{file}.fmu") for name, file in (("pid", "PID"), ("move", "Trajectory"))}
+    >>> execution_tools(s)                  # native FMUs: the exported FMU needs no Python where it runs
+    []
+    >>> tmp.cleanup()
     """
     return [name for name, comp in system.components.items()
             if FmuInterface.of(system.source_path(comp)).model_description.coSimulation.needsExecutionTool]
@@ -185,6 +248,27 @@ def connection_order(system: System, interfaces: dict[str, FmuInterface]) -> lis
     an output read after an input it depends on would be the next instant's
     (a Gauss-Seidel step through it); read before, every output is the one
     the step ended with, as :func:`~grubler.system.cosim.run`'s Jacobi reads it.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.system.interface import FmuInterface
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description as description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # their model descriptions are what is read
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {name: FmuInterface.of(d / f"{file}.fmu") for name, file in (("pid", "PID"), ("move", "Trajectory"))}
+    >>> _ = s.connect("pid.u", "move.delay")                 # not a real loop, only an order to find
+    >>> [f"{c.start} -> {c.end}" for c in connection_order(s, itf)]
+    ['move.position -> pid.setpoint', 'pid.u -> move.delay']
+    >>> tmp.cleanup()
     """
     conns = list(system.connections)
 
@@ -221,6 +305,33 @@ def configuration(system: System, interfaces: dict[str, FmuInterface], exposed: 
     initial : dict
         The settled values of the connected inputs (:func:`grubler.system.cosim.initial_inputs`):
         given as starts of variables the model description does not show, after its own.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.system.interface import FmuInterface
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description as description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # their model descriptions are what is read
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {name: FmuInterface.of(d / f"{file}.fmu") for name, file in (("pid", "PID"), ("move", "Trajectory"))}
+    >>> exposed = exposed_variables(s, itf)
+    >>> cfg = configuration(s, itf, exposed, 0.01, {"pid": "PID", "move": "Trajectory"}, "{token}", "0.3.32",
+    ...                     initial={"pid.setpoint": 0.0})
+    >>> cfg["fixedStepSize"], [c["name"] for c in cfg["components"]]
+    (0.01, ['pid', 'move'])
+    >>> cfg["connections"]               # move (component 1) position -> pid (component 0) setpoint
+    [{'variableType': 'Float64', 'srcComponent': 1, 'srcValueReferences': [14], 'dstComponent': 0, 'dstValueReferences': [12], 'size': 1}]
+    >>> cfg["variables"][-1]             # the connected input starts where initialisation settled it
+    {'variableType': 'Float64', 'mappings': [[0, 12]], 'start': ['0.0']}
+    >>> tmp.cleanup()
     """
     names = list(system.components)
     variables = []
@@ -259,6 +370,32 @@ def model_description(system: System, interfaces: dict[str, FmuInterface], expos
     An output is declared to depend at the same instant on the unconnected
     inputs of its own component it depends on (the engine copies nothing
     between its FMUs when an input is set).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.system.interface import FmuInterface
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description as description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # their model descriptions are what is read
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {name: FmuInterface.of(d / f"{file}.fmu") for name, file in (("pid", "PID"), ("move", "Trajectory"))}
+    >>> import xml.etree.ElementTree as ET
+    >>> exposed = exposed_variables(s, itf)
+    >>> root = ET.fromstring(model_description(s, itf, exposed, 0.01, 0.0, 1.0, "{token}", fmi_version=2))
+    >>> root.find("CoSimulation").get("modelIdentifier"), root.find("DefaultExperiment").get("stepSize")
+    ('container_fmu', '0.01')
+    >>> first = root.find("ModelVariables")[0]
+    >>> first.get("name"), first.get("valueReference")          # value references from 1: the engine keeps 0
+    ('pid.K', '1')
+    >>> tmp.cleanup()
     """
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     words = system.description or f"the system {system.name} as one FMU"
@@ -353,6 +490,26 @@ def export_system(system: System | str | Path, dest: str | Path | None = None, f
         A system that cannot run (every problem named, as ``grubler cosim`` names them).
     ContainerError
         An fmpy without the container engine, an FMI version other than 2 or 3.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import trajectory_spec
+    >>> from grubler.fmi.build import build_fmu, host_target
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = build_fmu(trajectory_spec("Trajectory"), d / "Trajectory.fmu", host_target().fmi2)  # compiles: ~2 s
+    >>> s = System("move", base=d, step=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="sine", amplitude=0.5, frequency=1.0)
+    >>> fmu = export_system(s, d / "Move.fmu")
+    >>> names = zipfile.ZipFile(fmu).namelist()
+    >>> "resources/container.json" in names, "resources/Trajectory/modelDescription.xml" in names
+    (True, True)
+    >>> from fmpy import simulate_fmu                    # any importer runs the system as one FMU
+    >>> r = simulate_fmu(str(fmu), stop_time=0.25, output_interval=0.01, output=["move.position"])
+    >>> round(float(r["move.position"][-1]), 6)          # 0.5 sin(2 pi 0.25)
+    0.5
+    >>> tmp.cleanup()
     """
     from grubler.fmi.build import check_destination, pack_fmu
 

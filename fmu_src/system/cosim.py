@@ -23,6 +23,11 @@ Examples
 >>> s = System("empty")
 >>> check(s, {}) == []
 True
+
+:func:`run`'s ``master`` is one of :data:`MASTERS`:
+
+>>> MASTERS == (GAUSS_SEIDEL, JACOBI) == ("gauss-seidel", "jacobi")
+True
 """
 
 from __future__ import annotations
@@ -51,7 +56,14 @@ MASTERS = (GAUSS_SEIDEL, JACOBI)
 
 
 class CosimError(GrublerError):
-    """A co-simulation that failed while running: names the component and time."""
+    """A co-simulation that failed while running: names the component and time.
+
+    Examples
+    --------
+    >>> from grubler.errors import GrublerError
+    >>> issubclass(CosimError, GrublerError)    # the CLI reports it in one line, as every grubler error
+    True
+    """
 
 
 # string parameters of the pythonfmu plant FMUs that the native ones replace by
@@ -72,7 +84,36 @@ def _settable(itf: FmuInterface) -> list[str]:
 
 
 def check(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
-    """Every reason the system cannot run, one line each (empty: it can)."""
+    """Every reason the system cannot run, one line each (empty: it can).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # a model description is all a check reads
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", model_description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> with UnpackedFMUs() as unpacked:
+    ...     itf = interfaces_of(s, unpacked)
+    >>> check(s, itf)                                # nothing stops it from running
+    []
+    >>> _ = s.add("pid2", "PID.fmu", Kp=1.0)
+    >>> _ = s.connect("move.positon", "pid2.setpoint")
+    >>> with UnpackedFMUs() as unpacked:
+    ...     itf = {name: FmuInterface.of(d / "PID.fmu") for name in ("pid", "pid2")} | {"move": FmuInterface.of(d / "Trajectory.fmu")}
+    >>> for line in check(s, itf):
+    ...     print(line)
+    parameter pid2.Kp: PID.fmu has no variable 'Kp'
+    dangling connection move.positon -> pid2.setpoint: move (Trajectory.fmu) has no variable 'positon'; did you mean 'position'?
+    >>> tmp.cleanup()
+    """
     problems = []
     fed: dict[str, str] = {}
     for name, comp in system.components.items():
@@ -140,6 +181,25 @@ def order(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
     sampled controller's held output) goes next, reading those outputs from the
     last communication point.  A loop with no such component is algebraic: every
     output on it depends on an input now, and it is reported by name.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # a model description is all a check reads
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", model_description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {"pid": FmuInterface.of(d / "PID.fmu"), "move": FmuInterface.of(d / "Trajectory.fmu")}
+    >>> order(s, itf)                                 # the trajectory first: the controller reads its output
+    ['move', 'pid']
+    >>> tmp.cleanup()
     """
     names = list(system.components)
     edges = [(c.start_element, c.end_element, c.start_connector) for c in system.connections
@@ -163,7 +223,28 @@ def order(system: System, interfaces: dict[str, FmuInterface]) -> list[str]:
 # -- what a step may be -----------------------------------------------------------------
 @dataclass(frozen=True)
 class TimeScale:
-    """A time a component declares or implies, which a communication step should not exceed."""
+    """A time a component declares or implies, which a communication step should not exceed.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # a model description is all a check reads
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", model_description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {"pid": FmuInterface.of(d / "PID.fmu"), "move": FmuInterface.of(d / "Trajectory.fmu")}
+    >>> scale = time_scales(s, itf)[0]
+    >>> scale.component, scale.what, scale.seconds
+    ('pid', 'sample time Ts', 0.01)
+    >>> tmp.cleanup()
+    """
 
     component: str
     what: str  # e.g. "sample time Ts", "mechanical time constant J_rotor R / (k_t k_e)"
@@ -212,6 +293,25 @@ def time_scales(system: System, interfaces: dict[str, FmuInterface]) -> list[Tim
     A parameter described as a ``sample time`` (unit s; 0 means once per step) is
     one: a component that samples faster than it is stepped reads inputs held
     over the step.  grubler's DCMotor.fmu implies its mechanical time constant.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # a model description is all a check reads
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", model_description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> itf = {"pid": FmuInterface.of(d / "PID.fmu"), "move": FmuInterface.of(d / "Trajectory.fmu")}
+    >>> [(sc.component, sc.what, sc.seconds) for sc in time_scales(s, itf)]   # the PID's Ts as the system sets it
+    [('pid', 'sample time Ts', 0.01)]
+    >>> tmp.cleanup()
     """
     out = []
     for name, itf in interfaces.items():
@@ -230,7 +330,16 @@ def time_scales(system: System, interfaces: dict[str, FmuInterface]) -> list[Tim
 
 
 def step_warnings(step: float, scales: list[TimeScale]) -> list[str]:
-    """One warning line per time scale the communication step exceeds."""
+    """One warning line per time scale the communication step exceeds.
+
+    Examples
+    --------
+    >>> scales = [TimeScale("pid", "sample time Ts", 0.01, "it reads its inputs once per step")]
+    >>> step_warnings(0.01, scales)
+    []
+    >>> step_warnings(0.02, scales)
+    ["step: 0.02 s is longer than pid's sample time Ts = 0.01 s: it reads its inputs once per step; use a step of at most 0.01 s"]
+    """
     return [f"step: {step:g} s is longer than {s.component}'s {s.what} = {s.seconds:.3g} s: {s.consequence}; "
             f"use a step of at most {s.seconds:.3g} s" for s in scales if step > s.seconds * (1 + 1e-9)]
 
@@ -243,6 +352,23 @@ class CosimResult:
     ``result['mechanism.theta2']`` is a column; ``columns`` lists them in order.
     ``warnings`` says, one line each, where the communication step exceeds a time
     a component declares or implies (:func:`time_scales`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from grubler.system.ssp import Plot, System
+    >>> s = System("move", plots=[Plot("crank angle [rad]", ["move.position"], labels={"move.position": "setpoint"})])
+    >>> r = CosimResult(t=np.array([0.0, 0.5, 1.0]), columns=["move.position"], data=np.array([[0.0], [0.5], [1.0]]),
+    ...                 system=s, order=["move"], master=GAUSS_SEIDEL, step=0.5, wall_time=0.0,
+    ...                 units={"move.position": "rad"})              # what run() returns
+    >>> r["move.position"], r["t"]
+    (array([0. , 0.5, 1. ]), array([0. , 0.5, 1. ]))
+    >>> r["move.speed"]
+    Traceback (most recent call last):
+    ...
+    KeyError: "no recorded signal 'move.speed'"
+    >>> [(title, [line[0] for line in lines]) for title, lines in r.panels()]   # what plot() draws: the system's plots
+    [('crank angle [rad]', ['setpoint'])]
     """
 
     t: np.ndarray
@@ -528,6 +654,27 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     ------
     Cancelled
         When ``cancel`` was set during the run.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import trajectory_spec
+    >>> from grubler.fmi.build import build_fmu, host_target
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = build_fmu(trajectory_spec("Trajectory"), d / "Trajectory.fmu", host_target().fmi2)  # compiles: ~2 s
+    >>> s = System("move", base=d)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid", distance=1.0, v_max=2.0, a_max=4.0)
+    >>> r = run(s, t_end=1.0, step=0.01)
+    >>> r.columns, len(r.t), r.warnings
+    (['move.position', 'move.velocity', 'move.acceleration'], 101, [])
+    >>> round(float(r["move.position"][-1]), 6), r.units["move.position"]   # the 1 rad move done in 1 s
+    (1.0, 'rad')
+    >>> run(s, t_end=1.0, master="newton")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, got 'newton'
+    >>> tmp.cleanup()
     """
     if not isinstance(system, System):
         system = read(system)
@@ -617,6 +764,33 @@ def interfaces_of(system: System, unzipped: "UnpackedFMUs") -> dict[str, FmuInte
     ------
     SystemDescriptionError
         Naming every problem :func:`check` finds, and every FMU that is missing or unreadable.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.system.ssp import System
+    >>> from grubler.controllers.native_fmu import pid_spec, trajectory_spec
+    >>> from grubler.fmi.description import model_description
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> for spec in (pid_spec("PID"), trajectory_spec("Trajectory")):  # a model description is all a check reads
+    ...     with zipfile.ZipFile(d / f"{spec.identifier}.fmu", "w") as z:
+    ...         z.writestr("modelDescription.xml", model_description(spec, []))
+    >>> s = System("follow", base=d)
+    >>> _ = s.add("pid", "PID.fmu", K=2.0, Ts=0.01)
+    >>> _ = s.add("move", "Trajectory.fmu", kind="trapezoid")
+    >>> _ = s.connect("move.position", "pid.setpoint")
+    >>> with UnpackedFMUs() as unpacked:
+    ...     itf = interfaces_of(s, unpacked)
+    >>> itf["pid"].ports["Ts"].unit, itf["move"].ports["position"].causality
+    ('s', 'output')
+    >>> _ = s.add("motor", "DCMotor.fmu")
+    >>> with UnpackedFMUs() as unpacked:
+    ...     interfaces_of(s, unpacked)                  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SystemDescriptionError: system 'follow': cannot run, 1 problem:
+      component motor: FMU .../DCMotor.fmu not found (run python build_fmu.py?)
+    >>> tmp.cleanup()
     """
     interfaces = {}
     problems = []
@@ -773,6 +947,23 @@ def initial_inputs(system: System, interfaces: dict[str, FmuInterface], unzipped
     """The coupled inputs' values once initialisation settles, by ``component.input``: what a run starts from.
 
     Every FMU is instantiated, initialised as :func:`run` does it, and freed.
+
+    Examples
+    --------
+    A DC motor through 50:1 driving the four-bar whose crank starts at 2 rad/s
+    (``tests/test_container.py``'s system; it needs the built DCMotor.fmu and
+    Mechanism.fmu, ``python build_fmu.py``):
+
+    >>> from grubler import ssp
+    >>> s = ssp.System("motor_fourbar")
+    >>> _ = s.add("motor", "dist/DCMotor.fmu", gear_ratio=50.0, voltage=12.0)
+    >>> _ = s.add("mechanism", "dist/Mechanism.fmu", **{"initial.theta2_d": 2.0})
+    >>> _ = s.connect("motor.shaft_torque", "mechanism.motor_torque")
+    >>> _ = s.connect("mechanism.drive_speed", "motor.shaft_speed")
+    >>> with UnpackedFMUs() as unpacked:                              # doctest: +SKIP
+    ...     start = initial_inputs(s, interfaces_of(s, unpacked), unpacked)
+    >>> start["motor.shaft_speed"]                                    # doctest: +SKIP
+    2.0
     """
     seq = order(system, interfaces)
     slot = _slots(system)

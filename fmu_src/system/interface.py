@@ -33,7 +33,23 @@ class Port:
 
 @dataclass
 class FmuInterface:
-    """The parts of a model description a master uses."""
+    """The parts of a model description a master uses.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.controllers.native_fmu import pid_spec
+    >>> from grubler.fmi.description import model_description
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     fmu = pathlib.Path(d) / "PID.fmu"
+    ...     with zipfile.ZipFile(fmu, "w") as z:          # an FMU's model description is what is read
+    ...         z.writestr("modelDescription.xml", model_description(pid_spec("PID"), []))
+    ...     itf = FmuInterface.of(fmu)
+    >>> itf.ports["Ts"]
+    Port(name='Ts', vr=7, causality='parameter', type='Real', unit='s', description='sample time [s]')
+    >>> itf.feedthrough                               # its output depends on no input at the same instant
+    {'u': set()}
+    """
 
     path: Path
     model_description: object
@@ -93,6 +109,12 @@ def generic_unit(unit: str) -> bool:
 def units_compatible(a: str, b: str) -> bool:
     """True when either unit is unknown or generic (``any``), or they share a spelling.
 
+    Examples
+    --------
+    >>> units_compatible("N m", "N.m"), units_compatible("rad or m", "m"), units_compatible("any", "V")
+    (True, True, True)
+    >>> units_compatible("A", "V")
+    False
     """
     if not a or not b:
         return True

@@ -69,6 +69,15 @@ class ServoDesign:
         A constant load (N m, or N on a slide) on a joint of the mechanism.
     t_end, step : float
         The default experiment: run length and communication step, s.
+
+    Examples
+    --------
+    >>> from grubler.system.servo import ServoDesign
+    >>> d = ServoDesign()                   # the README's servo four-bar
+    >>> d.scene, d.motor, d.gear_ratio, d.step
+    ('thesis-fourbar', 'maxon-re40-148877', 50.0, 0.001)
+    >>> ServoDesign(gear_ratio=35.0, t_end=2.0).gear_ratio
+    35.0
     """
 
     scene: str = "thesis-fourbar"
@@ -100,6 +109,15 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     Returns
     -------
     System
+
+    Examples
+    --------
+    >>> from grubler.system.servo import ServoDesign, servo_system
+    >>> s = servo_system(ServoDesign(), "dist")       # names the FMUs in dist/; cosim.run(s) runs it
+    >>> list(s.components), len(s.connections)
+    (['trajectory', 'encoder', 'controller', 'motor', 'mechanism'], 6)
+    >>> s.components["motor"].parameters["gear_ratio"]
+    50.0
     """
     from grubler.motors import DCMotor, Drive, Gearbox, load_motor
     from grubler.errors import SceneError

@@ -80,6 +80,13 @@ class Component:
         Start values of parameters, by variable name (float, int, bool or str).
     units : dict
         Units the SSD declares for connectors, by name (override the FMU's).
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> c = ssp.System("one").add("motor", "DCMotor.fmu", gear_ratio=50.0, supply_voltage=48.0)
+    >>> c.name, c.source, c.parameters
+    ('motor', 'DCMotor.fmu', {'gear_ratio': 50.0, 'supply_voltage': 48.0})
     """
 
     name: str
@@ -90,7 +97,15 @@ class Component:
 
 @dataclass
 class Connection:
-    """An output of one component feeding an input of another."""
+    """An output of one component feeding an input of another.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> c = ssp.Connection("motor", "shaft_torque", "mech", "motor_torque")
+    >>> c.start, c.end
+    ('motor.shaft_torque', 'mech.motor_torque')
+    """
 
     start_element: str
     start_connector: str
@@ -121,6 +136,15 @@ class Plot:
     difference : bool
         Draw one curve, the first signal minus the second (a tracking error),
         labelled ``labels["difference"]`` when given.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> panel = ssp.Plot("crank angle [rad]", ["trajectory.position", "mechanism.theta2"],
+    ...                  labels={"trajectory.position": "setpoint"})
+    >>> s = ssp.System("servo", plots=[panel])
+    >>> s.plots[0].title, s.plots[0].difference
+    ('crank angle [rad]', False)
     """
 
     title: str
@@ -147,6 +171,21 @@ class System:
     description : str
     base : Path or None
         Folder the components' sources are relative to (set by :func:`read`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from grubler import ssp
+    >>> s = ssp.System("pair", step=1e-3, stop_time=1.0)
+    >>> s.add("mech", "Mechanism.fmu", **{"link2.m": 2.0})          # FMU paths relative to the .ssd
+    Component(name='mech', source='Mechanism.fmu', parameters={'link2.m': 2.0}, units={})
+    >>> _ = s.add("motor", "DCMotor.fmu", gear_ratio=50.0)
+    >>> s.connect("motor.shaft_torque", "mech.motor_torque")
+    Connection(start_element='motor', start_connector='shaft_torque', end_element='mech', end_connector='motor_torque')
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     again = ssp.read(s.write(pathlib.Path(d) / "pair.ssd"))   # written and read back
+    >>> list(again.components), again.components["motor"].parameters, again.step
+    (['mech', 'motor'], {'gear_ratio': 50.0}, 0.001)
     """
 
     name: str
@@ -355,6 +394,17 @@ def read(path: str | Path) -> System:
     The folder is removed at once if the archive is refused, else by
     :func:`grubler.limits.remove_temp_dirs` (which the CLI calls on every exit,
     and which runs at interpreter exit).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from grubler import ssp
+    >>> s = ssp.System("lone")
+    >>> _ = s.add("mech", "Mechanism.fmu", **{"link2.m": 2.0})
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     back = ssp.read(s.write(pathlib.Path(d) / "lone.ssd"))
+    >>> back.name, back.components["mech"].parameters
+    ('lone', {'link2.m': 2.0})
     """
     path = Path(path)
     where = brief(str(path), PATH_CHARS)
@@ -416,7 +466,15 @@ def _number(text: str | None, where: str, positive: bool = False) -> float | Non
 
 
 def from_xml(text: bytes | str, base: Path | None = None, where: str = "SSD") -> System:
-    """Parse SystemStructure.ssd text."""
+    """Parse SystemStructure.ssd text.
+
+    Examples
+    --------
+    >>> from grubler import ssp
+    >>> text = ssp.System("pair").to_xml()
+    >>> ssp.from_xml(text).name
+    'pair'
+    """
     try:
         root = ET.parse(io.BytesIO(text.encode() if isinstance(text, str) else text)).getroot()
     except ET.ParseError as exc:
