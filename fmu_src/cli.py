@@ -22,7 +22,8 @@ from grubler import limits
 from grubler.errors import AssemblyError, GrublerError, InputError, SceneErrors
 from grubler.limits import number
 from grubler.views.runs import coordinates, read_run_csv
-from grubler.studies.linearize import BODE_SUFFIXES, input_unit
+from grubler.studies.linearize import input_unit
+from grubler.views.bode import BODE_SUFFIXES
 from grubler.mechanism.scene import coordinate_text, load_scene, preset_names
 from grubler.mechanism.simulate import output_columns, simulate
 from grubler.motors.motor_data import AMBIENT_RANGE
