@@ -166,15 +166,21 @@ def read_bytes(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) ->
     """The bytes of a regular file no larger than ``max_bytes``."""
     p = Path(path)
     where = brief(str(p), PATH_CHARS)
-    if not p.exists():
-        raise InputError(field, f"{where}: no such file")
-    if not p.is_file():
-        raise InputError(field, f"{where}: not a regular file")
-    size = p.stat().st_size
+    try:
+        if not p.exists():
+            raise InputError(field, f"{where}: no such file")
+        if not p.is_file():
+            raise InputError(field, f"{where}: not a regular file")
+        size = p.stat().st_size
+    except OSError as exc:  # a name too long for the file system, a folder we may not look into
+        raise InputError(field, f"{where}: {exc.strerror or exc}") from None
     if size > max_bytes:
         raise LimitError(field, f"{where} is {_size(size)}, more than the {_size(max_bytes)} this reader accepts")
-    with open(p, "rb") as fh:
-        data = fh.read(max_bytes + 1)  # the file may have grown since stat()
+    try:
+        with open(p, "rb") as fh:
+            data = fh.read(max_bytes + 1)  # the file may have grown since stat()
+    except OSError as exc:  # a file we may not read, or whose reading fails (/proc/self/mem)
+        raise InputError(field, f"{where}: cannot be read ({exc.strerror or type(exc).__name__})") from None
     if len(data) > max_bytes:
         raise LimitError(field, f"{where} is more than the {_size(max_bytes)} this reader accepts")
     return data

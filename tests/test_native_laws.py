@@ -486,16 +486,89 @@ def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
     assert not (tmp_path / "L.fmu").exists()
 
 
-@pytest.mark.parametrize("make, why", [(None, "cannot be read (No such file or directory)"),
-                                       (b"\x89PNG\r\n\x1a\n\xff", "not UTF-8 text: a law is C source")])
+@pytest.mark.parametrize("make, why", [(None, "law.c': no such file"),
+                                       (b"\x89PNG\r\n\x1a\n\xff", "not UTF-8 text (byte 0x89 at offset 0)"),
+                                       ("/dev/zero", "'/dev/zero': not a regular file"),
+                                       ("/proc/self/mem", "cannot be read (Input/output error)")])
 def test_export_law_says_why_a_file_cannot_be_its_source(tmp_path, make, why):
+    # /dev/zero once read until memory ran out: the law is read as every input file is (regular, capped)
     src = tmp_path / "law.c"
-    if make is not None:
+    if isinstance(make, str):
+        if not Path(make).exists():
+            pytest.skip(f"no {make} here")
+        src = Path(make)
+    elif make is not None:
         src.write_bytes(make)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
                            str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
-    assert why in proc.stderr, proc.stderr
+    assert why in proc.stderr and "law: " in proc.stderr, proc.stderr
+
+
+def _law_with(tmp_path, old: str, new: str) -> Path:
+    """examples/pi_law.c with one piece of text replaced, as law.c in tmp_path."""
+    text = (ROOT / "examples" / "pi_law.c").read_text()
+    assert old in text
+    src = tmp_path / "law.c"
+    src.write_text(text.replace(old, new, 1))
+    return src
+
+
+GAIN = '"proportional gain [V/rad]"'
+RETURN = "int law_step("
+
+
+@pytest.mark.parametrize("old, new, why", [
+    (GAIN, r'"gain \x [V/rad]"', r"law.c:9: the description of K: \x is no C escape"),
+    (GAIN, r'"gain \u0000 [V/rad]"', "law.c:9: the description of K holds U+0000, a character an FMU's "
+                                      "modelDescription.xml cannot carry"),
+    (GAIN, r'"gain \x01 [V/rad]"', "law.c:9: the description of K holds U+0001"),
+    (GAIN, r'"gain \xff [V/rad]"', "which is not UTF-8 text"),
+    ("GRUBLER_STATE(1)", "GRUBLER_STATE(" + "1" * 5000 + ")", "law.c:16: GRUBLER_STATE(1111"),
+    ("GRUBLER_STATE(1)", "GRUBLER_STATE(1)\nGRUBLER_STATE(2)", "law.c:17: GRUBLER_STATE declared again "
+                                                                "(first at line 16)"),
+    (RETURN, "int law_check(void) { return 0; }\n" + RETURN, "law.c:18: defines law_check, a name the FMU's own"),
+    (RETURN, "int fmi2DoStep(void)\n{ return 0; }\n" + RETURN, "law.c:18: defines fmi2DoStep"),
+    # the linker's answer, mapped to the line: a name of the FMU's C that no rule up front knows
+    (RETURN, "double model_time(void) { return 0.0; }\n" + RETURN, "law.c:18: defines model_time"),
+    # a compiler error in a file the law includes: that file's line, and where the law includes it
+    ('#include "grubler_law.h"', '#include "grubler_law.h"\n#include "JUNK"', "junk.txt:1:5: expected"),
+])
+def test_export_law_names_the_line_and_the_reason(tmp_path, old, new, why):
+    (tmp_path / "junk.txt").write_text("root:x:0:0:root:/root:/bin/bash\n")
+    src = _law_with(tmp_path, old, new.replace("JUNK", str(tmp_path / "junk.txt")))
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
+                           str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert why in proc.stderr and str(tmp_path) in proc.stderr, proc.stderr
+    if "JUNK" in new:
+        assert "(included at " + str(src) + ":8)" in proc.stderr, proc.stderr
+    assert not (tmp_path / "L.fmu").exists()
+
+
+def test_a_static_helper_may_share_a_reserved_name(tmp_path):
+    from grubler.controllers.native_fmu import read_c_law
+
+    src = _law_with(tmp_path, RETURN, "static int law_check(void) { return 0; }\n/* int fmi2DoStep(void) { } */\n"
+                                      + RETURN)
+    assert list(read_c_law(src).outputs) == ["u"]
+
+
+def test_export_law_checks_where_it_writes_before_building(tmp_path):
+    law = ROOT / "examples" / "pi_law.c"
+    if Path("/proc").is_dir():  # a folder access() calls writable, where no file can be made
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(law), "-o", "/proc/x.fmu"],
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert "--out: '/proc/x.fmu': cannot be written there" in proc.stderr, proc.stderr
+    # the source as its own destination, named or by default: refused, the law intact
+    src = tmp_path / "same.fmu"
+    src.write_bytes(law.read_bytes())
+    for out in (["-o", str(src)], []):
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), *out],
+                              capture_output=True, text=True, timeout=300, cwd=tmp_path)
+        assert proc.returncode == 2 and "is the law's source" in proc.stderr, proc.stderr
+    assert src.read_bytes() == law.read_bytes()
 
 
 # -- a python-control controller as a native FMU -------------------------------------------
