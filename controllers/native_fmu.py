@@ -1,4 +1,5 @@
-"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory.
+"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory,
+computed torque, and any linear controller (by default a discrete PI).
 
 Each is the law's C (``controllers/kernel``) behind a law file
 (``grubler/fmi/c/pid_law.c``, ``cascade_law.c``, ...), the generic sampled-law model
@@ -148,6 +149,27 @@ def linear_spec(controller: LinearController, identifier: str = "Linear") -> Mod
     law = type(identifier, (Law,), {"inputs": LinearController.inputs, "outputs": LinearController.outputs,
                                     "parameters": params, "__doc__": f"A discrete linear controller of order {n}."})
     return law_spec(law, identifier, "linear_law.c", n, defines={"LINEAR_ORDER": n})
+
+
+# The controller dist/LinearController.fmu starts as (docs/control.md): the PI of
+# examples/pi_law.c, C(s) = K (1 + 1/(Ti s)) with K = 2 V/rad and Ti = 0.1 s
+# (without its clamp), discretised by Tustin at Ts = 1 ms.
+LINEAR_DEFAULT = {"num": (2.0, 20.0), "den": (1.0, 0.0), "Ts": 1e-3, "method": "tustin"}
+
+
+def linear_default() -> LinearController:
+    """The default LinearController FMU's controller: :data:`LINEAR_DEFAULT`, a discrete PI.
+
+    Examples
+    --------
+    >>> ctl = linear_default()
+    >>> ctl.A.shape, float(ctl.Ts)
+    ((1, 1), 0.001)
+    """
+    import control
+
+    d = LINEAR_DEFAULT
+    return LinearController(control.tf(list(d["num"]), list(d["den"])), d["Ts"], d["method"])
 
 
 def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> ModelSpec:
@@ -533,7 +555,8 @@ def export_table(times, positions, dest: str | Path, field: str = "output") -> P
 
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
-         "Trajectory": trajectory_spec, "ComputedTorque": computed_torque_spec}
+         "Trajectory": trajectory_spec, "ComputedTorque": computed_torque_spec,
+         "LinearController": lambda: linear_spec(linear_default(), "LinearController")}
 
 
 def build_native_law(name: str, dest: str | Path) -> Path:
@@ -543,7 +566,7 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec", "export_computed_torque",
-           "encoder_spec", "export_law", "export_profile", "linear_spec",
+__all__ = ["ENCODER_CAPACITY", "LINEAR_DEFAULT", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec",
+           "export_computed_torque", "encoder_spec", "export_law", "export_profile", "linear_default", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

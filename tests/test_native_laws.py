@@ -31,6 +31,8 @@ from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, T
 
 ROOT = Path(__file__).resolve().parent.parent
 LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory", "ComputedTorque"]
+# and build_fmu.py's LinearController, whose variables are its default controller's matrices
+DIST_LAWS = [*LAWS, "LinearController"]
 PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "Ts": 1e-3, "u_min": -6.0,
               "u_max": 6.0}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
@@ -68,7 +70,7 @@ def built(tmp_path_factory):
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), LAWS):
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), DIST_LAWS):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, d, read_model_description(str(path)))
@@ -112,7 +114,7 @@ def got(t: Transcript) -> np.ndarray:
 
 # -- the binary ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", LAWS)
+@pytest.mark.parametrize("name", DIST_LAWS)
 def test_the_binary_needs_no_python_and_exports_only_fmi2(built, name):
     so = built[name][1] / "binaries" / "linux64" / f"{name}.so"
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
@@ -604,6 +606,34 @@ def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameter
     assert np.array_equal(got(t)[:, 0], ref)  # the same C, bit for bit
     t = h.run(h.start({"A[2,1]": float("inf")}, md=md))
     assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
+
+
+def test_build_fmu_makes_only_native_fmus_and_its_linear_controller_runs_without_python(host, built):
+    """dist/LinearController.fmu was a pythonfmu build (fmusim under env -i: undefined _Py_NoneStruct)."""
+    import build_fmu
+
+    from grubler.controllers.native_fmu import LINEAR_DEFAULT, linear_default
+
+    assert set(build_fmu.FMUS) == set(build_fmu.NATIVE)  # no pythonfmu route left in dist/
+    path, d, md = built["LinearController"]
+    assert not (d / "resources" / "grubler").exists()
+    start = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+    assert start["Ts"] == LINEAR_DEFAULT["Ts"] and list(start.values())[1:] == list(linear_default().matrices)
+    h = Host(host, d / "binaries" / "linux64" / "LinearController.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    inputs = [{"setpoint": 1.0, "measurement": 0.5 * math.sin(0.01 * k), "feedforward": 0.0} for k in range(300)]
+    script = h.start(md=md)
+    for k, i in enumerate(inputs):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-3!r} 0.001", h.getr("u")]
+    t = h.run(script)  # env={}: no PYTHONPATH, no Python at all
+    assert set(t.statuses("step")) == {OK}
+    s = Sampler(linear_default())
+    ref = [s.step(k * 1e-3, 1e-3, i)["u"] for k, i in enumerate(inputs)]
+    assert np.array_equal(got(t)[:, 0], ref)
+    # the documented PI, K = 2, Ti = 0.1 s, Ts = 1 ms: u_k = K e_k + I_k, Tustin's integral of K e / Ti
+    # I_k = I_k-1 + K Ts / (2 Ti) (e_k + e_k-1) from e_-1 = 0, i.e. K Ts / (2 Ti) (2 sum_j<=k e_j - e_k)
+    e = np.array([i["setpoint"] - i["measurement"] for i in inputs])
+    assert np.allclose(ref, 2.0 * e + 2.0 * 1e-3 / 0.2 * (2 * np.cumsum(e) - e), rtol=0, atol=1e-9)
 
 
 def test_a_six_bar_gets_a_computed_torque_fmu_of_its_own_shape_that_runs_as_the_library(host, tmp_path):
