@@ -16,16 +16,16 @@ when a MinGW-w64 cross compiler is installed), and one line says which
 platforms were left out.  ``--platforms`` chooses.
 
 PID.fmu, CascadeController.fmu, Encoder.fmu, Tachometer.fmu, CurrentSensor.fmu,
-Trajectory.fmu and ComputedTorque.fmu (the thesis four-bar's scene as parameters,
-its drive demand the kernel's) are native too: the laws' C (controllers/kernel and
-the mechanism kernel, the code the library's classes run) behind one sampled-law
-model on the same wrapper.  LinearController stays a pythonfmu FMU: it carries a copy of
-the grubler package in its resources/ and runs inside a Python interpreter with
-numpy and scipy installed (see the README's FMU section).  Every FMU declares which outputs depend on an input at the same
-instant, so a master can tell a state from an algebraic output.  A controller
-FMU carries a C wrapper in front of pythonfmu's linux64 binary that reports the
-status each call deserves (controllers/status_wrapper.c): building one needs a
-C compiler too.
+Trajectory.fmu, ComputedTorque.fmu (the thesis four-bar's scene as parameters,
+its drive demand the kernel's) and LinearController.fmu (a discrete PI,
+``LINEAR_DEFAULT`` in grubler.controllers.native_fmu, its matrices parameters;
+``linear_spec`` builds any other python-control controller) are native too:
+the laws' C (controllers/kernel and the mechanism kernel, the code the
+library's classes run) behind one sampled-law model on the same wrapper.  Every
+FMU here runs without Python, in FMI 2 and 3 alike; the pythonfmu route
+(grubler.controllers.fmu) is for a user's own Python law.  Every FMU declares
+which outputs depend on an input at the same instant, so a master can tell a
+state from an algebraic output.
 """
 
 from __future__ import annotations
@@ -33,10 +33,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from grubler.controllers import CurrentSensor, LinearController, Tachometer
-from grubler.controllers.fmu import build_controller_fmu
-from grubler.controllers.native_fmu import (cascade_spec, computed_torque_spec, encoder_spec, pid_spec, sensor_spec,
-                                            trajectory_spec)
+from grubler.controllers import CurrentSensor, Tachometer
+from grubler.controllers.native_fmu import (cascade_spec, computed_torque_spec, encoder_spec, linear_default,
+                                            linear_spec, pid_spec, sensor_spec, trajectory_spec)
 from grubler.errors import InputError
 from grubler.fmi.build import TARGETS, build_fmu, platforms_note, select_targets
 from grubler.fmi.mechanism import mechanism_spec
@@ -58,27 +57,21 @@ NATIVE = {
     "CurrentSensor": lambda: sensor_spec(CurrentSensor),
     "Trajectory": lambda: trajectory_spec("Trajectory"),
     "ComputedTorque": lambda: computed_torque_spec(load_scene("thesis-fourbar"), "ComputedTorque"),
+    "LinearController": lambda: linear_spec(linear_default(), "LinearController"),
 }
-
-# grubler.controllers: each law becomes an FMU the way a user's own law does
-LAWS = {law.__name__: law for law in (LinearController,)}
-FMUS = [*NATIVE, *LAWS]
+FMUS = list(NATIVE)
 
 
 def build(dest: Path = HERE / "dist", names: list[str] | None = None, platforms=None, fmi: int = 2) -> list[Path]:
     """Build the named FMUs (default: all) and return their paths.
 
-    With ``fmi=3`` the native FMUs are FMI 3.0; the controllers (pythonfmu,
-    FMI 2.0 only) are not built.  ``platforms`` (FMI 2.0 folders or FMI 3.0
+    With ``fmi=3`` they are FMI 3.0.  ``platforms`` (FMI 2.0 folders or FMI 3.0
     tuples, a list or comma-separated) chooses the native FMUs' binaries
     (default: every one this machine can build).
     """
     unknown = set(names or ()) - set(FMUS)
     if unknown:
         raise SystemExit(f"build_fmu: no FMU named {', '.join(sorted(unknown))} (have: {', '.join(FMUS)})")
-    python_only = sorted(set(names or ()) & set(LAWS)) if fmi != 2 else []
-    if python_only:
-        raise SystemExit(f"build_fmu: {', '.join(python_only)}: pythonfmu FMUs are FMI 2 only (--fmi 2)")
     try:
         platforms = select_targets(platforms)
     except InputError as exc:
@@ -89,9 +82,6 @@ def build(dest: Path = HERE / "dist", names: list[str] | None = None, platforms=
     for name, spec in NATIVE.items():
         if not names or name in names:
             built.append(build_fmu(spec(), dest / f"{name}.fmu", platforms, fmi=fmi))
-    for name, law in LAWS.items():
-        if (not names or name in names) and fmi == 2:
-            built.append(build_controller_fmu(law, dest / f"{name}.fmu"))
     return built
 
 
@@ -99,8 +89,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dest", type=Path, default=HERE / "dist")
     ap.add_argument("--fmi", type=int, choices=[2, 3], default=2,
-                    help="FMI version of the native FMUs (default 2; the pythonfmu controllers are FMI 2 only)")
-    ap.add_argument("--platforms", help="the native FMUs' binaries, comma-separated (default: every one this "
+                    help="FMI version of the FMUs (default 2)")
+    ap.add_argument("--platforms", help="the FMUs' binaries, comma-separated (default: every one this "
                                         f"machine can build; of {', '.join(dict.fromkeys(t.fmi2 for t in TARGETS))})")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default all: {', '.join(FMUS)})")
     args = ap.parse_args()

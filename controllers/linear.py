@@ -76,6 +76,30 @@ def _matrix(data: dict, key: str) -> np.ndarray:
     return m
 
 
+def _check_discretised(system, sysd, method: str) -> None:
+    """Refuse a discretisation with a number that is not finite, naming the method and why.
+
+    'matched' scales the discrete gain to the continuous one at s = 0: a pole
+    there (an integrator: any PI) makes that gain infinite, a zero there makes
+    it 0, and the scale factor is then NaN.
+    """
+    import control
+
+    d = control.ss(sysd) if not isinstance(sysd, control.StateSpace) else sysd
+    if all(np.all(np.isfinite(np.asarray(m, dtype=float))) for m in (d.A, d.B, d.C, d.D)):
+        return
+    if method == "matched":
+        for kind, roots in (("pole", system.poles()), ("zero", system.zeros())):
+            at_zero = [r for r in np.atleast_1d(roots) if abs(r) <= 1e-12 * max(1.0, np.max(np.abs(roots)))]
+            if at_zero:
+                raise SceneError("method", f"'matched' cannot discretise a controller with a {kind} at s = 0 "
+                                           f"(it scales the discrete gain to the continuous one at s = 0, "
+                                           f"{'infinite' if kind == 'pole' else 'zero'} there); use 'tustin' or "
+                                           "'zoh'")
+    raise SceneError("method", f"discretising with {method!r} gives matrices that are not finite (NaN or "
+                               "infinite); use another method, e.g. 'tustin'")
+
+
 class LinearController(Law):
     """A linear SISO controller on the error, as a discrete state-space update.
 
@@ -127,9 +151,11 @@ class LinearController(Law):
             sysd = system
         else:
             try:
-                sysd = control.sample_system(system, self.Ts, method=method)
+                with np.errstate(divide="ignore", invalid="ignore"):  # checked below, by name
+                    sysd = control.sample_system(system, self.Ts, method=method)
             except (ValueError, NotImplementedError, TypeError) as exc:
                 raise SceneError("method", f"cannot discretise with {method!r}: {exc}") from None
+            _check_discretised(system, sysd, method)
         try:
             ss = control.ss(sysd)
         except ValueError as exc:  # an improper transfer function

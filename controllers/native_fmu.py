@@ -1,4 +1,5 @@
-"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory.
+"""Native FMUs of the shipped control laws: PID, cascade, encoder, tachometer, current sensor, trajectory,
+computed torque, and any linear controller (by default a discrete PI).
 
 Each is the law's C (``controllers/kernel``) behind a law file
 (``grubler/fmi/c/pid_law.c``, ``cascade_law.c``, ...), the generic sampled-law model
@@ -38,8 +39,8 @@ from grubler.controllers.pid import ANTI_WINDUP, PID
 from grubler.controllers.sensors import AnalogSensor, CurrentSensor, Tachometer
 from grubler.controllers.trajectory import KINDS, Trajectory, read_profile
 from grubler.errors import SceneError
-from grubler.fmi.build import BuildError, build_fmu, check_destination, computed_torque_fmu, identifier_for
-from grubler.limits import brief
+from grubler.fmi.build import C_DIR, BuildError, build_fmu, check_destination, computed_torque_fmu, identifier_for
+from grubler.limits import brief, clip
 from grubler.fmi.variables import BOOLEAN, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, UNITS, ModelSpec, Variable
 
 # readings the Encoder FMU's delay line holds (its state grows with it: 80 kB):
@@ -150,6 +151,27 @@ def linear_spec(controller: LinearController, identifier: str = "Linear") -> Mod
     return law_spec(law, identifier, "linear_law.c", n, defines={"LINEAR_ORDER": n})
 
 
+# The controller dist/LinearController.fmu starts as (docs/control.md): the PI of
+# examples/pi_law.c, C(s) = K (1 + 1/(Ti s)) with K = 2 V/rad and Ti = 0.1 s
+# (without its clamp), discretised by Tustin at Ts = 1 ms.
+LINEAR_DEFAULT = {"num": (2.0, 20.0), "den": (1.0, 0.0), "Ts": 1e-3, "method": "tustin"}
+
+
+def linear_default() -> LinearController:
+    """The default LinearController FMU's controller: :data:`LINEAR_DEFAULT`, a discrete PI.
+
+    Examples
+    --------
+    >>> ctl = linear_default()
+    >>> ctl.A.shape, float(ctl.Ts)
+    ((1, 1), 0.001)
+    """
+    import control
+
+    d = LINEAR_DEFAULT
+    return LinearController(control.tf(list(d["num"]), list(d["den"])), d["Ts"], d["method"])
+
+
 def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> ModelSpec:
     """Tachometer.fmu or CurrentSensor.fmu: an :class:`~grubler.controllers.sensors.AnalogSensor` over ``ctl_sensor.c``."""
     return law_spec(law, identifier or law.__name__, "sensor_law.c", ctypes.sizeof(native.SensorState) // 8,
@@ -249,10 +271,146 @@ _USAGE = {"PARAMETER": 'GRUBLER_PARAMETER(name, start, "description [unit]")',
           "INPUT": 'GRUBLER_INPUT(name, "description [unit]")', "OUTPUT": 'GRUBLER_OUTPUT(name, "description [unit]")',
           "STATE": "GRUBLER_STATE(count)"}
 MAX_LAW_STATE = 100_000  # doubles a C law may keep: 800 kB of FMU state
+# C's escapes in a string literal: simple, hexadecimal, octal, universal
+_ESCAPE = re.compile(r"\\(?:([\\\"'?abfnrtv])|x([0-9A-Fa-f]+)|([0-7]{1,3})|u([0-9A-Fa-f]{4})|U([0-9A-Fa-f]{8})|(.?))",
+                     re.S)
+_SIMPLE = {"\\": "\\", '"': '"', "'": "'", "?": "?", "a": "\a", "b": "\b", "f": "\f", "n": "\n", "r": "\r",
+           "t": "\t", "v": "\v"}
+# comments and literals, blanked (newlines kept) before the source is searched for definitions
+_NOT_CODE = re.compile(r"//[^\n]*|/\*.*?\*/|\"(?:\\.|[^\"\\\n])*\"|'(?:\\.|[^'\\\n])*'", re.S)
+_DEFINITION = re.compile(r"\b([A-Za-z_]\w*)\s*\((?:[^()]|\([^()]*\))*\)\s*\{")
 
 
-def read_c_law(source: str | Path) -> type[Law]:
+def _c_text(raw: str, where: str, name: str) -> str:
+    """A description as the C string literal ``raw`` spells it, or a SceneError naming the declaration.
+
+    Its escapes read as C reads them (a ``\\x`` or octal escape is a byte, the
+    bytes UTF-8); it must be one line of text an FMU's modelDescription.xml can
+    carry: no control character (XML 1.0 has no NUL, and attributes turn tabs
+    and line breaks into spaces), no surrogate, no U+FFFE or U+FFFF.
+    """
+    import unicodedata
+
+    out, pos = bytearray(), 0
+    for m in _ESCAPE.finditer(raw):
+        out += raw[pos:m.start()].encode("utf-8", "surrogatepass")
+        pos = m.end()
+        simple, hexa, octal, u4, u8, other = m.groups()
+        if simple:
+            out += _SIMPLE[simple].encode()
+        elif hexa or octal:
+            value = int(hexa, 16) if hexa else int(octal, 8)
+            if value > 0xFF:
+                raise SceneError("law", f"{where}: the description of {name}: the escape {m[0][:12]!r} is more "
+                                        "than a byte")
+            out.append(value)
+        elif u4 or u8:
+            code = int(u4 or u8, 16)
+            if code > 0x10FFFF:
+                raise SceneError("law", f"{where}: the description of {name}: {m[0]!r} is no Unicode character")
+            out += chr(code).encode("utf-8", "surrogatepass")
+        else:
+            raise SceneError("law", f"{where}: the description of {name}: {m[0]} is no C escape (write \\\\ for "
+                                    "a backslash)")
+    out += raw[pos:].encode("utf-8", "surrogatepass")
+    try:
+        text = out.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError("law", f"{where}: the description of {name}: its escapes make byte 0x{out[exc.start]:02x}, "
+                                "which is not UTF-8 text") from None
+    bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cs") or c in "\ufffe\uffff"), None)
+    if bad is not None:
+        raise SceneError("law", f"{where}: the description of {name} holds U+{ord(bad):04X}, a character an FMU's "
+                                "modelDescription.xml cannot carry; a description is one line of text")
+    return text
+
+
+def _reserved_names() -> set[str]:
+    """What law.h declares for the FMU's own law file (user_law.c): a law defines law_step, not these."""
+    header = (C_DIR / "law.h").read_text()
+    return set(re.findall(r"\b(law_\w+)\s*\(", _NOT_CODE.sub("", header))) - {"law_step"}
+
+
+def _blank(match: re.Match) -> str:
+    return re.sub(r"[^\n]", " ", match[0])
+
+
+def _check_reserved(text: str, field: str) -> None:
+    """Refuse a definition of a name the FMU's code defines: the FMI functions and law.h's contract.
+
+    Checked here, before compiling, so the answer names the line; the linker
+    answers for the rest (:func:`_diagnostic`).
+    """
+    code = _NOT_CODE.sub(_blank, text)
+    reserved = _reserved_names()
+    for m in _DEFINITION.finditer(code):
+        name = m[1]
+        if not (name in reserved or name.startswith(("fmi2", "fmi3"))):
+            continue
+        head = code[max(code.rfind(";", 0, m.start()), code.rfind("}", 0, m.start())) + 1:m.start()]
+        if re.search(r"\bstatic\b", head):  # a file's own function: no clash
+            continue
+        line = code.count("\n", 0, m.start(1)) + 1
+        raise SceneError("law", f"{field}:{line}: defines {name}, a name the FMU's own code defines (the FMI "
+                                "functions and law.h's); a law defines law_step: rename it, or make it static")
+
+
+def _diagnostic(log: str, source: str, text: str) -> str | None:
+    """The first real diagnostic of a failed build, in the user's terms: file:line: reason.
+
+    A compiler error (``file:line:col: error: message``; in a file the law
+    includes, with the line that includes it), or a linker's duplicate or
+    missing symbol, mapped to the first line of the law that names it.
+    """
+    def ours(path: str) -> str:  # the staged copy is the user's file; the FMU's own files by their names
+        if path.endswith("law_step.c"):
+            return source
+        return Path(path).name if re.search(r"grubler_native_[^/\\]*[/\\]sources[/\\]", path) else path
+
+    included = None
+    for line in log.splitlines():
+        inc = re.match(r"^\s*(?:In file included from|from) (.*?):(\d+)[:,]", line)
+        if inc and inc[1].endswith("law_step.c"):
+            included = f"{source}:{inc[2]}"
+        m = re.match(r"^(.*?):(\d+):(\d+): (?:fatal )?error: (.*)$", line)
+        if m:
+            at = f"{ours(m[1])}:{m[2]}:{m[3]}: {m[4].strip()}"
+            return at if m[1].endswith("law_step.c") or included is None else f"{at} (included at {included})"
+        m = (re.search(r"multiple definition of [`'‘\"]?([A-Za-z_]\w*)", line)
+             or re.search(r"duplicate symbol: ([A-Za-z_]\w*)", line))
+        if m:
+            return f"{source}:{_line_of(m[1], text)}: defines {m[1]}, a name the FMU's own code defines; rename " \
+                   "it, or make it static"
+        m = (re.search(r"undefined reference to [`'‘\"]?([A-Za-z_]\w*)", line)
+             or re.search(r"undefined symbol: ([A-Za-z_]\w*)", line))
+        if m:
+            return f"{source}:{_line_of(m[1], text)}: uses {m[1]}, which nothing defines (an FMU links the C " \
+                   "library and its maths, nothing else)"
+    return None
+
+
+def _line_of(name: str, text: str) -> int:
+    """The first line of ``text`` whose code names ``name`` (1 if none does)."""
+    code = _NOT_CODE.sub(_blank, text)
+    m = re.search(rf"\b{re.escape(name)}\b", code)
+    return code.count("\n", 0, m.start()) + 1 if m else 1
+
+
+def _law_text(source: str | Path) -> str:
+    """The law's C, read as every input file is (:func:`grubler.limits.read_text`: regular, capped, UTF-8)."""
+    from grubler.errors import InputError
+    from grubler.limits import read_text
+
+    try:
+        return read_text(source, "law")
+    except InputError as exc:  # the law's own field, as every other refusal of the file
+        raise SceneError(exc.field, exc.reason) from None
+
+
+def read_c_law(source: str | Path, text: str | None = None) -> type[Law]:
     """The Law declared by a C law file's GRUBLER_* lines (grubler_law.h), for its FMU's variables.
+
+    ``text`` is the file's content when already read.
 
     Raises
     ------
@@ -262,14 +420,9 @@ def read_c_law(source: str | Path) -> type[Law]:
     """
     path = Path(source)
     field = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise SceneError("law", f"{field}: not UTF-8 text: a law is C source") from None
-    except OSError as exc:
-        raise SceneError("law", f"{field}: cannot be read ({exc.strerror or type(exc).__name__})") from None
+    text = _law_text(path) if text is None else text
     found = {"PARAMETER": {}, "INPUT": {}, "OUTPUT": {}}
-    n_state = 0
+    n_state, state_at = 0, None
     names: set[str] = set()
     for number, line in enumerate(text.splitlines(), start=1):
         if "GRUBLER_" not in line or line.lstrip().startswith(("#", "//", "*", "/*")):
@@ -284,22 +437,28 @@ def read_c_law(source: str | Path) -> type[Law]:
                 f"; the declarations are {', '.join(_USAGE.values())}, each on a line of its own"
             raise SceneError("law", f"{where}: cannot read {brief(line.strip())}{usage}")
         if kind == "STATE":
-            n_state = int(parts[1])
-            if n_state > MAX_LAW_STATE:
-                raise SceneError("law", f"{where}: GRUBLER_STATE({n_state}): at most {MAX_LAW_STATE} doubles")
+            if state_at is not None:
+                raise SceneError("law", f"{where}: GRUBLER_STATE declared again (first at line {state_at}); "
+                                        "declare it once")
+            digits = parts[1].lstrip("0") or "0"
+            if len(digits) > len(str(MAX_LAW_STATE)) or int(digits) > MAX_LAW_STATE:
+                raise SceneError("law", f"{where}: GRUBLER_STATE({clip(digits, 24)}): at most "
+                                        f"{MAX_LAW_STATE} doubles")
+            n_state, state_at = int(digits), number
             continue
         name = parts[1]
         if name in names:
             raise SceneError("law", f"{where}: {name} is declared twice")
         names.add(name)
-        text_at = parts[len(parts.groups())].encode().decode("unicode_escape")
+        text_at = _c_text(parts[len(parts.groups())], where, name)
         if kind == "PARAMETER":
             try:
                 start = float(parts[2])
             except ValueError:
-                raise SceneError("law", f"{where}: the start of {name} must be a number, got {parts[2]!r}") from None
+                raise SceneError("law", f"{where}: the start of {name} must be a number, got {brief(parts[2])}") \
+                    from None
             if not math.isfinite(start):
-                raise SceneError("law", f"{where}: the start of {name} must be finite, got {parts[2]!r}")
+                raise SceneError("law", f"{where}: the start of {name} must be finite, got {brief(parts[2])}")
             found[kind][name] = Parameter(start, text_at)
         else:
             found[kind][name] = text_at
@@ -311,6 +470,7 @@ def read_c_law(source: str | Path) -> type[Law]:
     if not re.search(r"\bint\s+law_step\s*\(", text):
         raise SceneError("law", f"{field}: defines no law_step; write int law_step(const double *param, "
                                 "double *state, double t, const double *in, double *out)")
+    _check_reserved(text, field)
     attrs = {"inputs": found["INPUT"], "outputs": found["OUTPUT"], "parameters": found["PARAMETER"],
              "n_state": n_state, "__doc__": f"A control law written in C ({path.name})."}
     return type(identifier_for(path), (Law,), attrs)
@@ -337,29 +497,37 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
     Raises
     ------
     SceneError
-        A declaration that cannot be read, naming the file and line.
+        A declaration that cannot be read, or C the compiler or linker
+        refused, naming the file and line (and the symbol); a destination that
+        is the source itself.
     BuildError
-        The compiler refused the file (its first error attached).
+        The compiler failed elsewhere (its first error attached).
     """
-    law = read_c_law(source)
+    text = _law_text(source)
     dest = Path(dest) if dest is not None else Path(Path(source).with_suffix(".fmu").name)
     if dest.suffix != ".fmu":
         raise SceneError(field, f"an FMU's file name ends in .fmu, got {dest.name!r}")
+    if dest.resolve() == Path(source).resolve():
+        raise SceneError(field, f"{brief(str(dest))} is the law's source: writing the FMU there would destroy it; "
+                                "name another file")
     check_destination(dest, field)
+    law = read_c_law(source, text)
     defines = {f"PARAM_{n}": k for k, n in enumerate(law.parameters)}
     defines.update({f"INPUT_{n}": k for k, n in enumerate(law.inputs)})
     defines.update({f"OUTPUT_{n}": k for k, n in enumerate(law.outputs)})
     with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
         staged = Path(tmp) / "law_step.c"  # a fixed name: the user's cannot shadow one of the FMU's own files
-        shutil.copy2(source, staged)
+        staged.write_text(text, encoding="utf-8")  # what was read and checked, not the file as it is now
         spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, defines=defines)
         spec = replace(spec, kernel_sources=(*spec.kernel_sources, "user_law", (Path(tmp), ("law_step.c",))))
         try:
             return build_fmu(spec, dest)
         except BuildError as exc:
-            first = next((ln for ln in str(exc).splitlines() if "error" in ln and "law_step.c" in ln),
-                         str(exc).splitlines()[-1])
-            raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
+            found = _diagnostic(str(exc), str(source), text)
+            if found is None:
+                raise BuildError(re.sub(r"\S*law_step\.c", str(source), str(exc).splitlines()[-1]).strip()) \
+                    from None
+            raise SceneError("law", found) from None
 
 
 def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
@@ -387,7 +555,8 @@ def export_table(times, positions, dest: str | Path, field: str = "output") -> P
 
 SPECS = {"PID": pid_spec, "CascadeController": cascade_spec, "Encoder": encoder_spec,
          "Tachometer": lambda: sensor_spec(Tachometer), "CurrentSensor": lambda: sensor_spec(CurrentSensor),
-         "Trajectory": trajectory_spec, "ComputedTorque": computed_torque_spec}
+         "Trajectory": trajectory_spec, "ComputedTorque": computed_torque_spec,
+         "LinearController": lambda: linear_spec(linear_default(), "LinearController")}
 
 
 def build_native_law(name: str, dest: str | Path) -> Path:
@@ -397,7 +566,7 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec", "export_computed_torque",
-           "encoder_spec", "export_law", "export_profile", "linear_spec",
+__all__ = ["ENCODER_CAPACITY", "LINEAR_DEFAULT", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec",
+           "export_computed_torque", "encoder_spec", "export_law", "export_profile", "linear_default", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

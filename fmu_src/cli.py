@@ -59,14 +59,30 @@ def _actuator_force(text: str) -> tuple[str, float]:
 
 
 def _output(name: str, kinds: tuple[str, ...] | str | None = None):
-    """An argparse type for a file to write: checked before any work (folder, extension)."""
+    """An argparse type for a file to write: checked before any work (folder, extension).
+
+    Each path is noted with its option, so that a write that still fails (a
+    file of /proc, a full disk) is told as that option's: :func:`_file_error`.
+    """
     def parse(text: str) -> str:
         try:
             limits.output_file(text, name, kinds)
         except InputError as exc:
             raise argparse.ArgumentTypeError(exc.reason) from None
+        _OUTPUTS[os.path.abspath(text)] = name
         return text
     return parse
+
+
+def _file_error(exc: OSError) -> InputError:
+    """An OSError about a file, as a refusal naming the option that gave the file (if one did) and the path."""
+    path = os.fsdecode(exc.filename)
+    option = _OUTPUTS.get(os.path.abspath(path))
+    where = limits.brief(path, limits.PATH_CHARS)
+    why = exc.strerror or type(exc).__name__
+    if option:
+        return InputError(option, f"{where}: cannot be written ({why})")
+    return InputError("file", f"{where}: {why}")
 
 
 def _warn(warnings) -> None:
@@ -517,7 +533,7 @@ def cmd_linearize(args) -> int:
           f"outputs {', '.join(sys_.output_labels)}")
     print(summary(sys_))
     if args.json:
-        with open(args.json, "w") as fh:
+        with limits.open_output(args.json, "w") as fh:
             json.dump(to_json(sys_), fh, indent=1)
         print(f"wrote {args.json}")
     if args.bode:
@@ -713,6 +729,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 _LAST: dict = {}  # the command run() last parsed, for main()'s way out
+_OUTPUTS: dict = {}  # the files the command line named to write, by absolute path: their options
 _MAX_PROBLEMS = 50  # lines of one refusal: a file with hundreds of bad fields is told where to start
 
 
@@ -724,6 +741,7 @@ def run(argv: Sequence[str] | None = None) -> int:
     here, whatever the outcome.
     """
     parser = build_parser()
+    _OUTPUTS.clear()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: -h (0) or a bad option (2), already printed
@@ -742,6 +760,8 @@ def run(argv: Sequence[str] | None = None) -> int:
             raise
         if isinstance(exc, MemoryError):
             exc = GrublerError("out of memory: the run needs more than this machine has; make it smaller")
+        if isinstance(exc, OSError) and exc.filename is not None:
+            exc = _file_error(exc)
         problems = exc.problems if isinstance(exc, SceneErrors) else [exc]  # several: one line each
         for problem in problems[:_MAX_PROBLEMS]:
             print(f"grubler: error: {_one_line(problem)}", file=sys.stderr)

@@ -10,7 +10,8 @@ option) and the reason, before anything large is allocated or written.
   kernel's squares and products leave double precision);
 - files: :func:`read_text` (a size cap, UTF-8, no binary), :func:`parse_toml`
   (nesting depth and huge integers), :func:`output_file` (checked before the
-  run: a folder that exists, an extension the writer knows);
+  run: a folder that exists, an extension the writer knows), :func:`open_output`
+  (a write that fails names its file);
 - sizes: :func:`check_size` (an estimate of what an output would take, refused
   with the size and the option that changes it);
 - archives: :func:`extract_zip` (bounded total size, compression ratio and
@@ -35,6 +36,7 @@ link2.m: must be a finite number, got nan
 from __future__ import annotations
 
 import atexit
+import contextlib
 import math
 import os
 import re
@@ -166,15 +168,21 @@ def read_bytes(path: str | Path, field: str, max_bytes: int = MAX_TEXT_BYTES) ->
     """The bytes of a regular file no larger than ``max_bytes``."""
     p = Path(path)
     where = brief(str(p), PATH_CHARS)
-    if not p.exists():
-        raise InputError(field, f"{where}: no such file")
-    if not p.is_file():
-        raise InputError(field, f"{where}: not a regular file")
-    size = p.stat().st_size
+    try:
+        if not p.exists():
+            raise InputError(field, f"{where}: no such file")
+        if not p.is_file():
+            raise InputError(field, f"{where}: not a regular file")
+        size = p.stat().st_size
+    except OSError as exc:  # a name too long for the file system, a folder we may not look into
+        raise InputError(field, f"{where}: {exc.strerror or exc}") from None
     if size > max_bytes:
         raise LimitError(field, f"{where} is {_size(size)}, more than the {_size(max_bytes)} this reader accepts")
-    with open(p, "rb") as fh:
-        data = fh.read(max_bytes + 1)  # the file may have grown since stat()
+    try:
+        with open(p, "rb") as fh:
+            data = fh.read(max_bytes + 1)  # the file may have grown since stat()
+    except OSError as exc:  # a file we may not read, or whose reading fails (/proc/self/mem)
+        raise InputError(field, f"{where}: cannot be read ({exc.strerror or type(exc).__name__})") from None
     if len(data) > max_bytes:
         raise LimitError(field, f"{where} is more than the {_size(max_bytes)} this reader accepts")
     return data
@@ -254,6 +262,23 @@ def output_file(path: str, option: str, suffixes: tuple[str, ...] | str | None =
             raise InputError(option, f"{where}: cannot write a {ext or 'file without extension'!r} file; "
                                      f"use one of {', '.join('.' + a for a in allowed)}")
     return p
+
+
+@contextlib.contextmanager
+def open_output(path, mode: str = "w", **kwargs):
+    """``open(path, mode)`` for a file a command writes, whose every OSError names ``path``.
+
+    A write or a close that fails (``/proc/version`` opens, then answers EIO)
+    raises an OSError without a file name; this one carries ``path``, so the
+    CLI can say which option and which file (:func:`grubler.cli.run`).
+    """
+    try:
+        with open(path, mode, **kwargs) as fh:
+            yield fh
+    except OSError as exc:
+        if exc.filename is None:
+            exc.filename = os.fspath(path)
+        raise
 
 
 # -- sizes ----------------------------------------------------------------------------------
@@ -383,7 +408,8 @@ def extract_zip(path: str | Path, dest: Path, field: str, max_bytes: int | None 
     return dest
 
 
-__all__ = ["number", "read_text", "read_bytes", "decode_text", "parse_toml", "output_file", "check_size",
+__all__ = ["number", "read_text", "read_bytes", "decode_text", "parse_toml", "output_file", "open_output",
+           "check_size",
            "extract_zip", "clip", "temp_dir", "remove_temp_dir", "remove_temp_dirs", "brief", "MAX_MAGNITUDE",
            "MAX_OUTPUT_BYTES", "check_count"]
 

@@ -123,3 +123,19 @@ def test_a_bound_message_carries_the_unit(args, message):
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", *args], capture_output=True, text=True)
     assert proc.returncode == 2
     assert message in proc.stderr
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/version"), reason="no /proc here (Linux only)")
+def test_a_file_that_fails_to_be_written_or_read_is_named_with_its_option(capsys, tmp_path):
+    # /proc/version opens for writing and then answers EIO: it was "[Errno 5] Input/output error", naming nothing
+    for args, why in ((("simulate", "thesis-fourbar", "--t-end", "0.05", "--csv", "/proc/version"),
+                       "--csv: '/proc/version': cannot be written (Input/output error)"),
+                      (("simulate", "thesis-fourbar", "--t-end", "0.05", "--plot", "/proc/grubler.png"),
+                       "--plot: '/proc/grubler.png': cannot be written"),
+                      (("report", "/proc/self/mem", "--out", str(tmp_path / "r.png")),
+                       "csv: '/proc/self/mem': cannot be read (Input/output error)"),
+                      (("animate", "/proc/self/mem", "--out", str(tmp_path / "a.gif")),
+                       "'/proc/self/mem': cannot be read (Input/output error)")):
+        code, _, err = run(capsys, *args)
+        assert code == 2 and len(err.strip().splitlines()) == 1 and why in err, (args, err)
+        assert "Errno" not in err

@@ -212,6 +212,31 @@ def test_linear_controller_matches_python_control(method):
     assert np.max(np.abs(u - ref)) < 1e-9 * np.max(np.abs(ref))
 
 
+def test_matched_refuses_a_pole_or_zero_at_s_0_where_python_control_gives_nan():
+    """'matched' scales the gain at s = 0: python-control's matrices are NaN for a PI (pole there) or a
+    washout (zero there); the controller refuses at construction, naming the method and the root."""
+    Ts = 1e-2
+    for C, kind in ((control.tf([2.0, 20.0], [1.0, 0.0]), "pole"), (control.tf([1.0, 0.0], [1.0, 10.0]), "zero")):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ref = control.ss(control.sample_system(C, Ts, method="matched"))
+        assert not all(np.all(np.isfinite(m)) for m in (ref.A, ref.B, ref.C, ref.D))  # why it is refused
+        with pytest.raises(grubler.SceneError, match=rf"'matched' cannot discretise a controller with a {kind} "
+                                                     r"at s = 0") as err:
+            LinearController(C, Ts, "matched")
+        assert err.value.field == "method"
+        with pytest.raises(grubler.SceneError, match=f"{kind} at s = 0"):  # the FMU's parameters: the same rule
+            LinearController.from_parameters(num=" ".join(map(str, C.num[0][0])), den=" ".join(map(str, C.den[0][0])),
+                                             method="matched", Ts=Ts)
+    # without a root at s = 0, 'matched' is python-control's, sample for sample
+    C = control.tf([2.0, 20.0], [1.0, 0.5])  # a lag: the PI's integrator moved off s = 0
+    ctl = LinearController(C, Ts, "matched")
+    inputs = sc.linear_inputs(200)
+    u = np.array([ctl.update(k * Ts, i)["u"] for k, i in enumerate(inputs)])
+    e = np.array([i["setpoint"] - i["measurement"] for i in inputs])
+    ref = control.forced_response(control.sample_system(C, Ts, method="matched"), np.arange(200) * Ts, e).outputs
+    assert np.all(np.isfinite(u)) and np.max(np.abs(u - ref)) < 1e-9 * np.max(np.abs(ref))
+
+
 def test_linear_controller_parameters_coefficients_state_space_and_discrete():
     inputs = sc.linear_inputs(100)
     run = lambda ctl: np.array([ctl.update(k * 1e-2, i)["u"] for k, i in enumerate(inputs)])  # noqa: E731
@@ -373,7 +398,10 @@ def dist(tmp_path_factory):
     from grubler.controllers.fmu import build_controller_fmu
 
     folder = tmp_path_factory.mktemp("controllers_dist")
-    build_fmu.build(folder, NAMES)
+    build_fmu.build(folder, [n for n in NAMES if n != "LinearController"])
+    # build_fmu.py's LinearController is native, its parameters one controller's matrices
+    # (test_native_laws.py); the pythonfmu one takes any controller as num/den or state_space
+    build_controller_fmu(LinearController, folder)
     build_controller_fmu(sc.RateLimiter, folder)
     return folder
 

@@ -562,7 +562,3 @@ def test_grubler_export_fmi3_and_a_bad_version(tmp_path):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "--fmi" in proc.stderr
 
 
-def test_build_fmu_refuses_a_pythonfmu_controller_as_fmi3(tmp_path):
-    proc = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--dest", str(tmp_path), "--fmi", "3",
-                           "LinearController"], capture_output=True, text=True, timeout=600)
-    assert proc.returncode != 0 and "LinearController: pythonfmu FMUs are FMI 2 only" in proc.stderr

@@ -102,19 +102,16 @@ def test_default_law_state_holds_inner_laws_as_plain_data():
 @pytest.fixture(scope="module")
 def dist(tmp_path_factory):
     sys.path.insert(0, str(HERE.parent))
-    import build_fmu
 
     from controller_scenarios import RateLimiter  # a user's own law
     from grubler.controllers.fmu import build_controller_fmu
 
-    from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, Trajectory
+    from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, LinearController, Trajectory
 
     folder = tmp_path_factory.mktemp("contract_dist")
-    build_fmu.build(folder, ["LinearController"])
-    # the shipped PID, cascade, encoder, trajectory and computed torque are native FMUs
-    # (test_native_laws.py); the pythonfmu route, which users' own laws take, is held to its
-    # contract on them too
-    for law in (PID, CascadeController, Encoder, Trajectory, ComputedTorque, RateLimiter):
+    # the shipped laws are native FMUs (test_native_laws.py); the pythonfmu route, which users'
+    # own laws take, is held to its contract on them too
+    for law in (PID, CascadeController, LinearController, Encoder, Trajectory, ComputedTorque, RateLimiter):
         build_controller_fmu(law, folder)
     return folder
 

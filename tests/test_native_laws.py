@@ -31,6 +31,8 @@ from test_native_fmu import (DISCARD, ERROR, OK, SANITIZER_ENV, WARNING, Host, T
 
 ROOT = Path(__file__).resolve().parent.parent
 LAWS = ["PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "Trajectory", "ComputedTorque"]
+# and build_fmu.py's LinearController, whose variables are its default controller's matrices
+DIST_LAWS = [*LAWS, "LinearController"]
 PID_PARAMS = {"K": 8.0, "Ti": 0.4, "Td": 0.05, "N": 10.0, "b": 0.7, "c": 0.5, "Ts": 1e-3, "u_min": -6.0,
               "u_max": 6.0}
 ENC = {"counts_per_rev": 2000, "noise_std": 2e-3, "seed": 7, "delay": 2, "Ts": 1e-3}
@@ -68,7 +70,7 @@ def built(tmp_path_factory):
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), LAWS):
+    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), DIST_LAWS):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, d, read_model_description(str(path)))
@@ -112,7 +114,7 @@ def got(t: Transcript) -> np.ndarray:
 
 # -- the binary ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", LAWS)
+@pytest.mark.parametrize("name", DIST_LAWS)
 def test_the_binary_needs_no_python_and_exports_only_fmi2(built, name):
     so = built[name][1] / "binaries" / "linux64" / f"{name}.so"
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(so)], capture_output=True, text=True,
@@ -486,16 +488,89 @@ def test_export_law_refuses_a_bad_law_with_one_line(tmp_path, text, why):
     assert not (tmp_path / "L.fmu").exists()
 
 
-@pytest.mark.parametrize("make, why", [(None, "cannot be read (No such file or directory)"),
-                                       (b"\x89PNG\r\n\x1a\n\xff", "not UTF-8 text: a law is C source")])
+@pytest.mark.parametrize("make, why", [(None, "law.c': no such file"),
+                                       (b"\x89PNG\r\n\x1a\n\xff", "not UTF-8 text (byte 0x89 at offset 0)"),
+                                       ("/dev/zero", "'/dev/zero': not a regular file"),
+                                       ("/proc/self/mem", "cannot be read (Input/output error)")])
 def test_export_law_says_why_a_file_cannot_be_its_source(tmp_path, make, why):
+    # /dev/zero once read until memory ran out: the law is read as every input file is (regular, capped)
     src = tmp_path / "law.c"
-    if make is not None:
+    if isinstance(make, str):
+        if not Path(make).exists():
+            pytest.skip(f"no {make} here")
+        src = Path(make)
+    elif make is not None:
         src.write_bytes(make)
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
                            str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
-    assert why in proc.stderr, proc.stderr
+    assert why in proc.stderr and "law: " in proc.stderr, proc.stderr
+
+
+def _law_with(tmp_path, old: str, new: str) -> Path:
+    """examples/pi_law.c with one piece of text replaced, as law.c in tmp_path."""
+    text = (ROOT / "examples" / "pi_law.c").read_text()
+    assert old in text
+    src = tmp_path / "law.c"
+    src.write_text(text.replace(old, new, 1))
+    return src
+
+
+GAIN = '"proportional gain [V/rad]"'
+RETURN = "int law_step("
+
+
+@pytest.mark.parametrize("old, new, why", [
+    (GAIN, r'"gain \x [V/rad]"', r"law.c:9: the description of K: \x is no C escape"),
+    (GAIN, r'"gain \u0000 [V/rad]"', "law.c:9: the description of K holds U+0000, a character an FMU's "
+                                      "modelDescription.xml cannot carry"),
+    (GAIN, r'"gain \x01 [V/rad]"', "law.c:9: the description of K holds U+0001"),
+    (GAIN, r'"gain \xff [V/rad]"', "which is not UTF-8 text"),
+    ("GRUBLER_STATE(1)", "GRUBLER_STATE(" + "1" * 5000 + ")", "law.c:16: GRUBLER_STATE(1111"),
+    ("GRUBLER_STATE(1)", "GRUBLER_STATE(1)\nGRUBLER_STATE(2)", "law.c:17: GRUBLER_STATE declared again "
+                                                                "(first at line 16)"),
+    (RETURN, "int law_check(void) { return 0; }\n" + RETURN, "law.c:18: defines law_check, a name the FMU's own"),
+    (RETURN, "int fmi2DoStep(void)\n{ return 0; }\n" + RETURN, "law.c:18: defines fmi2DoStep"),
+    # the linker's answer, mapped to the line: a name of the FMU's C that no rule up front knows
+    (RETURN, "double model_time(void) { return 0.0; }\n" + RETURN, "law.c:18: defines model_time"),
+    # a compiler error in a file the law includes: that file's line, and where the law includes it
+    ('#include "grubler_law.h"', '#include "grubler_law.h"\n#include "JUNK"', "junk.txt:1:5: expected"),
+])
+def test_export_law_names_the_line_and_the_reason(tmp_path, old, new, why):
+    (tmp_path / "junk.txt").write_text("root:x:0:0:root:/root:/bin/bash\n")
+    src = _law_with(tmp_path, old, new.replace("JUNK", str(tmp_path / "junk.txt")))
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), "-o",
+                           str(tmp_path / "L.fmu")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert why in proc.stderr and str(tmp_path) in proc.stderr, proc.stderr
+    if "JUNK" in new:
+        assert "(included at " + str(src) + ":8)" in proc.stderr, proc.stderr
+    assert not (tmp_path / "L.fmu").exists()
+
+
+def test_a_static_helper_may_share_a_reserved_name(tmp_path):
+    from grubler.controllers.native_fmu import read_c_law
+
+    src = _law_with(tmp_path, RETURN, "static int law_check(void) { return 0; }\n/* int fmi2DoStep(void) { } */\n"
+                                      + RETURN)
+    assert list(read_c_law(src).outputs) == ["u"]
+
+
+def test_export_law_checks_where_it_writes_before_building(tmp_path):
+    law = ROOT / "examples" / "pi_law.c"
+    if Path("/proc").is_dir():  # a folder access() calls writable, where no file can be made
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(law), "-o", "/proc/x.fmu"],
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert "--out: '/proc/x.fmu': cannot be written there" in proc.stderr, proc.stderr
+    # the source as its own destination, named or by default: refused, the law intact
+    src = tmp_path / "same.fmu"
+    src.write_bytes(law.read_bytes())
+    for out in (["-o", str(src)], []):
+        proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export-law", str(src), *out],
+                              capture_output=True, text=True, timeout=300, cwd=tmp_path)
+        assert proc.returncode == 2 and "is the law's source" in proc.stderr, proc.stderr
+    assert src.read_bytes() == law.read_bytes()
 
 
 # -- a python-control controller as a native FMU -------------------------------------------
@@ -531,6 +606,34 @@ def test_a_linear_controller_becomes_a_native_fmu_with_its_matrices_as_parameter
     assert np.array_equal(got(t)[:, 0], ref)  # the same C, bit for bit
     t = h.run(h.start({"A[2,1]": float("inf")}, md=md))
     assert t.statuses("exit") == [ERROR] and t.logged("A[2,1]: must be finite (got inf)"), t.logs
+
+
+def test_build_fmu_makes_only_native_fmus_and_its_linear_controller_runs_without_python(host, built):
+    """dist/LinearController.fmu was a pythonfmu build (fmusim under env -i: undefined _Py_NoneStruct)."""
+    import build_fmu
+
+    from grubler.controllers.native_fmu import LINEAR_DEFAULT, linear_default
+
+    assert set(build_fmu.FMUS) == set(build_fmu.NATIVE)  # no pythonfmu route left in dist/
+    path, d, md = built["LinearController"]
+    assert not (d / "resources" / "grubler").exists()
+    start = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+    assert start["Ts"] == LINEAR_DEFAULT["Ts"] and list(start.values())[1:] == list(linear_default().matrices)
+    h = Host(host, d / "binaries" / "linux64" / "LinearController.so", md.guid,
+             {v.name: v.valueReference for v in md.modelVariables})
+    inputs = [{"setpoint": 1.0, "measurement": 0.5 * math.sin(0.01 * k), "feedforward": 0.0} for k in range(300)]
+    script = h.start(md=md)
+    for k, i in enumerate(inputs):
+        script += [f"setr {h.vr[n]} {x!r}" for n, x in i.items()] + [f"step {k * 1e-3!r} 0.001", h.getr("u")]
+    t = h.run(script)  # env={}: no PYTHONPATH, no Python at all
+    assert set(t.statuses("step")) == {OK}
+    s = Sampler(linear_default())
+    ref = [s.step(k * 1e-3, 1e-3, i)["u"] for k, i in enumerate(inputs)]
+    assert np.array_equal(got(t)[:, 0], ref)
+    # the documented PI, K = 2, Ti = 0.1 s, Ts = 1 ms: u_k = K e_k + I_k, Tustin's integral of K e / Ti
+    # I_k = I_k-1 + K Ts / (2 Ti) (e_k + e_k-1) from e_-1 = 0, i.e. K Ts / (2 Ti) (2 sum_j<=k e_j - e_k)
+    e = np.array([i["setpoint"] - i["measurement"] for i in inputs])
+    assert np.allclose(ref, 2.0 * e + 2.0 * 1e-3 / 0.2 * (2 * np.cumsum(e) - e), rtol=0, atol=1e-9)
 
 
 def test_a_six_bar_gets_a_computed_torque_fmu_of_its_own_shape_that_runs_as_the_library(host, tmp_path):

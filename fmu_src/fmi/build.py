@@ -499,3 +499,13 @@ def check_destination(dest: Path, field: str = "output") -> None:
                                 f"{longest - len('.part')} at most here (the export writes NAME.part first)")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(field, f"{where}: the folder {brief(str(folder), PATH_CHARS)} is not writable")
+    # access() answers for permissions only (and yes to root): /proc says no only when a file is made
+    probe = dest.with_name(partial)
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+    except FileExistsError:  # a partial file left by a build that was stopped: the folder takes files
+        return
+    except OSError as exc:
+        raise InputError(field, f"{where}: cannot be written there ({exc.strerror or type(exc).__name__})") \
+            from None
+    os.unlink(probe)

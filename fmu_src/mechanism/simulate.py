@@ -32,7 +32,7 @@ from grubler.mechanism.dynamics import (EXACT, METHOD_CODE, METHODS, PENALTY, In
                                         forward_dynamics, observation_names, put_actuator_forces)
 from grubler.errors import Cancelled, IntegrationError, LimitError, SceneError
 from grubler.mechanism.integrators import Integrator, StateEquation, StepBudgetError
-from grubler.limits import check_size, number
+from grubler.limits import check_size, number, open_output
 from grubler.mechanism.model import Mechanism, coordinate_names
 from grubler.mechanism.scene import Scene, load_scene
 
@@ -549,7 +549,7 @@ class Result:
         from grubler.records import column_heading
 
         cols, data = self.table(groups)
-        with open(path, "w", newline="") as fh:
+        with open_output(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow([column_heading(c, unit_of(c)) for c in cols])
             for row in data:

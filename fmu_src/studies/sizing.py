@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from grubler.errors import SceneError
-from grubler.limits import check_count, check_size, number
+from grubler.limits import check_count, check_size, number, open_output
 from grubler.mechanism.inverse import DriveDemand, drive_demand
 from grubler.mechanism.model import Mechanism
 
@@ -782,7 +782,7 @@ class SizingStudy:
 
         rows = self.table()
         cols = list(dict.fromkeys(c for r in rows for c in r))
-        with open(path, "w", newline="") as fh:
+        with open_output(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow([column_heading(c, SUMMARY_UNITS.get(c, "")) for c in cols])
             for r in rows:

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from grubler.errors import GrublerError, InputError
-from grubler.limits import MAX_POINTS, MAX_TABLE_BYTES, brief, check_count, clip, decode_text, number, read_bytes
+from grubler.limits import MAX_POINTS, MAX_TABLE_BYTES, brief, check_count, clip, decode_text, number, open_output, read_bytes
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
@@ -150,7 +150,7 @@ class SweepTable:
         from grubler.records import column_heading
 
         units = {"seconds": "s", **self.units}
-        with open(path, "w", newline="") as fh:
+        with open_output(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow([column_heading(c, units.get(c, "")) for c in self.columns])
             for r in self.rows:

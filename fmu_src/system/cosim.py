@@ -45,8 +45,8 @@ from pathlib import Path
 import numpy as np
 
 from grubler.errors import Cancelled, GrublerError, InputError
-from grubler.limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, remove_temp_dir,
-                     temp_dir)
+from grubler.limits import (MAX_STEPS, brief, check_count, check_size, clip, did_you_mean, extract_zip, open_output,
+                             remove_temp_dir, temp_dir)
 from grubler.system.interface import FmuInterface, Port, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
 
@@ -396,7 +396,7 @@ class CosimResult:
         """Every recorded signal, headed ``component.output [unit]`` (see :func:`grubler.records.column_heading`)."""
         from grubler.records import column_heading
 
-        with open(path, "w", newline="") as fh:
+        with open_output(path, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["t [s]"] + [column_heading(c, self.units.get(c, "")) for c in self.columns])
             for t, row in zip(self.t, self.data):
