@@ -46,29 +46,45 @@ def draw_graph(ax, chain, ground, title):
         ax.plot(x, y, "^" if ternary else "o", ms=22 if ternary else 16, mfc="#333333" if fixed else "white",
                 mec="#1f4e79", mew=2, zorder=2)
         ax.annotate("ground" if fixed else name, (x, y), xytext=(0, -22 if y <= 0 else 16),
-                    textcoords="offset points", ha="center", fontsize=8)
-    ax.set_title(title, fontsize=9)
-    ax.set_aspect("equal")
-    ax.margins(0.25)
+                    textcoords="offset points", ha="center", va="top" if y <= 0 else "bottom", fontsize=10)
+    ax.set_title(title, fontsize=11)
+    xs, ys = [x for x, _ in pos.values()], [y for _, y in pos.values()]
+    # room for the labels over the top nodes and under the bottom ones, clear of the title
+    ax.update_datalim([(min(xs) - 0.4, min(ys) - 0.6), (max(xs) + 0.4, max(ys) + 0.6)])
+    ax.margins(0.0)
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")  # the box fills what the layout gave it: titles stay on the page
     ax.axis("off")
+
+
+DPI = 100
+SIZE = {True: (9.6, 4.6), False: (4.8, 4.6)}  # inches with and without the preset drawn beside the graph
+
+
+def figure(name: str):
+    """The figure of one inversion: its link graph, and the shipped preset at its start if there is one."""
+    chain, ground, title = INVERSIONS[name]
+    has_preset = name in set(grubler.preset_names())
+    # constrained layout makes room for every title and label: none clipped at the edge
+    fig, axes = plt.subplots(1, 2 if has_preset else 1, figsize=SIZE[has_preset], dpi=DPI, layout="constrained",
+                             gridspec_kw={"width_ratios": [1, 1.25]} if has_preset else None)
+    fig.get_layout_engine().set(w_pad=0.1, h_pad=0.1)
+    axes = axes if has_preset else [axes]
+    draw_graph(axes[0], chain, ground, title)
+    if has_preset:
+        m = grubler.load_scene(name).mechanism
+        z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+        xlim, ylim = fit_view(m, [z])
+        Drawer(axes[1], m, xlim, ylim).draw(frame_geometry(m, z))
+        axes[1].set_title(f"preset {name}", fontsize=11)
+        axes[1].tick_params(labelsize=9)
+    return fig
 
 
 def main(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    presets = set(grubler.preset_names())
-    for name, (chain, ground, title) in INVERSIONS.items():
-        has_preset = name in presets
-        fig, axes = plt.subplots(1, 2 if has_preset else 1, figsize=(6.4 if has_preset else 3.2, 3.3), dpi=90,
-                                 layout="constrained")  # room for every label: none clipped at the edge
-        axes = axes if has_preset else [axes]
-        draw_graph(axes[0], chain, ground, title)
-        if has_preset:
-            m = grubler.load_scene(name).mechanism
-            z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
-            xlim, ylim = fit_view(m, [z])
-            Drawer(axes[1], m, xlim, ylim).draw(frame_geometry(m, z))
-            axes[1].set_title(f"preset {name}", fontsize=9)
-            axes[1].tick_params(labelsize=7)
+    for name in INVERSIONS:
+        fig = figure(name)
         fig.savefig(out / f"topology-{name}.png")
         plt.close(fig)
         print(f"wrote {out / f'topology-{name}.png'}")

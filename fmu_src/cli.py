@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import signal
 import sys
 from typing import Sequence
@@ -225,9 +226,11 @@ def cmd_simulate(args) -> int:
     if args.csv:
         res.to_csv(args.csv, groups)
     if args.plot:
-        from grubler.views.plotting import plot_result
+        from grubler.views.plotting import coarse_sampling, plot_result
 
         plot_result(res, args.plot)
+        _warn(filter(None, [coarse_sampling(res.t, {n: res[n] for n in res.model.coordinate_names
+                                                     if n.startswith("theta")}, "--dt-out")]))
     e = res["E"]
     print(f"{scene.name}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
           f"{res.stats['steps']} steps, {res.stats['rhs_evals']} RHS evaluations")
@@ -246,7 +249,8 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from grubler.views.animation import MAX_SIGNALS, animate, check_frames
+    from grubler.views.animation import MAX_SIGNALS, animate, check_frames, sampling_warnings
+    from grubler.views.plotting import kind_words
     from grubler.views.runs import check_fits, read_run, select_signals, signal_names
 
     if args.source.endswith(".csv"):
@@ -270,7 +274,8 @@ def cmd_animate(args) -> int:
     signals = select_signals(args.signals, series, limit=MAX_SIGNALS) if args.signals else None
     out = args.out or f"{scene.name or 'mechanism'}.gif"
     n = animate(scene.mechanism, t, zs, out, fps=args.fps, speed=args.speed, trace=args.trace,
-                title=f"{scene.name}: {scene.mechanism.kind}".strip(": "), signals=signals)
+                title=f"{scene.name}: {kind_words(scene.mechanism)}".strip(": "), signals=signals)
+    _warn(sampling_warnings(scene.mechanism, t, zs, args.fps, args.speed))
     print(f"wrote {out}: {n} frames, {t[-1] - t[0]:g} s of motion")
     return 0
 
@@ -294,6 +299,11 @@ def cmd_report(args) -> int:
     outs = write_report(columns, args.out or ["report.png"], model, source=args.csv,
                         cosim=mechanism_prefix(list(raw)) is not None, system=system)
     print(f"wrote {', '.join(outs)}")
+    from grubler.views.plotting import coarse_sampling
+
+    # the record's grid is the run's: its --dt-out is what would refine it
+    _warn(filter(None, [coarse_sampling(columns["t"], {c: v for c, v in columns.items()
+                                                       if re.fullmatch(r"theta\d+", c)}, "--dt-out")]))
     return 0
 
 
@@ -365,8 +375,12 @@ def cmd_cosim(args) -> int:
         res.to_csv(args.csv)
         print(f"wrote {args.csv}: {len(res.columns)} signals, {steps + 1} rows")
     if args.plot:
+        from grubler.views.plotting import coarse_sampling
+
         res.plot(args.plot)
         print(f"wrote {args.plot}")
+        _warn(filter(None, [coarse_sampling(res.t, {c: res[c] for c in res.columns if res.units.get(c) == "rad"},
+                                            "--dt-out")]))
     return 0
 
 

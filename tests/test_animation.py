@@ -285,3 +285,48 @@ def test_a_branching_chain_is_drawn_from_each_links_parent():
     assert sorted(map(tuple, np.round(geo.fixed, 12))) == sorted(tuple(np.round(joint[k], 12)) for k in (2, 5))
     end2 = joint[2] + rot(ANGLES[2]) @ np.array([0.5, 0.0])
     assert any(np.allclose(a, end2) and np.allclose(b, joint[4]) for a, b in geo.bars)
+
+
+# -- issue 29, item 18 ----------------------------------------------------------------------------------------
+def test_the_films_strips_show_pressures_in_bar_and_no_power_of_ten_over_a_title():
+    from grubler.views.animation import still_figure
+    from test_report import overlapping_texts
+
+    res = grubler.simulate("luffing-boom", t_end=1.0, dt_out=0.01)
+    t = res.t
+    signals = [("cylinder.pressure_a [Pa]", 1.0e7 + 2e6 * np.sin(t)),  # a hydraulic chamber, 100 bar
+               ("cylinder.force [N]", 12000.0 + 0.5 * np.sin(t)),        # an offset matplotlib would print as +1.2e4
+               ("volume [m3]", 1e-7 * (1 + np.sin(t))),                  # a power of ten: into the title
+               ("theta2 [rad]", res["theta2"])]
+    fig = still_figure(res.model, t, res.z, signals=signals)
+    strips = fig.axes[1:]
+    titles = [ax.get_title(loc="left") for ax in strips]
+    assert titles[0] == "cylinder.pressure_a [bar]" and titles[1] == "cylinder.force [N]"
+    assert titles[2].startswith("volume [m3], axis in units of")
+    assert max(strips[0].get_lines()[0].get_ydata()) == pytest.approx(100 + 20 * np.sin(1.0))  # bar
+    fig.canvas.draw()
+    assert all(not ax.yaxis.get_offset_text().get_visible() or not ax.yaxis.get_offset_text().get_text()
+               for ax in strips)
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_a_turning_crank_strip_is_wrapped_and_a_film_too_coarse_for_it_warns_naming_fps(tmp_path, capsys):
+    from grubler.views.animation import sampling_warnings, still_figure
+
+    res = grubler.simulate("fourbar-crank-rocker", t_end=6.0, dt_out=0.01)
+    fig = still_figure(res.model, res.t, res.z, signals=[("theta2 [rad]", res["theta2"])])
+    strip = fig.axes[1]
+    assert "wrapped to ±π" in strip.get_title(loc="left")
+    y = strip.get_lines()[0].get_ydata()
+    assert np.nanmin(y) >= -np.pi - 0.05 and np.nanmax(y) <= np.pi + 0.05
+    plt.close(fig)
+    # the crank turns some 3.5 turns a second: 1/8 turn is 36 ms; 25 frames a second are 40 ms apart
+    assert sampling_warnings(res.model, res.t, res.z, fps=50, speed=1.0) == []
+    (warning,) = sampling_warnings(res.model, res.t, res.z, fps=5, speed=1.0)
+    assert warning.startswith("--fps: theta2 turns") and "use --fps" in warning
+    # through the command line: one line on stderr, the film still written
+    out = tmp_path / "f.gif"
+    assert main(["animate", "fourbar-crank-rocker", "--t-end", "2", "--fps", "5", "--out", str(out)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert out.exists() and any(e.startswith("warning: --fps: theta2 turns") for e in err)

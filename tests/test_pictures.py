@@ -327,3 +327,40 @@ def test_two_motors_draw_two_by_two_not_a_key_alone_on_a_row(sizing_study):
     fig = study.figure()
     spec = [ax.get_subplotspec() for ax in fig.axes]
     assert [(s.rowspan.start, s.colspan.start) for s in spec] == [(0, 0), (0, 1), (1, 0), (1, 1)]
+
+
+# -- issue 29, item 18: the six-bar topology figures ------------------------------------------------------------
+@pytest.mark.parametrize("name", ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"])
+def test_the_topology_figures_are_large_enough_and_clip_no_text(name):
+    import importlib.util
+
+    path = Path(__file__).parent.parent / "examples" / "sixbar_figures.py"
+    spec = importlib.util.spec_from_file_location("sixbar_figures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    from matplotlib.text import Text
+
+    fig = module.figure(name)
+    drawn, original = [], Text.draw
+
+    def draw(self, renderer):  # what a draw draws (a tick outside the view is a Text too, not drawn)
+        original(self, renderer)
+        if self.get_visible() and self.get_text().strip():
+            drawn.append((self.get_text(), self.get_window_extent(renderer)))
+
+    Text.draw = draw
+    try:
+        fig.canvas.draw()
+    finally:
+        Text.draw = original
+    width, height = fig.canvas.get_width_height()
+    assert width >= 900 and height >= 400  # was 576 x 297
+    page = fig.bbox
+    assert "ground" in [text for text, _ in drawn] and any(text.startswith("preset") for text, _ in drawn)
+    for text, box in drawn:  # every title and label whole on the page
+        assert box.x0 >= page.x0 and box.x1 <= page.x1 and box.y0 >= page.y0 and box.y1 <= page.y1, text
+    import itertools
+
+    overlaps = [(a, b) for (a, ba), (b, bb) in itertools.combinations(drawn, 2) if ba.padded(-1.0).overlaps(
+        bb.padded(-1.0))]
+    assert overlaps == []  # no node's label over the title

@@ -143,3 +143,50 @@ def test_report_cli_writes_png_and_pdf_and_refuses_a_scene_that_does_not_fit(run
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "report", csv, "--scene", "thesis-slider-crank",
                            "--out", str(tmp_path / "y.png")], capture_output=True, text=True)
     assert proc.returncode == 2 and "--scene" in proc.stderr
+
+
+# -- issue 29, item 18 ----------------------------------------------------------------------------------------
+def test_every_time_panel_has_its_time_axis_labelled_and_the_subtitle_keeps_to_its_column(runs):
+    model = grubler.load_scene("fourbar-crank-rocker").mechanism
+    raw, cols = read_run(str(runs["fourbar-crank-rocker"]), model)
+    source = "fourbar-crank-rocker_with_a_long_descriptive_record_name.csv"
+    fig = report_figure(cols, model, source=source, cosim=True)
+    assert overlapping_texts(fig) == []
+    right = fig.subfigs[1]
+    panels = [ax for ax in right.axes if ax.get_ylabel()]
+    assert len(panels) >= 5
+    for ax in panels:
+        assert ax.get_xlabel() == "t [s]", ax.get_ylabel()
+        assert any(t.get_visible() and t.get_text() for t in ax.get_xticklabels()), ax.get_ylabel()
+    renderer = fig.canvas.get_renderer()
+    table = next(ax for ax in fig.subfigs[0].findobj(matplotlib.axes.Axes) if "record" in ax.get_title(loc="left"))
+    box = table._left_title.get_window_extent(renderer)
+    assert box.x1 <= fig.subfigs[0].bbox.x1 and box.x1 < min(ax.get_window_extent(renderer).x0 for ax in panels)
+    # a scene with no declared type is named by what it is
+    assert table.get_title(loc="left").startswith("four-bar (crank-rocker), co-simulation record")
+
+
+def test_a_turning_drive_is_drawn_wrapped_and_says_how_many_turns(runs):
+    model = grubler.load_scene("fourbar-crank-rocker").mechanism
+    cols = read_run(str(runs["fourbar-crank-rocker"]), model)[1]
+    assert np.ptp(cols["theta2"]) > 4 * np.pi  # what it is about: the crank turns
+    fig = report_figure(cols, model)
+    (ax,) = [a for a in fig.axes if a.get_ylabel().startswith("drive theta2")]
+    assert ax.get_ylabel() == "drive theta2 [rad, wrapped to ±π]" and "turns" in ax.get_title(loc="right")
+    y = ax.get_lines()[0].get_ydata()
+    assert np.nanmax(y) - np.nanmin(y) < 2 * np.pi + 0.5
+
+
+def test_the_pneumatic_report_draws_the_supply_pressure_of_its_system():
+    from pathlib import Path
+
+    from grubler.system.ssp import read
+
+    system = read(Path(__file__).parent.parent / "examples" / "toggle_clamp.ssd")
+    t = np.linspace(0.0, 1.0, 201)
+    cols = {"t": t, "pressure_a": 4e4 + 1e4 * np.sin(t), "pressure_b": 3e4 + 0 * t}
+    fig = report_figure(cols, cosim=True, system=system)
+    (ax,) = [a for a in fig.axes if a.get_ylabel() == "cylinder pressure [bar]"]
+    levels = [line.get_ydata()[0] for line in ax.get_lines()]
+    assert 6.0 in levels  # the supply, 6 bar
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["cap side A", "rod side B", "supply"]

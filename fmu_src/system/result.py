@@ -91,10 +91,12 @@ class CosimResult:
                     limits=self.limits())
 
     def limits(self) -> dict[str, list[tuple[str, float]]]:
-        """The power stage's limits by panel title: +-supply over a motor's voltage, +-limit over its current.
+        """The power stage's limits by panel title: +-supply over a motor's voltage, +-limit over its current,
+        and a pneumatic cylinder's supply pressure over its chambers'.
 
         A motor is a component with ``supply_voltage`` and ``current_limit``
-        parameters (the DC motor FMU's); a limit of 0 or less is none.
+        parameters (the DC motor FMU's); a limit of 0 or less is none.  A cylinder
+        given its ``supply_pressure`` (the pneumatic FMU's) has it drawn as a line.
         """
         bounds = {}
         for name, comp in self.system.components.items():
@@ -107,6 +109,12 @@ class CosimResult:
                     for sig in signals:
                         bounds[f"{name}.{sig}"] = (f"±{value:g} {unit} {words}" + (f" ({name})" if name != "motor"
                                                                                       else ""), float(value))
+        from grubler.views.plotting import BAR, supply_pressures
+
+        for name, value in supply_pressures(self.system).items():  # a given supply: the chambers' reference
+            for sig in ("pressure_a", "pressure_b"):
+                bounds[f"{name}.{sig}"] = (f"{value / BAR:g} bar supply" + (f" ({name})" if name != "cylinder"
+                                                                              else ""), value)
         out: dict[str, list[tuple[str, float]]] = {}
         for p in self.system.plots or _default_panels(self):
             lines = list(dict.fromkeys(bounds[s] for s in p.signals if s in bounds and not p.difference))

@@ -374,6 +374,38 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: floa
     return len(rows)
 
 
+def still_figure(model: Mechanism, t: np.ndarray, zs: np.ndarray, fps: float = 25, speed: float = 1.0,
+                 trace: str | None = None, title: str = "", signals=None, size=FRAME_SIZE):
+    """The matplotlib figure a film's frames are drawn over (axes, ground, the signals' strips), left open.
+
+    What :func:`animate` rasterises once; here to be looked at or checked (its texts, their places).
+    """
+    t, zs = np.asarray(t, dtype=float), np.asarray(zs, dtype=float)
+    rows = frame_rows(t, fps, speed)
+    point = trace_point(trace, model)
+    sketch = Sketch(model, point)
+    path = trace_path(model, zs, point) if point else None
+    return _Film(model, sketch, sketch.positions(zs[rows]), path, t, list(signals or []), title, size,
+                 keep_figure=True).figure
+
+
+def sampling_warnings(model: Mechanism, t: np.ndarray, zs: np.ndarray, fps: float, speed: float) -> list[str]:
+    """Why a film of this record would show a joint stroboscopically, one line each ([] when it would not).
+
+    A frame shows the record's row at or before its time: the record's own grid
+    (the run's ``--dt-out``) and the frames' (``--fps``, ``--speed``) must both
+    follow the fastest joint to within 1/8 turn.
+    """
+    from grubler.views.plotting import coarse_sampling
+
+    t, zs = np.asarray(t, dtype=float), np.asarray(zs, dtype=float)
+    thetas = {n: i for i, n in enumerate(model.free_names) if n.startswith("theta")}  # zs's columns: real joints
+    rows = frame_rows(t, fps, speed)
+    out = [coarse_sampling(t, {n: zs[:, i] for n, i in thetas.items()}, "--dt-out"),
+           coarse_sampling(t[rows], {n: zs[rows, i] for n, i in thetas.items()}, "--fps", "frame", speed)]
+    return [w for w in out if w]
+
+
 def _mp4(frames, out: str, fps: float, size) -> None:
     """Pipe RGB frames to ffmpeg (H.264, yuv420p: what players take)."""
     import subprocess
@@ -424,9 +456,10 @@ class _Film:
     """The still background (matplotlib, once) and the frames drawn over it (Pillow)."""
 
     def __init__(self, model: Mechanism, sketch: Sketch, pos: np.ndarray, path, t: np.ndarray, signals, title: str,
-                 size):
+                 size, keep_figure: bool = False):
         from PIL import Image, ImageFont
 
+        signals = [strip_signal(label, values) for label, values in signals]
         self.sketch, self.pos, self.path, self.t, self.signals = sketch, pos, path, t, signals
         drawn = sketch.drawn_points(pos).reshape(-1, 2)
         xlim, ylim = _view(drawn if path is None else np.vstack([drawn, path]))
@@ -458,8 +491,9 @@ class _Film:
                 y0 = mech_h + i * STRIP_HEIGHT + 25
                 sax = fig.add_axes([left / w, 1 - (y0 + STRIP_HEIGHT - 30) / h, 1 - (left + right) / w,
                                     (STRIP_HEIGHT - 30) / h])
-                _plot_signal(sax, t, np.asarray(values, dtype=float))
+                _plot_signal(sax, t, np.asarray(values, dtype=float), wrapped="wrapped to" in label)
                 sax.set_title(label, loc="left", fontsize=FONT_SIZE, pad=3)
+                sax.yaxis.get_major_formatter().set_useOffset(False)  # no "+1.2e4" over the strip's title
                 sax.grid(True, alpha=0.3)
                 sax.set_xlim(t[0], t[-1])
                 if i < len(signals) - 1:
@@ -468,6 +502,13 @@ class _Film:
                     sax.set_xlabel("t [s]")
                 self.strips.append(sax)
             fig.canvas.draw()
+            for sax in self.strips:  # a power of ten the ticks leave out joins the title, not the title's corner
+                power = sax.yaxis.get_offset_text()
+                if power.get_text():
+                    sax.set_title(f"{sax.get_title(loc='left')}, axis in units of {power.get_text()}", loc="left",
+                                  fontsize=FONT_SIZE, pad=3)
+                    power.set_visible(False)
+                    fig.canvas.draw()
             rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy())
             # strip geometry in pixels: cursor x of each frame, the curve's value as a dot
             self.strip_px = []
@@ -476,6 +517,9 @@ class _Film:
                 self.strip_px.append((sax, h - bb.y1, h - bb.y0, np.asarray(values, dtype=float)))
             self.path_px = None if path is None else self._px(path)
             self.pos_px = self._px(pos.reshape(-1, 2)).reshape(pos.shape)
+            if keep_figure:
+                self.figure = fig
+                return
             plt.close(fig)
         inks = list(_INKS)
         self.ink = {k: i for i, k in enumerate(inks)}
@@ -551,13 +595,46 @@ class _Film:
         return self._px(np.asarray(p, dtype=float).reshape(1, 2))[0]
 
 
-def _plot_signal(ax, t: np.ndarray, values: np.ndarray) -> None:
-    """A strip's curve: as it is, or its min/max band and mean where denser than the strip can show."""
+def strip_signal(label: str, values) -> tuple[str, np.ndarray]:
+    """A signal as its strip draws it: a pressure in bar, a turning angle wrapped to [-pi, pi).
+
+    The label says which (``motor.theta2 [rad], wrapped to ±π (38 turns)``); the
+    cursor's dot follows the values returned.
+
+    Examples
+    --------
+    >>> strip_signal("cylinder.pressure_a [Pa]", np.array([1e7, 2e7]))
+    ('cylinder.pressure_a [bar]', array([100., 200.]))
+    """
+    from grubler.views.plotting import BAR, PRESSURE_UNIT, turns, wrapped_label
+
+    values = np.asarray(values, dtype=float)
+    if label.endswith(f"[{PRESSURE_UNIT}]"):
+        return label[: -len(PRESSURE_UNIT) - 1] + "bar]", values / BAR
+    if label.endswith("[rad]") and turns(values) > 1.0:
+        return wrapped_label(label, values), (values + math.pi) % (2.0 * math.pi) - math.pi
+    return label, values
+
+
+def _plot_signal(ax, t: np.ndarray, values: np.ndarray, wrapped: bool = False) -> None:
+    """A strip's curve: as it is, or its min/max band and mean where denser than the strip can show.
+
+    A ``wrapped`` angle (already in [-pi, pi)) is broken where it wraps, not joined across the strip.
+    """
     from grubler.views.plotting import ENVELOPE_BINS, envelope
 
     if len(t) > 2 * ENVELOPE_BINS:
         tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)
-        (line,) = ax.plot(tb, mean, lw=1.2)
+        if wrapped:  # a bin that spans a wrap: its band reaches across (the crank was on both sides), no mean
+            across = hi - lo > math.pi
+            lo, hi, mean = np.where(across, -math.pi, lo), np.where(across, math.pi, hi), np.where(across, np.nan, mean)
+        (line,) = ax.plot(*(_break_wraps(tb, mean) if wrapped else (tb, mean)), lw=1.2)
         ax.fill_between(tb, lo, hi, color=line.get_color(), alpha=0.3, lw=0)
     else:
-        ax.plot(t, values, lw=1.2)
+        ax.plot(*(_break_wraps(t, values) if wrapped else (t, values)), lw=1.2)
+
+
+def _break_wraps(t: np.ndarray, values: np.ndarray):
+    """A wrapped angle with a NaN where it jumps by more than half a turn: no line drawn across the strip."""
+    cut = np.flatnonzero(np.abs(np.diff(values)) > math.pi) + 1
+    return np.insert(t, cut, t[cut]), np.insert(values, cut, np.nan)

@@ -168,6 +168,8 @@ def system_numbers(system) -> list[tuple[str, str]]:
 
 def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[str, np.ndarray, str]], str, str]]:
     """(axis label with unit, [(legend, values, colour)], scale, note) of each quantity there is."""
+    from grubler.views.plotting import turns
+
     unit, speed_unit, effort_unit = _drive_units(drive)
     panels = []
     target, target_unit = servo_target(columns, drive, model)
@@ -178,7 +180,12 @@ def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[st
                 lines.append(("setpoint", columns["setpoint"], ORANGE))
             panels.append((f"actuator {name} [m]", lines, "linear", ""))
     if drive and drive in columns:
-        panels.append((f"drive {drive} [{unit}]", [("", columns[drive], BLUE)], "linear", ""))
+        q = columns[drive]
+        if unit == "rad" and turns(q) > 1.0:  # a turning crank: wrapped, so its axis reads an angle
+            panels.append((f"drive {drive} [rad, wrapped to ±π]", [("", q, BLUE)], "wrapped",
+                           f"{turns(q):.3g} turns"))
+        else:
+            panels.append((f"drive {drive} [{unit}]", [("", q, BLUE)], "linear", ""))
     if target and target in columns and "setpoint" in columns:  # a servo's key figure
         panels.append((f"tracking error [{target_unit}]", [("", columns["setpoint"] - columns[target], BLUE)],
                        "linear", "setpoint - response"))
@@ -217,7 +224,7 @@ def _panels(columns, drive, model, cosim: bool) -> list[tuple[str, list[tuple[st
 
 def _draw_panel(ax, t, lines, scale: str) -> str:
     """One quantity against time; returns a note for the axis title ('' if none)."""
-    from grubler.views.plotting import ENVELOPE_BINS, envelope
+    from grubler.views.plotting import ENVELOPE_BINS, envelope, wrap_angle
 
     dense = len(t) > 2 * ENVELOPE_BINS
     note = ""
@@ -235,35 +242,45 @@ def _draw_panel(ax, t, lines, scale: str) -> str:
             continue
         if dense:
             tb, lo, hi, mean = envelope(t, values, ENVELOPE_BINS)
+            if scale == "wrapped":
+                tb, mean, lo, hi = wrap_angle(tb, mean, lo, hi)
             ax.plot(tb, mean, color=colour, lw=1.0, label=label or None)
             ax.fill_between(tb, lo, hi, color=colour, alpha=0.3, lw=0)
         else:
-            ax.plot(t, values, color=colour, lw=1.1, label=label or None)
+            ax.plot(*(wrap_angle(t, values) if scale == "wrapped" else (t, values)), color=colour, lw=1.1,
+                    label=label or None)
     if any(label for label, _, _ in lines):  # above the axes, in one row: never over a peak
         ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=len(lines), frameon=False,
                   borderaxespad=0.2, handlelength=1.2, columnspacing=0.8)
     return note
 
 
-def _label_panel(ax, ylabel: str, note: str, bottom: bool) -> None:
+def _label_panel(ax, ylabel: str, note: str) -> None:
+    """Every panel reads on its own: its quantity and unit, and its time axis labelled, wherever it sits."""
     ax.set_ylabel(ylabel, fontsize=9)
-    ax.tick_params(labelsize=8)
+    ax.tick_params(labelsize=8, labelbottom=True)
     ax.grid(True, alpha=0.3)
     if note:
         ax.set_title(note, fontsize=8, loc="right", color=GREY)
-    if bottom:
-        ax.set_xlabel("t [s]", fontsize=9)
-    else:
-        ax.tick_params(labelbottom=False)
+    ax.set_xlabel("t [s]", fontsize=8, labelpad=1)
+
+
+SUBTITLE_CHARS = 56  # of the 9-point subtitle, what the left column holds on one line
 
 
 def _title(model: Mechanism | None, source: str, cosim: bool) -> tuple[str, str]:
+    """The page's title and the subtitle under it, wrapped to the left column (it never runs into the plots)."""
+    import textwrap
+
+    from grubler.views.plotting import kind_words
+
     name = os.path.basename(source)
     what = "co-simulation record" if cosim else "simulation record"
     if model is not None:
-        kind = f"{model.kind}, " if model.kind else ""
-        return model.name or name, f"{kind}{what} {name}"
-    return name, f"{what} (no --scene: the mechanism is not drawn)"
+        title, subtitle = model.name or name, f"{kind_words(model)}, {what} {name}"
+    else:
+        title, subtitle = name, f"{what} (no --scene: the mechanism is not drawn)"
+    return title, "\n".join(textwrap.wrap(subtitle, SUBTITLE_CHARS, break_on_hyphens=False)) or subtitle
 
 
 def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None, source: str = "run.csv",
@@ -293,8 +310,14 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
 
     from grubler.views.animation import Drawer, Sketch
 
+    from grubler.views.plotting import supply_pressures
+
     t = columns["t"]
     drive = model.drive if model is not None else next((c for c in ("theta2", "B1") if c in columns), None)
+    supply = supply_pressures(system) if system is not None else {}
+    if "pressure_a" in columns and "supply_pressure" not in columns and len(supply) == 1:
+        # a pneumatic cylinder's supply is a parameter, not a record: drawn beside its chambers all the same
+        columns = {**columns, "supply_pressure": np.full_like(t, next(iter(supply.values())))}
     panels = _panels(columns, drive, model, cosim)
     title, subtitle = _title(model, source, cosim)
     fig = plt.figure(figsize=PAGE, layout="constrained")
@@ -311,7 +334,7 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     elif panels:
         ylabel, lines, scale, note = panels.pop()
         ax = low_fig.add_subplot()
-        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note, bottom=True)
+        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note)
         if len(t) > 1:
             ax.set_xlim(t[0], t[-1])
     ncols = 3 if len(panels) > 8 else 2
@@ -323,8 +346,7 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
         span = ncols - c if k == len(panels) - 1 else 1  # the last panel takes the rest of its row
         ax = right.add_subplot(gs[r, c:c + span], sharex=first)
         first = first or ax
-        # the last panel spans the rest of its row: only the bottom row has a time axis
-        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note, bottom=r == nrows - 1)
+        _label_panel(ax, ylabel, _draw_panel(ax, t, lines, scale) or note)
     if first is None:
         right.text(0.5, 0.5, "the record has no column the report plots against time", ha="center", fontsize=11,
                    color=GREY)
