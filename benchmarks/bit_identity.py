@@ -37,7 +37,7 @@ def arrays(pkg, name: str, method: str, t_end: float) -> dict[str, np.ndarray]:
     out = {"z": res.z, "zd": res.zd,
            "counts": np.array([res.stats["steps"], res.stats["rejected"], res.stats["rhs_evals"]])}
     out.update({c: table[:, i] for i, c in enumerate(cols)})
-    integrators = import_module(pkg.__name__ + ".integrators")
+    integrators = import_module(pkg.__name__ + ".mechanism.integrators")  # the package layout since mechanism/
     m = res.model
     ode = integrators.StateEquation(m, method=method, drive=1.0, load=0.0)
     out["jacobian"] = ode.jacobian(0.0, np.concatenate([res.z[0], res.zd[0]]))
