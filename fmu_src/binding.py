@@ -97,6 +97,32 @@ class MasterFailure(ctypes.Structure):
     _fields_ = [("fmu", c_int), ("call", c_int), ("status", c_int), ("t", c_double)]
 
 
+class Problem(ctypes.Structure):
+    """``grb_problem`` (kernel/grb_scene.h): one refusal, the field at fault and the reason."""
+
+    _fields_ = [("field", ctypes.c_char * 64), ("reason", ctypes.c_char * 256)]
+
+
+# columns of a link row as grb_scene_check reads it (GRB_SK_*): joint (1 revolute, 2 prismatic), parent
+# (thesis numbering, 1 the ground), a, p, q, m, I, damping
+SCENE_LINK_COLUMNS = 8
+SCENE_CLOSURE_COLUMNS = 11  # GRB_SC_*: type (1 revolute, 2 prismatic), link, to_link (thesis), ...
+SCENE_ACTUATOR_COLUMNS = 6  # GRB_A_*: from_link, from x, y, to_link, to x, y (thesis)
+
+
+class SceneView(ctypes.Structure):
+    """``grb_scene_view`` (kernel/grb_scene.h): a scene as the mechanism's check reads it."""
+
+    _fields_ = [("n_links", c_int), ("n_closures", c_int), ("n_actuators", c_int),
+                ("links", c_void_p), ("link_stride", c_int), ("link_column", c_int * SCENE_LINK_COLUMNS),
+                ("closures", c_void_p), ("closure_stride", c_int), ("closure_column", c_int * SCENE_CLOSURE_COLUMNS),
+                ("actuators", c_void_p), ("actuator_stride", c_int),
+                ("actuator_column", c_int * SCENE_ACTUATOR_COLUMNS),
+                ("a1", c_double), ("theta1", c_double), ("gravity", c_double), ("q_ref", c_void_p), ("qd", c_void_p),
+                ("drive", c_int), ("load", c_int), ("drive_inertia", c_double), ("actuator_names", c_void_p),
+                ("drive_field", ctypes.c_char_p), ("load_field", ctypes.c_char_p)]
+
+
 _P = c_void_p  # a numpy buffer's address
 _M = c_void_p  # a grb_model's address (ModelArrays.c): the struct may come from another import of this module
 _SIGNATURES = {
@@ -135,6 +161,9 @@ _SIGNATURES = {
     "grb_cs_minimal_state": (c_int, [_M, c_int, _P, c_double, _P, _P]),
     # scene quantities -> the tables (kernel/grb_scene.h), what the native FMU runs too
     "grb_scene_tables": (c_int, [c_int, c_int, _P, _P, _P, c_double, c_double, _P, _P, _P, _P]),
+    "grb_scene_check": (c_int, [POINTER(SceneView), POINTER(Problem), c_int, POINTER(c_int)]),
+    "grb_link_check": (c_int, [c_int, _P, _P, POINTER(Problem), c_int, POINTER(c_int)]),
+    "grb_coordinate_check": (c_int, [c_int, c_int, ctypes.c_char_p, POINTER(Problem)]),
     # the co-simulation master's stepping loop (system/c/master.c)
     "grb_master_steps": (c_int, [POINTER(MasterFmu), c_int, _P, POINTER(MasterRun), c_long, c_long,
                                  POINTER(c_double), POINTER(c_long), POINTER(MasterFailure)]),
@@ -236,6 +265,60 @@ def scene_tables(revolute: np.ndarray, parent: np.ndarray, link_fields: np.ndarr
     if status != OK:
         raise ValueError("closure or parent: a link number is out of range")
     return links, closures
+
+
+def _problems(call) -> list[tuple[str, str]]:
+    """The (field, reason) pairs a check writes: ``call(buffer, capacity, count)``, again if they overflowed."""
+    capacity = 8
+    while True:
+        found, count = (Problem * capacity)(), c_int(0)
+        call(found, capacity, ctypes.byref(count))
+        if count.value <= capacity:
+            return [(p.field.decode(), p.reason.decode()) for p in found[:count.value]]
+        capacity = count.value
+
+
+def scene_problems(links: np.ndarray, closures: np.ndarray, actuators: np.ndarray, a1: float, theta1: float,
+                   gravity: float, q_ref: np.ndarray, qd: np.ndarray | None, drive: int, load: int,
+                   drive_inertia: float) -> list[tuple[str, str]]:
+    """grb_scene_check (grb_scene.h): every refusal of a scene's mechanism rules, as (field, reason), in order.
+
+    The native mechanism FMU refuses its parameters with the same C function.
+    ``links`` (N x 8: joint 1 revolute / 2 prismatic, parent in thesis
+    numbering, a, p, q, m, I, damping), ``closures`` (C x 11: type 1 revolute /
+    2 prismatic, link, to_link, point, to_point, angle, psi, gain, damping),
+    ``actuators`` (A x 6: from_link, from_point, to_link, to_point, thesis
+    numbering), ``q_ref`` (2N), ``qd`` (2N initial absolute rates, or None: not
+    judged), ``drive`` and ``load`` (index in q, -1 none).
+    """
+    tables = [np.ascontiguousarray(t, dtype=float) for t in (links, closures, actuators, q_ref)]
+    rates = None if qd is None else np.ascontiguousarray(qd, dtype=float)
+    L, C, A, q = tables
+    view = SceneView(L.shape[0], C.shape[0], A.shape[0],
+                     address(L) if L.size else None, SCENE_LINK_COLUMNS, tuple(range(SCENE_LINK_COLUMNS)),
+                     address(C) if C.size else None, SCENE_CLOSURE_COLUMNS, tuple(range(SCENE_CLOSURE_COLUMNS)),
+                     address(A) if A.size else None, SCENE_ACTUATOR_COLUMNS, tuple(range(SCENE_ACTUATOR_COLUMNS)),
+                     float(a1), float(theta1), float(gravity), address(q) if q.size else None,
+                     None if rates is None else address(rates), int(drive), int(load), float(drive_inertia),
+                     None, None, None)
+    return _problems(lambda found, capacity, count: library().grb_scene_check(ctypes.byref(view), found, capacity,
+                                                                               count))
+
+
+def link_problems(k: int, row) -> list[tuple[str, str]]:
+    """grb_link_check: every refusal of link ``k`` (thesis numbering), its ``row`` as :func:`scene_problems`'s."""
+    r = np.ascontiguousarray(row, dtype=float)
+    columns = np.arange(SCENE_LINK_COLUMNS, dtype=np.int32)
+    return _problems(lambda found, capacity, count: library().grb_link_check(int(k), address(r), address(columns),
+                                                                              found, capacity, count))
+
+
+def coordinate_problem(q: int, revolute: bool, field: str) -> tuple[str, str] | None:
+    """grb_coordinate_check: why coordinate ``q`` (index in q) is not its pair's real joint, or None."""
+    found = Problem()
+    if library().grb_coordinate_check(int(q), int(bool(revolute)), field.encode(), ctypes.byref(found)) == OK:
+        return None
+    return found.field.decode(), found.reason.decode()
 
 
 def work(n_links: int, n_closures: int) -> np.ndarray:

@@ -1110,7 +1110,82 @@ def test_a_locked_angle_turns_with_its_predecessor(native, md):
     assert t.statuses("exit") == [ERROR]
     assert t.logged("initial.theta4_d: theta4 is a locked (fictitious) coordinate; it cannot move (relative to "
                     "link3: its absolute rate is initial.theta3_d = 1.5, got 0.7)"), t.logs
+    # the library's scene reader applies the same rule: the rate the predecessor gives is no error, another is
+    import tomllib
+    from grubler.mechanism.scene import preset_text, scene_from_dict
 
+    data = tomllib.loads(preset_text("quick-return"))
+    data.setdefault("initial", {}).update({"theta3_d": 1.5, "theta4_d": 1.5})
+    assert scene_from_dict(data).initial_rates[m.free_names.index("theta3")] == 1.5
+    data["initial"]["theta4_d"] = 0.7
+    with pytest.raises(grubler.SceneError) as err:
+        scene_from_dict(data)
+    assert str(err.value) == ("initial.theta4_d: theta4 is a locked (fictitious) coordinate; it cannot move (relative "
+                              "to link3: its absolute rate is initial.theta3_d = 1.5, got 0.7)")
+
+
+
+def _library_refusal(params: dict) -> tuple[str, str] | None:
+    """The library's refusal of a mechanism given as a mechanism FMU's parameters (field, reason), or None."""
+    from grubler.mechanism.model import Closure, Link, Mechanism, coordinate_names
+
+    n = sum(1 for k in params if k.startswith("link") and k.endswith(".joint"))
+    links = [Link("P" if params[f"link{k}.joint"] == 2 else "R", *(params[f"link{k}.{f}"] for f in
+                                                                   ("a", "p", "q", "m", "I", "damping")),
+                  parent=int(params[f"link{k}.parent"])) for k in range(2, n + 2)]
+    c = "closure"
+    closures = [Closure("prismatic" if params[f"{c}.type"] == 2 else "revolute", int(params[f"{c}.link"]),
+                        (params[f"{c}.at_x"], params[f"{c}.at_y"]), int(params[f"{c}.to_link"]),
+                        (params[f"{c}.point_x"], params[f"{c}.point_y"]), params[f"{c}.angle"], params[f"{c}.psi"],
+                        params[f"{c}.gain"], params[f"{c}.damping"])]
+    names = coordinate_names(n)
+    try:
+        m = Mechanism(links, closures, [params[f"initial.{x}"] for x in names], params["ground.a1"],
+                      params["ground.theta1"], params["gravity"], params["drive_joint"] or None,
+                      params["load_joint"] or None, params["drive.inertia"])
+    except grubler.SceneError as exc:
+        return exc.field, exc.reason
+    problems = m.problems(initial_rates=[params[f"initial.{x}_d"] for x in names])
+    return (problems[0].field, problems[0].reason) if problems else None
+
+
+# each of the mechanism's rules, broken on the four-bar (or the quick-return, whose link 4 slides on link 3)
+# through the parameters a mechanism FMU has
+ONE_RULE_EACH = [
+    ("thesis-fourbar", {"gravity": -9.81}),
+    ("thesis-fourbar", {"ground.a1": -0.5}),
+    ("thesis-fourbar", {"link3.a": -0.8}),
+    ("thesis-fourbar", {"link2.m": 0.0}),
+    ("thesis-fourbar", {"link4.I": -0.1}),
+    ("thesis-fourbar", {"link2.damping": -1e-05}),
+    ("thesis-fourbar", {"closure.to_link": 4}),
+    ("thesis-fourbar", {"closure.gain": 0.0}),
+    ("thesis-fourbar", {"closure.damping": -100.0}),
+    ("thesis-fourbar", {"link2.joint": 2, "link3.joint": 2, "link4.joint": 2}),  # one revolute in the loop
+    ("quick-return", {"link3.joint": 2, "initial.theta3": 0.7, "initial.theta2": 0.7}),  # parallel slides
+    ("thesis-fourbar", {"drive.inertia": -0.01}),
+    ("thesis-fourbar", {"drive_joint": "", "drive.inertia": 0.01}),
+    ("thesis-fourbar", {"drive_joint": "B2"}),
+    ("thesis-fourbar", {"load_joint": "B3"}),
+    ("thesis-fourbar", {"initial.B2_d": 0.5}),
+    ("quick-return", {"initial.theta3_d": 1.5, "initial.theta4_d": 0.7}),
+]
+# the two interfaces spell these fields differently: the scene's [drive] joint is the FMU's drive_joint
+FMU_SPELLING = {"drive.joint": "drive_joint", "load.joint": "load_joint"}
+
+
+@pytest.mark.parametrize("scene, change", ONE_RULE_EACH, ids=lambda v: v if isinstance(v, str) else
+                         ",".join(f"{k}={x}" for k, x in v.items()))
+def test_the_library_and_the_fmu_refuse_a_mechanism_in_the_same_words(native, md, scene, change):
+    """One check (the kernel's grb_scene_check) serves both: each rule's refusal reads the same, byte for byte."""
+    params = {**fmu_parameters(grubler.load_scene(scene)), **change}
+    refusal = _library_refusal(params)
+    assert refusal is not None, change
+    field, reason = refusal
+    t = native.run(native.start(params, md=md))
+    assert t.statuses("exit") == [ERROR], t.logs
+    expected = f"{FMU_SPELLING.get(field, field)}: {reason}"
+    assert any(line.endswith(expected) for line in t.logs), (expected, t.logs)
 
 FOREIGN_STATE = """
 import sys

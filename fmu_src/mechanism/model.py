@@ -19,14 +19,13 @@ are the affine image ``q = q_locked + S z``.
 from __future__ import annotations
 
 import ctypes
-import math
 import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from grubler import binding
-from grubler.errors import InputError, Problems, SceneError
+from grubler.errors import InputError, Problems, SceneError, raise_all
 from grubler.limits import number
 
 G_STANDARD = 9.81
@@ -299,36 +298,47 @@ def _finite(fieldname: str, value) -> float:
         raise SceneError(exc.field, exc.reason) from None
 
 
+_LINK_FIELD_ORDER = ("joint", "a", "p", "q", "m", "I", "damping", "parent")
+
+
 def link_problems(link: Link, f: str, k: int) -> list[SceneError]:
     """Every reason link ``k`` (thesis numbering, named ``f`` in messages) is refused; empty if none.
 
     One problem per field, so that a scene with a negative length and a zero mass
-    hears of both (the scene reader and :class:`Mechanism` share this check).
+    hears of both (the scene reader and :class:`Mechanism` share this check).  The
+    types and numbers are judged here; the rules (a length >= 0, a positive mass,
+    an earlier parent, ...) are the kernel's grb_link_check, which the native FMU
+    runs too.
     """
     found = Problems()
     if link.joint not in (REVOLUTE, PRISMATIC):
         found.add(SceneError(f"{f}.joint", f"must be 'R' or 'P', got {link.joint!r}"))
-    rules = (("a", lambda v: v >= 0, "length must be >= 0"), ("p", None, ""), ("q", None, ""),
-             ("m", lambda v: v > 0, "mass must be positive"),
-             ("I", lambda v: v >= 0, "moment of inertia must be >= 0"),
-             ("damping", lambda v: v >= 0, "damping must be >= 0"))
-    for name, ok, rule in rules:
+    values = {}
+    for name in ("a", "p", "q", "m", "I", "damping"):
         with found.check():
-            v = _finite(f"{f}.{name}", getattr(link, name))
-            if ok is not None and not ok(v):
-                raise SceneError(f"{f}.{name}", f"{rule}, got {v}")
-    if link.parent is not None:
-        pk = link.parent
-        if isinstance(pk, np.integer):
-            pk = int(pk)
-        if isinstance(pk, bool) or not isinstance(pk, int) or not 1 <= pk < k:
-            found.add(SceneError(f"{f}.parent", f"must be the ground (1) or an earlier link 2..{k - 1} "
-                                                f"(the chain's predecessor), got {pk!r}"))
-    return list(found)
+            values[name] = _finite(f"{f}.{name}", getattr(link, name))
+    pk = k - 1 if link.parent is None else link.parent
+    if isinstance(pk, np.integer):
+        pk = int(pk)
+    if isinstance(pk, bool) or not isinstance(pk, int):
+        found.add(SceneError(f"{f}.parent", f"must be the ground (1) or an earlier link 2..{k - 1} "
+                                            f"(the chain's predecessor), got {pk!r}"))
+        pk = k - 1
+    told = {p.field for p in found}
+    row = [1.0, pk, *(values.get(name, 1.0) for name in ("a", "p", "q", "m", "I", "damping"))]
+    for field_, reason in binding.link_problems(k, row):
+        field_ = f + field_[len(f"link{k}"):]
+        if field_ not in told:
+            found.add(SceneError(field_, reason))
+    order = {f"{f}.{name}": i for i, name in enumerate(_LINK_FIELD_ORDER)}
+    return sorted(found, key=lambda p: order.get(p.field, len(order)))
 
 
-def _parallel(angle1: float, angle2: float) -> bool:
-    return abs(math.sin(angle1 - angle2)) < 1e-9
+def _link_number(value, field_name: str) -> float:
+    # a link number as the kernel's check reads it (which judges its range and that it is whole)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SceneError(field_name, f"must be a link number, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -399,11 +409,7 @@ class Mechanism:
         object.__setattr__(self, "closures", tuple(self.closures))
         object.__setattr__(self, "actuators", tuple(self.actuators))
         n = len(self.links)
-        if n < 1:
-            raise SceneError("links", "a chain needs at least one moving link")
-        if n > MAX_LINKS:
-            raise SceneError("links", f"a chain has at most {MAX_LINKS} moving links (the kernel's GRB_MAX_LINKS), "
-                                      f"got {n}")
+        # the numbers and types here; the mechanism's rules are the kernel's (problems())
         q_ref = tuple(self.q_ref) if len(self.q_ref) else (0.0,) * (2 * n)
         if len(q_ref) != 2 * n:
             raise SceneError("initial", f"needs {2 * n} coordinates for {n} links, got {len(q_ref)}")
@@ -412,26 +418,13 @@ class Mechanism:
         object.__setattr__(self, "q_ref", q_ref)
         object.__setattr__(self, "a1", _finite("ground.a1", self.a1))
         object.__setattr__(self, "theta1", _finite("ground.theta1", self.theta1))
-        if self.a1 < 0:
-            raise SceneError("ground.a1", f"length must be >= 0, got {self.a1}")
-        g = _finite("gravity", self.gravity)
-        if g < 0:
-            raise SceneError("gravity", f"must be >= 0 (it acts along -y), got {g}")
+        _finite("gravity", self.gravity)
+        object.__setattr__(self, "drive_inertia", _finite("drive.inertia", self.drive_inertia))
         self._validate_links()
         self._validate_closures()
         self._validate_actuators()
+        raise_all(self.problems())
         self._build_structure()
-        self._validate_topology()
-        j = _finite("drive.inertia", self.drive_inertia)
-        if j < 0:
-            raise SceneError("drive.inertia", f"must be >= 0, got {j}")
-        if j > 0 and self.drive is None:
-            raise SceneError("drive.inertia", "a drive inertia needs the joint it acts on")
-        object.__setattr__(self, "drive_inertia", j)
-        for role in ("drive", "load"):
-            joint = getattr(self, role)
-            if joint is not None:
-                self.free_index(joint, field_name=f"{role}.joint")
         object.__setattr__(self, "arrays", ModelArrays.of(self))
 
     # -- validation ---------------------------------------------------------
@@ -443,33 +436,23 @@ class Mechanism:
         found.raise_all()
 
     def _validate_closures(self):
-        n = len(self.links)
         for j, cl in enumerate(self.closures):
             f = "closure" if len(self.closures) == 1 else f"closure[{j}]"
             if cl.kind not in ("revolute", "prismatic"):
                 raise SceneError(f"{f}.type", f"must be 'revolute' or 'prismatic', got {cl.kind!r}")
-            if not (2 <= cl.link <= n + 1):
-                raise SceneError(f"{f}.link", f"must be a moving link 2..{n + 1}, got {cl.link}")
-            if not (1 <= cl.to_link <= n + 1) or cl.to_link == cl.link:
-                raise SceneError(f"{f}.to_link", f"must be another link 1..{n + 1}, got {cl.to_link}")
+            for name in ("link", "to_link"):
+                _link_number(getattr(cl, name), f"{f}.{name}")
             for name in ("point", "to_point"):
                 v = getattr(cl, name)
                 if len(v) != 2:
                     raise SceneError(f"{f}.{name}", f"must be [x, y], got {v!r}")
                 for x in v:
                     _finite(f"{f}.{name}", x)
-            for name in ("angle", "psi"):
+            for name in ("angle", "psi", "gain", "damping"):
                 _finite(f"{f}.{name}", getattr(cl, name))
-            if _finite(f"{f}.gain", cl.gain) <= 0:
-                raise SceneError(f"{f}.gain", f"penalty gain must be positive, got {cl.gain}")
-            if _finite(f"{f}.damping", cl.damping) < 0:
-                raise SceneError(f"{f}.damping", f"penalty damping must be >= 0, got {cl.damping}")
 
     def _validate_actuators(self):
         n = len(self.links)
-        if len(self.actuators) > MAX_ACTUATORS:
-            raise SceneError("actuator", f"a mechanism has at most {MAX_ACTUATORS} actuators (the kernel's "
-                                         f"GRB_MAX_ACTUATORS), got {len(self.actuators)}")
         seen, clean = set(), []
         for j, act in enumerate(self.actuators):
             f = f"actuator[{j}]"
@@ -479,14 +462,11 @@ class Mechanism:
             if act.name in seen:
                 raise SceneError(f"{f}.name", f"{act.name!r} names another actuator already")
             seen.add(act.name)
-            for key in ("from_link", "to_link"):
+            for key in ("from_link", "to_link"):  # the kernel's check judges their range
                 k = getattr(act, key)
-                if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= n + 1:
+                if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
                     raise SceneError(f"{f}.{key}", f"link {k!r} does not exist: the mechanism has the ground (1) "
                                                    f"and links 2..{n + 1}")
-            if act.from_link == act.to_link:
-                raise SceneError(f"{f}.to_link", f"must be another link than from_link ({act.from_link}): an "
-                                                 "actuator within one link has a constant length and does nothing")
             points = {}
             for key in ("from_point", "to_point"):
                 v = getattr(act, key)
@@ -497,47 +477,32 @@ class Mechanism:
                                   points["to_point"]))
         object.__setattr__(self, "actuators", tuple(clean))
 
-    def _validate_topology(self):
-        # A loop needs two revolutes to move; two prismatic pairs on one link
-        # with parallel axes add a redundant freedom (MODEL.md section 1).
+    def problems(self, initial_rates=None) -> list[SceneError]:
+        """Every refusal of the mechanism's rules (the kernel's grb_scene_check, which the native FMU runs too).
+
+        With ``initial_rates`` (2N absolute rates, thesis order) the rates of the
+        locked coordinates are judged too.  Empty when the mechanism obeys them.
+        """
         n = len(self.links)
-        rel = self.relative_from_absolute(self.q_ref)
-        parents = self.parents
-        # axis directions measured in the frame of the link that carries them:
-        # across a prismatic pair the relative angle is locked, so these are fixed
-        axes: dict[int, list[tuple[float, str]]] = {k: [] for k in range(1, n + 2)}
-        ground_angle = self.theta1
-        for i, link in enumerate(self.links):
-            if link.joint == PRISMATIC:
-                pred = ground_angle if parents[i] == 1 else 0.0
-                axes[parents[i]].append((pred + math.pi / 2, f"link{i + 2}.joint"))
-                axes[i + 2].append((math.pi / 2 - rel[2 * i + 1], f"link{i + 2}.joint"))
-        for j, cl in enumerate(self.closures):
-            f = "closure" if len(self.closures) == 1 else f"closure[{j}]"
-            lo, hi = sorted((cl.link, cl.to_link))
-            n_revolute = sum(self.links[k - 2].joint == REVOLUTE for k in self.loop_pairs(cl.link, cl.to_link))
-            n_revolute += cl.kind == "revolute"
-            if n_revolute < 2:
-                raise SceneError(
-                    f"{f}.type",
-                    f"the loop from link {lo} to link {hi} has {n_revolute} revolute joint(s); "
-                    "a loop needs at least two revolutes to move",
-                )
-            if cl.kind == "prismatic":
-                # the closure holds link's orientation at psi relative to to_link
-                axes[cl.to_link].append((cl.angle, f"{f}.angle"))
-                axes[cl.link].append((cl.angle - cl.psi, f"{f}.angle"))
-        for k, lst in axes.items():
-            for x in range(len(lst)):
-                for y in range(x + 1, len(lst)):
-                    if _parallel(lst[x][0], lst[y][0]):
-                        raise SceneError(
-                            lst[y][1],
-                            f"link {k} has two prismatic joints with parallel axes "
-                            f"({lst[x][1]} and {lst[y][1]}): that adds a redundant freedom",
-                        )
-        if self.mobility < 0:
-            raise SceneError("closure", f"the closures over-constrain the chain (mobility {self.mobility})")
+        names = coordinate_names(n)
+        links = np.array([(1.0 if l.joint == REVOLUTE else 2.0, k + 1 if l.parent is None else l.parent,
+                           l.a, l.p, l.q, l.m, l.I, l.damping) for k, l in enumerate(self.links)],
+                         dtype=float).reshape(n, 8)
+        closures = np.array([(1.0 if c.kind == "revolute" else 2.0, c.link, c.to_link, *c.point, *c.to_point,
+                              c.angle, c.psi, c.gain, c.damping) for c in self.closures],
+                            dtype=float).reshape(len(self.closures), 11)
+        actuators = np.array([(a.from_link, *a.from_point, a.to_link, *a.to_point) for a in self.actuators],
+                             dtype=float).reshape(len(self.actuators), 6)
+        joints = []
+        for role in ("drive", "load"):
+            joint = getattr(self, role)
+            if joint is not None and joint not in names:
+                raise SceneError(f"{role}.joint", f"unknown coordinate {joint!r}; expected one of {', '.join(names)}")
+            joints.append(-1 if joint is None else names.index(joint))
+        found = binding.scene_problems(links, closures, actuators, self.a1, self.theta1, self.gravity,
+                                       np.array(self.q_ref, dtype=float), initial_rates, joints[0], joints[1],
+                                       self.drive_inertia)
+        return [SceneError(f, r) for f, r in found]
 
     # -- structure ----------------------------------------------------------
     def _build_structure(self):
@@ -641,12 +606,9 @@ class Mechanism:
             raise SceneError(field_name, f"unknown coordinate {name!r}; expected one of {', '.join(names)}")
         idx = names.index(name)
         pair = idx // 2
-        if idx != self._free[pair]:
-            real = names[self._free[pair]]
-            raise SceneError(
-                field_name,
-                f"{name} is a locked (fictitious) coordinate: link{pair + 2}'s real joint is {real}",
-            )
+        problem = binding.coordinate_problem(idx, self.links[pair].joint == REVOLUTE, field_name)
+        if problem is not None:
+            raise SceneError(*problem)
         return pair
 
     @property

@@ -275,9 +275,8 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         description=str(data.get("description", "")),
         actuators=tuple(actuators),
     )
-    for x, v in zip(names, qd0):
-        if v != 0.0 and x not in mechanism.free_names:
-            found.add(SceneError(f"initial.{x}_d", f"{x} is a locked (fictitious) coordinate; it cannot move"))
+    for problem in mechanism.problems(initial_rates=qd0):  # the mechanism passed: what is left is its rates
+        found.add(problem)
     if torque != 0.0 and mechanism.drive is None:
         found.add(SceneError("drive.joint", "a drive torque needs the joint it acts on"))
     if load_torque != 0.0 and mechanism.load is None:

@@ -115,8 +115,6 @@ static const char *slot_name(int slot) {
             return model_variables[v].name;
     return "?";
 }
-/* the predecessor of link k (thesis numbering, 2 .. N+1), thesis numbering (1 the ground) */
-static int parent_link(const double *p, int k) { return (int)link_field(p, k - 2, LF_PARENT); }
 
 static const char *coordinate_name(int index, char *buf, size_t size) {
     if (index % 2 == 0)
@@ -126,25 +124,59 @@ static const char *coordinate_name(int index, char *buf, size_t size) {
     return buf;
 }
 
-static void closure_prefix(int j, char *buf, size_t size) {
-    if (NC == 1)
-        snprintf(buf, size, "closure");
-    else
-        snprintf(buf, size, "closure[%d]", j);
-}
-
 #define BAD(...) do { grb_log(inst, fmi2Error, __VA_ARGS__); return fmi2Error; } while (0)
 
-static int parallel(double a, double b) { return fabs(sin(a - b)) < 1e-9; }
+/* The scene's parameters where they lie in the block, as the kernel's check
+ * reads them; each actuator named by its variables' prefix ("lift" of
+ * lift.to_link), the efforts' joints by their variables. */
+static void scene_view_of(const double *p, grb_scene_view *v, char (*names)[48], const char **name_of) {
+    static const int link_column[GRB_SK_COLUMNS] = {LF_JOINT, LF_PARENT, LF_A, LF_P, LF_Q, LF_M, LF_I, LF_DAMPING};
+    static const int closure_column[GRB_SC_COLUMNS] = {CF_TYPE, CF_LINK, CF_TO_LINK, CF_AT_X, CF_AT_Y, CF_POINT_X,
+                                                       CF_POINT_Y, CF_ANGLE, CF_PSI, CF_GAIN, CF_DAMPING};
+    static const int actuator_column[GRB_A_COLUMNS] = {AF_FROM_LINK, AF_FROM_POINT_X, AF_FROM_POINT_Y, AF_TO_LINK,
+                                                       AF_TO_POINT_X, AF_TO_POINT_Y};
+    int k;
+    memset(v, 0, sizeof *v);
+    v->n_links = N;
+    v->n_closures = NC;
+    v->n_actuators = NA;
+    v->links = p + SLOT_LINKS;
+    v->link_stride = LINK_STRIDE;
+    memcpy(v->link_column, link_column, sizeof link_column);
+    v->closures = p + SLOT_CLOSURES;
+    v->closure_stride = CLOSURE_STRIDE;
+    memcpy(v->closure_column, closure_column, sizeof closure_column);
+    v->actuators = p + SLOT_ACTUATORS;
+    v->actuator_stride = ACTUATOR_STRIDE;
+    memcpy(v->actuator_column, actuator_column, sizeof actuator_column);
+    v->a1 = p[SLOT_GROUND_A1];
+    v->theta1 = p[SLOT_GROUND_THETA1];
+    v->gravity = p[SLOT_GRAVITY];
+    v->q_ref = p + SLOT_Q0;
+    v->qd = p + SLOT_QD0;
+    v->drive = (int)p[SLOT_DRIVE_JOINT] - 1;  /* choice 0: none */
+    v->load = (int)p[SLOT_LOAD_JOINT] - 1;
+    v->drive_inertia = p[SLOT_DRIVE_INERTIA];
+    for (k = 0; k < NA; k++) {
+        char *dot;
+        snprintf(names[k], 48, "%s", slot_name(SLOT_ACTUATORS + k * ACTUATOR_STRIDE + AF_TO_LINK));
+        dot = strrchr(names[k], '.');
+        if (dot) *dot = '\0';
+        name_of[k] = names[k];
+    }
+    v->actuator_names = NA > 0 ? name_of : NULL;
+    v->drive_field = "drive_joint";
+    v->load_field = "load_joint";
+}
 
-/* The checks grubler.mechanism.model.Mechanism and grubler.mechanism.scene make, with their
- * messages, then those of a started run's state.  The integer and string
+/* The mechanism's rules (the kernel's grb_scene_check, the library's), the
+ * FMU's own parameters (tolerances, steps: the library judges its runs'
+ * elsewhere), then those of a started run's state.  The integer and string
  * parameters are in range here (the wrapper's value_ok, on both paths), so
  * their casts to int are safe. */
 fmi2Status model_check(grb_instance *inst, const double *p) {
-    char name[32];
     int revolute[N], q_index[N];
-    int i, j, k;
+    int i, k;
     for (k = 0; k < MODEL_N_STORED; k++)
         if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE &&
             !(k >= SLOT_ACTUATOR_FORCE && k < SLOT_ACTUATOR_FORCE + NA)) {
@@ -158,117 +190,18 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
     if (!(p[SLOT_MAX_STEP] >= 0)) BAD("max_step: must be >= 0 and finite, got %g", p[SLOT_MAX_STEP]);
     if ((int)p[SLOT_INTEGRATOR] == 3 && !(p[SLOT_STEP] > 0)) BAD("step: rk4's step must be positive, got %g",
                                                                   p[SLOT_STEP]);
-    if (p[SLOT_GRAVITY] < 0) BAD("gravity: must be >= 0 (it acts along -y), got %g", p[SLOT_GRAVITY]);
-    if (p[SLOT_GROUND_A1] < 0) BAD("ground.a1: length must be >= 0, got %g", p[SLOT_GROUND_A1]);
-    for (i = 0; i < N; i++) {
-        /* the kernel walks parents towards the ground: each must be an earlier link */
-        if (parent_link(p, i + 2) < 1 || parent_link(p, i + 2) > i + 1)
-            BAD("link%d.parent: must be the ground (1) or an earlier link 2..%d (the chain's predecessor), got %d",
-                i + 2, i + 1, parent_link(p, i + 2));
-        if (link_field(p, i, LF_A) < 0) BAD("link%d.a: length must be >= 0, got %g", i + 2, link_field(p, i, LF_A));
-        if (!(link_field(p, i, LF_M) > 0)) BAD("link%d.m: mass must be positive, got %g", i + 2,
-                                               link_field(p, i, LF_M));
-        if (link_field(p, i, LF_I) < 0) BAD("link%d.I: moment of inertia must be >= 0, got %g", i + 2,
-                                            link_field(p, i, LF_I));
-        if (link_field(p, i, LF_DAMPING) < 0) BAD("link%d.damping: damping must be >= 0, got %g", i + 2,
-                                                  link_field(p, i, LF_DAMPING));
-    }
-    for (j = 0; j < NC; j++) {
-        int link = (int)closure_field(p, j, CF_LINK), to = (int)closure_field(p, j, CF_TO_LINK), lo, hi, nrev;
-        closure_prefix(j, name, sizeof name);
-        if (to == link) BAD("%s.to_link: must be another link than %s.link (%d)", name, name, link);
-        if (!(closure_field(p, j, CF_GAIN) > 0)) BAD("%s.gain: penalty gain must be positive, got %g", name,
-                                                     closure_field(p, j, CF_GAIN));
-        if (closure_field(p, j, CF_DAMPING) < 0) BAD("%s.damping: penalty damping must be >= 0, got %g", name,
-                                                     closure_field(p, j, CF_DAMPING));
-        /* a loop needs two revolutes to move (MODEL.md section 1); its chain pairs are those on the tree path
-         * between the closure's links (Mechanism.loop_pairs) */
-        lo = link < to ? link : to;
-        hi = link < to ? to : link;
-        nrev = (int)closure_field(p, j, CF_TYPE) == 1;
-        {
-            int a = lo, b = hi;
-            while (a != b) {
-                int *up = a > b ? &a : &b;
-                nrev += (int)link_field(p, *up - 2, LF_JOINT) == 1;
-                *up = parent_link(p, *up);
-            }
-        }
-        if (nrev < 2)
-            BAD("%s.type: the loop from link %d to link %d has %d revolute joint(s); a loop needs at least two "
-                "revolutes to move", name, lo, hi, nrev);
-    }
     {
-        /* two prismatic joints with parallel axes on one link add a redundant freedom */
-        double axis[2 * N + 2 * (NC > 0 ? NC : 1)];
-        int owner[2 * N + 2 * (NC > 0 ? NC : 1)], n_axes = 0, x, y;
-        char field[2 * N + 2 * (NC > 0 ? NC : 1)][48];
-        for (i = 0; i < N; i++) {
-            int pk = parent_link(p, i + 2);
-            double prev = pk == 1 ? p[SLOT_GROUND_THETA1] : p[SLOT_Q0 + 2 * pk - 3];
-            double rel = p[SLOT_Q0 + 2 * i + 1] - prev;
-            if ((int)link_field(p, i, LF_JOINT) == 2) {
-                axis[n_axes] = (pk == 1 ? p[SLOT_GROUND_THETA1] : 0.0) + M_PI / 2;
-                owner[n_axes] = pk;
-                snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
-                axis[n_axes] = M_PI / 2 - rel;
-                owner[n_axes] = i + 2;
-                snprintf(field[n_axes++], 48, "link%d.joint", i + 2);
-            }
-        }
-        for (j = 0; j < NC; j++) {
-            if ((int)closure_field(p, j, CF_TYPE) != 2) continue;
-            closure_prefix(j, name, sizeof name);
-            axis[n_axes] = closure_field(p, j, CF_ANGLE);
-            owner[n_axes] = (int)closure_field(p, j, CF_TO_LINK);
-            snprintf(field[n_axes++], 48, "%s.angle", name);
-            axis[n_axes] = closure_field(p, j, CF_ANGLE) - closure_field(p, j, CF_PSI);
-            owner[n_axes] = (int)closure_field(p, j, CF_LINK);
-            snprintf(field[n_axes++], 48, "%s.angle", name);
-        }
-        for (x = 0; x < n_axes; x++)
-            for (y = x + 1; y < n_axes; y++)
-                if (owner[x] == owner[y] && parallel(axis[x], axis[y]))
-                    BAD("%s: link %d has two prismatic joints with parallel axes (%s and %s): that adds a "
-                        "redundant freedom", field[y], owner[x], field[x], field[y]);
+        /* the mechanism's rules: the kernel's, which the library runs too (grb_scene_check) */
+        grb_scene_view view;
+        grb_problem problem;
+        char names[NA > 0 ? NA : 1][48];
+        const char *name_of[NA > 0 ? NA : 1];
+        int found;
+        scene_view_of(p, &view, names, name_of);
+        if (grb_scene_check(&view, &problem, 1, &found) != GRB_OK) BAD("%s: %s", problem.field, problem.reason);
     }
-    for (k = 0; k < NA; k++)
-        if (actuator_field(p, k, AF_FROM_LINK) == actuator_field(p, k, AF_TO_LINK))
-            BAD("%s: must be another link than from_link (%d): an actuator within one link has a constant length "
-                "and does nothing", slot_name(SLOT_ACTUATORS + k * ACTUATOR_STRIDE + AF_TO_LINK),
-                (int)actuator_field(p, k, AF_FROM_LINK));
-    if (p[SLOT_DRIVE_INERTIA] < 0) BAD("drive.inertia: must be >= 0, got %g", p[SLOT_DRIVE_INERTIA]);
-    if (p[SLOT_DRIVE_INERTIA] > 0 && (int)p[SLOT_DRIVE_JOINT] == 0)
-        BAD("drive.inertia: a drive inertia needs the joint it acts on (drive_joint)");
     for (i = 0; i < N; i++) revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
     grb_real_coordinates(N, revolute, q_index);
-    {
-        /* the efforts act on real joints (grubler.mechanism.model.Mechanism.free_index) */
-        static const char *const effort[2] = {"drive_joint", "load_joint"};
-        const int slot[2] = {SLOT_DRIVE_JOINT, SLOT_LOAD_JOINT};
-        char buf[32], real[32];
-        for (k = 0; k < 2; k++) {
-            int q = (int)p[slot[k]] - 1;  /* choice 0: none */
-            if (q >= 0 && q_index[q / 2] != q)
-                BAD("%s: %s is a locked (fictitious) coordinate: link%d's real joint is %s", effort[k],
-                    coordinate_name(q, buf, sizeof buf), q / 2 + 2,
-                    coordinate_name(q_index[q / 2], real, sizeof real));
-        }
-        /* a locked coordinate cannot move (grubler.mechanism.scene): a locked slide's rate is 0; a
-         * locked angle's absolute rate is its predecessor's (the ground's: 0) */
-        for (i = 0; i < N; i++) {
-            int q = revolute[i] ? 2 * i : 2 * i + 1, pk = parent_link(p, i + 2);
-            double rate = p[SLOT_QD0 + q], follows = revolute[i] || pk == 1 ? 0.0 : p[SLOT_QD0 + 2 * pk - 3];
-            if (fabs(rate - follows) > 1e-12 * fmax(1.0, fmax(fabs(rate), fabs(follows)))) {
-                coordinate_name(q, buf, sizeof buf);
-                if (revolute[i] || pk == 1)
-                    BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move", buf, buf);
-                BAD("initial.%s_d: %s is a locked (fictitious) coordinate; it cannot move (relative to link%d: its "
-                    "absolute rate is initial.%s_d = %g, got %g)", buf, buf, pk,
-                    coordinate_name(2 * pk - 3, real, sizeof real), follows, rate);
-            }
-        }
-    }
     /* a started run's state: what the integrator and the outputs compute with */
     if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
     if (p[P_STARTED] == 0.0) return fmi2OK;  /* not started: initialisation computes the state */
@@ -352,8 +285,7 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->s.drive_ctx = NULL;
     mm->s.passage_log = mm->passage_log;
     mm->s.passage_capacity = (int)(sizeof mm->passage_log / sizeof mm->passage_log[0]);
-    mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints */
-    if (mm->n_hold < 0) BAD("closure: the closures over-constrain the chain (mobility %d)", mm->n_hold);
+    mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints (>= 0: model_check) */
 
     if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
 
