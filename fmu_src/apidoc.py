@@ -48,6 +48,7 @@ PUBLIC_MODULES = [
     "grubler.motors.hydraulic",
     "grubler.motors.pneumatic",
     "grubler.controllers",
+    "grubler.controllers.fmu",
 ]
 
 # numpydoc's section titles: a title underlined by dashes becomes a heading
