@@ -47,6 +47,7 @@ PUBLIC_MODULES = [
     "grubler.views.report",
     "grubler.views.animation",
     "grubler.views.runs",
+    "grubler.fmi.build",
     "grubler.fmi.motor",
     "grubler.motors",
     "grubler.motors.hydraulic",
