@@ -43,6 +43,8 @@ PUBLIC_MODULES = [
     "grubler.system.cosim",
     "grubler.system.container",
     "grubler.system.servo",
+    "grubler.system.cylinder_servo",
+    "grubler.system.fmu_state",
     "grubler.views.plotting",
     "grubler.views.report",
     "grubler.views.animation",
@@ -53,6 +55,7 @@ PUBLIC_MODULES = [
     "grubler.motors.hydraulic",
     "grubler.motors.pneumatic",
     "grubler.controllers",
+    "grubler.controllers.law",
     "grubler.controllers.fmu",
 ]
 
