@@ -35,6 +35,7 @@ from pathlib import Path
 # the modules whose __all__ is the public API, in the order the index lists them
 PUBLIC_MODULES = [
     "grubler",
+    "grubler.mechanism.scene",
     "grubler.mechanism.inverse",
     "grubler.studies.sizing",
     "grubler.studies.cylinder_sizing",
@@ -50,6 +51,7 @@ PUBLIC_MODULES = [
     "grubler.views.animation",
     "grubler.views.runs",
     "grubler.fmi.build",
+    "grubler.fmi.mechanism",
     "grubler.fmi.motor",
     "grubler.motors",
     "grubler.motors.hydraulic",
