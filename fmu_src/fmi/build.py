@@ -65,6 +65,9 @@ DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
 # no variable-length arrays: Visual Studio's C, which compiles sources/ on Windows, has none
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["export", "build_fmu", "scene_fmu", "computed_torque_fmu", "select_targets", "host_target",
+           "platforms_note", "check_destination", "BuildError", "TARGETS"]
 
 
 class BuildError(GrublerError, RuntimeError):
@@ -580,8 +583,3 @@ def check_destination(dest: Path, field: str = "output") -> None:
                                 f"{longest - len('.part')} at most here (the export writes NAME.part first)")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(field, f"{where}: the folder {brief(str(folder), PATH_CHARS)} is not writable")
-
-
-# the public names (the API reference's): the rest is the package's inside
-__all__ = ["export", "build_fmu", "scene_fmu", "computed_torque_fmu", "select_targets", "host_target",
-           "platforms_note", "check_destination", "BuildError", "TARGETS"]
