@@ -46,6 +46,18 @@ Examples
 {'y': 3.0}
 >>> s.samples
 3
+
+A sample instant within :data:`GRID_TOL` times ``Ts`` of a step's end belongs
+to the next step (communication points summed in floating point miss the grid
+by a few ulps), and a step of more than :data:`MAX_SAMPLES_PER_STEP` samples
+is refused:
+
+>>> s = Sampler(Gain(Ts=0.1), t0=0.0)
+>>> _ = s.step(0.0, 0.3 + GRID_TOL * 0.1 / 2, {"x": 1.0})   # ends a hair after 0.3: that sample is the next step's
+>>> s.samples
+3
+>>> MAX_SAMPLES_PER_STEP
+100000
 """
 
 from __future__ import annotations
@@ -184,7 +196,19 @@ class Law:
 
 
 def check_sample_time(Ts: float, field: str = "Ts", allow_zero: bool = False) -> float:
-    """A sample time as a float, or SceneError naming the field."""
+    """A sample time as a float, or SceneError naming the field.
+
+    Examples
+    --------
+    >>> check_sample_time("1e-3")
+    0.001
+    >>> check_sample_time(0)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: Ts: sample time must be finite and > 0, got 0.0
+    >>> check_sample_time(0, allow_zero=True)        # 0: once per communication step
+    0.0
+    """
     try:
         Ts = float(Ts)
     except (TypeError, ValueError):
@@ -201,6 +225,19 @@ def check_number(value, field: str, low: float = -math.inf, high: float = math.i
 
     The project's one gate for numbers (:func:`grubler.limits.number`), without
     its magnitude bound: a controller's limits use +-1e300 for "none".
+
+    Examples
+    --------
+    >>> check_number("2.5", "K", low=0.0)
+    2.5
+    >>> check_number(float("nan"), "K")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: K: must be a finite number, got nan
+    >>> check_number(5, "b", 0.0, 1.0)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: b: must be <= 1, got 5
     """
     if isinstance(value, np.generic):
         value = value.item()
@@ -216,6 +253,15 @@ def check_count(value, field: str, limit: int) -> int:
 
     For a parameter that sizes a buffer: the limit keeps a mistyped value from
     allocating until the operating system ends the host process.
+
+    Examples
+    --------
+    >>> check_count(16384, "counts_per_rev", 10**7)
+    16384
+    >>> check_count(10**9, "counts_per_rev", 10**7)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: counts_per_rev: must be at most 10000000, got 1000000000
     """
     if isinstance(value, bool):
         raise SceneError(field, f"must be a whole number, got {value!r}")

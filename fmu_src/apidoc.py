@@ -35,6 +35,7 @@ from pathlib import Path
 # the modules whose __all__ is the public API, in the order the index lists them
 PUBLIC_MODULES = [
     "grubler",
+    "grubler.mechanism.scene",
     "grubler.mechanism.inverse",
     "grubler.studies.sizing",
     "grubler.studies.cylinder_sizing",
@@ -43,11 +44,21 @@ PUBLIC_MODULES = [
     "grubler.system.cosim",
     "grubler.system.container",
     "grubler.system.servo",
+    "grubler.system.cylinder_servo",
+    "grubler.system.fmu_state",
+    "grubler.views.plotting",
+    "grubler.views.report",
+    "grubler.views.animation",
+    "grubler.views.runs",
+    "grubler.fmi.build",
+    "grubler.fmi.mechanism",
     "grubler.fmi.motor",
     "grubler.motors",
     "grubler.motors.hydraulic",
     "grubler.motors.pneumatic",
     "grubler.controllers",
+    "grubler.controllers.law",
+    "grubler.controllers.fmu",
 ]
 
 # numpydoc's section titles: a title underlined by dashes becomes a heading

@@ -22,6 +22,10 @@ NEEDS_BUILT_FMUS = {
     "grubler.studies.cylinder_sizing.cylinder_check": "co-simulates HydraulicCylinder, PID and Trajectory FMUs",
     # tests/test_container.py::test_what_the_exported_fmu_shows_and_how_its_engine_is_told (the settled starts)
     "grubler.system.cosim.initial_inputs": "instantiates and initialises every FMU: their binaries, two compiles",
+    # tests/test_cylinder_systems.py::test_the_system_settles_on_its_setpoint (and the two tests after it)
+    "grubler.system.cylinder_servo.cylinder_servo_system": "exports the scene's own mechanism FMU: 5 to 8 s",
+    # tests/test_native_fmu.py::test_export_an_open_chain_and_run_it
+    "grubler.fmi.build.export": "compiles the mechanism kernel with its complex-step twins: 5 to 8 s here",
 }
 
 

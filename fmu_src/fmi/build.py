@@ -16,13 +16,12 @@ and its maths, no Python.
 
 Examples
 --------
->>> from grubler.mechanism.scene import load_scene
->>> from grubler.fmi.mechanism import mechanism_spec
->>> import tempfile, zipfile, pathlib
->>> with tempfile.TemporaryDirectory() as d:
-...     path = build_fmu(mechanism_spec(load_scene("thesis-fourbar")), pathlib.Path(d) / "M.fmu", "linux64")
-...     names = zipfile.ZipFile(path).namelist()
->>> "binaries/linux64/Mechanism.so" in names and "sources/fmi2_wrapper.c" in names
+:func:`export` makes a scene's FMU, :func:`build_fmu` any model's; the
+binaries are for the :data:`TARGETS` a compiler here builds:
+
+>>> [t.fmi2 for t in TARGETS]                    # FMI 2.0's folders (both macOS targets in darwin64)
+['linux64', 'win64', 'darwin64', 'darwin64', 'aarch64-linux']
+>>> host_target() in select_targets()            # this machine's own, always (with cc)
 True
 """
 
@@ -66,10 +65,20 @@ DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
 # no variable-length arrays: Visual Studio's C, which compiles sources/ on Windows, has none
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["export", "build_fmu", "scene_fmu", "computed_torque_fmu", "select_targets", "host_target",
+           "platforms_note", "check_destination", "BuildError", "TARGETS"]
 
 
 class BuildError(GrublerError, RuntimeError):
-    """A compiler is missing or failed (its output attached)."""
+    """A compiler is missing or failed (its output attached).
+
+    Examples
+    --------
+    >>> from grubler.errors import GrublerError
+    >>> issubclass(BuildError, GrublerError)         # a missing or failing compiler: one line from the CLI
+    True
+    """
 
 
 def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
@@ -153,7 +162,13 @@ def _folders(targets) -> str:
 
 
 def host_target() -> Target | None:
-    """The target this machine's own C compiler builds for (None: none of TARGETS)."""
+    """The target this machine's own C compiler builds for (None: none of TARGETS).
+
+    Examples
+    --------
+    >>> host_target() in TARGETS                     # None on a platform no FMU binary is built for
+    True
+    """
     system = "windows" if sys.platform.startswith("win") else "darwin" if sys.platform == "darwin" else \
         "linux" if sys.platform.startswith("linux") else None
     arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64"}.get(
@@ -210,6 +225,15 @@ def select_targets(platforms=None, field: str = "platforms") -> list[Target]:
     ------
     InputError
         A name no target has, or a platform this machine cannot build for.
+
+    Examples
+    --------
+    >>> [t.name for t in select_targets("linux64")]      # an FMI 2.0 folder or an FMI 3.0 platform tuple
+    ['x86_64-linux']
+    >>> select_targets("amiga")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: platforms: no platform 'amiga' (have: linux64, x86_64-linux, win64, x86_64-windows, darwin64, x86_64-darwin, aarch64-darwin, aarch64-linux)
     """
     if platforms is None:
         return buildable()
@@ -230,7 +254,14 @@ def select_targets(platforms=None, field: str = "platforms") -> list[Target]:
 
 
 def platforms_note() -> str | None:
-    """One line naming the platforms a default build leaves out here and how to get them (None: none left out)."""
+    """One line naming the platforms a default build leaves out here and how to get them (None: none left out).
+
+    Examples
+    --------
+    >>> note = platforms_note()                      # None when a default build carries every platform (zig)
+    >>> note is None or "left out" in note
+    True
+    """
     missing = [t for t in TARGETS if t not in buildable()]
     if not missing:
         return None
@@ -357,6 +388,18 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path
         ``platforms`` names an unknown platform or one no compiler here builds for.
     BuildError
         A compiler failed.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, zipfile
+    >>> from grubler.controllers.native_fmu import trajectory_spec
+    >>> with tempfile.TemporaryDirectory() as d:      # compiles the law kernel: about 2 s
+    ...     fmu = build_fmu(trajectory_spec("Trajectory"), pathlib.Path(d) / "Trajectory.fmu", host_target().fmi2)
+    ...     names = zipfile.ZipFile(fmu).namelist()
+    >>> f"binaries/{host_target().fmi2}/Trajectory{host_target().suffix}" in names   # the binary, and its sources
+    True
+    >>> "sources/fmi2_wrapper.c" in names, "modelDescription.xml" in names
+    (True, True)
     """
     dest = Path(dest)
     targets = select_targets(platforms)
@@ -418,6 +461,25 @@ def export(scene, dest: Path | None = None, platforms=None, field: str = "output
         The name a refused ``dest`` is reported under (the CLI's option).
     fmi : {2, 3}
         The FMI version (:func:`build_fmu`).
+
+    Examples
+    --------
+    Compiling the mechanism's kernel (with its complex-step twins) takes 5 to 8 s,
+    so the export itself is not run here (``tests/test_native_fmu.py`` exports
+    and runs one); a refused destination is refused before any compiling:
+
+    >>> import pathlib
+    >>> export("thesis-fourbar", pathlib.Path("Fourbar.zip"))
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: output: an FMU's file name ends in .fmu, got 'Fourbar.zip'
+    >>> fmu = export("thesis-fourbar", pathlib.Path("Fourbar.fmu"))          # doctest: +SKIP
+    >>> from fmpy import read_model_description
+    >>> md = read_model_description(str(fmu))                                 # doctest: +SKIP
+    >>> md.coSimulation.modelIdentifier, md.coSimulation.needsExecutionTool   # doctest: +SKIP
+    ('Fourbar', False)
+    >>> [v.start for v in md.modelVariables if v.name == "link2.a"]  # doctest: +SKIP
+    ['0.2']
     """
     check_fmi_version(fmi, "fmi")
     if not isinstance(scene, Scene):
@@ -445,6 +507,13 @@ def scene_fmu(scene: Scene, fmu_dir) -> tuple:
     path : Path
     parameters : dict
         Every scene quantity, by FMU variable name (:func:`fmu_parameters`).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> path, parameters = scene_fmu(load_scene("slider-crank"), "dist")   # a four-link scene: the shared FMU
+    >>> path.name, parameters["method"], parameters["gravity"]
+    ('Mechanism.fmu', 'exact', 9.81)
     """
     d = Path(fmu_dir)
     if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
@@ -467,6 +536,13 @@ def computed_torque_fmu(scene: Scene, fmu_dir) -> tuple:
     path : Path
     parameters : dict
         The scene's quantities, by FMU variable name (:func:`scene_parameters`).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> path, parameters = computed_torque_fmu(load_scene("thesis-fourbar"), "dist")
+    >>> path.name, "link2.a" in parameters
+    ('ComputedTorque.fmu', True)
     """
     d = Path(fmu_dir)
     if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
@@ -485,6 +561,14 @@ def check_destination(dest: Path, field: str = "output") -> None:
     Raises
     ------
     InputError
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> check_destination(pathlib.Path("no-such-folder") / "M.fmu")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: output: 'no-such-folder/M.fmu': the folder 'no-such-folder' does not exist
     """
     dest = output_file(str(dest), field, (".fmu",))
     folder = dest.parent if str(dest.parent) else Path(".")

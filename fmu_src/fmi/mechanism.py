@@ -78,6 +78,13 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
 
     What :func:`mechanism_spec` uses as start values, and what a master sets on an
     FMU exported from another scene of the same shape to turn it into this one.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> p = fmu_parameters(load_scene("slider-crank"))   # set on Mechanism.fmu, it runs the slider-crank
+    >>> p["method"], p["drive_joint"], p["link2.a"]
+    ('exact', 'theta2', 0.1)
     """
     m: Mechanism = scene.mechanism
     p: dict[str, float | int | str] = {
@@ -113,6 +120,13 @@ def scene_parameters(scene: Scene) -> dict[str, float | int | str]:
     What a model of the mechanism that does not integrate it takes (the
     ComputedTorque FMU): :func:`fmu_parameters` less the integration's and the
     run's (method, load joint, drive inertia, initial rates), in slot order.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> p = scene_parameters(load_scene("thesis-fourbar"))   # what ComputedTorque.fmu takes
+    >>> list(p)[:4], "method" in p
+    (['gravity', 'ground.a1', 'ground.theta1', 'drive_joint'], False)
     """
     m = scene.mechanism
     p = fmu_parameters(scene)
@@ -127,12 +141,28 @@ STANDARD_SCENE = "thesis-fourbar"  # the defaults of build_fmu.py's Mechanism.fm
 
 
 def same_shape(a: Mechanism, b: Mechanism) -> bool:
-    """Whether one mechanism FMU serves both (same number of links, of closures and the same actuators)."""
+    """Whether one mechanism FMU serves both (same number of links, of closures and the same actuators).
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> fourbar = load_scene("thesis-fourbar").mechanism
+    >>> same_shape(load_scene("slider-crank").mechanism, fourbar), same_shape(load_scene("watt-ii").mechanism, fourbar)
+    (True, False)
+    """
     return (a.n_links, len(a.closures), a.actuator_names) == (b.n_links, len(b.closures), b.actuator_names)
 
 
 def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
-    """The variables of a mechanism FMU with ``scene``'s shape and defaults."""
+    """The variables of a mechanism FMU with ``scene``'s shape and defaults.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> spec = mechanism_spec(load_scene("watt-ii"), "WattII")     # build_fmu(spec, ...) compiles it
+    >>> spec.identifier, spec.defines["N_LINKS"]
+    ('WattII', 5)
+    """
     m = scene.mechanism
     n, nc = m.n_links, len(m.closures)
     if scene.method not in METHODS:
@@ -265,3 +295,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
                      tuple(v), "mechanism_model.c", defines, n_out + 2 * len(m.actuators), tuple(slot_order),
                      (JOINT, CLOSURE),
                      ("kernel",), run_state(n, len(m.actuators)))
+
+
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["fmu_parameters", "scene_parameters", "same_shape", "mechanism_spec"]

@@ -475,7 +475,15 @@ def load_scene(source: str | Path) -> Scene:
 
 
 def with_overrides(scene: Scene, **changes) -> Scene:
-    """A copy of a scene with some run settings changed."""
+    """A copy of a scene with some run settings changed.
+
+    Examples
+    --------
+    >>> fourbar = load_scene("thesis-fourbar")
+    >>> longer = with_overrides(fourbar, t_end=2.0, torque=1.5)     # run settings: a Scene's fields
+    >>> longer.t_end, longer.torque, fourbar.t_end
+    (2.0, 1.5, 10.0)
+    """
     return replace(scene, **changes)
 
 
@@ -504,7 +512,18 @@ def parameter_names(scene: Scene) -> list[str]:
 
 
 def parameter(scene: Scene, name: str):
-    """A scene's value of one dotted parameter (see :func:`parameter_names`)."""
+    """A scene's value of one dotted parameter (see :func:`parameter_names`).
+
+    Examples
+    --------
+    >>> fourbar = load_scene("thesis-fourbar")
+    >>> parameter(fourbar, "link2.a"), parameter(fourbar, "gravity")
+    (0.2, 9.81)
+    >>> parameter(fourbar, "link9.a")                 # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: link9.a: no such parameter of this scene (it has: gravity, link2.a, ...)
+    """
     m = scene.mechanism
     if name == "gravity":
         return m.gravity
@@ -592,3 +611,8 @@ def override(scene: Scene, values: dict) -> Scene:
         raise SceneError("load.torque", "a load torque needs the joint it acts on")
     return out
 
+
+
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["Scene", "load_scene", "scene_from_dict", "preset_names", "parameter_names", "parameter", "override",
+           "with_overrides"]

@@ -71,6 +71,12 @@ class CylinderServoDesign:
         A constant effort on the scene's load joint (N m, or N on a slide).
     t_end, step : float
         The default experiment: run length and communication step, s.
+
+    Examples
+    --------
+    >>> design = CylinderServoDesign("luffing-boom", move=0.05, constants={"bore": 0.063})
+    >>> design.actuator, design.cylinder, design.pid["K"]     # the scene's first actuator, by default
+    (None, 'hydraulic', 20.0)
     """
 
     scene: str
@@ -92,7 +98,14 @@ class CylinderServoDesign:
 
 
 def start_length(scene, actuator: str) -> float:
-    """The actuator's length at the scene's assembled start, m."""
+    """The actuator's length at the scene's assembled start, m.
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> round(start_length(load_scene("luffing-boom"), "lift"), 4)          # m, between the attachments
+    1.226
+    """
     from grubler.mechanism.simulate import Simulator
 
     sim = Simulator(scene.mechanism, method=scene.method, zd0=scene.initial_rates)
@@ -104,6 +117,12 @@ def holding_force(scene, actuator: str) -> float:
 
     The accelerations are affine in the force: two evaluations of the forward
     dynamics at rest give the force that zeroes the first real joint's.
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> round(holding_force(load_scene("luffing-boom"), "lift"))            # N: the boom's weight, over the lever
+    10816
     """
     import numpy as np
 
@@ -128,6 +147,22 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
     SceneError
         Naming ``cylinder`` or ``actuator`` for one the design cannot have, or a
         cylinder constant the cylinder refuses.
+
+    Examples
+    --------
+    >>> design = CylinderServoDesign("luffing-boom", move=0.05)
+    >>> cylinder_servo_system(CylinderServoDesign("luffing-boom", cylinder="electric"), "dist")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: cylinder: must be one of hydraulic, pneumatic, got 'electric'
+
+    A scene with an actuator gets a mechanism FMU of its own, exported into the
+    folder (a compile of 5 to 8 s) when it is not there, so the build is not
+    run here; ``tests/test_cylinder_systems.py`` builds and runs three:
+
+    >>> s = cylinder_servo_system(design, "dist")     # doctest: +SKIP
+    >>> list(s.components), s.order                   # doctest: +SKIP
+    (['trajectory', 'controller', 'cylinder', 'mechanism'], ['controller', 'cylinder', 'mechanism', 'trajectory'])
     """
     from grubler.fmi.build import scene_fmu
     from grubler.fmi.cylinder import cylinder_parameters

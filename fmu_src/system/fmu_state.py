@@ -37,6 +37,11 @@ Examples
 ... except StateError as exc:
 ...     print(exc)
 state blob: corrupted (its SHA-256 digest does not match its content)
+
+A blob starts with :data:`MAGIC` and :data:`FORMAT_VERSION`:
+
+>>> blob[:8] == MAGIC, int.from_bytes(blob[8:12], "little") == FORMAT_VERSION
+(True, True)
 """
 
 from __future__ import annotations
@@ -65,12 +70,34 @@ _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
 class StateError(ValueError):
-    """A state that cannot be serialised, or a blob that is refused."""
+    """A state that cannot be serialised, or a blob that is refused.
+
+    Examples
+    --------
+    >>> try:
+    ...     from_bytes(b"GRBSTATE")
+    ... except StateError as exc:                     # a ValueError: an FMU answers it with fmi2Error
+    ...     print(exc)
+    state blob: truncated (8 bytes, a state has at least 52)
+    """
 
 
 @dataclass(frozen=True)
 class SlaveState:
-    """An FMU state: who took it, and the slave's own payload."""
+    """An FMU state: who took it, and the slave's own payload.
+
+    Examples
+    --------
+    >>> ident = {"model": "Gain", "build": "b1", "parameters": "p1"}
+    >>> state = SlaveState(ident, {"k": 2.0})
+    >>> state.check(ident) is None                    # taken from this FMU, this build, these parameters
+    True
+    >>> try:
+    ...     state.check({**ident, "parameters": "p2"})
+    ... except StateError as exc:
+    ...     print(exc)
+    state blob: taken from an instance with other parameter values (parameters 'p1', this instance has 'p2')
+    """
 
     identity: dict
     payload: Any
@@ -129,7 +156,19 @@ def _encode(value: Any, where: str, depth: int = 0) -> Any:
 
 
 def to_bytes(state: SlaveState) -> bytes:
-    """The blob of ``state`` (StateError naming any value that cannot be serialised)."""
+    """The blob of ``state`` (StateError naming any value that cannot be serialised).
+
+    Examples
+    --------
+    >>> ident = {"model": "Gain", "build": "b1", "parameters": "p1"}
+    >>> to_bytes(SlaveState(ident, {"k": 2.0}))[:8]
+    b'GRBSTATE'
+    >>> try:
+    ...     to_bytes(SlaveState(ident, {"f": open}))
+    ... except StateError as exc:
+    ...     print(exc)
+    state ['f']: a builtin_function_or_method cannot be serialised (override get_state to return plain data)
+    """
     body = json.dumps({"identity": state.identity, "state": _encode(state.payload, "")},
                       separators=(",", ":"), allow_nan=False).encode("utf-8")
     head = _HEAD.pack(MAGIC, FORMAT_VERSION, len(body)) + body
@@ -218,7 +257,20 @@ def _dtype(text: Any, where: str) -> np.dtype:
 
 
 def from_bytes(blob: bytes) -> SlaveState:
-    """The state in ``blob``, or StateError saying why it is refused (truncated, corrupted, foreign...)."""
+    """The state in ``blob``, or StateError saying why it is refused (truncated, corrupted, foreign...).
+
+    Examples
+    --------
+    >>> ident = {"model": "Gain", "build": "b1", "parameters": "p1"}
+    >>> blob = to_bytes(SlaveState(ident, {"k": 2.0, "history": (1, -0.0)}))
+    >>> from_bytes(blob).payload                      # bit-exact, tuples and -0.0 kept
+    {'k': 2.0, 'history': (1, -0.0)}
+    >>> try:
+    ...     from_bytes(blob[:20])
+    ... except StateError as exc:
+    ...     print(exc)
+    state blob: truncated (20 bytes, a state has at least 52)
+    """
     blob = bytes(blob)
     if len(blob) < _HEAD.size + _DIGEST:
         raise StateError(f"state blob: truncated ({len(blob)} bytes, a state has at least "

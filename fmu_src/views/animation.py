@@ -42,10 +42,24 @@ TRACE_COLOUR = "#ff7f0e"
 CYLINDER_COLOUR = "#17becf"  # an actuator's barrel
 BARREL_SHARE = 0.55  # of an actuator's length, the barrel drawn from its first point (the rod runs the whole line)
 
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["animate", "check_frames", "trace_point", "trace_path", "frame_geometry", "FrameGeometry"]
+
 
 @dataclass
 class FrameGeometry:
-    """What one frame shows, in world coordinates (m)."""
+    """What one frame shows, in world coordinates (m).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> g = frame_geometry(res.model, res.z[0])       # a FrameGeometry: what the first frame draws
+    >>> len(g.bars), len(g.fixed)                     # the three moving links; two ground pivots
+    (3, 2)
+    >>> g.points().shape                              # every drawn point, for fitting a view
+    (12, 2)
+    """
 
     bars: list = field(default_factory=list)  # [(p0, p1), ...]
     joints: list = field(default_factory=list)  # revolute centres
@@ -170,13 +184,36 @@ class Sketch:
 
 
 def frame_geometry(model: Mechanism, z: np.ndarray, trace=None) -> FrameGeometry:
-    """Drawing primitives of the mechanism at joint coordinates ``z`` (``trace``: see :func:`trace_point`)."""
+    """Drawing primitives of the mechanism at joint coordinates ``z`` (``trace``: see :func:`trace_point`).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> g = frame_geometry(res.model, res.z[0], trace=trace_point("tip", res.model))
+    >>> g.trace.round(9).tolist()                     # m: the rocker's tip at t = 0
+    [1.0, 0.0]
+    """
     sketch = Sketch(model, trace)
     return sketch.geometry(sketch.positions(np.asarray(z, dtype=float)[None, :])[0])
 
 
 def trace_point(spec: str | None, model: Mechanism):
-    """Parse a trace spec: 'tip', or 'linkK:u,v' (a point of link K in its frame)."""
+    """Parse a trace spec: 'tip', or 'linkK:u,v' (a point of link K in its frame).
+
+    Examples
+    --------
+    >>> from grubler import load_scene
+    >>> fourbar = load_scene("thesis-fourbar").mechanism
+    >>> trace_point("link3:0.4,0.1", fourbar)         # (link index, point in the link's frame)
+    (1, (0.4, 0.1))
+    >>> trace_point("tip", fourbar)                   # the last link's far end
+    (2, (0.8, 0.0))
+    >>> trace_point("link9:0,0", fourbar)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: --trace: link9 is not a moving link (2..4)
+    """
     if spec in (None, ""):
         return None
     if spec == "tip":
@@ -195,7 +232,16 @@ def trace_point(spec: str | None, model: Mechanism):
 
 
 def trace_path(model: Mechanism, zs: np.ndarray, point) -> np.ndarray:
-    """World positions of a link point along a trajectory, (rows, 2)."""
+    """World positions of a link point along a trajectory, (rows, 2).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> path = trace_path(res.model, res.z, trace_point("link3:0.4,0.1", res.model))
+    >>> path.shape, path[0].round(4).tolist()         # one (x, y) per row of the run, m
+    ((51, 2), [0.3134, 0.3964])
+    """
     k, local = point
     return link_points(model, zs, [k], [local])[:, 0, :]
 
@@ -311,6 +357,15 @@ def check_frames(duration: float, fps: float, speed: float, n_signals: int = 0, 
 
     The GIF writer holds every frame (a byte a pixel) and the part of it that
     changed; an MP4 is piped out frame by frame.
+
+    Examples
+    --------
+    >>> check_frames(3.0, fps=12, speed=1.0)           # 3 s of motion at 12 frames a second
+    37
+    >>> check_frames(1e6, fps=100, speed=1.0)          # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    grubler.errors.LimitError: --fps, --speed or the run's length: the animation's frames would take 138 TB ...
     """
     w, h = frame_size(n_signals, size)
     return check_size(duration * fps / speed + 1, 2 * w * h, "the animation's frames",
@@ -346,6 +401,18 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: floa
     signals : list of (label, ndarray), optional
         Series at ``t`` to draw in strips under the mechanism with a cursor at
         the frame's time (at most :data:`MAX_SIGNALS`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> from PIL import Image
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     n = animate(res.model, res.t, res.z, str(pathlib.Path(d) / "fourbar.gif"), fps=10, trace="tip")
+    ...     with Image.open(pathlib.Path(d) / "fourbar.gif") as gif:
+    ...         print(n, gif.n_frames, gif.size)          # 0.5 s at 10 frames a second, 960 x 720 px
+    6 6 (960, 720)
     """
     if not (0.01 <= fps <= 100.0 and speed > 0):  # a GIF frame lasts 10 ms to 655 s
         raise SceneError("--fps/--speed", f"fps must be 0.01 to 100 and speed positive, got {fps:g}, {speed:g}")

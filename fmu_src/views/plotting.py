@@ -146,7 +146,18 @@ def _all_zero(values) -> bool:
 
 
 def plot_result(res: Result, path: str) -> None:
-    """Save :func:`result_figure` of ``res`` to ``path`` (PNG or any format matplotlib writes)."""
+    """Save :func:`result_figure` of ``res`` to ``path`` (PNG or any format matplotlib writes).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     plot_result(res, pathlib.Path(d) / "fourbar.png")
+    ...     print(sorted(p.name for p in pathlib.Path(d).iterdir()))
+    ['fourbar.png']
+    """
     fig = result_figure(res)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -160,6 +171,15 @@ def result_figure(res: Result):
     drive's work beside the energies, and ``E(0)`` plus that work, which ``E``
     would follow without damping; the closure violation is drawn on a log axis
     only where it is not exactly zero.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> fig = result_figure(grubler.simulate("thesis-fourbar", t_end=0.5))   # a matplotlib Figure, not shown
+    >>> fig.axes[-1].get_xlabel()                      # the panels share the time axis
+    't [s]'
+    >>> fig.axes[-1].get_ylabel()
+    'energy [J]'
     """
     m = res.model
     title = f"{m.name or 'scene'}: {kind_words(m)} ({res.method} closure)"
@@ -316,7 +336,18 @@ def curve_style(labels: list[str], k: int) -> dict:
 
 
 def plot_panels(t, panels, path: str, title: str = "", limits=None) -> None:
-    """Save :func:`panels_figure` to ``path`` (PNG or any format matplotlib writes)."""
+    """Save :func:`panels_figure` to ``path`` (PNG or any format matplotlib writes).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     plot_panels(t, [("voltage [V]", [("motor", 12 * np.sin(t), "V")])], pathlib.Path(d) / "v.png")
+    ...     print([p.name for p in pathlib.Path(d).iterdir()])
+    ['v.png']
+    """
     fig = panels_figure(t, panels, title, limits)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -340,6 +371,18 @@ def panels_figure(t, panels, title: str = "", limits=None):
         Horizontal lines by panel title: ``{title: [(label, value), ...]}``, a
         limit such as the supply voltage, drawn dashed and drawn at +-value
         when the label starts with "±".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> fig = panels_figure(t, [("crank angle [rad]", [("setpoint", t, "rad"), ("response", t ** 2, "rad")]),
+    ...                         ("voltage", [("motor", 12 * np.sin(t), "V")])],
+    ...                     title="servo", limits={"voltage": [("±24 V supply", 24.0)]})
+    >>> [ax.get_ylabel() for ax in fig.axes]          # a title without its unit gets the curves'
+    ['crank angle [rad]', 'voltage [V]']
+    >>> [line.get_ydata()[0] for line in fig.axes[1].lines[1:]]   # the supply drawn at +24 and -24 V
+    [24.0, -24.0]
     """
     t = np.asarray(t, dtype=float)
     n = max(len(panels), 1)
@@ -395,3 +438,7 @@ def panels_figure(t, panels, title: str = "", limits=None):
         fig.suptitle(title)
     fig.tight_layout()
     return fig
+
+
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["plot_result", "result_figure", "plot_panels", "panels_figure"]

@@ -30,6 +30,18 @@ def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarr
     torque is held over each communication step, which the trapezoid rule over
     the record does not know: there the remainder is the coupling's, not the
     mechanism's (see :func:`residue_name`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> from grubler.views.runs import read_run_csv
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grubler.simulate("thesis-fourbar", t_end=0.5).to_csv(pathlib.Path(d) / "run.csv")
+    ...     columns = read_run_csv(pathlib.Path(d) / "run.csv")
+    >>> residue = energy_balance(columns, grubler.load_scene("thesis-fourbar").mechanism)
+    >>> bool(abs(residue).max() < 1e-6)               # J: an exact run leaves only integration error
+    True
     """
     t = columns["t"]
     qd = np.column_stack([columns[f"{n}_d"] for n in model.coordinate_names])
@@ -73,7 +85,20 @@ def servo_target(columns: dict[str, np.ndarray], drive: str | None, model: Mecha
 
 def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechanism | None = None,
                 cosim: bool = False) -> list[tuple[str, str]]:
-    """The figures a reader wants from a run, as (label, value with unit) pairs."""
+    """The figures a reader wants from a run, as (label, value with unit) pairs.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> from grubler.views.runs import read_run_csv
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grubler.simulate("thesis-fourbar", t_end=0.5).to_csv(pathlib.Path(d) / "run.csv")
+    ...     columns = read_run_csv(pathlib.Path(d) / "run.csv")
+    >>> numbers = dict(key_numbers(columns, "theta2", grubler.load_scene("thesis-fourbar").mechanism))
+    >>> numbers["duration"], numbers["drive"]
+    ('0.5 s, 51 samples', 'theta2 (revolute)')
+    """
     t = columns["t"]
     unit, speed_unit, effort_unit = _drive_units(drive)
     out = [("duration", f"{t[-1] - t[0]:.4g} s, {len(t)} samples")]
@@ -302,6 +327,18 @@ def report_figure(columns: dict[str, np.ndarray], model: Mechanism | None = None
     system : grubler.system.ssp.System, optional
         The co-simulated system: its motor, gearbox, power stage and controller
         head the table (:func:`system_numbers`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> from grubler.views.runs import read_run_csv
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grubler.simulate("thesis-fourbar", t_end=0.5).to_csv(pathlib.Path(d) / "run.csv")
+    ...     columns = read_run_csv(pathlib.Path(d) / "run.csv")
+    >>> fig = report_figure(columns, grubler.load_scene("thesis-fourbar").mechanism)   # a Figure, not shown
+    >>> fig.get_size_inches().tolist()               # A4 landscape
+    [11.69, 8.27]
     """
     import matplotlib
 
@@ -411,7 +448,21 @@ def _instants(fig, model: Mechanism, columns, Drawer, Sketch) -> None:
 
 def write_report(columns: dict[str, np.ndarray], out, model: Mechanism | None = None, source: str = "run.csv",
                  cosim: bool = False, system=None) -> list[str]:
-    """Write :func:`report_figure` to each of ``out`` (a path or a list; the format follows each suffix)."""
+    """Write :func:`report_figure` to each of ``out`` (a path or a list; the format follows each suffix).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> from grubler.views.runs import read_run_csv
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grubler.simulate("thesis-fourbar", t_end=0.5).to_csv(pathlib.Path(d) / "run.csv")
+    ...     columns = read_run_csv(pathlib.Path(d) / "run.csv")
+    ...     written = write_report(columns, pathlib.Path(d) / "report.png",   # or a list: .png, .pdf, .svg ...
+    ...                            model=grubler.load_scene("thesis-fourbar").mechanism, source="run.csv")
+    ...     print([pathlib.Path(p).name for p in written], pathlib.Path(written[0]).stat().st_size > 0)
+    ['report.png'] True
+    """
     import matplotlib.pyplot as plt
 
     outs = [out] if isinstance(out, (str, os.PathLike)) else list(out)
@@ -420,3 +471,7 @@ def write_report(columns: dict[str, np.ndarray], out, model: Mechanism | None = 
         fig.savefig(path, dpi=110)
     plt.close(fig)
     return [str(p) for p in outs]
+
+
+# the public names (the API reference's): the rest is the package's inside
+__all__ = ["write_report", "report_figure", "key_numbers", "energy_balance"]

@@ -42,7 +42,21 @@ def mechanism_prefix(names: list[str]) -> str | None:
 
 
 def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> dict[str, np.ndarray]:
-    """A run's columns in simulate vocabulary (see the module's notes)."""
+    """A run's columns in simulate vocabulary (see the module's notes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> raw = {"t": np.array([0.0, 0.1]), "arm.theta2": np.array([0.0, 0.2]), "arm.closure_error": np.zeros(2),
+    ...        "arm.motor_torque": np.array([0.5, 0.6]), "motor.current": np.array([1.0, 1.5])}
+    >>> cols = run_columns(raw)                 # a cosim record, named as a simulate CSV names it
+    >>> sorted(cols)
+    ['closure_error', 'current', 'motor_torque', 't', 'tau_drive', 'theta2']
+    >>> run_columns({"theta2": np.zeros(2)})
+    Traceback (most recent call last):
+    ...
+    grubler.errors.GrublerError: not a run CSV (no 't' column)
+    """
     names = list(raw)
     if "t" not in raw:
         raise GrublerError("not a run CSV (no 't' column)")
@@ -73,7 +87,19 @@ def run_columns(raw: dict[str, np.ndarray], model: Mechanism | None = None) -> d
 
 
 class Table(dict):
-    """A CSV table's columns by name (a dict), with ``units``: each column's unit, '' where the file gave none."""
+    """A CSV table's columns by name (a dict), with ``units``: each column's unit, '' where the file gave none.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> table = read_table(d / "co.csv")        # a Table: a dict of columns, with their units
+    >>> list(table)[:3], table.units["motor.current"]
+    (['t', 'arm.theta2', 'arm.closure_error'], 'A')
+    >>> tmp.cleanup()
+    """
 
     units: dict[str, str]
 
@@ -87,6 +113,21 @@ def read_table(path: str, field: str = "csv") -> Table:
     every value be a finite number within :data:`grubler.limits.MAX_MAGNITUDE`,
     and ``t`` (when present) must increase.  A refusal names the file, the line
     and the column.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> read_table(d / "co.csv")["motor.current"]
+    array([1. , 1.5])
+    >>> _ = (d / "bad.csv").write_text("t,x\\n0,1\\n0.1,nan\\n")
+    >>> read_table(d / "bad.csv")             # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: csv: '.../bad.csv': row 3, column 'x': nan is not a finite number within +-1e+12
+    >>> tmp.cleanup()
     """
     text = read_text(path, field, MAX_TABLE_BYTES)
     where = brief(str(path), PATH_CHARS)
@@ -134,7 +175,19 @@ def read_table(path: str, field: str = "csv") -> Table:
 
 
 def read_run(path: str, model: Mechanism | None = None, field: str = "csv"):
-    """Read a simulate or cosim CSV (see :func:`read_table`): its columns as named, and in simulate vocabulary."""
+    """Read a simulate or cosim CSV (see :func:`read_table`): its columns as named, and in simulate vocabulary.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> raw, cols = read_run(d / "co.csv")       # as the file names them, and in simulate vocabulary
+    >>> "motor.current" in raw, cols["current"].tolist(), cols["tau_drive"].tolist()
+    (True, [1.0, 1.5], [0.5, 0.6])
+    >>> tmp.cleanup()
+    """
     raw = read_table(path, field)
     try:
         cols = run_columns(raw, model)
@@ -149,7 +202,18 @@ def read_run(path: str, model: Mechanism | None = None, field: str = "csv"):
 
 
 def read_run_csv(path: str, model: Mechanism | None = None, field: str = "csv") -> dict[str, np.ndarray]:
-    """Read a simulate or cosim CSV (see :func:`read_table`) into simulate-vocabulary columns."""
+    """Read a simulate or cosim CSV (see :func:`read_table`) into simulate-vocabulary columns.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> sorted(read_run_csv(d / "co.csv"))
+    ['closure_error', 'current', 'motor_torque', 't', 'tau_drive', 'theta2']
+    >>> tmp.cleanup()
+    """
     return read_run(path, model, field)[1]
 
 
@@ -178,7 +242,23 @@ def column_unit(name: str, names) -> str:
 
 
 def signal_names(spec: str, available, field: str = "--signals", limit: int | None = None) -> list[str]:
-    """The comma-separated column names of ``spec``, each one of ``available`` (else refused, with a suggestion)."""
+    """The comma-separated column names of ``spec``, each one of ``available`` (else refused, with a suggestion).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> raw, cols = read_run(d / "co.csv")
+    >>> signal_names("motor.current, arm.theta2", raw)
+    ['motor.current', 'arm.theta2']
+    >>> signal_names("motor.curent", raw)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: --signals: no column 'motor.curent' in the run; did you mean 'motor.current'?
+    >>> tmp.cleanup()
+    """
     from grubler.limits import did_you_mean
 
     names = [n.strip() for n in spec.split(",") if n.strip()]
@@ -194,7 +274,19 @@ def signal_names(spec: str, available, field: str = "--signals", limit: int | No
 
 
 def select_signals(spec: str, columns: dict[str, np.ndarray], field: str = "--signals", limit: int | None = None):
-    """``(label with unit, values)`` of the comma-separated column names in ``spec`` (see :func:`signal_names`)."""
+    """``(label with unit, values)`` of the comma-separated column names in ``spec`` (see :func:`signal_names`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> tmp = tempfile.TemporaryDirectory(); d = pathlib.Path(tmp.name)
+    >>> _ = (d / "co.csv").write_text("t [s],arm.theta2 [rad],arm.closure_error [m],arm.motor_torque [N.m],"
+    ...                               "motor.current [A]\\n0,0,0,0.5,1.0\\n0.1,0.2,0,0.6,1.5\\n")
+    >>> raw, cols = read_run(d / "co.csv")
+    >>> [(label, values.tolist()) for label, values in select_signals("motor.current", raw)]   # labelled with the unit
+    [('motor.current [A]', [1.0, 1.5])]
+    >>> tmp.cleanup()
+    """
     out = []
     for name in signal_names(spec, list(columns), field, limit):
         unit = column_unit(name, columns)
@@ -207,6 +299,18 @@ def coordinates(cols: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
 
     ``model.z_from_q`` is affine (differences of absolute angles, the slides as
     they are), so it is its value at q = 0 plus a matrix read off its columns.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> res = grubler.simulate("thesis-fourbar", t_end=0.5)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     res.to_csv(pathlib.Path(d) / "run.csv")
+    ...     cols = read_run_csv(pathlib.Path(d) / "run.csv")
+    >>> z = coordinates(cols, res.model)        # the real joint coordinates, what the animation draws
+    >>> z.shape, bool(abs(z - res.z).max() < 1e-9)
+    ((51, 3), True)
     """
     q = np.column_stack([cols[n] for n in model.coordinate_names])
     nq = q.shape[1]
@@ -227,6 +331,19 @@ def check_fits(model: Mechanism, cols: dict[str, np.ndarray], path: str, field: 
     closure error the run itself recorded (a penalty run's), whichever is larger.
     A slider-crank scene given for a four-bar run leaves its loop open by
     decimetres; the run's own scene closes it to rounding.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import grubler
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     grubler.simulate("thesis-fourbar", t_end=0.5).to_csv(pathlib.Path(d) / "run.csv")
+    ...     cols = read_run_csv(pathlib.Path(d) / "run.csv")
+    >>> check_fits(grubler.load_scene("thesis-fourbar").mechanism, cols, "run.csv")   # its own scene: fits
+    >>> check_fits(grubler.load_scene("slider-crank").mechanism, cols, "run.csv")     # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: --scene: slider-crank does not fit 'run.csv': its geometry leaves the recorded loop (closure[0]) open by 1.05 rad at t = 0 s, ...
     """
     from grubler.mechanism.assembly import constraint
 
