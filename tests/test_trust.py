@@ -7,6 +7,7 @@ run's exit status at 0; the library carries them on its results.
 import pickle
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -277,3 +278,17 @@ def test_an_animation_of_an_open_loop_says_so_too(capsys, tmp_path):
                          "--out", tmp_path / "open.gif")
     assert code == 0 and "wrote" in out
     assert err.startswith("warning: closure: the loop opened by up to "), err
+
+
+# -- a skipped test says why --------------------------------------------------------------------
+def test_the_readme_test_command_lists_each_skip_with_its_reason(tmp_path):
+    # the README's `python3 -m pytest` (and .ci/run) read pyproject's addopts; with -q alone a
+    # skipped browser test is a bare `s` and the README's "skipped, saying why" would not hold
+    root = Path(__file__).resolve().parents[1]
+    (tmp_path / "test_skipping.py").write_text(
+        "import pytest\n\n\n@pytest.mark.skip(reason='no Chromium found here')\ndef test_x():\n    pass\n")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-c", str(root / "pyproject.toml"), "--rootdir",
+                           str(tmp_path), "-p", "no:cacheprovider", str(tmp_path / "test_skipping.py")],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "SKIPPED [1]" in proc.stdout and "no Chromium found here" in proc.stdout, proc.stdout
