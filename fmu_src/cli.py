@@ -356,7 +356,7 @@ def cmd_cosim(args) -> int:
 def cmd_sweep(args) -> int:
     import functools
 
-    from grubler.mechanism.scene import override
+    from grubler.mechanism.scene import override, parameter_value
     from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point, scene_point_units
 
     axes = {}
@@ -367,6 +367,9 @@ def cmd_sweep(args) -> int:
         axes[name] = values
     scene = load_scene(args.scene)
     override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
+    for name, values in axes.items():  # and so does any value that is not one (an angle for a length)
+        for v in values:
+            parameter_value(name, v)
     func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
     table = run_sweep(func, grid(**axes), out=args.out, workers=args.workers, scheduler=args.scheduler,
                       resume=not args.no_resume, retry_failed=args.retry_failed,
