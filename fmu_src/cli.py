@@ -389,13 +389,52 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+# grubler size: each kind's options and their defaults (None on the parser: given or not is known)
+MOTOR_OPTIONS = {"motors": "all", "ratios": "5,10,20,35,50,75,100,150", "efficiency": 0.9, "supply": None,
+                 "current_limit": math.inf, "ambient": 25.0}
+CYLINDER_OPTIONS = {"bores": "32,40,50,63,80,100", "pressures": "100,160,210", "rod_ratio": 0.56, "stroke": 0.3}
+SIZE_DEFAULTS = {**MOTOR_OPTIONS, **CYLINDER_OPTIONS}
+
+
+def _size_options(args, model) -> None:
+    """Refuse the other kind's options (a motor's to --cylinder, a cylinder's without it), then fill the defaults."""
+    def given(options):
+        return [f"--{k.replace('_', '-')}" for k in options if getattr(args, k) is not None]
+
+    if args.cylinder:
+        wrong = given(MOTOR_OPTIONS)
+        if wrong:
+            extra = " (a cylinder's supply pressures are --pressures, bar)" if "--supply" in wrong else ""
+            raise InputError(wrong[0], f"is for motor sizing; --cylinder sizes a cylinder: drop {', '.join(wrong)}"
+                                       + extra)
+    else:
+        wrong = given(CYLINDER_OPTIONS)
+        if wrong:
+            raise InputError(wrong[0], f"is for cylinder sizing: add --cylinder ACTUATOR (or drop {', '.join(wrong)})")
+        if model.actuators:
+            names = ", ".join(model.actuator_names)
+            raise InputError("size", f"{model.name or 'the scene'} is driven by a cylinder (actuator "
+                                     f"{names}), not a motor on {model.drive or 'a joint'}: size it with "
+                                     f"`grubler size {args.scene} --cylinder {model.actuator_names[0]}` "
+                                     "(--bores, --pressures)")
+    for k, v in SIZE_DEFAULTS.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+
+
 def cmd_size(args) -> int:
     from grubler.motors import list_motors, load_motor
     from grubler.studies.sizing import SUMMARY_UNITS, Control, DutyCycle, size
-    from grubler.studies.sweep import parse_axis
+    from grubler.studies.sweep import parse_values
 
     scene = load_scene(args.scene)
     model = scene.mechanism
+    _size_options(args, model)
+    if args.check:
+        if args.cylinder:  # before any work: the FMUs it runs are there (it builds what it needs elsewhere)
+            from grubler.studies.cylinder_sizing import check_fmus
+
+            check_fmus(args.scene, args.check, "--check")
     if args.load_torque and model.load is None:
         model = model.replace(load=model.drive)  # a load on the drive joint itself
     start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
@@ -416,7 +455,7 @@ def cmd_size(args) -> int:
     if args.cylinder:
         return _size_cylinder(args, scene, model, cycle)
     names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
-    _, ratios = parse_axis(f"ratios={args.ratios}")
+    ratios = parse_values(args.ratios, "--ratios")
     # the currents are predicted under the servo's own position loop, the one --check co-simulates
     study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
                  supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient,
@@ -464,10 +503,10 @@ def cmd_size(args) -> int:
 def _size_cylinder(args, scene, model, cycle) -> int:
     """grubler size --cylinder: a hydraulic cylinder's bore and supply pressure for the drive joint's cycle."""
     from grubler.studies.cylinder_sizing import cylinder_check, size_cylinder
-    from grubler.studies.sweep import parse_axis
+    from grubler.studies.sweep import parse_values
 
-    _, bores = parse_axis(f"bores={args.bores}")
-    _, pressures = parse_axis(f"pressures={args.pressures}")
+    bores = parse_values(args.bores, "--bores", "mm")
+    pressures = parse_values(args.pressures, "--pressures", "bar")
     study = size_cylinder(model, args.cylinder, cycle, [b * 1e-3 for b in bores], [p * 1e5 for p in pressures],
                           rod_ratio=args.rod_ratio, constants={"stroke": args.stroke})
     d = study.demand
@@ -485,6 +524,12 @@ def _size_cylinder(args, scene, model, cycle) -> int:
                                                                  if len(a.failures) > 1 else ""))
     if len(study.rejected) > shown:
         print(f"  ... {len(study.rejected) - shown} more rejected (--verbose lists more)")
+    if args.out:
+        study.write_csv(args.out)
+        print(f"wrote {args.out}")
+    if args.plot:
+        study.plot(args.plot)
+        print(f"wrote {args.plot}")
     if args.check and study.best is not None:
         print("\n".join(cylinder_check(study, args.scene, args.cylinder, args.check).lines()))
     elif args.check:
@@ -624,28 +669,36 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
     z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
                    help="load on the load joint (the drive joint if the scene has none), N m")
-    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see `grubler motors`)")
-    z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
-    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9,
-                   help="gearbox efficiency")
-    z.add_argument("--supply", type=_positive("--supply", "V"), help="supply voltage, V (default: each motor's nominal)")
-    z.add_argument("--current-limit", type=_positive("--current-limit", "A"), default=math.inf,
-                   help="the drive's current limit, A")
+    # a motor's options and a cylinder's: their defaults (SIZE_DEFAULTS) are applied in cmd_size, so that one
+    # given to the other kind of sizing is refused rather than ignored
+    z.add_argument("--motors", help="motor sizing: 'all' (default) or comma-separated data sets (see `grubler motors`)")
+    z.add_argument("--ratios", help=f"motor sizing: gear ratios, V1,V2,... or START:STOP:N "
+                                    f"(default {SIZE_DEFAULTS['ratios']})")
+    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0),
+                   help="motor sizing: gearbox efficiency (default 0.9)")
+    z.add_argument("--supply", type=_positive("--supply", "V"),
+                   help="motor sizing: supply voltage, V (default: each motor's nominal)")
+    z.add_argument("--current-limit", type=_positive("--current-limit", "A"),
+                   help="motor sizing: the drive's current limit, A (default none)")
     z.add_argument("--ambient", type=_number("--ambient", low=AMBIENT_RANGE[0], high=AMBIENT_RANGE[1], unit="degC"),
-                   default=25.0, help=f"ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g})")
+                   help=f"motor sizing: ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g}, "
+                        "default 25)")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
     z.add_argument("--plot", type=_output("--plot", "figure"),
-                   help="write envelopes and margin against ratio to this PNG")
+                   help="write a figure to this PNG: a motor's envelopes and margin against ratio; a cylinder's "
+                        "force over the cycle, margin and installed power against bore")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
     z.add_argument("--cylinder", metavar="ACTUATOR", help="size a hydraulic cylinder for the scene's actuator "
                                                          "instead of a motor (bores x supply pressures)")
-    z.add_argument("--bores", default="32,40,50,63,80,100", help="cylinder bores, mm: V1,V2,... or START:STOP:N")
-    z.add_argument("--pressures", default="100,160,210", help="supply pressures, bar: V1,V2,... or START:STOP:N")
-    z.add_argument("--rod-ratio", type=_number("--rod-ratio", low=0.0, high=1.0, low_open=True), default=0.56,
-                   help="rod diameter over bore (below 1)")
-    z.add_argument("--stroke", type=_positive("--stroke", "m"), default=0.3, help="cylinder stroke, m")
+    z.add_argument("--bores", help=f"cylinder sizing: bores, mm: V1,V2,... or START:STOP:N "
+                                   f"(default {SIZE_DEFAULTS['bores']})")
+    z.add_argument("--pressures", help=f"cylinder sizing: supply pressures, bar: V1,V2,... or START:STOP:N "
+                                       f"(default {SIZE_DEFAULTS['pressures']})")
+    z.add_argument("--rod-ratio", type=_number("--rod-ratio", low=0.0, high=1.0, low_open=True),
+                   help="cylinder sizing: rod diameter over bore (below 1; default 0.56)")
+    z.add_argument("--stroke", type=_positive("--stroke", "m"), help="cylinder sizing: stroke, m (default 0.3)")
     z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
-                                                     "(FMUs from FMU_DIR, e.g. dist) and compare")
+                                                     "(FMUs from FMU_DIR, e.g. dist, only read) and compare")
     z.set_defaults(func=cmd_size)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")

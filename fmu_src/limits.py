@@ -143,13 +143,13 @@ def number(value, field: str, *, low: float | None = None, high: float | None = 
     else:
         v = value
     if isinstance(v, int) and abs(v) > magnitude:
-        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, "
-                                f"got {brief(v, 24)}")
+        raise InputError(field, f"magnitude above {magnitude:g}{u} is outside the supported range, "
+                                f"got {brief(v, 24)}{u}")
     v_f = float(v)
     if not math.isfinite(v_f):
         raise InputError(field, f"must be a finite number, got {brief(value)}")
     if abs(v_f) > magnitude:
-        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, got {v_f:g}")
+        raise InputError(field, f"magnitude above {magnitude:g}{u} is outside the supported range, got {v_f:g}{u}")
     if low is not None and (v_f < low or (low_open and v_f == low)):
         raise InputError(field, f"must be {'>' if low_open else '>='} {low:g}{u}, got {v_f:g}{u}")
     if high is not None and v_f > high:
