@@ -164,10 +164,14 @@ def _at_drive_angle(m, at):
         return m
     if not m.drive:
         raise GrublerError("--at: this scene has no drive joint whose angle it could set")
-    from grubler.mechanism.scene import parse_coordinate
+    from grubler.mechanism.scene import parse_at
 
+    name, value = parse_at(at, m.drive)
+    if name != m.drive:  # info assembles with the drive held; another coordinate is the assembly's to find
+        raise InputError("--at", f"{name} is not the drive joint: info sets the drive's value ({m.drive}=VALUE, "
+                                 "or the VALUE alone)")
     q_ref = list(m.q_ref)
-    q_ref[m.coordinate_names.index(m.drive)] = parse_coordinate(m.drive, at, "--at")
+    q_ref[m.coordinate_names.index(m.drive)] = value
     return m.replace(q_ref=tuple(q_ref))
 
 
@@ -543,12 +547,18 @@ def cmd_linearize(args) -> int:
 
     from grubler.errors import SceneError
     from grubler.studies.linearize import linearize, plot_bode, summary, to_json
-    from grubler.mechanism.scene import parse_coordinate
+    from grubler.mechanism.scene import parse_at
 
     at = args.at.strip()
-    if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
-        name, _, value = at.partition("=")
-        at = {name.strip(): parse_coordinate(name.strip(), value.strip(), "--at")}
+    if at not in ("equilibrium", "initial") and not at.replace(" ", "").startswith("t="):
+        # [COORDINATE=]VALUE, as info reads it: held there by the drive effort
+        try:
+            name, value = parse_at(at, load_scene(args.scene).mechanism.drive)
+        except SceneError as exc:
+            if exc.field != "--at" or "=" in at:
+                raise
+            raise SceneError("--at", f"{exc.reason}; or equilibrium, initial, t=T") from None
+        at = {name: value}
     motor = None
     if args.motor:
         from grubler.motors import DCMotor, Gearbox, load_motor
@@ -591,8 +601,9 @@ def build_parser() -> argparse.ArgumentParser:
     mot.set_defaults(func=cmd_motors)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
-    info.add_argument("--at", help="drive angle to assemble at, with its unit: '120 deg', '2.1 rad' or 'pi/3' "
-                                   "(a slide's length in m); a bare number is refused (default: the scene's)")
+    info.add_argument("--at", help="drive angle to assemble at, with its unit: '120 deg', '2.1 rad', 'pi/3' or "
+                                   "theta2=120deg, as linearize reads it (a slide's length in m); a bare number is "
+                                   "refused (default: the scene's)")
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
@@ -743,7 +754,8 @@ def build_parser() -> argparse.ArgumentParser:
     lin.add_argument("--at", default="equilibrium",
                      help="equilibrium (default), initial, t=T (along the trajectory under the efforts), or "
                           "COORDINATE=VALUE (at rest there, held by the drive effort; an angle with its unit, "
-                          "e.g. theta2=30deg, theta2=0.5rad or theta2=pi/6; a bare number is refused)")
+                          "e.g. theta2=30deg, theta2=0.5rad or theta2=pi/6; a bare number is refused), or "
+                          "VALUE alone for the drive joint's ('30 deg'), as info reads it")
     lin.add_argument("--torque", type=_finite("--torque"),
                      help="constant drive effort, N m (N on a slide; default: the scene's)")
     lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m (N on a slide)")

@@ -123,3 +123,25 @@ def test_a_bound_message_carries_the_unit(args, message):
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", *args], capture_output=True, text=True)
     assert proc.returncode == 2
     assert message in proc.stderr
+
+
+# -- --at: one reading for info and linearize ------------------------------------------------------
+@pytest.mark.parametrize("at", ["30 deg", "30deg", "theta2=30deg", "theta2 = 30 deg", "theta2=pi/6"])
+def test_at_is_read_alike_by_info_and_linearize(capsys, at):
+    code, out, err = run(capsys, "info", "thesis-fourbar", "--at", at)
+    assert code == 0, err
+    assert "assembled  B1 = 0 m, theta2 = 30 deg, B2 = 0 m, theta3 = 51.7369795 deg" in out
+    code, out, err = run(capsys, "linearize", "thesis-fourbar", "--at", at)
+    assert code == 0, err
+    assert "operating point: equilibrium: theta2 = 30 deg (0.523599 rad)" in out
+
+
+def test_at_names_what_it_cannot_take(capsys):
+    code, _, err = run(capsys, "info", "thesis-fourbar", "--at", "theta3=30deg")
+    assert code == 2 and err.strip() == ("grubler: error: --at: theta3 is not the drive joint: info sets the drive's "
+                                         "value (theta2=VALUE, or the VALUE alone)")
+    for command in ("info", "linearize"):
+        code, _, err = run(capsys, command, "thesis-fourbar", "--at", "theta2=30")
+        assert code == 2 and err.startswith("grubler: error: --at: '30' has no unit"), err
+        code, _, err = run(capsys, command, "thesis-fourbar", "--at", "foo=3 deg")
+        assert code == 2 and "'foo' is not a joint coordinate" in err, err

@@ -37,6 +37,34 @@ def parse_coordinate(name: str, value, field: str) -> float:
     return parse_length(value, field) if name.startswith("B") else parse_angle(value, field)
 
 
+def parse_at(text: str, drive: str | None, field: str = "--at") -> tuple[str, float]:
+    """A joint coordinate and its value as ``--at`` gives them: ``VALUE`` (the drive's) or ``NAME=VALUE``.
+
+    The one reading of ``--at`` for ``grubler info`` and ``grubler linearize``: the
+    value with its unit (:func:`parse_coordinate`), spaced or not.
+
+    Examples
+    --------
+    >>> name, value = parse_at("theta2=30deg", "theta2")
+    >>> name, round(math.degrees(value), 9)
+    ('theta2', 30.0)
+    >>> parse_at("30 deg", "theta2") == parse_at("theta2 = 30 deg", "theta2")
+    True
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise SceneError(field, "needs a value: '30 deg' (the drive joint's) or NAME=VALUE (theta2=30deg)")
+    name, eq, value = text.partition("=")
+    if not eq:
+        if not drive:
+            raise SceneError(field, f"this scene has no drive joint: name the coordinate, NAME={brief(text.strip())}")
+        name, value = drive, text
+    name = name.strip()
+    if not re.fullmatch(r"(theta|B)\d+", name):
+        raise SceneError(field, f"{brief(name)} is not a joint coordinate (theta2, B3, ...): write "
+                                "NAME=VALUE or the drive joint's VALUE alone")
+    return name, parse_coordinate(name, value.strip(), field)
+
+
 def coordinate_text(name: str, value: float, digits: int = 6, radians: bool = False) -> str:
     """A joint coordinate as people read it, with its unit: '-99.5296 deg' (and, with
     ``radians``, ' (-1.73712 rad)'), or a slide's '0.25 m'.
