@@ -263,13 +263,15 @@ def cmd_animate(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from grubler.views.report import write_report
+    from grubler.mechanism.simulate import unforced_warning
+    from grubler.views.report import unforced_actuators, write_report
     from grubler.views.runs import check_fits, mechanism_prefix, read_run
 
     model = load_scene(args.scene).mechanism if args.scene else None
     raw, columns = read_run(args.csv, model)
     if model is not None:
         check_fits(model, columns, args.csv)
+    _warn(unforced_warning(name, f"{name}_force") for name in unforced_actuators(columns, model))
     system = None
     if args.system:
         from grubler.system.ssp import read
