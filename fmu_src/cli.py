@@ -141,6 +141,12 @@ def cmd_info(args) -> int:
                                                             c.fourbar_lengths))
         print(f"grashof    {g.kind}: s + l = {g.s_plus_l:.6g} m, p + q = {g.p_plus_q:.6g} m ({g.detail})")
         print(f"lengths    {lengths}")
+    if c.slider_crank:  # Grashof's criterion for the slider-crank: crank + |offset| against the coupler
+        sc = c.slider_crank
+        print(f"grashof    slider-crank {sc.kind}: crank + |offset| = {sc.crank + sc.offset:.6g} m, coupler "
+              f"{sc.coupler:.6g} m ({sc.detail})")
+        print(f"lengths    crank {sc.crank:.6g} m, coupler {sc.coupler:.6g} m, offset {sc.offset:.6g} m, "
+              f"ratio coupler/crank {sc.ratio:.4g}")
     print(f"drive      {m.drive or '-'}" + (f"  torque {scene.torque:g} {input_unit('drive', m)}" if m.drive else ""))
     if m.load:
         print(f"load       {m.load}  torque {scene.load_torque:g} {input_unit('load', m)}")
