@@ -204,6 +204,9 @@ def _print_branches(m, z0) -> None:
 
 
 def cmd_simulate(args) -> int:
+    if args.reactions and not args.csv:  # its columns go to the CSV alone: without one it would do nothing
+        raise InputError("--reactions", "adds the joints' reaction columns to the CSV: give --csv FILE (the plot and "
+                                        "the printed table do not show them)")
     scene = load_scene(args.scene)
     groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators"]
     names = scene.mechanism.actuator_names
@@ -629,7 +632,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--actuator-force", type=_actuator_force, action="append", metavar="NAME=N",
                    help="constant force of the scene's actuator NAME, N, positive pushing its points apart "
                         "(repeat for each; an actuator not given pushes with 0)")
-    s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
+    s.add_argument("--reactions", action="store_true",
+                   help="add each joint's reaction columns (R1_Fx, R1_Fy, R1_Mz, ...: the force and moment a link's "
+                        "predecessor exerts on it) to the --csv file; they are in the CSV only, not in the plot "
+                        "or the printed table (needs --csv)")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
     s.add_argument("--plot", type=_output("--plot", "figure"), help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
