@@ -139,9 +139,9 @@ def test_cli_size_cylinder_ranks_and_rejects(tmp_path):
 
 # -- the CLI's options, each told what it is for -------------------------------------------------
 def _size(capsys, *args):
-    from grubler.cli import main
+    from grubler.cli import run  # not main: a --check leaves main's process at once (os._exit, as cosim does)
 
-    code = main(["size", *map(str, args)])
+    code = run(["size", *map(str, args)])
     out = capsys.readouterr()
     return code, out.out, out.err
 
