@@ -159,6 +159,12 @@ def cmd_info(args) -> int:
                                                             c.fourbar_lengths))
         print(f"grashof    {g.kind}: s + l = {g.s_plus_l:.6g} m, p + q = {g.p_plus_q:.6g} m ({g.detail})")
         print(f"lengths    {lengths}")
+    if c.slider_crank:  # Grashof's criterion for the slider-crank: crank + |offset| against the coupler
+        sc = c.slider_crank
+        print(f"grashof    slider-crank {sc.kind}: crank + |offset| = {sc.crank + sc.offset:.6g} m, coupler "
+              f"{sc.coupler:.6g} m ({sc.detail})")
+        print(f"lengths    crank {sc.crank:.6g} m, coupler {sc.coupler:.6g} m, offset {sc.offset:.6g} m, "
+              f"ratio coupler/crank {sc.ratio:.4g}")
     print(f"drive      {m.drive or '-'}" + (f"  torque {scene.torque:g} {input_unit('drive', m)}" if m.drive else ""))
     if m.load:
         print(f"load       {m.load}  torque {scene.load_torque:g} {input_unit('load', m)}")
@@ -182,10 +188,14 @@ def _at_drive_angle(m, at):
         return m
     if not m.drive:
         raise GrublerError("--at: this scene has no drive joint whose angle it could set")
-    from grubler.mechanism.scene import parse_coordinate
+    from grubler.mechanism.scene import parse_at
 
+    name, value = parse_at(at, m.drive)
+    if name != m.drive:  # info assembles with the drive held; another coordinate is the assembly's to find
+        raise InputError("--at", f"{name} is not the drive joint: info sets the drive's value ({m.drive}=VALUE, "
+                                 "or the VALUE alone)")
     q_ref = list(m.q_ref)
-    q_ref[m.coordinate_names.index(m.drive)] = parse_coordinate(m.drive, at, "--at")
+    q_ref[m.coordinate_names.index(m.drive)] = value
     return m.replace(q_ref=tuple(q_ref))
 
 
@@ -212,6 +222,9 @@ def _print_branches(m, z0) -> None:
 
 
 def cmd_simulate(args) -> int:
+    if args.reactions and not args.csv:  # its columns go to the CSV alone: without one it would do nothing
+        raise InputError("--reactions", "adds the joints' reaction columns to the CSV: give --csv FILE (the plot and "
+                                        "the printed table do not show them)")
     scene = load_scene(args.scene)
     groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators"]
     names = scene.mechanism.actuator_names
@@ -281,13 +294,15 @@ def cmd_animate(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from grubler.views.report import write_report
+    from grubler.mechanism.simulate import unforced_warning
+    from grubler.views.report import unforced_actuators, write_report
     from grubler.views.runs import check_fits, mechanism_prefix, read_run
 
     model = load_scene(args.scene).mechanism if args.scene else None
     raw, columns = read_run(args.csv, model)
     if model is not None:
         check_fits(model, columns, args.csv)
+    _warn(unforced_warning(name, f"{name}_force") for name in unforced_actuators(columns, model))
     system = None
     if args.system:
         from grubler.system.ssp import read
@@ -387,7 +402,7 @@ def cmd_cosim(args) -> int:
 def cmd_sweep(args) -> int:
     import functools
 
-    from grubler.mechanism.scene import override
+    from grubler.mechanism.scene import override, parameter_value
     from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point, scene_point_units
 
     axes = {}
@@ -398,6 +413,9 @@ def cmd_sweep(args) -> int:
         axes[name] = values
     scene = load_scene(args.scene)
     override(scene, {k: v[0] for k, v in axes.items()})  # a misspelt parameter fails now, by name
+    for name, values in axes.items():  # and so does any value that is not one (an angle for a length)
+        for v in values:
+            parameter_value(name, v)
     func = functools.partial(scene_point, args.scene, t_end=args.t_end, method=args.method)
     table = run_sweep(func, grid(**axes), out=args.out, workers=args.workers, scheduler=args.scheduler,
                       resume=not args.no_resume, retry_failed=args.retry_failed,
@@ -417,13 +435,52 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+# grubler size: each kind's options and their defaults (None on the parser: given or not is known)
+MOTOR_OPTIONS = {"motors": "all", "ratios": "5,10,20,35,50,75,100,150", "efficiency": 0.9, "supply": None,
+                 "current_limit": math.inf, "ambient": 25.0}
+CYLINDER_OPTIONS = {"bores": "32,40,50,63,80,100", "pressures": "100,160,210", "rod_ratio": 0.56, "stroke": 0.3}
+SIZE_DEFAULTS = {**MOTOR_OPTIONS, **CYLINDER_OPTIONS}
+
+
+def _size_options(args, model) -> None:
+    """Refuse the other kind's options (a motor's to --cylinder, a cylinder's without it), then fill the defaults."""
+    def given(options):
+        return [f"--{k.replace('_', '-')}" for k in options if getattr(args, k) is not None]
+
+    if args.cylinder:
+        wrong = given(MOTOR_OPTIONS)
+        if wrong:
+            extra = " (a cylinder's supply pressures are --pressures, bar)" if "--supply" in wrong else ""
+            raise InputError(wrong[0], f"is for motor sizing; --cylinder sizes a cylinder: drop {', '.join(wrong)}"
+                                       + extra)
+    else:
+        wrong = given(CYLINDER_OPTIONS)
+        if wrong:
+            raise InputError(wrong[0], f"is for cylinder sizing: add --cylinder ACTUATOR (or drop {', '.join(wrong)})")
+        if model.actuators:
+            names = ", ".join(model.actuator_names)
+            raise InputError("size", f"{model.name or 'the scene'} is driven by a cylinder (actuator "
+                                     f"{names}), not a motor on {model.drive or 'a joint'}: size it with "
+                                     f"`grubler size {args.scene} --cylinder {model.actuator_names[0]}` "
+                                     "(--bores, --pressures)")
+    for k, v in SIZE_DEFAULTS.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+
+
 def cmd_size(args) -> int:
     from grubler.motors import list_motors, load_motor
     from grubler.studies.sizing import SUMMARY_UNITS, Control, DutyCycle, size
-    from grubler.studies.sweep import parse_axis
+    from grubler.studies.sweep import parse_values
 
     scene = load_scene(args.scene)
     model = scene.mechanism
+    _size_options(args, model)
+    if args.check:
+        if args.cylinder:  # before any work: the FMUs it runs are there (it builds what it needs elsewhere)
+            from grubler.studies.cylinder_sizing import check_fmus
+
+            check_fmus(args.scene, args.check, "--check")
     if args.load_torque and model.load is None:
         model = model.replace(load=model.drive)  # a load on the drive joint itself
     start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
@@ -444,7 +501,7 @@ def cmd_size(args) -> int:
     if args.cylinder:
         return _size_cylinder(args, scene, model, cycle)
     names = list_motors() if args.motors == "all" else [m.strip() for m in args.motors.split(",")]
-    _, ratios = parse_axis(f"ratios={args.ratios}")
+    ratios = parse_values(args.ratios, "--ratios")
     # the currents are predicted under the servo's own position loop, the one --check co-simulates
     study = size(model, cycle, [load_motor(n) for n in names], ratios, efficiency=args.efficiency,
                  supply_voltage=args.supply, current_limit=args.current_limit, ambient=args.ambient,
@@ -492,10 +549,10 @@ def cmd_size(args) -> int:
 def _size_cylinder(args, scene, model, cycle) -> int:
     """grubler size --cylinder: a hydraulic cylinder's bore and supply pressure for the drive joint's cycle."""
     from grubler.studies.cylinder_sizing import cylinder_check, size_cylinder
-    from grubler.studies.sweep import parse_axis
+    from grubler.studies.sweep import parse_values
 
-    _, bores = parse_axis(f"bores={args.bores}")
-    _, pressures = parse_axis(f"pressures={args.pressures}")
+    bores = parse_values(args.bores, "--bores", "mm")
+    pressures = parse_values(args.pressures, "--pressures", "bar")
     study = size_cylinder(model, args.cylinder, cycle, [b * 1e-3 for b in bores], [p * 1e5 for p in pressures],
                           rod_ratio=args.rod_ratio, constants={"stroke": args.stroke})
     d = study.demand
@@ -513,6 +570,12 @@ def _size_cylinder(args, scene, model, cycle) -> int:
                                                                  if len(a.failures) > 1 else ""))
     if len(study.rejected) > shown:
         print(f"  ... {len(study.rejected) - shown} more rejected (--verbose lists more)")
+    if args.out:
+        study.write_csv(args.out)
+        print(f"wrote {args.out}")
+    if args.plot:
+        study.plot(args.plot)
+        print(f"wrote {args.plot}")
     if args.check and study.best is not None:
         print("\n".join(cylinder_check(study, args.scene, args.cylinder, args.check).lines()))
     elif args.check:
@@ -526,12 +589,18 @@ def cmd_linearize(args) -> int:
 
     from grubler.errors import SceneError
     from grubler.studies.linearize import linearize, plot_bode, summary, to_json
-    from grubler.mechanism.scene import parse_coordinate
+    from grubler.mechanism.scene import parse_at
 
     at = args.at.strip()
-    if "=" in at and not at.startswith("t="):  # COORDINATE=VALUE: held there by the drive effort
-        name, _, value = at.partition("=")
-        at = {name.strip(): parse_coordinate(name.strip(), value.strip(), "--at")}
+    if at not in ("equilibrium", "initial") and not at.replace(" ", "").startswith("t="):
+        # [COORDINATE=]VALUE, as info reads it: held there by the drive effort
+        try:
+            name, value = parse_at(at, load_scene(args.scene).mechanism.drive)
+        except SceneError as exc:
+            if exc.field != "--at" or "=" in at:
+                raise
+            raise SceneError("--at", f"{exc.reason}; or equilibrium, initial, t=T") from None
+        at = {name: value}
     motor = None
     if args.motor:
         from grubler.motors import DCMotor, Gearbox, load_motor
@@ -574,8 +643,9 @@ def build_parser() -> argparse.ArgumentParser:
     mot.set_defaults(func=cmd_motors)
     info = sub.add_parser("info", help="type, mobility, Grashof class and assembled start of a scene")
     info.add_argument("scene", help="preset name or TOML file")
-    info.add_argument("--at", help="drive angle to assemble at, with its unit: '120 deg', '2.1 rad' or 'pi/3' "
-                                   "(a slide's length in m); a bare number is refused (default: the scene's)")
+    info.add_argument("--at", help="drive angle to assemble at, with its unit: '120 deg', '2.1 rad', 'pi/3' or "
+                                   "theta2=120deg, as linearize reads it (a slide's length in m); a bare number is "
+                                   "refused (default: the scene's)")
     info.set_defaults(func=cmd_info)
     s = sub.add_parser("simulate", help="simulate a scene")
     s.add_argument("scene", help="preset name or TOML file")
@@ -593,7 +663,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--actuator-force", type=_actuator_force, action="append", metavar="NAME=N",
                    help="constant force of the scene's actuator NAME, N, positive pushing its points apart "
                         "(repeat for each; an actuator not given pushes with 0)")
-    s.add_argument("--reactions", action="store_true", help="add joint reaction columns to the CSV")
+    s.add_argument("--reactions", action="store_true",
+                   help="add each joint's reaction columns (R1_Fx, R1_Fy, R1_Mz, ...: the force and moment a link's "
+                        "predecessor exerts on it) to the --csv file; they are in the CSV only, not in the plot "
+                        "or the printed table (needs --csv)")
     s.add_argument("--csv", type=_output("--csv"), help="write the trajectory to this CSV file")
     s.add_argument("--plot", type=_output("--plot", "figure"), help="write a plot to this PNG file")
     s.set_defaults(func=cmd_simulate)
@@ -652,28 +725,36 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("--reverse", action="store_true", help="move there and back in each cycle")
     z.add_argument("--load-torque", type=_finite("--load-torque"), default=0.0,
                    help="load on the load joint (the drive joint if the scene has none), N m")
-    z.add_argument("--motors", default="all", help="'all' or comma-separated data sets (see `grubler motors`)")
-    z.add_argument("--ratios", default="5,10,20,35,50,75,100,150", help="V1,V2,... or START:STOP:N")
-    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0), default=0.9,
-                   help="gearbox efficiency")
-    z.add_argument("--supply", type=_positive("--supply", "V"), help="supply voltage, V (default: each motor's nominal)")
-    z.add_argument("--current-limit", type=_positive("--current-limit", "A"), default=math.inf,
-                   help="the drive's current limit, A")
+    # a motor's options and a cylinder's: their defaults (SIZE_DEFAULTS) are applied in cmd_size, so that one
+    # given to the other kind of sizing is refused rather than ignored
+    z.add_argument("--motors", help="motor sizing: 'all' (default) or comma-separated data sets (see `grubler motors`)")
+    z.add_argument("--ratios", help=f"motor sizing: gear ratios, V1,V2,... or START:STOP:N "
+                                    f"(default {SIZE_DEFAULTS['ratios']})")
+    z.add_argument("--efficiency", type=_number("--efficiency", low=0.0, low_open=True, high=1.0),
+                   help="motor sizing: gearbox efficiency (default 0.9)")
+    z.add_argument("--supply", type=_positive("--supply", "V"),
+                   help="motor sizing: supply voltage, V (default: each motor's nominal)")
+    z.add_argument("--current-limit", type=_positive("--current-limit", "A"),
+                   help="motor sizing: the drive's current limit, A (default none)")
     z.add_argument("--ambient", type=_number("--ambient", low=AMBIENT_RANGE[0], high=AMBIENT_RANGE[1], unit="degC"),
-                   default=25.0, help=f"ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g})")
+                   help=f"motor sizing: ambient temperature, degC ({AMBIENT_RANGE[0]:g} to {AMBIENT_RANGE[1]:g}, "
+                        "default 25)")
     z.add_argument("--out", type=_output("--out"), help="write every combination's numbers and reasons to this CSV")
     z.add_argument("--plot", type=_output("--plot", "figure"),
-                   help="write envelopes and margin against ratio to this PNG")
+                   help="write a figure to this PNG: a motor's envelopes and margin against ratio; a cylinder's "
+                        "force over the cycle, margin and installed power against bore")
     z.add_argument("--verbose", action="store_true", help="list more rejected combinations")
     z.add_argument("--cylinder", metavar="ACTUATOR", help="size a hydraulic cylinder for the scene's actuator "
                                                          "instead of a motor (bores x supply pressures)")
-    z.add_argument("--bores", default="32,40,50,63,80,100", help="cylinder bores, mm: V1,V2,... or START:STOP:N")
-    z.add_argument("--pressures", default="100,160,210", help="supply pressures, bar: V1,V2,... or START:STOP:N")
-    z.add_argument("--rod-ratio", type=_number("--rod-ratio", low=0.0, high=1.0, low_open=True), default=0.56,
-                   help="rod diameter over bore (below 1)")
-    z.add_argument("--stroke", type=_positive("--stroke", "m"), default=0.3, help="cylinder stroke, m")
+    z.add_argument("--bores", help=f"cylinder sizing: bores, mm: V1,V2,... or START:STOP:N "
+                                   f"(default {SIZE_DEFAULTS['bores']})")
+    z.add_argument("--pressures", help=f"cylinder sizing: supply pressures, bar: V1,V2,... or START:STOP:N "
+                                       f"(default {SIZE_DEFAULTS['pressures']})")
+    z.add_argument("--rod-ratio", type=_number("--rod-ratio", low=0.0, high=1.0, low_open=True),
+                   help="cylinder sizing: rod diameter over bore (below 1; default 0.56)")
+    z.add_argument("--stroke", type=_positive("--stroke", "m"), help="cylinder sizing: stroke, m (default 0.3)")
     z.add_argument("--check", metavar="FMU_DIR", help="run the best combination in the servo co-simulation "
-                                                     "(FMUs from FMU_DIR, e.g. dist) and compare")
+                                                     "(FMUs from FMU_DIR, e.g. dist, only read) and compare")
     z.set_defaults(func=cmd_size)
     c = sub.add_parser("cosim", help="co-simulate an SSP system of FMUs (a .ssd or .ssp)")
     c.add_argument("system", help="SystemStructure .ssd file or .ssp archive")
@@ -718,7 +799,8 @@ def build_parser() -> argparse.ArgumentParser:
     lin.add_argument("--at", default="equilibrium",
                      help="equilibrium (default), initial, t=T (along the trajectory under the efforts), or "
                           "COORDINATE=VALUE (at rest there, held by the drive effort; an angle with its unit, "
-                          "e.g. theta2=30deg, theta2=0.5rad or theta2=pi/6; a bare number is refused)")
+                          "e.g. theta2=30deg, theta2=0.5rad or theta2=pi/6; a bare number is refused), or "
+                          "VALUE alone for the drive joint's ('30 deg'), as info reads it")
     lin.add_argument("--torque", type=_finite("--torque"),
                      help="constant drive effort, N m (N on a slide; default: the scene's)")
     lin.add_argument("--load-torque", type=_finite("--load-torque"), help="constant load effort, N m (N on a slide)")

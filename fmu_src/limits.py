@@ -145,13 +145,13 @@ def number(value, field: str, *, low: float | None = None, high: float | None = 
     else:
         v = value
     if isinstance(v, int) and abs(v) > magnitude:
-        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, "
-                                f"got {brief(v, 24)}")
+        raise InputError(field, f"magnitude above {magnitude:g}{u} is outside the supported range, "
+                                f"got {brief(v, 24)}{u}")
     v_f = float(v)
     if not math.isfinite(v_f):
         raise InputError(field, f"must be a finite number, got {brief(value)}")
     if abs(v_f) > magnitude:
-        raise InputError(field, f"magnitude above {magnitude:g} is outside the supported range, got {v_f:g}")
+        raise InputError(field, f"magnitude above {magnitude:g}{u} is outside the supported range, got {v_f:g}{u}")
     if low is not None and (v_f < low or (low_open and v_f == low)):
         raise InputError(field, f"must be {'>' if low_open else '>='} {low:g}{u}, got {v_f:g}{u}")
     if high is not None and v_f > high:
@@ -472,3 +472,51 @@ def parse_angle(value, field: str) -> float:
             raise SceneError(field, f"{brief(value.strip())} has no unit: write '{value.strip()} deg' or "
                                     f"'{value.strip()} rad' (or a multiple of pi, 'pi/6')")
     return parse_angle_or_number(value, field)
+
+
+# -- lengths ---------------------------------------------------------------------------
+# a length's units, in metres; an angle's words are told apart so that the refusal can say what was typed
+_LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+_LENGTH = re.compile(r"^\s*(?P<num>[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?)\s*(?P<unit>[a-zA-Z°]+)?\s*$")
+_LENGTH_HINT = "a length was expected: metres as a number (0.3) or text with a length unit ('0.3 m', '300 mm')"
+
+
+def parse_length(value, field: str) -> float:
+    """A length, m: a number is metres; text is a number with m, cm or mm ('0.3 m', '300 mm').
+
+    An angle ('90 deg', 'pi/2') is refused rather than read as so many metres, as is
+    any other unit; the value goes through :func:`grubler.limits.number` (finite,
+    bounded).  The rule of every length of a scene, ``--set``, a sweep and the app.
+
+    Examples
+    --------
+    >>> parse_length("300 mm", "link2.a")
+    0.3
+    >>> parse_length(0.25, "link2.a")
+    0.25
+    >>> try:
+    ...     parse_length("90 deg", "link2.a")
+    ... except SceneError as exc:
+    ...     print(exc)
+    link2.a: '90 deg' is an angle; a length was expected: metres as a number (0.3) or text with a length unit ('0.3 m', '300 mm')
+    """
+    if isinstance(value, str):
+        m = _LENGTH.match(value) if len(value) <= 64 else None
+        unit = m["unit"] if m else None
+        if m is None or (unit is not None and unit not in _LENGTH_UNITS):
+            shown = brief(value.strip())
+            if _PI.match(value) or (m is not None and unit in ("deg", "degree", "degrees", "°", "rad")):
+                raise SceneError(field, f"{shown} is an angle; {_LENGTH_HINT}")
+            if m is not None:
+                raise SceneError(field, f"{shown}: {brief(unit)} is not a length unit; {_LENGTH_HINT}")
+            raise SceneError(field, f"cannot read {shown}; {_LENGTH_HINT}")
+        try:
+            # the number as typed is bounded first: '1e400 mm' is refused, not scaled to inf
+            v = number(m["num"], field)
+            return number(v * _LENGTH_UNITS[unit or "m"], field)
+        except InputError as exc:
+            raise SceneError(exc.field, exc.reason) from None
+    try:
+        return number(value, field)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None

@@ -103,3 +103,67 @@ def test_cosim_cli_names_a_record_interval_off_the_step():
                            "--step", "0.001", "--dt-out", "0.0015"], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "--dt-out: 0.0015 s must be a multiple of the step 0.001 s" in proc.stderr
+
+
+# -- a length takes a length unit, never an angle's ----------------------------------------------
+LENGTH_HINT = "a length was expected"
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ("[link2]\n", '[link2]\na = "90 deg"\n', "link2.a"),
+    ("from_point = [0.9, -0.3]", 'from_point = ["90 deg", -0.3]', "actuator[0].from_point"),
+    ("[[actuator]]", '[closure]\npoint = [1.0, "pi/2"]\n\n[[actuator]]', "closure.point"),
+])
+def test_a_length_given_an_angle_is_refused_naming_the_field(old, new, field, capsys, tmp_path):
+    from grubler.cli import main
+    from grubler.mechanism.scene import load_scene, preset_text
+
+    # the luffing boom has all three: a link, an actuator and a closure
+    text = preset_text("luffing-boom")
+    assert old in text
+    text = text.replace(old, new, 1)
+    with pytest.raises(SceneError, match=LENGTH_HINT) as exc:
+        load_scene(text)
+    assert exc.value.field == field and "is an angle" in exc.value.reason
+    scene = tmp_path / "boom.toml"
+    scene.write_text(text)
+    assert main(["info", str(scene)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"grubler: error: {field}: ") and LENGTH_HINT in line, line
+
+
+def test_a_length_unit_is_read_and_a_bare_number_is_metres():
+    from grubler.mechanism.scene import load_scene, override, parameter, preset_text
+
+    text = preset_text("luffing-boom")
+    base = load_scene(text)
+    # the same boom with every length of the three spelled in a length unit
+    spelled = load_scene(text.replace("from_point = [0.9, -0.3]", 'from_point = ["900 mm", "-30 cm"]')
+                         .replace("[link2]\n", '[link2]\na = "3 m"\n')
+                         .replace("[[actuator]]", '[closure]\npoint = ["1000 mm", 0.0]\n\n[[actuator]]'))
+    assert spelled.mechanism.actuators[0].from_point == pytest.approx(base.mechanism.actuators[0].from_point)
+    assert spelled.mechanism.links[0].a == pytest.approx(3.0)
+    assert spelled.mechanism.closures[0].to_point == pytest.approx(base.mechanism.closures[0].to_point)
+    # --set and a sweep's axes go through override(): the same rule
+    assert override(base, {"link2.a": "2.5 m"}).mechanism.links[0].a == pytest.approx(2.5)
+    for value in ("90 deg", "pi/2", "3 kg"):
+        with pytest.raises(SceneError, match=f"link2.a: .*{LENGTH_HINT}"):
+            override(base, {"link2.a": value})
+    with pytest.raises(SceneError, match=f"mechanism.crank: '3 rad' is an angle; {LENGTH_HINT}"):
+        load_scene(text.replace("crank = 3.0", 'crank = "3 rad"'))
+    # an angle field still takes its angle
+    assert parameter(override(base, {"initial.theta2": "90 deg"}), "initial.theta2") == pytest.approx(math.pi / 2)
+
+
+def test_the_sweep_cli_and_the_app_refuse_an_angle_for_a_length(capsys):
+    from grubler.app import actions
+    from grubler.cli import main
+
+    assert main(["sweep", "thesis-fourbar", "--set", "link2.a=0.3,90 deg", "--t-end", "0.1", "--workers", "1"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == ("grubler: error: link2.a: '90 deg' is an angle; a length was expected: metres as a number (0.3) "
+                    "or text with a length unit ('0.3 m', '300 mm')"), line
+    data = actions.edit(actions.preset_data("thesis-fourbar"), "link2.a", "90 deg")
+    with pytest.raises(SceneError, match=LENGTH_HINT) as exc:
+        actions.analyse(data)
+    assert exc.value.field == "link2.a"

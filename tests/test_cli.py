@@ -139,3 +139,34 @@ def test_a_file_that_fails_to_be_written_or_read_is_named_with_its_option(capsys
         code, _, err = run(capsys, *args)
         assert code == 2 and len(err.strip().splitlines()) == 1 and why in err, (args, err)
         assert "Errno" not in err
+
+
+# -- --at: one reading for info and linearize ------------------------------------------------------
+@pytest.mark.parametrize("at", ["30 deg", "30deg", "theta2=30deg", "theta2 = 30 deg", "theta2=pi/6"])
+def test_at_is_read_alike_by_info_and_linearize(capsys, at):
+    code, out, err = run(capsys, "info", "thesis-fourbar", "--at", at)
+    assert code == 0, err
+    assert "assembled  B1 = 0 m, theta2 = 30 deg, B2 = 0 m, theta3 = 51.7369795 deg" in out
+    code, out, err = run(capsys, "linearize", "thesis-fourbar", "--at", at)
+    assert code == 0, err
+    assert "operating point: equilibrium: theta2 = 30 deg (0.523599 rad)" in out
+
+
+def test_at_names_what_it_cannot_take(capsys):
+    code, _, err = run(capsys, "info", "thesis-fourbar", "--at", "theta3=30deg")
+    assert code == 2 and err.strip() == ("grubler: error: --at: theta3 is not the drive joint: info sets the drive's "
+                                         "value (theta2=VALUE, or the VALUE alone)")
+    for command in ("info", "linearize"):
+        code, _, err = run(capsys, command, "thesis-fourbar", "--at", "theta2=30")
+        assert code == 2 and err.startswith("grubler: error: --at: '30' has no unit"), err
+        code, _, err = run(capsys, command, "thesis-fourbar", "--at", "foo=3 deg")
+        assert code == 2 and "'foo' is not a joint coordinate" in err, err
+
+
+def test_reactions_say_they_are_csv_columns_and_need_a_csv(capsys):
+    code, _, err = run(capsys, "simulate", "thesis-fourbar", "--t-end", "0.1", "--reactions")
+    assert code == 2 and err.strip() == ("grubler: error: --reactions: adds the joints' reaction columns to the CSV: "
+                                         "give --csv FILE (the plot and the printed table do not show them)")
+    _, out, _ = run(capsys, "simulate", "--help")
+    helptext = " ".join(out.split())
+    assert "R1_Fx, R1_Fy, R1_Mz" in helptext and "to the --csv file" in helptext and "not in the plot" in helptext

@@ -113,10 +113,13 @@ def test_the_winner_is_checked_by_co_simulation(tmp_path):
     import build_fmu
     from grubler.studies.cylinder_sizing import cylinder_check
 
-    build_fmu.build(tmp_path, ["HydraulicCylinder", "PID", "Trajectory"])
+    build_fmu.build(tmp_path, ["HydraulicCylinder", "PID"])
     study = size_cylinder(load_scene(TABLE).mechanism, "ram", _cycle(), [0.032, 0.04], [60e5, 100e5],
                           rod_ratio=0.5, constants=NO_FRICTION)
+    before = sorted(p.name for p in tmp_path.iterdir())
     check = cylinder_check(study, TABLE, "ram", tmp_path)
+    # the FMU folder is an input: the setpoint's table and this scene's mechanism FMU were built elsewhere
+    assert sorted(p.name for p in tmp_path.iterdir()) == before == ["HydraulicCylinder.fmu", "PID.fmu"]
     assert check.fits, check.lines()
     assert check.simulated_force == pytest.approx(M * (G + A), rel=0.2)
     assert check.peak_pressure <= 60e5
@@ -132,3 +135,86 @@ def test_cli_size_cylinder_ranks_and_rejects(tmp_path):
     assert "1. 40 mm bore, 60 bar" in r.stdout and "x  25 mm bore, 60 bar" in r.stdout
     bad = subprocess.run(run[:6] + ["--cylinder", "jack"], capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+# -- the CLI's options, each told what it is for -------------------------------------------------
+def _size(capsys, *args):
+    from grubler.cli import run  # not main: a --check leaves main's process at once (os._exit, as cosim does)
+
+    code = run(["size", *map(str, args)])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+BOOM = ["luffing-boom", "--cylinder", "lift", "--move", "trapezoid", "--distance", "0.1", "--v-max", "0.05",
+        "--a-max", "0.2"]
+
+
+def test_cli_size_cylinder_writes_its_table_and_its_plot(capsys, tmp_path):
+    import csv
+
+    import matplotlib.image
+
+    out_csv, out_png = tmp_path / "cylinders.csv", tmp_path / "cylinders.png"
+    code, out, err = _size(capsys, *BOOM, "--bores", "40,63", "--pressures", "100,160", "--out", out_csv,
+                           "--plot", out_png)
+    assert code == 0 and err == "", err
+    assert f"wrote {out_csv}" in out and f"wrote {out_png}" in out
+    rows = list(csv.DictReader(out_csv.open()))
+    assert len(rows) == 4
+    assert [r["rank"] for r in rows] == ["1", "2", "rejected", "rejected"]
+    best = rows[0]  # the printed winner, in the units people size a cylinder in
+    assert (float(best["bore [mm]"]), float(best["supply_pressure [bar]"])) == (63.0, 100.0)
+    assert "1. 63 mm bore, 100 bar" in out
+    assert rows[2]["why_not"].startswith("buckling: the 22.4 mm rod")
+    assert float(rows[2]["margin_buckling"]) < 1.0 <= float(best["margin_buckling"])
+    height, width = matplotlib.image.imread(out_png).shape[:2]
+    assert width > 1200 and height > 400
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--bores", "big", "--bores: 'big' is not a number: write V1,V2,... or START:STOP:N, in mm"),
+    ("--bores", "", "--bores: needs at least one value (mm): V1,V2,... or START:STOP:N"),
+    ("--bores", "30:100:1e8", "--bores: '30:100:1e8': N, the count of points, must be a whole number from 1 to 1e+06, "
+                              "got '1e8'"),
+    ("--bores", "1e300", "--bores: magnitude above 1e+12 mm is outside the supported range, got 1e+300 mm"),
+    ("--bores", "0,40", "--bores: must be > 0 mm, got 0 mm"),
+    ("--pressures", "100,nan", "--pressures: must be a finite number, got nan"),
+])
+def test_cli_size_cylinder_names_a_bad_candidate_list_as_typed(capsys, option, value, message):
+    code, _, err = _size(capsys, *BOOM, option, value)
+    (line,) = err.strip().splitlines()
+    assert code == 2 and line == f"grubler: error: {message}", line
+
+
+@pytest.mark.parametrize("extra", [["--motors", "all"], ["--ratios", "5,10"], ["--supply", "24"],
+                                   ["--efficiency", "0.8"], ["--current-limit", "10"], ["--ambient", "30"]])
+def test_a_motors_options_are_refused_with_cylinder(capsys, extra):
+    code, _, err = _size(capsys, *BOOM, *extra)
+    (line,) = err.strip().splitlines()
+    assert code == 2 and line.startswith(f"grubler: error: {extra[0]}: is for motor sizing; --cylinder sizes a "
+                                         "cylinder"), line
+    if extra[0] == "--supply":
+        assert "supply pressures are --pressures" in line
+
+
+def test_a_cylinders_options_are_refused_without_it_and_a_cylinder_scene_is_not_given_a_motor(capsys):
+    code, _, err = _size(capsys, "thesis-fourbar", "--bores", "40")
+    assert code == 2 and err.strip() == ("grubler: error: --bores: is for cylinder sizing: add --cylinder ACTUATOR "
+                                         "(or drop --bores)")
+    code, out, err = _size(capsys, "luffing-boom")
+    (line,) = err.strip().splitlines()
+    assert code == 2 and out == ""
+    assert line == ("grubler: error: size: luffing-boom is driven by a cylinder (actuator lift), not a motor on "
+                    "theta2: size it with `grubler size luffing-boom --cylinder lift` (--bores, --pressures)"), line
+
+
+def test_check_refuses_a_folder_without_the_fmus_before_any_work_and_writes_nothing_there(capsys, tmp_path):
+    code, out, err = _size(capsys, *BOOM, "--check", tmp_path)
+    (line,) = err.strip().splitlines()
+    assert code == 2 and out == ""  # refused before the sizing printed anything
+    assert line == (f"grubler: error: --check: no HydraulicCylinder.fmu, PID.fmu in '{tmp_path}': build the FMUs "
+                    "there first (python3 build_fmu.py writes them to dist)"), line
+    assert list(tmp_path.iterdir()) == []
+    code, _, err = _size(capsys, *BOOM, "--check", tmp_path / "none")
+    assert code == 2 and "--check: " in err and "no such folder" in err

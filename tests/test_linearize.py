@@ -521,7 +521,7 @@ def test_cli_prints_poles_and_writes_json_and_bode(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, field", [
     (["--ratio", "5"], "--ratio"),
-    (["--at", "banana"], "at"),
+    (["--at", "banana"], "--at: cannot read 'banana' as a number or an angle ('60 deg', 'pi/3'); or equilibrium"),
     (["--output", "nope"], "outputs"),
     (["--at", "t=-2"], "at"),
     (["--motor", "no-such-motor"], "motor"),

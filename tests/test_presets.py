@@ -99,3 +99,46 @@ def test_penalty_refuses_a_coordinate_without_inertia():
         grubler.simulate("thesis-slider-crank", t_end=0.1, method="penalty")
     # the exact closure handles the same data (the singular mass matrix is augmented)
     assert np.max(grubler.simulate("thesis-slider-crank", t_end=0.1)["closure_error"]) < 1e-12
+
+
+def _slider_crank(crank, rod, offset):
+    return load_scene(f'[mechanism]\ntype = "slider-crank"\ncrank = {crank}\nrod = {rod}\noffset = {offset}\n'
+                      'crank_angle = "90 deg"\n').mechanism
+
+
+@pytest.mark.parametrize("crank, rod, offset, kind", [
+    (0.1, 0.35, 0.0, "crank"),           # in-line
+    (0.25, 1.0, 0.2, "crank"),           # the thesis's offset
+    (0.25, 1.0, -0.2, "crank"),          # offset to the other side
+    (0.1, 0.35, 0.25, "change-point"),   # 0.1 + 0.25 = 0.35: square to the slide once a turn
+    (0.5, 0.6, 0.3, "rocker"),           # 0.5 + 0.3 > 0.6
+    (0.15, 0.3, -0.3, "rocker"),
+])
+def test_a_slider_crank_is_classed_crank_or_rocker_by_its_offset(crank, rod, offset, kind):
+    from grubler.mechanism.analysis import slider_crank_class
+
+    sc = classify(_slider_crank(crank, rod, offset)).slider_crank
+    assert sc.kind == kind
+    assert (sc.crank, sc.coupler, sc.offset) == pytest.approx((crank, rod, abs(offset)), abs=1e-12)
+    assert sc.ratio == pytest.approx(rod / crank)
+    # the closed form: the coupler reaches the slide line at every crank angle iff the crank pin's farthest
+    # distance from it, |offset - crank sin(theta)| over a turn, is at most the coupler
+    theta = np.linspace(0.0, 2 * np.pi, 100_001)
+    reach = np.max(np.abs(offset - crank * np.sin(theta)))
+    assert (reach <= rod + 1e-12) == (kind in ("crank", "change-point"))
+    assert slider_crank_class(crank, rod, offset).kind == kind
+
+
+def test_the_slider_crank_presets_and_info_say_their_class(capsys):
+    from grubler.cli import main
+
+    sc = classify(load_scene("thesis-slider-crank").mechanism).slider_crank
+    assert (sc.kind, sc.offset, sc.ratio) == ("crank", pytest.approx(0.2), pytest.approx(4.0))
+    # the pendulum pump's crank swings: its pin must stay within 0.3 m of the rod's line at x = 0.3
+    assert classify(load_scene("pendulum-pump").mechanism).slider_crank.kind == "rocker"
+    assert classify(load_scene("thesis-fourbar").mechanism).slider_crank is None
+    assert main(["info", "thesis-slider-crank"]) == 0
+    out = capsys.readouterr().out
+    assert ("grashof    slider-crank crank: crank + |offset| = 0.45 m, coupler 1 m (crank + |offset| < coupler: "
+            "the crank turns fully)") in out
+    assert "lengths    crank 0.25 m, coupler 1 m, offset 0.2 m, ratio coupler/crank 4" in out

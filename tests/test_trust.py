@@ -7,6 +7,7 @@ run's exit status at 0; the library carries them on its results.
 import pickle
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -277,3 +278,41 @@ def test_an_animation_of_an_open_loop_says_so_too(capsys, tmp_path):
                          "--out", tmp_path / "open.gif")
     assert code == 0 and "wrote" in out
     assert err.startswith("warning: closure: the loop opened by up to "), err
+
+
+# -- a skipped test says why --------------------------------------------------------------------
+def test_the_readme_test_command_lists_each_skip_with_its_reason(tmp_path):
+    # the README's `python3 -m pytest` (and .ci/run) read pyproject's addopts; with -q alone a
+    # skipped browser test is a bare `s` and the README's "skipped, saying why" would not hold
+    root = Path(__file__).resolve().parents[1]
+    (tmp_path / "test_skipping.py").write_text(
+        "import pytest\n\n\n@pytest.mark.skip(reason='no Chromium found here')\ndef test_x():\n    pass\n")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-c", str(root / "pyproject.toml"), "--rootdir",
+                           str(tmp_path), "-p", "no:cacheprovider", str(tmp_path / "test_skipping.py")],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "SKIPPED [1]" in proc.stdout and "no Chromium found here" in proc.stdout, proc.stdout
+
+
+# -- an actuator given no force ------------------------------------------------------------------
+def test_an_actuator_given_no_force_is_warned_of_by_the_run_and_by_its_report(capsys, tmp_path):
+    csv_path = tmp_path / "boom.csv"
+    code, _, err = run(capsys, "simulate", "luffing-boom", "--t-end", "0.5", "--csv", csv_path)
+    (line,) = err.strip().splitlines()
+    assert code == 0 and line.startswith("warning: actuator_forces: lift was given no force and pushed with 0 N "
+                                         "throughout"), line
+    assert "--actuator-force lift=N" in line
+    assert grubler.simulate("luffing-boom", t_end=0.1).warnings[0].startswith("actuator_forces: lift was given")
+    # given one, nothing is said
+    code, _, err = run(capsys, "simulate", "luffing-boom", "--t-end", "0.5", "--actuator-force", "lift=1e4")
+    assert code == 0 and err == ""
+    for scene in ([], ["--scene", "luffing-boom"]):
+        code, out, err = run(capsys, "report", csv_path, *scene, "--out", tmp_path / "boom.png")
+        (line,) = err.strip().splitlines()
+        assert code == 0 and line.startswith("warning: lift_force: lift was given no force"), line
+    from grubler.views.report import key_numbers
+    from grubler.views.runs import read_run
+
+    model = load_scene("luffing-boom").mechanism
+    _, columns = read_run(csv_path, model)
+    assert ("actuator lift force", "0 N throughout: none was given") in key_numbers(columns, model.drive, model)

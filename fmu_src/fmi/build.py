@@ -494,13 +494,13 @@ def export(scene, dest: Path | None = None, platforms=None, field: str = "output
     return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, platforms, fmi)
 
 
-def scene_fmu(scene: Scene, fmu_dir) -> tuple:
+def scene_fmu(scene: Scene, fmu_dir, build_dir=None) -> tuple:
     """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
 
     ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
     (three moving links, one closure: every four-link preset) through its
     parameters.  A scene of another shape gets its own FMU, exported into
-    ``fmu_dir`` as ``Mechanism_<scene>.fmu``.
+    ``build_dir`` (default ``fmu_dir``) as ``Mechanism_<scene>.fmu``.
 
     Returns
     -------
@@ -518,7 +518,7 @@ def scene_fmu(scene: Scene, fmu_dir) -> tuple:
     d = Path(fmu_dir)
     if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
         return d / "Mechanism.fmu", fmu_parameters(scene)
-    path = d / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
+    path = Path(build_dir or d) / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
     export(scene, path)
     return path, fmu_parameters(scene)
 

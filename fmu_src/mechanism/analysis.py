@@ -108,6 +108,62 @@ def grashof(ground: float, crank: float, coupler: float, rocker: float, rtol: fl
 
 
 @dataclass(frozen=True)
+class SliderCrankClass:
+    """Whether a slider-crank's crank turns fully: Grashof's criterion for the slider-crank.
+
+    The coupler reaches the slide line from every crank angle iff the crank pin's
+    farthest distance from the line, crank + |offset|, is at most the coupler.
+
+    Attributes
+    ----------
+    kind : str
+        'crank' (the crank turns fully), 'change-point' (crank + |offset| = coupler: the
+        coupler stands square to the line once a turn), 'rocker' (the crank rocks between
+        two limits) or 'unassemblable' (|offset| - crank > coupler: the coupler never reaches
+        the line).
+    crank, coupler, offset : float
+        Pin-to-pin lengths and the crank pivot's distance from the slide line, m.
+    ratio : float
+        Coupler over crank (the rod ratio).
+    detail : str
+        One line for people.
+    """
+
+    kind: str
+    crank: float
+    coupler: float
+    offset: float
+    ratio: float
+    detail: str
+
+
+def slider_crank_class(crank: float, coupler: float, offset: float = 0.0, rtol: float = 1e-9) -> SliderCrankClass:
+    """The class of an in-line (``offset`` 0) or offset slider-crank from its lengths, m.
+
+    Examples
+    --------
+    >>> slider_crank_class(0.25, 1.0, 0.2).kind
+    'crank'
+    >>> slider_crank_class(0.5, 0.6, 0.3).kind     # 0.5 + 0.3 > 0.6: the crank rocks
+    'rocker'
+    """
+    for name, v in (("crank", crank), ("coupler", coupler)):
+        if not (v > 0 and math.isfinite(v)):
+            raise ValueError(f"{name}: length must be positive and finite, got {v}")
+    e = abs(offset)
+    reach, tol = crank + e, rtol * (crank + e + coupler)
+    if abs(reach - coupler) <= tol:
+        kind, detail = "change-point", "crank + |offset| = coupler: the coupler stands square to the slide once a turn"
+    elif reach < coupler:
+        kind, detail = "crank", "crank + |offset| < coupler: the crank turns fully"
+    elif e - crank <= coupler:
+        kind, detail = "rocker", "crank + |offset| > coupler: the crank rocks between two limits"
+    else:
+        kind, detail = "unassemblable", "|offset| - crank > coupler: the coupler never reaches the slide"
+    return SliderCrankClass(kind, crank, coupler, e, coupler / crank, detail)
+
+
+@dataclass(frozen=True)
 class Classification:
     """What a mechanism is, read off its topology and dimensions."""
 
@@ -116,6 +172,7 @@ class Classification:
     mobility: int
     grashof: Grashof | None
     fourbar_lengths: tuple[float, float, float, float] | None
+    slider_crank: SliderCrankClass | None = None  # a slider-crank's own class (crank, rocker), its offset, ratio
 
 
 def _pin_lengths(model: "Mechanism") -> tuple[float, float, float, float]:
@@ -129,6 +186,24 @@ def _pin_lengths(model: "Mechanism") -> tuple[float, float, float, float]:
     coupler = math.hypot(model.links[1].a, q[4])
     rocker = math.hypot(*cl.point)
     return ground, crank, coupler, rocker
+
+
+def _slider_crank_lengths(model: "Mechanism") -> tuple[float, float, float]:
+    """Crank, coupler (pin to pin, as :func:`_pin_lengths` reads them) and offset of an R-R-R chain whose
+    last link slides on a ground line: the distance from the crank's pivot to the line the coupler-slider
+    pin runs on (the closing point's line, moved by that point's place on the slider, whose orientation is
+    held)."""
+    q = model.q_ref
+    th1 = model.theta1
+    o2 = np.array([model.a1 * math.cos(th1) - q[0] * math.sin(th1), model.a1 * math.sin(th1) + q[0] * math.cos(th1)])
+    cl = model.closures[0]
+    c, s_ = math.cos(cl.psi), math.sin(cl.psi)
+    pin_line = np.asarray(cl.to_point) - np.array([c * cl.point[0] - s_ * cl.point[1],
+                                                   s_ * cl.point[0] + c * cl.point[1]])
+    direction = np.array([math.cos(cl.angle), math.sin(cl.angle)])
+    rel = o2 - pin_line
+    offset = abs(float(direction[0] * rel[1] - direction[1] * rel[0]))
+    return math.hypot(model.links[0].a, q[2]), math.hypot(model.links[1].a, q[4]), offset
 
 
 def classify(model: "Mechanism") -> Classification:
@@ -163,6 +238,11 @@ def classify(model: "Mechanism") -> Classification:
         chain = "RRRP"
         name = ("slider-crank" if "P" in ground_joints
                 else "quick-return or swinging block (slider-crank chain, a two-revolute link fixed)")
+        if loop == ["R", "R", "R", "P"]:  # crank, coupler, slider on a ground line
+            crank, coupler, offset = _slider_crank_lengths(model)
+            if crank > 0 and coupler > 0:
+                sc = slider_crank_class(crank, coupler, offset)
+                return Classification(chain, model.kind or f"slider-crank ({sc.kind})", mob, None, None, sc)
     elif any(loop[i] == loop[(i + 1) % 4] == "P" for i in range(4)):
         chain = "RRPP"
         if ground_joints == {"P"}:

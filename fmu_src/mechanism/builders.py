@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from grubler.errors import InputError, SceneError, raise_all
-from grubler.limits import brief, did_you_mean, parse_angle_or_number
+from grubler.limits import brief, did_you_mean, parse_angle_or_number, parse_length
 from grubler.mechanism.kinematics import link_points
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
@@ -119,7 +119,7 @@ class _Params:
                   + [SceneError(f"{prefix}.{k}", "is required") for k, v in self.values.items() if v is None])
 
     def length(self, key: str, allow_zero: bool = False) -> float:
-        v = self.number(key)
+        v = self.signed_length(key)
         if v < 0 or (v == 0 and not allow_zero):
             raise SceneError(f"{self.prefix}.{key}", f"length must be {'>= 0' if allow_zero else 'positive'}, got {v}")
         return v
@@ -135,6 +135,10 @@ class _Params:
 
     def angle(self, key: str) -> float:
         return self.number(key)
+
+    def signed_length(self, key: str) -> float:
+        """A length that may be negative (an offset), m: an angle is refused (parse_length)."""
+        return parse_length(self.values[key], f"{self.prefix}.{key}")
 
 
 def bar(joint: str, length: float, mass_per_length: float, **extra) -> dict:
@@ -207,7 +211,7 @@ def slider_crank(params: dict, prefix: str) -> dict:
     p = _Params(params, prefix, {"crank": None, "rod": None, "offset": 0.0, "crank_angle": 0.0,
                                  "slider_mass": 1.0, **_BARS})
     r2, r3 = p.length("crank"), p.length("rod")
-    e = p.number("offset")
+    e = p.signed_length("offset")
     th2 = p.angle("crank_angle")
     rho = p.positive("mass_per_length")
     s = (e - r2 * math.sin(th2)) / r3
@@ -322,7 +326,7 @@ def pendulum_pump(params: dict, prefix: str) -> dict:
     p = _Params(params, prefix, {"crank": None, "link": None, "rod": None, "offset": None,
                                  "crank_angle": 0.0, **_BARS})
     r2, r3, rod = p.length("crank"), p.length("link"), p.length("rod")
-    e = p.number("offset")
+    e = p.signed_length("offset")
     th2 = p.angle("crank_angle")
     rho = p.positive("mass_per_length")
     px = r2 * math.cos(th2)
@@ -656,7 +660,7 @@ def _point(p: _Params, key: str) -> tuple[float, float]:
     v = p.values[key]
     if not (isinstance(v, (list, tuple)) and len(v) == 2):
         raise SceneError(f"{p.prefix}.{key}", f"must be [x, y], got {v!r}")
-    return (parse_angle_or_number(v[0], f"{p.prefix}.{key}"), parse_angle_or_number(v[1], f"{p.prefix}.{key}"))
+    return (parse_length(v[0], f"{p.prefix}.{key}"), parse_length(v[1], f"{p.prefix}.{key}"))
 
 
 _SIX = {"input_angle": 0.0, "mass_per_length": 1.0}

@@ -27,20 +27,42 @@ import numpy as np
 from grubler.mechanism.builders import BUILDERS
 from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, Problems, SceneError, raise_all
-from grubler.limits import brief, did_you_mean, number, parse_angle, parse_angle_or_number, parse_toml, read_text
+from grubler.limits import (brief, did_you_mean, parse_angle, parse_angle_or_number, parse_length, parse_toml,
+                            read_text)
 from grubler.mechanism.model import Actuator, Closure, Link, Mechanism, coordinate_names, link_problems
 
 def parse_coordinate(name: str, value, field: str) -> float:
     """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
-    slide's length B, m (a number, or text such as '0.2' or '0.2 m')."""
-    if not name.startswith("B"):
-        return parse_angle(value, field)
-    if isinstance(value, str) and value.strip().endswith("m") and len(value) <= 64:
-        value = value.strip()[:-1]
-    try:
-        return number(value, field, unit="m")
-    except InputError as exc:
-        raise SceneError(exc.field, exc.reason) from None
+    slide's length B, m (:func:`~grubler.limits.parse_length`: a number, or text such as '0.2 m')."""
+    return parse_length(value, field) if name.startswith("B") else parse_angle(value, field)
+
+
+def parse_at(text: str, drive: str | None, field: str = "--at") -> tuple[str, float]:
+    """A joint coordinate and its value as ``--at`` gives them: ``VALUE`` (the drive's) or ``NAME=VALUE``.
+
+    The one reading of ``--at`` for ``grubler info`` and ``grubler linearize``: the
+    value with its unit (:func:`parse_coordinate`), spaced or not.
+
+    Examples
+    --------
+    >>> name, value = parse_at("theta2=30deg", "theta2")
+    >>> name, round(math.degrees(value), 9)
+    ('theta2', 30.0)
+    >>> parse_at("30 deg", "theta2") == parse_at("theta2 = 30 deg", "theta2")
+    True
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise SceneError(field, "needs a value: '30 deg' (the drive joint's) or NAME=VALUE (theta2=30deg)")
+    name, eq, value = text.partition("=")
+    if not eq:
+        if not drive:
+            raise SceneError(field, f"this scene has no drive joint: name the coordinate, NAME={brief(text.strip())}")
+        name, value = drive, text
+    name = name.strip()
+    if not re.fullmatch(r"(theta|B)\d+", name):
+        raise SceneError(field, f"{brief(name)} is not a joint coordinate (theta2, B3, ...): write "
+                                "NAME=VALUE or the drive joint's VALUE alone")
+    return name, parse_coordinate(name, value.strip(), field)
 
 
 def coordinate_text(name: str, value: float, digits: int = 6, radians: bool = False) -> str:
@@ -232,7 +254,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     with found.check():
         initial.update(_table(data, "initial"))
         _check_keys(initial, set(names) | {f"{x}_d" for x in names}, "initial")
-    q0 = [_collect(found, initial.get(x, 0.0), f"initial.{x}") for x in names]
+    q0 = [_collect(found, initial.get(x, 0.0), f"initial.{x}", length=x.startswith("B")) for x in names]
     qd0 = [_collect(found, initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
     drive, load, sim = {}, {}, {}
     with found.check():
@@ -251,7 +273,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     dt_out = _collect(found, sim.get("dt_out", 0.01), "simulate.dt_out", positive=True)
     torque = _collect(found, drive.get("torque", 0.0), "drive.torque")
     load_torque = _collect(found, load.get("torque", 0.0), "load.torque")
-    a1 = _collect(found, ground.get("a1", 0.0), "ground.a1")
+    a1 = _collect(found, ground.get("a1", 0.0), "ground.a1", length=True)
     theta1 = _collect(found, ground.get("theta1", 0.0), "ground.theta1")
     gravity = _collect(found, data.get("gravity", 9.81), "gravity")
     drive_inertia = _collect(found, drive.get("inertia", 0.0), "drive.inertia")
@@ -285,10 +307,10 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
 
 
-def _collect(found: Problems, value, field: str, positive: bool = False) -> float:
-    """A number of the scene (0.0 when refused, the refusal recorded in ``found``)."""
+def _collect(found: Problems, value, field: str, positive: bool = False, length: bool = False) -> float:
+    """A number of the scene, a ``length`` in m (0.0 when refused, the refusal recorded in ``found``)."""
     with found.check():
-        v = parse_angle_or_number(value, field)
+        v = parse_length(value, field) if length else parse_angle_or_number(value, field)
         if positive and v <= 0:
             raise SceneError(field, f"must be positive, got {v}")
         return v
@@ -305,7 +327,7 @@ def _link(d: dict, f: str, k: int, count: int, found: Problems) -> Link | None:
     for key in _LINK_PARAMS:
         if key in d:
             with found.check():
-                num[key] = parse_angle_or_number(d[key], f"{f}.{key}")
+                num[key] = (parse_length if key in _LINK_LENGTHS else parse_angle_or_number)(d[key], f"{f}.{key}")
     # what is given is judged first, then what is missing
     for key, what in (("a", "the link length, m"), ("m", "the link's mass, kg")):
         if key not in d:
@@ -408,7 +430,7 @@ def _closure(d: dict, f: str, lengths: list[float]) -> Closure:
 def _pair(v, field: str) -> tuple[float, float]:
     if not (isinstance(v, (list, tuple)) and len(v) == 2):
         raise SceneError(field, f"must be [x, y], got {brief(v)}")
-    return (parse_angle_or_number(v[0], field), parse_angle_or_number(v[1], field))
+    return (parse_length(v[0], field), parse_length(v[1], field))
 
 
 def preset_names() -> list[str]:
@@ -488,6 +510,7 @@ def with_overrides(scene: Scene, **changes) -> Scene:
 
 
 _LINK_PARAMS = ("a", "p", "q", "m", "I", "damping")
+_LINK_LENGTHS = ("a", "p", "q")  # m: read by parse_length, which refuses an angle
 
 
 def parameter_names(scene: Scene) -> list[str]:
@@ -551,6 +574,34 @@ def parameter(scene: Scene, name: str):
     raise SceneError(name, f"no such parameter of this scene (it has: {', '.join(parameter_names(scene))})")
 
 
+def _is_length(name: str) -> bool:
+    """Whether a dotted parameter is a length, m: a link's a, p or q, a slide's initial B."""
+    head, _, leaf = name.partition(".")
+    return (head.startswith("link") and leaf in _LINK_LENGTHS) or (head == "initial" and re.fullmatch(r"B\d+", leaf)
+                                                                   is not None)
+
+
+def parameter_value(name: str, value):
+    """One dotted parameter's value read as :func:`override` reads it, the scene apart: a length
+    (:func:`~grubler.limits.parse_length`), an angle or number, or a joint's name.
+
+    Every number goes through the same gate as the scene file's; a sweep checks each of its
+    values with it before running any point.
+
+    Examples
+    --------
+    >>> parameter_value("link2.a", "300 mm")
+    0.3
+    >>> parameter_value("initial.theta2", "90 deg") == math.pi / 2
+    True
+    """
+    if name in ("drive_joint", "load_joint"):
+        if value is not None and not isinstance(value, str):
+            raise SceneError(name, f"must be a coordinate name (or empty for none), got {brief(value)}")
+        return value
+    return parse_length(value, name) if _is_length(name) else parse_angle_or_number(value, name)
+
+
 def override(scene: Scene, values: dict) -> Scene:
     """A copy of a scene with dotted parameters changed, re-validated.
 
@@ -582,13 +633,8 @@ def override(scene: Scene, values: dict) -> Scene:
             parameter(scene, name)  # raises with the list of known names
     m = scene.mechanism
     ov = {}
-    for name, v in values.items():  # every number through the same gate as the scene file's
-        if name in ("drive_joint", "load_joint"):
-            if v is not None and not isinstance(v, str):
-                raise SceneError(name, f"must be a coordinate name (or empty for none), got {brief(v)}")
-            ov[name] = v
-        else:
-            ov[name] = parse_angle_or_number(v, name)
+    for name, v in values.items():
+        ov[name] = parameter_value(name, v)
     links = tuple(replace(link, **{f: ov[f"link{i + 2}.{f}"] for f in _LINK_PARAMS if f"link{i + 2}.{f}" in ov})
                   for i, link in enumerate(m.links))
     closures = m.closures

@@ -632,6 +632,8 @@ def simulate(
         raise SceneError("torque", f"{scene.name or 'this scene'} has no drive joint to apply it to")
     warnings = _step_warnings(integrator, method, step, dt_out)
     forces = named_actuator_forces(scene.mechanism, actuator_forces or {})
+    warnings += [unforced_warning(name) for name in scene.mechanism.actuator_names
+                 if name not in (actuator_forces or {})]
     sim = Simulator(scene.mechanism, method=method, rtol=rtol, atol=atol, integrator=integrator,
                     step=1e-3 if step is None else step, zd0=scene.initial_rates,
                     inputs=Inputs(0.0 if callable(torque) else float(torque), load, forces),
@@ -674,6 +676,19 @@ def simulate(
     return res
 
 
+def unforced_warning(name: str, field: str = "actuator_forces") -> str:
+    """What a run (and a report of it, naming its column) says of an actuator given no force: it pushes with
+    0 N (a cylinder's boom falls).
+
+    Examples
+    --------
+    >>> unforced_warning("lift")[:60]
+    'actuator_forces: lift was given no force and pushed with 0 N'
+    """
+    return (f"{field}: {name} was given no force and pushed with 0 N throughout, holding nothing "
+            f"(--actuator-force {name}=N gives one; a cylinder's own force: co-simulate it, docs/cylinders.md)")
+
+
 def named_actuator_forces(model: Mechanism, forces: dict[str, float]) -> tuple[float, ...]:
     """Every actuator's force in the model's order from ``{name: force}`` (0 for one not named).
 
@@ -705,5 +720,5 @@ def _step_warnings(integrator: str | None, method: str, step: float | None, dt_o
     return []
 
 
-__all__ = ["Simulator", "Result", "simulate", "actuator_lines", "named_actuator_forces", "CLOSURE_WARNING", "mechanism_size", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
+__all__ = ["Simulator", "Result", "simulate", "actuator_lines", "named_actuator_forces", "unforced_warning", "CLOSURE_WARNING", "mechanism_size", "evaluate", "closure_forces", "output_columns", "unit_of", "GROUPS",
            "POSITION_TOL", "PENALTY", "EXACT"]

@@ -58,6 +58,8 @@ from grubler.studies.sizing import DutyCycle, required_drive
 STEEL_MODULUS = 2.1e11  # Pa, the rod's Young's modulus
 BUCKLING_SAFETY = 3.5  # the usual factor on Euler's load for a cylinder's rod
 LIMITS = ("force", "flow", "stroke", "buckling")
+# the units of the study table's numbers (CylinderAssessment.summary), as people size a cylinder
+SUMMARY_UNITS = {"bore": "mm", "rod": "mm", "supply_pressure": "bar", "installed_power": "kW"}
 
 
 @dataclass
@@ -198,6 +200,10 @@ class CylinderAssessment:
     margins: dict[str, float]
     reasons: dict[str, str]
     power: float  # W: the supply pressure times the peak flow into the moving chamber
+    # N, at each sample of the demand: the force the piston must give (friction included) and what the
+    # candidate gives there in that direction (the study's figure draws one over the other)
+    needed: np.ndarray | None = None
+    available: np.ndarray | None = None
 
     @property
     def feasible(self) -> bool:
@@ -215,6 +221,15 @@ class CylinderAssessment:
     def failures(self) -> list[str]:
         """Each broken limit in words, the worst first."""
         return [self.reasons[k] for k in sorted(self.margins, key=self.margins.get) if self.margins[k] < 1.0]
+
+    def summary(self) -> dict[str, float | str | bool]:
+        """The study table's row for this candidate, each number in its :data:`SUMMARY_UNITS` unit."""
+        c = self.candidate
+        row = {"bore": c.bore * 1e3, "rod": c.rod_ratio * c.bore * 1e3, "supply_pressure": c.pressure / 1e5,
+               "installed_power": self.power / 1e3}
+        row.update({f"margin_{k}": v for k, v in self.margins.items()})
+        row.update(feasible=self.feasible, binding=self.binding, why_not="; ".join(self.failures))
+        return row
 
 
 def assess_cylinder(demand: ActuatorDemand, candidate: CylinderCandidate) -> CylinderAssessment:
@@ -269,7 +284,8 @@ def assess_cylinder(demand: ActuatorDemand, candidate: CylinderCandidate) -> Cyl
     reasons["buckling"] = (f"buckling: the {c.rod * 1e3:.3g} mm rod at {demand.length.max():.3g} m buckles at "
                            f"{euler / 1e3:.4g} kN, {BUCKLING_SAFETY:g} times the peak push {peak_push / 1e3:.4g} kN "
                            f"needs more (margin {margins['buckling']:.3g})")
-    return CylinderAssessment(candidate, margins, reasons, c.relief_pressure * peak_flow)
+    return CylinderAssessment(candidate, margins, reasons, c.relief_pressure * peak_flow, need,
+                              np.maximum(available, 0.0))
 
 
 @dataclass
@@ -307,6 +323,31 @@ class CylinderStudy:
         """The infeasible ones, fewest broken limits first, then the nearest to fitting."""
         return sorted((a for a in self.assessments if not a.feasible),
                       key=lambda a: (len(a.failures), -a.min_margin))
+
+    def table(self) -> list[dict]:
+        """One row per candidate: the ranked ones (rank 1, 2, ...), then the rejected ones with their reasons."""
+        return ([{"rank": k + 1, **a.summary()} for k, a in enumerate(self.ranked)]
+                + [{"rank": "rejected", **a.summary()} for a in self.rejected])
+
+    def write_csv(self, path) -> None:
+        """:meth:`table` as CSV, each heading with its unit (``bore [mm]``)."""
+        import csv
+
+        from grubler.records import column_heading
+
+        rows = self.table()
+        cols = list(dict.fromkeys(c for r in rows for c in r))
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow([column_heading(c, SUMMARY_UNITS.get(c, "")) for c in cols])
+            for r in rows:
+                w.writerow([repr(v) if isinstance(v, float) else v for v in (r.get(c, "") for c in cols)])
+
+    def plot(self, path) -> None:
+        """Save the study's figure (:func:`grubler.views.sizing.cylinder_sizing_figure`) to ``path``."""
+        from grubler.views.sizing import save_cylinder_sizing
+
+        save_cylinder_sizing(self, path)
 
 
 def size_cylinder(model: Mechanism, actuator: str, cycle: DutyCycle, bores, pressures, rod_ratio: float = 0.56,
@@ -406,12 +447,39 @@ class CylinderCheck:
                 + ("it fits" if self.fits else "it does NOT fit")]
 
 
+def check_fmus(scene, fmu_dir, field: str = "fmu_dir") -> None:
+    """Refuse, naming ``field``, an ``fmu_dir`` without the FMUs :func:`cylinder_check` runs.
+
+    HydraulicCylinder.fmu and PID.fmu (``python build_fmu.py``), and Mechanism.fmu
+    when it serves the scene's shape (another shape's FMU is built, as is the
+    setpoint's table).  Cheap: the CLI calls it before any work.
+    """
+    from grubler.errors import InputError
+    from grubler.fmi.mechanism import STANDARD_SCENE, same_shape
+    from grubler.limits import brief
+    from grubler.mechanism.scene import load_scene
+
+    d = Path(fmu_dir)
+    if not d.is_dir():
+        raise InputError(field, f"{brief(str(d))}: no such folder (the one `python3 build_fmu.py` fills, e.g. dist)")
+    model = load_scene(scene).mechanism
+    names = ["HydraulicCylinder.fmu", "PID.fmu"]
+    if same_shape(model, load_scene(STANDARD_SCENE).mechanism):
+        names.append("Mechanism.fmu")
+    missing = [n for n in names if not (d / n).is_file()]
+    if missing:
+        raise InputError(field, f"no {', '.join(missing)} in {brief(str(d))}: build the FMUs there first "
+                                "(python3 build_fmu.py writes them to dist)")
+
+
 def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dict | None = None,
                    settle: float = 1.0) -> CylinderCheck:
     """Co-simulate the best candidate following the cycle's actuator length (a table setpoint) under a PID.
 
-    ``fmu_dir`` holds HydraulicCylinder.fmu, PID.fmu and Trajectory.fmu (``python
-    build_fmu.py``); the mechanism's FMU is exported there if needed.
+    ``fmu_dir`` holds HydraulicCylinder.fmu and PID.fmu (``python build_fmu.py``,
+    see :func:`check_fmus`) and is only read: the setpoint's table FMU, and the
+    mechanism's FMU where ``Mechanism.fmu`` does not serve the scene, are built in
+    a temporary folder, removed afterwards.
 
     Examples
     --------
@@ -425,13 +493,25 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
     >>> check.fits                                                       # doctest: +SKIP
     True
     """
-    from grubler.controllers.native_fmu import export_table
-    from grubler.system.cosim import run
-    from grubler.system.cylinder_servo import CylinderServoDesign, cylinder_servo_system
+    from grubler.limits import remove_temp_dir, temp_dir
 
     best = study.best
     if best is None:
         raise SceneError("candidates", "no candidate fits: nothing to co-simulate")
+    check_fmus(scene, fmu_dir)
+    work = temp_dir("grubler-cylinder-check-")
+    try:
+        return _co_simulate(study, best, scene, actuator, fmu_dir, work, pid, settle)
+    finally:
+        remove_temp_dir(work)
+
+
+def _co_simulate(study, best, scene, actuator, fmu_dir, work, pid, settle) -> CylinderCheck:
+    """:func:`cylinder_check`'s run, what it builds going to ``work``."""
+    from grubler.controllers.native_fmu import export_table
+    from grubler.system.cosim import run
+    from grubler.system.cylinder_servo import CylinderServoDesign, cylinder_servo_system
+
     d = study.demand
     # the piston starts where the cycle's shortest length leaves it a tenth of the spare stroke
     stroke = best.candidate.cylinder().stroke
@@ -440,14 +520,14 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
     t_end = float(d.t[-1]) + settle
     keep = np.concatenate([[True], np.diff(d.t) > 1e-9])  # a sampler's breakpoints may repeat a time
     # the native Trajectory FMU holds a table as parameters of its own build
-    table = export_table(d.t[keep], d.length[keep], Path(fmu_dir) / "Trajectory_cylinder_check.fmu")
+    table = export_table(d.t[keep], d.length[keep], Path(work) / "Trajectory_cylinder_check.fmu")
     constants = asdict(best.candidate.cylinder())
     del constants["retracted_length"]  # the design sets it from the start
     design = CylinderServoDesign(scene, actuator=actuator, cylinder="hydraulic", constants=constants,
                                  start_position=start_position, setpoint={"kind": "table"},
-                                 trajectory_fmu=table.name, t_end=t_end,
+                                 trajectory_fmu=str(table.resolve()), t_end=t_end,
                                  **({"pid": pid} if pid else {}))
-    system = cylinder_servo_system(design, fmu_dir, name="cylinder_check")
+    system = cylinder_servo_system(design, fmu_dir, name="cylinder_check", build_dir=work)
     res = run(system)
     length = res[f"mechanism.{actuator}_length"]
     err = np.abs(res["trajectory.position"] - length)
@@ -457,4 +537,4 @@ def cylinder_check(study: CylinderStudy, scene, actuator: str, fmu_dir, pid: dic
 
 
 __all__ = ["ActuatorDemand", "CylinderAssessment", "CylinderCandidate", "CylinderCheck", "CylinderStudy",
-           "actuator_demand", "assess_cylinder", "cylinder_check", "size_cylinder"]
+           "actuator_demand", "assess_cylinder", "check_fmus", "cylinder_check", "size_cylinder"]

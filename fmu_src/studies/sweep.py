@@ -567,21 +567,61 @@ def parse_axis(text: str) -> tuple[str, list]:
     name = name.strip()
     if not eq or not name or not spec.strip():
         raise InputError("--set", f"{brief(text)}: write NAME=V1,V2,... or NAME=START:STOP:N")
+    return name, _values(spec, f"--set {clip(name)}")
+
+
+def parse_values(spec: str, option: str, unit: str = "", positive: bool = True) -> list[float]:
+    """An option's list of numbers, ``V1,V2,...`` or ``START:STOP:N``, each as given in ``unit``.
+
+    The rule of :func:`parse_axis` for an option of its own (``--bores``,
+    ``--ratios``): refusals name ``option`` and quote the value as typed with its
+    unit; the caller converts once every value is read.
+
+    Examples
+    --------
+    >>> parse_values("32,40:", "--bores", "mm")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: --bores: '32,40:' has 1 colon(s): write a range as START:STOP:N (N points, ends included, e.g. 0.1:0.3:5) or list the values as V1,V2,...
+    >>> parse_values("30:50:3", "--bores", "mm")
+    [30.0, 40.0, 50.0]
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise InputError(option, f"needs at least one value{f' ({unit})' if unit else ''}: V1,V2,... or START:STOP:N")
+    u = f" {unit}" if unit else ""
+    out = []
+    for v in _values(spec, option, unit):
+        if isinstance(v, str):
+            raise InputError(option, f"{brief(v)} is not a number: write V1,V2,... or START:STOP:N"
+                                     + (f", in {unit}" if unit else ""))
+        v = number(v, option, unit=unit)  # finite, bounded: a refusal quotes it in its unit
+        if positive and not v > 0:
+            raise InputError(option, f"must be > 0{u}, got {v:g}{u}")
+        out.append(v)
+    return out
+
+
+def _values(spec: str, field: str, unit: str = "") -> list:
+    """The values of ``V1,V2,...`` (numbers where they read as one, else the text) or ``START:STOP:N``."""
     parts = spec.split(":")
     if len(parts) not in (1, 3):
         # 0.3:0.1, 0.1:0.3:5:2: a range, but not START:STOP:N
-        raise InputError(f"--set {clip(name)}", f"{brief(spec)} has {len(parts) - 1} colon(s): write a range as "
-                                                "START:STOP:N (N points, ends included, e.g. 0.1:0.3:5) or list "
-                                                "the values as V1,V2,...")
+        raise InputError(field, f"{brief(spec)} has {len(parts) - 1} colon(s): write a range as "
+                                "START:STOP:N (N points, ends included, e.g. 0.1:0.3:5) or list "
+                                "the values as V1,V2,...")
     if len(parts) == 3:
         try:
-            a, b = number(parts[0], f"--set {clip(name)}"), number(parts[1], f"--set {clip(name)}")
-            n = number(parts[2], f"--set {clip(name)}", low=1, high=MAX_POINTS, integer=True)
+            a, b = number(parts[0], field, unit=unit), number(parts[1], field, unit=unit)
         except InputError as exc:
-            raise InputError(exc.field, f"START:STOP:N needs two numbers and a count from 1 to {MAX_POINTS:g}: "
-                                        f"{exc.reason}") from None
-        return name, [a + (b - a) * i / (n - 1) if n > 1 else a for i in range(n)]
-    check_count(spec.count(",") + 1, MAX_POINTS, "values", f"--set {clip(name)}")
+            raise InputError(exc.field, f"START:STOP:N needs two numbers{f' of {unit}' if unit else ''} and a count "
+                                        f"from 1 to {MAX_POINTS:g}: {exc.reason}") from None
+        try:
+            n = number(parts[2], field, low=1, high=MAX_POINTS, integer=True)
+        except InputError:
+            raise InputError(field, f"{brief(spec)}: N, the count of points, must be a whole number from 1 to "
+                                    f"{MAX_POINTS:g}, got {brief(parts[2].strip())}") from None
+        return [a + (b - a) * i / (n - 1) if n > 1 else a for i in range(n)]
+    check_count(spec.count(",") + 1, MAX_POINTS, "values", field)
     values = []
     for v in spec.split(","):
         v = v.strip()
@@ -589,7 +629,7 @@ def parse_axis(text: str) -> tuple[str, list]:
             values.append(float(v))
         except ValueError:
             values.append(v)
-    return name, values
+    return values
 
 
 def _square(x: float) -> dict:
@@ -599,4 +639,4 @@ def _square(x: float) -> dict:
     return {"y": x * x}
 
 
-__all__ = ["grid", "run_sweep", "evaluate_point", "point_key", "signature", "scene_point", "SweepTable"]
+__all__ = ["grid", "parse_axis", "parse_values", "run_sweep", "evaluate_point", "point_key", "signature", "scene_point", "SweepTable"]

@@ -139,8 +139,12 @@ def holding_force(scene, actuator: str) -> float:
     return float(-free[i] / (pushed[i] - free[i]))
 
 
-def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name: str = "cylinder_servo") -> System:
+def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name: str = "cylinder_servo",
+                          build_dir: str | Path | None = None) -> System:
     """The SSP system of a cylinder-driven linkage under position control (FMUs taken from ``fmu_dir``).
+
+    A mechanism of another shape than ``Mechanism.fmu``'s gets its own FMU,
+    built in ``build_dir`` (default ``fmu_dir``).
 
     Raises
     ------
@@ -200,7 +204,7 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
     s.add("trajectory", d / design.trajectory_fmu, **(design.setpoint or move))
     s.add("controller", d / "PID.fmu", **design.pid)
     s.add("cylinder", d / FMU_OF[design.cylinder], **cylinder_parameters(cylinder), **start)
-    mech_fmu, scene_params = scene_fmu(scene, d)
+    mech_fmu, scene_params = scene_fmu(scene, d, build_dir)
     s.add("mechanism", mech_fmu, **scene_params, **({"load_torque": scene.load_torque} if model.load else {}))
     s.connect("trajectory.position", "controller.setpoint")
     s.connect(f"mechanism.{act}_length", "controller.measurement")

@@ -124,6 +124,8 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechan
         out.append(("final tracking error", f"{err[-1]:.3g} {target_unit}"))
     if "cylinder_force" in columns:
         out.append(("peak |cylinder force|", f"{np.max(np.abs(columns['cylinder_force'])):.4g} N"))
+    for name in unforced_actuators(columns, model):  # the page says what the run's warning said
+        out.append((f"actuator {name} force", "0 N throughout: none was given"))
     for c, words in (("pressure_a", "cap side"), ("pressure_b", "rod side")):
         if c in columns:
             out.append((f"{words} pressure (min to max)",
@@ -151,6 +153,16 @@ def key_numbers(columns: dict[str, np.ndarray], drive: str | None, model: Mechan
         out.append(("max closure violation", f"{np.max(np.abs(columns['closure_error'])):.3g} "
                                              f"{_closure_unit(model)}"))
     return out
+
+
+def unforced_actuators(columns: dict[str, np.ndarray], model: Mechanism | None = None) -> list[str]:
+    """The actuators whose recorded force is 0 at every sample: a run given no force for them.
+
+    Without the scene, an actuator is known by its columns (``NAME_length`` beside ``NAME_force``).
+    """
+    names = model.actuator_names if model is not None else [
+        c[:-len("_force")] for c in columns if c.endswith("_force") and f"{c[:-len('_force')]}_length" in columns]
+    return [n for n in names if f"{n}_force" in columns and not np.any(columns[f"{n}_force"])]
 
 
 def system_numbers(system) -> list[tuple[str, str]]:
