@@ -602,3 +602,84 @@ def test_a_command_piped_into_head_ends_quietly():
     proc.stdout.close()
     err = proc.stderr.read()
     assert proc.wait(60) == -signal.SIGPIPE and err == b""
+
+
+# -- requests no page sends, and sessions ----------------------------------------------------------------------
+def raw_post(server, action: str, text: str, cookie: str | None = None):
+    """(status, parsed JSON, headers) of a POST whose body is sent as given (JSON the page would never send)."""
+    conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=120)
+    h = {"Host": f"127.0.0.1:{server.server_address[1]}", "Content-Type": "application/json"}
+    if cookie:
+        h["Cookie"] = f"grubler_session={cookie}"
+    conn.request("POST", f"/api/{action}", text, h)
+    r = conn.getresponse()
+    out = json.loads(r.read())
+    conn.close()
+    return r.status, out, r.headers
+
+
+def test_json_nested_deep_or_a_key_of_many_parts_is_refused_by_name(app):
+    status, out, _ = raw_post(app, "analyse", "[" * 100_000 + "]" * 100_000)
+    assert status == 400 and out["error"]["field"] == "request" and "nested too deep" in out["error"]["reason"]
+    status, out, _ = raw_post(app, "analyse", '{"scene": ' + '{"a": ' * 500 + "1" + "}" * 501)
+    assert status == 400 and out["error"]["field"] == "scene" and "more than 32 levels" in out["error"]["reason"]
+    data = actions.preset_data("thesis-fourbar")
+    out, _ = post(app, "edit", {"scene": data, "key": ".".join(["link2"] * 20_000), "value": "1"})
+    assert out["error"]["field"] == "field" and "has 20000 parts" in out["error"]["reason"]
+    out, _ = post(app, "edit", {"scene": data, "key": "link2.a", "value": "0.25"})  # a scene's key still edits
+    assert "error" not in out and out["scene"]["link2"]["a"] == 0.25
+
+
+def test_a_gravity_that_is_not_a_number_is_refused_under_gravity(app):
+    data = actions.preset_data("thesis-fourbar")
+    text = json.dumps({"scene": {**data, "gravity": float("nan")}})  # Python writes NaN, as JSON does not
+    for action in ("analyse", "simulate"):
+        status, out, _ = raw_post(app, action, text)
+        assert status == 200 and out["error"] == {"field": "gravity", "reason": "must be a finite number, got nan"}
+    out, _ = post(app, "edit", {"scene": data, "key": "gravity", "value": "nan"})
+    assert out["error"]["field"] == "gravity" and out["scene"]["gravity"] == "nan"  # shown as typed, and why
+
+
+def test_the_servo_drives_an_open_chain_s_first_joint(tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import build_fmu
+
+    build_fmu.build(tmp_path / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    server = AppServer("127.0.0.1", 0, tmp_path)
+    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
+    try:
+        out, _ = post(server, "servo", {"scene": actions.preset_data("triple-pendulum"), "servo": {"t_end": "1"}})
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert "error" not in out, out
+    assert out["t"][-1] == pytest.approx(1.0) and out["summary"].startswith("1 s at 0.001 s steps")
+    assert [c["name"] for c in out["columns"]][:3] == ["error", "setpoint", "response"]
+
+
+def test_fresh_sessions_push_out_idle_ones_before_a_page_s_results_and_the_page_is_told(app):
+    data = actions.preset_data("thesis-fourbar")
+    _, _, alice = call(app, "GET", "/")
+    post(app, "simulate", {"scene": data, "t_end": 0.2}, cookie=alice)
+    for _ in range(70):  # any local client can open sessions: each new one, idle and empty, goes first
+        call(app, "GET", "/")
+    status, text, _ = call(app, "GET", "/api/result.csv", cookie=alice)
+    assert status == 200 and text.startswith("t [s],")
+    # room for three, each with a run: the one used least recently goes, and its page is told
+    app.max_sessions = 3
+    tokens = [alice]
+    for _ in range(2):
+        _, _, t = call(app, "GET", "/")
+        post(app, "simulate", {"scene": data, "t_end": 0.2}, cookie=t)
+        tokens.append(t)
+    call(app, "GET", "/api/result.csv", cookie=tokens[0])  # alice's page used again: bob's is now the oldest
+    call(app, "GET", "/")
+    status, out, headers = raw_post(app, "files", "{}", cookie=tokens[1])
+    assert status == 200 and headers["X-Grubler-Session"] == "evicted" and "files" in out
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie=tokens[0])
+    assert status == 200
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie="made-up")  # a restart's, or a guess
+    assert status == 404 and "does not know this page's session" in out["error"]["reason"]
