@@ -816,6 +816,8 @@ function forgetRun() {
   state.run = null;
   state.panels = [];
   state.zoom = null;
+  state.t = 0;
+  $("clock").textContent = "t = 0 s";
   $("panels").textContent = "";
   $("play").disabled = true;
   $("scrub").disabled = true;
