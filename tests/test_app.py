@@ -489,12 +489,11 @@ def test_the_sizing_table_ranks_as_grubler_size_does(app, capsys):
 
 
 def test_a_cancel_while_the_outputs_are_computed_is_honoured_too():
-    class LateFlag:  # clear through every slice of the integration, set once it is over
-        calls = 0
+    import sys
 
+    class LateFlag:  # clear through every slice of the integration, set once it is over (read by the app's check)
         def is_set(self):
-            self.calls += 1
-            return self.calls > 100
+            return sys._getframe(1).f_code.co_name == "_check_cancel"
 
     with pytest.raises(Cancelled, match="its outputs were being computed"):
         actions.run_simulation(actions.preset_data("thesis-fourbar"), 2.0, None, None, cancel=LateFlag())
@@ -511,3 +510,191 @@ def test_every_builder_owns_its_geometry_both_ways_and_the_app_names_none():
     source = inspect.getsource(actions)
     named = [kind for kind in BUILDERS if f'"{kind}"' in source]
     assert named == [], f"the app branches on builder types: {named}"
+
+
+# -- clients that leave, lie or dawdle -----------------------------------------------------------------------
+@pytest.fixture
+def app_process(tmp_path):
+    """``grubler app`` as a user starts it: its own process (the CLI's signal settings), its stderr's lines."""
+    import queue
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert line.startswith("grubler app: http://127.0.0.1:"), line + proc.stderr.read()
+    lines = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(x) for x in proc.stderr], daemon=True).start()
+    proc.port = int(line.split()[2].rsplit(":", 1)[1].strip("/"))
+    proc.lines = lines
+    yield proc
+    proc.send_signal(__import__("signal").SIGINT)
+    assert proc.wait(30) == 130
+
+
+def send_and_leave(port: int, action: str, body: bytes, headers: dict, stay: float) -> None:
+    """A client that sends its request and closes its connection ``stay`` s later, answered or not."""
+    import socket
+
+    head = "".join(f"{k}: {v}\r\n" for k, v in {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json",
+                                                  **headers}.items())
+    with socket.create_connection(("127.0.0.1", port)) as sock:
+        sock.sendall(f"POST /api/{action} HTTP/1.1\r\n{head}\r\n".encode() + body)
+        time.sleep(stay)
+
+
+def answers(port: int) -> bool:
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    conn.request("POST", "/api/files", "{}", {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"})
+    r = conn.getresponse()
+    return r.status == 200 and "files" in json.loads(r.read())
+
+
+def test_a_client_that_leaves_mid_run_cancels_the_run_and_the_app_serves_on(app_process):
+    port = app_process.port
+    data = json.dumps(actions.preset_data("thesis-fourbar"))
+    # some 11 days of motion on few rows: hours of integration, unless the run stops when its page leaves
+    body = f'{{"scene": {data}, "t_end": 1e6, "dt_out": 100}}'.encode()
+    send_and_leave(port, "simulate", body, {"Content-Length": len(body)}, stay=0.5)
+    line = app_process.lines.get(timeout=120)  # what the terminal is told of the run that was stopped
+    assert line.startswith("grubler app: the page of a simulate run left before its answer; cancelled at t = ")
+    assert float(line.split("t = ")[1].split()[0]) < 1e6
+    assert app_process.poll() is None and answers(port)
+    # a run that ends after its client left: the answer is written to a closed connection (SIGPIPE,
+    # which the CLI lets end `grubler ... | head`, ended the app here); a client that says it sends
+    # -1 bytes, or more than it sends, and leaves
+    body = f'{{"scene": {data}, "t_end": 2000}}'.encode()
+    send_and_leave(port, "simulate", body, {"Content-Length": len(body)}, stay=0.3)
+    send_and_leave(port, "files", b"{}", {"Content-Length": "-1"}, stay=0.3)
+    send_and_leave(port, "files", b"{}", {"Content-Length": "1000"}, stay=0.3)
+    for _ in range(3):  # after the 2000 s run has ended or been cancelled: every client is done with
+        status, out, _ = call(type("S", (), {"server_address": ("127.0.0.1", port)}), "POST", "/api/simulate",
+                              {"scene": json.loads(data), "t_end": 0.1})
+        assert status == 200 and out["t"][-1] == 0.1
+    assert app_process.poll() is None and answers(port)
+    while not app_process.lines.empty():  # nothing but the runs stopped: no traceback
+        assert app_process.lines.get().startswith("grubler app: the page of a simulate run left")
+
+
+def test_a_request_body_is_framed_as_it_says_or_refused_at_once(app):
+    import socket
+
+    port = app.server_address[1]
+    app.client_timeout = 0.5  # a body that does not come within this is given up on
+
+    def raw(head: str, body: bytes = b"") -> str:
+        with socket.create_connection(("127.0.0.1", port), timeout=60) as sock:
+            sock.sendall(f"POST /api/files HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+                         f"Content-Type: application/json\r\n{head}\r\n".encode() + body)
+            reply = b""
+            while chunk := sock.recv(65536):  # the server closes the connection after a refusal
+                reply += chunk
+        return reply.decode()
+
+    for head, status, field in (("Content-Length: -1\r\n", 400, "Content-Length"),
+                                ("Content-Length: 2x\r\n", 400, "Content-Length"),
+                                ("Content-Length: 2\r\nContent-Length: 3\r\n", 400, "Content-Length"),
+                                ("Content-Length: 99999999999999\r\n", 413, "Content-Length"),
+                                ("Transfer-Encoding: chunked\r\n", 411, "Content-Length"),
+                                ("Content-Length: 1000\r\n", 408, "request")):  # 2 bytes of 1000 come
+        reply = raw(head, b"{}")
+        assert reply.startswith(f"HTTP/1.1 {status} "), (head, reply)
+        assert json.loads(reply.split("\r\n\r\n", 1)[1])["error"]["field"] == field
+    assert "within 0.5 s (1000 bytes were announced)" in reply
+    status, out, _ = call(app, "POST", "/api/files", {})
+    assert status == 200 and "files" in out
+
+
+def test_a_command_piped_into_head_ends_quietly():
+    import signal
+    import subprocess
+    import sys
+
+    # `grubler presets | head -0`: its output's reader has gone before it writes
+    proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "presets"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()
+    err = proc.stderr.read()
+    assert proc.wait(60) == -signal.SIGPIPE and err == b""
+
+
+# -- requests no page sends, and sessions ----------------------------------------------------------------------
+def raw_post(server, action: str, text: str, cookie: str | None = None):
+    """(status, parsed JSON, headers) of a POST whose body is sent as given (JSON the page would never send)."""
+    conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=120)
+    h = {"Host": f"127.0.0.1:{server.server_address[1]}", "Content-Type": "application/json"}
+    if cookie:
+        h["Cookie"] = f"grubler_session={cookie}"
+    conn.request("POST", f"/api/{action}", text, h)
+    r = conn.getresponse()
+    out = json.loads(r.read())
+    conn.close()
+    return r.status, out, r.headers
+
+
+def test_json_nested_deep_or_a_key_of_many_parts_is_refused_by_name(app):
+    status, out, _ = raw_post(app, "analyse", "[" * 100_000 + "]" * 100_000)
+    assert status == 400 and out["error"]["field"] == "request" and "nested too deep" in out["error"]["reason"]
+    status, out, _ = raw_post(app, "analyse", '{"scene": ' + '{"a": ' * 500 + "1" + "}" * 501)
+    assert status == 400 and out["error"]["field"] == "scene" and "more than 32 levels" in out["error"]["reason"]
+    data = actions.preset_data("thesis-fourbar")
+    out, _ = post(app, "edit", {"scene": data, "key": ".".join(["link2"] * 20_000), "value": "1"})
+    assert out["error"]["field"] == "field" and "has 20000 parts" in out["error"]["reason"]
+    out, _ = post(app, "edit", {"scene": data, "key": "link2.a", "value": "0.25"})  # a scene's key still edits
+    assert "error" not in out and out["scene"]["link2"]["a"] == 0.25
+
+
+def test_a_gravity_that_is_not_a_number_is_refused_under_gravity(app):
+    data = actions.preset_data("thesis-fourbar")
+    text = json.dumps({"scene": {**data, "gravity": float("nan")}})  # Python writes NaN, as JSON does not
+    for action in ("analyse", "simulate"):
+        status, out, _ = raw_post(app, action, text)
+        assert status == 200 and out["error"] == {"field": "gravity", "reason": "must be a finite number, got nan"}
+    out, _ = post(app, "edit", {"scene": data, "key": "gravity", "value": "nan"})
+    assert out["error"]["field"] == "gravity" and out["scene"]["gravity"] == "nan"  # shown as typed, and why
+
+
+def test_the_servo_drives_an_open_chain_s_first_joint(tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import build_fmu
+
+    build_fmu.build(tmp_path / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    server = AppServer("127.0.0.1", 0, tmp_path)
+    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
+    try:
+        out, _ = post(server, "servo", {"scene": actions.preset_data("triple-pendulum"), "servo": {"t_end": "1"}})
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert "error" not in out, out
+    assert out["t"][-1] == pytest.approx(1.0) and out["summary"].startswith("1 s at 0.001 s steps")
+    assert [c["name"] for c in out["columns"]][:3] == ["error", "setpoint", "response"]
+
+
+def test_fresh_sessions_push_out_idle_ones_before_a_page_s_results_and_the_page_is_told(app):
+    data = actions.preset_data("thesis-fourbar")
+    _, _, alice = call(app, "GET", "/")
+    post(app, "simulate", {"scene": data, "t_end": 0.2}, cookie=alice)
+    for _ in range(70):  # any local client can open sessions: each new one, idle and empty, goes first
+        call(app, "GET", "/")
+    status, text, _ = call(app, "GET", "/api/result.csv", cookie=alice)
+    assert status == 200 and text.startswith("t [s],")
+    # room for three, each with a run: the one used least recently goes, and its page is told
+    app.max_sessions = 3
+    tokens = [alice]
+    for _ in range(2):
+        _, _, t = call(app, "GET", "/")
+        post(app, "simulate", {"scene": data, "t_end": 0.2}, cookie=t)
+        tokens.append(t)
+    call(app, "GET", "/api/result.csv", cookie=tokens[0])  # alice's page used again: bob's is now the oldest
+    call(app, "GET", "/")
+    status, out, headers = raw_post(app, "files", "{}", cookie=tokens[1])
+    assert status == 200 and headers["X-Grubler-Session"] == "evicted" and "files" in out
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie=tokens[0])
+    assert status == 200
+    status, out, _ = call(app, "GET", "/api/result.csv", cookie="made-up")  # a restart's, or a guess
+    assert status == 404 and "does not know this page's session" in out["error"]["reason"]

@@ -276,6 +276,36 @@ def test_a_six_bar_pivot_dragged_beyond_its_links_reads_where_the_loop_opens(app
     assert errors == []
 
 
+def test_a_page_whose_session_the_app_forgot_is_told_and_forgets_its_run(app, browser, shots):
+    import http.client
+
+    app.max_sessions = 1  # room for one page's session: any other client's pushes this page's out
+    page, errors = open_app(browser, app.url, accept_downloads=True)
+    pick_preset(page, "fourbar-crank-rocker")
+    page.fill("#t_end", "1")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    assert not page.eval_on_selector("#csv", "(a) => a.classList.contains('disabled')")
+    other = http.client.HTTPConnection("127.0.0.1", app.server_address[1], timeout=60)
+    other.request("GET", "/", headers={"Host": f"127.0.0.1:{app.server_address[1]}"})
+    assert other.getresponse().status == 200  # a new session, in the only place there is
+    # the page's next request (a value mended in the form) learns it, says so, and starts without a run
+    page.fill('[data-key="mechanism.crank"]', "0.31")
+    page.press('[data-key="mechanism.crank"]', "Enter")
+    page.wait_for_selector("#notice.bad")
+    assert page.inner_text("#notice").startswith("the app forgot this page's session to make room")
+    assert page.eval_on_selector("#csv", "(a) => a.classList.contains('disabled')")
+    assert page.is_disabled("#play") and page.locator("#panels svg").count() == 0
+    page.screenshot(path=str(shots / "10-session-forgotten.png"))
+    # and a new run is kept again: its CSV downloads
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    with page.expect_download() as dl:
+        page.click("#csv")
+    assert Path(dl.value.path()).read_text().startswith("t [s],")
+    assert errors == []
+
+
 @pytest.fixture(scope="module")
 def servo_app(tmp_path_factory):
     """``grubler app`` in a process of its own, started in a folder whose dist/ holds the servo's FMUs.

@@ -43,6 +43,7 @@ from grubler.views.animation import Sketch, trace_point
 SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 degrees apart)
 LIVE_STEPS = 90  # ... while a pivot is being dragged (4 degrees apart: the curve keeps up with the mouse)
 MAX_FRAMES = 400  # frames sent to the page: 40 per second of a 10 s run (the graphs get every output row)
+MAX_KEY_PARTS = 4  # names in a scene field's dotted key: a scene's are TABLE.NAME, TABLE[N].NAME or NAME
 
 
 # -- scenes as data -------------------------------------------------------------------------------
@@ -114,6 +115,21 @@ def _value(v) -> str:
     raise SceneError("scene", f"cannot write {type(v).__name__} values to TOML")
 
 
+def echoed(data):
+    """Scene data as the page is sent it back: a number that is not finite as TOML's word for it.
+
+    A refused NaN (``gravity = nan``) is shown in its field with the reason
+    next to it; JSON has no NaN, and the word, sent back, is refused the same way.
+    """
+    if isinstance(data, float) and not math.isfinite(data):
+        return _value(data)
+    if isinstance(data, dict):
+        return {k: echoed(v) for k, v in data.items()}
+    if isinstance(data, list):
+        return [echoed(v) for v in data]
+    return data
+
+
 # -- the form: every number of the scene, named as the TOML names it, with its unit ------------------
 _TEXT = {"name", "description", "kind", "type", "joint", "existence", "parent", "link", "to_link", "method"}
 
@@ -168,6 +184,9 @@ def edit(data: dict, key: str, text) -> dict:
     """Scene data with the value at dotted ``key`` set from the form's ``text`` (a number, a list or words)."""
     if not isinstance(key, str) or not re.fullmatch(r"[A-Za-z0-9_]+(\[\d+\])?(\.[A-Za-z0-9_]+(\[\d+\])?)*", key):
         raise InputError("field", f"not a scene field: {brief(key)}")
+    if key.count(".") >= MAX_KEY_PARTS:
+        raise InputError("field", f"not a scene field: {brief(key)} has {key.count('.') + 1} parts; a scene's "
+                                  f"field has at most {MAX_KEY_PARTS} (TABLE.NAME, TABLE[N].NAME)")
     out = json.loads(json.dumps(data))
     *path, leaf = re.findall(r"([A-Za-z0-9_]+)(?:\[(\d+)\])?", key)
     table = out

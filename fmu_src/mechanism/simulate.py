@@ -593,7 +593,8 @@ def simulate(
         Drive effort (N m, or N on a slide), constant or a function of time.
     load_torque : float, optional
     cancel : threading.Event, optional
-        Checked between slices of the output grid (some 1 % of the run each):
+        Anything with ``is_set()``, read between output steps (slices of the
+        grid some :data:`CANCEL_SLICE` long: see :func:`_advance_cancellable`):
         once it is set, the run stops with :class:`grubler.errors.Cancelled`.
     actuator_forces : dict, optional
         A constant force (N, positive pushing the points apart) per actuator
@@ -645,13 +646,8 @@ def simulate(
     try:
         if cancel is None:
             zs, zds = sim.advance_through(times)
-        else:  # slices: one call each, the flag read in between (a compiled call cannot be interrupted)
-            parts = []
-            for piece in np.array_split(times, min(len(times), 100)):
-                if cancel.is_set():
-                    raise Cancelled("run", f"cancelled at t = {sim.t:.6g} s")
-                parts.append(sim.advance_through(piece))
-            zs, zds = np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
+        else:
+            zs, zds = _advance_cancellable(sim, times, cancel)
     except StepBudgetError as exc:
         # refused at its pace, long before the step budget itself is spent: name what sets the pace
         efforts = (f"the drive torque {torque:g} N m (--torque) and " if not callable(torque) and torque else "") + \
@@ -687,6 +683,32 @@ def unforced_warning(name: str, field: str = "actuator_forces") -> str:
     """
     return (f"{field}: {name} was given no force and pushed with 0 N throughout, holding nothing "
             f"(--actuator-force {name}=N gives one; a cylinder's own force: co-simulate it, docs/cylinders.md)")
+
+
+CANCEL_SLICE = 0.05  # s of wall time a slice of a cancellable run aims at: a cancel waits about that long
+
+
+def _advance_cancellable(sim: Simulator, times: np.ndarray, cancel) -> tuple[np.ndarray, np.ndarray]:
+    """``sim.advance_through(times)`` in slices, ``cancel.is_set()`` read between them.
+
+    A compiled call cannot be interrupted, so the flag is read between calls:
+    a slice starts one output step long and doubles while a call takes less
+    than :data:`CANCEL_SLICE` (the calls' own cost then stays small), halving
+    when one takes longer; so a cancel is honoured within an output step or
+    some :data:`CANCEL_SLICE`, however long the run.
+    """
+    import time
+
+    parts, k, n = [], 0, 1
+    while k < len(times):
+        if cancel.is_set():
+            raise Cancelled("run", f"cancelled at t = {sim.t:.6g} s")
+        began = time.perf_counter()
+        parts.append(sim.advance_through(times[k:k + n]))
+        k += n
+        took = time.perf_counter() - began
+        n = min(2 * n, 1 << 16) if took < CANCEL_SLICE / 2 else (max(1, n // 2) if took > CANCEL_SLICE else n)
+    return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
 
 
 def named_actuator_forces(model: Mechanism, forces: dict[str, float]) -> tuple[float, ...]:

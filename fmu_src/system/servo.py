@@ -184,9 +184,11 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
         Plot("motor voltage [V]", ["motor.voltage", "motor.terminal_voltage"],
              {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
         Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
-        Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
-             {"mechanism.Fx": f"{closing_force_words(model)}, x", "mechanism.Fy": f"{closing_force_words(model)}, y"}),
     ]
+    if model.closures:  # an open chain (a pendulum driven at its first joint) has no closing joint to load
+        s.plots.append(Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
+                            {"mechanism.Fx": f"{closing_force_words(model)}, x",
+                             "mechanism.Fy": f"{closing_force_words(model)}, y"}))
     return s
 
 

@@ -35,6 +35,7 @@ async function api(name, body, timing) {
   const r = await fetch("/api/" + name, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
   });
+  sessionCheck(r, name);
   const out = await r.json();
   if (timing) {
     const server = /dur=([0-9.]+)/.exec(r.headers.get("Server-Timing") || "");
@@ -46,6 +47,35 @@ async function api(name, body, timing) {
     throw e;
   }
   return out;
+}
+
+// The app keeps the sessions of the pages used most recently (and none across a restart): told that it
+// forgot this page's (X-Grubler-Session), the page forgets its run too, whose CSV and report were kept
+// there, and says so, rather than an export failing later
+function sessionCheck(r, name) {
+  const lost = r.headers.get("X-Grubler-Session");
+  if (!lost || name === "simulate" || !state.run) return;  // a new run starts the new session: nothing lost
+  forgetRun();
+  notice(lost === "evicted"
+    ? "the app forgot this page's session to make room for newer pages, and its run with it: simulate again"
+    : "the app does not know this page's session (was it restarted?): its run is gone; simulate again", true);
+}
+
+// a file the server answered with, saved; or its refusal (JSON) told
+async function saveAnswer(r, name) {
+  sessionCheck(r, name);
+  if ((r.headers.get("Content-Type") || "").startsWith("application/json")) {
+    const out = await r.json();
+    if (out.error) notice(`${out.error.field}: ${out.error.reason}`, true);
+    return;
+  }
+  const file = (r.headers.get("Content-Disposition") || "").match(/filename="([^"]+)"/);
+  const a = document.createElement("a");
+  a.download = file ? file[1] : "export";
+  a.href = URL.createObjectURL(await r.blob());
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  notice("exported " + a.download);
 }
 
 function notice(text, bad) {
@@ -766,18 +796,7 @@ async function exportFile(kind) {
     method: "POST", headers: { "Content-Type": "application/json" },
     body: JSON.stringify({ kind, scene: state.scene, servo: servoSettings() }),
   });
-  if ((r.headers.get("Content-Type") || "").startsWith("application/json")) {
-    const out = await r.json();
-    notice(`${out.error.field}: ${out.error.reason}`, true);
-    return;
-  }
-  const name = (r.headers.get("Content-Disposition") || "").match(/filename="([^"]+)"/);
-  const a = document.createElement("a");
-  a.download = name ? name[1] : "export";
-  a.href = URL.createObjectURL(await r.blob());
-  a.click();
-  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
-  notice("exported " + a.download);
+  await saveAnswer(r, "export");
 }
 
 async function listFiles() {
@@ -791,18 +810,32 @@ async function listFiles() {
   }
 }
 
-async function loadData(data, label) {
+// the page without a run: no graphs, nothing to play or export, the scene's drawing
+function forgetRun() {
+  pause();
   state.run = null;
   state.panels = [];
   state.zoom = null;
+  state.t = 0;
+  $("clock").textContent = "t = 0 s";
   $("panels").textContent = "";
-  $("trace").value = "";
-  state.trace = "";
   $("play").disabled = true;
   $("scrub").disabled = true;
   $("png").disabled = true;
   $("csv").classList.add("disabled");
   $("run-status").textContent = "";
+  if (state.showingRun && state.analysis) {
+    state.showingRun = false;
+    $("edit-mode").disabled = true;
+    fitView([state.analysis.frame, state.analysis.curve]);
+    drawScene(state.analysis);
+  }
+}
+
+async function loadData(data, label) {
+  forgetRun();
+  $("trace").value = "";
+  state.trace = "";
   await analyse({ scene: data }, { fit: true });
   if (label) notice(label);
 }
@@ -890,6 +923,11 @@ async function start() {
   });
   $("add-axes").addEventListener("click", () => { state.panels.push([]); renderPanelControls(); drawPanels(); });
   $("png").addEventListener("click", exportPng);
+  $("csv").addEventListener("click", async (evt) => {  // fetched: a refusal is told here, not opened as a page
+    evt.preventDefault();
+    if ($("csv").classList.contains("disabled")) return;
+    await saveAnswer(await fetch($("csv").href), "csv");
+  });
   window.addEventListener("resize", drawPanels);
   document.addEventListener("keydown", (evt) => {
     const typing = /^(INPUT|SELECT|TEXTAREA|BUTTON)$/.test(document.activeElement.tagName);
