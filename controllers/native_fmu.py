@@ -221,7 +221,10 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
     # as every control FMU's, a description ends in its unit ([1]: none, or a joint's that slides or turns)
     extra = tuple(v if v.description.endswith("]") else replace(v, description=f"{v.description} [{v.unit or '1'}]")
                   for v in (plant[x] for x in scene_names))
-    spec = law_spec(ComputedTorque, identifier, "computed_torque_law.c", n, tables + defines["CT_WORK_SIZE"],
+    # the scratch (the kernel's tables and workspace) and, of the same layout, law_check's own working memory:
+    # the workspace grows with the links squared (400 kB at 63 links), too much for an importer's thread stack
+    defines["LAW_N_CHECK"] = tables + defines["CT_WORK_SIZE"]
+    spec = law_spec(ComputedTorque, identifier, "computed_torque_law.c", n, defines["LAW_N_CHECK"],
                     leave_out=("mechanism",), extra=extra, defines=defines)
     variables = tuple(replace(v, start=float(m.drive_inertia)) if v.name == "drive_inertia" else v
                       for v in spec.variables)
@@ -352,7 +355,9 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
     with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
         staged = Path(tmp) / "law_step.c"  # a fixed name: the user's cannot shadow one of the FMU's own files
         shutil.copy2(source, staged)
-        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, defines=defines)
+        # the scratch: user_law.c's working copy of the state and the outputs (not on the stack)
+        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, law.n_state + len(law.outputs),
+                        defines=defines)
         spec = replace(spec, kernel_sources=(*spec.kernel_sources, "user_law", (Path(tmp), ("law_step.c",))))
         try:
             return build_fmu(spec, dest)

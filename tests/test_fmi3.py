@@ -566,3 +566,113 @@ def test_build_fmu_refuses_a_pythonfmu_controller_as_fmi3(tmp_path):
     proc = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--dest", str(tmp_path), "--fmi", "3",
                            "LinearController"], capture_output=True, text=True, timeout=600)
     assert proc.returncode != 0 and "LinearController: pythonfmu FMUs are FMI 2 only" in proc.stderr
+
+
+# -- a small thread stack: every FMU stepped where an importer's secondary thread would -------------
+# macOS gives a secondary thread 512 kB; the host's thread here has half that, a guard page below it
+SMALL_STACK = 256 * 1024
+# what a run may touch of it, the host's own frames included: a few kB of FMU, never an array of the state
+STACK_BUDGET = 64 * 1024
+# a law at export-law's limit of state (MAX_LAW_STATE doubles, 800 kB): each sample walks it all; a
+# sample with an input below -1e6 is refused (law_step returns non-zero)
+BIG_LAW = """#include "grubler_law.h"
+GRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")
+GRUBLER_INPUT(u, "input [1]")
+GRUBLER_OUTPUT(y, "the mean of the inputs so far [1]")
+GRUBLER_STATE({n})
+
+int law_step(const double *param, double *state, double t, const double *in, double *out) {{
+    int k;
+    (void)param;
+    (void)t;
+    if (in[INPUT_u] < -1e6) return 1;
+    state[0] += 1.0;
+    state[1] += in[INPUT_u];
+    for (k = {n} - 1; k > 1; k--) state[k] = state[k - 1];
+    out[OUTPUT_y] = state[1] / state[0];
+    return 0;
+}}
+"""
+
+
+@pytest.fixture(scope="session")
+def big_law(tmp_path_factory):
+    """A user's law exported with GRUBLER_STATE at export-law's limit (FMI 2.0: export-law's only version)."""
+    from fmpy import read_model_description
+
+    from grubler.controllers.native_fmu import MAX_LAW_STATE, export_law
+
+    d = tmp_path_factory.mktemp("big_law")
+    (d / "big_law.c").write_text(BIG_LAW.format(n=MAX_LAW_STATE))
+    path = export_law(d / "big_law.c", d / "BigLaw.fmu")
+    zipfile.ZipFile(path).extractall(d / "x")
+    return path, d / "x", read_model_description(str(path))
+
+
+def _small_stack(h: Host) -> Host:
+    h.cmd[1:1] = ["--stack", str(SMALL_STACK)]
+    return h
+
+
+def _every_native(hosts, built2, built3, big_law) -> list[tuple[str, Host, object]]:
+    """(label, host, description) of every native FMU: build_fmu.py's in FMI 2.0 and 3.0, and the big law."""
+    out = [(f"{name} FMI {fmi}", (host2 if fmi == 2 else host3)(hosts, built, name), built[name][2])
+           for fmi, built in ((2, built2), (3, built3)) for name in NATIVE]
+    path, d, md = big_law
+    out.append(("BigLaw FMI 2", Host(hosts[2], d / "binaries" / "linux64" / "BigLaw.so", md.guid,
+                                     {v.name: v.valueReference for v in md.modelVariables}), md))
+    return out
+
+
+def _inputs(label: str, h: Host) -> list[str]:
+    name = label.split()[0]
+    held = {**INPUTS, "BigLaw": {"u": 0.5}}.get(name, {})
+    return [f"setr {h.vr[k]} {v!r}" for k, v in held.items()]
+
+
+def test_every_native_fmu_runs_on_a_256_kb_thread_stack_as_on_the_main_thread(hosts, built2, built3, big_law,
+                                                                               tmp_path):
+    # instantiate, initialise, step with every output read, save, serialise, deserialise, restore and step
+    # again, free: on a thread of 256 kB (env -i), the numbers those of the main thread's 8 MB
+    used = {}
+    for label, h, md in _every_native(hosts, built2, built3, big_law):
+        blob = tmp_path / f"{label.replace(' ', '_')}.bin"
+        script = (h.start(md=md) + _inputs(label, h) + [h.run_steps(0.0, 0.01, 20, *outputs(md)), "save 0",
+                                                        f"ser 0 {blob}", h.run_steps(0.2, 0.01, 10, *outputs(md)),
+                                                        f"deser 1 {blob}", "load 1",
+                                                        h.run_steps(0.2, 0.01, 10, *outputs(md)), "free"])
+        main = h.run(script)
+        small = _small_stack(h).run(script)
+        assert small.statuses("run") == [OK, OK, OK], (label, small.logs)
+        assert small.statuses("ser") == small.statuses("deser") == small.statuses("load") == [OK], label
+        assert np.array_equal(small.rows(), main.rows(), equal_nan=True), label
+        assert small.lines[-1].startswith("stack "), label
+        used[label] = int(small.lines[-1].split()[1])
+    assert len(used) == 2 * len(NATIVE) + 1
+    assert max(used.values()) < STACK_BUDGET, used
+
+
+def test_a_law_whose_state_copy_sat_on_the_stack_needed_800_kb_of_it(hosts, big_law):
+    # the check holds: the host's thread is what an FMU gets, so a law that copied its state onto the stack
+    # (user_law.c before: double s[N_STATE]) would have died on it; its run touches a few kB
+    path, d, md = big_law
+    h = _small_stack(Host(hosts[2], d / "binaries" / "linux64" / "BigLaw.so", md.guid,
+                          {v.name: v.valueReference for v in md.modelVariables}))
+    t = h.run(h.start(md=md) + [f"setr {h.vr['u']} 2.0", h.run_steps(0.0, 1e-3, 5, "y")])
+    assert t.statuses("run") == [OK] and t.rows()[-1, 1] == 2.0
+    assert int(t.lines[-1].split()[1]) < STACK_BUDGET
+
+
+def test_no_function_of_a_native_fmu_keeps_more_than_8_kb_on_its_stack(built2, big_law, tmp_path):
+    # every C file an FMU ships in sources/, compiled as the FMU is, with the compiler's frame size check: a
+    # regression names the function (gcc's -Wstack-usage also counts an alloca or a variable-length array)
+    from grubler.fmi.build import CFLAGS
+
+    cc = shutil.which("gcc") or shutil.which("cc")
+    check = "-Wstack-usage=8192" if "gcc" in Path(cc).name else "-Wframe-larger-than=8192"
+    folders = [d / "sources" for _, d, _ in built2.values()] + [big_law[1] / "sources"]
+    for src in folders:
+        for c in sorted(src.glob("*.c")):
+            proc = subprocess.run([cc, *CFLAGS, check, "-Werror", "-c", str(c), "-o", str(tmp_path / "x.o"),
+                                   "-I", str(src)], capture_output=True, text=True)
+            assert proc.returncode == 0, f"{src.parent.name}/{c.name}:\n{proc.stderr[-2000:]}"
