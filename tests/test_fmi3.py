@@ -376,7 +376,8 @@ def _refused_then_reset_works(h, md, lines: list[str], cmd: str, *reasons: str) 
     assert t.statuses(cmd)[-1] == ERROR
     for r in reasons:
         assert t.logged(r), (r, t.logs)
-    assert t.statuses("getr")[-1] == ERROR and t.logged("only fmi3Reset and fmi3FreeInstance are allowed now")
+    assert t.statuses("getr")[-1] == ERROR
+    assert t.logged("only fmi3Reset, fmi3FreeInstance and fmi3SetFMUState (a state saved before the error) are allowed")
     assert t.statuses("reset") == [OK] and t.statuses("run") == [OK]
     return t
 
@@ -676,3 +677,27 @@ def test_no_function_of_a_native_fmu_keeps_more_than_8_kb_on_its_stack(built2, b
             proc = subprocess.run([cc, *CFLAGS, check, "-Werror", "-c", str(c), "-o", str(tmp_path / "x.o"),
                                    "-I", str(src)], capture_output=True, text=True)
             assert proc.returncode == 0, f"{src.parent.name}/{c.name}:\n{proc.stderr[-2000:]}"
+
+
+# -- back from an Error: a state saved before it restores, and the run goes on -------------------------
+
+def test_after_an_error_a_restored_state_runs_on_as_the_run_never_interrupted(hosts, built2, built3, big_law):
+    # FMI 2.0 section 2.1.3, FMI 3.0 section 2.2.3: after fmiXError the importer may restore an FMU state
+    # saved before it.  The error here: a value reference the model does not have (every FMU), and for the
+    # law a sample law_step refuses, after which the law's state is half advanced
+    for label, h, md in _every_native(hosts, built2, built3, big_law):
+        fmi = label.split()[-1]
+        outs = outputs(md)
+        head = h.start(md=md) + _inputs(label, h) + [h.run_steps(0.0, 0.01, 10, *outs)]
+        whole = h.run(head + [h.run_steps(0.1, 0.01, 10, *outs)])
+        bad = ["getr 99999"] if not label.startswith("BigLaw") else [f"setr {h.vr['u']} -1e9", "step 0.13 0.01"]
+        t = h.run(head + ["save 0", h.run_steps(0.1, 0.01, 3, *outs)] + _inputs(label, h) + bad
+                  + [h.getr(outs[0]), "save 1", "load 1", "load 0", h.run_steps(0.1, 0.01, 10, *outs)])
+        assert t.statuses(bad[-1].split()[0])[-1] == ERROR, (label, t.logs)
+        assert t.statuses("getr")[-1] == ERROR and t.logged("fmi%sSetFMUstate" % fmi if fmi == "2" else
+                                                            "fmi3SetFMUState (a state saved before the error)")
+        # a state may be saved in the error state, but not restored: it holds what failed
+        assert t.statuses("save") == [OK, OK] and t.statuses("load") == [ERROR, OK], (label, t.logs)
+        assert t.logged("the state was saved in the error state"), label
+        assert t.statuses("run") == [OK, OK, OK], (label, t.logs)
+        assert np.array_equal(t.rows()[-10:], whole.rows()[-10:], equal_nan=True), label
