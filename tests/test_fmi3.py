@@ -13,6 +13,7 @@ it is absent (docs/fmi.md says how to build it).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -701,3 +702,42 @@ def test_after_an_error_a_restored_state_runs_on_as_the_run_never_interrupted(ho
         assert t.logged("the state was saved in the error state"), label
         assert t.statuses("run") == [OK, OK, OK], (label, t.logs)
         assert np.array_equal(t.rows()[-10:], whole.rows()[-10:], equal_nan=True), label
+
+
+# -- a scene number beyond the scene reader's bound ------------------------------------------------
+
+@pytest.fixture(scope="session")
+def boom(hosts, tmp_path_factory):
+    """luffing-boom (a cylinder, the actuator 'lift') exported as FMI 2.0 and 3.0, and a host for each."""
+    from fmpy import read_model_description
+
+    from grubler.fmi.build import export
+    from grubler.mechanism.scene import load_scene
+
+    out = {}
+    for fmi in (2, 3):
+        d = tmp_path_factory.mktemp(f"boom{fmi}")
+        path = export(load_scene("luffing-boom"), d / "Boom.fmu", fmi=fmi)
+        zipfile.ZipFile(path).extractall(d / "x")
+        md = read_model_description(str(path))
+        lib = d / "x" / "binaries" / ("linux64" if fmi == 2 else "x86_64-linux") / "Boom.so"
+        out[fmi] = ((Host if fmi == 2 else Host3)(hosts[fmi], lib, md.guid,
+                                                  {v.name: v.valueReference for v in md.modelVariables}), md)
+    return out
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("name, value", [("lift.from_point_x", 1e300), ("lift.to_point_y", -2e12),
+                                         ("link2.a", 1e13)])
+def test_a_scene_number_beyond_the_scene_readers_bound_is_an_error_naming_it(boom, fmi, name, value):
+    # fmi2SetReal(lift.from_point_x, 1e300) was taken, and lift_length then read inf with fmi2OK
+    h, md = boom[fmi]
+    t = h.run(h.start({name: value}, md=md) + [h.getr("lift_length"), "reset", *h.start(md=md),
+                                               h.run_steps(0.0, 0.01, 3, "lift_length")])
+    assert t.statuses("exit")[0] == ERROR and t.statuses("getr") == [ERROR], t.logs
+    assert t.logged(f"{name}: magnitude above 1e+12 is outside the supported range, got {value:g}"), t.logs
+    assert t.statuses("exit")[1] == OK and t.statuses("run") == [OK]
+    assert np.isfinite(t.rows()[:, 1]).all()
+    # at the bound itself the number is taken (the scene reader's too), and refused for what it means
+    t = h.run(h.start({name: math.copysign(1e12, value)}, md=md))
+    assert not t.logged("outside the supported range"), t.logs
