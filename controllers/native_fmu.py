@@ -99,8 +99,10 @@ def law_spec(law: type[Law], identifier: str, model_source: str, n_state: int, n
     n_params = len(v)
     for name, text in law.inputs.items():
         v.append(Variable(name, REAL, INPUT, text, 0.0, _unit(text)))
+    # a sampled law's outputs are held between samples: discrete, changing only at its sample instants
+    held = None if law.continuous else "discrete"
     for k, (name, text) in enumerate(law.outputs.items()):
-        v.append(Variable(name, REAL, OUTPUT, text, unit=_unit(text), level=1, slot=k))
+        v.append(Variable(name, REAL, OUTPUT, text, unit=_unit(text), level=1, slot=k, variability=held))
     state = (("started", 1), ("t0", 1), ("t", 1), ("samples", 1), ("out", len(law.outputs)), ("law", n_state),
              ("end", 0))
     lines = (law.__doc__ or law.__name__).strip().splitlines()
@@ -156,12 +158,37 @@ def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> Model
                     bounds={"seed": (0, INT_MAX)})
 
 
-def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) -> ModelSpec:
+# what a trajectory drives -> the unit of its positions (speeds, accelerations, limits: per s, s2, s3)
+QUANTITIES = {"angle": "rad", "length": "m"}
+
+
+def _in_quantity(spec: ModelSpec, quantity: str) -> ModelSpec:
+    """A trajectory's variables in the unit of what it drives: rad for an angle (the law's own), m for a length."""
+    if quantity not in QUANTITIES:
+        raise SceneError("quantity", f"a trajectory drives an {' or a '.join(QUANTITIES)}, got {brief(quantity)}")
+    to = QUANTITIES[quantity]
+
+    def convert(v: Variable) -> Variable:
+        if not v.description.rstrip().endswith("]"):
+            return v
+        old = v.description[v.description.rindex("[") + 1:v.description.rindex("]")]
+        if not old.startswith("rad"):
+            return v
+        new = to + old[3:]
+        return replace(v, description=v.description[:v.description.rindex("[")] + f"[{new}]",
+                       unit=new if new in UNITS else None)
+
+    return spec if to == "rad" else replace(spec, variables=tuple(convert(v) for v in spec.variables))
+
+
+def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None, quantity: str = "angle") -> ModelSpec:
     """Trajectory.fmu: :class:`~grubler.controllers.trajectory.Trajectory` over ``ctl_trajectory.c``.
 
     Without ``times`` the kinds are constant, trapezoid, scurve and sine; with
     them the FMU serves 'table' too, its points parameters ``times[k]`` and
-    ``positions[k]`` (k from 1) starting at these values.
+    ``positions[k]`` (k from 1) starting at these values.  ``quantity`` (a key
+    of :data:`QUANTITIES`) is what it drives: an ``angle`` (rad, rad/s, ...) or
+    a ``length`` (a cylinder's: m, m/s, ...), the unit of its positions.
     """
     n = 0 if times is None else len(times)
     extra = ()
@@ -171,9 +198,10 @@ def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) 
         extra += tuple(Variable(f"positions[{k + 1}]", REAL, PARAMETER, "table: position at that time [rad]",
                                 float(x), "rad") for k, x in enumerate(positions))
     plan = (ctypes.sizeof(native.Move) + 7) // 8
-    return law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
-                    choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
-                    leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
+    return _in_quantity(law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
+                                 choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
+                                 leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n}),
+                        quantity)
 
 
 def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> ModelSpec:
@@ -367,25 +395,26 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
             raise BuildError(re.sub(r"\S*law_step\.c", str(source), first).strip()) from None
 
 
-def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
+def export_profile(profile, dest: str | Path, field: str = "output", quantity: str = "angle") -> Path:
     """A native Trajectory FMU of kind 'table' whose points are a CSV profile's (:func:`~grubler.controllers.trajectory.read_profile`).
 
     The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
-    ``kind`` starts at 'table'.
+    ``kind`` starts at 'table'; ``quantity``: what it drives (:func:`trajectory_spec`).
     """
     times, positions = read_profile(profile)
-    return export_table(times, positions, dest, field)
+    return export_table(times, positions, dest, field, quantity)
 
 
-def export_table(times, positions, dest: str | Path, field: str = "output") -> Path:
+def export_table(times, positions, dest: str | Path, field: str = "output", quantity: str = "angle") -> Path:
     """A native Trajectory FMU of kind 'table' through the points (``times`` [s], ``positions``).
 
     The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
-    ``kind`` starts at 'table'.
+    ``kind`` starts at 'table'; ``quantity``: what it drives, an ``angle``
+    (positions in rad) or a ``length`` (in m: a cylinder's), :func:`trajectory_spec`.
     """
     dest = Path(dest)
     check_destination(dest, field)
-    spec = trajectory_spec(identifier_for(dest), times, positions)
+    spec = trajectory_spec(identifier_for(dest), times, positions, quantity)
     spec = replace(spec, variables=tuple(replace(v, start="table") if v.name == "kind" else v for v in spec.variables))
     return build_fmu(spec, dest)
 
@@ -402,7 +431,7 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec", "export_computed_torque",
+__all__ = ["ENCODER_CAPACITY", "QUANTITIES", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec", "export_computed_torque",
            "encoder_spec", "export_law", "export_profile", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

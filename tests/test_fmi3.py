@@ -165,6 +165,23 @@ def test_the_fmi3_description_declares_fmi3_types_units_structure_and_capabiliti
 
 
 @EVERY
+def test_fmi3_variability_and_default_step_say_what_the_fmi2_build_says(built2, built3, name):
+    # a sampled law's outputs are discrete Float64s (legal in FMI 3.0 co-simulation without event mode: they
+    # change only inside fmi3DoStep, at its sample instants); its default step is its sample time Ts.  No
+    # clock: a periodic clock would need event mode (or scheduled execution), which these FMUs do not have
+    md3 = ET.fromstring(zipfile.ZipFile(built3[name][0]).read("modelDescription.xml"))
+    md2 = ET.fromstring(zipfile.ZipFile(built2[name][0]).read("modelDescription.xml"))
+    two = {v.get("name"): v.get("variability") for v in md2.iter("ScalarVariable")}
+    three = {v.get("name"): v.get("variability") for v in md3.find("ModelVariables") if v.get("name") != "time"}
+    assert three == two
+    outs = [v.get("variability") for v in md3.find("ModelVariables") if v.get("causality") == "output"]
+    sampled = name in ("PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "ComputedTorque")
+    assert set(outs) == {"discrete" if sampled else "continuous"}, (name, outs)
+    assert md3.find("DefaultExperiment").get("stepSize") == md2.find("DefaultExperiment").get("stepSize")
+    assert md3.find("ModelVariables/Clock") is None
+
+
+@EVERY
 def test_value_references_agree_between_binary_and_fmi3_description(hosts, built3, name):
     # what the binary reads at each value reference, through the getter of its FMI 3.0 type,
     # is the start the description declares there
