@@ -100,8 +100,10 @@ def law_spec(law: type[Law], identifier: str, model_source: str, n_state: int, n
     n_params = len(v)
     for name, text in law.inputs.items():
         v.append(Variable(name, REAL, INPUT, text, 0.0, _unit(text)))
+    # a sampled law's outputs are held between samples: discrete, changing only at its sample instants
+    held = None if law.continuous else "discrete"
     for k, (name, text) in enumerate(law.outputs.items()):
-        v.append(Variable(name, REAL, OUTPUT, text, unit=_unit(text), level=1, slot=k))
+        v.append(Variable(name, REAL, OUTPUT, text, unit=_unit(text), level=1, slot=k, variability=held))
     state = (("started", 1), ("t0", 1), ("t", 1), ("samples", 1), ("out", len(law.outputs)), ("law", n_state),
              ("end", 0))
     lines = (law.__doc__ or law.__name__).strip().splitlines()
@@ -178,12 +180,37 @@ def sensor_spec(law: type[AnalogSensor], identifier: str | None = None) -> Model
                     bounds={"seed": (0, INT_MAX)})
 
 
-def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) -> ModelSpec:
+# what a trajectory drives -> the unit of its positions (speeds, accelerations, limits: per s, s2, s3)
+QUANTITIES = {"angle": "rad", "length": "m"}
+
+
+def _in_quantity(spec: ModelSpec, quantity: str) -> ModelSpec:
+    """A trajectory's variables in the unit of what it drives: rad for an angle (the law's own), m for a length."""
+    if quantity not in QUANTITIES:
+        raise SceneError("quantity", f"a trajectory drives an {' or a '.join(QUANTITIES)}, got {brief(quantity)}")
+    to = QUANTITIES[quantity]
+
+    def convert(v: Variable) -> Variable:
+        if not v.description.rstrip().endswith("]"):
+            return v
+        old = v.description[v.description.rindex("[") + 1:v.description.rindex("]")]
+        if not old.startswith("rad"):
+            return v
+        new = to + old[3:]
+        return replace(v, description=v.description[:v.description.rindex("[")] + f"[{new}]",
+                       unit=new if new in UNITS else None)
+
+    return spec if to == "rad" else replace(spec, variables=tuple(convert(v) for v in spec.variables))
+
+
+def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None, quantity: str = "angle") -> ModelSpec:
     """Trajectory.fmu: :class:`~grubler.controllers.trajectory.Trajectory` over ``ctl_trajectory.c``.
 
     Without ``times`` the kinds are constant, trapezoid, scurve and sine; with
     them the FMU serves 'table' too, its points parameters ``times[k]`` and
-    ``positions[k]`` (k from 1) starting at these values.
+    ``positions[k]`` (k from 1) starting at these values.  ``quantity`` (a key
+    of :data:`QUANTITIES`) is what it drives: an ``angle`` (rad, rad/s, ...) or
+    a ``length`` (a cylinder's: m, m/s, ...), the unit of its positions.
     """
     n = 0 if times is None else len(times)
     extra = ()
@@ -193,9 +220,10 @@ def trajectory_spec(identifier: str = "Trajectory", times=None, positions=None) 
         extra += tuple(Variable(f"positions[{k + 1}]", REAL, PARAMETER, "table: position at that time [rad]",
                                 float(x), "rad") for k, x in enumerate(positions))
     plan = (ctypes.sizeof(native.Move) + 7) // 8
-    return law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
-                    choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
-                    leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n})
+    return _in_quantity(law_spec(Trajectory, identifier, "trajectory_law.c", 0, plan + 2 * n,
+                                 choices={"kind": KINDS if n else KINDS[:-1]}, bounds={"repeat": (0, INT_MAX)},
+                                 leave_out=("times", "positions"), extra=extra, defines={"TRAJECTORY_POINTS": n}),
+                        quantity)
 
 
 def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> ModelSpec:
@@ -243,7 +271,10 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
     # as every control FMU's, a description ends in its unit ([1]: none, or a joint's that slides or turns)
     extra = tuple(v if v.description.endswith("]") else replace(v, description=f"{v.description} [{v.unit or '1'}]")
                   for v in (plant[x] for x in scene_names))
-    spec = law_spec(ComputedTorque, identifier, "computed_torque_law.c", n, tables + defines["CT_WORK_SIZE"],
+    # the scratch (the kernel's tables and workspace) and, of the same layout, law_check's own working memory:
+    # the workspace grows with the links squared (400 kB at 63 links), too much for an importer's thread stack
+    defines["LAW_N_CHECK"] = tables + defines["CT_WORK_SIZE"]
+    spec = law_spec(ComputedTorque, identifier, "computed_torque_law.c", n, defines["LAW_N_CHECK"],
                     leave_out=("mechanism",), extra=extra, defines=defines)
     variables = tuple(replace(v, start=float(m.drive_inertia)) if v.name == "drive_inertia" else v
                       for v in spec.variables)
@@ -518,7 +549,9 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
     with tempfile.TemporaryDirectory(prefix="grubler_law_") as tmp:
         staged = Path(tmp) / "law_step.c"  # a fixed name: the user's cannot shadow one of the FMU's own files
         staged.write_text(text, encoding="utf-8")  # what was read and checked, not the file as it is now
-        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, defines=defines)
+        # the scratch: user_law.c's working copy of the state and the outputs (not on the stack)
+        spec = law_spec(law, identifier_for(dest), "user_law.c", law.n_state, law.n_state + len(law.outputs),
+                        defines=defines)
         spec = replace(spec, kernel_sources=(*spec.kernel_sources, "user_law", (Path(tmp), ("law_step.c",))))
         try:
             return build_fmu(spec, dest)
@@ -530,25 +563,26 @@ def export_law(source: str | Path, dest: str | Path | None = None, field: str = 
             raise SceneError("law", found) from None
 
 
-def export_profile(profile, dest: str | Path, field: str = "output") -> Path:
+def export_profile(profile, dest: str | Path, field: str = "output", quantity: str = "angle") -> Path:
     """A native Trajectory FMU of kind 'table' whose points are a CSV profile's (:func:`~grubler.controllers.trajectory.read_profile`).
 
     The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
-    ``kind`` starts at 'table'.
+    ``kind`` starts at 'table'; ``quantity``: what it drives (:func:`trajectory_spec`).
     """
     times, positions = read_profile(profile)
-    return export_table(times, positions, dest, field)
+    return export_table(times, positions, dest, field, quantity)
 
 
-def export_table(times, positions, dest: str | Path, field: str = "output") -> Path:
+def export_table(times, positions, dest: str | Path, field: str = "output", quantity: str = "angle") -> Path:
     """A native Trajectory FMU of kind 'table' through the points (``times`` [s], ``positions``).
 
     The points become the FMU's parameters ``times[k]``, ``positions[k]``; its
-    ``kind`` starts at 'table'.
+    ``kind`` starts at 'table'; ``quantity``: what it drives, an ``angle``
+    (positions in rad) or a ``length`` (in m: a cylinder's), :func:`trajectory_spec`.
     """
     dest = Path(dest)
     check_destination(dest, field)
-    spec = trajectory_spec(identifier_for(dest), times, positions)
+    spec = trajectory_spec(identifier_for(dest), times, positions, quantity)
     spec = replace(spec, variables=tuple(replace(v, start="table") if v.name == "kind" else v for v in spec.variables))
     return build_fmu(spec, dest)
 
@@ -566,7 +600,8 @@ def build_native_law(name: str, dest: str | Path) -> Path:
     return build_fmu(SPECS[name](), target)
 
 
-__all__ = ["ENCODER_CAPACITY", "LINEAR_DEFAULT", "SPECS", "build_native_law", "cascade_spec", "computed_torque_spec",
-           "export_computed_torque", "encoder_spec", "export_law", "export_profile", "linear_default", "linear_spec",
+__all__ = ["ENCODER_CAPACITY", "LINEAR_DEFAULT", "QUANTITIES", "SPECS", "build_native_law", "cascade_spec",
+           "computed_torque_spec", "export_computed_torque", "encoder_spec", "export_law", "export_profile",
+           "linear_default", "linear_spec",
            "read_c_law", "law_spec", "pid_spec", "sensor_spec",
            "trajectory_spec"]

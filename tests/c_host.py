@@ -29,6 +29,6 @@ def compile_host(out: Path, fmi: int = 2, flags=("-std=c99", "-O2"), compiler=("
     """
     from grubler.fmi.build import fmi_headers_dir
 
-    subprocess.run([*compiler, *flags, f"-DHOST_FMI={fmi}", "-D_POSIX_C_SOURCE=199309L", "-I", str(fmi_headers_dir()),
-                    str(SOURCE), "-o", str(out), *([] if out.suffix == ".exe" else ["-ldl"])], check=True)
+    subprocess.run([*compiler, *flags, f"-DHOST_FMI={fmi}", "-D_POSIX_C_SOURCE=200809L", "-I", str(fmi_headers_dir()),
+                    str(SOURCE), "-o", str(out), *([] if out.suffix == ".exe" else ["-ldl", "-pthread"])], check=True)
     return out

@@ -4,8 +4,16 @@
  * same script language and print the same output, so one script runs an
  * FMU's FMI 2.0 and FMI 3.0 builds alike.
  *
- *     fmi_host LIBRARY GUID [RESOURCES_URI] < script
- *     fmi3_host LIBRARY INSTANTIATION_TOKEN < script
+ *     fmi_host [--stack BYTES] LIBRARY GUID [RESOURCES_URI] < script
+ *     fmi3_host [--stack BYTES] LIBRARY INSTANTIATION_TOKEN < script
+ *
+ * --stack runs the script on a thread of its own whose stack is BYTES long
+ * (POSIX only), as an importer that steps FMUs from a secondary thread does
+ * (macOS gives those 512 kB): below the stack lies a guard page, so an FMU
+ * that needs more crashes the host rather than writing past it, and after
+ * the script a last line "stack USED" says how many bytes of it the run
+ * touched (the stack is painted before, the untouched paint counted after;
+ * the host's own frames and the thread's TLS included).
  *
  * (RESOURCES_URI, e.g. file:///tmp/x/resources, for an FMU that reads its
  * resources: the container FMU of a system) loads the FMU's binary (dlopen, or LoadLibrary when built with MinGW) and runs
@@ -44,7 +52,7 @@
 #if HOST_FMI == 3
 #include "fmi3Functions.h"
 #define HOST_NAME "fmi3_host"
-#define HOST_USAGE "LIBRARY INSTANTIATION_TOKEN"
+#define HOST_USAGE "[--stack BYTES] LIBRARY INSTANTIATION_TOKEN"
 #define HOST_FUNCTIONS(X) \
     X(instantiate, fmi3InstantiateCoSimulation) X(free_instance, fmi3FreeInstance) \
     X(enter, fmi3EnterInitializationMode) X(exit, fmi3ExitInitializationMode) X(terminate, fmi3Terminate) \
@@ -65,7 +73,7 @@ typedef fmi3Byte Byte;
 #elif HOST_FMI == 2
 #include "fmi2Functions.h"
 #define HOST_NAME "fmi_host"
-#define HOST_USAGE "LIBRARY GUID [RESOURCES_URI]"
+#define HOST_USAGE "[--stack BYTES] LIBRARY GUID [RESOURCES_URI]"
 #define HOST_FUNCTIONS(X) \
     X(instantiate, fmi2Instantiate) X(free_instance, fmi2FreeInstance) X(setup, fmi2SetupExperiment) \
     X(enter, fmi2EnterInitializationMode) X(exit, fmi2ExitInitializationMode) X(terminate, fmi2Terminate) \
@@ -111,6 +119,9 @@ static double now(void) {
 }
 #else
 #include <dlfcn.h>
+#include <pthread.h>
+#include <sys/mman.h>
+#include <unistd.h>
 static void *open_library(const char *path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
 static void *symbol(void *lib, const char *name) { return dlsym(lib, name); }
 static double now(void) {
@@ -185,38 +196,16 @@ static int read_references(const char *p, ValueReference *vr, int max) {
 }
 
 #define LOAD(field, name) f.field = (name##TYPE *)symbol(lib, #name);
+#define LINE_CHARS 65536
 
-int main(int argc, char **argv) {
-    void *lib;
-    Fmu f;
+/* The script from stdin, one command a line. */
+static void run_script(Fmu *fmu) {
+    Fmu f = *fmu;
     Instance inst[16] = {0}, c = NULL;
     State saved[16] = {0};
-    char line[65536], cmd[64];
-    if (argc != 3 && !(HOST_FMI == 2 && argc == 4)) {
-        fprintf(stderr, "usage: " HOST_NAME " " HOST_USAGE " < script\n");
-        return 2;
-    }
-    lib = open_library(argv[1]);
-    if (lib == NULL) {
-        fprintf(stderr, "cannot load %s\n", argv[1]);
-        return 2;
-    }
-    memset(&f, 0, sizeof f);
-    HOST_FUNCTIONS(LOAD)
-    f.token = argv[2];
-    f.resources = argc == 4 ? argv[3] : "";
-#if HOST_FMI == 3
-    if (!f.instantiate || !f.do_step || !f.deserialize || !f.get_int64) {
-#else
-    f.callbacks.logger = logger;
-    f.callbacks.allocateMemory = calloc;
-    f.callbacks.freeMemory = free;
-    if (!f.instantiate || !f.do_step || !f.deserialize) {
-#endif
-        fprintf(stderr, "missing fmi%d symbols\n", HOST_FMI);
-        return 2;
-    }
-    while (fgets(line, sizeof line, stdin)) {
+    char *line = (char *)malloc(LINE_CHARS), cmd[64];  /* not on the stack: --stack measures the FMU's */
+    if (line == NULL) return;
+    while (fgets(line, LINE_CHARS, stdin)) {
         char *rest;
         int n = 0, k, s = STATUS_OK;
         if (sscanf(line, "%63s%n", cmd, &n) != 1) continue;
@@ -419,5 +408,92 @@ int main(int argc, char **argv) {
             for (j = k + 1; j < 16; j++) if (inst[j] == inst[k]) inst[j] = NULL;
         }
     }
+    free(line);
+}
+
+#ifndef _WIN32
+#define PAINT 0xA5
+
+static void *script_thread(void *fmu) {
+    run_script((Fmu *)fmu);
+    return NULL;
+}
+
+/* The script on a thread with a stack of `bytes` (rounded up to pages) above
+ * a guard page; the bytes of the stack the run touched, or -1 if no such
+ * thread could be made.  Stacks grow down on every platform the FMUs ship for. */
+static long run_on_stack(Fmu *f, size_t bytes) {
+    size_t page = (size_t)sysconf(_SC_PAGESIZE), size = (bytes + page - 1) / page * page, k;
+    void *mem = NULL;
+    unsigned char *stack;
+    pthread_attr_t attr;
+    pthread_t thread;
+    int made;
+    if (posix_memalign(&mem, page, size + page) != 0) return -1;
+    stack = (unsigned char *)mem + page;
+    memset(stack, PAINT, size);
+    if (mprotect(mem, page, PROT_NONE) != 0) {
+        free(mem);
+        return -1;
+    }
+    pthread_attr_init(&attr);
+    made = pthread_attr_setstack(&attr, stack, size) == 0 && pthread_create(&thread, &attr, script_thread, f) == 0;
+    pthread_attr_destroy(&attr);
+    if (made) pthread_join(thread, NULL);
+    for (k = 0; k < size && stack[k] == PAINT; k++) continue;
+    mprotect(mem, page, PROT_READ | PROT_WRITE);
+    free(mem);
+    return made ? (long)(size - k) : -1;
+}
+#endif
+
+int main(int argc, char **argv) {
+    void *lib;
+    Fmu f;
+    long stack = 0, asked = 0;
+    if (argc > 2 && !strcmp(argv[1], "--stack")) {
+        stack = asked = atol(argv[2]);
+        argc -= 2;
+        argv += 2;
+    }
+    if ((argc != 3 && !(HOST_FMI == 2 && argc == 4)) || stack < 0) {
+        fprintf(stderr, "usage: " HOST_NAME " " HOST_USAGE " < script\n");
+        return 2;
+    }
+    lib = open_library(argv[1]);
+    if (lib == NULL) {
+        fprintf(stderr, "cannot load %s\n", argv[1]);
+        return 2;
+    }
+    memset(&f, 0, sizeof f);
+    HOST_FUNCTIONS(LOAD)
+    f.token = argv[2];
+    f.resources = argc == 4 ? argv[3] : "";
+#if HOST_FMI == 3
+    if (!f.instantiate || !f.do_step || !f.deserialize || !f.get_int64) {
+#else
+    f.callbacks.logger = logger;
+    f.callbacks.allocateMemory = calloc;
+    f.callbacks.freeMemory = free;
+    if (!f.instantiate || !f.do_step || !f.deserialize) {
+#endif
+        fprintf(stderr, "missing fmi%d symbols\n", HOST_FMI);
+        return 2;
+    }
+    if (stack == 0) {
+        run_script(&f);
+        return 0;
+    }
+#ifdef _WIN32
+    fprintf(stderr, "--stack: POSIX threads only\n");
+    return 2;
+#else
+    stack = run_on_stack(&f, (size_t)stack);
+    if (stack < 0) {
+        fprintf(stderr, "cannot make a thread with a stack of %ld bytes\n", asked);
+        return 2;
+    }
+    printf("stack %ld\n", stack);
     return 0;
+#endif
 }

@@ -13,6 +13,7 @@ it is absent (docs/fmi.md says how to build it).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -161,6 +162,23 @@ def test_the_fmi3_description_declares_fmi3_types_units_structure_and_capabiliti
     assert len(md.outputs) == len(md.initialUnknowns) == len(outputs(md))
     files = md.buildConfigurations[0].sourceFileSets[0].sourceFiles  # sources/buildDescription.xml
     assert "fmi3_wrapper.c" in files and "mechanism_model.c" in files and "fmi2_wrapper.c" not in files
+
+
+@EVERY
+def test_fmi3_variability_and_default_step_say_what_the_fmi2_build_says(built2, built3, name):
+    # a sampled law's outputs are discrete Float64s (legal in FMI 3.0 co-simulation without event mode: they
+    # change only inside fmi3DoStep, at its sample instants); its default step is its sample time Ts.  No
+    # clock: a periodic clock would need event mode (or scheduled execution), which these FMUs do not have
+    md3 = ET.fromstring(zipfile.ZipFile(built3[name][0]).read("modelDescription.xml"))
+    md2 = ET.fromstring(zipfile.ZipFile(built2[name][0]).read("modelDescription.xml"))
+    two = {v.get("name"): v.get("variability") for v in md2.iter("ScalarVariable")}
+    three = {v.get("name"): v.get("variability") for v in md3.find("ModelVariables") if v.get("name") != "time"}
+    assert three == two
+    outs = [v.get("variability") for v in md3.find("ModelVariables") if v.get("causality") == "output"]
+    sampled = name in ("PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "ComputedTorque")
+    assert set(outs) == {"discrete" if sampled else "continuous"}, (name, outs)
+    assert md3.find("DefaultExperiment").get("stepSize") == md2.find("DefaultExperiment").get("stepSize")
+    assert md3.find("ModelVariables/Clock") is None
 
 
 @EVERY
@@ -376,7 +394,8 @@ def _refused_then_reset_works(h, md, lines: list[str], cmd: str, *reasons: str) 
     assert t.statuses(cmd)[-1] == ERROR
     for r in reasons:
         assert t.logged(r), (r, t.logs)
-    assert t.statuses("getr")[-1] == ERROR and t.logged("only fmi3Reset and fmi3FreeInstance are allowed now")
+    assert t.statuses("getr")[-1] == ERROR
+    assert t.logged("only fmi3Reset, fmi3FreeInstance and fmi3SetFMUState (a state saved before the error) are allowed")
     assert t.statuses("reset") == [OK] and t.statuses("run") == [OK]
     return t
 
@@ -562,3 +581,174 @@ def test_grubler_export_fmi3_and_a_bad_version(tmp_path):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "--fmi" in proc.stderr
 
 
+# -- a small thread stack: every FMU stepped where an importer's secondary thread would -------------
+# macOS gives a secondary thread 512 kB; the host's thread here has half that, a guard page below it
+SMALL_STACK = 256 * 1024
+# what a run may touch of it, the host's own frames included: a few kB of FMU, never an array of the state
+STACK_BUDGET = 64 * 1024
+# a law at export-law's limit of state (MAX_LAW_STATE doubles, 800 kB): each sample walks it all; a
+# sample with an input below -1e6 is refused (law_step returns non-zero)
+BIG_LAW = """#include "grubler_law.h"
+GRUBLER_PARAMETER(Ts, 1e-3, "sample time [s]")
+GRUBLER_INPUT(u, "input [1]")
+GRUBLER_OUTPUT(y, "the mean of the inputs so far [1]")
+GRUBLER_STATE({n})
+
+int law_step(const double *param, double *state, double t, const double *in, double *out) {{
+    int k;
+    (void)param;
+    (void)t;
+    if (in[INPUT_u] < -1e6) return 1;
+    state[0] += 1.0;
+    state[1] += in[INPUT_u];
+    for (k = {n} - 1; k > 1; k--) state[k] = state[k - 1];
+    out[OUTPUT_y] = state[1] / state[0];
+    return 0;
+}}
+"""
+
+
+@pytest.fixture(scope="session")
+def big_law(tmp_path_factory):
+    """A user's law exported with GRUBLER_STATE at export-law's limit (FMI 2.0: export-law's only version)."""
+    from fmpy import read_model_description
+
+    from grubler.controllers.native_fmu import MAX_LAW_STATE, export_law
+
+    d = tmp_path_factory.mktemp("big_law")
+    (d / "big_law.c").write_text(BIG_LAW.format(n=MAX_LAW_STATE))
+    path = export_law(d / "big_law.c", d / "BigLaw.fmu")
+    zipfile.ZipFile(path).extractall(d / "x")
+    return path, d / "x", read_model_description(str(path))
+
+
+def _small_stack(h: Host) -> Host:
+    h.cmd[1:1] = ["--stack", str(SMALL_STACK)]
+    return h
+
+
+def _every_native(hosts, built2, built3, big_law) -> list[tuple[str, Host, object]]:
+    """(label, host, description) of every native FMU: build_fmu.py's in FMI 2.0 and 3.0, and the big law."""
+    out = [(f"{name} FMI {fmi}", (host2 if fmi == 2 else host3)(hosts, built, name), built[name][2])
+           for fmi, built in ((2, built2), (3, built3)) for name in NATIVE]
+    path, d, md = big_law
+    out.append(("BigLaw FMI 2", Host(hosts[2], d / "binaries" / "linux64" / "BigLaw.so", md.guid,
+                                     {v.name: v.valueReference for v in md.modelVariables}), md))
+    return out
+
+
+def _inputs(label: str, h: Host) -> list[str]:
+    name = label.split()[0]
+    held = {**INPUTS, "BigLaw": {"u": 0.5}}.get(name, {})
+    return [f"setr {h.vr[k]} {v!r}" for k, v in held.items()]
+
+
+def test_every_native_fmu_runs_on_a_256_kb_thread_stack_as_on_the_main_thread(hosts, built2, built3, big_law,
+                                                                               tmp_path):
+    # instantiate, initialise, step with every output read, save, serialise, deserialise, restore and step
+    # again, free: on a thread of 256 kB (env -i), the numbers those of the main thread's 8 MB
+    used = {}
+    for label, h, md in _every_native(hosts, built2, built3, big_law):
+        blob = tmp_path / f"{label.replace(' ', '_')}.bin"
+        script = (h.start(md=md) + _inputs(label, h) + [h.run_steps(0.0, 0.01, 20, *outputs(md)), "save 0",
+                                                        f"ser 0 {blob}", h.run_steps(0.2, 0.01, 10, *outputs(md)),
+                                                        f"deser 1 {blob}", "load 1",
+                                                        h.run_steps(0.2, 0.01, 10, *outputs(md)), "free"])
+        main = h.run(script)
+        small = _small_stack(h).run(script)
+        assert small.statuses("run") == [OK, OK, OK], (label, small.logs)
+        assert small.statuses("ser") == small.statuses("deser") == small.statuses("load") == [OK], label
+        assert np.array_equal(small.rows(), main.rows(), equal_nan=True), label
+        assert small.lines[-1].startswith("stack "), label
+        used[label] = int(small.lines[-1].split()[1])
+    assert len(used) == 2 * len(NATIVE) + 1
+    assert max(used.values()) < STACK_BUDGET, used
+
+
+def test_a_law_whose_state_copy_sat_on_the_stack_needed_800_kb_of_it(hosts, big_law):
+    # the check holds: the host's thread is what an FMU gets, so a law that copied its state onto the stack
+    # (user_law.c before: double s[N_STATE]) would have died on it; its run touches a few kB
+    path, d, md = big_law
+    h = _small_stack(Host(hosts[2], d / "binaries" / "linux64" / "BigLaw.so", md.guid,
+                          {v.name: v.valueReference for v in md.modelVariables}))
+    t = h.run(h.start(md=md) + [f"setr {h.vr['u']} 2.0", h.run_steps(0.0, 1e-3, 5, "y")])
+    assert t.statuses("run") == [OK] and t.rows()[-1, 1] == 2.0
+    assert int(t.lines[-1].split()[1]) < STACK_BUDGET
+
+
+def test_no_function_of_a_native_fmu_keeps_more_than_8_kb_on_its_stack(built2, big_law, tmp_path):
+    # every C file an FMU ships in sources/, compiled as the FMU is, with the compiler's frame size check: a
+    # regression names the function (gcc's -Wstack-usage also counts an alloca or a variable-length array)
+    from grubler.fmi.build import CFLAGS
+
+    cc = shutil.which("gcc") or shutil.which("cc")
+    check = "-Wstack-usage=8192" if "gcc" in Path(cc).name else "-Wframe-larger-than=8192"
+    folders = [d / "sources" for _, d, _ in built2.values()] + [big_law[1] / "sources"]
+    for src in folders:
+        for c in sorted(src.glob("*.c")):
+            proc = subprocess.run([cc, *CFLAGS, check, "-Werror", "-c", str(c), "-o", str(tmp_path / "x.o"),
+                                   "-I", str(src)], capture_output=True, text=True)
+            assert proc.returncode == 0, f"{src.parent.name}/{c.name}:\n{proc.stderr[-2000:]}"
+
+
+# -- back from an Error: a state saved before it restores, and the run goes on -------------------------
+
+def test_after_an_error_a_restored_state_runs_on_as_the_run_never_interrupted(hosts, built2, built3, big_law):
+    # FMI 2.0 section 2.1.3, FMI 3.0 section 2.2.3: after fmiXError the importer may restore an FMU state
+    # saved before it.  The error here: a value reference the model does not have (every FMU), and for the
+    # law a sample law_step refuses, after which the law's state is half advanced
+    for label, h, md in _every_native(hosts, built2, built3, big_law):
+        fmi = label.split()[-1]
+        outs = outputs(md)
+        head = h.start(md=md) + _inputs(label, h) + [h.run_steps(0.0, 0.01, 10, *outs)]
+        whole = h.run(head + [h.run_steps(0.1, 0.01, 10, *outs)])
+        bad = ["getr 99999"] if not label.startswith("BigLaw") else [f"setr {h.vr['u']} -1e9", "step 0.13 0.01"]
+        t = h.run(head + ["save 0", h.run_steps(0.1, 0.01, 3, *outs)] + _inputs(label, h) + bad
+                  + [h.getr(outs[0]), "save 1", "load 1", "load 0", h.run_steps(0.1, 0.01, 10, *outs)])
+        assert t.statuses(bad[-1].split()[0])[-1] == ERROR, (label, t.logs)
+        assert t.statuses("getr")[-1] == ERROR and t.logged("fmi%sSetFMUstate" % fmi if fmi == "2" else
+                                                            "fmi3SetFMUState (a state saved before the error)")
+        # a state may be saved in the error state, but not restored: it holds what failed
+        assert t.statuses("save") == [OK, OK] and t.statuses("load") == [ERROR, OK], (label, t.logs)
+        assert t.logged("the state was saved in the error state"), label
+        assert t.statuses("run") == [OK, OK, OK], (label, t.logs)
+        assert np.array_equal(t.rows()[-10:], whole.rows()[-10:], equal_nan=True), label
+
+
+# -- a scene number beyond the scene reader's bound ------------------------------------------------
+
+@pytest.fixture(scope="session")
+def boom(hosts, tmp_path_factory):
+    """luffing-boom (a cylinder, the actuator 'lift') exported as FMI 2.0 and 3.0, and a host for each."""
+    from fmpy import read_model_description
+
+    from grubler.fmi.build import export
+    from grubler.mechanism.scene import load_scene
+
+    out = {}
+    for fmi in (2, 3):
+        d = tmp_path_factory.mktemp(f"boom{fmi}")
+        path = export(load_scene("luffing-boom"), d / "Boom.fmu", fmi=fmi)
+        zipfile.ZipFile(path).extractall(d / "x")
+        md = read_model_description(str(path))
+        lib = d / "x" / "binaries" / ("linux64" if fmi == 2 else "x86_64-linux") / "Boom.so"
+        out[fmi] = ((Host if fmi == 2 else Host3)(hosts[fmi], lib, md.guid,
+                                                  {v.name: v.valueReference for v in md.modelVariables}), md)
+    return out
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("name, value", [("lift.from_point_x", 1e300), ("lift.to_point_y", -2e12),
+                                         ("link2.a", 1e13)])
+def test_a_scene_number_beyond_the_scene_readers_bound_is_an_error_naming_it(boom, fmi, name, value):
+    # fmi2SetReal(lift.from_point_x, 1e300) was taken, and lift_length then read inf with fmi2OK
+    h, md = boom[fmi]
+    t = h.run(h.start({name: value}, md=md) + [h.getr("lift_length"), "reset", *h.start(md=md),
+                                               h.run_steps(0.0, 0.01, 3, "lift_length")])
+    assert t.statuses("exit")[0] == ERROR and t.statuses("getr") == [ERROR], t.logs
+    assert t.logged(f"{name}: magnitude above 1e+12 is outside the supported range, got {value:g}"), t.logs
+    assert t.statuses("exit")[1] == OK and t.statuses("run") == [OK]
+    assert np.isfinite(t.rows()[:, 1]).all()
+    # at the bound itself the number is taken (the scene reader's too), and refused for what it means
+    t = h.run(h.start({name: math.copysign(1e12, value)}, md=md))
+    assert not t.logged("outside the supported range"), t.logs

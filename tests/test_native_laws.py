@@ -144,6 +144,66 @@ def test_fmpy_validate_passes_and_the_variables_are_the_laws(built, name):
     assert all(u.dependencies == [] for u in md.outputs)  # held outputs: no feed-through
 
 
+@pytest.mark.parametrize("name", LAWS)
+def test_a_sampled_laws_outputs_are_discrete_and_its_sample_time_the_default_step(built, name):
+    # a sampled law's outputs hold between its samples: discrete (FMI 2.0 allows a discrete Real output,
+    # initial calculated; fmpy validate above agrees); its sample time Ts (a fixed parameter, in s) is the
+    # DefaultExperiment's stepSize, which fmpy's simulate_fmu and fmusim take as their communication step.
+    # The trajectory, a law of time alone, is continuous and keeps the default step
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(zipfile.ZipFile(built[name][0]).read("modelDescription.xml"))
+    by = {v.get("name"): v for v in root.iter("ScalarVariable")}
+    sampled = not CLASSES[name].continuous
+    for out in CLASSES[name].outputs:
+        v = by[out]
+        assert (v.get("causality"), v.get("variability"), v.get("initial")) == (
+            "output", "discrete" if sampled else "continuous", "calculated"), out
+    step = float(root.find("DefaultExperiment").get("stepSize"))
+    if sampled:
+        ts = by["Ts"]
+        assert (ts.get("causality"), ts.get("variability"), ts.find("Real").get("unit")) == ("parameter", "fixed", "s")
+        start = float(ts.find("Real").get("start"))
+        # (Ts = 0: once per communication step, which the default step then is)
+        assert step == (start if start > 0 else 0.001), (name, start)
+    else:
+        assert name == "Trajectory" and step == 0.001
+
+
+def test_fmpy_simulates_a_sampled_law_at_its_sample_time(built):
+    # what an importer does with the declaration: fmpy steps once per sample, the outputs change at each
+    from fmpy import simulate_fmu
+
+    res = simulate_fmu(str(built["PID"][0]), stop_time=0.02, start_values={"setpoint": 1.0, "Ti": 0.01,
+                                                                           "u_max": 100.0})
+    assert np.allclose(np.diff(res["time"]), 1e-3)
+    assert np.all(np.diff(res["u"][1:]) > 0)  # the integral's ramp: a new value at every sample
+
+
+def test_a_table_trajectory_that_drives_a_length_says_metres(tmp_path):
+    # the trajectory of a cylinder's length (cylinder_check builds one) was declared in rad
+    import xml.etree.ElementTree as ET
+
+    from fmpy.validation import validate_fmu
+
+    from grubler.controllers.native_fmu import export_table
+
+    units = {}
+    for quantity in ("length", "angle"):
+        path = export_table([0.0, 0.5, 1.0], [0.1, 0.3, 0.2], tmp_path / f"{quantity}.fmu", quantity=quantity)
+        assert validate_fmu(str(path)) == []
+        root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
+        units[quantity] = {v.get("name"): (v.find("Real").get("unit"), v.get("description"))
+                           for v in root.iter("ScalarVariable") if v.find("Real") is not None}
+    length, angle = units["length"], units["angle"]
+    assert length["position"] == ("m", "position setpoint [m]") and angle["position"][0] == "rad"
+    assert length["velocity"][0] == "m/s" and length["acceleration"][0] == "m/s2"
+    assert length["positions[2]"][0] == length["start"][0] == length["distance"][0] == "m"
+    assert length["j_max"][1].endswith("[m/s3]") and length["delay"][0] == angle["delay"][0] == "s"
+    with pytest.raises(grubler.SceneError, match=r"quantity: a trajectory drives an angle or a length, got 'volume'"):
+        export_table([0.0, 1.0], [0.0, 1.0], tmp_path / "v.fmu", quantity="volume")
+
+
 # -- the C host, empty environment, against the library ------------------------------
 
 @pytest.mark.parametrize("name, step, n", [("PID", 2e-3, 150), ("PID", 0.25e-3, 600), ("Encoder", 1e-3, 400),

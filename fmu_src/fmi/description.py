@@ -81,12 +81,12 @@ def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
             for k, (item, text) in enumerate(e.items, start=1):
                 ET.SubElement(en, "Item", {"name": item, "value": str(k), "description": text})
 
-    _log_categories_and_experiment(root)
+    _log_categories_and_experiment(root, spec)
 
     mv = ET.SubElement(root, "ModelVariables")
     for k, v in enumerate(spec.variables, start=1):
         attrs = {"name": v.name, "valueReference": str(k), "description": described(v), "causality": v.causality,
-                 "variability": "fixed" if v.causality == PARAMETER else "continuous"}
+                 "variability": "fixed" if v.causality == PARAMETER else v.variability or "continuous"}
         if v.causality == PARAMETER:
             attrs["initial"] = "exact"
         elif v.causality == OUTPUT:
@@ -133,11 +133,24 @@ def _units(root, spec: ModelSpec, also: set = frozenset()) -> None:
         ET.SubElement(unit, "BaseUnit", base)
 
 
-def _log_categories_and_experiment(root) -> None:
+def sample_time(spec: ModelSpec) -> float | None:
+    """A sampled law's sample time at its start (its parameter at LAW_TS_SLOT, Ts), None for any other model
+    or a law sampled once per communication step (Ts = 0)."""
+    if spec.defines.get("LAW_CONTINUOUS", 1) or "LAW_TS_SLOT" not in spec.defines:
+        return None
+    ts = next(float(v.start) for v in spec.variables if v.causality == PARAMETER and v.slot == spec.defines["LAW_TS_SLOT"])
+    return ts if ts > 0 else None
+
+
+def _log_categories_and_experiment(root, spec: ModelSpec) -> None:
     cats = ET.SubElement(root, "LogCategories")
     for name, text in LOG_CATEGORIES.items():
         ET.SubElement(cats, "Category", {"name": name, "description": text})
-    ET.SubElement(root, "DefaultExperiment", {"startTime": "0.0", "stopTime": "1.0", "stepSize": "0.001"})
+    # a sampled law's default communication step is its sample time: an importer that takes the default
+    # (fmpy's simulate_fmu and fmusim read stepSize) steps once per sample (docs/fmi.md)
+    ts = sample_time(spec)
+    ET.SubElement(root, "DefaultExperiment", {"startTime": "0.0", "stopTime": "1.0",
+                                              "stepSize": _num(ts) if ts is not None else "0.001"})
 
 
 def _outputs(spec: ModelSpec):
@@ -192,7 +205,7 @@ def fmi3_model_description(spec: ModelSpec) -> bytes:
             et = ET.SubElement(types, "EnumerationType", {"name": e.name, "description": e.description})
             for k, (item, text) in enumerate(e.items, start=1):
                 ET.SubElement(et, "Item", {"name": item, "value": str(k), "description": text})
-    _log_categories_and_experiment(root)
+    _log_categories_and_experiment(root, spec)
 
     mv = ET.SubElement(root, "ModelVariables")
     ET.SubElement(mv, "Float64", {"name": "time", "valueReference": "0", "causality": "independent",
@@ -200,7 +213,7 @@ def fmi3_model_description(spec: ModelSpec) -> bytes:
     for k, v in enumerate(spec.variables, start=1):
         attrs = {"name": v.name, "valueReference": str(k), "description": described(v), "causality": v.causality,
                  "variability": "fixed" if v.causality == PARAMETER else
-                 ("continuous" if v.type == REAL else "discrete")}
+                 (v.variability or "continuous" if v.type == REAL else "discrete")}
         if v.type == ENUMERATION:
             attrs["declaredType"] = v.enum.name
         if v.unit and v.type == REAL:  # (FMI 3.0 gives only floats a unit)

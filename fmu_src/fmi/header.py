@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 
 from grubler.fmi.variables import CAUSALITY_CODE, TYPE_CODE, ModelSpec
+from grubler.limits import MAX_MAGNITUDE
 
 
 def _c_string(s: str) -> str:
@@ -31,6 +32,8 @@ def config_header(spec: ModelSpec) -> str:
         f"#define MODEL_N_VARIABLES {len(spec.variables)}",
         f"#define MODEL_N_STORED {spec.n_stored}",
         f"#define MODEL_N_OUTPUTS {spec.n_outputs}",
+        "/* the largest magnitude a number from outside may have (grubler.limits.MAX_MAGNITUDE) */",
+        f"#define GRB_MAX_MAGNITUDE {MAX_MAGNITUDE!r}",
     ]
     for k, value in spec.defines.items():
         lines.append(f"#define {k} {int(value)}")

@@ -102,6 +102,10 @@ class Variable:
         names which; empty: all of them).
     slot : int
         Set by :class:`ModelSpec`.
+    variability : str, optional
+        Outputs: ``"discrete"`` for a sampled law's, held between its samples
+        (piecewise constant); None: the default of the type and causality
+        (a parameter fixed, a Real continuous).
     """
 
     name: str
@@ -118,6 +122,7 @@ class Variable:
     feedthrough: bool = False
     slot: int = -1
     depends_on: tuple[str, ...] = ()
+    variability: str | None = None
 
     @property
     def stored_start(self) -> float:

@@ -520,7 +520,8 @@ def _co_simulate(study, best, scene, actuator, fmu_dir, work, pid, settle) -> Cy
     t_end = float(d.t[-1]) + settle
     keep = np.concatenate([[True], np.diff(d.t) > 1e-9])  # a sampler's breakpoints may repeat a time
     # the native Trajectory FMU holds a table as parameters of its own build
-    table = export_table(d.t[keep], d.length[keep], Path(work) / "Trajectory_cylinder_check.fmu")
+    table = export_table(d.t[keep], d.length[keep], Path(work) / "Trajectory_cylinder_check.fmu",
+                         quantity="length")
     constants = asdict(best.candidate.cylinder())
     del constants["retracted_length"]  # the design sets it from the start
     design = CylinderServoDesign(scene, actuator=actuator, cylinder="hydraulic", constants=constants,

@@ -12,12 +12,8 @@
  * Inputs: the drive's position, velocity and acceleration.  Outputs: torque,
  * motor_torque, voltage.  State: z (N), the last sample's configuration, the
  * next one's guess.  Scratch: the kernel's link and closure tables, then its
- * workspace (CT_WORK_SIZE doubles).
- *
- * The scratch is const in law.h because a law's derived constants do not
- * change in a sample; the kernel's workspace in it is overwritten by each
- * call and carries nothing from one to the next, so law_sample writes it
- * (law_model.c owns the buffer writable). */
+ * workspace (CT_WORK_SIZE doubles), overwritten by each sample and carrying
+ * nothing from one to the next. */
 #include <math.h>
 #include <string.h>
 
@@ -32,6 +28,7 @@
 #define TABLE_CLOSURES (N * GRB_L_COLUMNS)
 #define TABLE_WORK (TABLE_CLOSURES + NC * GRB_CL_COLUMNS)
 typedef char scratch_fits[LAW_N_SCRATCH == TABLE_WORK + CT_WORK_SIZE ? 1 : -1];
+typedef char check_fits[LAW_N_CHECK == LAW_N_SCRATCH ? 1 : -1];
 typedef char state_fits[LAW_N_STATE == N ? 1 : -1];
 typedef char mobility_one[N - 2 * NC == 1 ? 1 : -1];
 
@@ -93,7 +90,7 @@ static int demand(const grb_model *m, double scale, double *work, const double *
     return st == GRB_OK ? CTL_OK : CTL_MECHANISM_REFUSED;
 }
 
-int law_check(const double *param, int *field, const char **why) {
+int law_check(const double *param, double *work, int *field, const char **why) {
     int k, i, j, revolute[N];
     for (k = 0; k < LAW_N_PARAMS; k++)
         if (!isfinite(param[k])) return ctl_refuse(k, LAW_N_PARAMS, "must be finite", field, why);
@@ -133,15 +130,16 @@ int law_check(const double *param, int *field, const char **why) {
         return ctl_refuse(SLOT_DRIVE_JOINT, LAW_N_PARAMS, "must name a real joint: the drive demand needs the "
                           "joint the drive acts on", field, why);
     {
-        /* the sketch must close with the drive held there, as the library's constructor asks */
-        double links[N * GRB_L_COLUMNS], closures[(NC > 0 ? NC : 1) * GRB_CL_COLUMNS], work[CT_WORK_SIZE];
+        /* the sketch must close with the drive held there, as the library's constructor asks; the
+         * tables and the kernel's workspace in work (LAW_N_CHECK: the scratch's layout), whose size
+         * grows with the links squared */
         double z[N], z_out[N], tau, scale;
         grb_model m;
-        if (build(param, links, closures, &m, &scale) != CTL_OK ||
-            grb_work_init(N, NC, work, CT_WORK_SIZE) != GRB_OK)
+        if (build(param, work + TABLE_LINKS, work + TABLE_CLOSURES, &m, &scale) != CTL_OK ||
+            grb_work_init(N, NC, work + TABLE_WORK, CT_WORK_SIZE) != GRB_OK)
             return ctl_refuse(SLOT_CLOSURES, LAW_N_PARAMS, "a closure's link is out of range", field, why);
         sketch(param, z);
-        if (demand(&m, scale, work, z, z[m.drive], 0.0, 0.0, z_out, &tau) != CTL_OK)
+        if (demand(&m, scale, work + TABLE_WORK, z, z[m.drive], 0.0, 0.0, z_out, &tau) != CTL_OK)
             return ctl_refuse(SLOT_Q0 + 2 * m.drive + (revolute[m.drive] ? 1 : 0), LAW_N_PARAMS,
                               "the loop cannot be closed at the sketch with the drive held there (or it is a "
                               "change point)", field, why);
@@ -178,10 +176,10 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return CTL_OK;
 }
 
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     grb_model m;
     double z[N], tau, tau_m, voltage, n = param[PARAM_gear_ratio], eta = param[PARAM_efficiency], scale;
-    double *work = (double *)scratch + TABLE_WORK; /* see the head of this file */
+    double *work = scratch + TABLE_WORK;
     int i, st;
     (void)t;
     describe(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, &m, &scale);

@@ -11,8 +11,9 @@
 typedef char params_fit[LAW_N_PARAMS * sizeof(double) == sizeof(ctl_encoder_params) ? 1 : -1];
 typedef char state_fits[LAW_N_STATE == HEAD_DOUBLES + ENCODER_CAPACITY ? 1 : -1];
 
-int law_check(const double *param, int *field, const char **why) {
+int law_check(const double *param, double *work, int *field, const char **why) {
     ctl_encoder_params p;
+    (void)work;
     memcpy(&p, param, sizeof p);
     return ctl_encoder_check(&p, (double)ENCODER_CAPACITY, field, why);
 }
@@ -41,7 +42,7 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return CTL_OK;
 }
 
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     ctl_encoder_params p;
     ctl_encoder_state s;
     double position, speed;

@@ -43,11 +43,11 @@
 #define MASK_fmi2GetIntegerStatus GRB_ANY_LIVE
 #define MASK_fmi2GetBooleanStatus GRB_ANY_LIVE
 #define MASK_fmi2GetStringStatus GRB_ANY_LIVE
-#define MASK_fmi2GetFMUstate GRB_ANY_LIVE
-#define MASK_fmi2SetFMUstate GRB_ANY_LIVE
-#define MASK_fmi2SerializedFMUstateSize GRB_ANY_LIVE
-#define MASK_fmi2SerializeFMUstate GRB_ANY_LIVE
-#define MASK_fmi2DeSerializeFMUstate GRB_ANY_LIVE
+#define MASK_fmi2GetFMUstate GRB_FMU_STATE_CALLS
+#define MASK_fmi2SetFMUstate GRB_FMU_STATE_CALLS
+#define MASK_fmi2SerializedFMUstateSize GRB_FMU_STATE_CALLS
+#define MASK_fmi2SerializeFMUstate GRB_FMU_STATE_CALLS
+#define MASK_fmi2DeSerializeFMUstate GRB_FMU_STATE_CALLS
 
 /* Every call starts here: its name and allowed states from one token. */
 #define BEGIN(F)                                              \

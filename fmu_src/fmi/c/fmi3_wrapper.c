@@ -48,11 +48,11 @@ typedef char grb_vr_is_fmi3_vr[sizeof(grb_value_reference) == sizeof(fmi3ValueRe
 #else
 #define MASK_fmi3GetDirectionalDerivative GRB_ANY_LIVE
 #endif
-#define MASK_fmi3GetFMUState GRB_ANY_LIVE
-#define MASK_fmi3SetFMUState GRB_ANY_LIVE
-#define MASK_fmi3SerializedFMUStateSize GRB_ANY_LIVE
-#define MASK_fmi3SerializeFMUState GRB_ANY_LIVE
-#define MASK_fmi3DeserializeFMUState GRB_ANY_LIVE
+#define MASK_fmi3GetFMUState GRB_FMU_STATE_CALLS
+#define MASK_fmi3SetFMUState GRB_FMU_STATE_CALLS
+#define MASK_fmi3SerializedFMUStateSize GRB_FMU_STATE_CALLS
+#define MASK_fmi3SerializeFMUState GRB_FMU_STATE_CALLS
+#define MASK_fmi3DeserializeFMUState GRB_FMU_STATE_CALLS
 #define MASK_UNSUPPORTED GRB_ANY_LIVE
 
 /* Every call starts here: its name and allowed states from one token. */

@@ -7,8 +7,10 @@
  * machine as a bit mask per call, every argument checked.  A call that breaks
  * the contract (unknown value reference, wrong type, a parameter after
  * initialisation, a call in the wrong state, a bad FMU state) logs why and
- * returns Error, and the instance then refuses everything but Reset and
- * FreeInstance: the importer never gets a crash, nor a silently ignored call.
+ * returns Error, and the instance then refuses everything but Reset,
+ * FreeInstance and the FMU state calls (restoring a state saved before the
+ * error makes it usable again, as FMI 2.0 section 2.1.3 and FMI 3.0 section
+ * 2.2.3 allow): the importer never gets a crash, nor a silently ignored call.
  *
  * The FMU state is a copy of the instance's persistent block of doubles
  * (parameters, inputs, the model's run state).  Serialised, it is a plain byte
@@ -20,7 +22,8 @@
  *   12      4     MODEL_N_STORED (parameter and input slots)
  *   16      4     doubles in the block (model_persistent_size())
  *   20      4     the state machine's state when saved: GRB_STEP_COMPLETE and
- *                 the like (fmi_model.h), 0 if not recorded
+ *                 the like (fmi_model.h; GRB_ERROR: saved after a failed
+ *                 call, never restored), 0 if not recorded
  *   24      8     FNV-1a 64 of MODEL_GUID: a state of another model is foreign
  *   32      8     FNV-1a 64 of the parameter and input slots' bytes
  *   40      8     FNV-1a 64 of the whole block's bytes
@@ -124,6 +127,14 @@ static const char *state_name(int state) {
     }
 }
 
+/* What an instance in the error state still takes. */
+static const char *way_out(const grb_instance *inst) {
+    return inst->fmi >= 3 ? "only fmi3Reset, fmi3FreeInstance and fmi3SetFMUState (a state saved before the error) "
+                            "are allowed now"
+                          : "only fmi2Reset, fmi2FreeInstance and fmi2SetFMUstate (a state saved before the error) "
+                            "are allowed now";
+}
+
 int grb_allowed(grb_instance *inst, const char *call, int mask) {
     if (inst == NULL) return 0;
     if (inst->resume && inst->state == GRB_INSTANTIATED) {
@@ -139,8 +150,8 @@ int grb_allowed(grb_instance *inst, const char *call, int mask) {
         }
     }
     if (inst->state == GRB_ERROR) {
-        grb_log(inst, GRB_FMI_ERROR, "%s refused: an earlier call failed (see the log); only fmi%dReset and "
-                "fmi%dFreeInstance are allowed now", call, inst->fmi, inst->fmi);
+        if (mask & GRB_ERROR) return 1;
+        grb_log(inst, GRB_FMI_ERROR, "%s refused: an earlier call failed (see the log); %s", call, way_out(inst));
         return 0;
     }
     if (!(inst->state & mask)) {
@@ -251,8 +262,7 @@ static int block_ok(grb_instance *inst, const char *call, const double *block) {
         }
     }
     if (model_check(inst, block) != GRB_FMI_OK) {
-        grb_log(inst, GRB_FMI_ERROR, "%s: the state is refused (see the reason above); only fmi%dReset and "
-                "fmi%dFreeInstance are allowed now", call, inst->fmi, inst->fmi);
+        grb_log(inst, GRB_FMI_ERROR, "%s: the state is refused (see the reason above); %s", call, way_out(inst));
         inst->state = GRB_ERROR;
         return 0;
     }
@@ -648,9 +658,20 @@ grb_fmi_status grb_set_state(grb_instance *inst, const char *call, const void *s
     const grb_saved *saved = (const grb_saved *)state;
     if (!ours(saved))
         return grb_fail(inst, "%s: not a state of this model (another FMU's, or not a state at all)", call);
+    if (saved->mode == GRB_ERROR)
+        return grb_fail(inst, "%s: the state was saved in the error state, after a call failed; restore one saved "
+                        "before the failure", call);
     if (!block_ok(inst, call, saved->block)) return GRB_FMI_ERROR;
     memcpy(inst->p, saved->block, model_persistent_size() * sizeof(double));
-    inst->resume = inst->state == GRB_INSTANTIATED && saved->mode == GRB_STEP_COMPLETE ? GRB_STEP_COMPLETE : 0;
+    if (inst->state == GRB_ERROR) {
+        /* out of the error state into the mode the state was saved in; a state that does not record
+         * it (0) resumes as one restored before initialisation does: stepping, unless the importer
+         * initialises */
+        inst->state = saved->mode != 0 ? saved->mode : GRB_INSTANTIATED;
+        inst->resume = saved->mode != 0 ? 0 : GRB_STEP_COMPLETE;
+    } else {
+        inst->resume = inst->state == GRB_INSTANTIATED && saved->mode == GRB_STEP_COMPLETE ? GRB_STEP_COMPLETE : 0;
+    }
     inst->dirty = 1;
     inst->level = 0;
     return GRB_FMI_OK;
@@ -725,7 +746,8 @@ grb_fmi_status grb_deserialize(grb_instance *inst, const char *call, const unsig
     if (get_u64(b + 40) != fnv1a(FNV_OFFSET, b + STATE_HEADER, 8 * n))
         return grb_fail(inst, "%s: the state's checksum does not match (corrupted state)", call);
     switch (get_u32(b + 20)) {
-    case 0: case GRB_INSTANTIATED: case GRB_INITIALIZATION: case GRB_STEP_COMPLETE: case GRB_TERMINATED: break;
+    case 0: case GRB_INSTANTIATED: case GRB_INITIALIZATION: case GRB_STEP_COMPLETE: case GRB_TERMINATED:
+    case GRB_ERROR: break;  /* (a state saved in the error state serialises; fmi2SetFMUstate refuses it) */
     default: return grb_fail(inst, "%s: the state machine's state %u is none of this FMU's (corrupted state)", call,
                              (unsigned)get_u32(b + 20));
     }

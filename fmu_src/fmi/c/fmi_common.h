@@ -15,6 +15,11 @@
 
 /* every state but the error state */
 #define GRB_ANY_LIVE (GRB_INSTANTIATED | GRB_INITIALIZATION | GRB_STEP_COMPLETE | GRB_TERMINATED)
+/* the FMU state calls (get, set, serialise, deserialise; free takes no mask): every state, the error
+ * state too.  FMI 2.0 section 2.1.3 and its co-simulation state table (section 4.2.4), FMI 3.0
+ * section 2.2.3: after an Error the importer may restore an FMU state saved before it, and the run
+ * goes on from there (a master that rolls back needs it); Reset and FreeInstance stay the other way out. */
+#define GRB_FMU_STATE_CALLS (GRB_ANY_LIVE | GRB_ERROR)
 
 /* the independent variable's value reference (FMI 3.0 declares time there; it
  * is no model variable, whose references start at 1) */

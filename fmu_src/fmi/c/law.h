@@ -13,8 +13,15 @@
  *   out      its MODEL_N_OUTPUTS outputs, held between samples
  *   state    LAW_N_STATE doubles the FMU state saves and restores: all the
  *            law remembers between samples
- *   scratch  LAW_N_SCRATCH doubles law_prepare derives from param (spline
- *            coefficients, a plan); rebuilt, never saved
+ *   scratch  LAW_N_SCRATCH doubles the FMU instance owns (heap, not the
+ *            stack): what law_prepare derives from param (spline
+ *            coefficients, a plan), and working memory law_sample may
+ *            overwrite (a kernel's workspace, a copy of the state for all or
+ *            nothing); rebuilt, never saved.  A law keeps no array larger
+ *            than a few hundred doubles on the stack: an importer may step
+ *            the FMU on a thread with a small stack (512 kB on macOS's
+ *            secondary threads), so anything sized by the law's state or
+ *            outputs lives here.
  *
  * The law's clock comes from config.h: LAW_CONTINUOUS 1 for a law of time
  * alone (evaluated at t + h), else LAW_TS_SLOT, the parameter holding the
@@ -28,8 +35,12 @@
 #include "ctl_law.h"
 #include "config.h"
 
-/* CTL_BAD_PARAMETER with *field the index of the offending parameter and *why the rule. */
-int law_check(const double *param, int *field, const char **why);
+/* CTL_BAD_PARAMETER with *field the index of the offending parameter and *why the rule.
+ * work: LAW_N_CHECK doubles of working memory the FMU instance owns, apart
+ * from the scratch (the check also judges a state to restore, while the
+ * scratch serves the run): a check that runs the kernel (the computed
+ * torque's loop closed at the sketch) works there, not on the stack. */
+int law_check(const double *param, double *work, int *field, const char **why);
 /* CTL_BAD_STATE with *field naming a part of the state (law_state_name) and *why the rule. */
 int law_check_state(const double *param, const double *state, int *field, const char **why);
 const char *law_state_name(int field);
@@ -40,6 +51,6 @@ int law_prepare(const double *param, double *scratch);
 int law_start(const double *param, const double *scratch, double t0, double *state, double *out);
 /* One sample at time t: state advanced, out the new outputs.  All or nothing:
  * on any status but CTL_OK, state and out are as they were. */
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out);
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out);
 
 #endif

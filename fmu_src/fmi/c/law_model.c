@@ -25,8 +25,13 @@
 #include "fmi2_model.h"
 #include "law.h"
 
+#ifndef LAW_N_CHECK
+#define LAW_N_CHECK 0
+#endif
+
 typedef struct law_scratch {
     double derived[LAW_N_SCRATCH > 0 ? LAW_N_SCRATCH : 1];
+    double check[LAW_N_CHECK > 0 ? LAW_N_CHECK : 1];  /* law_check's working memory */
 } law_scratch;
 
 size_t model_persistent_size(void) { return (size_t)P_END; }
@@ -55,9 +60,10 @@ static const char *slot_name(int slot) {
 /* The law's parameter check (it names the parameter), then a started run's
  * state: its time, sample count and held outputs, and the law's own check. */
 fmi2Status model_check(grb_instance *inst, const double *p) {
+    law_scratch *ls = (law_scratch *)inst->model;
     int field = -1, st, k;
     const char *why = "";
-    st = law_check(p, &field, &why);
+    st = law_check(p, ls->check, &field, &why);
     if (st != CTL_OK)
         BAD("%s: %s (got %.17g)", field >= 0 && field < LAW_N_PARAMS ? slot_name(field) : "parameter",
             why ? why : ctl_status_message(st), field >= 0 && field < LAW_N_PARAMS ? p[field] : NAN);

@@ -21,8 +21,9 @@
 typedef char law_params_fit[LAW_N_PARAMS * sizeof(double) == sizeof(LAW_PARAMS) ? 1 : -1];
 typedef char law_state_fits[LAW_N_STATE * sizeof(double) == sizeof(LAW_STATE) ? 1 : -1];
 
-int law_check(const double *param, int *field, const char **why) {
+int law_check(const double *param, double *work, int *field, const char **why) {
     LAW_PARAMS p;
+    (void)work;
     memcpy(&p, param, sizeof p);
     return LAW_CHECK(&p, field, why);
 }
@@ -49,7 +50,7 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return LAW_INITIAL(&p, out);
 }
 
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     LAW_PARAMS p;
     LAW_STATE s;
     int st;

@@ -12,8 +12,9 @@
 typedef char params_fit[LAW_N_PARAMS == 1 + CTL_LINEAR_SIZE(N) ? 1 : -1];
 typedef char state_fits[LAW_N_STATE == N ? 1 : -1];
 
-int law_check(const double *param, int *field, const char **why) {
+int law_check(const double *param, double *work, int *field, const char **why) {
     int k;
+    (void)work;
     if (!(param[0] > 0.0) || !isfinite(param[0]))
         return ctl_refuse(0, LAW_N_PARAMS, "sample time must be finite and > 0", field, why);
     for (k = 1; k < LAW_N_PARAMS; k++)  /* the entry itself is named: A[2,1], B[1], ... */
@@ -44,7 +45,7 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return CTL_OK;
 }
 
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     double work[N > 0 ? N : 1];
     (void)scratch;
     (void)t;

@@ -177,13 +177,18 @@ static void scene_view_of(const double *p, grb_scene_view *v, char (*names)[48],
 fmi2Status model_check(grb_instance *inst, const double *p) {
     int revolute[N], q_index[N];
     int i, k;
+    /* every parameter a number the scene reader would take: finite, and within its bound (an actuator's
+     * point at 1e300 made its length inf); the inputs are the step's to judge */
     for (k = 0; k < MODEL_N_STORED; k++)
-        if (!isfinite(p[k]) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE &&
+        if (!(fabs(p[k]) <= GRB_MAX_MAGNITUDE) && k != SLOT_MOTOR_TORQUE && k != SLOT_LOAD_TORQUE &&
             !(k >= SLOT_ACTUATOR_FORCE && k < SLOT_ACTUATOR_FORCE + NA)) {
             int v;
             for (v = 0; v < MODEL_N_VARIABLES; v++)
-                if (model_variables[v].causality == GRB_C_PARAMETER && model_variables[v].slot == k)
-                    BAD("%s: must be finite, got %g", model_variables[v].name, p[k]);
+                if (model_variables[v].causality == GRB_C_PARAMETER && model_variables[v].slot == k) {
+                    if (!isfinite(p[k])) BAD("%s: must be finite, got %g", model_variables[v].name, p[k]);
+                    BAD("%s: magnitude above %g is outside the supported range, got %g", model_variables[v].name,
+                        GRB_MAX_MAGNITUDE, p[k]);
+                }
         }
     if (!(p[SLOT_RTOL] > 0)) BAD("rtol: must be positive and finite, got %g", p[SLOT_RTOL]);
     if (!(p[SLOT_ATOL] > 0)) BAD("atol: must be positive and finite, got %g", p[SLOT_ATOL]);

@@ -24,10 +24,11 @@ static ctl_table table_of(const double *param, double *second) {
     return tab;
 }
 
-int law_check(const double *param, int *field, const char **why) {
+int law_check(const double *param, double *work, int *field, const char **why) {
     ctl_trajectory_params p;
     ctl_table tab = table_of(param, NULL);
     int st;
+    (void)work;
     memcpy(&p, param, sizeof p);
     st = ctl_trajectory_check(&p, &tab, field, why);
     /* a table's field is the first of its times or positions */
@@ -76,7 +77,7 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return evaluate(param, scratch, t0, out);
 }
 
-int law_sample(const double *param, const double *scratch, double *state, double t, const double *in, double *out) {
+int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     (void)state;
     (void)in;
     return evaluate(param, scratch, t, out);
