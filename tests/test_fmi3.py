@@ -175,7 +175,8 @@ def test_fmi3_variability_and_default_step_say_what_the_fmi2_build_says(built2, 
     three = {v.get("name"): v.get("variability") for v in md3.find("ModelVariables") if v.get("name") != "time"}
     assert three == two
     outs = [v.get("variability") for v in md3.find("ModelVariables") if v.get("causality") == "output"]
-    sampled = name in ("PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "ComputedTorque")
+    sampled = name in ("PID", "CascadeController", "Encoder", "Tachometer", "CurrentSensor", "ComputedTorque",
+                       "LinearController")
     assert set(outs) == {"discrete" if sampled else "continuous"}, (name, outs)
     assert md3.find("DefaultExperiment").get("stepSize") == md2.find("DefaultExperiment").get("stepSize")
     assert md3.find("ModelVariables/Clock") is None
