@@ -35,10 +35,14 @@ Examples
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["Quantity", "FIXED_OBSERVATIONS", "ACTUATOR_OUTPUTS", "mechanism_output", "scene_field", "fmi_unit", "fmi_text"]
+__all__ = ["RPM", "Quantity", "FIXED_OBSERVATIONS", "ACTUATOR_OUTPUTS", "mechanism_output", "scene_field", "fmi_unit", "fmi_text"]
+
+
+RPM = 30.0 / math.pi  # rpm per rad/s: a motor's speed is read in rpm, as on its datasheet
 
 
 @dataclass(frozen=True)

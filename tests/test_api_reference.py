@@ -17,7 +17,7 @@ from grubler import apidoc
 # the test that runs what the example shows (each name's behaviour is held there, not in its docstring)
 NEEDS_BUILT_FMUS = {
     # tests/test_servo.py::test_sizing_predicts_the_closed_loop_current_within_10_percent (size --check)
-    "grubler.studies.sizing.closed_loop_check": "co-simulates the servo system of the built FMUs (python3 build_fmu.py)",
+    "grubler.studies.sizing_check.closed_loop_check": "co-simulates the servo system of the built FMUs (python3 build_fmu.py)",
     # tests/test_cylinder_sizing.py::test_the_winner_is_checked_by_co_simulation
     "grubler.studies.cylinder_sizing.cylinder_check": "co-simulates HydraulicCylinder, PID and Trajectory FMUs",
     # tests/test_container.py::test_what_the_exported_fmu_shows_and_how_its_engine_is_told (the settled starts)

@@ -244,12 +244,12 @@ def test_a_long_rest_is_shortened_not_stepped_and_the_move_is_judged_the_same():
 
 
 def test_the_bound_for_cycles_too_long_to_step_bounds_the_stepped_loop(monkeypatch):
-    from grubler.studies import sizing
+    from grubler.studies import closed_loop
 
     m, cycle = fourbar_move(0.5)
     motor = [load_motor("maxon-re40-148866")]
     stepped = size(m, cycle, motor, [100], supply_voltage=48.0, current_limit=10.0, control=Control.servo())
-    monkeypatch.setattr(sizing, "LOOP_SAMPLES", 10)
+    monkeypatch.setattr(closed_loop, "LOOP_SAMPLES", 10)
     bounded = size(m, cycle, motor, [100], supply_voltage=48.0, current_limit=10.0, control=Control.servo())
     s, b = stepped.assessments[0], bounded.assessments[0]
     assert b.closed_loop.method == "bound"

@@ -453,6 +453,15 @@ def check_fmus(scene, fmu_dir, field: str = "fmu_dir") -> None:
     HydraulicCylinder.fmu and PID.fmu (``python build_fmu.py``), and Mechanism.fmu
     when it serves the scene's shape (another shape's FMU is built, as is the
     setpoint's table).  Cheap: the CLI calls it before any work.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     check_fmus("luffing-boom", d)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: fmu_dir: no HydraulicCylinder.fmu, PID.fmu in ... build the FMUs there first (python3 build_fmu.py writes them to dist)
     """
     from grubler.errors import InputError
     from grubler.fmi.mechanism import STANDARD_SCENE, same_shape

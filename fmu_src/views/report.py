@@ -15,8 +15,8 @@ import os
 import numpy as np
 
 from grubler.mechanism.model import Mechanism
+from grubler.quantities import RPM
 
-RPM = 60.0 / (2.0 * math.pi)  # rpm per rad/s
 PAGE = (11.69, 8.27)  # inches: A4 landscape
 LEFT_SHARE, TABLE_SHARE = 0.36, 0.5  # of the page's width: the left column; of its height: the table
 BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
