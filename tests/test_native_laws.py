@@ -278,7 +278,9 @@ def test_discard_a_step_the_clock_cannot_take(host, built, h_text, why):
     ("Trajectory", {"kind": "scurve", "j_max": 0.0}, "j_max: must be finite and > 0 (got 0)"),
     ("Trajectory", {"kind": "trapezoid", "distance": 0.0}, "distance: a move needs a non-zero distance (got 0)"),
     ("ComputedTorque", {"efficiency": 0.0}, "efficiency: must be in (0, 1] (got 0)"),
-    ("ComputedTorque", {"link3.m": -1.0}, "link3.m: mass must be positive (got -1)"),
+    # the mechanism's rules are the kernel's one check: the library's words (grb_scene_check)
+    ("ComputedTorque", {"link3.m": -1.0}, "link3.m: mass must be positive, got -1.0"),
+    ("ComputedTorque", {"gravity": -1.0}, "gravity: must be >= 0 (it acts along -y), got -1.0"),
     ("ComputedTorque", {"drive_joint": ""}, "drive_joint: must name a real joint"),
     ("ComputedTorque", {"link2.a": 9.0}, "initial.theta2: the loop cannot be closed at the sketch with the drive "
                                          "held there")])

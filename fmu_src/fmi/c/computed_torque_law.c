@@ -15,6 +15,7 @@
  * workspace (CT_WORK_SIZE doubles), overwritten by each sample and carrying
  * nothing from one to the next. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "grb_scene.h"
@@ -31,6 +32,9 @@ typedef char scratch_fits[LAW_N_SCRATCH == TABLE_WORK + CT_WORK_SIZE ? 1 : -1];
 typedef char check_fits[LAW_N_CHECK == LAW_N_SCRATCH ? 1 : -1];
 typedef char state_fits[LAW_N_STATE == N ? 1 : -1];
 typedef char mobility_one[N - 2 * NC == 1 ? 1 : -1];
+/* law_check's refusal of a mechanism rule, written into its working memory: the problem, then "field: reason" */
+#define REFUSAL_LENGTH (sizeof(((grb_problem *)0)->field) + 2 + sizeof(((grb_problem *)0)->reason))
+typedef char refusal_fits[LAW_N_CHECK * sizeof(double) >= sizeof(grb_problem) + REFUSAL_LENGTH ? 1 : -1];
 
 /* index in z of the drive joint (drive_joint: 0 none, else 1 + its index in q), -1 when not a real joint */
 static int drive_index(const double *p, const int *revolute) {
@@ -91,7 +95,7 @@ static int demand(const grb_model *m, double scale, double *work, const double *
 }
 
 int law_check(const double *param, double *work, int *field, const char **why) {
-    int k, i, j, revolute[N];
+    int k, i, revolute[N];
     for (k = 0; k < LAW_N_PARAMS; k++)
         if (!isfinite(param[k])) return ctl_refuse(k, LAW_N_PARAMS, "must be finite", field, why);
     /* the library's checks (ComputedTorque, Mechanism), with its words */
@@ -104,28 +108,23 @@ int law_check(const double *param, double *work, int *field, const char **why) {
     if (param[PARAM_k_e] < 0) return ctl_refuse(PARAM_k_e, LAW_N_PARAMS, "must be >= 0", field, why);
     if (param[PARAM_Ts] < 0)
         return ctl_refuse(PARAM_Ts, LAW_N_PARAMS, "sample time must be finite and >= 0", field, why);
-    if (param[SLOT_GRAVITY] < 0)
-        return ctl_refuse(SLOT_GRAVITY, LAW_N_PARAMS, "must be >= 0 (it acts along -y)", field, why);
-    if (param[SLOT_GROUND_A1] < 0) return ctl_refuse(SLOT_GROUND_A1, LAW_N_PARAMS, "length must be >= 0", field, why);
-    for (i = 0; i < N; i++) {
-        int base = SLOT_LINKS + i * LINK_STRIDE, parent = (int)scene_link_field(param, i, LF_PARENT);
-        if (parent < 1 || parent > i + 1)
-            return ctl_refuse(base + LF_PARENT, LAW_N_PARAMS, "must be the ground (1) or an earlier link", field,
-                              why);
-        if (scene_link_field(param, i, LF_A) < 0)
-            return ctl_refuse(base + LF_A, LAW_N_PARAMS, "length must be >= 0", field, why);
-        if (!(scene_link_field(param, i, LF_M) > 0))
-            return ctl_refuse(base + LF_M, LAW_N_PARAMS, "mass must be positive", field, why);
-        if (scene_link_field(param, i, LF_I) < 0)
-            return ctl_refuse(base + LF_I, LAW_N_PARAMS, "moment of inertia must be >= 0", field, why);
-        if (scene_link_field(param, i, LF_DAMPING) < 0)
-            return ctl_refuse(base + LF_DAMPING, LAW_N_PARAMS, "damping must be >= 0", field, why);
-        revolute[i] = (int)scene_link_field(param, i, LF_JOINT) == 1;
+    {
+        /* the mechanism's rules: the kernel's one check, the library's and the Mechanism FMU's, in their
+         * words (the refusal, field first, is written into work: it outlives the call) */
+        grb_scene_view view;
+        grb_problem *problem = (grb_problem *)(void *)work;
+        int found;
+        char *refusal = (char *)(void *)work + sizeof(grb_problem);
+        scene_view_of(param, &view);
+        view.drive_inertia = 0.0;  /* the law's own parameter, judged above */
+        if (grb_scene_check(&view, problem, 1, &found) != GRB_OK) {
+            snprintf(refusal, REFUSAL_LENGTH, "%s: %s", problem->field, problem->reason);
+            *field = LAW_FIELD_IN_WHY;
+            *why = refusal;
+            return CTL_BAD_PARAMETER;
+        }
     }
-    for (j = 0; j < NC; j++)
-        if (scene_closure_field(param, j, CF_LINK) == scene_closure_field(param, j, CF_TO_LINK))
-            return ctl_refuse(SLOT_CLOSURES + j * CLOSURE_STRIDE + CF_TO_LINK, LAW_N_PARAMS,
-                              "must be another link than the closing one", field, why);
+    for (i = 0; i < N; i++) revolute[i] = (int)scene_link_field(param, i, LF_JOINT) == 1;
     if (drive_index(param, revolute) < 0)
         return ctl_refuse(SLOT_DRIVE_JOINT, LAW_N_PARAMS, "must name a real joint: the drive demand needs the "
                           "joint the drive acts on", field, why);

@@ -35,11 +35,14 @@
 #include "ctl_law.h"
 #include "config.h"
 
-/* CTL_BAD_PARAMETER with *field the index of the offending parameter and *why the rule.
+/* CTL_BAD_PARAMETER with *field the index of the offending parameter and *why the rule, or
+ * *field LAW_FIELD_IN_WHY and *why the whole refusal, the field first ("link2.m: mass must be
+ * positive, got -1.0": a rule the kernel words, as the library does).
  * work: LAW_N_CHECK doubles of working memory the FMU instance owns, apart
  * from the scratch (the check also judges a state to restore, while the
  * scratch serves the run): a check that runs the kernel (the computed
  * torque's loop closed at the sketch) works there, not on the stack. */
+#define LAW_FIELD_IN_WHY (-2)
 int law_check(const double *param, double *work, int *field, const char **why);
 /* CTL_BAD_STATE with *field naming a part of the state (law_state_name) and *why the rule. */
 int law_check_state(const double *param, const double *state, int *field, const char **why);

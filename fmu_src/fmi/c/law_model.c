@@ -64,6 +64,7 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
     int field = -1, st, k;
     const char *why = "";
     st = law_check(p, ls->check, &field, &why);
+    if (st != CTL_OK && field == LAW_FIELD_IN_WHY) BAD("%s", why);
     if (st != CTL_OK)
         BAD("%s: %s (got %.17g)", field >= 0 && field < LAW_N_PARAMS ? slot_name(field) : "parameter",
             why ? why : ctl_status_message(st), field >= 0 && field < LAW_N_PARAMS ? p[field] : NAN);

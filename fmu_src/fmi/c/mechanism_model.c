@@ -126,37 +126,18 @@ static const char *coordinate_name(int index, char *buf, size_t size) {
 
 #define BAD(...) do { grb_log(inst, fmi2Error, __VA_ARGS__); return fmi2Error; } while (0)
 
-/* The scene's parameters where they lie in the block, as the kernel's check
- * reads them; each actuator named by its variables' prefix ("lift" of
- * lift.to_link), the efforts' joints by their variables. */
-static void scene_view_of(const double *p, grb_scene_view *v, char (*names)[48], const char **name_of) {
-    static const int link_column[GRB_SK_COLUMNS] = {LF_JOINT, LF_PARENT, LF_A, LF_P, LF_Q, LF_M, LF_I, LF_DAMPING};
-    static const int closure_column[GRB_SC_COLUMNS] = {CF_TYPE, CF_LINK, CF_TO_LINK, CF_AT_X, CF_AT_Y, CF_POINT_X,
-                                                       CF_POINT_Y, CF_ANGLE, CF_PSI, CF_GAIN, CF_DAMPING};
+/* The scene's parameters where they lie in the block (scene_slots.h's view)
+ * with the actuators, each named by its variables' prefix ("lift" of
+ * lift.to_link). */
+static void mechanism_view_of(const double *p, grb_scene_view *v, char (*names)[48], const char **name_of) {
     static const int actuator_column[GRB_A_COLUMNS] = {AF_FROM_LINK, AF_FROM_POINT_X, AF_FROM_POINT_Y, AF_TO_LINK,
                                                        AF_TO_POINT_X, AF_TO_POINT_Y};
     int k;
-    memset(v, 0, sizeof *v);
-    v->n_links = N;
-    v->n_closures = NC;
+    scene_view_of(p, v);
     v->n_actuators = NA;
-    v->links = p + SLOT_LINKS;
-    v->link_stride = LINK_STRIDE;
-    memcpy(v->link_column, link_column, sizeof link_column);
-    v->closures = p + SLOT_CLOSURES;
-    v->closure_stride = CLOSURE_STRIDE;
-    memcpy(v->closure_column, closure_column, sizeof closure_column);
     v->actuators = p + SLOT_ACTUATORS;
     v->actuator_stride = ACTUATOR_STRIDE;
     memcpy(v->actuator_column, actuator_column, sizeof actuator_column);
-    v->a1 = p[SLOT_GROUND_A1];
-    v->theta1 = p[SLOT_GROUND_THETA1];
-    v->gravity = p[SLOT_GRAVITY];
-    v->q_ref = p + SLOT_Q0;
-    v->qd = p + SLOT_QD0;
-    v->drive = (int)p[SLOT_DRIVE_JOINT] - 1;  /* choice 0: none */
-    v->load = (int)p[SLOT_LOAD_JOINT] - 1;
-    v->drive_inertia = p[SLOT_DRIVE_INERTIA];
     for (k = 0; k < NA; k++) {
         char *dot;
         snprintf(names[k], 48, "%s", slot_name(SLOT_ACTUATORS + k * ACTUATOR_STRIDE + AF_TO_LINK));
@@ -165,8 +146,6 @@ static void scene_view_of(const double *p, grb_scene_view *v, char (*names)[48],
         name_of[k] = names[k];
     }
     v->actuator_names = NA > 0 ? name_of : NULL;
-    v->drive_field = "drive_joint";
-    v->load_field = "load_joint";
 }
 
 /* The mechanism's rules (the kernel's grb_scene_check, the library's), the
@@ -202,7 +181,7 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
         char names[NA > 0 ? NA : 1][48];
         const char *name_of[NA > 0 ? NA : 1];
         int found;
-        scene_view_of(p, &view, names, name_of);
+        mechanism_view_of(p, &view, names, name_of);
         if (grb_scene_check(&view, &problem, 1, &found) != GRB_OK) BAD("%s: %s", problem.field, problem.reason);
     }
     for (i = 0; i < N; i++) revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;

@@ -9,6 +9,8 @@
 #ifndef GRB_SCENE_SLOTS_H
 #define GRB_SCENE_SLOTS_H
 
+#include <string.h>
+
 #include "grb_scene.h"
 
 static double scene_link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
@@ -37,6 +39,45 @@ static int scene_tables_of(const double *p, int *revolute, int *parent, double *
     }
     return grb_scene_tables(N_LINKS, N_CLOSURES, revolute, parent, lf, p[SLOT_GROUND_A1], p[SLOT_GROUND_THETA1],
                             p + SLOT_Q0, cf, links, closures);
+}
+
+/* The scene where it lies in the parameter block, as the kernel's one check
+ * of a mechanism reads it (grb_scene_check, which the library runs too): the
+ * links, closures, ground, gravity, sketch and drive joint, and the initial
+ * rates, load joint and drive inertia where the block holds them (a model
+ * file with actuators adds those).  The efforts' joints are named by their
+ * variables. */
+static void scene_view_of(const double *p, grb_scene_view *v) {
+    static const int link_column[GRB_SK_COLUMNS] = {LF_JOINT, LF_PARENT, LF_A, LF_P, LF_Q, LF_M, LF_I, LF_DAMPING};
+    static const int closure_column[GRB_SC_COLUMNS] = {CF_TYPE, CF_LINK, CF_TO_LINK, CF_AT_X, CF_AT_Y, CF_POINT_X,
+                                                       CF_POINT_Y, CF_ANGLE, CF_PSI, CF_GAIN, CF_DAMPING};
+    memset(v, 0, sizeof *v);
+    v->n_links = N_LINKS;
+    v->n_closures = N_CLOSURES;
+    v->links = p + SLOT_LINKS;
+    v->link_stride = LINK_STRIDE;
+    memcpy(v->link_column, link_column, sizeof link_column);
+    v->closures = p + SLOT_CLOSURES;
+    v->closure_stride = CLOSURE_STRIDE;
+    memcpy(v->closure_column, closure_column, sizeof closure_column);
+    v->a1 = p[SLOT_GROUND_A1];
+    v->theta1 = p[SLOT_GROUND_THETA1];
+    v->gravity = p[SLOT_GRAVITY];
+    v->q_ref = p + SLOT_Q0;
+    v->drive = (int)p[SLOT_DRIVE_JOINT] - 1;  /* choice 0: none */
+#ifdef SLOT_QD0
+    v->qd = p + SLOT_QD0;
+#endif
+#ifdef SLOT_LOAD_JOINT
+    v->load = (int)p[SLOT_LOAD_JOINT] - 1;
+#else
+    v->load = -1;
+#endif
+#ifdef SLOT_DRIVE_INERTIA
+    v->drive_inertia = p[SLOT_DRIVE_INERTIA];
+#endif
+    v->drive_field = "drive_joint";
+    v->load_field = "load_joint";
 }
 
 #endif
