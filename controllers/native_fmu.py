@@ -29,7 +29,7 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from grubler.binding import library
+from grubler import binding
 from grubler.controllers import native
 from grubler.controllers.cascade import CascadeController
 from grubler.controllers.encoder import Encoder
@@ -264,7 +264,7 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
                     "SLOT_DRIVE_JOINT": slot["drive_joint"], "SLOT_LINKS": slot["link2.joint"],
                     "SLOT_CLOSURES": slot[f"{closure_prefix(nc, 0)}.type"] if nc else len(slot),
                     "SLOT_Q0": slot[f"initial.{m.coordinate_names[0]}"],
-                    "CT_WORK_SIZE": int(library().grb_work_size(n, nc))})
+                    "CT_WORK_SIZE": binding.work_size(n, nc)})
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
     tables = m.arrays.links.size + m.arrays.closures.size

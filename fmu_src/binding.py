@@ -321,9 +321,20 @@ def coordinate_problem(q: int, revolute: bool, field: str) -> tuple[str, str] | 
     return found.field.decode(), found.reason.decode()
 
 
+def work_size(n_links: int, n_closures: int) -> int:
+    """Doubles of kernel workspace a model of this size needs (grb_work_size): what a native FMU sizes.
+
+    Examples
+    --------
+    >>> work_size(3, 1) == work(3, 1).size > 0
+    True
+    """
+    return int(library().grb_work_size(n_links, n_closures))
+
+
 def work(n_links: int, n_closures: int) -> np.ndarray:
     """A workspace buffer for a model of this size, laid out for it (grb_work_init)."""
-    buffer = np.zeros(library().grb_work_size(n_links, n_closures))
+    buffer = np.zeros(work_size(n_links, n_closures))
     status = library().grb_work_init(n_links, n_closures, address(buffer), buffer.size)
     if status != OK:
         raise ValueError(f"n_links, n_closures: {status_message(status)} ({n_links} links, {n_closures} closures)")

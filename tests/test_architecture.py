@@ -146,3 +146,54 @@ def test_every_folder_says_what_lives_there_and_what_it_may_import():
         if path.name == "__init__.py" and name != "grubler":
             doc = ast.get_docstring(ast.parse(path.read_text())) or ""
             assert "May import" in doc or "may import" in doc, f"{name}: its docstring names no allowed imports"
+
+
+# -- who calls C ---------------------------------------------------------------------------------------------
+# The compiled library (grubler._kernel) is loaded once, by grubler.binding.library.  Each family of C
+# functions is declared in one module and called only by the Python face of what it computes
+# (docs/architecture.md, "Who calls C", says the same and a test below holds the page to it):
+C_FAMILIES = {
+    "grb": ("grubler.binding", ["grubler.binding", "grubler.mechanism", "grubler.system.cosim"]),
+    "dcm": ("grubler.motors.native", ["grubler.motors"]),
+    "ctl": ("grubler.controllers.native", ["grubler.controllers"]),
+}
+
+
+def c_calls(path: Path) -> set[str]:
+    """The C families a module calls: an attribute ``x.grb_...`` or a name ``'ctl_...'`` given to a caller."""
+    import re
+
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        name = node.attr if isinstance(node, ast.Attribute) else (
+            node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else "")
+        m = re.fullmatch(r"(grb|dcm|ctl)_[a-z0-9_]+", name)
+        if m:
+            out.add(m.group(1))
+    return out
+
+
+def test_each_c_family_is_called_only_by_its_own_face():
+    bad = []
+    for name, path in modules().items():
+        for family in c_calls(path):
+            _, callers = C_FAMILIES[family]
+            if not any(name == c or name.startswith(c + ".") for c in callers):
+                bad.append(f"{name} calls {family}_* functions")
+    assert bad == []
+
+
+def test_only_the_binding_loads_the_compiled_library():
+    loaders = [name for name, path in modules().items() if 'find_spec("grubler._kernel")' in path.read_text()]
+    assert loaders == ["grubler.binding"]
+    for family, (declarer, _) in C_FAMILIES.items():
+        assert "_SIGNATURES" in modules()[declarer].read_text(), family
+
+
+def test_the_architecture_page_says_who_calls_c():
+    page = " ".join((ROOT / "docs" / "architecture.md").read_text().split())
+    for family, (declarer, callers) in C_FAMILIES.items():
+        assert f"`{family}_*`" in page and f"`{declarer}`" in page, family
+        for c in callers:
+            assert f"`{c}`" in page, (family, c)
+    assert "only caller of C" not in page
