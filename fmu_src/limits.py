@@ -448,6 +448,32 @@ def parse_angle_or_number(value, field: str) -> float:
         raise SceneError(exc.field, exc.reason) from None
 
 
+def parse_number(value, field: str, unit: str = "") -> float:
+    """A quantity that is neither an angle nor a length (a mass, a torque, a gain, a time): a number in its
+    SI unit, or the text of one alone; an angle ('1 deg', 'pi/2') or any unit written after it is refused
+    rather than read as so many kg or N m.  ``unit`` names the SI unit in the refusal.
+
+    Examples
+    --------
+    >>> parse_number("2.5", "link2.m", "kg")
+    2.5
+    >>> try:
+    ...     parse_number("1 deg", "link2.m", "kg")
+    ... except SceneError as exc:
+    ...     print(exc)
+    link2.m: '1 deg' is not a plain number: write the value in kg as a number (2.5)
+    """
+    if isinstance(value, str):
+        m = _ANGLE.match(value) if len(value) <= 64 else None
+        if m is None or m["unit"] or _PI.match(value):
+            raise SceneError(field, f"{brief(value.strip())} is not a plain number: write the value in "
+                                    f"{unit or 'its SI unit'} as a number (2.5)")
+    try:
+        return number(value, field)
+    except InputError as exc:
+        raise SceneError(exc.field, exc.reason) from None
+
+
 def parse_angle(value, field: str) -> float:
     """An angle, rad: a number is radians; text names its unit.
 

@@ -167,3 +167,33 @@ def test_the_sweep_cli_and_the_app_refuse_an_angle_for_a_length(capsys):
     with pytest.raises(SceneError, match=LENGTH_HINT) as exc:
         actions.analyse(data)
     assert exc.value.field == "link2.a"
+
+
+@pytest.mark.parametrize("edit, field", [
+    (("link2", "m", "1 deg"), "link2.m"),
+    (("link3", "I", "pi/2"), "link3.I"),
+    (("closure", "gain", "30 deg"), "closure.gain"),
+    (("drive", "torque", "3 rad"), "drive.torque"),
+    (("initial", "theta2_d", "30 deg"), "initial.theta2_d"),
+])
+def test_a_mass_torque_gain_or_rate_given_an_angle_is_refused_naming_the_field(edit, field):
+    """Neither an angle nor a length: a plain number in its SI unit ('1 deg' was read as a 0.0175 kg link)."""
+    from grubler.mechanism.scene import preset_text, scene_from_dict
+    import tomllib
+
+    data = tomllib.loads(preset_text("thesis-fourbar"))
+    table, key, value = edit
+    data.setdefault(table, {})[key] = value
+    with pytest.raises(SceneError) as err:
+        scene_from_dict(data)
+    assert err.value.field == field and "is not a plain number" in err.value.reason, err.value
+
+
+def test_a_builders_mass_given_an_angle_is_refused_and_its_angles_still_read_degrees():
+    from grubler.mechanism.scene import scene_from_dict
+
+    mech = {"type": "four-bar", "ground": 1.0, "crank": 0.2, "coupler": 0.8, "rocker": 0.6, "crank_angle": "30 deg"}
+    assert scene_from_dict({"mechanism": mech}).mechanism.q_ref[1] == pytest.approx(math.radians(30))
+    with pytest.raises(SceneError) as err:
+        scene_from_dict({"mechanism": {**mech, "mass_per_length": "2 deg"}})
+    assert err.value.field == "mechanism.mass_per_length" and "kg/m" in err.value.reason

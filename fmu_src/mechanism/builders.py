@@ -19,8 +19,9 @@ from typing import Callable
 import numpy as np
 
 from grubler.errors import InputError, SceneError, raise_all
-from grubler.limits import brief, did_you_mean, parse_angle_or_number, parse_length
+from grubler.limits import brief, did_you_mean, parse_angle_or_number, parse_length, parse_number
 from grubler.mechanism.kinematics import link_points
+from grubler.quantities import scene_field
 
 BUILDERS: dict[str, Callable[[dict, str], dict]] = {}
 BUILDER_DOCS: dict[str, str] = {}
@@ -131,10 +132,11 @@ class _Params:
         return v
 
     def number(self, key: str) -> float:
-        return parse_angle_or_number(self.values[key], f"{self.prefix}.{key}")
+        """A plain number (a mass, an inertia) in its SI unit (the one table's: quantities.scene_field)."""
+        return parse_number(self.values[key], f"{self.prefix}.{key}", scene_field(key).unit)
 
     def angle(self, key: str) -> float:
-        return self.number(key)
+        return parse_angle_or_number(self.values[key], f"{self.prefix}.{key}")
 
     def signed_length(self, key: str) -> float:
         """A length that may be negative (an offset), m: an angle is refused (parse_length)."""

@@ -27,9 +27,10 @@ import numpy as np
 from grubler.mechanism.builders import BUILDERS
 from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, Problems, SceneError, raise_all
-from grubler.limits import (brief, did_you_mean, parse_angle, parse_angle_or_number, parse_length, parse_toml,
-                            read_text)
+from grubler.limits import (brief, did_you_mean, parse_angle, parse_angle_or_number, parse_length, parse_number,
+                            parse_toml, read_text)
 from grubler.mechanism.model import Actuator, Closure, Link, Mechanism, coordinate_names, link_problems
+from grubler.quantities import ANGLE_UNIT, scene_field
 
 def parse_coordinate(name: str, value, field: str) -> float:
     """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
@@ -254,7 +255,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     with found.check():
         initial.update(_table(data, "initial"))
         _check_keys(initial, set(names) | {f"{x}_d" for x in names}, "initial")
-    q0 = [_collect(found, initial.get(x, 0.0), f"initial.{x}", length=x.startswith("B")) for x in names]
+    q0 = [_collect(found, initial.get(x, 0.0), f"initial.{x}") for x in names]
     qd0 = [_collect(found, initial.get(f"{x}_d", 0.0), f"initial.{x}_d") for x in names]
     drive, load, sim = {}, {}, {}
     with found.check():
@@ -273,7 +274,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     dt_out = _collect(found, sim.get("dt_out", 0.01), "simulate.dt_out", positive=True)
     torque = _collect(found, drive.get("torque", 0.0), "drive.torque")
     load_torque = _collect(found, load.get("torque", 0.0), "load.torque")
-    a1 = _collect(found, ground.get("a1", 0.0), "ground.a1", length=True)
+    a1 = _collect(found, ground.get("a1", 0.0), "ground.a1")
     theta1 = _collect(found, ground.get("theta1", 0.0), "ground.theta1")
     gravity = _collect(found, data.get("gravity", 9.81), "gravity")
     drive_inertia = _collect(found, drive.get("inertia", 0.0), "drive.inertia")
@@ -307,10 +308,33 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     return Scene(mechanism, mechanism.zd_from_qd(qd0), torque, load_torque, method, t_end, dt_out)
 
 
-def _collect(found: Problems, value, field: str, positive: bool = False, length: bool = False) -> float:
-    """A number of the scene, a ``length`` in m (0.0 when refused, the refusal recorded in ``found``)."""
+def parse_field(value, field: str) -> float:
+    """A number of the scene read as its field's kind says (:func:`grubler.quantities.scene_field`, the one
+    table): an angle (rad, or text with its unit), a length (m, or text in m, cm, mm), anything else a plain
+    number in its SI unit, an angle's or a length's text refused there.
+
+    Examples
+    --------
+    >>> parse_field("30 deg", "initial.theta2") == math.radians(30), parse_field("300 mm", "link2.a")
+    (True, 0.3)
+    >>> try:
+    ...     parse_field("1 deg", "link2.m")
+    ... except SceneError as exc:
+    ...     print(exc)
+    link2.m: '1 deg' is not a plain number: write the value in kg as a number (2.5)
+    """
+    unit = scene_field(field).unit
+    if unit == ANGLE_UNIT:
+        return parse_angle_or_number(value, field)
+    if unit == "m":
+        return parse_length(value, field)
+    return parse_number(value, field, unit)
+
+
+def _collect(found: Problems, value, field: str, positive: bool = False) -> float:
+    """A number of the scene (:func:`parse_field`; 0.0 when refused, the refusal recorded in ``found``)."""
     with found.check():
-        v = parse_length(value, field) if length else parse_angle_or_number(value, field)
+        v = parse_field(value, field)
         if positive and v <= 0:
             raise SceneError(field, f"must be positive, got {v}")
         return v
@@ -327,7 +351,7 @@ def _link(d: dict, f: str, k: int, count: int, found: Problems) -> Link | None:
     for key in _LINK_PARAMS:
         if key in d:
             with found.check():
-                num[key] = (parse_length if key in _LINK_LENGTHS else parse_angle_or_number)(d[key], f"{f}.{key}")
+                num[key] = parse_field(d[key], f"{f}.{key}")
     # what is given is judged first, then what is missing
     for key, what in (("a", "the link length, m"), ("m", "the link's mass, kg")):
         if key not in d:
@@ -420,10 +444,10 @@ def _closure(d: dict, f: str, lengths: list[float]) -> Closure:
         point=_pair(d.get("at", [lengths[cl_link - 2], 0.0]), f"{f}.at"),
         to_link=to_link,
         to_point=_pair(d["point"], f"{f}.point"),
-        angle=parse_angle_or_number(d.get("angle", 0.0), f"{f}.angle"),
-        psi=parse_angle_or_number(d.get("psi", 0.0), f"{f}.psi"),
-        gain=parse_angle_or_number(d.get("gain", 1.0e4), f"{f}.gain"),
-        damping=parse_angle_or_number(d.get("damping", 100.0), f"{f}.damping"),
+        angle=parse_field(d.get("angle", 0.0), f"{f}.angle"),
+        psi=parse_field(d.get("psi", 0.0), f"{f}.psi"),
+        gain=parse_field(d.get("gain", 1.0e4), f"{f}.gain"),
+        damping=parse_field(d.get("damping", 100.0), f"{f}.damping"),
     )
 
 
@@ -510,7 +534,6 @@ def with_overrides(scene: Scene, **changes) -> Scene:
 
 
 _LINK_PARAMS = ("a", "p", "q", "m", "I", "damping")
-_LINK_LENGTHS = ("a", "p", "q")  # m: read by parse_length, which refuses an angle
 
 
 def parameter_names(scene: Scene) -> list[str]:
@@ -574,13 +597,6 @@ def parameter(scene: Scene, name: str):
     raise SceneError(name, f"no such parameter of this scene (it has: {', '.join(parameter_names(scene))})")
 
 
-def _is_length(name: str) -> bool:
-    """Whether a dotted parameter is a length, m: a link's a, p or q, a slide's initial B."""
-    head, _, leaf = name.partition(".")
-    return (head.startswith("link") and leaf in _LINK_LENGTHS) or (head == "initial" and re.fullmatch(r"B\d+", leaf)
-                                                                   is not None)
-
-
 def parameter_value(name: str, value):
     """One dotted parameter's value read as :func:`override` reads it, the scene apart: a length
     (:func:`~grubler.limits.parse_length`), an angle or number, or a joint's name.
@@ -599,7 +615,7 @@ def parameter_value(name: str, value):
         if value is not None and not isinstance(value, str):
             raise SceneError(name, f"must be a coordinate name (or empty for none), got {brief(value)}")
         return value
-    return parse_length(value, name) if _is_length(name) else parse_angle_or_number(value, name)
+    return parse_field(value, name)
 
 
 def override(scene: Scene, values: dict) -> Scene:
@@ -649,8 +665,8 @@ def override(scene: Scene, values: dict) -> Scene:
                       drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
                       drive_inertia=ov.get("drive.inertia", m.drive_inertia))
     out = replace(scene, mechanism=model, initial_rates=model.zd_from_qd(qd),
-                  torque=parse_angle_or_number(ov.get("drive.torque", scene.torque), "drive.torque"),
-                  load_torque=parse_angle_or_number(ov.get("load.torque", scene.load_torque), "load.torque"))
+                  torque=parse_field(ov.get("drive.torque", scene.torque), "drive.torque"),
+                  load_torque=parse_field(ov.get("load.torque", scene.load_torque), "load.torque"))
     if out.torque != 0.0 and model.drive is None:
         raise SceneError("drive.torque", "a drive torque needs the joint it acts on")
     if out.load_torque != 0.0 and model.load is None:
