@@ -281,6 +281,7 @@ def test_discard_a_step_the_clock_cannot_take(host, built, h_text, why):
     # the mechanism's rules are the kernel's one check: the library's words (grb_scene_check)
     ("ComputedTorque", {"link3.m": -1.0}, "link3.m: mass must be positive, got -1.0"),
     ("ComputedTorque", {"gravity": -1.0}, "gravity: must be >= 0 (it acts along -y), got -1.0"),
+    ("ComputedTorque", {"link2.a": 1e300}, "link2.a: magnitude above 1e+12 is outside the supported range"),
     ("ComputedTorque", {"drive_joint": ""}, "drive_joint: must name a real joint"),
     ("ComputedTorque", {"link2.a": 9.0}, "initial.theta2: the loop cannot be closed at the sketch with the drive "
                                          "held there")])

@@ -96,8 +96,15 @@ static int demand(const grb_model *m, double scale, double *work, const double *
 
 int law_check(const double *param, double *work, int *field, const char **why) {
     int k, i, revolute[N];
-    for (k = 0; k < LAW_N_PARAMS; k++)
+    for (k = 0; k < LAW_N_PARAMS; k++) {
         if (!isfinite(param[k])) return ctl_refuse(k, LAW_N_PARAMS, "must be finite", field, why);
+        if (fabs(param[k]) > GRB_MAX_MAGNITUDE) {
+            /* the scene reader's bound (the Mechanism FMU holds its parameters to it too) */
+            char *bound = (char *)(void *)work;
+            snprintf(bound, REFUSAL_LENGTH, "magnitude above %g is outside the supported range", GRB_MAX_MAGNITUDE);
+            return ctl_refuse(k, LAW_N_PARAMS, bound, field, why);
+        }
+    }
     /* the library's checks (ComputedTorque, Mechanism), with its words */
     if (param[PARAM_drive_inertia] < 0) return ctl_refuse(PARAM_drive_inertia, LAW_N_PARAMS, "must be >= 0", field, why);
     if (param[PARAM_gear_ratio] == 0) return ctl_refuse(PARAM_gear_ratio, LAW_N_PARAMS, "must be non-zero", field, why);
