@@ -1,29 +1,36 @@
-"""The suite's builds, each made once: the FMUs build_fmu.py makes, controller FMUs, the C host, sanitizer builds.
+"""The suite's builds, each made once: build_fmu.py's FMUs, preset exports, controller FMUs, the C host,
+sanitizer and strict-C builds.
 
-Compiling is most of what the FMU tests wait for, and a dozen test files need the
+Compiling is much of what the FMU tests wait for, and a dozen test files need the
 same FMUs.  Each build here is made once and kept on disk in the pytest cache
 (``.pytest_cache/d/grubler-fmus/``; ``pytest --cache-clear`` or deleting that
 folder clears it), in a folder named after a key hashed from everything that goes
 into it:
 
-* an FMU: every source file of the package (``fmu_src/``, ``motors/``,
-  ``controllers/``: the C, the headers, the Python exporters that write
-  modelDescription.xml, the presets and data they read) and ``build_fmu.py``, the
-  compiler's identity (``cc --version``), grubler's compiler flags, the platforms
-  built, the FMI version, and the versions of fmpy (its FMI headers), pythonfmu and
-  Python;
-* a controller FMU (pythonfmu): that, plus the law's own module file;
-* the C host and a sanitizer build: the exact files compiled (every file in the
-  FMU's ``sources/``, or ``tests/fmi_host.c`` and the FMI headers), the compiler's
-  identity and the flags.
+* an FMU (``fmu``, ``dist``, ``export``): every source file of the package
+  (``fmu_src/``, ``motors/``, ``controllers/``: the C, the headers, the Python
+  exporters that write modelDescription.xml, the presets and data they read) and
+  ``build_fmu.py``, the compiler's identity (``cc --version``), grubler's compiler
+  flags, the platforms built, the FMI version, the versions of fmpy (and its FMI
+  headers' bytes), pythonfmu and Python, and the FMU's name;
+* a controller FMU (pythonfmu, ``controller_fmu``): that, plus the law's own module file;
+* the C host and a compile of an FMU's sources (``host``, ``shared_library``,
+  ``sanitized_binary``): the exact files compiled (every file in the FMU's
+  ``sources/``, or ``tests/fmi_host.c``, ``c_host.py`` and the FMI headers), the
+  compiler's identity and the flags.
 
 A rerun with nothing changed reuses the builds; a changed byte in any of those, another
 compiler or other flags is another key, hence a fresh build (tests/test_builds.py
-holds that).  The tests that check building itself (tests/test_platforms.py, the
-CLI's export tests) still build from scratch.
+holds that).  A build that fails is not kept: its error is raised each time.  Some
+tests still build from scratch on purpose, as their subject is the build: the CLI's
+export tests, test_platforms' per-model builds, fmpy's CMake build of the sources,
+the exports of test_sixbar_fmu and test_native_laws.
 
-Callers get their own copy of a build (``dist``, ``controller_fmu``) or a path to
-only read (``fmu``, ``host``): the cached files are never handed out to be changed.
+Callers get their own copy (``dist``, ``export``, ``controller_fmu``,
+``shared_library``, ``sanitized_binary``) or a path to only read or run (``fmu``,
+``host``): the cached files are never handed out to be changed.  Where a test file
+used to call ``build_fmu.build(dest, names)``, ``builds.dist(dest, names)`` is the same
+call.
 """
 
 from __future__ import annotations
@@ -185,6 +192,22 @@ def dist(dest: Path, names=None, fmi: int = 2) -> list[Path]:
     return [copy_to(fmu(n, fmi), dest) for n in chosen]
 
 
+def export(scene: str, dest: Path, platforms=None, fmi: int = 2) -> Path:
+    """``grubler.fmi.build.export(scene, dest, ...)`` of a preset, by name, from the cache: a copy at ``dest``.
+
+    (The FMU's model identifier is ``dest``'s name, so that is part of the key.)
+    """
+    from grubler.fmi.build import export as export_scene
+    from grubler.mechanism.scene import preset_names
+
+    if scene not in preset_names():  # a preset is in the package's sources: its key is package_key's
+        raise ValueError(f"builds.export takes a preset's name, not {scene!r}")
+    dest = Path(dest)
+    key = digest(package_key(), scene, dest.name, platforms or "", fmi)
+    return copy_to(cached(f"scene-{scene}-{dest.stem}-fmi{fmi}", key,
+                          lambda d: export_scene(scene, d / dest.name, platforms=platforms, fmi=fmi)), dest)
+
+
 def controller_fmu(law: type, dest: Path) -> Path:
     """``build_controller_fmu(law, dest)`` from the cache: a copy at ``dest`` (a folder or a ``.fmu``)."""
     import inspect
@@ -215,20 +238,29 @@ def host_key(fmi: int, flags) -> str:
     return digest(compiler_identity(), fmi, *flags, SOURCE, HERE / "c_host.py", *sorted(fmi_headers_dir().glob("*.h")))
 
 
-def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
-    """An FMU's binary rebuilt from its sources/ with AddressSanitizer and UBSan: a copy at ``out``."""
-    src = unzipped_dir / "sources"
-    files = list(desc.buildConfigurations[0].sourceFileSets[0].sourceFiles)
-    ident = desc.coSimulation.modelIdentifier
-    key = digest(compiler_identity(), *SANITIZE, *files, folder_digest(src))
+def shared_library(kind: str, src: Path, files, flags, out: Path, capture: bool = False) -> Path:
+    """``cc -shared -fPIC <flags> -I src <files> -o out -lm``, once per sources, flags and compiler: a copy at ``out``.
+
+    The key is the exact input: every file in ``src`` (an FMU's sources/), the files
+    compiled, the flags and the compiler.  A failing compile raises
+    ``subprocess.CalledProcessError`` (with its output when ``capture``) and leaves nothing.
+    """
+    key = digest(compiler_identity(), *flags, *files, folder_digest(src))
 
     def make(d: Path) -> Path:
-        so = d / f"{ident}.so"
-        subprocess.run(["cc", "-shared", "-fPIC", *SANITIZE, "-I", str(src), *(str(src / f) for f in files),
-                        "-o", str(so), "-lm"], check=True)
+        so = d / Path(out).name
+        subprocess.run(["cc", "-shared", "-fPIC", *flags, "-I", str(src), *(str(src / f) for f in files),
+                        "-o", str(so), "-lm"], check=True, capture_output=capture, text=True)
         return so
 
-    return copy_to(cached(f"asan-{ident}", key, make), out)
+    return copy_to(cached(kind, key, make), out)
+
+
+def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
+    """An FMU's binary rebuilt from its sources/ with AddressSanitizer and UBSan: a copy at ``out``."""
+    files = list(desc.buildConfigurations[0].sourceFileSets[0].sourceFiles)
+    kind = f"asan-{desc.coSimulation.modelIdentifier}-fmi{desc.fmiVersion[0]}"
+    return shared_library(kind, unzipped_dir / "sources", files, SANITIZE, out)
 
 
 @functools.lru_cache(maxsize=None)
