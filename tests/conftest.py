@@ -3,8 +3,22 @@ from pathlib import Path
 
 import pytest
 
+HERE = Path(__file__).parent
 # the independent reference lives beside the tests
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(HERE))
+
+# the helpers beside the tests (references, scenarios run in child processes, builds.py)
+# are no tests: --doctest-modules would import them, and some import the optional test
+# dependencies (hypothesis, libcosimpy) at the top
+collect_ignore = sorted(p.name for p in HERE.glob("*.py") if not p.name.startswith("test_") and p.name != "conftest.py")
+
+
+def pytest_configure(config):
+    """builds.py keeps its builds in pytest's cache folder (pytest --cache-clear empties it)."""
+    import builds
+
+    if getattr(config, "cache", None) is not None:
+        builds.CACHE = config.cache.mkdir("grubler-fmus")
 
 
 @pytest.fixture

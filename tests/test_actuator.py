@@ -323,6 +323,7 @@ def _slave(path, tolerance=None):
     return md, {v.name: v.valueReference for v in md.modelVariables}, slave
 
 
+@pytest.mark.slow
 def test_fmu_takes_the_force_and_gives_length_and_rate_as_the_library(lift_fmu):
     md, vr, slave = _slave(lift_fmu)
     try:
@@ -339,6 +340,7 @@ def test_fmu_takes_the_force_and_gives_length_and_rate_as_the_library(lift_fmu):
     assert theta2 == pytest.approx(res["theta2"][-1], abs=1e-7)
 
 
+@pytest.mark.slow
 def test_fmu_dependencies_and_directional_derivatives_of_the_force(lift_fmu):
     md, vr, slave = _slave(lift_fmu)
     deps = {o.variable.name: {d.name for d in (o.dependencies or [])} for o in md.outputs}
@@ -363,6 +365,7 @@ def test_fmu_dependencies_and_directional_derivatives_of_the_force(lift_fmu):
     assert abs(slope[0]) > 1e-3 and slope[3] == 0.0
 
 
+@pytest.mark.slow
 def test_fmu_refuses_an_actuator_on_one_link_or_of_zero_length(lift_fmu):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
@@ -395,6 +398,7 @@ def test_fmu_refuses_an_actuator_on_one_link_or_of_zero_length(lift_fmu):
         assert any(expected in m for m in messages), messages
 
 
+@pytest.mark.slow
 def test_fmu_rollback_replays_a_step_under_its_actuator_force(lift_fmu):
     """The force a held derivative was computed with is part of the saved state: a restored run that
     steps under another force, then under the first again, repeats the first exactly."""

@@ -660,9 +660,9 @@ def test_the_servo_drives_an_open_chain_s_first_joint(tmp_path):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    import build_fmu
+    import builds
 
-    build_fmu.build(tmp_path / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(tmp_path / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     server = AppServer("127.0.0.1", 0, tmp_path)
     threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
     try:

@@ -31,7 +31,8 @@ def chromium_path() -> str | None:
 
 
 CHROMIUM = chromium_path()
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (Debian: apt-get install chromium)")
+pytestmark = [pytest.mark.skipif(CHROMIUM is None, reason="no Chromium found (Debian: apt-get install chromium)"),
+              pytest.mark.slow]  # a browser, and the servo's FMUs
 
 
 @pytest.fixture
@@ -317,10 +318,10 @@ def servo_app(tmp_path_factory):
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    import build_fmu
+    import builds
 
     folder = tmp_path_factory.mktemp("app")
-    build_fmu.build(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"], cwd=folder,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()

@@ -96,12 +96,13 @@ def test_an_ssp_names_no_fmu_outside_itself(source, reason, tmp_path, capsys):
 @pytest.fixture(scope="module")
 def mechanism_fmu(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    (path,) = builds.dist(tmp_path_factory.mktemp("dist"), ["Mechanism"])
     return path
 
 
+@pytest.mark.slow
 def test_an_fmu_whose_binary_cannot_be_loaded_is_one_line_naming_the_component(mechanism_fmu, tmp_path, capsys):
     bad = tmp_path / "Bad.fmu"
     with zipfile.ZipFile(mechanism_fmu) as src, zipfile.ZipFile(bad, "w") as out:
@@ -169,18 +170,17 @@ def test_a_failure_after_the_start_blames_no_link_for_missing_inertia():
         simulate(scene, t_end=0.1, torque=1e9)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
 def test_ctrl_c_inside_an_fmus_python_ends_as_interrupted(tmp_path):
     # Ctrl-C while a pythonfmu FMU runs its Python raises KeyboardInterrupt inside its do_step,
     # which the FMU turns into an error status: it must still end as an interrupt, at any moment
-    from grubler.controllers.fmu import build_controller_fmu
-
-    sys.path.insert(0, str(Path(__file__).parent))
+    import builds
     from busy_law import Busy
 
     started = tmp_path / "started"
     system = ssp.System("busy")
-    system.add("busy", build_controller_fmu(Busy, tmp_path), started=str(started))
+    system.add("busy", builds.controller_fmu(Busy, tmp_path), started=str(started))
     arch = system.write(tmp_path / "busy.ssp")
     for k in range(10):
         started.unlink(missing_ok=True)

@@ -88,6 +88,7 @@ def test_random_change_point_four_bars_all_finish(seed):
     assert np.max(np.abs(res["E"] - res["E"][0] - work)) < 1e-6 * np.max(res["KE"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, torque", [("fourbar-change-point", 0.5), ("coupling-rod", 10.0)])
 def test_the_fmu_passes_change_points_as_the_library_does_and_logs_each(tmp_path, name, torque):
     # the native FMU runs the same kernel: advanced 1 ms at a time (its chart

@@ -36,13 +36,17 @@ MATCH = 1e-9
 T_END, STEP = 0.5, 1e-3
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def plant(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
 
     d = tmp_path_factory.mktemp("dist")
-    build_fmu.build(d, ["Mechanism", "DCMotor"])
+    builds.dist(d, ["Mechanism", "DCMotor"])
     return d
 
 
@@ -244,12 +248,12 @@ def test_the_readmes_servo_exported_runs_in_fmpy_as_grubler_cosim_jacobi(tmp_pat
     import dataclasses
 
     sys.path[:0] = [str(ROOT), str(ROOT / "examples")]
-    import build_fmu
+    import builds
     import servo_fourbar
     from grubler.system.servo import servo_system
 
     d = tmp_path / "dist"
-    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     ssd = servo_system(dataclasses.replace(servo_fourbar.DESIGN, t_end=0.3), d, name="servo_fourbar").write(
         d / "servo_fourbar.ssd")
     fmu = tmp_path / "ServoFourbar.fmu"

@@ -393,16 +393,14 @@ def test_computed_torque_motor_side_and_bad_mechanisms():
 @pytest.fixture(scope="module")
 def dist(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
-
-    from grubler.controllers.fmu import build_controller_fmu
+    import builds
 
     folder = tmp_path_factory.mktemp("controllers_dist")
-    build_fmu.build(folder, [n for n in NAMES if n != "LinearController"])
+    builds.dist(folder, [n for n in NAMES if n != "LinearController"])
     # build_fmu.py's LinearController is native, its parameters one controller's matrices
     # (test_native_laws.py); the pythonfmu one takes any controller as num/den or state_space
-    build_controller_fmu(LinearController, folder)
-    build_controller_fmu(sc.RateLimiter, folder)
+    builds.controller_fmu(LinearController, folder)
+    builds.controller_fmu(sc.RateLimiter, folder)
     return folder
 
 
@@ -417,6 +415,7 @@ def child(dist, tmp_path_factory):
     return data["result"]
 
 
+@pytest.mark.slow
 def test_fmus_validate_and_declare_units(dist):
     from fmpy import read_model_description
     from fmpy.validation import validate_fmu
@@ -438,6 +437,7 @@ def test_fmus_validate_and_declare_units(dist):
     assert {"measured_position", "measured_speed"} <= {v.name for v in md.modelVariables if v.causality == "output"}
 
 
+@pytest.mark.slow
 def test_pid_fmu_matches_the_law_with_several_samples_per_step_and_with_hold(child):
     for key, h, n in (("pid_2_samples_per_step", 2e-3, 150), ("pid_hold", 0.25e-3, 1200)):
         ref = np.array(sc.pid_loop(Sampler(PID(**sc.PID_PARAMS)), h, n))
@@ -449,6 +449,7 @@ def test_pid_fmu_matches_the_law_with_several_samples_per_step_and_with_hold(chi
     assert len(changes) > 50 and np.all(changes % 4 == 0)
 
 
+@pytest.mark.slow
 def test_cascade_linear_and_computed_torque_fmus_match_their_laws(child):
     ref = sc.cascade_loop(Sampler(CascadeController(**sc.CASCADE)), Sampler(Trajectory(**sc.TRAJ)), 1e-3, 600)
     assert np.array_equal(np.array(child["cascade"]), np.array(ref))
@@ -458,6 +459,7 @@ def test_cascade_linear_and_computed_torque_fmus_match_their_laws(child):
     assert np.allclose(np.array(child["computed_torque"]), np.array(ref), rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_trajectory_fmu_through_simulate_fmu(child):
     res = child["trajectory"]
     tr = Trajectory(**sc.TRAJ)
@@ -467,6 +469,7 @@ def test_trajectory_fmu_through_simulate_fmu(child):
     assert max(res["position"]) == pytest.approx(1.2) and res["position"][-1] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_encoder_fmu_matches_and_rollback_replays_the_noise(child):
     ref = sc.open_loop(Sampler(Encoder(**sc.ENC)), 1e-3, sc.encoder_inputs(400))
     run = np.array(child["encoder"]["run"])
@@ -475,6 +478,7 @@ def test_encoder_fmu_matches_and_rollback_replays_the_noise(child):
     assert np.array_equal(np.array(child["encoder"]["replay_serialized"]), run[200:])
 
 
+@pytest.mark.slow
 def test_custom_law_fmu(child):
     ref = sc.open_loop(Sampler(sc.RateLimiter(rate=3.0)), 0.01,
                        [{"target": 1.0 if k < 60 else -0.5} for k in range(120)])
@@ -485,6 +489,7 @@ def test_custom_law_fmu(child):
     assert run[:, 1].max() == 1.0 and run[-1, 2] == pytest.approx(-0.5)  # it really limited the rate
 
 
+@pytest.mark.slow
 def test_controller_fmus_report_bad_inputs_and_parameters(child):
     assert "status 2 (discard)" in child["nan_step"]
     assert any("measurement is nan" in m for m in child["messages_nan"])

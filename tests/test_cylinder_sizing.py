@@ -108,12 +108,13 @@ def test_bad_sizing_input_is_refused_by_name():
     assert exc.value.field == "actuator"
 
 
+@pytest.mark.slow
 def test_the_winner_is_checked_by_co_simulation(tmp_path):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
     from grubler.studies.cylinder_sizing import cylinder_check
 
-    build_fmu.build(tmp_path, ["HydraulicCylinder", "PID"])
+    builds.dist(tmp_path, ["HydraulicCylinder", "PID"])
     study = size_cylinder(load_scene(TABLE).mechanism, "ram", _cycle(), [0.032, 0.04], [60e5, 100e5],
                           rod_ratio=0.5, constants=NO_FRICTION)
     before = sorted(p.name for p in tmp_path.iterdir())

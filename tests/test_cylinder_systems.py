@@ -26,16 +26,20 @@ SCENES = {"luffing_boom": "luffing-boom", "cylinder_slider_crank": "cylinder-sli
           "toggle_clamp": "toggle-clamp"}
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
     sys.path.insert(0, str(ROOT / "examples"))
-    import build_fmu
+    import builds
     import cylinder_systems
     from grubler.system.cosim import run
 
     d = tmp_path_factory.mktemp("dist")
-    build_fmu.build(d, ["HydraulicCylinder", "PneumaticCylinder", "PID", "Trajectory"])
+    builds.dist(d, ["HydraulicCylinder", "PneumaticCylinder", "PID", "Trajectory"])
     out = {}
     for path in cylinder_systems.main(d, d):
         out[path.stem] = (cylinder_systems.DESIGNS[path.stem], run(path))

@@ -28,7 +28,7 @@ import pytest
 
 from grubler.fmi.build import fmi_headers_dir
 
-from c_host import compile_host
+import builds
 from test_native_fmu import (DISCARD, ERROR, OK, SANITIZE, SANITIZER_ENV, Host, Transcript, random_script,
                              sanitized_binary)
 
@@ -46,11 +46,15 @@ INPUTS = {"Mechanism": {"motor_torque": 3.0}, "DCMotor": {"voltage": 24.0, "shaf
           "HydraulicCylinder": {"command": 0.5, "rate": 0.05}, "PneumaticCylinder": {"command": 0.5, "rate": 0.05}}
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 def _build(tmp_path_factory, fmi: int) -> dict:
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp(f"fmi{fmi}"), NATIVE, fmi=fmi):
+    for path in builds.dist(tmp_path_factory.mktemp(f"fmi{fmi}"), NATIVE, fmi=fmi):
         d = tmp_path_factory.mktemp(f"{path.stem}{fmi}")
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, d, read_model_description(str(path)))
@@ -70,9 +74,8 @@ def built2(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def hosts(tmp_path_factory):
-    d = tmp_path_factory.mktemp("hosts")
-    return {2: compile_host(d / "fmi_host"), 3: compile_host(d / "fmi3_host", fmi=3)}
+def hosts():
+    return {2: builds.host(), 3: builds.host(fmi=3)}
 
 
 class Host3(Host):
@@ -497,11 +500,9 @@ def test_what_fmi3_adds_to_the_contract(built3):
 def sanitized3(built3, tmp_path_factory):
     """The FMI 3.0 binaries and host, rebuilt from sources/ with AddressSanitizer and UBSan."""
     d = tmp_path_factory.mktemp("asan3")
-    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(d / "probe")],
-                           input="int main(void){return 0;}", capture_output=True, text=True)
-    if probe.returncode != 0:
-        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
-    out = {"host": compile_host(d / "fmi3_host", fmi=3, flags=SANITIZE)}
+    if builds.sanitizer_problem():
+        pytest.skip(f"cc cannot build with sanitizers here: {builds.sanitizer_problem()}")
+    out = {"host": builds.host(fmi=3, flags=SANITIZE)}
     for name in ("Mechanism", "DCMotor"):
         _, unzipped_dir, desc = built3[name]
         out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")

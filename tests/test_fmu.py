@@ -20,12 +20,16 @@ HERE = Path(__file__).parent
 ROOT = HERE.parent
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="session")
 def fmu(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism"])
+    (path,) = builds.dist(tmp_path_factory.mktemp("dist"), ["Mechanism"])
     return path
 
 

@@ -32,6 +32,10 @@ ERROR = "status 3 (error)"
 IDENT = {"model": "M", "build": "b", "parameters": "p"}
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 def test_state_round_trips_bit_exactly():
     g = np.random.Generator(np.random.PCG64(3))
     g.standard_normal(5)
@@ -102,9 +106,9 @@ def test_default_law_state_holds_inner_laws_as_plain_data():
 @pytest.fixture(scope="module")
 def dist(tmp_path_factory):
     sys.path.insert(0, str(HERE.parent))
+    import builds
 
     from controller_scenarios import RateLimiter  # a user's own law
-    from grubler.controllers.fmu import build_controller_fmu
 
     from grubler.controllers import PID, CascadeController, ComputedTorque, Encoder, LinearController, Trajectory
 
@@ -112,7 +116,7 @@ def dist(tmp_path_factory):
     # the shipped laws are native FMUs (test_native_laws.py); the pythonfmu route, which users'
     # own laws take, is held to its contract on them too
     for law in (PID, CascadeController, LinearController, Encoder, Trajectory, ComputedTorque, RateLimiter):
-        build_controller_fmu(law, folder)
+        builds.controller_fmu(law, folder)
     return folder
 
 

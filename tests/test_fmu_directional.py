@@ -23,14 +23,18 @@ sys.path.insert(0, str(HERE))
 from fmi_child import central_difference, instance  # noqa: E402
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     sys.path.insert(0, str(HERE.parent))
-    import build_fmu
+    import builds
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor"]):
+    for path in builds.dist(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor"]):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, str(d), read_model_description(str(path)))

@@ -26,9 +26,14 @@ from grubler.fmi.mechanism import fmu_parameters, same_shape
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 
+import builds  # noqa: E402
 from fmi_child import central_difference, instance  # noqa: E402
 
 TWO_LOOPS = [n for n in grubler.mechanism.scene.preset_names() if len(grubler.load_scene(n).mechanism.closures) == 2]
+
+
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +41,6 @@ def exported(tmp_path_factory):
     """One exported FMU per shape of the two-loop presets (the others retune it by its parameters)."""
     from fmpy import read_model_description
 
-    from grubler.fmi.build import export
 
     out = []
     for name in TWO_LOOPS:
@@ -44,7 +48,7 @@ def exported(tmp_path_factory):
         if any(same_shape(scene.mechanism, s.mechanism) for s, _, _ in out):
             continue
         d = tmp_path_factory.mktemp(name)
-        path = export(scene, d / f"Loops{len(out)}.fmu")
+        path = builds.export(name, d / f"Loops{len(out)}.fmu")
         zipfile.ZipFile(path).extractall(d / "unzipped")
         out.append((scene, str(d / "unzipped"), read_model_description(str(path))))
     return out

@@ -9,12 +9,16 @@ runs 25 times as many, at random.
 
 import tomllib
 
-from hypothesis import given
-from hypothesis import strategies as st
+import pytest
 
-from fuzzing import (NASTY_TEXT, check_cli, examples, nasty_value, number_text, run_csv, ssd_text, ssp_archive,
-                     toml_text)
-from grubler.mechanism.scene import preset_text
+pytest.importorskip("hypothesis", reason="hypothesis is not installed (pip install -e .[test])")
+
+from hypothesis import given  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from fuzzing import (NASTY_TEXT, check_cli, examples, nasty_value, number_text, run_csv,  # noqa: E402
+                     ssd_text, ssp_archive, toml_text)
+from grubler.mechanism.scene import preset_text  # noqa: E402
 
 PRESETS = ["thesis-fourbar", "thesis-slider-crank", "elliptic-trammel", "thesis-conchoidal"]
 

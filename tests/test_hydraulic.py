@@ -251,9 +251,9 @@ def cylinder_fmu(tmp_path_factory):
 
     root = Path(__file__).resolve().parents[1]
     sys.path.insert(0, str(root))
-    import build_fmu
+    import builds
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["HydraulicCylinder"])
+    (path,) = builds.dist(tmp_path_factory.mktemp("dist"), ["HydraulicCylinder"])
     d = tmp_path_factory.mktemp("unzipped")
     zipfile.ZipFile(path).extractall(d)
     return path, d, read_model_description(str(path))
@@ -276,6 +276,7 @@ def _slave(cylinder_fmu, name="c", messages=None):
     return s, vr
 
 
+@pytest.mark.slow
 def test_the_fmu_validates_and_steps_exactly_as_the_library(cylinder_fmu):
     from fmpy.validation import validate_fmu
 
@@ -297,6 +298,7 @@ def test_the_fmu_validates_and_steps_exactly_as_the_library(cylinder_fmu):
     s.freeInstance()
 
 
+@pytest.mark.slow
 def test_the_fmu_refuses_a_bad_parameter_by_name_and_a_nan_input_with_discard(cylinder_fmu):
     from fmpy.fmi1 import FMICallException
 

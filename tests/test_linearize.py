@@ -548,6 +548,7 @@ def test_a_sweep_with_near_stays_on_one_assembly_branch():
 
 
 # -- the design example, co-simulated ----------------------------------------------
+@pytest.mark.slow
 def test_design_example_predictions_hold_in_cosimulation(tmp_path):
     # the example's designs as FMUs on the nonlinear plant: on the ideal plant
     # (no dry friction, lossless gearbox, no quantisation) the linear prediction
@@ -560,10 +561,10 @@ def test_design_example_predictions_hold_in_cosimulation(tmp_path):
 
     root = Path(__file__).resolve().parent.parent
     sys.path.insert(0, str(root))
-    import build_fmu
+    import builds
 
     d = tmp_path / "dist"
-    build_fmu.build(d, ["Mechanism", "DCMotor", "Encoder", "Trajectory"])
+    builds.dist(d, ["Mechanism", "DCMotor", "Encoder", "Trajectory"])
     out = tmp_path / "rows.json"
     proc = subprocess.run([sys.executable, str(root / "examples" / "control_design.py"), "--fmu-dir", str(d),
                            "--img-dir", str(tmp_path), "--json", str(out)], capture_output=True, text=True,

@@ -372,9 +372,9 @@ def voltage_step(t: float) -> float:
 @pytest.fixture(scope="module")
 def fmu(tmp_path_factory):
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
 
-    (path,) = build_fmu.build(tmp_path_factory.mktemp("dist"), ["DCMotor"])
+    (path,) = builds.dist(tmp_path_factory.mktemp("dist"), ["DCMotor"])
     return path
 
 
@@ -388,12 +388,14 @@ def run_child(scenario: str, fmu: Path, tmp_path: Path) -> dict:
     return data["result"]
 
 
+@pytest.mark.slow
 def test_fmpy_validate_passes(fmu):
     from fmpy.validation import validate_fmu
 
     assert validate_fmu(str(fmu)) == []
 
 
+@pytest.mark.slow
 def test_model_description_declares_the_interface_with_units(fmu):
     from fmpy import read_model_description
 
@@ -423,6 +425,7 @@ def test_model_description_declares_the_interface_with_units(fmu):
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
 
 
+@pytest.mark.slow
 def test_fmu_voltage_step_matches_the_python_model(fmu, tmp_path):
     res = run_child("voltage_step", fmu, tmp_path)
     ref = np.array(python_reference(1e-3, 100, voltage_step, 20.0))
@@ -434,6 +437,7 @@ def test_fmu_voltage_step_matches_the_python_model(fmu, tmp_path):
     assert res["start"] == [0.0, 0.0, 30.0]  # shaft_torque, current, winding_temperature before any step
 
 
+@pytest.mark.slow
 def test_fmu_rolls_back_and_refuses_bad_input(fmu, tmp_path):
     res = run_child("rollback_and_errors", fmu, tmp_path)
     assert res["first"] == res["replay"] == res["replay_serialized"]

@@ -23,6 +23,7 @@ import grubler
 from grubler.fmi.build import FMI_HEADERS, fmi_headers_dir
 from grubler.fmi.mechanism import fmu_parameters
 
+import builds
 from c_host import compile_host
 
 HERE = Path(__file__).parent
@@ -31,15 +32,19 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 MATCH = 1e-12
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="session")
 def built(tmp_path_factory):
     """dist/'s native FMUs as build_fmu.py makes them, unzipped too."""
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor", "HydraulicCylinder",
+    for path in builds.dist(tmp_path_factory.mktemp("dist"), ["Mechanism", "DCMotor", "HydraulicCylinder",
                                                                           "PneumaticCylinder"]):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
@@ -63,9 +68,9 @@ def md(built):
 
 
 @pytest.fixture(scope="session")
-def host(tmp_path_factory):
-    """tests/fmi_host.c, compiled against the FMI headers fmpy ships."""
-    return compile_host(tmp_path_factory.mktemp("host") / "fmi_host")
+def host():
+    """tests/fmi_host.c, compiled against the FMI headers fmpy ships (once: builds.py)."""
+    return builds.host()
 
 
 class Host:
@@ -511,17 +516,13 @@ def test_a_null_instance_does_not_crash_the_host(native):
     assert t.statuses("null") == [ERROR]
 
 
-SANITIZE = ["-std=c99", "-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
-            "-fno-sanitize-recover=undefined"]
+SANITIZE = builds.SANITIZE
 SANITIZER_ENV = {"ASAN_OPTIONS": "halt_on_error=1:detect_leaks=1", "UBSAN_OPTIONS": "halt_on_error=1"}
 
 
 def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
-    """An FMU's binary rebuilt from its sources/ with AddressSanitizer and UBSan."""
-    src = unzipped_dir / "sources"
-    files = [str(src / f) for f in desc.buildConfigurations[0].sourceFileSets[0].sourceFiles]
-    subprocess.run(["cc", "-shared", "-fPIC", *SANITIZE, "-I", str(src), *files, "-o", str(out), "-lm"], check=True)
-    return out
+    """An FMU's binary rebuilt from its sources/ with AddressSanitizer and UBSan (once per sources: builds.py)."""
+    return builds.sanitized_binary(unzipped_dir, desc, out)
 
 
 @pytest.fixture(scope="session")
@@ -531,11 +532,9 @@ def sanitized(built, tmp_path_factory):
 
 def sanitize_all(built: dict, d: Path) -> dict:
     """The FMUs' binaries and the host, rebuilt in d from sources/ with AddressSanitizer and UBSan."""
-    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(d / "probe")],
-                           input="int main(void){return 0;}", capture_output=True, text=True)
-    if probe.returncode != 0:
-        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
-    out = {"host": compile_host(d / "fmi_host", flags=SANITIZE)}
+    if builds.sanitizer_problem():
+        pytest.skip(f"cc cannot build with sanitizers here: {builds.sanitizer_problem()}")
+    out = {"host": builds.host(flags=SANITIZE)}
     for name, (_, unzipped_dir, desc) in built.items():
         out[name] = sanitized_binary(unzipped_dir, desc, d / f"{name}.so")
     return out
@@ -889,11 +888,9 @@ def tree_fmu(host, tmp_path_factory):
     """The stephenson-iii scene exported (its links 4 and 5 hang from link 3), unzipped, in the host."""
     from fmpy import read_model_description
 
-    from grubler.fmi.build import export
 
     d = tmp_path_factory.mktemp("tree")
-    path = d / "Stephenson3.fmu"
-    export(grubler.load_scene("stephenson-iii"), path)
+    path = builds.export("stephenson-iii", d / "Stephenson3.fmu")
     zipfile.ZipFile(path).extractall(d / "unzipped")
     desc = read_model_description(str(path))
     vr = {v.name: v.valueReference for v in desc.modelVariables}
@@ -1009,10 +1006,9 @@ def watt_fmu(host, tmp_path_factory):
     """The watt-ii scene exported (two closures), unzipped, with its spec."""
     from fmpy import read_model_description
 
-    from grubler.fmi.build import export
 
     d = tmp_path_factory.mktemp("watt")
-    path = export(grubler.load_scene("watt-ii"), d / "WattII.fmu")
+    path = builds.export("watt-ii", d / "WattII.fmu")
     zipfile.ZipFile(path).extractall(d / "unzipped")
     desc = read_model_description(str(path))
     vr = {v.name: v.valueReference for v in desc.modelVariables}

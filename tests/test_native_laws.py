@@ -62,15 +62,19 @@ CLASSES = {"PID": PID, "CascadeController": CascadeController, "Encoder": Encode
            "Lead": LinearController, "Cam": Trajectory}
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """The law FMUs as build_fmu.py makes them, unzipped too."""
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    import builds
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), DIST_LAWS):
+    for path in builds.dist(tmp_path_factory.mktemp("dist"), DIST_LAWS):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (path, d, read_model_description(str(path)))

@@ -281,11 +281,11 @@ def test_the_servo_plot_puts_the_supply_and_current_limit_on_the_motor_panels():
 def servo_record(tmp_path_factory):
     """A short co-simulation of the servo four-bar (FMUs built from this checkout), as its CSV."""
     sys.path.insert(0, str(Path(__file__).parent.parent))
-    import build_fmu
+    import builds
     from grubler.system.servo import ServoDesign, servo_system
 
     d = tmp_path_factory.mktemp("servo")
-    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     ssd = servo_system(ServoDesign(t_end=0.05), d).write(d / "servo.ssd")
     # in a process of its own: pythonfmu FMUs that ran numpy may corrupt the heap at exit
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(ssd), "--csv", str(d / "co.csv"),
@@ -294,6 +294,7 @@ def servo_record(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_a_controller_output_of_any_unit_is_headed_in_the_unit_of_what_it_feeds(servo_record):
     header = next(csv.reader(open(servo_record / "co.csv")))
     assert "controller.u [V]" in header and "motor.voltage [V]" in header  # the PID's "any" is the motor's volts
@@ -301,6 +302,7 @@ def test_a_controller_output_of_any_unit_is_headed_in_the_unit_of_what_it_feeds(
     assert (servo_record / "co.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_the_report_of_a_servo_record_and_its_system_names_what_drove_it(servo_record, capsys):
     from grubler.views.report import report_figure, system_numbers
     from grubler.views.runs import read_run

@@ -28,13 +28,14 @@ import numpy as np
 import pytest
 
 import grubler
-from grubler.fmi.build import TARGETS, export, zig_compiler
+from grubler.fmi.build import TARGETS, zig_compiler
 from grubler.fmi.mechanism import fmu_parameters
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
+import builds  # noqa: E402
 from fmi_child import instance  # noqa: E402
 
 SCENES = ["thesis-fourbar", "slider-crank", "stephenson-iii", "watt-ii"]
@@ -44,18 +45,22 @@ CASES = [("thesis-fourbar", "exact"), ("thesis-fourbar", "penalty"), ("slider-cr
 STRICT = ["-std=c99", "-pedantic", "-Werror", "-Wall", "-Wvla", "-Wno-unused-function"]
 
 
-def importer_build(unzipped: Path, *flags: str) -> Path:
-    """Compile the FMU's sources/ (the files its model description lists) with cc into binaries/linux64."""
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
+def importer_build(unzipped: Path, label: str, *flags: str) -> Path:
+    """Compile the FMU's sources/ (the files its model description lists) with cc into binaries/linux64.
+
+    (Once per sources, flags and compiler: builds.py; ``label`` names the build in its cache.)
+    """
     from fmpy import read_model_description
 
     md = read_model_description(str(unzipped))
     ident, src = md.coSimulation.modelIdentifier, unzipped / "sources"
-    out = unzipped / "binaries" / "linux64" / f"{ident}.so"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    subprocess.run(["cc", "-shared", "-fPIC", "-O2", "-fvisibility=hidden", *flags, "-I", str(src), "-o", str(out),
-                    *(str(src / f) for f in md.buildConfigurations[0].sourceFileSets[0].sourceFiles), "-lm"], check=True,
-                   capture_output=True, text=True)
-    return out
+    return builds.shared_library(f"strict-{label}", src, md.buildConfigurations[0].sourceFileSets[0].sourceFiles,
+                                 ["-O2", "-fvisibility=hidden", *flags], unzipped / "binaries" / "linux64" / f"{ident}.so",
+                                 capture=True)
 
 
 @pytest.fixture(scope="module")
@@ -64,12 +69,12 @@ def two_builds(tmp_path_factory):
     out = {}
     for name in SCENES:
         d = tmp_path_factory.mktemp(name)
-        fmu = export(name, d / "M.fmu", platforms="linux64")
+        fmu = builds.export(name, d / "M.fmu", platforms="linux64")
         pair = {}
         for kind, flags in (("complex", []), ("no_complex", ["-D__STDC_NO_COMPLEX__"])):
             zipfile.ZipFile(fmu).extractall(d / kind)
             try:
-                pair[kind] = importer_build(d / kind, *STRICT, *flags)
+                pair[kind] = importer_build(d / kind, f"{name}-{kind}", *STRICT, *flags)
             except subprocess.CalledProcessError as exc:
                 pytest.fail(f"{name} sources ({kind}) do not compile as strict C99:\n{exc.stderr}")
         out[name] = pair
@@ -85,7 +90,7 @@ def test_every_native_fmus_sources_are_strict_c99_without_complex(name, tmp_path
     fmu = build_fmu.build(tmp_path, [name], "linux64")[0]
     zipfile.ZipFile(fmu).extractall(tmp_path / "u")
     try:
-        importer_build(tmp_path / "u", *STRICT, "-D__STDC_NO_COMPLEX__")
+        importer_build(tmp_path / "u", f"{name}-no_complex", *STRICT, "-D__STDC_NO_COMPLEX__")
     except subprocess.CalledProcessError as exc:
         pytest.fail(f"{name} sources do not compile as strict C99 without complex:\n{exc.stderr}")
 
@@ -207,12 +212,10 @@ RELATIVE = 1e-12  # another platform's binary against linux64's, of each output'
 @pytest.fixture(scope="module")
 def cross_built(tmp_path_factory):
     """build_fmu.py's native FMUs, every platform, unzipped."""
-    sys.path.insert(0, str(ROOT))
-    import build_fmu
     from fmpy import read_model_description
 
     out = {}
-    for path in build_fmu.build(tmp_path_factory.mktemp("dist"), NATIVE):
+    for path in builds.dist(tmp_path_factory.mktemp("dist"), NATIVE):
         d = tmp_path_factory.mktemp(path.stem)
         zipfile.ZipFile(path).extractall(d)
         out[path.stem] = (d, read_model_description(str(path)))

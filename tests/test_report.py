@@ -72,6 +72,7 @@ def test_no_two_texts_of_the_page_overlap_and_the_title_is_the_scene(runs, prese
             assert label.count("[") == 1, label
 
 
+@pytest.mark.slow
 def test_the_servo_record_page_names_its_residue_and_gives_speeds_in_rad_per_s_and_rpm(tmp_path, mechanism_record):
     raw, cols = read_run(str(mechanism_record), grubler.load_scene("thesis-fourbar").mechanism)
     fig = report_figure(cols, grubler.load_scene("thesis-fourbar").mechanism, source=str(mechanism_record),
@@ -91,10 +92,9 @@ def mechanism_record(tmp_path):
     """A cosim CSV: the mechanism FMU driven by a constant torque from the runner (no motor)."""
     from grubler import cosim, ssp
 
-    fmu = tmp_path / "Mechanism.fmu"
-    from grubler.fmi.build import export
+    import builds
 
-    export("thesis-fourbar", str(fmu))
+    fmu = builds.export("thesis-fourbar", tmp_path / "Mechanism.fmu")
     s = ssp.System("alone", stop_time=0.5, step=0.01)
     s.add("arm", fmu)
     res = cosim.run(s)

@@ -13,6 +13,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 
+import builds
 from servo_reference import monolithic
 
 HERE = Path(__file__).parent
@@ -22,13 +23,14 @@ import servo_fourbar  # noqa: E402
 T_END = 0.2
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def fmu_dir(tmp_path_factory):
-    sys.path.insert(0, str(HERE.parent))
-    import build_fmu
-
     d = tmp_path_factory.mktemp("dist")
-    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     return d
 
 
@@ -82,8 +84,7 @@ SIZING_EXAMPLES = {  # docs/sizing.md's two examples
 
 @pytest.mark.parametrize("example", list(SIZING_EXAMPLES))
 def test_sizing_predicts_the_closed_loop_current_within_10_percent(fmu_dir, example):
-    build = sys.modules["build_fmu"]
-    build.build(fmu_dir, ["ComputedTorque"])
+    builds.dist(fmu_dir, ["ComputedTorque"])
     proc = subprocess.run([sys.executable, "-m", "grubler.cli", "size", *SIZING_EXAMPLES[example], "--supply", "48",
                            "--current-limit", "10", "--check", str(fmu_dir)],
                           capture_output=True, text=True, timeout=900)

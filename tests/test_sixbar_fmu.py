@@ -15,6 +15,10 @@ from grubler.fmi.build import export  # noqa: E402
 SIX = ["watt-i", "watt-ii", "stephenson-i", "stephenson-ii", "stephenson-iii"]
 
 
+# slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+
 @pytest.mark.parametrize("name", SIX)
 def test_a_six_bar_exports_validates_and_runs_like_the_library(name, tmp_path):
     scene = grubler.load_scene(name)

@@ -207,12 +207,12 @@ def servo_ssd(tmp_path_factory):
     """The README's servo four-bar, on FMUs built from this checkout."""
     sys.path.insert(0, str(ROOT))
     sys.path.insert(0, str(ROOT / "examples"))
-    import build_fmu
+    import builds
     import servo_fourbar
     from grubler.system.servo import servo_system
 
     d = tmp_path_factory.mktemp("dist")
-    build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     return servo_system(servo_fourbar.DESIGN, d, name="servo_fourbar").write(d / "servo_fourbar.ssd")
 
 
@@ -227,6 +227,7 @@ def _interfaces(system):
     return {name: FmuInterface.of(system.source_path(comp)) for name, comp in system.components.items()}
 
 
+@pytest.mark.slow
 def test_the_servos_time_scales_are_its_sample_times_and_the_motors_mechanical_time_constant(servo_ssd):
     from grubler import cosim, ssp
 
@@ -241,6 +242,7 @@ def test_the_servos_time_scales_are_its_sample_times_and_the_motors_mechanical_t
     assert cosim.step_warnings(1e-3, cosim.time_scales(system, _interfaces(system))) == []
 
 
+@pytest.mark.slow
 def test_a_step_beyond_the_pids_sample_time_is_warned_of_and_the_run_still_succeeds(servo_ssd):
     proc = cosim_cli(servo_ssd, "--step", "0.05", "--t-end", "0.5")
     assert proc.returncode == 0, proc.stderr
@@ -250,12 +252,14 @@ def test_a_step_beyond_the_pids_sample_time_is_warned_of_and_the_run_still_succe
     assert "motor's mechanical time constant" in lines[2]
 
 
+@pytest.mark.slow
 def test_the_readme_cosim_run_prints_no_warning(servo_ssd, tmp_path):
     proc = cosim_cli(servo_ssd, "--csv", tmp_path / "servo.csv")  # the system's own 10 s at 1 ms
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     assert "order encoder -> controller" in proc.stdout
 
 
+@pytest.mark.slow
 def test_jacobi_says_what_it_costs_and_prints_no_stepping_order(servo_ssd):
     proc = cosim_cli(servo_ssd, "--master", "jacobi", "--t-end", "0.05")
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
@@ -264,6 +268,7 @@ def test_jacobi_says_what_it_costs_and_prints_no_stepping_order(servo_ssd):
     assert "every connection adds a step of delay" in " ".join(helptext.split())
 
 
+@pytest.mark.slow
 def test_a_record_interval_shorter_than_the_step_is_refused_not_cut(servo_ssd):
     proc = cosim_cli(servo_ssd, "--step", "0.05", "--dt-out", "0.01", "--t-end", "0.2")
     assert proc.returncode == 2
