@@ -54,6 +54,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -139,6 +140,13 @@ class Motion:
         return self.a[body - 1] + al * np.array([-r[1], r[0]]) - w * w * r
 
 
+# The mechanism's structure (its joints as a graph, the drive's and the output's links, the pins that transmit)
+# is a function of the model alone: found once per model (the model is immutable and hashable) and shared,
+# read-only, by every instant and every row of a sweep.
+structural = functools.lru_cache(maxsize=32)
+
+
+@structural
 def _joint_index(model: Mechanism) -> int:
     """Index in z of the joint the analysis drives: the scene's drive, or the first link's joint."""
     return model.free_index(model.drive) if model.drive else 0
@@ -323,6 +331,7 @@ def kennedy_residual(a: InstantCentre, b: InstantCentre, c: InstantCentre) -> fl
 
 
 # -- the joints as drawn: which bodies they join and where -----------------------------------------
+@structural
 def _graph(model: Mechanism):
     joints = link_graph(model)
     near: dict[int, set] = {b: set() for b in range(1, model.n_links + 2)}
@@ -336,9 +345,10 @@ def _drive_body(model: Mechanism) -> int:
     return _joint_index(model) + 2
 
 
-def _distances(model: Mechanism, near) -> dict[int, int]:
+@structural
+def _distances(model: Mechanism) -> dict[int, int]:
     """Joints from the drive's link to each moving link, through moving links: the way power flows."""
-    start = _drive_body(model)
+    start, near = _drive_body(model), _graph(model)[1]
     dist, todo = {start: 0}, [start]
     while todo:
         b = todo.pop(0)
@@ -355,7 +365,7 @@ def joint_points(model: Mechanism, mo: Motion) -> list[tuple[object, np.ndarray]
     A chain joint sits at its link's origin; a closure at its closing point.
     """
     out = []
-    for j in link_graph(model):
+    for j in _graph(model)[0]:
         out.append((j, mo.world(j.b, j.at_b) if j.b != GROUND else mo.world(j.a, j.at_a)))
     return out
 
@@ -380,10 +390,11 @@ class TransmissionAngle:
         return f"mu{self.coupler}{self.output}"
 
 
+@structural
 def _transmission_pins(model: Mechanism):
     """(coupler, output, pin joint, coupler's other joint) of every pin where a binary link drives the next."""
-    joints, near = _graph(model)
-    dist = _distances(model, near)
+    joints = _graph(model)[0]
+    dist = _distances(model)
     out = []
     for pin in joints:
         if pin.kind != "R" or GROUND in (pin.a, pin.b):
@@ -444,6 +455,7 @@ def transmission_angles(model: Mechanism, mo: Motion, pins=None) -> list[Transmi
     return out
 
 
+@structural
 def output_body(model: Mechanism) -> int | None:
     """The link whose motion the mechanism delivers: the load's link, else the ground-jointed link farthest from the drive.
 
@@ -451,8 +463,7 @@ def output_body(model: Mechanism) -> int | None:
     """
     if model.load:
         return model.free_index(model.load, "load") + 2
-    joints, near = _graph(model)
-    dist = _distances(model, near)
+    near, dist = _graph(model)[1], _distances(model)
     drive = _drive_body(model)
     grounded = [b for b in near[GROUND] if b != drive and b in dist]
     return max(grounded, key=lambda b: (dist[b], b)) if grounded else None
@@ -472,10 +483,11 @@ class Advantage:
     unit: str
 
 
+@structural
 def _guide(model: Mechanism, body: int) -> tuple | None:
     """How ``body`` slides on the ground: None when it turns (a revolute to it, or no joint), ('chain', row)
     when its own pair is the slide (its axis in the link table's row), ('fixed', (x, y)) a ground closure's line."""
-    for j in link_graph(model):
+    for j in _graph(model)[0]:
         if {j.a, j.b} == {GROUND, body} and j.kind == "P":
             if j.b == body and model.parents[body - 2] == GROUND and model.links[body - 2].joint == "P":
                 return ("chain", body - 2)
