@@ -230,6 +230,15 @@ def motion(model: Mechanism, z, zd, zdd=None) -> Motion:
     """Every body's velocity and acceleration field at joint state (z, zd, zdd): one pass of the kernel.
 
     ``zdd`` None means no joint accelerates (only the convective part remains).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    >>> mo = motion(m, z, [1.0, 0.0, 0.0])    # the crank turning, the other joints held: one rigid body
+    >>> mo.omega.round(6).tolist()
+    [0.0, 1.0, 1.0, 1.0]
     """
     n = model.n_links
     z, zd = np.asarray(z, dtype=float), np.asarray(zd, dtype=float)
@@ -248,6 +257,12 @@ class InstantCentre:
     other has its centre at infinity, and ``direction`` (a unit vector, the
     line every point moves across) instead; a pair at rest relative to each
     other has neither.  ``homogeneous`` is (x, y, w), the point (x/w, y/w).
+
+    Examples
+    --------
+    >>> ic = InstantCentre(1, 3, (2.0, 1.0, 2.0), np.array([1.0, 0.5]), None)
+    >>> ic.label, ic.point.tolist()
+    ('I13', [1.0, 0.5])
     """
 
     i: int
@@ -297,7 +312,17 @@ def instant_centre(mo: Motion, i: int, j: int) -> InstantCentre:
 
 
 def instant_centres(mo: Motion) -> list[InstantCentre]:
-    """The centres of every pair of bodies, I12, I13, ..., in that order: B (B - 1) / 2 of them."""
+    """The centres of every pair of bodies, I12, I13, ..., in that order: B (B - 1) / 2 of them.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("watt-ii").mechanism
+    >>> z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    >>> centres = instant_centres(motion(m, z, *kinematic_rates(m, z)))
+    >>> len(centres), centres[0].label, centres[-1].label      # six bodies: fifteen pairs
+    (15, 'I12', 'I56')
+    """
     bodies = range(1, mo.origin.shape[0] + 1)
     return [instant_centre(mo, i, j) for i, j in itertools.combinations(bodies, 2)]
 
@@ -363,6 +388,14 @@ def joint_points(model: Mechanism, mo: Motion) -> list[tuple[object, np.ndarray]
     """Every joint of :func:`grubler.mechanism.analysis.link_graph` with where it is now (world, m).
 
     A chain joint sits at its link's origin; a closure at its closing point.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    >>> [(j.label, at.round(6).tolist()) for j, at in joint_points(m, motion(m, z, np.zeros(3)))][::3]
+    [('link1-link2 (chain)', [0.0, 0.0]), ('closure: link4-link1', [1.0, 0.0])]
     """
     out = []
     for j in _graph(model)[0]:
@@ -378,6 +411,11 @@ class TransmissionAngle:
     ``angle_deg`` is the acute angle between the coupler's pin-to-pin line and
     the line from the pin to the output's instant centre with the ground, deg
     (90 best, 0 a dead centre); ``at`` is the pin (world, m).
+
+    Examples
+    --------
+    >>> TransmissionAngle(3, 4, np.array([0.6, 0.7]), 60.0).label
+    'mu34'
     """
 
     coupler: int
@@ -435,6 +473,14 @@ def transmission_angles(model: Mechanism, mo: Motion, pins=None) -> list[Transmi
     the angle between the rod and the normal to the guide), a Watt II six-bar
     two; a pin whose output is at rest relative to the ground, or whose coupler
     has zero length, gives none.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("watt-ii").mechanism
+    >>> z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    >>> [(t.label, round(t.angle_deg, 2)) for t in transmission_angles(m, motion(m, z, *kinematic_rates(m, z)))]
+    [('mu34', 38.5), ('mu56', 79.96)]
     """
     out = []
     for c, o, pin, other in pins if pins is not None else _transmission_pins(model):
@@ -460,6 +506,12 @@ def output_body(model: Mechanism) -> int | None:
     """The link whose motion the mechanism delivers: the load's link, else the ground-jointed link farthest from the drive.
 
     None for an open chain (no other link is jointed to the ground).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> [output_body(grubler.load_scene(n).mechanism) for n in ("watt-ii", "slider-crank", "triple-pendulum")]
+    [6, 4, None]
     """
     if model.load:
         return model.free_index(model.load, "load") + 2
@@ -476,6 +528,11 @@ class Advantage:
     ``value`` is None at a toggle (the output stands: infinite advantage).
     ``unit`` is '' (torque per torque, or force per force), '1/m' (force per
     torque) or 'm' (torque per force).
+
+    Examples
+    --------
+    >>> Advantage(4, 2.5, "")          # link 4 turns at 0.4 times the drive's rate: 2.5 times its torque
+    Advantage(output=4, value=2.5, unit='')
     """
 
     output: int
@@ -533,7 +590,14 @@ def mechanical_advantage(model: Mechanism, mo: Motion, zd) -> Advantage | None:
 # -- the joints' forces ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class JointForce:
-    """The force (N, world frame) one body exerts on another at a joint, and the joint's moment (N m)."""
+    """The force (N, world frame) one body exerts on another at a joint, and the joint's moment (N m).
+
+    Examples
+    --------
+    >>> f = JointForce("link1-link2", 2, 1, np.zeros(2), np.array([4.2, 24.6]), 2.7)   # as joint_forces makes it
+    >>> f.on, f.by, f.force.tolist()
+    (2, 1, [4.2, 24.6])
+    """
 
     label: str
     on: int  # the body it acts on
@@ -555,6 +619,15 @@ def joint_forces(model: Mechanism, z, zd, inputs: Inputs, method: str = EXACT) -
     ------
     numpy.linalg.LinAlgError
         When the equations of motion are singular there.
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("thesis-fourbar").mechanism
+    >>> z = m.z_from_q(m.q_ref)
+    >>> f = joint_forces(m, z, np.zeros(3), Inputs(drive=3.0))      # at rest, 3 N m on the crank
+    >>> f[0].label, f[0].force.round(3).tolist()                    # the ground on the crank: R1 of --reactions
+    ('link1-link2', [4.202, 24.567])
     """
     dyn = forward_dynamics(model, np.asarray(z, float), np.asarray(zd, float), inputs, method)
     reactions = joint_reactions(model, dyn, inputs)
@@ -580,6 +653,12 @@ class Turn:
     transmission angle per row (deg, NaN where undefined); ``least`` per pin
     (label) its minimum and the row of it; ``toggles`` the rows where the
     output's rate changes sign (it stands still and reverses).
+
+    Examples
+    --------
+    >>> turn = Turn(np.array([0.0, 0.1]))      # as turn_analysis begins it
+    >>> turn.least, turn.toggles
+    ({}, [])
     """
 
     drive: np.ndarray
@@ -677,7 +756,17 @@ def turn_analysis(model: Mechanism, zs) -> Turn:
 # -- everything at one instant --------------------------------------------------------------------------
 @dataclass
 class InstantAnalysis:
-    """The whole analysis at one state (:func:`analyse_instant`)."""
+    """The whole analysis at one state (:func:`analyse_instant`).
+
+    Examples
+    --------
+    >>> import grubler
+    >>> m = grubler.load_scene("slider-crank").mechanism
+    >>> z, _ = grubler.assemble(m, m.z_from_q(m.q_ref))
+    >>> out = analyse_instant(m, z)
+    >>> out.advantage.unit, out.forces_reason               # newtons on the block per newton metre on the crank
+    ('1/m', '')
+    """
 
     z: np.ndarray
     zd: np.ndarray
