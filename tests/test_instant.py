@@ -292,3 +292,16 @@ def test_an_open_chain_has_centres_but_no_transmission_angle_nor_output():
     assert out.transmission == [] and out.advantage is None
     i23 = next(c for c in out.centres if (c.i, c.j) == (2, 3))
     assert i23.point is None and i23.direction is None  # the others stand still: link 3 moves with link 2
+
+
+def test_a_parallelogram_through_its_change_point_has_no_toggle_and_a_clamp_has_its_rocker_as_output():
+    from grubler.app.actions import drive_sweep
+
+    # past the change point the sweep may fold the links onto one another: the output stands still there, and
+    # rounding flipped its rate's sign from row to row (28 "toggles" were marked)
+    m, z = closed("fourbar-parallelogram")
+    assert turn_analysis(m, drive_sweep(m, z, 180)).toggles == []
+    # a toggle clamp's load is on its crank, the drive's own joint: its output is still the rocker
+    m, z = closed("toggle-clamp")
+    zd, zdd = kinematic_rates(m, z)
+    assert mechanical_advantage(m, motion(m, z, zd, zdd), zd).output == 4

@@ -505,7 +505,9 @@ def transmission_angles(model: Mechanism, mo: Motion, pins=None) -> list[Transmi
 def output_body(model: Mechanism) -> int | None:
     """The link whose motion the mechanism delivers: the load's link, else the ground-jointed link farthest from the drive.
 
-    None for an open chain (no other link is jointed to the ground).
+    None for an open chain (no other link is jointed to the ground).  A load on
+    the drive's own joint (a toggle clamp's reaction) names no output: the
+    farthest link is taken then.
 
     Examples
     --------
@@ -513,10 +515,10 @@ def output_body(model: Mechanism) -> int | None:
     >>> [output_body(grubler.load_scene(n).mechanism) for n in ("watt-ii", "slider-crank", "triple-pendulum")]
     [6, 4, None]
     """
-    if model.load:
+    drive = _drive_body(model)
+    if model.load and model.free_index(model.load, "load") + 2 != drive:
         return model.free_index(model.load, "load") + 2
     near, dist = _graph(model)[1], _distances(model)
-    drive = _drive_body(model)
     grounded = [b for b in near[GROUND] if b != drive and b in dist]
     return max(grounded, key=lambda b: (dist[b], b)) if grounded else None
 
@@ -747,10 +749,26 @@ def turn_analysis(model: Mechanism, zs) -> Turn:
         else:
             axis = K[:, guide[1], K_AX:K_AY + 1] if guide[0] == "chain" else np.asarray(guide[1])
             rate = np.einsum("ri,ri->r", v[:, body - 2], np.broadcast_to(axis, (rows, 2)))
-        for r in range(rows - 1):
-            if rate[r] == 0.0 or rate[r] * rate[r + 1] < 0:
-                turn.toggles.append(r if abs(rate[r]) <= abs(rate[r + 1]) else r + 1)
+        turn.toggles = _reversals(rate, 1e-9 * (1.0 if guide is None else float(np.abs(zs).max()) or 1.0))
     return turn
+
+
+def _reversals(rate: np.ndarray, still: float) -> list[int]:
+    """The rows where ``rate`` changes sign, each the row of least speed between the two signs.
+
+    A rate within ``still`` of zero has no sign: rounding in a folded position
+    (a parallelogram's links lying on one another) flips it, and no reversal is
+    counted there, only where the output moves one way before and the other after.
+    """
+    out, last = [], None  # (row, sign) of the last moving row
+    for r, value in enumerate(rate):
+        if abs(value) <= still:
+            continue
+        sign = value > 0
+        if last is not None and sign != last[1]:
+            out.append(last[0] + int(np.argmin(np.abs(rate[last[0]:r + 1]))))
+        last = (r, sign)
+    return out
 
 
 # -- everything at one instant --------------------------------------------------------------------------
