@@ -387,6 +387,11 @@ def test_the_analysis_layer_draws_arrows_centres_and_angles_live_and_at_a_runs_i
     assert "mechanical advantage (link4 on theta2)" in facts and "transmission angle μ34" in facts
     assert "least" in facts and "toggles at theta2" in facts
     page.screenshot(path=str(shots / "11-analysis-fourbar.png"))
+    page.check('#analysis-layer input[data-kind="a"]')  # accelerations too: one more arrow per accelerating point
+    page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.acc').length > 0")
+    accelerating = len([p for p in page.evaluate("() => state.analysis.analysis.points") if any(p["a"])])
+    assert page.locator(".analysis .arrow.acc").count() == accelerating
+    assert "m/s²" in page.text_content(".analysis .alabel.acc >> nth=0")
 
     # live while dragging: the centre of rocker and ground follows the pivot
     drag_handle(page, "O4", 1.2, 0.0)
