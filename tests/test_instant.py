@@ -271,6 +271,12 @@ def test_joint_forces_are_grubler_simulate_reactions_and_newtons_law(name, torqu
     got = [tuple(f.force) for f in forces]
     scale = max(abs(v) for e in expected for v in e)
     assert np.allclose(got, expected, rtol=1e-6, atol=1e-8 * scale)
+    # and the moments: a chain pin's is its own torque (the drive's, less the joint's damping); they came out wrong
+    # from joint_reactions while the kernel's point Jacobians missed the predecessors' joints
+    moments = [row[f"R{k}_Mz"] for k in range(1, m.n_links + 1)]
+    assert np.allclose([f.moment for f in forces[:m.n_links]], moments, rtol=1e-6, atol=1e-9 * scale)
+    own = [(torque if k == m.free_index(m.drive) else 0.0) - link.damping * zd[k] for k, link in enumerate(m.links)]
+    assert np.allclose(moments, own, rtol=1e-6, atol=1e-9 * scale)
     zdd = grubler.forward_dynamics(m, z, zd, Inputs(drive=torque)).zdd
     assert newton_residual(m, z, zd, zdd, forces, m.gravity).max() < 1e-4 * scale
 
