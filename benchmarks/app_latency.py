@@ -181,7 +181,8 @@ def main() -> None:
         if not args.analysis:
             add("10 s simulation on screen after the click, fourbar-crank-rocker", simulate_latencies(page, args.runs),
                 300)
-            add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs), 1000)
+            add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs),
+                1000)
         browser.close()
     server.shutdown()
     shutil.rmtree(root, ignore_errors=True)  # the FMUs built for the run, and what the app wrote

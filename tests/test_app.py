@@ -749,7 +749,8 @@ def test_a_six_bar_and_a_slider_crank_get_their_centres_at_infinity_and_both_ang
 def test_a_runs_instant_is_analysed_at_its_state_and_forces(app):
     data = actions.preset_data("slider-crank")
     status, out, cookie = call(app, "POST", "/api/instant", {"scene": data, "at": 0.1})
-    assert status == 200 and out["error"] == {"field": "at", "reason": "no run of this scene to analyse: simulate it first"}
+    assert status == 200
+    assert out["error"] == {"field": "at", "reason": "no run of this scene to analyse: simulate it first"}
     post(app, "simulate", {"scene": data, "t_end": 0.3, "torque": 2}, cookie=cookie)
     out, _ = post(app, "instant", {"scene": data, "at": 0.21}, cookie=cookie)
     a = out["analysis"]

@@ -411,7 +411,8 @@ def test_the_analysis_layer_draws_arrows_centres_and_angles_live_and_at_a_runs_i
     page.wait_for_selector("#panels svg path")
     page.click("#play")  # pause
     page.eval_on_selector("#scrub", "(e) => { e.value = 0.5; e.dispatchEvent(new Event('input')); }")
-    page.wait_for_function("() => document.querySelector('#analysis-facts').textContent.startsWith('the run at t = 0.5')")
+    page.wait_for_function("() => document.querySelector('#analysis-facts').textContent"
+                           ".startsWith('the run at t = 0.5')")
     page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.force').length === 7")
     page.screenshot(path=str(shots / "14-analysis-run-instant.png"))
     assert errors == []

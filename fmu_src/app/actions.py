@@ -809,5 +809,6 @@ def error_of(exc: BaseException) -> dict:
     return {"field": "", "reason": f"internal error ({type(exc).__name__}); the server's log has the details"}
 
 
-__all__ = ["analyse", "analysis_view", "run_instant", "catalog", "drag", "edit", "fields", "parse_scene_text", "preset_data", "run_simulation",
+__all__ = ["analyse", "analysis_view", "run_instant", "catalog", "drag", "edit", "fields", "parse_scene_text",
+           "preset_data", "run_simulation",
            "scene_toml", "describe", "output_columns"]

@@ -211,7 +211,7 @@ def _fields(model: Mechanism, tab, zd, zdd) -> Motion:
     A link's joint point O moves as its mass centre C less the turn about it:
     ``v_O = Jc zd - omega k x (C - O)``, ``a_O = Jc zdd + bias - alpha k x (C - O) + omega^2 (C - O)``.
     """
-    K, n = tab.K, model.n_links
+    K = tab.K
     jw = model.S[1::2]  # each link's angle from the joint coordinates, a constant map (a tree's too)
     omega, alpha = jw @ zd, jw @ zdd
     o, c = K[:, K_OX:K_OY + 1], K[:, K_CX:K_CY + 1]
@@ -503,7 +503,7 @@ def transmission_angles(model: Mechanism, mo: Motion, pins=None) -> list[Transmi
 
 @structural
 def output_body(model: Mechanism) -> int | None:
-    """The link whose motion the mechanism delivers: the load's link, else the ground-jointed link farthest from the drive.
+    """The link whose motion the mechanism delivers: the load's, else the ground's neighbour farthest from the drive.
 
     None for an open chain (no other link is jointed to the ground).  A load on
     the drive's own joint (a toggle clamp's reaction) names no output: the
@@ -698,7 +698,8 @@ def turn_analysis(model: Mechanism, zs) -> Turn:
     if rows == 0:
         return turn
     tab = tables(model)
-    K, Jc, A = np.empty((rows,) + tab.K.shape), np.empty((rows,) + tab.Jc.shape), np.empty((rows, tab.J.shape[0] + 1, n))
+    K, Jc = np.empty((rows,) + tab.K.shape), np.empty((rows,) + tab.Jc.shape)
+    A = np.empty((rows, tab.J.shape[0] + 1, n))
     for r, z in enumerate(zs):
         evaluate_into(model, tab, z, np.zeros(n))  # positions and Jacobians: the rates are linear in the drive's
         K[r], Jc[r], A[r, :-1] = tab.K, tab.Jc, tab.J
