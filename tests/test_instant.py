@@ -311,3 +311,23 @@ def test_a_parallelogram_through_its_change_point_has_no_toggle_and_a_clamp_has_
     m, z = closed("toggle-clamp")
     zd, zdd = kinematic_rates(m, z)
     assert mechanical_advantage(m, motion(m, z, zd, zdd), zd).output == 4
+
+
+def test_a_drive_that_cannot_turn_fully_has_its_limits_where_the_loop_stops_closing():
+    from grubler.app.actions import drive_sweep
+
+    m, z = closed("fourbar-triple-rocker")
+    zs = drive_sweep(m, z, 180)
+    turn = turn_analysis(m, zs)
+    assert turn.limits == [0, len(zs) - 1]
+    # a step of the sweep beyond either end, the loop cannot close: the drive stops there
+    from grubler.errors import AssemblyError
+
+    step = 2 * math.pi / 180
+    for row, sign in ((0, -1), (-1, 1)):
+        beyond = zs[row].copy()
+        beyond[0] += sign * step
+        with pytest.raises(AssemblyError):
+            assemble(m, beyond)
+    m, z = closed("fourbar-crank-rocker")
+    assert turn_analysis(m, drive_sweep(m, z, 180)).limits == []

@@ -476,7 +476,8 @@ def analysis_view(model, z, point, zs=None, zd=None, inputs=None, method: str = 
     acceleration ``a`` (m/s^2); ``centres``: every pair's instant centre, a
     point ``at`` or a ``direction`` (at infinity); ``transmission``: each pin's
     angle (deg) and, over the sweep ``zs``, its least and where;
-    ``toggles``: the traced point where the output stands; ``advantage``;
+    ``toggles``: the traced point where the output stands; ``limits``: where a
+    drive that cannot turn fully stops; ``advantage``;
     ``forces``: each joint's force (N) on its link.  With no ``zd`` the drive
     turns steadily at 1 rad/s (1 m/s) and the forces are those that hold it.
     """
@@ -502,7 +503,7 @@ def analysis_view(model, z, point, zs=None, zd=None, inputs=None, method: str = 
             c["direction"] = _xy(ic.direction)
         centres.append(c)
     transmission = [{"label": t.label, "at": _xy(t.at), "deg": round(t.angle_deg, 4)} for t in res.transmission]
-    toggles = []
+    toggles, limits = [], []
     drive_rate = "1 m/s" if model.drive and not model.arrays.revolute[model.free_index(model.drive)] else "1 rad/s"
     if zs is not None and len(zs):
         turn = turn_analysis(model, zs)
@@ -514,12 +515,13 @@ def analysis_view(model, z, point, zs=None, zd=None, inputs=None, method: str = 
                 t["least_drive"] = float(turn.drive[least[1]])
                 if trace is not None:
                     t["least_at"] = _xy(trace[least[1]])
-        for row in turn.toggles:
-            toggles.append({"drive": float(turn.drive[row]), "at": None if trace is None else _xy(trace[row])})
+        for rows, marks in ((turn.toggles, toggles), (turn.limits, limits)):
+            for row in rows:
+                marks.append({"drive": float(turn.drive[row]), "at": None if trace is None else _xy(trace[row])})
     ma = res.advantage
     return {"state": "run" if zd is not None else f"drive at {drive_rate}, steady",
             "drive": model.drive, "points": pts, "centres": centres, "transmission": transmission,
-            "toggles": toggles,
+            "toggles": toggles, "limits": limits,
             "advantage": None if ma is None else {"output": f"link{ma.output}", "value": ma.value, "unit": ma.unit},
             "forces": None if res.forces is None else [
                 {"label": f.label, "at": _xy(f.at), "f": _xy(f.force), "moment": round(f.moment, 9)}

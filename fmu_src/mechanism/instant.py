@@ -654,7 +654,9 @@ class Turn:
     ``drive`` holds the drive's coordinate at each row; ``angles`` each pin's
     transmission angle per row (deg, NaN where undefined); ``least`` per pin
     (label) its minimum and the row of it; ``toggles`` the rows where the
-    output's rate changes sign (it stands still and reverses).
+    output's rate changes sign (it stands still and reverses); ``limits`` the
+    two ends of a revolute drive's sweep that is no full turn: where the drive
+    itself stops (a rocker's dead centres, a non-Grashof chain's limits).
 
     Examples
     --------
@@ -667,6 +669,7 @@ class Turn:
     angles: dict = field(default_factory=dict)
     least: dict = field(default_factory=dict)
     toggles: list = field(default_factory=list)
+    limits: list = field(default_factory=list)
 
 
 def turn_analysis(model: Mechanism, zs) -> Turn:
@@ -689,8 +692,8 @@ def turn_analysis(model: Mechanism, zs) -> Turn:
     ...     guess = zs[-1].copy(); guess[0] = z[0] + step * np.pi / 90
     ...     zs.append(assemble(m, guess)[0])
     >>> turn = turn_analysis(m, np.array(zs))
-    >>> len(turn.toggles)                    # a crank-rocker's rocker stops twice a turn
-    2
+    >>> len(turn.toggles), turn.limits       # a crank-rocker's rocker stops twice a turn; its crank never
+    (2, [])
     """
     zs = np.asarray(zs, dtype=float)
     rows, n = zs.shape[0], model.n_links
@@ -751,6 +754,12 @@ def turn_analysis(model: Mechanism, zs) -> Turn:
             axis = K[:, guide[1], K_AX:K_AY + 1] if guide[0] == "chain" else np.asarray(guide[1])
             rate = np.einsum("ri,ri->r", v[:, body - 2], np.broadcast_to(axis, (rows, 2)))
         turn.toggles = _reversals(rate, 1e-9 * (1.0 if guide is None else float(np.abs(zs).max()) or 1.0))
+    # a revolute drive's sweep that spans less than a turn (less one of its steps) stopped at both ends where
+    # the loop would no longer close
+    if model.arrays.revolute[_joint_index(model)] and rows > 2:
+        step = float(np.median(np.abs(np.diff(turn.drive))))
+        if np.ptp(turn.drive) + 1.5 * step < 2 * math.pi:
+            turn.limits = [0, rows - 1]
     return turn
 
 

@@ -344,6 +344,11 @@ function analysisMarkup(a, shift) {
     html += `<rect class="mark toggle" x="${t.at[0] - r}" y="${t.at[1] - r}" width="${2 * r}" height="${2 * r}" transform="rotate(45 ${t.at[0]} ${t.at[1]})"/>`;
     html += labelMarkup([t.at[0] + 0.018 * s, t.at[1] - 0.03 * s], `toggle ${a.drive} ${fmtDeg(t.drive)}`, "toggle");
   }
+  for (const t of a.limits || []) {
+    if (!t.at) continue;
+    html += `<circle class="mark limit" cx="${t.at[0]}" cy="${t.at[1]}" r="${0.013 * s}"/>`;
+    html += labelMarkup([t.at[0] + 0.018 * s, t.at[1] - 0.03 * s], `limit ${a.drive} ${fmtDeg(t.drive)}`, "toggle");
+  }
   return html + "</g>";
 }
 
@@ -382,6 +387,9 @@ function showAnalysisFacts(a) {
       (t.least_deg !== undefined ? ` (least ${fmt(t.least_deg)}° at ${a.drive} ${fmtDeg(t.least_drive)})` : ""));
   }
   if (a.toggles.length) parts.push(`toggles at ${a.drive} ${a.toggles.map((t) => fmtDeg(t.drive)).join(", ")}`);
+  if ((a.limits || []).length) {
+    parts.push(`${a.drive} turns only from ${fmtDeg(a.limits[0].drive)} to ${fmtDeg(a.limits[1].drive)} (its limits)`);
+  }
   if (!a.forces) parts.push(`no forces: ${a.forces_reason}`);
   box.textContent = parts.join("; ");
 }
