@@ -388,7 +388,8 @@ function showAnalysisFacts(a) {
   }
   if (a.toggles.length) parts.push(`toggles at ${a.drive} ${a.toggles.map((t) => fmtDeg(t.drive)).join(", ")}`);
   if ((a.limits || []).length) {
-    parts.push(`${a.drive} turns only from ${fmtDeg(a.limits[0].drive)} to ${fmtDeg(a.limits[1].drive)} (its limits)`);
+    const deg = (rad) => fmt((rad * 180) / Math.PI) + "°";  // signed: the range runs up from the first
+    parts.push(`${a.drive} turns only from ${deg(a.limits[0].drive)} to ${deg(a.limits[1].drive)} (its limits)`);
   }
   if (!a.forces) parts.push(`no forces: ${a.forces_reason}`);
   box.textContent = parts.join("; ");
