@@ -32,7 +32,7 @@ function record(kind, start, timing) {
 // -- talking to the server --------------------------------------------------------------------------
 async function api(name, body, timing) {
   if (state.kinematics && ANALYSED.has(name)) body = { ...body, kinematics: true };  // the analysis layer is on
-  if (name === "simulate") state.runScene = body.scene;  // a run's instants are analysed on the scene it ran
+  if (name === "simulate") { state.runScene = body.scene; state.instant = null; }  // its instants: of that scene
   const sent = performance.now();
   const r = await fetch("/api/" + name, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
@@ -285,11 +285,11 @@ function setupAnalysis() {
     if (box.checked) state.layer.add(box.dataset.kind); else state.layer.delete(box.dataset.kind);
     state.kinematics = state.layer.size > 0;
     state.instant = null;
+    if (!state.kinematics) showAnalysisFacts(null);
     if (state.showingRun) { drawRunFrame(); return; }
     if (state.scene) {
       try { await analyse({ scene: state.scene }); } catch (e) { notice(`${e.field}: ${e.message}`, true); }
     }
-    if (!state.kinematics) showAnalysisFacts(null);
   }));
 }
 
