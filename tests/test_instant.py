@@ -331,3 +331,13 @@ def test_a_drive_that_cannot_turn_fully_has_its_limits_where_the_loop_stops_clos
             assemble(m, beyond)
     m, z = closed("fourbar-crank-rocker")
     assert turn_analysis(m, drive_sweep(m, z, 180)).limits == []
+
+
+def test_a_run_at_rest_still_has_its_positions_centres_angle_and_advantage():
+    m, z = closed("fourbar-crank-rocker", 0.4)
+    at_rest = analyse_instant(m, z, np.zeros(3), Inputs(drive=1.0))
+    steady = analyse_instant(m, z)
+    assert [t.angle_deg for t in at_rest.transmission] == pytest.approx([t.angle_deg for t in steady.transmission])
+    assert at_rest.advantage.value == pytest.approx(steady.advantage.value)
+    assert all(a.point is not None and np.allclose(a.point, b.point) for a, b in zip(at_rest.centres, steady.centres))
+    assert np.allclose(at_rest.motion.v, 0.0)  # its velocities are the run's: none

@@ -824,6 +824,10 @@ def analyse_instant(model: Mechanism, z, zd=None, inputs: Inputs | None = None, 
         The efforts acting (a run's); their accelerations follow from the
         equations of motion unless ``zdd`` is given.
 
+    The transmission angles and the mechanical advantage belong to the
+    position (the drive moving it steadily), not to the run's rates: a run at
+    rest has them too; so do the instant centres of a run at rest.
+
     Examples
     --------
     >>> import grubler
@@ -834,8 +838,9 @@ def analyse_instant(model: Mechanism, z, zd=None, inputs: Inputs | None = None, 
     (6, ['link1-link2', 'link2-link3', 'link3-link4', 'link1-link4'])
     """
     z = np.asarray(z, dtype=float)
+    steady = kinematic_rates(model, z)
     if zd is None:
-        zd, zdd = kinematic_rates(model, z)
+        zd, zdd = steady
         inputs = inputs or Inputs()
         if model.drive:
             try:
@@ -854,8 +859,11 @@ def analyse_instant(model: Mechanism, z, zd=None, inputs: Inputs | None = None, 
         reason = "the equations of motion are singular here (a link without inertia that no closure carries)"
     zdd = np.zeros(model.n_links) if zdd is None else np.asarray(zdd, dtype=float)
     mo = motion(model, z, zd, zdd)
-    return InstantAnalysis(z, zd, zdd, mo, instant_centres(mo),
-                           transmission_angles(model, mo), mechanical_advantage(model, mo, zd), forces, reason)
+    geometric = mo if zd is steady[0] else motion(model, z, *steady)
+    moving = float(np.abs(zd).max()) > 0.0
+    return InstantAnalysis(z, zd, zdd, mo, instant_centres(mo if moving else geometric),
+                           transmission_angles(model, geometric), mechanical_advantage(model, geometric, steady[0]),
+                           forces, reason)
 
 
 __all__ = [
