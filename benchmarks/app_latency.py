@@ -17,6 +17,11 @@ included), the page's drawing and the wait for the frame that paints it.
   Stephenson II's floating ternary joint P, Watt II's rocker joint C) and the
   four-link inversions' new handles (scotch yoke, double slider, conchoidal,
   Oldham).
+- drag with the analysis layer on (``--analysis``: these rows alone, no FMUs
+  built): the same moves with every arrow, instant centre, transmission angle
+  and toggle drawn (velocities, accelerations, centres, joint forces), for the
+  four-bar and Watt II (its rocker joint C), beside the same drags without the
+  layer, measured in the same minute.
 - simulate: a click on Simulate for a 10 s run of fourbar-crank-rocker
   (1001 output rows, 400 frames) to its first frame and graphs on screen,
   ``--runs`` times.
@@ -65,10 +70,21 @@ def screen_of(page, x: float, y: float):
     }""", [x, y])
 
 
-def drag_latencies(page, preset: str, handle: str, moves: int) -> tuple[list[float], list[dict]]:
+def analysis_layer(page, on: bool) -> None:
+    """Every kind of the analysis layer on (or off), and its answer on the page."""
+    for box in page.query_selector_all("#analysis-layer input"):
+        if box.is_checked() != on:
+            box.click()
+    page.wait_for_function("(on) => !!state.kinematics === on", arg=on)
+
+
+def drag_latencies(page, preset: str, handle: str, moves: int, layer: bool = False) -> tuple[list[float], list[dict]]:
+    analysis_layer(page, layer)
     page.select_option("#preset", preset)
     page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
                            arg=preset)
+    if layer:
+        page.wait_for_function("() => !!state.analysis.analysis")
     page.wait_for_timeout(300)
     hx, hy = page.evaluate(f"""() => state.analysis.handles.find((h) => h.id === "{handle}").xy""")
     # a circle of 1.5 % of the drawing's size about the handle: every position closes, so each answer has its curve
@@ -114,6 +130,7 @@ def servo_latencies(page, runs: int) -> list[float]:
 DRAGS = [("fourbar-crank-rocker", "B"), ("stephenson-i", "rocker_pivot"), ("stephenson-i", "E"),
          ("stephenson-ii", "P"), ("watt-ii", "C"), ("scotch-yoke", "A"), ("double-slider", "block2"),
          ("conchoidal", "block"), ("oldham", "shaft2")]
+ANALYSED_DRAGS = [("fourbar-crank-rocker", "B"), ("watt-ii", "C")]  # item 5 of issue 33: a four-bar and a six-bar
 
 
 def row_text(row) -> str:
@@ -128,13 +145,16 @@ def main() -> None:
     ap.add_argument("--moves", type=int, default=60)
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--out", help="docs/app.md: replace its results section")
+    ap.add_argument("--analysis", action="store_true",
+                    help="only the drags with and without the analysis layer (no FMUs built, no runs)")
     args = ap.parse_args()
     chromium = shutil.which("chromium") or "/usr/bin/chromium"
     root = Path(tempfile.mkdtemp(prefix="grubler-bench-"))
     sys.path.insert(0, str(ROOT))
-    import build_fmu
+    if not args.analysis:
+        import build_fmu
 
-    build_fmu.build(root / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+        build_fmu.build(root / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
     server = AppServer("127.0.0.1", 0, root)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     rows = []
@@ -149,11 +169,20 @@ def main() -> None:
         page = browser.new_page(viewport={"width": 1400, "height": 1000})
         page.goto(server.url)
         page.wait_for_selector("circle.handle")
-        for preset, handle in DRAGS:
+        for preset, handle in [] if args.analysis else DRAGS:
             add(f"drag redrawn with its coupler curve, {preset} ({handle})", drag_latencies(page, preset, handle,
                                                                                            args.moves), 50)
-        add("10 s simulation on screen after the click, fourbar-crank-rocker", simulate_latencies(page, args.runs), 300)
-        add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs), 1000)
+        for preset, handle in ANALYSED_DRAGS:
+            add(f"drag redrawn with its coupler curve and analysis arrows, {preset} ({handle})",
+                drag_latencies(page, preset, handle, args.moves, layer=True), 50)
+            if args.analysis:  # beside it, in the same minute: the same drag without the layer
+                add(f"drag redrawn with its coupler curve, {preset} ({handle})",
+                    drag_latencies(page, preset, handle, args.moves), 50)
+        if not args.analysis:
+            add("10 s simulation on screen after the click, fourbar-crank-rocker", simulate_latencies(page, args.runs),
+                300)
+            add("10 s servo co-simulation re-run after a gain change, on screen", servo_latencies(page, args.runs),
+                1000)
         browser.close()
     server.shutdown()
     shutil.rmtree(root, ignore_errors=True)  # the FMUs built for the run, and what the app wrote
@@ -162,7 +191,8 @@ def main() -> None:
     machine = (f"Machine: {os.cpu_count()} cores ({platform.processor() or platform.machine()}), shared with other "
                f"jobs: *load* is the 1-minute load average (as `uptime` prints it) when the row was measured. "
                f"Python {platform.python_version()}, Chromium from {chromium}, headless. Command: "
-               f"`python benchmarks/app_latency.py --moves {args.moves} --runs {args.runs}`.")
+               f"`python benchmarks/app_latency.py --moves {args.moves} --runs {args.runs}"
+               f"{' --analysis' if args.analysis else ''}`.")
     text = "\n".join(lines) + "\n\n" + machine + "\n"
     print(text)
     if args.out:

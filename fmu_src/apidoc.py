@@ -37,6 +37,7 @@ PUBLIC_MODULES = [
     "grubler",
     "grubler.mechanism.scene",
     "grubler.mechanism.inverse",
+    "grubler.mechanism.instant",
     "grubler.studies.sizing",
     "grubler.studies.cylinder_sizing",
     "grubler.studies.sweep",

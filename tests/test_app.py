@@ -6,6 +6,7 @@ does; tests/test_app_browser.py drives the page itself.
 
 import http.client
 import json
+import math
 import threading
 import time
 import tomllib
@@ -698,3 +699,72 @@ def test_fresh_sessions_push_out_idle_ones_before_a_page_s_results_and_the_page_
     assert status == 200
     status, out, _ = call(app, "GET", "/api/result.csv", cookie="made-up")  # a restart's, or a guess
     assert status == 404 and "does not know this page's session" in out["error"]["reason"]
+
+
+# -- the analysis on the drawing ----------------------------------------------------------------------------
+def test_the_analysis_comes_with_a_scene_or_a_drag_only_when_asked(app):
+    from grubler.mechanism.instant import analyse_instant
+
+    data = actions.preset_data("fourbar-crank-rocker")
+    out, _ = post(app, "analyse", {"scene": data})
+    assert "analysis" not in out  # a drag's cost stays what it was unless the layer is on
+    out, _ = post(app, "analyse", {"scene": data, "kinematics": True})
+    a = out["analysis"]
+    assert a["state"] == "drive at 1 rad/s, steady" and a["drive"] == "theta2"
+    assert [c["label"] for c in a["centres"]] == ["I12", "I13", "I14", "I23", "I24", "I34"]
+    # the same numbers as the library's, at the sketch's closed position
+    scene = scene_from_dict(data)
+    m = scene.mechanism
+    from grubler.mechanism.assembly import assemble
+
+    ref = analyse_instant(m, assemble(m, m.z_from_q(m.q_ref))[0])
+    i13 = next(c for c in a["centres"] if c["label"] == "I13")
+    assert i13["at"] == pytest.approx(ref.centres[1].point.tolist(), abs=1e-8)
+    assert a["transmission"][0]["deg"] == pytest.approx(ref.transmission[0].angle_deg, abs=1e-3)
+    assert 0 < a["transmission"][0]["least_deg"] <= a["transmission"][0]["deg"]
+    assert len(a["toggles"]) == 2 and all(len(t["at"]) == 2 for t in a["toggles"])  # a crank-rocker's two
+    assert a["advantage"]["output"] == "link4" and a["advantage"]["value"] == pytest.approx(ref.advantage.value)
+    assert [f["label"] for f in a["forces"]] == ["link1-link2", "link2-link3", "link3-link4", "link1-link4"]
+    trace = next(p for p in a["points"] if p["name"] == "trace")
+    assert trace["at"] == pytest.approx(out["curve"][0], abs=1e-6)  # the traced point, where its curve starts
+    moved, _ = post(app, "drag", {"scene": data, "handle": "O4", "x": 1.1, "y": 0.1, "live": True,
+                                   "kinematics": True})
+    o4 = next(h["xy"] for h in moved["handles"] if h["id"] == "O4")
+    assert o4 != [1.0, 0.0] and moved["analysis"]["centres"][2]["at"] == pytest.approx(o4, abs=1e-6)  # I14: the pivot
+    moved, _ = post(app, "drag", {"scene": data, "handle": "O4", "x": 1.1, "y": 0.1, "live": True})
+    assert "analysis" not in moved
+
+
+def test_a_six_bar_and_a_slider_crank_get_their_centres_at_infinity_and_both_angles(app):
+    out, _ = post(app, "analyse", {"scene": actions.preset_data("watt-ii"), "kinematics": True})
+    a = out["analysis"]
+    assert len(a["centres"]) == 15 and [t["label"] for t in a["transmission"]] == ["mu34", "mu56"]
+    assert len(a["forces"]) == 7
+    out, _ = post(app, "analyse", {"scene": actions.preset_data("slider-crank"), "kinematics": True})
+    i14 = next(c for c in out["analysis"]["centres"] if c["label"] == "I14")
+    assert "at" not in i14 and i14["direction"] == pytest.approx([0.0, 1.0])
+    assert out["analysis"]["advantage"]["unit"] == "1/m"
+
+
+def test_a_runs_instant_is_analysed_at_its_state_and_forces(app):
+    data = actions.preset_data("slider-crank")
+    status, out, cookie = call(app, "POST", "/api/instant", {"scene": data, "at": 0.1})
+    assert status == 200
+    assert out["error"] == {"field": "at", "reason": "no run of this scene to analyse: simulate it first"}
+    post(app, "simulate", {"scene": data, "t_end": 0.3, "torque": 2}, cookie=cookie)
+    out, _ = post(app, "instant", {"scene": data, "at": 0.21}, cookie=cookie)
+    a = out["analysis"]
+    res = simulate(scene_from_dict(data), t_end=0.3, torque=2.0)
+    row = int(abs(res.t - a["t"]).argmin())
+    assert a["state"] == "run" and abs(a["t"] - 0.21) <= 0.5 * (res.t[1] - res.t[0]) + 1e-12
+    res.compute(["reactions"])
+    assert a["forces"][0]["f"] == pytest.approx([res["R1_Fx"][row], res["R1_Fy"][row]], rel=1e-6, abs=1e-9)
+    assert a["forces"][-1]["f"] == pytest.approx([res["Fx"][row], res["Fy"][row]], rel=1e-6, abs=1e-9)
+    crank_pin = next(p for p in a["points"] if p["name"] == "23")
+    w, crank = res["theta2_d"][row], res.model.links[0].a  # the pin at the crank's end: speed crank |w|
+    assert math.hypot(*crank_pin["v"]) == pytest.approx(crank * abs(w), rel=1e-6)
+    other = actions.preset_data("offset-slider-crank")  # the run is of another scene: refused, not drawn wrong
+    status, out, _ = call(app, "POST", "/api/instant", {"scene": other, "at": 0.1}, cookie=cookie)
+    assert status == 200 and out["error"]["field"] == "at"
+    status, out, _ = call(app, "POST", "/api/instant", {"scene": data, "at": "soon"}, cookie=cookie)
+    assert status == 200 and out["error"]["field"] == "at"

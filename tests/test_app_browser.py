@@ -362,3 +362,58 @@ def test_servo_tuning_sizing_and_the_system_export(servo_app, browser, shots):
 
     assert "resources/PID.fmu" in zipfile.ZipFile(dl.value.path()).namelist()
     assert errors == []
+
+
+def test_the_analysis_layer_draws_arrows_centres_and_angles_live_and_at_a_runs_instant(app, browser, shots):
+    page, errors = open_app(browser, app.url)
+    page.select_option("#preset", "fourbar-crank-rocker")
+    page.wait_for_function("() => document.querySelector('#grashof').textContent.startsWith('crank-rocker')")
+    assert page.locator(".analysis").count() == 0  # off until asked for
+    for kind in ("v", "ic", "f"):
+        page.check(f'#analysis-layer input[data-kind="{kind}"]')
+    page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.force').length === 4")
+    a = page.evaluate("() => state.analysis.analysis")
+    # an arrow per point, drawn along the point's velocity (the page's y is flipped inside the drawing)
+    assert page.locator(".analysis .arrow.vel").count() == len([p for p in a["points"] if any(p["v"])])
+    pin = next(p for p in a["points"] if p["name"] == "23")
+    line = page.evaluate("""(at) => [...document.querySelectorAll('.analysis .arrow.vel line')]
+        .map((l) => ['x1', 'y1', 'x2', 'y2'].map((k) => +l.getAttribute(k)))
+        .find((l) => Math.abs(l[0] - at[0]) < 1e-9 && Math.abs(l[1] - at[1]) < 1e-9)""", pin["at"])
+    d = (line[2] - line[0], line[3] - line[1])
+    assert abs(d[0] * pin["v"][1] - d[1] * pin["v"][0]) < 1e-6 * abs(d[0] * pin["v"][0] + d[1] * pin["v"][1])
+    labels = page.eval_on_selector_all(".analysis .alabel.ic", "(ts) => ts.map((t) => t.textContent)")
+    assert {"I12", "I14", "I23", "I34"} <= {t.split(" ")[0] for t in labels} and len(labels) == 6
+    assert page.locator(".analysis .mark.toggle").count() == 2
+    facts = page.inner_text("#analysis-facts")
+    assert "mechanical advantage (link4 on theta2)" in facts and "transmission angle μ34" in facts
+    assert "least" in facts and "toggles at theta2" in facts
+    page.screenshot(path=str(shots / "11-analysis-fourbar.png"))
+    page.check('#analysis-layer input[data-kind="a"]')  # accelerations too: one more arrow per accelerating point
+    page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.acc').length > 0")
+    accelerating = len([p for p in page.evaluate("() => state.analysis.analysis.points") if any(p["a"])])
+    assert page.locator(".analysis .arrow.acc").count() == accelerating
+    assert "m/s²" in page.text_content(".analysis .alabel.acc >> nth=0")
+
+    # live while dragging: the centre of rocker and ground follows the pivot
+    drag_handle(page, "O4", 1.2, 0.0)
+    i14 = page.evaluate("() => state.analysis.analysis.centres.find((c) => c.label === 'I14').at")
+    assert i14 == pytest.approx([1.2, 0.0], abs=1e-6)
+    page.screenshot(path=str(shots / "12-analysis-dragged.png"))
+
+    # a six-bar: fifteen centres, those out of view on the view's edge
+    page.select_option("#preset", "watt-ii")
+    page.wait_for_function("() => document.querySelectorAll('.analysis .alabel.ic').length === 15")
+    assert page.locator(".analysis .alabel.mu").count() >= 2
+    page.screenshot(path=str(shots / "13-analysis-watt-ii.png"))
+
+    # a run's instant, paused and scrubbed: the run's state and efforts
+    page.fill("#t_end", "1")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    page.click("#play")  # pause
+    page.eval_on_selector("#scrub", "(e) => { e.value = 0.5; e.dispatchEvent(new Event('input')); }")
+    page.wait_for_function("() => document.querySelector('#analysis-facts').textContent"
+                           ".startsWith('the run at t = 0.5')")
+    page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.force').length === 7")
+    page.screenshot(path=str(shots / "14-analysis-run-instant.png"))
+    assert errors == []

@@ -232,13 +232,15 @@ def default_trace(model) -> str:
     return f"link3:{a / 2:.4g},{a / 4:.4g}"
 
 
-def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
+def analyse(data: dict, trace: str | None = None, live: bool = False, kinematics: bool = False) -> dict:
     """Everything the editor shows: class, mobility, branch, drawing, drag handles and coupler curve.
 
     A loop that cannot close is no error here: its reason (the words of
     ``grubler info``) comes back as ``problem``, with the unclosed sketch drawn.
     ``live`` (a drag under way) draws the coupler curve from :data:`LIVE_STEPS`
-    positions instead of :data:`SWEEP_STEPS`.
+    positions instead of :data:`SWEEP_STEPS`.  ``kinematics`` adds the analysis
+    on the drawing (:func:`analysis_view`) of the closed sketch, the drive
+    turning steadily at 1 rad/s (1 m/s), as ``analysis``.
     """
     scene = scene_from_dict(data)
     m = scene.mechanism
@@ -260,8 +262,10 @@ def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
         z, out["closed"], out["problem"] = z0, False, {"field": exc.field, "reason": exc.reason}
     out["frame"] = _frame(sketch.geometry(sketch.positions(z[None, :])[0]))
     out["handles"] = handles(data, m, z)
+    zs = None
     if out["closed"] and m.closures and m.drive:
-        out["curve"] = coupler_curve(m, z, point, LIVE_STEPS if live else SWEEP_STEPS)
+        zs = drive_sweep(m, z, LIVE_STEPS if live else SWEEP_STEPS)
+        out["curve"] = coupler_curve(m, z, point, rows=zs)
         # which branch the sketch closes to, named as `grubler info` lists it: by the other joints' angles
         # the call `grubler info` makes (its 256 random starts too): the page never counts otherwise than the CLI
         found, _ = branches(m, z0)
@@ -269,6 +273,8 @@ def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
         angles = [f"{n} {coordinate_text(n, v if n.startswith('B') else v % (2 * math.pi))}"
                   for n, v in ((n, q[m.coordinate_names.index(n)]) for n in m.free_names if n != m.drive)]
         out["branch"] = {"count": len(found), "drive": m.drive, "angles": angles}
+    if kinematics and out["closed"]:
+        out["analysis"] = analysis_view(m, z, point, zs)
     return out
 
 
@@ -323,9 +329,9 @@ def drive_sweep(model, z: np.ndarray, steps: int = SWEEP_STEPS) -> np.ndarray:
     return np.array(behind[::-1] + ahead)
 
 
-def coupler_curve(model, z: np.ndarray, point, steps: int = SWEEP_STEPS) -> list:
-    """The traced point's path over :func:`drive_sweep`, [[x, y], ...]."""
-    zs = drive_sweep(model, z, steps)
+def coupler_curve(model, z: np.ndarray, point, steps: int = SWEEP_STEPS, rows: np.ndarray | None = None) -> list:
+    """The traced point's path over :func:`drive_sweep` (or over ``rows``, a sweep made already), [[x, y], ...]."""
+    zs = drive_sweep(model, z, steps) if rows is None else rows
     k, local = point
     xy = link_points(model, zs, [k], [local])[:, 0, :]
     return np.round(xy, 6).tolist()
@@ -425,7 +431,7 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
 
 
 def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace: str | None = None,
-                 live: bool = False) -> dict:
+                 live: bool = False, kinematics: bool = False) -> dict:
     """What the editor shows (:func:`analyse`) of ``moved``, the scene ``data`` with ``handle`` dragged to (x, y).
 
     Where a builder cannot lay its links through the moved joints (a six-bar's
@@ -436,7 +442,7 @@ def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace
     origin's coordinates, which the page draws shifted by it.
     """
     try:
-        out = analyse(moved, trace, live)
+        out = analyse(moved, trace, live, kinematics)
         if handle == "O2":  # drawn where the drag began: the origin under the pointer, the rest where it was
             out["shift"] = [x, y]
         return out
@@ -456,6 +462,92 @@ def _finite(v, field: str) -> float:
     from grubler.limits import number
 
     return number(v, field)
+
+
+# -- the analysis on the drawing: velocities, accelerations, instant centres, forces ---------------------------
+def _xy(v) -> list:
+    return [round(float(v[0]), 9), round(float(v[1]), 9)]
+
+
+def analysis_view(model, z, point, zs=None, zd=None, inputs=None, method: str = "exact") -> dict:
+    """What the page's analysis layer draws, at position ``z`` (:func:`grubler.mechanism.instant.analyse_instant`).
+
+    ``points``: every joint and the traced point, with velocity ``v`` (m/s) and
+    acceleration ``a`` (m/s^2); ``centres``: every pair's instant centre, a
+    point ``at`` or a ``direction`` (at infinity); ``transmission``: each pin's
+    angle (deg) and, over the sweep ``zs``, its least and where;
+    ``toggles``: the traced point where the output stands; ``limits``: where a
+    drive that cannot turn fully stops; ``advantage``;
+    ``forces``: each joint's force (N) on its link.  With no ``zd`` the drive
+    turns steadily at 1 rad/s (1 m/s) and the forces are those that hold it.
+    """
+    from grubler.mechanism.instant import analyse_instant, joint_points, turn_analysis
+
+    res = analyse_instant(model, z, zd, inputs, method)
+    mo = res.motion
+    pts = []
+    for joint, at in joint_points(model, mo):
+        pts.append({"name": f"{joint.a}{joint.b}" if max(joint.a, joint.b) < 10 else f"{joint.a},{joint.b}",
+                    "at": _xy(at), "v": _xy(mo.velocity(joint.b, at)), "a": _xy(mo.acceleration(joint.b, at))})
+    if point is not None:
+        k, local = point
+        at = mo.world(k + 2, local)
+        pts.append({"name": "trace", "at": _xy(at), "v": _xy(mo.velocity(k + 2, at)),
+                    "a": _xy(mo.acceleration(k + 2, at))})
+    centres = []
+    for ic in res.centres:
+        c = {"label": ic.label}
+        if ic.point is not None:
+            c["at"] = _xy(ic.point)
+        elif ic.direction is not None:
+            c["direction"] = _xy(ic.direction)
+        centres.append(c)
+    transmission = [{"label": t.label, "at": _xy(t.at), "deg": round(t.angle_deg, 4)} for t in res.transmission]
+    toggles, limits = [], []
+    drive_rate = "1 m/s" if model.drive and not model.arrays.revolute[model.free_index(model.drive)] else "1 rad/s"
+    if zs is not None and len(zs):
+        turn = turn_analysis(model, zs)
+        trace = (link_points(model, zs, [point[0]], [point[1]])[:, 0, :] if point is not None else None)
+        for t in transmission:
+            least = turn.least.get(t["label"])
+            if least is not None:
+                t["least_deg"] = round(least[0], 4)
+                t["least_drive"] = float(turn.drive[least[1]])
+                if trace is not None:
+                    t["least_at"] = _xy(trace[least[1]])
+        for rows, marks in ((turn.toggles, toggles), (turn.limits, limits)):
+            for row in rows:
+                marks.append({"drive": float(turn.drive[row]), "at": None if trace is None else _xy(trace[row])})
+    ma = res.advantage
+    return {"state": "run" if zd is not None else f"drive at {drive_rate}, steady",
+            "drive": model.drive, "points": pts, "centres": centres, "transmission": transmission,
+            "toggles": toggles, "limits": limits,
+            "advantage": None if ma is None else {"output": f"link{ma.output}", "value": ma.value, "unit": ma.unit},
+            "forces": None if res.forces is None else [
+                {"label": f.label, "at": _xy(f.at), "f": _xy(f.force), "moment": round(f.moment, 9)}
+                for f in res.forces],
+            "forces_reason": res.forces_reason}
+
+
+def run_instant(data: dict, result, t, trace: str | None = None) -> dict:
+    """The analysis (:func:`analysis_view`) at the run's output time nearest ``t``: its state and efforts.
+
+    ``result`` is the session's last run; a run of another scene, or none, is
+    refused, so that the arrows never show one scene's motion on another.
+    """
+    t = _finite(t, "at")
+    scene = scene_from_dict(data)
+    if result is None or result.model != scene.mechanism:
+        raise InputError("at", "no run of this scene to analyse: simulate it first")
+    row = int(np.clip(np.searchsorted(result.t, t), 0, len(result.t) - 1))
+    if row > 0 and abs(result.t[row - 1] - t) <= abs(result.t[row] - t):
+        row -= 1
+    ts = float(result.t[row])
+    inputs = result.constant_inputs or result.inputs_at(ts)
+    point = trace_point(trace or default_trace(scene.mechanism), scene.mechanism)
+    out = analysis_view(result.model, result.z[row], point, None, result.zd[row], inputs, result.method)
+    out["t"] = ts
+    return {"analysis": out}
 
 
 # -- runs ----------------------------------------------------------------------------------------
@@ -719,5 +811,6 @@ def error_of(exc: BaseException) -> dict:
     return {"field": "", "reason": f"internal error ({type(exc).__name__}); the server's log has the details"}
 
 
-__all__ = ["analyse", "catalog", "drag", "edit", "fields", "parse_scene_text", "preset_data", "run_simulation",
+__all__ = ["analyse", "analysis_view", "run_instant", "catalog", "drag", "edit", "fields", "parse_scene_text",
+           "preset_data", "run_simulation",
            "scene_toml", "describe", "output_columns"]

@@ -496,7 +496,8 @@ def a_analyse(server, session, body):
     data = _data(body)
     out = _form(data)
     try:
-        out.update(actions.analyse(data, body.get("trace"), live=body.get("live") is True))
+        out.update(actions.analyse(data, body.get("trace"), live=body.get("live") is True,
+                                   kinematics=body.get("kinematics") is True))
     except GrublerError as exc:
         out["error"] = actions.error_of(exc)
     return out
@@ -511,10 +512,17 @@ def a_drag(server, session, body):
     moved = actions.drag(data, handle, x, y)
     out = _form(moved)
     try:
-        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True))
+        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True,
+                                        kinematics=body.get("kinematics") is True))
     except GrublerError as exc:
         out["error"] = actions.error_of(exc)
     return out
+
+
+def a_instant(server, session, body):
+    # the analysis at a run's instant: the session's run, read under its lock (a new run may be replacing it)
+    with session.lock:
+        return actions.run_instant(_data(body), session.result, body.get("at"), body.get("trace"))
 
 
 def a_pick(server, session, body):
@@ -585,7 +593,7 @@ def a_sizing(server, session, body):
 ACTIONS = {"catalog": a_catalog, "preset": a_preset, "analyse": a_analyse, "edit": a_edit, "drag": a_drag,
            "toml": a_toml, "parse": a_parse, "files": a_files, "open": a_open, "save": a_save,
            "simulate": a_simulate, "cancel": a_cancel, "servo_defaults": a_servo_defaults, "pick": a_pick, "servo": a_servo,
-           "sizing": a_sizing}
+           "sizing": a_sizing, "instant": a_instant}
 RUNS = {a_simulate, a_servo}  # the actions whose run stops when their client leaves (they take its flag)
 
 

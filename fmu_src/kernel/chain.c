@@ -105,6 +105,12 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     w->eigvec = w->eig_work + (size_t)m * m;
     w->eigval = w->eigvec + (size_t)m * m;
     w->S = buffer + off[6];
+    /* which joints move which link is the model's structure, not the state: set here, so that a call that reads
+     * a filled workspace (a point's Jacobian, the reactions) sees it as the pass that filled the tables did */
+    for (int k = 0; k < n; k++) {
+        int pk = grb_parent(md, k);
+        w->path[k] = (pk < 0 || pk >= k ? 0ull : w->path[pk]) | (1ull << k);  /* parents come first (model_check) */
+    }
     return GRB_OK;
 }
 

@@ -5,7 +5,9 @@ What lives here: the model (:mod:`.model`: links, closures, the immutable
 (:mod:`.scene`, :mod:`.builders`; the preset TOML files are ``grubler/presets``),
 assembly and analysis (:mod:`.assembly`, :mod:`.analysis`: mobility, Grashof,
 branches), the kinematic and dynamic evaluations (:mod:`.kinematics`,
-:mod:`.dynamics`, :mod:`.inverse`), and the run (:mod:`.integrators`,
+:mod:`.dynamics`, :mod:`.inverse`), the analysis at one instant (:mod:`.instant`:
+velocities, accelerations, instant centres, transmission angles, joint forces),
+and the run (:mod:`.integrators`,
 :mod:`.simulate`).
 
 Data flows one way: scene -> model tables -> kernel state and workspace ->

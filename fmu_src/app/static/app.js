@@ -31,6 +31,8 @@ function record(kind, start, timing) {
 
 // -- talking to the server --------------------------------------------------------------------------
 async function api(name, body, timing) {
+  if (state.kinematics && ANALYSED.has(name)) body = { ...body, kinematics: true };  // the analysis layer is on
+  if (name === "simulate") { state.runScene = body.scene; state.instant = null; }  // its instants: of that scene
   const sent = performance.now();
   const r = await fetch("/api/" + name, {
     method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
@@ -271,6 +273,159 @@ function polyline(points, cls) {
   return `<polyline class="${cls}" points="${points.map((p) => p[0] + "," + p[1]).join(" ")}"/>`;
 }
 
+// -- the analysis on the drawing: velocities, accelerations, instant centres, forces ----------------------
+// the server computes them (grubler.mechanism.instant) when the layer is on; this draws them, each kind
+// scaled to its largest: a velocity arrow of the fastest point is a fifth of the view
+const ANALYSED = new Set(["analyse", "drag", "edit"]);
+const LAYER = { v: "velocity", a: "acceleration", ic: "instant centres", f: "joint forces" };
+
+function setupAnalysis() {
+  state.layer = new Set();
+  document.querySelectorAll("#analysis-layer input").forEach((box) => box.addEventListener("change", async () => {
+    if (box.checked) state.layer.add(box.dataset.kind); else state.layer.delete(box.dataset.kind);
+    state.kinematics = state.layer.size > 0;
+    state.instant = null;
+    if (!state.kinematics) showAnalysisFacts(null);
+    if (state.showingRun) { drawRunFrame(); return; }
+    if (state.scene) {
+      try { await analyse({ scene: state.scene }); } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+    }
+  }));
+}
+
+function fmtDeg(rad) { return fmt(((rad * 180) / Math.PI % 360 + 360) % 360) + "°"; }
+
+function arrowMarkup(at, vec, scale, cls, text) {
+  const s = state.box.span, L = Math.hypot(vec[0], vec[1]) * scale;
+  if (!(L > 1e-4 * s)) return "";
+  const ux = (vec[0] * scale) / L, uy = (vec[1] * scale) / L, head = Math.min(0.022 * s, 0.5 * L);
+  const tx = at[0] + ux * L, ty = at[1] + uy * L, bx = tx - ux * head, by = ty - uy * head;
+  const w = 0.45 * head;
+  return `<g class="arrow ${cls}"><line x1="${at[0]}" y1="${at[1]}" x2="${bx}" y2="${by}"/>` +
+    `<polygon points="${tx},${ty} ${bx - uy * w},${by + ux * w} ${bx + uy * w},${by - ux * w}"/>` +
+    labelMarkup([tx + ux * 0.01 * s, ty + uy * 0.01 * s], text, cls) + "</g>";
+}
+
+function labelMarkup(at, text, cls) {  // upright text in the flipped drawing
+  const size = 0.026 * state.box.span;
+  return `<text class="alabel ${cls || ""}" font-size="${size}" transform="translate(${at[0]},${at[1]}) scale(1,-1)">${escapeXml(text)}</text>`;
+}
+
+function largest(items, key) { return Math.max(1e-300, ...items.map((i) => Math.hypot(i[key][0], i[key][1]))); }
+
+function analysisMarkup(a, shift) {
+  if (!a || !state.kinematics || !state.box) return "";
+  const s = state.box.span, show = state.layer;
+  let html = `<g class="analysis">`;
+  if (show.has("f") && a.forces) {
+    const k = (0.2 * s) / largest(a.forces, "f");
+    for (const f of a.forces) html += arrowMarkup(f.at, f.f, k, "force", `${fmt(Math.hypot(...f.f))} N`);
+  }
+  if (show.has("v")) {
+    const k = (0.2 * s) / largest(a.points, "v");
+    for (const p of a.points) html += arrowMarkup(p.at, p.v, k, "vel", `${fmt(Math.hypot(...p.v))} m/s`);
+  }
+  if (show.has("a")) {
+    const k = (0.2 * s) / largest(a.points, "a");
+    for (const p of a.points) html += arrowMarkup(p.at, p.a, k, "acc", `${fmt(Math.hypot(...p.a))} m/s²`);
+  }
+  if (show.has("ic")) html += centresMarkup(a.centres, shift);
+  for (const t of a.transmission) {
+    html += labelMarkup([t.at[0] + 0.02 * s, t.at[1] - 0.045 * s], `μ${t.label.slice(2)} ${fmt(t.deg)}°`, "mu");
+    if (t.least_at) {
+      html += `<circle class="mark least" cx="${t.least_at[0]}" cy="${t.least_at[1]}" r="${0.012 * s}"/>`;
+      html += labelMarkup([t.least_at[0] + 0.015 * s, t.least_at[1] + 0.015 * s],
+        `μ${t.label.slice(2)} least ${fmt(t.least_deg)}°`, "mu");
+    }
+  }
+  for (const t of a.toggles) {
+    if (!t.at) continue;
+    const r = 0.014 * s;
+    html += `<rect class="mark toggle" x="${t.at[0] - r}" y="${t.at[1] - r}" width="${2 * r}" height="${2 * r}" transform="rotate(45 ${t.at[0]} ${t.at[1]})"/>`;
+    html += labelMarkup([t.at[0] + 0.018 * s, t.at[1] - 0.03 * s], `toggle ${a.drive} ${fmtDeg(t.drive)}`, "toggle");
+  }
+  for (const t of a.limits || []) {
+    if (!t.at) continue;
+    html += `<circle class="mark limit" cx="${t.at[0]}" cy="${t.at[1]}" r="${0.013 * s}"/>`;
+    html += labelMarkup([t.at[0] + 0.018 * s, t.at[1] - 0.03 * s], `limit ${a.drive} ${fmtDeg(t.drive)}`, "toggle");
+  }
+  return html + "</g>";
+}
+
+function centresMarkup(centres, shift) {
+  // a centre out of view (or at infinity) is drawn on the view's edge, in its direction, with where it is
+  const b = state.box, s = b.span, [sx, sy] = shift || [0, 0];
+  const cx = b.x + b.w / 2 - sx, cy = b.y + b.h / 2 - sy, r = 0.011 * s;
+  let html = "";
+  for (const c of centres) {
+    let at = c.at, text = c.label;
+    if (!at && !c.direction) continue;  // the two move as one: no centre
+    const inside = at && at[0] > b.x - sx && at[0] < b.x + b.w - sx && at[1] > b.y - sy && at[1] < b.y + b.h - sy;
+    if (!inside) {
+      const d = at ? [at[0] - cx, at[1] - cy] : c.direction, n = Math.hypot(d[0], d[1]) || 1;
+      const reach = 0.46 * Math.min(b.w / Math.abs(d[0] / n || 1e-9), b.h / Math.abs(d[1] / n || 1e-9));
+      at = [cx + (d[0] / n) * reach, cy + (d[1] / n) * reach];
+      text += c.at ? ` (${fmt(c.at[0])}, ${fmt(c.at[1])})` : " ∞";
+    }
+    html += `<g class="centre${inside ? "" : " far"}"><path d="M${at[0] - r},${at[1]} h${2 * r} M${at[0]},${at[1] - r} v${2 * r}"/>` +
+      labelMarkup([at[0] + 0.6 * r, at[1] + 0.6 * r], text, "ic") + "</g>";
+  }
+  return html;
+}
+
+function showAnalysisFacts(a) {
+  const box = $("analysis-facts");
+  if (!box) return;
+  if (!a || !state.kinematics) { box.textContent = ""; return; }
+  const parts = [a.state === "run" ? `the run at t = ${fmt(a.t)} s` : a.state];
+  if (a.advantage) {
+    parts.push(`mechanical advantage (${a.advantage.output} on ${a.drive}) ${a.advantage.value === null ? "∞: a toggle"
+      : fmt(a.advantage.value) + (a.advantage.unit ? " " + a.advantage.unit : "")}`);
+  }
+  for (const t of a.transmission) {
+    parts.push(`transmission angle μ${t.label.slice(2)} ${fmt(t.deg)}°` +
+      (t.least_deg !== undefined ? ` (least ${fmt(t.least_deg)}° at ${a.drive} ${fmtDeg(t.least_drive)})` : ""));
+  }
+  if (a.toggles.length) parts.push(`toggles at ${a.drive} ${a.toggles.map((t) => fmtDeg(t.drive)).join(", ")}`);
+  if ((a.limits || []).length) {
+    const deg = (rad) => fmt((rad * 180) / Math.PI) + "°";  // signed: the range runs up from the first
+    parts.push(`${a.drive} turns only from ${deg(a.limits[0].drive)} to ${deg(a.limits[1].drive)} (its limits)`);
+  }
+  if (!a.forces) parts.push(`no forces: ${a.forces_reason}`);
+  box.textContent = parts.join("; ");
+}
+
+// at a run's instant (paused or scrubbed): one request in flight, the newest time waiting behind it
+function runInstantMarkup() {
+  if (!state.kinematics || state.playing || !state.run) return "";
+  const want = state.t;
+  if (state.instant && state.instant.want === want) {
+    return state.instant.analysis ? analysisMarkup(state.instant.analysis) : "";
+  }
+  state.instantQueued = want;
+  pumpInstant();
+  return state.instant && state.instant.analysis ? analysisMarkup(state.instant.analysis) : "";
+}
+
+async function pumpInstant() {
+  if (state.instantBusy || state.instantQueued === undefined) return;
+  const want = state.instantQueued;
+  state.instantQueued = undefined;
+  state.instantBusy = true;
+  try {
+    const out = await api("instant", { scene: state.runScene || state.scene, at: want, trace: state.trace });
+    state.instant = { want, analysis: out.analysis };
+    showAnalysisFacts(out.analysis);
+  } catch (e) {
+    state.instant = { want, analysis: null };
+    $("analysis-facts").textContent = `${e.field}: ${e.message}`;
+  } finally {
+    state.instantBusy = false;
+    if (state.instantQueued !== undefined) pumpInstant();
+    else if (state.showingRun && !state.playing) drawRunFrame();
+  }
+}
+
 function drawScene(out) {
   const s = state.box.span;
   // a six-bar's origin being dragged: its answer is measured from the moved origin, drawn where the drag began
@@ -282,6 +437,8 @@ function drawScene(out) {
   for (const h of out.handles || []) {
     html += `<circle class="handle${state.dragging && state.dragging.id === h.id ? " active" : ""}" data-handle="${h.id}" cx="${h.xy[0]}" cy="${h.xy[1]}" r="${0.028 * s}"><title>drag: sets ${h.sets}</title></circle>`;
   }
+  html += analysisMarkup(out.analysis, [sx, sy]);
+  showAnalysisFacts(out.analysis);
   $("drawing").innerHTML = html + "</g></g>";
 }
 
@@ -295,6 +452,7 @@ function drawRunFrame() {
   let html = `<g transform="scale(1,-1)">` + frameMarkup(run.frames[i]) + polyline(run.path, "path");
   const p = path[path.length - 1];
   if (p) html += `<circle class="tracer" cx="${p[0]}" cy="${p[1]}" r="${0.01 * state.box.span}"/>`;
+  html += runInstantMarkup();
   $("drawing").innerHTML = html + "</g>";
   $("clock").textContent = `t = ${state.t.toFixed(3)} s`;
   $("scrub").value = String(state.t);
@@ -939,6 +1097,7 @@ async function start() {
   setupDrag();
   listFiles();
   setupServo();
+  setupAnalysis();
   let data = cat.start;
   const m = location.hash.match(/^#scene=([A-Za-z0-9_-]+)$/);
   if (m) {
