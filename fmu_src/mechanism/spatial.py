@@ -388,6 +388,9 @@ class SpatialMechanism:
         status = self._lib.grs_assemble(self._ref(), len(held), binding.address(held), self.scale,
                                         binding.address(z), binding.address(zd), ctypes.byref(closest),
                                         binding.address(self._work))
+        if status == binding.NOT_CLOSED and closest.value == 2.0:
+            raise InputError("z", "the loop cannot be closed near this sketch: the rows close only with a "
+                             "revolute or cylindrical closure's axes reversed (sketch nearer the intended branch)")
         if status == binding.NOT_CLOSED:
             raise InputError("z", f"the loop cannot be closed near this sketch (closest violation "
                              f"{closest.value:.3g} m)")

@@ -155,7 +155,9 @@ GRB_API grb_status grs_project(const grs_model *m, double scale, double *y, doub
 
 /* Consistent assembly: hold the coordinates listed in held, solve the others by
  * damped Newton from z (the sketch picks the branch), then their rates from
- * the velocity constraint.  GRB_NOT_CLOSED with *closest the smallest violation. */
+ * the velocity constraint.  GRB_NOT_CLOSED with *closest the smallest violation,
+ * or 2 where the rows close with a revolute's or cylinder's axes reversed
+ * (u = -v satisfies their rows too: another joint than the model's). */
 GRB_API grb_status grs_assemble(const grs_model *m, int n_held, const int *held, double scale, double *z, double *zd,
                                 double *closest, double *work);
 

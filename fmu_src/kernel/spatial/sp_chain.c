@@ -53,12 +53,14 @@ static grb_status bad(int *row, int *column, int r, int c) {
     return GRB_BAD_ARGUMENT;
 }
 
-/* A tensor about the mass centre is physical when it is positive
- * semi-definite and each principal moment is at most the sum of the other two
- * (the triangle inequality of a real body); checked on its invariants. */
+/* A tensor about the mass centre is a real body's when the body's second
+ * moment Sigma = int r r^T dm = (tr I / 2) E - I is positive semi-definite
+ * (then so is I = tr(Sigma) E - Sigma, and each principal moment is at most
+ * the sum of the other two): every principal minor of Sigma >= 0. */
 static int inertia_ok(const double *I) {
-    double xx = I[0], xy = I[1], xz = I[2], yy = I[3], yz = I[4], zz = I[5];
-    double tol = 1e-12 * (fabs(xx) + fabs(yy) + fabs(zz));
+    double half = 0.5 * (I[0] + I[3] + I[5]);
+    double xx = half - I[0], yy = half - I[3], zz = half - I[5], xy = -I[1], xz = -I[2], yz = -I[4];
+    double tol = 1e-12 * (fabs(I[0]) + fabs(I[3]) + fabs(I[5]));
     if (xx < -tol || yy < -tol || zz < -tol) return 0;
     if (xx * yy - xy * xy < -tol * tol || xx * zz - xz * xz < -tol * tol || yy * zz - yz * yz < -tol * tol) return 0;
     double det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);

@@ -102,6 +102,23 @@ static void solve_dependent(const grs_ws *w, scratch *s, const int *dep, int nd,
     grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
 }
 
+/* The closing link's axis and the target's point the same way in every
+ * revolute and cylindrical closure at the last kinematic pass.  Their rows
+ * (u square to n1 and n2) hold as well with u reversed, a different joint: an
+ * assembly that lands there has not closed the loop the model describes. */
+static int axes_agree(const grs_model *md, grs_ws *w) {
+    for (int c = 0; c < md->n_closures; c++) {
+        const grs_closure *cl = grs_closures(md) + c;
+        if (cl->kind == GRS_SPHERICAL) continue;
+        grs_direction(w, (int)cl->link, cl->axis, w->vec);
+        grs_direction(w, (int)cl->to, cl->to_axis, w->vec + 1);
+        double along = 0.0;
+        for (int i = 0; i < 3; i++) along += w->vec[0].value[i] * w->vec[1].value[i];
+        if (!(along > 0.0)) return 0;
+    }
+    return 1;
+}
+
 grb_status grs_assemble(const grs_model *md, int n_held, const int *held, double scale, double *z, double *zd,
                         double *closest, double *work) {
     grs_ws w;
@@ -143,8 +160,8 @@ grb_status grs_assemble(const grs_model *md, int n_held, const int *held, double
     }
     grs_rows_at(md, z, &w);
     double err = worst_violation(&w);
-    if (!(err <= ASSEMBLY_CLOSED * scale)) {
-        *closest = best;
+    if (!(err <= ASSEMBLY_CLOSED * scale) || !axes_agree(md, &w)) {
+        *closest = err <= ASSEMBLY_CLOSED * scale ? 2.0 : best; /* 2: the axes came out reversed */
         return GRB_NOT_CLOSED;
     }
     for (int r = 0; r < m; r++) { /* rates: keep the held ones, solve the velocity constraint for the rest */
@@ -182,12 +199,17 @@ grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, d
     double top = 0.0;
     for (int i = 0; i < m; i++)
         if (w.eigval[i] > top) top = w.eigval[i];
-    for (int r = 0; r < m; r++) indeterminate[r] = 1.0;
+    /* summed over the null space's own eigenvectors (not 1 less the range's:
+     * that difference would leave rounding's square root, 1e-8, on a
+     * determinate row) */
+    for (int r = 0; r < m; r++) indeterminate[r] = 0.0;
     for (int i = 0; i < m; i++) {
-        if (!(w.eigval[i] > rcond * rcond * top)) continue;
-        (*rank)++;
-        for (int r = 0; r < m; r++) indeterminate[r] -= SP_EIGVEC(&w, r, i) * SP_EIGVEC(&w, r, i);
+        if (w.eigval[i] > rcond * rcond * top) {
+            (*rank)++;
+            continue;
+        }
+        for (int r = 0; r < m; r++) indeterminate[r] += SP_EIGVEC(&w, r, i) * SP_EIGVEC(&w, r, i);
     }
-    for (int r = 0; r < m; r++) indeterminate[r] = sqrt(fmax(indeterminate[r], 0.0));
+    for (int r = 0; r < m; r++) indeterminate[r] = sqrt(indeterminate[r]);
     return GRB_OK;
 }

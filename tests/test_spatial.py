@@ -1,0 +1,271 @@
+"""The spatial chain (kernel/spatial, grubler.mechanism.spatial) against references that share no code with it.
+
+- the thesis four-bar written as spatial against the planar kernel (grubler.simulate);
+- the RSSR's closed-form input-output equation (Freudenstein-type: A cos psi + B sin psi = C);
+- the spherical four-bar's closed-form input-output relation (u(phi) . v(psi) = cos alpha3);
+- energy conservation on free runs;
+- a body-coordinate spatial model (tests/spatial_bodies.py: Newton-Euler on quaternions, joint
+  constraints, scipy) on the RSSR: motion and the closure's reaction;
+- the overconstrained loops' determinacy reports; the joint reactions' own balance;
+- bad models refused with the field named.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import grubler
+from grubler.errors import InputError
+from grubler.mechanism import spatial as sp
+
+from spatial_bodies import Body, BodySystem, GroundRevolute, Spherical, Torque, rotation
+
+TIGHT = dict(rtol=1e-12, atol=1e-12)
+
+
+# -- the planar four-bar written as spatial ------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def planar_run():
+    return grubler.simulate("thesis-fourbar", t_end=2.0, dt_out=0.01, method="exact", **TIGHT)
+
+
+@pytest.mark.parametrize("closure", ["revolute", "spherical"])
+def test_planar_fourbar_written_as_spatial_equals_the_planar_kernel(planar_run, closure):
+    m = sp.planar_fourbar(closure)
+    res = m.simulate(m.assembled_start(), t_end=2.0, dt_out=0.01, **TIGHT)
+    absolute = np.cumsum(res.z, axis=1)  # the planar kernel reports absolute angles theta2..4
+    rates = np.cumsum(res.zd, axis=1)
+    for k, name in enumerate(("theta2", "theta3", "theta4")):
+        assert np.abs(absolute[:, k] - planar_run[name]).max() < 1e-10, name
+        assert np.abs(rates[:, k] - planar_run[name + "_d"]).max() < 1e-10, name
+    # the closure force on link 4 (the ground's, in the ground's x, y) is the planar kernel's Fx, Fy
+    forces = np.array([m.reactions(y)[0][0, :2] for y in res.y[::20]])
+    assert np.abs(forces[:, 0] - planar_run["Fx"][::20]).max() < 1e-8
+    assert np.abs(forces[:, 1] - planar_run["Fy"][::20]).max() < 1e-8
+
+
+def test_a_planar_loop_seen_as_spatial_reports_which_reactions_are_determinate():
+    m = sp.planar_fourbar("revolute")
+    z = m.assembled_start()[:3]
+    free, rank = m.determinacy(z)
+    assert rank == 2
+    # Fx, Fy are fixed by the motion; Fz and the moments about x and y are not (Wojtyra 2005)
+    assert np.all(free[:2] < 1e-9) and np.all(free[2:] > 1 - 1e-9)
+    assert m.determinacy_report(z)[0] == "closure 0 (revolute): determinate Fx, Fy; indeterminate Fz, My, Mx"
+    # the minimum-norm multipliers leave the indeterminate ones at zero
+    _, lam, _ = m.dynamics(m.assembled_start())
+    assert np.abs(lam[2:]).max() < 1e-12
+
+
+# -- RSSR: the Freudenstein-type equation ---------------------------------------------------------------------------
+def rssr_equation(g, phi):
+    """A, B, C of A cos psi + B sin psi = C for the preset's shafts at right angles, derived by hand.
+
+    Crank pin P = (r1 cos phi, r1 sin phi, h); rocker pin Q = (a + r3 cos psi, -d, r3 sin psi) (its shaft
+    along -y through (a, 0, 0), its plane at y = -d); |P - Q| = L.
+    """
+    r1, a, d, h, r3, L = g.crank, g.offset, g.rocker_d, g.height, g.rocker, g.coupler
+    X, Y = r1 * np.cos(phi) - a, r1 * np.sin(phi) + d
+    return -2 * r3 * X, -2 * r3 * h * np.ones_like(phi), L * L - X * X - Y * Y - h * h - r3 * r3
+
+
+def test_rssr_preset_is_a_crank_rocker_between_skew_shafts():
+    g = sp.rssr_geometry()
+    assert g.twist == pytest.approx(math.pi / 2)
+    A, B, C = rssr_equation(g, np.linspace(0, 2 * np.pi, 721))
+    assert np.all(np.abs(C) < 0.95 * np.hypot(A, B))  # the crank turns fully
+
+
+def test_rssr_assembles_on_its_closed_form_at_many_crank_angles():
+    m, g = sp.rssr(), sp.rssr_geometry()
+    for phi in np.linspace(-np.pi, np.pi, 37):
+        sketch = m.sketch.copy()
+        sketch[0] = phi
+        sketch[1:] += np.array([0.15, -0.1, 0.2, 0.2])  # a rough sketch: the kernel's assembly closes it
+        z = m.assemble(sketch)[:m.n_coords]
+        psi = z[4]
+        A, B, C = rssr_equation(g, phi)
+        roots = math.atan2(B, A) + np.array([1, -1]) * math.acos(C / math.hypot(A, B))
+        assert abs(A * math.cos(psi) + B * math.sin(psi) - C) < 1e-12
+        assert np.min(np.abs(np.angle(np.exp(1j * (roots - psi))))) < 1e-10
+
+
+@pytest.fixture(scope="module")
+def rssr_driven():
+    m = sp.rssr()
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.5  # N m on the crank: from rest past three turns in 1.5 s
+    return m, m.simulate(m.assembled_start(), t_end=1.5, dt_out=0.01, tau=tau, **TIGHT), tau
+
+
+def test_rssr_motion_keeps_its_closed_form_over_full_crank_turns(rssr_driven):
+    m, res, _ = rssr_driven
+    phi, psi = res.z[:, 0], res.z[:, 4]
+    assert phi.max() - phi.min() > 4 * np.pi  # two turns and more
+    A, B, C = rssr_equation(sp.rssr_geometry(), phi)
+    assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-12
+
+
+# -- the spherical four-bar's input-output relation ----------------------------------------------------------------
+def spherical_equation(g, phi):
+    """A, B, C of A cos psi + B sin psi = C from u(phi) . v(psi) = cos alpha3 (derived by hand):
+    u = (s2 sin phi, -s2 cos phi, c2), v = Rx(alpha1) (s4 sin psi, -s4 cos psi, c4)."""
+    s1, c1 = math.sin(g.ground), math.cos(g.ground)
+    s2, c2 = math.sin(g.crank), math.cos(g.crank)
+    s4, c4 = math.sin(g.rocker), math.cos(g.rocker)
+    A = s2 * np.cos(phi) * c1 * s4 - c2 * s1 * s4
+    B = s2 * s4 * np.sin(phi)
+    C = math.cos(g.coupler) - s2 * np.cos(phi) * s1 * c4 - c2 * c1 * c4
+    return A, B, C
+
+
+def test_spherical_fourbar_follows_its_input_output_relation():
+    m, g = sp.spherical_fourbar(), sp.spherical_fourbar_geometry()
+    A, B, C = spherical_equation(g, np.linspace(0, 2 * np.pi, 721))
+    assert np.all(np.abs(C) < 0.95 * np.hypot(A, B))  # a crank-rocker: the input turns fully
+    tau = np.array([0.5, 0.0, 0.0])
+    res = m.simulate(m.assembled_start(), t_end=2.0, dt_out=0.01, tau=tau, **TIGHT)
+    phi, psi = res.z[:, 0], res.z[:, 2]
+    assert phi.max() - phi.min() > 2 * np.pi
+    A, B, C = spherical_equation(g, phi)
+    assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-12
+    # and at assembly from rough sketches (the last closed pose, turned by 0.2 rad), psi is one of the
+    # closed form's two roots
+    z = m.assembled_start()[:3]
+    for p in np.linspace(0, 2 * np.pi, 25):
+        z = m.assemble(np.array([p, z[1] + 0.2, z[2] - 0.2]))[:3]
+        A, B, C = spherical_equation(g, p)
+        roots = math.atan2(B, A) + np.array([1, -1]) * math.acos(C / math.hypot(A, B))
+        assert np.min(np.abs(np.angle(np.exp(1j * (roots - z[2]))))) < 1e-10
+
+
+def test_spherical_fourbar_force_reactions_are_indeterminate():
+    m = sp.spherical_fourbar()
+    free, rank = m.determinacy(m.assembled_start()[:3])
+    assert rank == 2  # every joint axis through one point: the three force rows vanish identically
+    assert np.all(free[:3] > 1 - 1e-9) and np.all(free[3:] < 1e-9)
+    assert m.determinacy_report(m.assembled_start()[:3])[0] == \
+        "closure 0 (revolute): determinate My, Mx; indeterminate Fx, Fy, Fz"
+
+
+def test_an_assembly_that_closes_a_revolute_with_its_axes_reversed_is_refused():
+    # the closure's rows (u square to n1, n2) hold with u = -v too: from this sketch Newton lands there
+    m = sp.spherical_fourbar()
+    with pytest.raises(InputError, match="axes reversed"):
+        m.assemble(np.array([-3.0, 1.2, 1.6]))
+
+
+# -- energy ---------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("build, rates", [(sp.rssr, 6.0), (sp.spherical_fourbar, 4.0), (sp.planar_fourbar, 3.0)])
+def test_free_runs_conserve_energy(build, rates):
+    m = build()
+    zd = np.zeros(m.n_coords)
+    zd[0] = rates
+    res = m.simulate(m.assemble(m.sketch, zd), t_end=2.0, dt_out=0.02, **TIGHT)
+    ke, pe = res.energy().T
+    scale = ke.max() + (pe.max() - pe.min())  # the energy the run exchanges
+    assert ke.max() > 0.05 * scale
+    assert np.abs((ke + pe) - (ke[0] + pe[0])).max() < 1e-9 * scale
+    assert res.closure_error().max() < 1e-11
+
+
+# -- the body-coordinate reference on the RSSR ----------------------------------------------------------------------
+def rssr_bodies(m, z0, tau_crank):
+    """The RSSR as three free bodies with two ground revolutes and two ball joints, from the preset's geometry
+    and the kernel's assembled start (positions only: it starts from rest)."""
+    g = sp.rssr_geometry()
+    origins, frames = m.frames(z0)
+    crank, coupler, rocker = 0, 3, 4
+    bodies, com = [], []
+    for k in (crank, coupler, rocker):
+        link = m.links[k]
+        c_local = np.array(link.com)
+        com.append(c_local)
+        bodies.append(Body(link.mass, np.array(link.inertia), origins[k] + frames[k] @ c_local, frames[k]))
+    shaft = np.array([0.0, -math.sin(g.twist), math.cos(g.twist)])
+    joints = [GroundRevolute(0, -com[0], np.array([0, 0, g.height]), np.array([0, 0, 1.0]), np.array([0, 0, 1.0])),
+              Spherical(0, np.array([g.crank, 0, 0]) - com[0], 1, -com[1]),
+              Spherical(1, np.array([0, 0, g.coupler]) - com[1], 2, np.array([g.rocker, 0, 0]) - com[2]),
+              GroundRevolute(2, -com[2], np.array([g.offset, 0, 0]) + g.rocker_d * shaft, np.array([0, 0, 1.0]),
+                             shaft)]
+    return BodySystem(bodies, joints, np.array(m.gravity), [Torque(0, np.array([0, 0, 1.0]), tau_crank)])
+
+
+def test_rssr_agrees_with_a_body_coordinate_newton_euler_model(rssr_driven):
+    m, res, tau = rssr_driven
+    system = rssr_bodies(m, res.z[0], tau[0])
+    rows = slice(0, 81, 10)  # the first 0.8 s (one crank turn), every 0.1 s: the body model runs in Python
+    ys = system.run(res.t[rows], rtol=1e-11, atol=1e-11)
+    g = sp.rssr_geometry()
+    shaft = np.array([0.0, -math.sin(g.twist), math.cos(g.twist)])
+    x0, y0 = np.array([1.0, 0, 0]), np.cross(shaft, [1.0, 0, 0])
+    worst_angle = worst_frame = worst_force = 0.0
+    for y_kernel, y_body in zip(res.y[rows], ys):
+        z = y_kernel[:m.n_coords]
+        parts = system.unpack(y_body)
+        Rc, Rk, Rr = (rotation(p[1]) for p in parts)
+        crank = math.atan2(Rc[1, 0], Rc[0, 0])
+        rocker = math.atan2(Rr[:, 0] @ y0, Rr[:, 0] @ x0)
+        worst_angle = max(worst_angle, abs(np.angle(np.exp(1j * (crank - z[0])))),
+                          abs(np.angle(np.exp(1j * (rocker - z[4])))))
+        _, frames = m.frames(z)
+        worst_frame = max(worst_frame, np.abs(frames[3] - Rk).max(), np.abs(frames[4] - Rr).max())
+        # the rocker's ball on the coupler: the kernel's closure reaction (in the rocker's axes) in the world,
+        # against the body model's multiplier on the coupler's side of that joint (rows 8..10)
+        closure, _ = m.reactions(y_kernel, tau)
+        force = frames[4] @ closure[0, :3]
+        _, lam = system.accelerations(y_body)
+        worst_force = max(worst_force, np.abs(force - lam[8:11]).max() / max(1.0, np.abs(force).max()))
+    assert worst_angle < 1e-7
+    assert worst_frame < 1e-7
+    assert worst_force < 1e-6
+
+
+# -- reactions ------------------------------------------------------------------------------------------------------
+def test_joint_reactions_carry_exactly_the_joint_efforts(rssr_driven):
+    # Newton-Euler from the tips back (grs_reactions) against the forward dynamics: about each revolute's
+    # own axis the parent passes on only the joint's effort (the drive on the crank, nothing elsewhere)
+    m, res, tau = rssr_driven
+    for y in res.y[::30]:
+        _, joints = m.reactions(y, tau)
+        assert joints[0, 5] == pytest.approx(tau[0], abs=1e-10)
+        assert np.abs(joints[1:, 5]).max() < 1e-10
+
+
+# -- bad input ------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("change, field", [
+    (dict(joint="X"), "links[1].joint"),
+    (dict(parent=2), "links[1].parent"),
+    (dict(mass=-1.0), "links[1].mass"),
+    (dict(inertia=((1.0, 0, 0), (0, 1.0, 0), (0, 0, 3.0))), "links[1].inertia"),  # 3 > 1 + 1: no real body
+    (dict(inertia=((1.0, 0.5, 0), (0, 1.0, 0), (0, 0, 1.0))), "links[1].inertia"),  # not symmetric
+    (dict(a=float("nan")), "links[1].a"),
+])
+def test_bad_links_are_refused_naming_the_field(change, field):
+    links = [sp.SpatialLink("one", mass=1.0), sp.SpatialLink("two", **{"parent": 0, **change})]
+    with pytest.raises(InputError) as info:
+        sp.SpatialMechanism(links)
+    assert info.value.field == field
+
+
+@pytest.mark.parametrize("change, field", [
+    (dict(kind="weld"), "closures[0].kind"),
+    (dict(to=1), "closures[0].to"),
+    (dict(link=5), "closures[0].link"),
+    (dict(kind="revolute", axis=(0, 0, 2.0)), "closures[0].axis"),
+])
+def test_bad_closures_are_refused_naming_the_field(change, field):
+    links = [sp.SpatialLink("one", mass=1.0), sp.SpatialLink("two", parent=0, a=1.0, mass=1.0)]
+    closure = dict(kind="spherical", link=1, to=-1)
+    closure.update(change)
+    with pytest.raises(InputError) as info:
+        sp.SpatialMechanism(links, [sp.SpatialClosure(**closure)])
+    assert info.value.field == field
+
+
+def test_a_loop_that_cannot_close_is_refused():
+    links = [sp.SpatialLink("one", mass=1.0), sp.SpatialLink("two", parent=0, a=0.5, mass=1.0)]
+    m = sp.SpatialMechanism(links, [sp.SpatialClosure("spherical", link=1, point=(0.5, 0, 0), to_point=(3, 0, 0))])
+    with pytest.raises(InputError, match="cannot be closed"):
+        m.assemble(np.zeros(2))
