@@ -30,7 +30,7 @@ def planar_run():
     return grubler.simulate("thesis-fourbar", t_end=2.0, dt_out=0.01, method="exact", **TIGHT)
 
 
-@pytest.mark.parametrize("closure", ["revolute", "spherical"])
+@pytest.mark.parametrize("closure", ["revolute", "spherical", "cylindrical"])
 def test_planar_fourbar_written_as_spatial_equals_the_planar_kernel(planar_run, closure):
     m = sp.planar_fourbar(closure)
     res = m.simulate(m.assembled_start(), t_end=2.0, dt_out=0.01, **TIGHT)
@@ -43,6 +43,33 @@ def test_planar_fourbar_written_as_spatial_equals_the_planar_kernel(planar_run, 
     forces = np.array([m.reactions(y)[0][0, :2] for y in res.y[::20]])
     assert np.abs(forces[:, 0] - planar_run["Fx"][::20]).max() < 1e-8
     assert np.abs(forces[:, 1] - planar_run["Fy"][::20]).max() < 1e-8
+
+
+def quick_return_as_spatial(planar):
+    """The thesis quick-return (joints R, R, P: link 4 slides across link 3's end and turns with it) as a
+    spatial chain: the slide is a massless link whose z axis is link 3's y (alpha -pi/2), then link 4 a
+    fixed row turning that frame back into the plane (alpha pi/2) at the locked relative angle."""
+    links_table = planar.arrays.links if hasattr(planar.arrays, "links") else planar.arrays[0]
+    (m2, _, p2, _, a2, *_), (m3, _, p3, _, a3, *_), (m4, _, p4, _, a4, *_) = links_table[:, :5].tolist()
+    theta_locked = links_table[2, 9]  # link 4's angle relative to link 3 (the table's locked angle)
+    links = [sp.SpatialLink("link2", mass=m2, com=(p2, 0, 0)),
+             sp.SpatialLink("link3", a=a2, parent=0, mass=m3, com=(p3, 0, 0)),
+             sp.SpatialLink("slide", a=a3, alpha=-math.pi / 2, joint="P", parent=1),
+             sp.SpatialLink("link4", alpha=math.pi / 2, theta=theta_locked, joint="F", parent=2, mass=m4,
+                            com=(p4, 0, 0))]
+    closure = sp.SpatialClosure("revolute", link=3, point=(a4, 0, 0), to_point=(0.6, 0.7, 0))
+    return sp.SpatialMechanism(links, [closure], gravity=(0, -9.81, 0))
+
+
+def test_a_slide_written_as_spatial_equals_the_planar_kernel():
+    # the P joint, the fixed row and point masses (no inertia at all) against the planar kernel's quick-return
+    scene = grubler.load_scene("thesis-quick-return")
+    planar = grubler.simulate(scene, t_end=1.0, dt_out=0.01, method="exact", **TIGHT)
+    m = quick_return_as_spatial(scene.mechanism)
+    assert m.coordinate_names == ("link2.theta", "link3.theta", "slide.d")
+    res = m.simulate(np.concatenate([planar.z[0], planar.zd[0]]), t_end=1.0, dt_out=0.01, **TIGHT)
+    assert np.abs(res.z - planar.z).max() < 1e-10
+    assert np.abs(res.zd - planar.zd).max() < 1e-9
 
 
 def test_a_planar_loop_seen_as_spatial_reports_which_reactions_are_determinate():
@@ -170,6 +197,22 @@ def test_free_runs_conserve_energy(build, rates):
     assert res.closure_error().max() < 1e-11
 
 
+def test_an_open_chain_of_cylindrical_revolute_and_slide_joints_conserves_energy():
+    # no closure: the slides' Coriolis terms (a slide on a turning axis) and the twisted axes carry it
+    body = ((0.02, 0.001, 0.0), (0.001, 0.03, 0.002), (0.0, 0.002, 0.025))
+    links = [sp.SpatialLink("column", alpha=0.3, joint="C", mass=1.0, com=(0.1, 0.0, 0.2), inertia=body),
+             sp.SpatialLink("arm", a=0.3, alpha=0.7, d=0.1, parent=0, mass=0.8, com=(0.2, 0.05, 0), inertia=body),
+             sp.SpatialLink("ram", a=0.25, alpha=-1.1, joint="P", parent=1, mass=0.5, com=(0, 0.1, 0.05),
+                            inertia=body)]
+    m = sp.SpatialMechanism(links, gravity=(0.5, -1.0, -9.81))
+    assert m.coordinate_names == ("column.theta", "column.d", "arm.theta", "ram.d")
+    y0 = np.array([0.1, 0.0, 0.5, 0.2, 2.0, 0.3, -1.5, 0.4])
+    res = m.simulate(y0, t_end=1.0, dt_out=0.01, **TIGHT)
+    ke, pe = res.energy().T
+    scale = ke.max() + (pe.max() - pe.min())
+    assert np.abs((ke + pe) - (ke[0] + pe[0])).max() < 1e-9 * scale
+
+
 # -- the body-coordinate reference on the RSSR ----------------------------------------------------------------------
 def rssr_bodies(m, z0, tau_crank):
     """The RSSR as three free bodies with two ground revolutes and two ball joints, from the preset's geometry
@@ -262,6 +305,12 @@ def test_bad_closures_are_refused_naming_the_field(change, field):
     with pytest.raises(InputError) as info:
         sp.SpatialMechanism(links, [sp.SpatialClosure(**closure)])
     assert info.value.field == field
+
+
+def test_a_model_without_a_real_coordinate_is_refused():
+    with pytest.raises(InputError) as info:
+        sp.SpatialMechanism([sp.SpatialLink("weld", joint="F", mass=1.0)])
+    assert info.value.field == "links[0].joint"
 
 
 def test_a_loop_that_cannot_close_is_refused():

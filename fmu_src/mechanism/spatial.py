@@ -49,7 +49,8 @@ __all__ = ["SpatialLink", "SpatialClosure", "SpatialMechanism", "SpatialResult",
 
 GRAVITY = 9.81
 # the existence factors (revolute, prismatic) of each joint kind on a link's z axis
-JOINTS = {"R": (1, 0), "P": (0, 1), "C": (1, 1)}
+# (F, fixed: neither, a rigid DH offset for a frame one row cannot reach)
+JOINTS = {"R": (1, 0), "P": (0, 1), "C": (1, 1), "F": (0, 0)}
 # closure kinds, their codes in the kernel and their row counts
 CLOSURE_KINDS = {"spherical": (0, 3), "revolute": (1, 5), "cylindrical": (2, 4)}
 # the closure's reaction components, in its frame on the target (n1, n2, v)
@@ -85,8 +86,9 @@ class SpatialLink:
     a, alpha, theta, d : float
         The DH row (m, rad, rad, m); a real joint variable adds its coordinate
         to ``theta`` (revolute) or ``d`` (slide), a locked one keeps the value.
-    joint : {'R', 'P', 'C'}
-        The real joint on the z axis: revolute, prismatic or cylindrical (both).
+    joint : {'R', 'P', 'C', 'F'}
+        The real joint on the z axis: revolute, prismatic, cylindrical (both)
+        or fixed (neither: a rigid offset).
     parent : int
         An earlier link's index, -1 the ground.
     mass : float
@@ -115,7 +117,7 @@ class SpatialLink:
         """The link's row of the kernel's table (checks what the kernel cannot: kinds and shapes)."""
         where = f"links[{k}]"
         if self.joint not in JOINTS:
-            raise InputError(f"{where}.joint", f"{self.joint!r} is not a joint kind: one of R, P, C")
+            raise InputError(f"{where}.joint", f"{self.joint!r} is not a joint kind: one of R, P, C, F")
         inertia = np.array(self.inertia, dtype=float)
         if inertia.shape != (3, 3):
             raise InputError(f"{where}.inertia", f"expected a 3 x 3 tensor, got shape {inertia.shape}")
@@ -251,7 +253,7 @@ class SpatialMechanism:
             return InputError("gravity", "every component must be finite")
         if row >= 0:
             field_name = f"links[{row}].{_L_FIELDS[column]}" if 0 <= column < _L_COLUMNS else "links"
-            reasons = {"joint": "a joint kind with at least one real variable", "parent":
+            reasons = {"joint": "a joint kind (the model needs one real coordinate at least)", "parent":
                        f"an earlier link's index or -1 (the ground): link {row} may hang from links -1..{row - 1}",
                        "mass": "a mass >= 0", "inertia": "a physical inertia tensor about the mass centre "
                        "(positive semi-definite, each principal moment at most the sum of the others)",

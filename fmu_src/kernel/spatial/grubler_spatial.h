@@ -13,8 +13,10 @@
  *     T_k = T_parent Rx(alpha) Tx(a) Rz(theta) Tz(d).
  * Each link's joint is the thesis's imaginary pair on that z axis: a revolute
  * (theta) and a prismatic slide (d), with existence factors choosing the real
- * one (R, P) or both (C, cylindrical).  A locked variable keeps its table
- * value; a real one adds its coordinate to it.  A spherical joint is three
+ * one (R, P) or both (C, cylindrical); neither (F, fixed) makes the row a
+ * rigid offset, for a frame one DH row cannot reach (a slide across its
+ * predecessor, then the link turned back into the plane).  A locked variable
+ * keeps its table value; a real one adds its coordinate to it.  A spherical joint is three
  * revolutes on intersecting axes (the builders make it: grubler.mechanism.spatial).
  *
  * Coordinates: y = (z, zd), z the real joint variables in link order (a
@@ -94,7 +96,7 @@ typedef struct grs_model {
 } grs_model;
 
 /* The model is one the kernel can run: parents earlier than their link,
- * existence factors 0 or 1 with at least one real, finite numbers, an inertia
+ * existence factors 0 or 1 with at least one real coordinate in the model, finite numbers, an inertia
  * that is a physical one (mass >= 0, tensor positive semi-definite), closures
  * of a known kind between existing links with unit-length axes.  On
  * GRB_BAD_ARGUMENT *row says which link (>= 0) or closure (-1 - c) is at fault

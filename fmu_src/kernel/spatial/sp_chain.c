@@ -80,7 +80,6 @@ grb_status grs_check(const grs_model *md, int *row, int *column) {
         const grs_link *l = grs_links(md) + k;
         if (!is_flag(l->revolute)) return bad(row, column, k, GRS_L_REV);
         if (!is_flag(l->prismatic)) return bad(row, column, k, GRS_L_PRIS);
-        if (l->revolute + l->prismatic < 1.0) return bad(row, column, k, GRS_L_REV);
         if (l->parent != floor(l->parent) || l->parent < -1 || l->parent >= k) return bad(row, column, k, GRS_L_PARENT);
         if (l->m < 0.0) return bad(row, column, k, GRS_L_M);
         if (!inertia_ok(l->inertia)) return bad(row, column, k, GRS_L_INERTIA);
@@ -105,7 +104,7 @@ grb_status grs_check(const grs_model *md, int *row, int *column) {
         }
         m += grs_closure_rows_of((int)cl->kind);
     }
-    if (n > GRS_MAX_COORDS) return bad(row, column, md->n_links - 1, GRS_L_REV);
+    if (n < 1 || n > GRS_MAX_COORDS) return bad(row, column, md->n_links - 1, GRS_L_REV);
     if (m > GRS_MAX_ROWS) return bad(row, column, -md->n_closures, GRS_CL_KIND);
     return GRB_OK;
 }
