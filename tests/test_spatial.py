@@ -151,8 +151,8 @@ def test_spherical_fourbar_follows_its_input_output_relation():
     m, g = sp.spherical_fourbar(), sp.spherical_fourbar_geometry()
     A, B, C = spherical_equation(g, np.linspace(0, 2 * np.pi, 721))
     assert np.all(np.abs(C) < 0.95 * np.hypot(A, B))  # a crank-rocker: the input turns fully
-    tau = np.array([0.5, 0.0, 0.0])
-    res = m.simulate(m.assembled_start(), t_end=2.0, dt_out=0.01, tau=tau, **TIGHT)
+    tau = np.array([0.1, 0.0, 0.0])  # N m: past gravity's hold, about eight input turns in 1 s
+    res = m.simulate(m.assembled_start(), t_end=1.0, dt_out=0.01, tau=tau, **TIGHT)
     phi, psi = res.z[:, 0], res.z[:, 2]
     assert phi.max() - phi.min() > 2 * np.pi
     A, B, C = spherical_equation(g, phi)
