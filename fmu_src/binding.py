@@ -421,6 +421,7 @@ _SPATIAL_SIGNATURES = {
     "grs_closure_frame": (c_int, [_SM, c_int, _P]),
     "grs_reactions": (c_int, [_SM, _P, _P, _P, _P, _P]),
     "grs_determinacy": (c_int, [_SM, _P, c_double, _P, _P, POINTER(c_int)]),
+    "grs_joint_determinacy": (c_int, [_SM, _P, c_double, _P, _P, POINTER(c_int)]),
     "grs_project": (c_int, [_SM, c_double, _P, _P]),
     "grs_assemble": (c_int, [_SM, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
     "grs_stepper_size": (c_size_t, [c_int, c_int]),

@@ -83,6 +83,27 @@ def test_a_planar_loop_seen_as_spatial_reports_which_reactions_are_determinate()
     # the minimum-norm multipliers leave the indeterminate ones at zero
     _, lam, _ = m.dynamics(m.assembled_start())
     assert np.abs(lam[2:]).max() < 1e-12
+    # and through the loop every joint's out-of-plane reactions (Fz, Mx, My) are as free; the in-plane ones not
+    joints = m.joint_determinacy(z)
+    assert np.all(joints[:, [0, 1, 5]] < 1e-9) and np.all(joints[:, 2:5] > 0.5)
+    assert m.determinacy_report(z)[2] == "joint of link2: indeterminate Fz, Mx, My (link axes)"
+
+
+def test_joint_reactions_of_the_planar_fourbar_as_spatial_equal_the_planar_kernels(planar_run):
+    # Newton-Euler from the tips back over the spatial frames against the planar kernel's reactions
+    # (world x, y components of the predecessor's force on each link)
+    m = sp.planar_fourbar()
+    res = m.simulate(m.assembled_start(), t_end=2.0, dt_out=0.01, **TIGHT)
+    planar_run.compute(["reactions"])
+    worst = 0.0
+    for i in range(0, len(res.t), 20):
+        _, joints = m.reactions(res.y[i])
+        _, frames = m.frames(res.z[i])
+        for k in range(3):
+            world = frames[k] @ joints[k, :3]
+            worst = max(worst, abs(world[0] - planar_run[f"R{k + 1}_Fx"][i]), abs(world[1] - planar_run[f"R{k + 1}_Fy"][i]),
+                        abs(joints[k, 5] - planar_run[f"R{k + 1}_Mz"][i]))
+    assert worst < 1e-8
 
 
 # -- RSSR: the Freudenstein-type equation ---------------------------------------------------------------------------
@@ -98,6 +119,9 @@ def rssr_equation(g, phi):
 
 
 def test_rssr_preset_is_a_crank_rocker_between_skew_shafts():
+    m = sp.rssr()
+    z = m.assembled_start()[:m.n_coords]
+    assert m.determinacy(z)[1] == 3 and np.all(m.joint_determinacy(z) < 1e-9)  # not overconstrained
     g = sp.rssr_geometry()
     assert g.twist == pytest.approx(math.pi / 2)
     A, B, C = rssr_equation(g, np.linspace(0, 2 * np.pi, 721))
@@ -172,6 +196,9 @@ def test_spherical_fourbar_force_reactions_are_indeterminate():
     free, rank = m.determinacy(m.assembled_start()[:3])
     assert rank == 2  # every joint axis through one point: the three force rows vanish identically
     assert np.all(free[:3] > 1 - 1e-9) and np.all(free[3:] < 1e-9)
+    # through the loop: every joint's force is as free, its moment about the centre is not
+    joints = m.joint_determinacy(m.assembled_start()[:3])
+    assert np.all(joints[:, :3] > 0.5) and np.all(joints[:, 3:] < 1e-9)
     assert m.determinacy_report(m.assembled_start()[:3])[0] == \
         "closure 0 (revolute): determinate My, Mx; indeterminate Fx, Fy, Fz"
 

@@ -351,8 +351,20 @@ class SpatialMechanism:
             raise InputError("rcond", f"expected a number in (0, 1), got {rcond!r}")
         return out[:self.n_rows], rank.value
 
+    def joint_determinacy(self, z, rcond: float = 1e-8) -> np.ndarray:
+        """Per link (L x 6, as :meth:`reactions`' joints table), how much of each joint reaction component the
+        closures' internal loads can change (N or N m per unit multiplier; 0: determinate)."""
+        z = self._state(z, self.n_coords, "z")
+        out, rank = np.zeros((len(self.links), 6)), ctypes.c_int(0)
+        status = self._lib.grs_joint_determinacy(self._ref(), binding.address(z), float(rcond),
+                                                 binding.address(self._work), binding.address(out),
+                                                 ctypes.byref(rank))
+        if status != binding.OK:
+            raise InputError("rcond", f"expected a number in (0, 1), got {rcond!r}")
+        return out
+
     def determinacy_report(self, z, rcond: float = 1e-8) -> list[str]:
-        """In words: which reaction components of each closure are determinate at z."""
+        """In words: which reaction components of each closure, and of each joint, are determinate at z."""
         free, rank = self.determinacy(z, rcond)
         lines, r = [], 0
         for c, cl in enumerate(self.closures):
@@ -366,6 +378,13 @@ class SpatialMechanism:
                          f"indeterminate {', '.join(ind) or 'none'}")
             r += len(names)
         lines.append(f"closure Jacobian rank {rank} of {self.n_rows} rows")
+        joints = self.joint_determinacy(z, rcond)
+        for k, link in enumerate(self.links):
+            ind = [n for n, v in zip(REACTION_NAMES, joints[k]) if v >= 1e-6]
+            if ind:
+                lines.append(f"joint of {link.name}: indeterminate {', '.join(ind)} (link axes)")
+        if not joints.any() or np.all(joints < 1e-6):
+            lines.append("every joint reaction is determinate")
         return lines
 
     def project(self, y) -> np.ndarray:

@@ -152,6 +152,14 @@ GRB_API grb_status grs_reactions(const grs_model *m, const double *y, const doub
 GRB_API grb_status grs_determinacy(const grs_model *m, const double *z, double rcond, double *work,
                                    double *indeterminate, int *rank);
 
+/* Which components of the joint reactions (grs_reactions' joints table) are
+ * determinate at z: indeterminate[6 k + c] (L x 6) is the root-sum-square of
+ * that component over the closures' internal loads, an orthonormal basis of
+ * the null space of J^T (N or N m per unit multiplier; 0: determinate), *rank
+ * the rank of J. */
+GRB_API grb_status grs_joint_determinacy(const grs_model *m, const double *z, double rcond, double *work,
+                                         double *indeterminate, int *rank);
+
 /* Minimum-norm projection of y onto the position and velocity constraints, in place. */
 GRB_API grb_status grs_project(const grs_model *m, double scale, double *y, double *work);
 

@@ -141,7 +141,7 @@ static void offsets(int L, int n, int m, size_t *off) {
     off[7] = off[6] + M * (3 * M + 1);                   /* zdd */
     off[8] = off[7] + N;                                 /* four tracked vectors' Jacobians */
     off[9] = off[8] + 4 * 3 * N;                         /* S */
-    off[10] = off[9] + grs_scratch_size(n, m);
+    off[10] = off[9] + grs_scratch_size(n, m) + 12 * (size_t)L; /* and the reactions' two 6 L tables */
 }
 
 size_t grs_work_size(const grs_model *md) {
@@ -647,12 +647,15 @@ static void closure_wrenches(const grs_model *md, grs_ws *w, double *acc, double
 /* Newton-Euler from the tips back to the ground: the wrench the parent puts
  * on each link through its joint is what the link's motion needs, less
  * gravity and the closures' wrenches on it, plus what it passes on to its
- * children.  Forces and moments about the world origin while summing, then
+ * children (without inertial: the closures' wrenches alone, at rest and
+ * without gravity, for the determinacy of the joints' reactions).  Forces and moments about the world origin while summing, then
  * moved to the joint origin and turned into the link's axes. */
-static void joint_reactions(const grs_model *md, grs_ws *w, double *ext, double *out) {
+static void joint_reactions(const grs_model *md, grs_ws *w, int inertial, double *ext, double *out) {
     int n = w->n;
     double *need = ext; /* 6 per link: accumulates the wrench each joint must carry */
-    for (int k = 0; k < w->L; k++) {
+    for (int k = 0; k < w->L && !inertial; k++)
+        for (int i = 0; i < 6; i++) need[6 * k + i] = -need[6 * k + i];
+    for (int k = 0; k < w->L && inertial; k++) {
         const grs_link *l = grs_links(md) + k;
         const grs_frame *F = w->frame + k;
         double acc_c[3] = {0, 0, 0}, alpha[3], c[3], Iw[9], Iwo[3], Ia[3], gyro[3], f[3], mom[3], cf[3];
@@ -707,10 +710,50 @@ grb_status grs_reactions(const grs_model *md, const double *y, const double *tau
     if (status != GRB_OK) return status;
     status = grs_accelerations(md, y, y + w.n, tau, &w);
     if (status != GRB_OK) return status;
-    double *ext = w.S; /* 6 L doubles: the scratch holds N M + ... >= 6 L? checked below */
-    if (grs_scratch_size(w.n, w.m) < (size_t)6 * w.L) return GRB_BAD_ARGUMENT;
+    double *ext = w.S; /* 6 L doubles (the scratch has 12 L besides the solvers') */
     memset(ext, 0, sizeof(double) * 6 * (size_t)w.L);
     closure_wrenches(md, &w, ext, closures);
-    if (joints) joint_reactions(md, &w, ext, joints);
+    if (joints) joint_reactions(md, &w, 1, ext, joints);
+    return GRB_OK;
+}
+
+/* An internal load of the closures is a set of multipliers in the null space
+ * of J^T: it does no work on any motion, so the motion cannot tell how much of
+ * it the loop carries.  The joint reactions it alone puts in the tree are
+ * the part of each reaction the motion leaves free. */
+grb_status grs_joint_determinacy(const grs_model *md, const double *z, double rcond, double *work,
+                                 double *indeterminate, int *rank) {
+    grs_ws w;
+    grb_status status = grs_ws_init(&w, md, work);
+    if (status != GRB_OK) return status;
+    if (!(rcond > 0.0 && rcond < 1.0)) return GRB_BAD_ARGUMENT;
+    int n = w.n, m = w.m, L = w.L;
+    for (int i = 0; i < 6 * L; i++) indeterminate[i] = 0.0;
+    *rank = 0;
+    if (m == 0) return GRB_OK;
+    grs_rows_at(md, z, &w);
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += SP_J(&w, r, i) * SP_J(&w, c, i);
+            SP_SCHUR(&w, r, c) = g;
+        }
+    grb_sym_eig(w.schur, w.eig_work, w.eigvec, w.eigval, m);
+    double top = 0.0;
+    for (int i = 0; i < m; i++)
+        if (w.eigval[i] > top) top = w.eigval[i];
+    double *ext = w.S, *load = w.S + 6 * (size_t)L;
+    for (int i = 0; i < m; i++) {
+        if (w.eigval[i] > rcond * rcond * top) {
+            (*rank)++;
+            continue;
+        }
+        for (int r = 0; r < m; r++) w.row[r].lambda = SP_EIGVEC(&w, r, i);
+        memset(ext, 0, sizeof(double) * 6 * (size_t)L);
+        closure_wrenches(md, &w, ext, NULL);
+        joint_reactions(md, &w, 0, ext, load);
+        for (int j = 0; j < 6 * L; j++) indeterminate[j] += load[j] * load[j];
+    }
+    for (int j = 0; j < 6 * L; j++) indeterminate[j] = sqrt(indeterminate[j]);
     return GRB_OK;
 }
