@@ -334,6 +334,36 @@ def test_bad_closures_are_refused_naming_the_field(change, field):
     assert info.value.field == field
 
 
+@pytest.mark.parametrize("change, field", [
+    (dict(y0=[0.0, float("nan"), 0, 0, 0, 0]), "y0"),
+    (dict(y0=[0.0] * 5), "y0"),
+    (dict(y0=[0.0, 1.0, 0, 0, 0, 0]), "y0"),  # not closed
+    (dict(tau=[1.0]), "tau"),
+    (dict(t_end=-1.0), "t_end"),
+    (dict(dt_out=5.0), "dt_out"),
+    (dict(tableau="rk4"), "tableau"),
+])
+def test_bad_run_requests_are_refused_naming_the_field(change, field):
+    m = sp.planar_fourbar()
+    request = dict(y0=m.assembled_start(), t_end=1.0, dt_out=0.1)
+    request.update(change)
+    with pytest.raises(InputError) as info:
+        m.simulate(**request)
+    assert info.value.field == field
+
+
+def test_the_kernel_refuses_a_workspace_laid_out_for_another_model():
+    import ctypes
+
+    from grubler import binding
+    small, big = sp.planar_fourbar(), sp.rssr()
+    lib = binding.spatial_library()
+    y, out = np.zeros(2 * big.n_coords), np.zeros(2 * big.n_coords)
+    status = lib.grs_rhs(ctypes.byref(big._model), binding.address(y), None, binding.address(small._work),
+                         binding.address(out))
+    assert status == binding.BAD_ARGUMENT
+
+
 def test_a_model_without_a_real_coordinate_is_refused():
     with pytest.raises(InputError) as info:
         sp.SpatialMechanism([sp.SpatialLink("weld", joint="F", mass=1.0)])

@@ -273,9 +273,14 @@ class SpatialMechanism:
         return ctypes.byref(self._model)
 
     def _state(self, y, size: int, name: str = "y") -> np.ndarray:
-        y = np.ascontiguousarray(y, dtype=float)
+        try:
+            y = np.ascontiguousarray(y, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(name, f"expected {size} numbers, got {y!r}") from None
         if y.shape != (size,):
             raise InputError(name, f"expected {size} numbers, got shape {y.shape}")
+        if not np.all(np.isfinite(y)):
+            raise InputError(name, f"every number must be finite, got {y.tolist()}")
         return y
 
     def _efforts(self, tau) -> np.ndarray | None:
@@ -389,7 +394,7 @@ class SpatialMechanism:
 
     def project(self, y) -> np.ndarray:
         """y projected onto the closures (minimum norm, positions then rates)."""
-        y = self._state(np.array(y, dtype=float), 2 * self.n_coords).copy()
+        y = self._state(y, 2 * self.n_coords).copy()
         self._lib.grs_project(self._ref(), self.scale, binding.address(y), binding.address(self._work))
         return y
 
@@ -401,9 +406,8 @@ class SpatialMechanism:
         InputError
             The loop cannot close there (``z``), naming the closest violation reached.
         """
-        z = self._state(np.array(z, dtype=float), self.n_coords, "z").copy()
-        zd = np.zeros(self.n_coords) if zd is None else self._state(np.array(zd, dtype=float), self.n_coords,
-                                                                     "zd").copy()
+        z = self._state(z, self.n_coords, "z").copy()
+        zd = np.zeros(self.n_coords) if zd is None else self._state(zd, self.n_coords, "zd").copy()
         held = np.ascontiguousarray(held, dtype=np.int32)
         closest = ctypes.c_double(0.0)
         status = self._lib.grs_assemble(self._ref(), len(held), binding.address(held), self.scale,
@@ -431,8 +435,13 @@ class SpatialMechanism:
             raise InputError("dt_out", f"expected a finite interval in (0, t_end], got {dt_out!r}")
         if tableau not in ("dop853", "rk45"):
             raise InputError("tableau", f"{tableau!r}: the spatial advance has dop853 and rk45")
-        y = self._state(np.array(y0, dtype=float), 2 * self.n_coords, "y0").copy()
+        y = self._state(y0, 2 * self.n_coords, "y0").copy()
         tau = self._efforts(tau)
+        if self.n_rows:
+            violation = np.abs(self.constraint(y[:self.n_coords])[0]).max()
+            if not violation <= 1e-9 * self.scale:
+                raise InputError("y0", f"the start does not close the loops (violation {violation:.3g} m): "
+                                 "assemble it first (SpatialMechanism.assemble)")
         n_out = int(round(t_end / dt_out))
         times = np.ascontiguousarray(np.linspace(0.0, n_out * dt_out, n_out + 1)[1:])
         code = binding.TABLEAU_CODE[tableau]
