@@ -158,6 +158,31 @@ def test_rssr_motion_keeps_its_closed_form_over_full_crank_turns(rssr_driven):
     assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-12
 
 
+# -- RSSP: the slide's closed form ----------------------------------------------------------------------------------
+def rssp_slide(g, phi, sign=1):
+    """The slide s with |P(phi) - (offset, -s, 0)| = L (the preset's line along -y through (offset, 0, 0)),
+    by hand: (r1 cos phi - e)^2 + (r1 sin phi + s)^2 + h^2 = L^2."""
+    r1, e, h, L = g.crank, g.offset, g.height, g.coupler
+    return -r1 * np.sin(phi) + sign * np.sqrt(L * L - h * h - (r1 * np.cos(phi) - e) ** 2)
+
+
+def test_rssp_slider_follows_its_closed_form_and_conserves_energy():
+    m, g = sp.rssp(), sp.rssp_geometry()
+    assert g.twist == pytest.approx(math.pi / 2)
+    assert m.coordinate_names[-1] == "slider.d"
+    tau = np.zeros(m.n_coords)
+    tau[0] = 1.0
+    res = m.simulate(m.assembled_start(), t_end=1.0, dt_out=0.01, tau=tau, **TIGHT)
+    assert res.z[-1, 0] - res.z[0, 0] > 2 * np.pi
+    assert np.abs(res.z[:, 4] - rssp_slide(g, res.z[:, 0])).max() < 1e-11
+    zd = np.zeros(m.n_coords)
+    zd[0] = 8.0
+    free = m.simulate(m.assemble(m.sketch, zd), t_end=1.0, dt_out=0.01, **TIGHT)
+    ke, pe = free.energy().T
+    scale = ke.max() + (pe.max() - pe.min())
+    assert np.abs((ke + pe) - (ke[0] + pe[0])).max() < 1e-9 * scale
+
+
 # -- the spherical four-bar's input-output relation ----------------------------------------------------------------
 def spherical_equation(g, phi):
     """A, B, C of A cos psi + B sin psi = C from u(phi) . v(psi) = cos alpha3 (derived by hand):

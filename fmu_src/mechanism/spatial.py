@@ -17,7 +17,8 @@ seen as spatial, a spherical four-bar, whose joint axes meet in one point) the
 motion stays exact and the multipliers are the minimum-norm ones:
 :meth:`SpatialMechanism.determinacy` says which are fixed by the motion.
 
-Presets: :func:`rssr` (a crank-rocker between skew shafts),
+Presets: :func:`rssr` (a crank-rocker between skew shafts), :func:`rssp` (a
+spatial slider-crank),
 :func:`spherical_fourbar` and :func:`planar_fourbar` (the thesis four-bar
 written as spatial, which reproduces the planar kernel).
 
@@ -44,7 +45,7 @@ from grubler import binding
 from grubler.errors import InputError, IntegrationError
 
 __all__ = ["SpatialLink", "SpatialClosure", "SpatialMechanism", "SpatialResult", "spherical_joint", "rssr",
-           "rssr_geometry", "spherical_fourbar", "spherical_fourbar_geometry", "planar_fourbar", "JOINTS",
+           "rssr_geometry", "rssp", "rssp_geometry", "spherical_fourbar", "spherical_fourbar_geometry", "planar_fourbar", "JOINTS",
            "CLOSURE_KINDS", "GRAVITY"]
 
 GRAVITY = 9.81
@@ -569,11 +570,58 @@ def _rssr_sketch(g: _RSSR, phi: float) -> np.ndarray:
     C = g.coupler ** 2 - q @ q - g.rocker ** 2
     psi = math.atan2(B, A) + math.acos(max(-1.0, min(1.0, C / math.hypot(A, B))))
     pin = centre + g.rocker * (math.cos(psi) * x0 + math.sin(psi) * y0)
-    c = (pin - p) / g.coupler  # the coupler's direction, in the crank's axes:
+    return np.array([phi, *_ball_angles(phi, pin - p, g.coupler), psi])
+
+
+def _ball_angles(phi: float, span, length: float) -> tuple[float, float, float]:
+    """The three angles of the ball at a crank pin (crank angle phi about z) that point the coupler along span."""
+    c = np.asarray(span) / length  # the coupler's direction, in the crank's axes:
     cc = np.array([c[0] * math.cos(phi) + c[1] * math.sin(phi), -c[0] * math.sin(phi) + c[1] * math.cos(phi), c[2]])
     # the ball's first axis is the crank's z; the coupler's z is at polar angle t2 and azimuth t1 from it
     t1, t2 = math.atan2(cc[1], cc[0]), math.acos(max(-1.0, min(1.0, cc[2])))
-    return np.array([phi, t1, t2 - math.pi / 2, 0.0, psi])
+    return t1, t2 - math.pi / 2, 0.0
+
+
+@dataclass(frozen=True)
+class _RSSP:
+    crank: float = 0.1    # r1, m
+    height: float = 0.12  # the crank plane's height along its shaft, m
+    offset: float = 0.3   # the slide's line crosses the x axis here, m
+    twist: float = math.pi / 2  # the slide's direction Rx(twist) e_z: along -y
+    coupler: float = 0.5  # L, m
+
+
+def rssp_geometry() -> _RSSP:
+    """The RSSP preset's dimensions (crank on the world z axis; the slide's line through (offset, 0, 0)
+    along Rx(twist) e_z)."""
+    return _RSSP()
+
+
+def rssp(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
+    """A spatial slider-crank: revolute crank, spherical, coupler, spherical, a slider on a line skew to the
+    crank shaft.
+
+    The crank and the ball at its pin are the RSSR's; the slider is a second branch from the ground, a
+    prismatic joint whose axis is the slide's line, its ball at the slider frame's origin.
+    Coordinates: crank, the ball's three angles, the slide.
+    """
+    g = rssp_geometry()
+    links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
+                         inertia=tuple(map(tuple, _rod_inertia(0.5, g.crank, 0))))]
+    links += spherical_joint("coupler", 0, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
+                             inertia=_rod_inertia(1.0, g.coupler, 2, radius=0.01))
+    block = 1.0 * (0.04 ** 2 + 0.04 ** 2) / 12
+    links.append(SpatialLink("slider", a=g.offset, alpha=g.twist, joint="P", parent=-1, mass=1.0,
+                             inertia=((block, 0, 0), (0, block, 0), (0, 0, block))))
+    links = _chain(links)
+    m = SpatialMechanism(links, [SpatialClosure("spherical", link=3, to=4, point=(0, 0, g.coupler))], gravity)
+    phi = 0.0
+    p = np.array([g.crank, 0.0, g.height])
+    axis, start = np.array([0.0, -math.sin(g.twist), math.cos(g.twist)]), np.array([g.offset, 0.0, 0.0])
+    along = axis @ (p - start)
+    s = along + math.sqrt(along ** 2 - (p - start) @ (p - start) + g.coupler ** 2)
+    m.sketch = np.array([phi, *_ball_angles(phi, start + s * axis - p, g.coupler), s])
+    return m
 
 
 @dataclass(frozen=True)
