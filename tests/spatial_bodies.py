@@ -4,7 +4,9 @@ Rigid bodies in absolute (maximal) coordinates: each body's mass centre c,
 its orientation as a unit quaternion, the velocity of c and the angular
 velocity in world axes.  Joints are constraint equations between points and
 axes fixed to the bodies: a spherical joint (two points coincide), a revolute
-to the ground (a point fixed, the body's axis square to two fixed vectors).
+to the ground (a point fixed, the body's axis square to two fixed vectors), a
+revolute between two bodies (the points coincide, one body's axis square to two
+vectors across the other's).
 The Newton-Euler equations of every body,
     m a = m g + F,   I_w alpha + w x I_w w = M,
 with the joint forces as Lagrange multipliers, are solved together with the
@@ -78,6 +80,18 @@ class GroundRevolute:
 
 
 @dataclass
+class Revolute:
+    """Body i's point a and axis u (body i's frame, from its mass centre) on body j's point b and axis v
+    (body j's; j = -1: the world's point b and axis v)."""
+    i: int
+    a: np.ndarray
+    j: int
+    b: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+
+@dataclass
 class Torque:
     """A constant moment on body i about world axis w (from the ground)."""
     i: int
@@ -134,6 +148,31 @@ class BodySystem:
                 else:
                     p = p - jt.b
                 rows_phi.append(p), rows_J.append(Jf), rows_bias.append(bias)
+            elif isinstance(jt, Revolute):
+                p, J, bias = self._point(parts, jt.i, jt.a)
+                Jf = block(jt.i, J)
+                ci, qi, vi, wi = parts[jt.i]
+                u = rotation(qi) @ jt.u
+                if jt.j >= 0:
+                    p2, J2, bias2 = self._point(parts, jt.j, jt.b)
+                    p, Jf, bias = p - p2, Jf - block(jt.j, J2), bias - bias2
+                    cj, qj, vj, wj = parts[jt.j]
+                    Rj, wj = rotation(qj), wj
+                else:
+                    p, Rj, wj = p - jt.b, np.eye(3), np.zeros(3)
+                rows_phi.append(p), rows_J.append(Jf), rows_bias.append(bias)
+                v = Rj @ (jt.v / np.linalg.norm(jt.v))
+                e = np.array([1.0, 0, 0]) if abs(v[0]) < 0.9 else np.array([0, 1.0, 0])
+                n1 = e - (e @ v) * v
+                n1 /= np.linalg.norm(n1)
+                for n in (n1, np.cross(v, n1)):  # u . n = 0, n turning with body j
+                    Jr = np.zeros((1, 6 * nb))
+                    Jr[0, 6 * jt.i + 3:6 * jt.i + 6] = np.cross(u, n)
+                    if jt.j >= 0:
+                        Jr[0, 6 * jt.j + 3:6 * jt.j + 6] = -np.cross(u, n)
+                    udot, ndot = np.cross(wi, u), np.cross(wj, n)
+                    rows_phi.append(np.array([u @ n])), rows_J.append(Jr)
+                    rows_bias.append(np.array([np.cross(wi, udot) @ n + 2 * udot @ ndot + u @ np.cross(wj, ndot)]))
             else:
                 p, J, bias = self._point(parts, jt.i, jt.a)
                 rows_phi.append(p - jt.p), rows_J.append(block(jt.i, J)), rows_bias.append(bias)
@@ -169,7 +208,9 @@ class BodySystem:
         _, J, bias = self.constraints(parts)
         m = J.shape[0]
         K = np.block([[M, J.T], [J, np.zeros((m, m))]])
-        sol = np.linalg.solve(K, np.concatenate([f, -bias]))
+        # least squares: an overconstrained loop's dependent rows leave K singular; the accelerations are
+        # still unique (the multipliers are then the minimum-norm ones)
+        sol = np.linalg.lstsq(K, np.concatenate([f, -bias]), rcond=1e-12)[0]
         return sol[:6 * nb], -sol[6 * nb:]
 
     def rhs(self, t, y):
