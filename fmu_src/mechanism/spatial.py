@@ -489,30 +489,30 @@ def _rod_inertia(mass: float, length: float, axis: int, radius: float = 0.005) -
     return I
 
 
-def spherical_joint(name: str, parent: int, a: float = 0.0, alpha: float = 0.0, d: float = 0.0, *, mass=0.0,
-                    com=(0, 0, 0), inertia=np.zeros((3, 3)), theta=(0.0, math.pi / 2, 0.0)) -> list[SpatialLink]:
+def spherical_joint(name: str, parent: int, at: int, a: float = 0.0, alpha: float = 0.0, d: float = 0.0, *,
+                    mass=0.0, com=(0, 0, 0), inertia=np.zeros((3, 3)),
+                    theta=(0.0, math.pi / 2, 0.0)) -> list[SpatialLink]:
     """A spherical joint as three revolutes on axes through one point, and the body it carries.
 
-    The first axis is the parent's DH row (a, alpha, d) as any joint's; the
+    The first axis is the row (a, alpha, d) from ``parent``, as any joint's; the
     second is across it (alpha -pi/2), the third across the second (alpha
-    pi/2), all through the same point.  The two links between are massless.
-    The third link is the body: its z axis makes the angle theta[1] with the
-    first axis, and the joint locks (the axes line up) where that angle is 0 or
-    pi, so a builder points the first axis away from where the body goes.
-    Appends to a tree whose next index is ``parent``'s successors' count.
+    pi/2), all through the same point.  The two links between are massless
+    (``name1``, ``name2``); the third (``name``) is the body.  ``at`` is the
+    index the first of the three will have in the link list (their parents are
+    parent, at, at + 1).  The body's z axis makes the angle theta[1] (plus the
+    second coordinate) with the first axis, and the joint locks (the first and
+    third axes line up) where that angle is 0 or pi, so a builder points the
+    first axis away from where the body goes.
+
+    Examples
+    --------
+    >>> [(l.name, l.parent, l.mass) for l in spherical_joint("ball", 0, 1, a=0.1, mass=2.0)]
+    [('ball1', 0, 0.0), ('ball2', 1, 0.0), ('ball', 2, 2.0)]
     """
     return [SpatialLink(f"{name}1", a=a, alpha=alpha, d=d, theta=theta[0], parent=parent),
-            SpatialLink(f"{name}2", alpha=-math.pi / 2, theta=theta[1], parent=-2),  # parent set by _chain
-            SpatialLink(name, alpha=math.pi / 2, theta=theta[2], parent=-2, mass=mass, com=tuple(com),
+            SpatialLink(f"{name}2", alpha=-math.pi / 2, theta=theta[1], parent=at),
+            SpatialLink(name, alpha=math.pi / 2, theta=theta[2], parent=at + 1, mass=mass, com=tuple(com),
                         inertia=tuple(map(tuple, np.asarray(inertia))))]
-
-
-def _chain(links: list[SpatialLink]) -> list[SpatialLink]:
-    """Resolve parent -2 (the link before) in a list built from pieces."""
-    out = []
-    for k, l in enumerate(links):
-        out.append(l if l.parent != -2 else SpatialLink(**{**l.__dict__, "parent": k - 1}))
-    return out
 
 
 @dataclass(frozen=True)
@@ -546,11 +546,10 @@ def rssr(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     g = rssr_geometry()
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
                          inertia=tuple(map(tuple, _rod_inertia(0.5, g.crank, 0))))]
-    links += spherical_joint("coupler", 0, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
+    links += spherical_joint("coupler", 0, 1, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
                              inertia=_rod_inertia(1.0, g.coupler, 2, radius=0.01))
     links.append(SpatialLink("rocker", a=g.offset, alpha=g.twist, d=g.rocker_d, parent=-1, mass=0.8,
                              com=(g.rocker / 2, 0, 0), inertia=tuple(map(tuple, _rod_inertia(0.8, g.rocker, 0)))))
-    links = _chain(links)
     closure = SpatialClosure("spherical", link=3, to=4, point=(0, 0, g.coupler), to_point=(g.rocker, 0, 0))
     m = SpatialMechanism(links, [closure], gravity)
     m.sketch = _rssr_sketch(g, 0.0)
@@ -608,12 +607,11 @@ def rssp(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     g = rssp_geometry()
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
                          inertia=tuple(map(tuple, _rod_inertia(0.5, g.crank, 0))))]
-    links += spherical_joint("coupler", 0, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
+    links += spherical_joint("coupler", 0, 1, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
                              inertia=_rod_inertia(1.0, g.coupler, 2, radius=0.01))
     block = 1.0 * (0.04 ** 2 + 0.04 ** 2) / 12
     links.append(SpatialLink("slider", a=g.offset, alpha=g.twist, joint="P", parent=-1, mass=1.0,
                              inertia=((block, 0, 0), (0, block, 0), (0, 0, block))))
-    links = _chain(links)
     m = SpatialMechanism(links, [SpatialClosure("spherical", link=3, to=4, point=(0, 0, g.coupler))], gravity)
     phi = 0.0
     p = np.array([g.crank, 0.0, g.height])
