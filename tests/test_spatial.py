@@ -265,6 +265,28 @@ def test_an_open_chain_of_cylindrical_revolute_and_slide_joints_conserves_energy
     assert np.abs((ke + pe) - (ke[0] + pe[0])).max() < 1e-9 * scale
 
 
+def test_a_driven_damped_run_balances_its_energy():
+    # E(t) - E(0) = the drive's work less what the dampers take, integrated along the run (Simpson's rule)
+    import dataclasses
+
+    from scipy.integrate import simpson
+    base = sp.rssr()
+    links = list(base.links)
+    links[4] = dataclasses.replace(links[4], damping=(0.02, 0.0))  # the rocker's bearing
+    links[3] = dataclasses.replace(links[3], damping=(0.001, 0.0))  # the coupler's spin in its ball
+    m = sp.SpatialMechanism(links, base.closures, base.gravity)
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.5
+    res = m.simulate(m.assemble(base.sketch), t_end=1.0, dt_out=0.001, tau=tau, **TIGHT)
+    ke, pe = res.energy().T
+    power = tau[0] * res.zd[:, 0] - 0.02 * res.zd[:, 4] ** 2 - 0.001 * res.zd[:, 3] ** 2
+    work = np.array([simpson(power[:i + 1], x=res.t[:i + 1]) for i in range(100, len(res.t), 100)])
+    change = (ke + pe - ke[0] - pe[0])[100::100]
+    assert np.abs(change - work).max() < 1e-8 * np.abs(work).max()
+    dissipated = simpson(0.02 * res.zd[:, 4] ** 2 + 0.001 * res.zd[:, 3] ** 2, x=res.t)
+    assert dissipated > 1e-3 * np.abs(work).max()  # the dampers take a share the check can see
+
+
 # -- the body-coordinate reference on the RSSR ----------------------------------------------------------------------
 def rssr_bodies(m, z0, tau_crank):
     """The RSSR as three free bodies with two ground revolutes and two ball joints, from the preset's geometry
