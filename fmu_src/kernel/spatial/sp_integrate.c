@@ -7,7 +7,8 @@
  * step-size control (Hairer, Norsett and Wanner, Solving ODEs I, II.4), without
  * change-point passages or dense output: each output time is the end of a
  * step, and the state is projected onto the closures (position, then
- * velocity: grs_project_ws) after every accepted step. */
+ * velocity: grs_project_ws) after every accepted step; a projection that
+ * takes a good part of the speed away stops the run (GRB_BRANCH_JUMP). */
 #include <math.h>
 #include <string.h>
 
@@ -17,6 +18,9 @@
 #define SAFETY 0.9
 #define MIN_FACTOR 0.2
 #define MAX_FACTOR 10.0
+/* fraction of the joint speeds one projection may remove before the step is
+ * taken for a jump between assembly branches (integrate.c's BRANCH_JUMP) */
+#define BRANCH_JUMP 1e-2
 
 /* stepper rows (2N doubles each): s + 1 stage derivatives, then the stage
  * state, the proposed state, the current state */
@@ -151,7 +155,19 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
             if (err <= 1.0) {
                 time = last ? t_out[o] : time + hh;
                 memcpy(st.cur, st.nw, sizeof(double) * (size_t)st.N);
-                if (w.m > 0) grs_project_ws(md, s->scale, st.cur, &w);
+                if (w.m > 0) {
+                    grs_project_ws(md, s->scale, st.cur, &w);
+                    /* a correction of the order of the tolerance, not a good part of the speed: one that
+                     * takes that much away crossed where two assembly branches meet and landed on the
+                     * other (the planar kernel follows a chart there; this advance stops) */
+                    double dv2 = 0.0, v2 = 0.0;
+                    for (int i = w.n; i < st.N; i++) {
+                        dv2 += (st.cur[i] - st.nw[i]) * (st.cur[i] - st.nw[i]);
+                        v2 += st.nw[i] * st.nw[i];
+                    }
+                    if (dv2 > BRANCH_JUMP * BRANCH_JUMP * v2 && dv2 > (1e3 * s->atol) * (1e3 * s->atol))
+                        return stop(where, time, GRB_BRANCH_JUMP);
+                }
                 if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, time, GRB_NONFINITE_DERIVATIVE);
                 /* a step cut short to land on an output says nothing against the step before it */
                 step = last && hh < step ? fmax(step, hh * fac) : hh * fac;
