@@ -398,3 +398,60 @@ def lstsq(J: np.ndarray, b: np.ndarray, rcond: float) -> tuple[np.ndarray, int]:
     scratch = np.zeros((n + m) * m + 1)
     rank = library().grb_lstsq(address(J), m, n, address(b), float(rcond), address(x), address(scratch))
     return x, rank
+
+
+# -- the spatial chain (kernel/spatial/grubler_spatial.h) ----------------------------------------------------------
+
+
+class SpatialModel(ctypes.Structure):
+    """``grs_model``: the spatial chain's link and closure tables and its gravity vector."""
+
+    _fields_ = [("n_links", c_int), ("n_closures", c_int), ("links", c_void_p), ("closures", c_void_p),
+                ("gravity", c_double * 3)]
+
+
+class SpatialSettings(ctypes.Structure):
+    """``grs_settings``: how a spatial run is integrated."""
+
+    _fields_ = [("tableau", c_int), ("rtol", c_double), ("atol", c_double), ("h_max", c_double),
+                ("max_steps", c_long), ("scale", c_double), ("tau", c_void_p)]
+
+
+_SM = POINTER(SpatialModel)
+_SPATIAL_SIGNATURES = {
+    "grs_check": (c_int, [_SM, POINTER(c_int), POINTER(c_int)]),
+    "grs_n_coords": (c_int, [_SM]),
+    "grs_n_rows": (c_int, [_SM]),
+    "grs_work_size": (c_size_t, [_SM]),
+    "grs_work_init": (c_int, [_SM, _P, c_size_t]),
+    "grs_rhs": (c_int, [_SM, _P, _P, _P, _P]),
+    "grs_dynamics": (c_int, [_SM, _P, _P, _P, _P, _P, _P]),
+    "grs_constraint": (c_int, [_SM, _P, _P, _P, _P]),
+    "grs_frames": (c_int, [_SM, _P, _P, _P]),
+    "grs_link_points_rows": (c_int, [_SM, c_int, _P, c_int, _P, _P, _P, _P]),
+    "grs_closure_frame": (c_int, [_SM, c_int, _P]),
+    "grs_reactions": (c_int, [_SM, _P, _P, _P, _P, _P]),
+    "grs_determinacy": (c_int, [_SM, _P, c_double, _P, _P, POINTER(c_int)]),
+    "grs_joint_determinacy": (c_int, [_SM, _P, c_double, _P, _P, POINTER(c_int)]),
+    "grs_project": (c_int, [_SM, c_double, _P, _P]),
+    "grs_assemble": (c_int, [_SM, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
+    "grs_stepper_size": (c_size_t, [c_int, c_int]),
+    "grs_advance": (c_int, [_SM, POINTER(SpatialSettings), POINTER(c_double), POINTER(c_double), POINTER(c_long),
+                            _P, _P, c_int, _P, _P, _P, POINTER(c_double)]),
+}
+
+
+@functools.lru_cache(maxsize=None)
+def spatial_library() -> ctypes.CDLL:
+    """The kernel library with the spatial chain's functions (``grs_*``) declared.
+
+    Declared apart from :func:`library`, so that a kernel compiled from the
+    planar folders alone still loads for everything planar.
+    """
+    lib = library()
+    for name, (restype, argtypes) in _SPATIAL_SIGNATURES.items():
+        if not hasattr(lib, name):
+            raise KernelMissing(f"{name}: this kernel was compiled without the spatial chain (fmu_src/kernel/spatial)")
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = restype, argtypes
+    return lib

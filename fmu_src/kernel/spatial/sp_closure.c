@@ -1,0 +1,215 @@
+/* Keeping the spatial loops closed: assembly, the projection that is the exact
+ * method's drift control, and which closure reactions are determinate.
+ *
+ * The same Gauss-Newton corrections as the planar kernel's closure.c, over the
+ * same minimum-norm least-squares solver (linalg.c), which is what lets an
+ * overconstrained loop (dependent rows: a planar loop seen as spatial, a
+ * Bennett linkage) close exactly: dependent rows drop out of the solve
+ * instead of making it singular. */
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "sp_workspace.h"
+
+#define POSITION_TOL 1e-12      /* m (or rad), times the scale: closure reached */
+#define LSTSQ_RCOND 1e-8        /* relative singular value below which a direction is dropped */
+#define PROJECTION_ITERATIONS 4
+#define ASSEMBLY_ITERATIONS 100
+#define ASSEMBLY_CLOSED 1e-9    /* relative to the scale: what counts as closed at all */
+
+typedef struct scratch {
+    double *U, *V, *Jd, *x, *trial, *step, *phi, *b;
+} scratch;
+
+static scratch scratch_of(grs_ws *w) {
+    scratch s;
+    int n = w->n, m = w->m;
+    s.U = w->S;
+    s.V = s.U + n * m;
+    s.Jd = s.V + m * m;
+    s.x = s.Jd + m * n;
+    s.trial = s.x + n;
+    s.step = s.trial + n;
+    s.phi = s.step + n;
+    s.b = s.phi + m;
+    return s;
+}
+
+/* Closure rows at z with zero rates (the rates enter neither phi nor J). */
+void grs_rows_at(const grs_model *md, const double *z, grs_ws *w) {
+    for (int i = 0; i < w->n; i++) w->zdd[i] = 0.0;
+    grs_kinematics(md, z, w->zdd, w);
+    grs_closure_rows(md, w);
+}
+
+static double worst_violation(const grs_ws *w) {
+    double worst = 0.0;
+    for (int r = 0; r < w->m; r++)
+        if (!(fabs(w->row[r].phi) <= worst)) worst = fabs(w->row[r].phi); /* a nan wins */
+    return worst;
+}
+
+void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w) {
+    int n = w->n, m = w->m;
+    double *z = y, *zd = y + n;
+    scratch s = scratch_of(w);
+    for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
+        grs_rows_at(md, z, w);
+        if (worst_violation(w) <= POSITION_TOL * scale) break;
+        grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].phi, GRS_ROW_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+        for (int i = 0; i < n; i++) z[i] -= s.x[i];
+    }
+    for (int r = 0; r < m; r++) {
+        double v = 0.0;
+        for (int i = 0; i < n; i++) v += SP_J(w, r, i) * zd[i];
+        w->row[r].b = v;
+    }
+    grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].b, GRS_ROW_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
+    for (int i = 0; i < n; i++) zd[i] -= s.x[i];
+}
+
+grb_status grs_project(const grs_model *md, double scale, double *y, double *work) {
+    grs_ws w;
+    grb_status status = grs_ws_init(&w, md, work);
+    if (status != GRB_OK) return status;
+    if (!(scale > 0.0) || !isfinite(scale)) return GRB_BAD_ARGUMENT;
+    if (w.m == 0) return GRB_OK;
+    grs_project_ws(md, scale, y, &w);
+    for (int i = 0; i < 2 * w.n; i++)
+        if (!isfinite(y[i])) return GRB_SINGULAR;
+    return GRB_OK;
+}
+
+grb_status grs_constraint(const grs_model *md, const double *z, double *phi, double *J, double *work) {
+    grs_ws w;
+    grb_status status = grs_ws_init(&w, md, work);
+    if (status != GRB_OK) return status;
+    grs_rows_at(md, z, &w);
+    for (int r = 0; r < w.m; r++) {
+        if (phi) phi[r] = w.row[r].phi;
+        for (int i = 0; i < w.n && J; i++) J[r * w.n + i] = SP_J(&w, r, i);
+    }
+    return GRB_OK;
+}
+
+/* lstsq over the columns dep of the closure Jacobian (at the state grs_rows_at left) */
+static void solve_dependent(const grs_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
+    int m = w->m;
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < nd; c++) s->Jd[r * nd + c] = SP_J(w, r, dep[c]);
+    double rcond = 1e-10; /* dependent rows of an overconstrained loop leave singular values at rounding */
+    grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
+}
+
+/* The closing link's axis and the target's point the same way in every
+ * revolute and cylindrical closure at the last kinematic pass.  Their rows
+ * (u square to n1 and n2) hold as well with u reversed, a different joint: an
+ * assembly that lands there has not closed the loop the model describes. */
+static int axes_agree(const grs_model *md, grs_ws *w) {
+    for (int c = 0; c < md->n_closures; c++) {
+        const grs_closure *cl = grs_closures(md) + c;
+        if (cl->kind == GRS_SPHERICAL) continue;
+        grs_direction(w, (int)cl->link, cl->axis, w->vec);
+        grs_direction(w, (int)cl->to, cl->to_axis, w->vec + 1);
+        double along = 0.0;
+        for (int i = 0; i < 3; i++) along += w->vec[0].value[i] * w->vec[1].value[i];
+        if (!(along > 0.0)) return 0;
+    }
+    return 1;
+}
+
+grb_status grs_assemble(const grs_model *md, int n_held, const int *held, double scale, double *z, double *zd,
+                        double *closest, double *work) {
+    grs_ws w;
+    *closest = 0.0;
+    grb_status status = grs_ws_init(&w, md, work);
+    if (status != GRB_OK) return status;
+    int n = w.n, m = w.m;
+    if (!(scale > 0.0) || !isfinite(scale) || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
+    if (m == 0) return GRB_OK;
+    scratch s = scratch_of(&w);
+    int dep[GRS_MAX_COORDS], nd = 0, is_held[GRS_MAX_COORDS];
+    memset(is_held, 0, sizeof is_held);
+    for (int i = 0; i < n_held; i++) {
+        if (held[i] < 0 || held[i] >= n) return GRB_BAD_ARGUMENT;
+        is_held[held[i]] = 1;
+    }
+    for (int i = 0; i < n; i++)
+        if (!is_held[i]) dep[nd++] = i;
+    double best = INFINITY;
+    for (int it = 0; it < ASSEMBLY_ITERATIONS; it++) {
+        grs_rows_at(md, z, &w);
+        double err = worst_violation(&w);
+        if (err < best) best = err;
+        if (err < POSITION_TOL * scale) break;
+        for (int r = 0; r < m; r++) s.phi[r] = -w.row[r].phi;
+        solve_dependent(&w, &s, dep, nd, s.phi, s.step);
+        int moved = 0; /* damped Newton: the largest fraction that reduces the violation */
+        for (double frac = 1.0; frac >= 0.0625; frac *= 0.5) {
+            for (int i = 0; i < n; i++) s.trial[i] = z[i];
+            for (int c = 0; c < nd; c++) s.trial[dep[c]] += frac * s.step[c];
+            grs_rows_at(md, s.trial, &w);
+            if (worst_violation(&w) < err) {
+                for (int i = 0; i < n; i++) z[i] = s.trial[i];
+                moved = 1;
+                break;
+            }
+        }
+        if (!moved) break;
+    }
+    grs_rows_at(md, z, &w);
+    double err = worst_violation(&w);
+    if (!(err <= ASSEMBLY_CLOSED * scale) || !axes_agree(md, &w)) {
+        *closest = err <= ASSEMBLY_CLOSED * scale ? 2.0 : best; /* 2: the axes came out reversed */
+        return GRB_NOT_CLOSED;
+    }
+    for (int r = 0; r < m; r++) { /* rates: keep the held ones, solve the velocity constraint for the rest */
+        double v = 0.0;
+        for (int i = 0; i < n_held; i++) v -= SP_J(&w, r, held[i]) * zd[held[i]];
+        s.b[r] = v;
+    }
+    solve_dependent(&w, &s, dep, nd, s.b, s.x);
+    for (int c = 0; c < nd; c++) zd[dep[c]] = s.x[c];
+    *closest = err;
+    return GRB_OK;
+}
+
+/* A multiplier lambda_r is fixed by the motion exactly when e_r lies in the
+ * range of J (J^T lambda is all the dynamics sees): the part of e_r in the
+ * null space of J^T is free.  The range is spanned by the eigenvectors of the
+ * Gram matrix J J^T whose eigenvalues are above rcond^2 of the largest. */
+grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, double *work, double *indeterminate,
+                           int *rank) {
+    grs_ws w;
+    grb_status status = grs_ws_init(&w, md, work);
+    if (status != GRB_OK) return status;
+    if (!(rcond > 0.0 && rcond < 1.0)) return GRB_BAD_ARGUMENT;
+    int n = w.n, m = w.m;
+    *rank = 0;
+    if (m == 0) return GRB_OK;
+    grs_rows_at(md, z, &w);
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += SP_J(&w, r, i) * SP_J(&w, c, i);
+            SP_SCHUR(&w, r, c) = g;
+        }
+    grb_sym_eig(w.schur, w.eig_work, w.eigvec, w.eigval, m);
+    double top = 0.0;
+    for (int i = 0; i < m; i++)
+        if (w.eigval[i] > top) top = w.eigval[i];
+    /* summed over the null space's own eigenvectors (not 1 less the range's:
+     * that difference would leave rounding's square root, 1e-8, on a
+     * determinate row) */
+    for (int r = 0; r < m; r++) indeterminate[r] = 0.0;
+    for (int i = 0; i < m; i++) {
+        if (w.eigval[i] > rcond * rcond * top) {
+            (*rank)++;
+            continue;
+        }
+        for (int r = 0; r < m; r++) indeterminate[r] += SP_EIGVEC(&w, r, i) * SP_EIGVEC(&w, r, i);
+    }
+    for (int r = 0; r < m; r++) indeterminate[r] = sqrt(indeterminate[r]);
+    return GRB_OK;
+}
