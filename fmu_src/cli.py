@@ -337,7 +337,7 @@ def cmd_export(args) -> int:
         from grubler.fmi.build import platforms_note, select_targets
 
         system = read(args.scene)
-        why = why_not_native(system)
+        why = "--container asks for it" if args.container else why_not_native(system)
         if why is None:  # every FMU native: their models and the master compiled into one binary
             platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
             path = export_native_system(system, args.out, platforms, fmi=args.fmi, field="--out")
@@ -346,8 +346,9 @@ def cmd_export(args) -> int:
             if args.platforms is None and platforms_note():
                 print(platforms_note())
             return 0
-        print(f"note: {why}, so the system cannot be one native FMU: its FMUs go nested in fmpy's container "
-              "(Jacobi coupling, no FMU state; docs/cosim.md)", file=sys.stderr)
+        if not args.container:
+            print(f"note: {why}, so the system cannot be one native FMU: its FMUs go nested in fmpy's container "
+                  "(Jacobi coupling, no FMU state; docs/cosim.md)", file=sys.stderr)
         path = export_system(system, args.out, fmi_version=args.fmi, field="--out")
         print(f"wrote {path} (fmpy's container FMU: its FMUs coupled as `grubler cosim --master jacobi` couples them)")
         tools = execution_tools(system)
@@ -801,6 +802,9 @@ def build_parser() -> argparse.ArgumentParser:
                                  "container FMU, stepped as `grubler cosim --master jacobi` steps them")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
+    e.add_argument("--container", action="store_true",
+                   help="a system: nest its FMUs in fmpy's container FMU (Jacobi) even when every one is a native "
+                        "grubler FMU, which makes one native FMU by default")
     e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
                                        "(default: every one this machine can build)")
     e.set_defaults(func=cmd_export)

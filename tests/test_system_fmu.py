@@ -245,7 +245,7 @@ def test_a_crafted_state_is_refused_by_the_component_it_belongs_to(host, servo, 
     # the first component in stepping order owns the block's first part after the system's own: its time
     # made NaN, a value the system's checks do not read and the component's own refuses
     src = tmp_path / "unzipped" / "sources"
-    first = re.search(r"&grb_m(\d+)_calls", (src / "system_components.c").read_text()).group(1)
+    name, first = re.search(r'\{"(\w+)", &grb_m(\d+)_calls', (src / "system_components.c").read_text()).groups()
     folder = next(src.glob(f"m{first}_*"))
     block[_define(src / "config.h", "P_COMPONENTS") + _define(folder / "config.h", "P_T")] = math.nan
     struct.pack_into(f"<{n}d", blob, 48, *block)
@@ -255,7 +255,8 @@ def test_a_crafted_state_is_refused_by_the_component_it_belongs_to(host, servo, 
     out = host_run(host, servo, "new 0 s\nsetup 0\nenter\nexit\ndeser 0 bad.bin\nfree\n", tmp_path)
     deser = next(line for line in out if line.startswith("deser"))
     assert deser.split()[1] == "3", out  # Error
-    assert any("its part of the state is refused" in line for line in out), out
+    assert any(f"{name}: state.t: the time must be finite" in line for line in out), out
+    assert any(f"{name}: its part of the state is refused" in line for line in out), out
     # a state of another model: PID.fmu's own, not the system's
     from fmpy import read_model_description
 
