@@ -221,7 +221,7 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
         unit = md_var.unit if md_var.unit in UNITS else None
         common = dict(description=e.description, unit=unit)
         if e.causality == OUTPUT:
-            variables.append(Variable(e.name, REAL, OUTPUT, level=1, slot=n_out, feedthrough=True,
+            variables.append(Variable(e.name, REAL, OUTPUT, level=1 + row.level, slot=n_out, feedthrough=True,
                                       variability=md_var.variability if md_var.variability == "discrete" else None,
                                       **common))
             n_out += 1
@@ -261,6 +261,7 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                      "system_model.c",
                      defines={"SYSTEM_N_COMPONENTS": len(seq), "SYSTEM_N_VALUES": len(connected_slot),
                               "SYSTEM_N_IN": n_in, "SYSTEM_N_CONN": n_conn, "SYSTEM_N_FREE": n_free,
+                              "SYSTEM_N_OUT_MAX": max([len(w["out"]) for w in wiring] + [0]),
                               "SYSTEM_SLOT_STEP": 0,
                               # the component models' GUIDs: the system's GUID changes with any of them
                               "SYSTEM_MODELS": int(parts[:12], 16)},
@@ -293,14 +294,15 @@ def components_source(spec: ModelSpec, wiring: list[dict], n_models: int) -> str
                   _c_array("int", f"in_slot_{k}", [s for _, s in w["in"]]),
                   _c_array("unsigned int", f"conn_vr_{k}", [f"{vr}u" for vr, _ in w["conn"]]),
                   _c_array("int", f"out_slot_{k}", [s for _, s in w["conn"]]),
-                  _c_array("unsigned int", f"out_vr_{k}", [f"{vr}u" for vr, _ in w["out"]])]
+                  _c_array("unsigned int", f"out_vr_{k}", [f"{vr}u" for vr, _ in w["out"]]),
+                  _c_array("int", f"out_level_{k}", [spec.variables[spec.vr(n) - 1].level for _, n in w["out"]])]
         lines += [d for d, _ in arrays if d]
         names = [n for _, n in arrays]
         base = spec.slot(w["out"][0][1]) if w["out"] else 0
         rows.append(f"    {{{json.dumps(w['name'])}, &grb_m{w['model']}_calls, {w['n_stored']}, "
                     f"{len(w['bound'])}, {names[0]}, {len(w['free'])}, {names[1]}, {names[2]}, "
                     f"{len(w['in'])}, {names[3]}, {names[4]}, {len(w['conn'])}, {names[5]}, {names[6]}, "
-                    f"{len(w['out'])}, {names[7]}, {base}}},")
+                    f"{len(w['out'])}, {names[7]}, {base}, {names[8]}}},")
     lines += ["", "const grb_component system_components[SYSTEM_N_COMPONENTS] = {", *rows, "};", ""]
     return "\n".join(lines)
 

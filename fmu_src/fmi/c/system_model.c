@@ -45,6 +45,8 @@ typedef struct system_scratch {
     double read_buf[SYSTEM_N_CONN + 1];
     double free_buf[SYSTEM_N_FREE + 1];
     double out[MODEL_N_OUTPUTS + 1];
+    unsigned int ask_vr[SYSTEM_N_OUT_MAX + 1];  /* one component's outputs asked for, */
+    double ask_value[SYSTEM_N_OUT_MAX + 1];     /* their values */
     double *backup;  /* the block before the step under way */
 } system_scratch;
 
@@ -243,19 +245,25 @@ grb_fmi_status model_start(grb_instance *inst) {
     return GRB_FMI_OK;
 }
 
-/* Every component's shown outputs, after its unconnected inputs took the importer's values. */
+/* The shown outputs up to a level (a system output's level is 1 + its component's: an importer that
+ * reads the crank angle does not pay for the joint forces), after the unconnected inputs took the
+ * importer's values. */
 grb_fmi_status model_compute(grb_instance *inst, int level) {
     system_scratch *s = (system_scratch *)inst->model;
     grb_fmi_status worst = GRB_FMI_OK;
     int k, st;
-    (void)level;  /* one level: every output */
+    size_t j, n;
     if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
         const grb_component *c = &system_components[k];
-        if (c->n_out == 0) continue;
-        st = c->calls->get_real(&s->comp[k], c->out_vr, c->n_out, s->out + c->out_base);
+        for (j = 0, n = 0; j < c->n_out; j++)
+            if (c->out_level[j] <= level) s->ask_vr[n++] = c->out_vr[j];
+        if (n == 0) continue;
+        st = c->calls->get_real(&s->comp[k], s->ask_vr, n, s->ask_value);
         if (st > GRB_FMI_WARNING) BAD("%s: its outputs could not be computed (see its reason above)", c->name);
         if (st > (int)worst) worst = (grb_fmi_status)st;
+        for (j = 0, n = 0; j < c->n_out; j++)
+            if (c->out_level[j] <= level) s->out[c->out_base + (int)j] = s->ask_value[n++];
     }
     return worst;
 }

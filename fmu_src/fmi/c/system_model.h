@@ -54,9 +54,10 @@ typedef struct grb_component {
     size_t n_conn;                     /* connected outputs: value references, and their slots */
     const unsigned int *conn_vr;
     const int *out_slot;
-    size_t n_out;                      /* outputs the system shows: value references, first index in its outputs */
+    size_t n_out;                      /* outputs the system shows: value references, first index in its outputs, */
     const unsigned int *out_vr;
     int out_base;
+    const int *out_level;              /* and the system's output level of each (1 + the component's own level) */
 } grb_component;
 
 #endif
