@@ -153,8 +153,23 @@ def _defined_symbols(model: ComponentModel) -> list[str]:
     return sorted(names)
 
 
-def why_not_native(system: System, unpacked: "cosim.UnpackedFMUs | None" = None) -> str | None:
-    """Why ``system`` cannot be one native FMU (None: it can), in a few words."""
+def why_not_native(system: System | str | Path, unpacked: "cosim.UnpackedFMUs | None" = None) -> str | None:
+    """Why ``system`` cannot be one native FMU (None: it can), in a few words.
+
+    Every FMU must be a native grubler FMU built by this grubler (its model's
+    C in ``sources/``, its wrapper files this version's), with Real outputs,
+    and two FMUs that carry a kernel file must carry the same one.  A system
+    that cannot run at all is not this function's to judge (None: the
+    export names its problems).
+
+    Examples
+    --------
+    >>> from grubler.system.ssp import System
+    >>> why_not_native(System("empty"))
+    'it has no components'
+    """
+    if not isinstance(system, System):
+        system = read(system)
     if not system.components:
         return "it has no components"
     own = unpacked is None
@@ -393,9 +408,16 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
 
     Examples
     --------
-    Compiling the servo four-bar's five models takes about 10 s (tests/test_system_fmu.py builds and runs one):
+    Compiling the servo four-bar's five models takes 10 to 20 s, so it is not
+    run here (``tests/test_system_fmu.py`` exports and runs it:
+    ``export_native_system("examples/servo_fourbar.ssd", "ServoFourbar.fmu")``);
+    a system that cannot be one FMU is refused before any compiling:
 
-    >>> fmu = export_native_system("examples/servo_fourbar.ssd", "ServoFourbar.fmu")   # doctest: +SKIP
+    >>> from grubler.system.ssp import System
+    >>> export_native_system(System("empty"))
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SystemDescriptionError: system 'empty': has no components
     """
     if not isinstance(system, System):
         system = read(system)
@@ -419,4 +441,4 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
         return build_fmu(spec, dest, platforms, fmi, stage=stage_system(list(models.values()), wiring))
 
 
-__all__ = ["export_native_system", "why_not_native", "component_model", "system_spec", "ComponentModel"]
+__all__ = ["export_native_system", "why_not_native"]
