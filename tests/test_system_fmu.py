@@ -342,3 +342,42 @@ def test_its_sources_compile_as_strict_c99_without_complex(servo, tmp_path):
     except subprocess.CalledProcessError as exc:
         pytest.fail(f"the system's sources do not compile as strict C99 without complex:\n{exc.stderr}")
     assert built.is_file()
+
+
+def test_two_fmus_that_carry_different_kernels_are_not_compiled_together(servo, tmp_path):
+    from grubler.system.native import why_not_native
+    from grubler.system.ssp import read
+
+    dist = tmp_path / "dist"
+    shutil.copytree(servo["root"] / "dist", dist)
+    pid = dist / "PID.fmu"
+    parts = {n: zipfile.ZipFile(pid).read(n) for n in zipfile.ZipFile(pid).namelist()}
+    parts["sources/ctl_pid.c"] += b"\n/* another kernel */\n"
+    with zipfile.ZipFile(pid, "w") as z:
+        for n, data in parts.items():
+            z.writestr(n, data)
+    (tmp_path / "examples").mkdir()
+    shutil.copy(servo["ssd"], tmp_path / "examples" / "servo_fourbar.ssd")
+    why = why_not_native(read(tmp_path / "examples" / "servo_fourbar.ssd"))
+    assert why is not None and "carry different ctl_pid.c" in why and "PID.fmu" in why, why
+
+
+def test_two_instances_of_one_fmu_share_its_model_and_keep_their_own_state(servo, tmp_path):
+    from grubler.system import cosim
+    from grubler.system.native import export_native_system
+    from grubler.system.ssp import System
+
+    s = System("two_moves", base=servo["root"] / "dist", step=STEP)
+    s.add("slow", "Trajectory.fmu", kind="sine", amplitude=0.5, frequency=1.0)
+    s.add("fast", "Trajectory.fmu", kind="sine", amplitude=0.25, frequency=3.0)
+    s.add("pid", "PID.fmu", K=2.0, Ts=0.001)
+    s.connect("slow.position", "pid.setpoint")
+    s.connect("fast.position", "pid.measurement")
+    fmu = export_native_system(s, tmp_path / "TwoMoves.fmu", "linux64")
+    src = [n for n in zipfile.ZipFile(fmu).namelist() if n.endswith("/symbols.h")]
+    assert len(src) == 2  # Trajectory's model once, PID's once
+    want = cosim.run(s, t_end=0.5, step=STEP)
+    names = ["slow.position", "fast.position", "pid.u"]
+    got = run_fmu(fmu, names, 0.5, STEP)
+    np.testing.assert_allclose(got, np.column_stack([want[n] for n in names]), rtol=0, atol=1e-12)
+    assert np.max(np.abs(got[:, 0] - got[:, 1])) > 0.1
