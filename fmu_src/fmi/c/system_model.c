@@ -286,6 +286,7 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     system_scratch *s = (system_scratch *)inst->model;
     double steps = ceil(h / inst->p[SYSTEM_SLOT_STEP] - 1e-9), tn = t, when = t;
     long n, row = 0;
+    int k;
     grb_run run;
     grb_failure fail;
     if (steps < 1.0) steps = 1.0;
@@ -295,6 +296,7 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
         return GRB_FMI_DISCARD;
     }
     n = (long)steps;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].logging = inst->logging;  /* fmi2SetDebugLogging since */
     memcpy(s->backup, inst->p, model_persistent_size() * sizeof(double));
     if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
     memset(&run, 0, sizeof run);
