@@ -44,6 +44,7 @@ PUBLIC_MODULES = [
     "grubler.system.ssp",
     "grubler.system.cosim",
     "grubler.system.container",
+    "grubler.system.native",
     "grubler.system.servo",
     "grubler.system.cylinder_servo",
     "grubler.system.fmu_state",

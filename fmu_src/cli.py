@@ -330,11 +330,25 @@ def cmd_app(args) -> int:
 
 
 def cmd_export(args) -> int:
-    if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU around its FMUs
+    if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU of its FMUs
         from grubler.system.container import execution_tools, export_system
+        from grubler.system.native import export_native_system, why_not_native
         from grubler.system.ssp import read
+        from grubler.fmi.build import platforms_note, select_targets
 
         system = read(args.scene)
+        why = "--container asks for it" if args.container else why_not_native(system)
+        if why is None:  # every FMU native: their models and the master compiled into one binary
+            platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
+            path = export_native_system(system, args.out, platforms, fmi=args.fmi, field="--out")
+            print(f"wrote {path} (one native FMU: its components' models and grubler cosim's Gauss-Seidel master "
+                  "in one binary)")
+            if args.platforms is None and platforms_note():
+                print(platforms_note())
+            return 0
+        if not args.container:
+            print(f"note: {why}, so the system cannot be one native FMU: its FMUs go nested in fmpy's container "
+                  "(Jacobi coupling, no FMU state; docs/cosim.md)", file=sys.stderr)
         path = export_system(system, args.out, fmi_version=args.fmi, field="--out")
         print(f"wrote {path} (fmpy's container FMU: its FMUs coupled as `grubler cosim --master jacobi` couples them)")
         tools = execution_tools(system)
@@ -783,10 +797,14 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="a native FMI 2.0 or 3.0 co-simulation FMU of a scene (no Python needed to "
                                       "run it), or one FMU of a whole system (.ssd or .ssp)")
     e.add_argument("scene", help="preset name or TOML file; the FMU's parameters default to its values. Or a system "
-                                 "(.ssd, .ssp): its FMUs nested in fmpy's container FMU, stepped as `grubler cosim "
-                                 "--master jacobi` steps them")
+                                 "(.ssd, .ssp): when every FMU is a native grubler FMU, one native FMU of their "
+                                 "models stepped as `grubler cosim` steps them; else its FMUs nested in fmpy's "
+                                 "container FMU, stepped as `grubler cosim --master jacobi` steps them")
     e.add_argument("-o", "--out", type=_output("--out", (".fmu",)), help="NAME.fmu to write (default: SCENE.fmu); NAME is its model identifier")
     e.add_argument("--fmi", type=int, choices=[2, 3], default=2, help="FMI version of the FMU (default 2)")
+    e.add_argument("--container", action="store_true",
+                   help="a system: nest its FMUs in fmpy's container FMU (Jacobi) even when every one is a native "
+                        "grubler FMU, which makes one native FMU by default")
     e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
                                        "(default: every one this machine can build)")
     e.set_defaults(func=cmd_export)

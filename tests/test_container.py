@@ -112,7 +112,7 @@ def test_the_exported_system_runs_in_fmpy_as_grubler_cosim_jacobi(plant, tmp_pat
 
     ssd = motor_fourbar(plant, tmp_path, crank_rate)
     fmu = tmp_path / "MotorFourbar.fmu"
-    proc = grubler("export", ssd, "-o", fmu) if fmi == 2 else None
+    proc = grubler("export", ssd, "-o", fmu, "--container") if fmi == 2 else None
     if fmi == 2:
         assert proc.returncode == 0 and f"wrote {fmu}" in proc.stdout, proc.stderr
     else:
@@ -257,7 +257,7 @@ def test_the_readmes_servo_exported_runs_in_fmpy_as_grubler_cosim_jacobi(tmp_pat
     ssd = servo_system(dataclasses.replace(servo_fourbar.DESIGN, t_end=0.3), d, name="servo_fourbar").write(
         d / "servo_fourbar.ssd")
     fmu = tmp_path / "ServoFourbar.fmu"
-    proc = grubler("export", ssd, "-o", fmu)
+    proc = grubler("export", ssd, "-o", fmu, "--container")
     assert proc.returncode == 0, proc.stderr
     # pythonfmu FMUs need a Python where they run: the exported FMU says so, and so does the command
     from fmpy import read_model_description

@@ -359,7 +359,7 @@ def universal_binary(slices: list[bytes]) -> bytes:
     return head + b"\0" * (offset - len(head)) + body
 
 
-def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path:
+def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=None) -> Path:
     """Build a native FMU of ``spec`` at ``dest`` (a ``.fmu`` path).
 
     Parameters
@@ -377,6 +377,10 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path
     fmi : {2, 3}
         The FMI version of the co-simulation interface: the same model behind
         the FMI 2.0 or the FMI 3.0 adapter.
+    stage : callable, optional
+        ``stage(spec, sources, fmi)`` writes ``sources/`` and returns the C
+        files to compile (default :func:`stage_sources`; a system FMU adds its
+        components' models, grubler.system.native).
 
     Returns
     -------
@@ -405,7 +409,7 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2) -> Path
     targets = select_targets(platforms)
     with tempfile.TemporaryDirectory(prefix="grubler_native_") as tmp:
         root = Path(tmp)
-        files = stage_sources(spec, root / "sources", fmi)
+        files = (stage or stage_sources)(spec, root / "sources", fmi)
         if fmi == 3:
             (root / "modelDescription.xml").write_bytes(fmi3_model_description(spec))
             (root / "sources" / "buildDescription.xml").write_bytes(fmi3_build_description(spec, files))

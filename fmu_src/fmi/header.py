@@ -11,6 +11,8 @@ description declares.
 from __future__ import annotations
 
 import json
+import re
+from dataclasses import dataclass
 
 from grubler.fmi.variables import CAUSALITY_CODE, TYPE_CODE, ModelSpec
 from grubler.limits import MAX_MAGNITUDE
@@ -68,3 +70,59 @@ def variables_source(spec: ModelSpec) -> str:
         out.append(f"    {float(x).hex()}, /* {v.name} = {v.start!r} */")
     out += ["};", ""]
     return "\n".join(out)
+
+
+# the lines variables_source writes: a String parameter's accepted values, and a row of the table
+_CHOICES_LINE = re.compile(r'^static const char \*const choices_(\d+)\[\] = \{(.*)\};$', re.M)
+_ROW_LINE = re.compile(r'^    \{("(?:[^"\\]|\\.)*"), (\d+), (\d+), (-?\d+), (-?\d+), (\d+), (\w+), (\d+), (-?\d+), (-?\d+)\}, '
+                       r'/\* vr (\d+) \*/$', re.M)
+
+
+@dataclass(frozen=True)
+class TableRow:
+    """One row of a built FMU's variable table (``model_variables.c``), as the binary checks its variable."""
+
+    name: str
+    type: int       # TYPE_CODE
+    causality: int  # CAUSALITY_CODE
+    slot: int
+    level: int
+    choices: tuple[str, ...]
+    enum_items: int
+    min: int
+    max: int
+
+
+def read_variables_source(text: str) -> list[TableRow]:
+    """The variable table of a ``model_variables.c`` that :func:`variables_source` wrote, in value-reference order.
+
+    What a built FMU's ``sources/`` keeps and its model description does not:
+    each variable's slot in the persistent block and a String parameter's
+    accepted values.
+
+    Raises
+    ------
+    ValueError
+        Text that is not such a table (rows missing or out of order).
+
+    Examples
+    --------
+    >>> from grubler.controllers.native_fmu import trajectory_spec
+    >>> rows = read_variables_source(variables_source(trajectory_spec("Trajectory")))
+    >>> rows[0].name, rows[0].choices
+    ('kind', ('constant', 'trapezoid', 'scurve', 'sine'))
+    """
+    choices = {int(k): tuple(json.loads(f"[{items}]")) for k, items in _CHOICES_LINE.findall(text)}
+    rows = []
+    for m in _ROW_LINE.finditer(text):
+        name, t, c, slot, level, n, ch, items, lo, hi, vr = m.groups()
+        if int(vr) != len(rows) + 1:
+            raise ValueError(f"model_variables.c: row for value reference {vr} where {len(rows) + 1} was due")
+        chosen = choices.get(int(ch[len("choices_"):]), ()) if ch != "NULL" else ()
+        if len(chosen) != int(n):
+            raise ValueError(f"model_variables.c: {json.loads(name)} has {n} choices, its list {len(chosen)}")
+        rows.append(TableRow(json.loads(name), int(t), int(c), int(slot), int(level), chosen, int(items), int(lo),
+                             int(hi)))
+    if not rows:
+        raise ValueError("model_variables.c: no variable table")
+    return rows

@@ -8,17 +8,26 @@
  * found in each FMU's library, in the order the Python loop made them, with
  * the same arithmetic for the time: the results are the same bits.
  *
+ * The same loop steps the components inside a system FMU (grubler export
+ * SYSTEM.ssd, fmi/c/system_model.c includes this file): there the pointers are
+ * each component model's own calls, compiled into the one binary.
+ *
  * Plain structs, caller-owned memory, no globals; every function returns a
  * status (0: done, 1: an FMU refused a call, described in the failure record).
  */
+/* GRB_MASTER_NO_CLOCK: no profiling clock, for a build that never profiles (the
+ * system FMU, fmi/c/system_model.c, which includes this file: its binary then
+ * needs nothing of the C library beyond what the models need) */
+#ifndef GRB_MASTER_NO_CLOCK
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #endif
-#include <stddef.h>
 #include <time.h>
 #ifdef _WIN32
 #include <windows.h>
 #endif
+#endif
+#include <stddef.h>
 
 #if defined(_WIN32) && defined(GRB_SHARED)
 #define GRB_MASTER_API __declspec(dllexport)
@@ -71,7 +80,9 @@ typedef struct {
 enum { CALL_SET, CALL_STEP, CALL_GET };
 
 static double now(void) {
-#ifdef _WIN32
+#if defined(GRB_MASTER_NO_CLOCK)
+    return 0.0;
+#elif defined(_WIN32)
     LARGE_INTEGER f, c;
     QueryPerformanceFrequency(&f);
     QueryPerformanceCounter(&c);

@@ -1,0 +1,324 @@
+/* A whole SSP system of grubler FMUs as one model on the FMI wrapper
+ * (fmi_model.h): grubler export SYSTEM.ssd (grubler.system.native).
+ *
+ * The components are the models their FMUs were built from, each compiled
+ * under its own prefix (system_model.h), and the communication steps are
+ * made by the master's own loop, system/c/master.c, included here: the same C
+ * that steps the FMUs in grubler cosim, Gauss-Seidel in the same order, so the
+ * system FMU matches grubler cosim run with the same step.  Initialisation is
+ * cosim's too: the coupled inputs settled in the stepping order while the
+ * components are in initialisation mode, then every component started.
+ *
+ * The system's variables (config.h, model_variables.c, generated): its
+ * communication step (slot SYSTEM_SLOT_STEP: a doStep of the importer's is
+ * made of equal steps no longer than it), then every component's parameters,
+ * unconnected inputs and outputs as "component.name".  Its persistent block:
+ * those parameters and inputs, then
+ *   P_STARTED     1: the block holds a started run
+ *   P_T           the run's time
+ *   P_VALUES      the connections' values (one per connected output), as the
+ *                 master's loop leaves them after a step
+ *   P_COMPONENTS  each component's own persistent block, in stepping order
+ * so the FMU state (a copy of the block) is the components' states together,
+ * and a restored one is checked by each component's own checks.
+ *
+ * The scratch holds the component instances (the wrapper's grb_instance, their
+ * blocks inside this one's), the master's view of them, its buffers, a copy of
+ * the block taken before each step (a component's Discard puts the whole
+ * system back), and each component's scratch.
+ */
+#define GRB_MASTER_NO_CLOCK
+#include "master.c"
+
+#include <limits.h>
+#include <math.h>
+#include <string.h>
+
+#include "system_model.h"
+
+extern const grb_component system_components[SYSTEM_N_COMPONENTS];
+
+typedef struct system_scratch {
+    grb_instance comp[SYSTEM_N_COMPONENTS];
+    grb_fmu fmus[SYSTEM_N_COMPONENTS];
+    double in_buf[SYSTEM_N_IN + 1];
+    double read_buf[SYSTEM_N_CONN + 1];
+    double free_buf[SYSTEM_N_FREE + 1];
+    double out[MODEL_N_OUTPUTS + 1];
+    unsigned int ask_vr[SYSTEM_N_OUT_MAX + 1];  /* one component's outputs asked for, */
+    double ask_value[SYSTEM_N_OUT_MAX + 1];     /* their values */
+    double *backup;  /* the block before the step under way */
+} system_scratch;
+
+#define BAD(...) do { grb_log(inst, GRB_FMI_ERROR, __VA_ARGS__); return GRB_FMI_ERROR; } while (0)
+
+static size_t aligned(size_t n) { return (n + 15u) & ~(size_t)15u; }
+
+static size_t components_size(void) {
+    size_t n = 0;
+    int k;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) n += system_components[k].calls->persistent_size();
+    return n;
+}
+
+size_t model_persistent_size(void) { return (size_t)P_COMPONENTS + components_size(); }
+
+size_t model_scratch_bytes(void) {
+    size_t n = aligned(sizeof(system_scratch)) + aligned(model_persistent_size() * sizeof(double));
+    int k;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) n += aligned(system_components[k].calls->scratch_bytes());
+    return n;
+}
+
+int model_input_free_level(void) { return 0; }
+const double *model_outputs(const grb_instance *inst) { return ((const system_scratch *)inst->model)->out; }
+double model_time(const grb_instance *inst) { return inst->p[P_T]; }
+
+/* A component's message, in the system's log with the component's name. */
+static void component_log(const grb_instance *ci, grb_fmi_status status, const char *category, const char *message) {
+    (void)category;
+    grb_log((grb_instance *)(size_t)ci->host, status, "%s: %s", ci->name, message);
+}
+
+/* The components' instances laid out in the scratch, their blocks in this block; each block fresh. */
+void model_reset(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    unsigned char *next = (unsigned char *)inst->model + aligned(sizeof *s);
+    double *block = inst->p + P_COMPONENTS, *in = s->in_buf, *read = s->read_buf;
+    int k;
+    s->backup = (double *)(void *)next;
+    next += aligned(model_persistent_size() * sizeof(double));
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component *c = &system_components[k];
+        grb_instance *ci = &s->comp[k];
+        grb_fmu *f = &s->fmus[k];
+        memset(ci, 0, sizeof *ci);
+        ci->fmi = inst->fmi;
+        ci->allocate = inst->allocate;
+        ci->release = inst->release;
+        ci->logger = component_log;
+        ci->host = inst;
+        ci->name = (char *)(size_t)c->name;
+        ci->state = GRB_INSTANTIATED;
+        ci->logging = inst->logging;
+        ci->p = block;
+        ci->model = next;
+        block += c->calls->persistent_size();
+        next += aligned(c->calls->scratch_bytes());
+        c->calls->fresh(ci);
+        /* the master's view: cosim's wiring (instance.py), nothing else read */
+        memset(f, 0, sizeof *f);
+        f->instance = ci;
+        f->set_real = c->calls->set_real;
+        f->get_real = c->calls->get_real;
+        f->do_step = c->calls->do_step;
+        f->n_in = c->n_in;
+        f->in_vr = c->in_vr;
+        f->in_slot = c->in_slot;
+        f->in_buf = in;
+        f->n_conn = f->n_read = c->n_conn;
+        f->read_vr = c->conn_vr;
+        f->read_buf = read;
+        f->out_slot = c->out_slot;
+        in += c->n_in;
+        read += c->n_conn;
+    }
+    inst->p[P_STARTED] = 0.0;
+    inst->p[P_T] = 0.0;
+}
+
+/* The system's own values, then (a block to restore) each component's by its own checks. */
+grb_fmi_status model_check(grb_instance *inst, const double *p) {
+    system_scratch *s = (system_scratch *)inst->model;
+    const double *block = p + P_COMPONENTS;
+    int k;
+    if (!(p[SYSTEM_SLOT_STEP] > 0.0 && isfinite(p[SYSTEM_SLOT_STEP])))
+        BAD("communication_step: must be positive and finite, got %.17g", p[SYSTEM_SLOT_STEP]);
+    if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
+    if (p[P_STARTED] == 1.0) {
+        if (!isfinite(p[P_T])) BAD("state.t: the time must be finite, got %g", p[P_T]);
+        for (k = 0; k < SYSTEM_N_VALUES; k++)
+            if (!isfinite(p[P_VALUES + k])) BAD("state.values: a connection's value must be finite, got %g",
+                                                p[P_VALUES + k]);
+    }
+    if (p == inst->p) return GRB_FMI_OK;  /* the components check theirs as they prepare */
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component *c = &system_components[k];
+        if (!c->calls->block_ok(&s->comp[k], "the system's state", block))
+            BAD("%s: its part of the state is refused (see its reason above)", c->name);
+        block += c->calls->persistent_size();
+    }
+    return GRB_FMI_OK;
+}
+
+/* Each component takes its parameters and unconnected inputs from the system's block, and its
+ * mode from the system's run; then it prepares (its own checks name what it refuses). */
+grb_fmi_status model_prepare(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    int started = inst->p[P_STARTED] == 1.0, k;
+    size_t j;
+    if (model_check(inst, inst->p) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component *c = &system_components[k];
+        grb_instance *ci = &s->comp[k];
+        for (j = 0; j < c->n_bound; j++) {
+            const grb_binding *b = &c->bound[j];
+            ci->p[b->component_slot] = inst->p[b->system_slot];
+            ci->p[c->n_stored + b->component_slot] = b->given || GRB_WAS_SET(inst, b->system_slot) ? 1.0 : 0.0;
+        }
+        ci->start_time = inst->start_time;
+        ci->logging = inst->logging;
+        ci->state = started ? GRB_STEP_COMPLETE : GRB_INSTANTIATED;
+        ci->resume = 0;
+        ci->dirty = 1;
+        ci->level = 0;
+        if (c->calls->prepare(ci) > GRB_FMI_WARNING) BAD("%s: refused its parameters (see its reason above)", c->name);
+    }
+    return GRB_FMI_OK;
+}
+
+/* The importer's values of the unconnected inputs, set on each component that has some. */
+static grb_fmi_status push_free_inputs(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    int k, st;
+    size_t j;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component *c = &system_components[k];
+        if (c->n_free == 0) continue;
+        for (j = 0; j < c->n_free; j++) s->free_buf[j] = inst->p[c->free_slot[j]];
+        st = c->calls->set_real(&s->comp[k], c->free_vr, c->n_free, s->free_buf);
+        if (st > GRB_FMI_WARNING) BAD("%s: its unconnected inputs were refused (see its reason above)", c->name);
+    }
+    return GRB_FMI_OK;
+}
+
+/* grubler cosim's initialisation (cosim._initialise): the coupled inputs propagated in the stepping
+ * order until they settle, every component in initialisation mode; then each one started. */
+grb_fmi_status model_start(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    double *values = inst->p + P_VALUES;
+    int k, sweep, st;
+    size_t i;
+    if (inst->p[P_STARTED] == 1.0) return GRB_FMI_OK;  /* a restored run: each component resumes from its block */
+    for (k = 0; k < SYSTEM_N_VALUES; k++) values[k] = 0.0;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].state = GRB_INITIALIZATION;
+    for (sweep = 0; sweep < SYSTEM_N_COMPONENTS + 2; sweep++) {
+        double change = 0.0;
+        for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+            grb_fmu *f = &s->fmus[k];
+            const char *name = system_components[k].name;
+            if (f->n_in) {
+                for (i = 0; i < f->n_in; i++) f->in_buf[i] = values[f->in_slot[i]];
+                if (f->set_real(f->instance, f->in_vr, f->n_in, f->in_buf) > GRB_FMI_WARNING)
+                    BAD("%s: setting its coupled inputs at initialisation failed (see its reason above)", name);
+            }
+            if (f->n_conn && f->get_real(f->instance, f->read_vr, f->n_conn, f->read_buf) > GRB_FMI_WARNING)
+                BAD("%s: reading its coupled outputs at initialisation failed (see its reason above)", name);
+            for (i = 0; i < f->n_conn; i++) {
+                double v = f->read_buf[i], old = values[f->out_slot[i]], scale = 1.0;
+                if (!isfinite(v)) BAD("%s: an initial output is %g at t = %g s", name, v, inst->start_time);
+                if (fabs(v) > scale) scale = fabs(v);
+                if (fabs(old) > scale) scale = fabs(old);
+                if (fabs(v - old) / scale > change) change = fabs(v - old) / scale;
+                values[f->out_slot[i]] = v;
+            }
+        }
+        if (sweep > 0 && change < 1e-12) break;
+    }
+    if (sweep == SYSTEM_N_COMPONENTS + 2)
+        BAD("initial values of the coupled inputs did not settle after %d sweeps: an algebraic loop the components "
+            "do not declare?", SYSTEM_N_COMPONENTS + 2);
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++)
+        if (system_components[k].calls->exit_initialization(&s->comp[k]) > GRB_FMI_WARNING)
+            BAD("%s: could not start (see its reason above)", system_components[k].name);
+    /* the first communication point's values, read after every component started (as cosim's first row) */
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        grb_fmu *f = &s->fmus[k];
+        if (f->n_conn == 0) continue;
+        st = f->get_real(f->instance, f->read_vr, f->n_conn, f->read_buf);
+        if (st > GRB_FMI_WARNING) BAD("%s: reading its coupled outputs failed (see its reason above)",
+                                      system_components[k].name);
+        for (i = 0; i < f->n_conn; i++) values[f->out_slot[i]] = f->read_buf[i];
+    }
+    inst->p[P_STARTED] = 1.0;
+    inst->p[P_T] = inst->start_time;
+    return GRB_FMI_OK;
+}
+
+/* The shown outputs up to a level (a system output's level is 1 + its component's: an importer that
+ * reads the crank angle does not pay for the joint forces), after the unconnected inputs took the
+ * importer's values. */
+grb_fmi_status model_compute(grb_instance *inst, int level) {
+    system_scratch *s = (system_scratch *)inst->model;
+    grb_fmi_status worst = GRB_FMI_OK;
+    int k, st;
+    size_t j, n;
+    if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component *c = &system_components[k];
+        for (j = 0, n = 0; j < c->n_out; j++)
+            if (c->out_level[j] <= level) s->ask_vr[n++] = c->out_vr[j];
+        if (n == 0) continue;
+        st = c->calls->get_real(&s->comp[k], s->ask_vr, n, s->ask_value);
+        if (st > GRB_FMI_WARNING) BAD("%s: its outputs could not be computed (see its reason above)", c->name);
+        if (st > (int)worst) worst = (grb_fmi_status)st;
+        for (j = 0, n = 0; j < c->n_out; j++)
+            if (c->out_level[j] <= level) s->out[c->out_base + (int)j] = s->ask_value[n++];
+    }
+    return worst;
+}
+
+/* The system back where the step began (a component refused it); each component prepares from its block again. */
+static void roll_back(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    int k;
+    memcpy(inst->p, s->backup, model_persistent_size() * sizeof(double));
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        s->comp[k].state = GRB_STEP_COMPLETE;
+        s->comp[k].dirty = 1;
+        s->comp[k].level = 0;
+    }
+}
+
+/* One doStep of h from t: ceil(h / communication_step) equal Gauss-Seidel steps of master.c's loop. */
+grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
+    static const char *const calls[] = {"setReal", "doStep", "getReal"};
+    system_scratch *s = (system_scratch *)inst->model;
+    double steps = ceil(h / inst->p[SYSTEM_SLOT_STEP] - 1e-9), tn = t, when = t;
+    long n, row = 0;
+    int k;
+    grb_run run;
+    grb_failure fail;
+    if (steps < 1.0) steps = 1.0;
+    if (steps > 1e9) {
+        grb_log(inst, GRB_FMI_DISCARD, "a step of %g s is %.3g communication steps of at most %g s; at most 1e9 "
+                "per doStep (raise communication_step)", h, steps, inst->p[SYSTEM_SLOT_STEP]);
+        return GRB_FMI_DISCARD;
+    }
+    n = (long)steps;
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].logging = inst->logging;  /* fmi2SetDebugLogging since */
+    memcpy(s->backup, inst->p, model_persistent_size() * sizeof(double));
+    if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    memset(&run, 0, sizeof run);
+    run.jacobi = 0;
+    run.t0 = t;
+    run.step = h / (double)n;
+    run.t_end = t + h;
+    run.n_steps = n + 1;          /* never the run's last step: each of the n is h / n long */
+    run.record_every = LONG_MAX;  /* nothing recorded: the importer reads the outputs */
+    run.times = &when;
+    if (grb_master_steps(s->fmus, SYSTEM_N_COMPONENTS, inst->p + P_VALUES, &run, 0, n, &tn, &row, &fail)) {
+        const char *name = system_components[fail.fmu].name;
+        if (fail.status == GRB_FMI_DISCARD) {
+            roll_back(inst);
+            grb_log(inst, GRB_FMI_DISCARD, "%s: %s refused in the step from t = %.17g s (see its reason above); the "
+                    "system is back at t = %.17g s", name, calls[fail.call], fail.t, t);
+            return GRB_FMI_DISCARD;
+        }
+        BAD("%s: %s failed in the step from t = %.17g s (status %d, see its reason above)", name, calls[fail.call],
+            fail.t, fail.status);
+    }
+    inst->p[P_T] = t + h;
+    inst->level = 0;
+    return GRB_FMI_OK;
+}
