@@ -38,7 +38,7 @@ from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import coordinate_text, preset_names, preset_text, scene_from_dict
 from grubler.mechanism.simulate import output_columns, simulate, unit_of
 from grubler.quantities import mechanism_output, scene_field
-from grubler.views.animation import Sketch, trace_point
+from grubler.views.animation import BARREL_SHARE, Sketch, trace_point
 
 SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 degrees apart)
 LIVE_STEPS = 90  # ... while a pivot is being dragged (4 degrees apart: the curve keeps up with the mouse)
@@ -221,7 +221,10 @@ def _frame(geo) -> dict:
     return {"bars": [r(a) + r(b) for a, b in geo.bars], "joints": [r(p) for p in geo.joints],
             "fixed": [r(p) for p in geo.fixed], "blocks": [r(c) + [round(a, 6)] for c, a in geo.blocks],
             "guides": [r(p) + [round(a, 6), bool(f)] for p, a, f in geo.guides],
-            "plates": [[r(p) for p in plate] for plate in geo.plates]}
+            "plates": [[r(p) for p in plate] for plate in geo.plates],
+            # a cylinder: its barrel from the first point (as the GIFs draw it), the rod the whole line
+            "actuators": [r(a) + r(b) + r(np.asarray(a) + BARREL_SHARE * (np.asarray(b) - a))
+                          for a, b in geo.actuators]}
 
 
 def default_trace(model) -> str:
@@ -250,7 +253,8 @@ def analyse(data: dict, trace: str | None = None, live: bool = False) -> dict:
                      "grashof": None if c.grashof is None else
                      {"kind": c.grashof.kind, "detail": c.grashof.detail, "s_plus_l": c.grashof.s_plus_l,
                       "p_plus_q": c.grashof.p_plus_q}},
-           "drive": m.drive, "trace": trace_spec, "problem": None, "curve": [], "branch": None}
+           "drive": m.drive, "actuators": list(m.actuator_names),
+           "trace": trace_spec, "problem": None, "curve": [], "branch": None}
     z0 = m.z_from_q(m.q_ref)
     sketch = Sketch(m, point)
     try:
@@ -344,6 +348,7 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
     def add(hid, xy, sets):
         out.append({"id": hid, "xy": [round(float(v), 6) for v in xy], "sets": sets})
 
+    actuator_handles(data, model, z, add)
     mech = data.get("mechanism")
     if isinstance(mech, dict):
         where = HANDLES.get(mech.get("type"))
@@ -365,6 +370,36 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
             if all(math.dist(xy, h["xy"]) > 1e-9 for h in out):
                 add(f"{name}.end", xy, f"{name}.a, initial.theta{k + 2}")
     return out
+
+
+def _actuator_tables(data: dict) -> list:
+    """The scene's ``[[actuator]]`` tables, in the model's order (their keys: ``actuator[j]``)."""
+    tables = data.get("actuator")
+    return tables if _is_tables(tables) else []
+
+
+def actuator_handles(data: dict, model, z: np.ndarray, add) -> None:
+    """Each actuator's two attachments, dragged to move the point on its link (a ground point: in the world)."""
+    for j, act in enumerate(model.actuators[: len(_actuator_tables(data))]):
+        for end, k, point in (("from", act.from_link, act.from_point), ("to", act.to_link, act.to_point)):
+            key = f"actuator[{j}].{end}_point"
+            add(key, Drawing(model, z).at(k - 2, *point), key)
+
+
+def _move_actuator(data: dict, out: dict, handle: str, x: float, y: float) -> bool:
+    """An actuator's attachment dragged to (x, y): its point in its link's frame (False: not such a handle)."""
+    found = re.fullmatch(r"actuator\[(\d+)\]\.(from|to)_point", handle)
+    if not found or int(found[1]) >= len(_actuator_tables(out)):
+        return False
+    model, z = _sketch(data)
+    act = model.actuators[int(found[1])]
+    k = (act.from_link if found[2] == "from" else act.to_link) - 2
+    # the link's origin and unit axes where the sketch closes: the point's (along, across) in that frame
+    o, e_u, e_v = link_points(model, z[None, :], [k] * 3, [(0, 0), (1, 0), (0, 1)])[0]
+    d = np.array([x, y]) - o
+    _actuator_tables(out)[int(found[1])][f"{found[2]}_point"] = [_r(np.dot(d, e_u - o)) + 0.0,
+                                                                 _r(np.dot(d, e_v - o)) + 0.0]
+    return True
 
 
 def _r(v: float) -> float:
@@ -410,6 +445,8 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
     mech = out.get("mechanism")
     kind = mech.get("type") if isinstance(mech, dict) else None
     move = MOVES.get(kind) if isinstance(kind, str) else None
+    if _move_actuator(data, out, handle, x, y):
+        return out
     if move and move(mech, handle, x, y, lambda: Drawing(*_sketch(data))):
         return out
     if re.fullmatch(r"closure(\[\d+\])?\.point", handle) and not kind:
@@ -425,7 +462,7 @@ def drag(data: dict, handle: str, x: float, y: float) -> dict:
 
 
 def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace: str | None = None,
-                 live: bool = False) -> dict:
+                 live: bool = False, drawn: dict | None = None) -> dict:
     """What the editor shows (:func:`analyse`) of ``moved``, the scene ``data`` with ``handle`` dragged to (x, y).
 
     Where a builder cannot lay its links through the moved joints (a six-bar's
@@ -433,7 +470,10 @@ def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace
     ``grubler info`` prints for that scene, and the sketch drawn is the drag's
     start, open, with the dragged handle at the pointer.  A six-bar's origin O2
     dragged comes with ``shift``, the pointer: the answer is in the moved
-    origin's coordinates, which the page draws shifted by it.
+    origin's coordinates, which the page draws shifted by it.  A drag that
+    starts from a scene its builder cannot lay either (a second drag of a
+    six-bar left open) draws ``drawn``, the scene whose sketch the page shows;
+    ``sketch_of`` names the scene the answer's sketch is of, when not ``moved``.
     """
     try:
         out = analyse(moved, trace, live)
@@ -444,8 +484,16 @@ def analyse_drag(data: dict, moved: dict, handle: str, x: float, y: float, trace
         raise
     except SceneError as exc:
         problem = error_of(exc)
-    out = analyse(data, trace, live=True)  # the start: the drag began on a drawing, so it was drawn
-    out.update(closed=False, problem=problem, curve=[], branch=None)
+    sketch_of = data
+    try:
+        out = analyse(data, trace, live=True)  # the start: the drag began on a drawing, so it was drawn
+    except AssemblyError:
+        raise
+    except SceneError:
+        if not isinstance(drawn, dict):
+            raise
+        sketch_of, out = drawn, analyse(drawn, trace, live=True)
+    out.update(closed=False, problem=problem, curve=[], branch=None, sketch_of=echoed(sketch_of))
     for h in out["handles"]:
         if h["id"] == handle:
             h["xy"] = [x, y]
@@ -461,16 +509,29 @@ def _finite(v, field: str) -> float:
 # -- runs ----------------------------------------------------------------------------------------
 
 
-def describe(column: str, actuators=()) -> str:
+# what the page's graphs show of a column in radians: degrees, as the scene's form writes its angles (the
+# CSV and the report keep radians, as `grubler simulate --csv` writes them)
+DEGREES = {"rad": "deg", "rad/s": "deg/s", "rad/s^2": "deg/s^2"}
+
+
+def describe(column: str, actuators=(), unit: str | None = None) -> str:
     """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
     q = mechanism_output(column, actuators)
     words = q.label if q else column
-    u = unit_of(column)
+    u = unit_of(column) if unit is None else unit
     return f"{words} ({column})" + (f", {u}" if u else "")
 
 
+def plotted(column: str, values, actuators=()) -> dict:
+    """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so."""
+    u, values = unit_of(column), np.asarray(values, dtype=float)
+    if u in DEGREES:
+        u, values = DEGREES[u], np.degrees(values)
+    return {"name": column, "label": describe(column, actuators, u), "unit": u, "f32": _f32(values)}
+
+
 def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
-                   trace: str | None = None):
+                   trace: str | None = None, actuator_force: float | None = None):
     """Simulate the scene (the CLI's ``simulate``) and what the page plays and plots of it.
 
     Returns
@@ -479,7 +540,10 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
         Kept by the session for the CSV export.
     view : dict
         Times, frames (at most :data:`MAX_FRAMES`, evenly spread), the traced
-        point's path and every output column with its description.
+        point's path, every output column with its description, and the
+        run's warnings (an actuator given no force holds nothing).
+    ``actuator_force`` (N, pushing its points apart) is the scene's first
+    actuator's, as ``grubler simulate --actuator-force NAME=N`` gives it.
     """
     from grubler.limits import number
 
@@ -491,6 +555,9 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
         kw["dt_out"] = number(dt_out, "dt_out", low=0.0, low_open=True, unit="s")
     if torque not in (None, ""):
         kw["torque"] = number(torque, "torque")
+    if actuator_force not in (None, "") and scene.mechanism.actuator_names:
+        kw["actuator_forces"] = {scene.mechanism.actuator_names[0]: number(actuator_force, "actuator_force",
+                                                                           unit="N")}
     point = trace_point(trace or default_trace(scene.mechanism), scene.mechanism)
     res = simulate(scene, cancel=cancel, **kw)
     _check_cancel(cancel, res.t[-1])
@@ -505,9 +572,8 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
-            "columns": [{"name": c, "label": describe(c, scene.mechanism.actuator_names), "f32": _f32(res[c])}
-                        for c in columns],
-            "summary": _summary(scene, res)}
+            "columns": [plotted(c, res[c], scene.mechanism.actuator_names) for c in columns],
+            "summary": _summary(scene, res), "warnings": list(res.warnings)}
     return res, view
 
 
@@ -566,6 +632,12 @@ def _servo_design(data: dict, settings: dict):
     if not isinstance(settings, dict):
         raise InputError("servo", "missing: the page sends the servo settings as a JSON object")
     scene = scene_from_dict(data)
+    if scene.mechanism.actuators:  # a DC motor on the crank of a boom its cylinder lifts is not its drive
+        m = scene.mechanism
+        raise SceneError("servo", f"{m.name or 'the scene'} is driven by its cylinder {m.actuator_names[0]}, not "
+                                  f"a motor on {m.drive or 'a joint'}: the page's servo is the DC motor's; the "
+                                  "cylinder's is `grubler cosim` of examples/cylinder_systems.py (docs/cylinders.md); "
+                                  "Size sizes its bore and pressure")
     if scene.mechanism.drive is None:
         raise SceneError("drive.joint", "the servo drives the scene's drive joint: name one ([drive] joint)")
     base = ServoDesign()
@@ -625,36 +697,66 @@ def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None) -
     limits = {"current_limit": design.current_limit, "supply_voltage": design.supply_voltage,
               "nominal_current": getattr(motor, "nominal_current", None)}
     return {"t": res.t.tolist(), "wall_time": res.wall_time,
-            "columns": [{"name": "error", "label": "tracking error, setpoint - response (rad)", "f32": _f32(error)},
-                        {"name": "setpoint", "label": "crank angle, setpoint (rad)",
-                         "f32": _f32(res["trajectory.position"])},
-                        {"name": "response", "label": "crank angle, response (rad)",
-                         "f32": _f32(res["mechanism.drive_angle"])},
-                        {"name": "current", "label": "motor current (A)", "f32": _f32(current)},
-                        {"name": "voltage", "label": "motor voltage, applied (V)", "f32": _f32(volts)},
-                        {"name": "command", "label": "motor voltage, commanded (V)",
+            # angles in degrees, as the scene's form writes them (the servo form's move is in radians, as
+            # the Trajectory FMU takes it)
+            "columns": [{"name": "error", "label": "tracking error, setpoint - response (deg)", "unit": "deg",
+                         "f32": _f32(np.degrees(error))},
+                        {"name": "setpoint", "label": "crank angle, setpoint (deg)", "unit": "deg",
+                         "f32": _f32(np.degrees(res["trajectory.position"]))},
+                        {"name": "response", "label": "crank angle, response (deg)", "unit": "deg",
+                         "f32": _f32(np.degrees(res["mechanism.drive_angle"]))},
+                        {"name": "current", "label": "motor current (A)", "unit": "A", "f32": _f32(current)},
+                        {"name": "voltage", "label": "motor voltage, applied (V)", "unit": "V", "f32": _f32(volts)},
+                        {"name": "command", "label": "motor voltage, commanded (V)", "unit": "V",
                          "f32": _f32(res["motor.voltage"])}],
             "limits": {k: v for k, v in limits.items() if v is not None and math.isfinite(v)},
             "summary": f"{design.t_end:g} s at {design.step:g} s steps in {res.wall_time:.2f} s: tracking error "
-                       f"up to {np.max(np.abs(error)):.3g} rad, current up to {np.max(np.abs(current)):.3g} A "
+                       f"up to {np.degrees(np.max(np.abs(error))):.3g} deg, current up to {np.max(np.abs(current)):.3g} A "
                        f"(limit {design.current_limit:g} A), voltage up to {np.max(np.abs(volts)):.3g} V "
                        f"(supply {design.supply_voltage:g} V)"}
 
 
-def run_sizing(data: dict, settings: dict) -> dict:
-    """Which motor and gear ratio fit the servo's move (``grubler size --move``), ranked: the study's table."""
+def _move_cycle(model, settings: dict):
+    """The servo form's move of the drive joint, there and back, as the sizing studies' duty cycle."""
     from grubler.controllers.trajectory import Trajectory
-    from grubler.motors import list_motors, load_motor
-    from grubler.studies.sizing import Control, DutyCycle, size
+    from grubler.limits import number
+    from grubler.studies.sizing import DutyCycle
 
-    design = _servo_design(data, settings)
-    model = scene_from_dict(data).mechanism
-    tr = design.trajectory
-    traj = Trajectory(tr["kind"], distance=tr["distance"], v_max=tr["v_max"], a_max=tr["a_max"],
-                      dwell=tr["dwell"], repeat=2, reverse=True)
+    if not isinstance(settings, dict):
+        raise InputError("servo", "missing: the page sends the servo settings as a JSON object")
+    if model.drive is None:
+        raise SceneError("drive.joint", "the move is of the scene's drive joint: name one ([drive] joint)")
+    base, pos = servo_defaults(), {"low": 0.0, "low_open": True}
+
+    def get(key, **bounds):
+        v = settings.get(key)
+        return number(base[key] if v in (None, "") else v, f"servo.{key}", **bounds)
+
+    kind = settings.get("kind") or "trapezoid"
+    if kind not in ("trapezoid", "scurve"):
+        raise InputError("servo.kind", f"must be 'trapezoid' or 'scurve', got {brief(kind)}")
+    distance, dwell = get("distance"), get("dwell", low=0.0)
+    traj = Trajectory(kind, distance=distance, v_max=get("v_max", **pos), a_max=get("a_max", **pos),
+                      dwell=dwell, repeat=2, reverse=True)
     start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)])
-    cycle = DutyCycle.from_trajectory(traj, (traj.move_time + tr["dwell"]) * 2, start=start,
-                                      name=f"{tr['kind']} move of {tr['distance']:g} rad and back")
+    return DutyCycle.from_trajectory(traj, (traj.move_time + dwell) * 2, start=start,
+                                     name=f"{kind} move of {distance:g} rad and back")
+
+
+def run_sizing(data: dict, settings: dict) -> dict:
+    """Which motor and gear ratio fit the servo's move (``grubler size --move``), ranked: the study's table.
+
+    A scene driven by a cylinder gets the cylinder's study instead, bore x supply
+    pressure over the CLI's candidates (``grubler size --cylinder ACTUATOR``).
+    """
+    from grubler.motors import list_motors, load_motor
+    from grubler.studies.sizing import Control, size
+
+    model = scene_from_dict(data).mechanism
+    if model.actuators:
+        return _cylinder_sizing(model, _move_cycle(model, settings))
+    design = _servo_design(data, settings)
+    cycle = _move_cycle(model, settings)
     study = size(model, cycle, [load_motor(n) for n in list_motors()], [5, 10, 20, 35, 50, 75, 100, 150],
                  supply_voltage=design.supply_voltage, current_limit=design.current_limit, control=Control.servo())
     rows = []
@@ -663,8 +765,32 @@ def run_sizing(data: dict, settings: dict) -> dict:
         rows.append({"motor": a.candidate.motor.name, "ratio": a.candidate.ratio, "fits": bool(a.feasible),
                      "margin": round(float(a.min_margin), 3), "binding": a.binding,
                      "peak_current": round(r["peak_current"], 3), "peak_voltage": round(r["peak_voltage"], 2),
-                     "rpm": round(r["peak_motor_speed"] * 30 / math.pi), "why_not": r["why_not"]})
-    return {"cycle": cycle.name, "rows": rows}
+                     "rpm": round(r["peak_motor_speed"]), "why_not": r["why_not"]})  # the summary's rpm already
+    return {"cycle": cycle.name, "kind": "motor", "rows": rows}
+
+
+def _cylinder_sizing(model, cycle) -> dict:
+    """``grubler size --cylinder`` of the scene's first actuator, with the CLI's candidates and constants."""
+    from grubler.cli import CYLINDER_OPTIONS
+    from grubler.studies.cylinder_sizing import size_cylinder
+    from grubler.studies.sweep import parse_values
+
+    bores = parse_values(CYLINDER_OPTIONS["bores"], "--bores", "mm")
+    pressures = parse_values(CYLINDER_OPTIONS["pressures"], "--pressures", "bar")
+    name = model.actuator_names[0]
+    study = size_cylinder(model, name, cycle, [b * 1e-3 for b in bores], [p * 1e5 for p in pressures],
+                          rod_ratio=CYLINDER_OPTIONS["rod_ratio"], constants={"stroke": CYLINDER_OPTIONS["stroke"]})
+    rows = []
+    for a in study.ranked + study.rejected:
+        r = a.summary()
+        rows.append({"cylinder": a.candidate.label, "bore": round(r["bore"], 1), "rod": round(r["rod"], 1),
+                     "pressure": round(r["supply_pressure"], 1), "fits": bool(a.feasible),
+                     "margin": round(float(a.min_margin), 3), "binding": a.binding,
+                     "power": round(r["installed_power"], 3), "why_not": r["why_not"]})
+    d = study.demand
+    return {"cycle": f"{cycle.name}, by actuator {name}: force {d.force.min() / 1e3:.4g} to "
+                     f"{d.force.max() / 1e3:.4g} kN, speed up to {abs(d.rate).max():.4g} m/s",
+            "kind": "cylinder", "rows": rows}
 
 
 # -- exports: what the CLI would write, into a folder the server sends from and removes -----------------------
@@ -702,6 +828,8 @@ def export_file(kind: str, data: dict, folder, result=None, settings: dict | Non
 
         if result is None:
             raise InputError("report", "simulate first: the report is of the last run")
+        # named after the scene that was run, which the page may have left since (a preset picked after it)
+        stem = identifier_for(Path((result.model.name or "mechanism").replace("-", "_")))
         csv_path = folder / f"{stem}.csv"
         result_csv(result, csv_path)
         _, columns = read_run(str(csv_path), result.model)

@@ -511,7 +511,8 @@ def a_drag(server, session, body):
     moved = actions.drag(data, handle, x, y)
     out = _form(moved)
     try:
-        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True))
+        out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True,
+                                        drawn=body.get("drawn")))
     except GrublerError as exc:
         out["error"] = actions.error_of(exc)
     return out
@@ -555,7 +556,8 @@ def a_simulate(server, session, body, gone=None):
     with session.lock:
         session.cancel = threading.Event()
         res, view = actions.run_simulation(_data(body), body.get("t_end"), body.get("dt_out"), body.get("torque"),
-                                           cancel=AnyOf(session.cancel, gone), trace=body.get("trace"))
+                                           cancel=AnyOf(session.cancel, gone), trace=body.get("trace"),
+                                           actuator_force=body.get("actuator_force"))
         session.result = res
     return view
 
