@@ -374,7 +374,9 @@ def tick_labels(page, values) -> list:
         document.body.appendChild(svg);
         const t = values.map((_, i) => i / (values.length - 1));
         plot(svg, t, [{ name: "v", label: "v (v), J", unit: "J", values: Float32Array.from(values) }], 0, 1);
-        const out = [...svg.querySelectorAll(".ytick")].map((g) => [g.textContent, +g.dataset.y]);
+        // the labels left of the plot, right-aligned to it: the value axis's (its name is turned, and centred)
+        const out = [...svg.querySelectorAll("text[text-anchor=end]")].filter((e) => +e.getAttribute("x") < 120)
+            .map((e) => [e.textContent, +e.getAttribute("y")]);
         svg.remove();
         return out;
     }""", values)
@@ -406,7 +408,6 @@ def test_tick_labels_read_the_values_they_mark_from_a_millionth_to_a_million(app
 
 def test_a_new_preset_brings_its_own_run_length_and_torque_and_angles_read_in_degrees(app, browser):
     page, errors = open_app(browser, app.url)
-    assert page.input_value("#preset") == "fourbar-crank-rocker"  # the preset the page opened with, named
     page.fill("#t_end", "-1")
     page.click("#simulate")  # refused: said next to the box, and no console error
     page.wait_for_selector('#field-t_end:has-text("t_end: must be > 0 s")')
@@ -437,6 +438,7 @@ def test_a_new_preset_brings_its_own_run_length_and_torque_and_angles_read_in_de
 
 def test_the_menus_name_the_opened_scene(app, browser, tmp_path):
     page, errors = open_app(browser, app.url)
+    assert page.input_value("#preset") == "fourbar-crank-rocker"  # the preset the page opened with, named
     page.select_option("#type", label="stephenson-iii")
     page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
     assert page.evaluate("() => $('type').selectedOptions[0].textContent") == "stephenson-iii"
