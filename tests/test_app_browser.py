@@ -322,7 +322,7 @@ def servo_app(tmp_path_factory):
     import build_fmu
 
     folder = tmp_path_factory.mktemp("app")
-    build_fmu.build(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    build_fmu.build(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory", "HydraulicCylinder"])
     proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"], cwd=folder,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -535,9 +535,11 @@ def test_a_cylinder_preset_is_drawn_dragged_held_and_sized(app, browser, shots):
     drag_handle(page, "actuator[0].from_point", 1.0, -0.4)
     assert page.input_value('[data-key="actuator[0].from_point"]') == "[1, -0.4]"
     assert [float(page.locator("#drawing line.barrel").get_attribute(a)) for a in ("x1", "y1")] == [1.0, -0.4]
-    # Run servo says the page's servo is a motor's; Size sizes the cylinder as `grubler size --cylinder lift`
+    # Run servo asks for the cylinder's FMUs (this app's folder has none), not a DC motor's; Size sizes the
+    # cylinder as `grubler size --cylinder lift` does
     page.click("#servo-run")
-    page.wait_for_selector('#servo-error:has-text("driven by its cylinder lift")')
+    page.wait_for_selector('#servo-error:has-text("no PID.fmu, Trajectory.fmu, HydraulicCylinder.fmu in")')
+    assert "DCMotor" not in page.inner_text("#servo-error")
     pick_preset(page, "luffing-boom")
     for key, v in {"distance": "0.1", "v_max": "0.05", "a_max": "0.2", "dwell": "0.5"}.items():
         page.fill(f'#servo-form [data-key="{key}"]', v)
@@ -550,4 +552,43 @@ def test_a_cylinder_preset_is_drawn_dragged_held_and_sized(app, browser, shots):
     assert first[:6] == ["1", "63 mm bore, 100 bar", "35.3", "2.192", "buckling", "1.343"]
     assert "9 of 18 bore × pressure combinations fit" in page.inner_text("#sizing-status")
     page.locator("#servo").screenshot(path=str(shots / "14-cylinder-sizing.png"))
+    assert errors == []
+
+
+def test_run_servo_of_a_cylinder_preset_is_its_cylinder_under_position_control(servo_app, browser, shots):
+    """The luffing boom's servo is its hydraulic cylinder's valve under a PID on the lift's length, as
+    examples/cylinder_systems.py builds it; `grubler cosim examples/luffing_boom.ssd` of that system reads
+    (its CSV): tracking error up to 9.567 mm, 0.0431 mm at the end, pressure up to 98.42 bar, force 7.225 to
+    13.10 kN.  The page used to put a DC motor on the crank (tracking error up to 6.67 rad, 10 A)."""
+    url, folder = servo_app
+    page, errors = open_app(browser, url)
+    pick_preset(page, "luffing-boom")
+    assert page.is_visible('#servo-form [data-key="bore"]') and page.is_hidden("#s-motor")
+    assert page.input_value('#servo-form [data-key="bore"]') == "0.05"
+    assert page.input_value('#servo-form [data-key="move"]') == "0.1"
+    assert page.input_value('#servo-form [data-key="t_end"]') == "4"
+    page.click("#servo-run")  # the first run compiles the boom's mechanism FMU
+    page.wait_for_selector("#servo-plots svg path", timeout=300_000)
+    status = page.inner_text("#servo-status")
+    assert "a 50/28 mm hydraulic cylinder moves lift 100 mm" in status and "DC" not in status
+
+    def read(text, before, after):
+        return float(text.split(before)[1].split(after)[0])
+
+    assert read(status, "tracking error up to ", " mm") == pytest.approx(9.567, abs=0.05)
+    assert read(status, "mm (", " mm at the end") == pytest.approx(0.0431, abs=0.005)
+    assert read(status, "pressure up to ", " bar") == pytest.approx(98.42, abs=0.2)
+    assert "(supply 160 bar)" in status and read(status, "force ", " to") == pytest.approx(7.225, abs=0.02)
+    assert page.locator("#servo-plots svg").count() == 4
+    assert page.text_content("#servo-plots svg >> nth=2 >> text.ylabel") == "bar"
+    page.locator("#servo").screenshot(path=str(shots / "15-luffing-boom-servo.png"))
+    # a softer gain re-runs at once (the mechanism FMU kept) and follows worse
+    page.fill('#servo-form [data-key="K"]', "10")
+    page.press('#servo-form [data-key="K"]', "Enter")
+    page.wait_for_function("() => window.grublerStats.servo.length >= 2", timeout=120_000)
+    assert read(page.inner_text("#servo-status"), "tracking error up to ", " mm") > 9.567 * 1.5
+    # and a revolute drive's scene gets the DC motor back
+    pick_preset(page, "thesis-fourbar")
+    assert page.is_visible("#s-motor") and page.is_hidden('#servo-form [data-key="bore"]')
+    assert page.input_value('#servo-form [data-key="K"]') == "300" and page.inner_text("#k-unit") == "V/rad"
     assert errors == []

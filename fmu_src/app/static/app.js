@@ -744,9 +744,8 @@ async function setupServo() {
     o.textContent = m;
     sel.appendChild(o);
   }
-  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
-    if (d[e.dataset.key] !== undefined) e.value = String(d[e.dataset.key]);
-  });
+  state.servoDefaults = d;
+  if ($("force-box").hidden) fillServo(d);  // a motor's scene (a cylinder's fills its own)
   $("servo-run").addEventListener("click", runServo);
   $("sizing-run").addEventListener("click", runSizing);
   // a new gain re-runs the response at once, once there is one to compare
@@ -770,7 +769,11 @@ async function runServo() {
     const lim = out.limits;
     const host = $("servo-plots");
     host.textContent = "";
-    const panels = [
+    const supply = lim.supply_pressure ? [{ value: lim.supply_pressure, label: "supply (rated)" }] : [];
+    const panels = out.kind === "cylinder" ? [
+      [[col("error")], []], [[col("setpoint"), col("response")], []],
+      [[col("pressure_a"), col("pressure_b")], supply], [[col("force")], []],
+    ] : [
       [[col("error")], []],
       [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
         { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
@@ -899,21 +902,42 @@ async function loadData(data, label) {
   for (const id of ["t_end", "torque", "actuator-force"]) $(id).value = "";
   $("field-t_end").textContent = "";
   showSource(data);
+  await showDrives(data);  // before the drawing: the page is the new scene's once its sketch is on it
   await analyse({ scene: data }, { fit: true });
-  showDrives();
   if (label) notice(label);
 }
 
-// what drives the scene: a cylinder's force box for Simulate, and what the servo section offers
-function showDrives() {
-  const acts = (state.analysis && state.analysis.actuators) || [];
-  $("force-box").hidden = !acts.length;
-  $("force-name").textContent = acts.length ? acts[0] + " force" : "";
-  $("drive-note").textContent = acts.length
+// what drives the scene: a cylinder's force box for Simulate, and the servo that fits it (the cylinder's
+// valve under position control of its length, or a DC motor on the drive joint), from its defaults
+async function showDrives(data) {
+  const acts = (Array.isArray(data && data.actuator) ? data.actuator : []).map((a) => String(a && a.name));
+  const cylinder = acts.length > 0;
+  $("force-box").hidden = !cylinder;
+  $("force-name").textContent = cylinder ? acts[0] + " force" : "";
+  $("drive-note").textContent = cylinder
     ? `this scene is driven by its cylinder ${acts[0]}: Simulate pushes it with the force given (none: 0 N, and ` +
       "the mechanism falls); Run servo puts it under position control"
     : "";
-  $("sizing-run").textContent = acts.length ? "Size the cylinder" : "Size the motor";
+  $("sizing-run").textContent = cylinder ? "Size the cylinder" : "Size the motor";
+  document.querySelectorAll("#servo .motor-only").forEach((e) => { e.hidden = cylinder; });
+  document.querySelectorAll("#servo .cyl-only").forEach((e) => { e.hidden = !cylinder; });
+  $("k-unit").textContent = cylinder ? "1/m" : "V/rad";
+  $("s-actuator").textContent = cylinder ? acts[0] + ", a cylinder" : "cylinder";
+  // the last scene's servo run is not this one's: its graphs go, and a gain typed now does not re-run it
+  state.servo = null;
+  $("servo-plots").textContent = "";
+  $("servo-status").textContent = "";
+  $("servo-error").textContent = "";
+  try {
+    const d = cylinder ? (await api("servo_defaults", { scene: data })).cylinder : state.servoDefaults;
+    if (d) fillServo(d);
+  } catch (e) { $("servo-error").textContent = `${e.field}: ${e.message}`; }
+}
+
+function fillServo(d) {
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    if (d[e.dataset.key] !== undefined && d[e.dataset.key] !== null) e.value = String(d[e.dataset.key]);
+  });
 }
 
 // the Preset and Type menus name the scene's preset (by its name) and its mechanism's type, or none
