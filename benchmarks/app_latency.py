@@ -65,10 +65,16 @@ def screen_of(page, x: float, y: float):
     }""", [x, y])
 
 
-def drag_latencies(page, preset: str, handle: str, moves: int) -> tuple[list[float], list[dict]]:
+def pick(page, preset: str) -> None:
+    """Pick a preset and wait for its drawing: a new scene empties the run boxes, so they are filled after."""
+    page.evaluate("() => { window.pickedFrom = state.analysis; }")
     page.select_option("#preset", preset)
-    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
-                           arg=preset)
+    page.wait_for_function("""(name) => state.analysis !== window.pickedFrom && state.scene && state.scene.name === name
+        && state.analysis.scene === state.scene""", arg=preset)
+
+
+def drag_latencies(page, preset: str, handle: str, moves: int) -> tuple[list[float], list[dict]]:
+    pick(page, preset)
     page.wait_for_timeout(300)
     hx, hy = page.evaluate(f"""() => state.analysis.handles.find((h) => h.id === "{handle}").xy""")
     # a circle of 1.5 % of the drawing's size about the handle: every position closes, so each answer has its curve
@@ -88,8 +94,7 @@ def drag_latencies(page, preset: str, handle: str, moves: int) -> tuple[list[flo
 
 
 def simulate_latencies(page, runs: int) -> list[float]:
-    page.select_option("#preset", "fourbar-crank-rocker")
-    page.wait_for_selector("circle.handle")
+    pick(page, "fourbar-crank-rocker")
     page.fill("#t_end", "10")
     page.evaluate("() => { window.grublerStats.simulate = []; window.grublerStats.parts.simulate = []; }")
     for k in range(runs):
@@ -99,8 +104,7 @@ def simulate_latencies(page, runs: int) -> list[float]:
 
 
 def servo_latencies(page, runs: int) -> list[float]:
-    page.select_option("#preset", "thesis-fourbar")
-    page.wait_for_selector("circle.handle")
+    pick(page, "thesis-fourbar")
     page.click("#servo-run")
     page.wait_for_function("() => window.grublerStats.servo.length >= 1", timeout=300_000)
     for k in range(runs):

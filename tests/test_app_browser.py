@@ -207,10 +207,12 @@ def open_app(browser, url: str, **options):
 
 
 def pick_preset(page, name: str) -> None:
-    """Pick a preset from the menu and wait until its drawing is on the page (not the one before)."""
+    """Pick a preset from the menu and wait until its drawing is on the page (not the one before, even when
+    that was the same preset's: the page, run boxes and servo form, is the new scene's once it is drawn)."""
+    page.evaluate("() => { window.pickedFrom = state.analysis; }")
     page.select_option("#preset", name)
-    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
-                           arg=name)
+    page.wait_for_function("""(name) => state.analysis !== window.pickedFrom && state.scene && state.scene.name === name
+        && state.analysis.scene === state.scene""", arg=name)
 
 
 def handle_at(page, handle: str) -> list:
