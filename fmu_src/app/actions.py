@@ -934,8 +934,7 @@ def run_sizing(data: dict, settings: dict) -> dict:
 
 def _cylinder_sizing(model, cycle) -> dict:
     """``grubler size --cylinder`` of the scene's first actuator, with the CLI's candidates and constants."""
-    from grubler.cli import CYLINDER_OPTIONS
-    from grubler.studies.cylinder_sizing import size_cylinder
+    from grubler.studies.cylinder_sizing import CANDIDATE_DEFAULTS as CYLINDER_OPTIONS, size_cylinder
     from grubler.studies.sweep import parse_values
 
     bores = parse_values(CYLINDER_OPTIONS["bores"], "--bores", "mm")
