@@ -78,11 +78,17 @@ def analysis_layer(page, on: bool) -> None:
     page.wait_for_function("(on) => !!state.kinematics === on", arg=on)
 
 
+def pick(page, preset: str) -> None:
+    """Pick a preset and wait for its drawing: a new scene empties the run boxes, so they are filled after."""
+    page.evaluate("() => { window.pickedFrom = state.analysis; }")
+    page.select_option("#preset", preset)
+    page.wait_for_function("""(name) => state.analysis !== window.pickedFrom && state.scene && state.scene.name === name
+        && state.analysis.scene === state.scene""", arg=preset)
+
+
 def drag_latencies(page, preset: str, handle: str, moves: int, layer: bool = False) -> tuple[list[float], list[dict]]:
     analysis_layer(page, layer)
-    page.select_option("#preset", preset)
-    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
-                           arg=preset)
+    pick(page, preset)
     if layer:
         page.wait_for_function("() => !!state.analysis.analysis")
     page.wait_for_timeout(300)
@@ -104,8 +110,7 @@ def drag_latencies(page, preset: str, handle: str, moves: int, layer: bool = Fal
 
 
 def simulate_latencies(page, runs: int) -> list[float]:
-    page.select_option("#preset", "fourbar-crank-rocker")
-    page.wait_for_selector("circle.handle")
+    pick(page, "fourbar-crank-rocker")
     page.fill("#t_end", "10")
     page.evaluate("() => { window.grublerStats.simulate = []; window.grublerStats.parts.simulate = []; }")
     for k in range(runs):
@@ -115,8 +120,7 @@ def simulate_latencies(page, runs: int) -> list[float]:
 
 
 def servo_latencies(page, runs: int) -> list[float]:
-    page.select_option("#preset", "thesis-fourbar")
-    page.wait_for_selector("circle.handle")
+    pick(page, "thesis-fourbar")
     page.click("#servo-run")
     page.wait_for_function("() => window.grublerStats.servo.length >= 1", timeout=300_000)
     for k in range(runs):

@@ -28,6 +28,7 @@ from grubler.views.bode import BODE_SUFFIXES
 from grubler.mechanism.scene import coordinate_text, load_scene, preset_names
 from grubler.mechanism.simulate import output_columns, simulate
 from grubler.motors.motor_data import AMBIENT_RANGE
+from grubler.studies.cylinder_sizing import CANDIDATE_DEFAULTS
 
 
 def _number(name: str, **bounds):
@@ -452,7 +453,7 @@ def cmd_sweep(args) -> int:
 # grubler size: each kind's options and their defaults (None on the parser: given or not is known)
 MOTOR_OPTIONS = {"motors": "all", "ratios": "5,10,20,35,50,75,100,150", "efficiency": 0.9, "supply": None,
                  "current_limit": math.inf, "ambient": 25.0}
-CYLINDER_OPTIONS = {"bores": "32,40,50,63,80,100", "pressures": "100,160,210", "rod_ratio": 0.56, "stroke": 0.3}
+CYLINDER_OPTIONS = CANDIDATE_DEFAULTS  # the study's (the app's Size takes them too)
 SIZE_DEFAULTS = {**MOTOR_OPTIONS, **CYLINDER_OPTIONS}
 
 

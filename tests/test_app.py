@@ -11,6 +11,7 @@ import threading
 import time
 import tomllib
 
+import numpy as np
 import pytest
 
 from grubler import cli
@@ -768,3 +769,51 @@ def test_a_runs_instant_is_analysed_at_its_state_and_forces(app):
     assert status == 200 and out["error"]["field"] == "at"
     status, out, _ = call(app, "POST", "/api/instant", {"scene": data, "at": "soon"}, cookie=cookie)
     assert status == 200 and out["error"]["field"] == "at"
+# -- issue 33 -------------------------------------------------------------------------------------------------
+def test_the_run_report_is_named_after_the_scene_that_was_run(app):
+    """The session's run of the luffing boom, exported while the page shows the thesis four-bar: the file
+    says whose run it holds (it was thesis_fourbar-report.pdf holding the boom's run)."""
+    _, _, token = call(app, "GET", "/")
+    post(app, "simulate", {"scene": actions.preset_data("luffing-boom"), "t_end": 0.3}, cookie=token)
+    conn = http.client.HTTPConnection("127.0.0.1", app.server_address[1], timeout=120)
+    conn.request("POST", "/api/export", json.dumps({"kind": "pdf", "scene": actions.preset_data("thesis-fourbar")}),
+                 {"Host": f"127.0.0.1:{app.server_address[1]}", "Content-Type": "application/json",
+                  "Cookie": f"grubler_session={token}"})
+    r = conn.getresponse()
+    assert r.read().startswith(b"%PDF") and 'filename="luffing_boom-report.pdf"' in r.getheader("Content-Disposition")
+
+
+def test_a_cylinder_scene_s_servo_and_sizing_start_from_its_design(app):
+    """The luffing boom's servo form starts from examples/cylinder_systems.py's design (a 50/28 mm hydraulic
+    cylinder moving lift 0.1 m), and its sizing move is that move as the drive joint makes it: over the
+    sized cycle the lift's length runs 1.226 to 1.326 m, as `grubler size luffing-boom --cylinder lift --move
+    trapezoid --distance 0.118 --reverse ...` prints; a motor's scene has no cylinder."""
+    from grubler.mechanism.simulate import actuator_lines
+
+    out, _ = post(app, "servo_defaults", {"scene": actions.preset_data("luffing-boom")})
+    d = out["cylinder"]
+    assert (d["cylinder"], d["bore"], d["rod"], d["move"], d["actuator"]) == ("hydraulic", 0.05, 0.028, 0.1, "lift")
+    model = actions.scene_from_dict(actions.preset_data("luffing-boom")).mechanism
+    z = actions.assemble(model, model.z_from_q(model.q_ref))[0]
+    l0 = actuator_lines(model, np.hstack([z, 0 * z])[None, :])[0, 0, 0]
+    z[model.free_index(model.drive)] += d["distance"]
+    z = actions.assemble(model, z)[0]
+    assert actuator_lines(model, np.hstack([z, 0 * z])[None, :])[0, 0, 0] - l0 == pytest.approx(0.1, abs=2e-4)
+    sized, _ = post(app, "sizing", {"scene": actions.preset_data("luffing-boom"), "servo": d})
+    assert sized["kind"] == "cylinder" and sized["rows"][0]["cylinder"] == "63 mm bore, 100 bar"
+    assert "force 7.151 to 13.41 kN" in sized["cycle"]
+    out, _ = post(app, "servo_defaults", {"scene": actions.preset_data("thesis-fourbar")})
+    assert out["cylinder"] is None and out["motor"]
+
+
+def test_an_actuator_s_attachment_dragged_moves_its_point_on_its_link(app):
+    data = actions.preset_data("luffing-boom")
+    a = actions.analyse(data)
+    pin = next(h for h in a["handles"] if h["id"] == "actuator[0].to_point")
+    # half a metre further along the crank (link 2, at 50 deg): the point's u grows by 0.5, v stays 0
+    x, y = pin["xy"][0] + 0.5 * math.cos(math.radians(50)), pin["xy"][1] + 0.5 * math.sin(math.radians(50))
+    out, _ = post(app, "drag", {"scene": data, "handle": "actuator[0].to_point", "x": x, "y": y})
+    assert out["scene"]["actuator"][0]["to_point"] == [1.7, 0.0]
+    moved = next(h for h in out["handles"] if h["id"] == "actuator[0].to_point")
+    assert moved["xy"] == pytest.approx([x, y], abs=1e-4)
+    assert out["frame"]["actuators"][0][2:4] == pytest.approx([x, y], abs=1e-4)

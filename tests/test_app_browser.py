@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+from grubler.app import actions
+
 
 playwright_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e .[test])")
 
@@ -206,10 +208,12 @@ def open_app(browser, url: str, **options):
 
 
 def pick_preset(page, name: str) -> None:
-    """Pick a preset from the menu and wait until its drawing is on the page (not the one before)."""
+    """Pick a preset from the menu and wait until its drawing is on the page (not the one before, even when
+    that was the same preset's: the page, run boxes and servo form, is the new scene's once it is drawn)."""
+    page.evaluate("() => { window.pickedFrom = state.analysis; }")
     page.select_option("#preset", name)
-    page.wait_for_function("(name) => state.scene && state.scene.name === name && state.analysis.scene === state.scene",
-                           arg=name)
+    page.wait_for_function("""(name) => state.analysis !== window.pickedFrom && state.scene && state.scene.name === name
+        && state.analysis.scene === state.scene""", arg=name)
 
 
 def handle_at(page, handle: str) -> list:
@@ -321,7 +325,7 @@ def servo_app(tmp_path_factory):
     import builds
 
     folder = tmp_path_factory.mktemp("app")
-    builds.dist(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"])
+    builds.dist(folder / "dist", ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory", "HydraulicCylinder"])
     proc = subprocess.Popen([sys.executable, "-m", "grubler.cli", "app", "--no-browser", "--port", "0"], cwd=folder,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -348,7 +352,7 @@ def test_servo_tuning_sizing_and_the_system_export(servo_app, browser, shots):
     page.fill('#servo-form [data-key="K"]', "60")
     page.press('#servo-form [data-key="K"]', "Enter")
     page.wait_for_function("() => (window.grublerStats.servo || []).length >= 2", timeout=120_000)
-    error = lambda text: float(text.split("tracking error up to ")[1].split(" rad")[0])  # noqa: E731
+    error = lambda text: float(text.split("tracking error up to ")[1].split(" deg")[0])  # noqa: E731
     assert error(page.inner_text("#servo-status")) > error(first)
     page.click("#sizing-run")
     page.wait_for_selector("#sizing td", timeout=120_000)
@@ -416,4 +420,230 @@ def test_the_analysis_layer_draws_arrows_centres_and_angles_live_and_at_a_runs_i
                            ".startsWith('the run at t = 0.5')")
     page.wait_for_function("() => document.querySelectorAll('.analysis .arrow.force').length === 7")
     page.screenshot(path=str(shots / "14-analysis-run-instant.png"))
+# -- issue 33: the numbers the page shows, and the cylinder presets ------------------------------------------
+def tick_labels(page, values) -> list:
+    """The y-axis tick labels (text, pixel height) of a graph the page plots of ``values`` over one second."""
+    return page.evaluate("""(values) => {
+        const svg = document.createElementNS(SVG, "svg");
+        svg.style.width = "800px";
+        document.body.appendChild(svg);
+        const t = values.map((_, i) => i / (values.length - 1));
+        plot(svg, t, [{ name: "v", label: "v (v), J", unit: "J", values: Float32Array.from(values) }], 0, 1);
+        // the labels left of the plot, right-aligned to it: the value axis's (its name is turned, and centred)
+        const out = [...svg.querySelectorAll("text[text-anchor=end]")].filter((e) => +e.getAttribute("x") < 120)
+            .map((e) => [e.textContent, +e.getAttribute("y")]);
+        svg.remove();
+        return out;
+    }""", values)
+
+
+SCALES = [1e-6, 3e-5, 1e-3, 0.2, 1.0, 7.5, 80.0, 999.0, 1000.0, 7500.0, 8000.0, 2e4, 3e5, 1e6, 4e6]
+
+
+def test_tick_labels_read_the_values_they_mark_from_a_millionth_to_a_million(app, browser):
+    """8000 J read '8' and 7500 '75' (trailing zeros of whole numbers dropped): every label now parses back to
+    the value at its height, for signals from 1e-6 to 1e6 in size, negative ones too, near zero and offset."""
+    page, errors = open_app(browser, app.url)
+    for scale in SCALES:
+        for values in ([scale * k / 10 for k in range(11)], [-scale * (1 + k / 10) for k in range(11)],
+                       [8 * scale + scale * k / 20 for k in range(11)]):
+            labels = tick_labels(page, values)
+            assert len(labels) >= 3, (scale, labels)
+            read = [float(text) for text, _ in labels]  # each label a number, as written
+            # the heights are linear in the values the labels say: a label that lost digits is off the line
+            (v0, y0), (v1, y1) = (read[0], labels[0][1]), (read[-1], labels[-1][1])
+            for v, (text, y) in zip(read, labels):
+                assert y == pytest.approx(y0 + (v - v0) * (y1 - y0) / (v1 - v0), abs=0.05), (scale, text, labels)
+            step = read[1] - read[0]
+            assert all(b - a == pytest.approx(step, rel=1e-6) for a, b in zip(read, read[1:])), labels
+            assert read[0] - step <= min(values) and max(values) <= read[-1] + step, (values, labels)
+            assert len(set(t for t, _ in labels)) == len(labels)  # no two ticks read alike
+    assert errors == []
+
+
+def test_a_new_preset_brings_its_own_run_length_and_torque_and_angles_read_in_degrees(app, browser):
+    page, errors = open_app(browser, app.url)
+    page.fill("#t_end", "-1")
+    page.click("#simulate")  # refused: said next to the box, and no console error
+    page.wait_for_selector('#field-t_end:has-text("t_end: must be > 0 s")')
+    page.fill("#t_end", "0.5")
+    page.fill("#torque", "3")
+    pick_preset(page, "watt-ii")
+    assert page.input_value("#t_end") == "" and page.input_value("#torque") == ""
+    assert page.input_value('[data-key="drive.torque"]') == "0.05"
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    tau = page.evaluate("() => state.run.columns.find((c) => c.name === 'tau_drive').values[0]")
+    assert tau == pytest.approx(0.05)  # the form's torque, not the four-bar's 3 N m
+    # the drive angle's graph in degrees, as the form writes the input angle, and its axis says so
+    label, start = page.evaluate("() => { const c = state.run.columns.find((c) => c.name === 'theta2'); return [c.label, c.values[0]]; }")
+    assert label.endswith(", deg") and start == pytest.approx(30.0, abs=1e-3)
+    assert page.text_content("#panels svg >> nth=0 >> text.ylabel") == "theta2, deg"
+    assert page.text_content("#panels svg >> nth=1 >> text.ylabel") == "E, J"
+    # a loop that cannot close says its held angle in degrees too (and radians, as the CSV has it)
+    pick_preset(page, "fourbar-crank-rocker")
+    page.fill('[data-key="mechanism.ground"]', "5")
+    page.press('[data-key="mechanism.ground"]', "Enter")
+    page.wait_for_selector("#problem:not([hidden])")
+    page.click("#simulate")
+    page.wait_for_selector('#run-status:has-text("cannot be closed")')
+    assert "theta2 = 30 deg (0.523599 rad) held" in page.inner_text("#run-status")
+    assert errors == []
+
+
+def test_the_menus_name_the_opened_scene(app, browser, tmp_path):
+    page, errors = open_app(browser, app.url)
+    assert page.input_value("#preset") == "fourbar-crank-rocker"  # the preset the page opened with, named
+    page.select_option("#type", label="stephenson-iii")
+    page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Stephenson III')")
+    assert page.evaluate("() => $('type').selectedOptions[0].textContent") == "stephenson-iii"
+    text = actions.scene_toml({**actions.preset_data("watt-ii"), "name": "my-watt"})
+    (tmp_path / "my-watt.toml").write_text(text)
+    page.set_input_files("#upload", str(tmp_path / "my-watt.toml"))
+    page.wait_for_function("() => document.querySelector('#kind').textContent.startsWith('Watt II')")
+    assert page.evaluate("() => $('type').selectedOptions[0].textContent") == "watt-ii"
+    assert page.input_value("#preset") == ""  # no preset of that name
+    assert errors == []
+
+
+def test_a_second_drag_of_a_six_bar_left_open_keeps_its_facts_and_handles(app, browser, shots):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "stephenson-i")
+    drag_handle(page, "rocker_pivot", 0.9, 0.0)
+    page.wait_for_selector("#problem:not([hidden])")
+    drag_handle(page, "rocker_pivot", 1.0, 0.1)  # from the open scene, further out
+    assert page.inner_text("#kind").startswith("Stephenson I six-bar")
+    assert page.inner_text("#problem").startswith("mechanism.input_angle: loop 1")
+    assert page.input_value('[data-key="mechanism.rocker_pivot"]') == "[1, 0.1]"
+    # the handle is where the mouse left it, once: no stray one where the drag began
+    box = page.locator('circle.handle[data-handle="rocker_pivot"]').bounding_box()
+    x, y = screen_of(page, 1.0, 0.1)
+    assert abs(box["x"] + box["width"] / 2 - x) < 1.5 and abs(box["y"] + box["height"] / 2 - y) < 1.5
+    assert page.locator("circle.handle").count() == len(page.evaluate("() => state.analysis.handles"))
+    page.screenshot(path=str(shots / "11-stephenson-i-second-drag.png"))
+    drag_handle(page, "rocker_pivot", 0.3, 0.0)  # and back: it closes again
+    page.wait_for_function("() => document.querySelector('#problem').hidden")
+    assert errors == []
+
+
+def test_the_run_report_is_of_this_scene_s_run(app, browser):
+    page, errors = open_app(browser, app.url, accept_downloads=True)
+    pick_preset(page, "luffing-boom")
+    page.fill("#t_end", "0.5")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    pick_preset(page, "thesis-fourbar")  # the boom's run is still the session's, not this scene's
+    page.select_option("#export", "pdf")
+    page.wait_for_selector('#notice.bad:has-text("simulate first")')
+    page.fill("#t_end", "0.5")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    with page.expect_download(timeout=120_000) as dl:
+        page.select_option("#export", "pdf")
+    assert dl.value.suggested_filename == "thesis_fourbar-report.pdf"
+    assert errors == []
+
+
+def test_the_motor_sizing_reads_the_cli_s_motor_speed(app, browser):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "thesis-fourbar")
+    page.click("#sizing-run")
+    page.wait_for_selector("#sizing td", timeout=120_000)
+    rows = page.evaluate("() => [...document.querySelectorAll('#sizing tr')].map((r) => [...r.cells].map((c) => c.textContent))")
+    # `grubler size thesis-fourbar --move trapezoid --distance 3.14159265 --v-max 6.2831853 --a-max 20 --dwell 0.5
+    # --reverse`: "maxon-re40-148877 x 75 ... peak 3.5 A, 32 V, 4500 rpm" (the page had 42972)
+    row = next(r for r in rows if r[1] == "maxon-re40-148877" and r[2] == "75")
+    assert row[7] == "4500" and row[3] == "1.499"
+    assert errors == []
+
+
+def test_a_cylinder_preset_is_drawn_dragged_held_and_sized(app, browser, shots):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "luffing-boom")
+    # the cylinder drawn, barrel and rod, from the ground point to the crank
+    barrel = page.locator("#drawing line.barrel")
+    assert barrel.count() == 1 and page.locator("#drawing line.rod").count() == 1
+    assert [float(barrel.get_attribute(a)) for a in ("x1", "y1")] == [0.9, -0.3]
+    assert "driven by its cylinder lift" in page.inner_text("#drive-note")
+    assert page.is_visible("#force-box") and page.inner_text("#force-name") == "lift force"
+    page.screenshot(path=str(shots / "12-luffing-boom.png"))
+    # Simulate with no force: the boom falls, and the page says why
+    page.fill("#t_end", "1")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    assert "lift was given no force" in page.inner_text("#run-warnings")
+    fall = page.evaluate("() => { const v = state.run.columns.find((c) => c.name === 'theta2').values; return v[v.length - 1] - v[0]; }")
+    assert fall < -5  # deg
+    # with the force that holds it (grubler.system.cylinder_servo.holding_force: 10816 N), it stays
+    page.fill("#actuator-force", "10816")
+    runs = page.evaluate("() => window.grublerStats.simulate.length")
+    page.click("#simulate")
+    page.wait_for_function("(n) => window.grublerStats.simulate.length > n", arg=runs)
+    assert page.inner_text("#run-warnings") == ""
+    drift = page.evaluate("() => { const v = state.run.columns.find((c) => c.name === 'theta2').values; return v[v.length - 1] - v[0]; }")
+    assert abs(drift) < 0.05  # deg
+    assert all(float(t) >= 1000 for t in page.eval_on_selector_all("#panels svg >> nth=1 >> .ytick",
+                                                                    "(gs) => gs.map((g) => g.textContent)"))
+    page.screenshot(path=str(shots / "13-luffing-boom-held.png"), full_page=True)
+    page.click("#edit-mode")
+    # the cylinder's ground point dragged: the form follows
+    drag_handle(page, "actuator[0].from_point", 1.0, -0.4)
+    assert page.input_value('[data-key="actuator[0].from_point"]') == "[1, -0.4]"
+    assert [float(page.locator("#drawing line.barrel").get_attribute(a)) for a in ("x1", "y1")] == [1.0, -0.4]
+    # Run servo asks for the cylinder's FMUs (this app's folder has none), not a DC motor's; Size sizes the
+    # cylinder as `grubler size --cylinder lift` does
+    page.click("#servo-run")
+    page.wait_for_selector('#servo-error:has-text("no PID.fmu, Trajectory.fmu, HydraulicCylinder.fmu in")')
+    assert "DCMotor" not in page.inner_text("#servo-error")
+    pick_preset(page, "luffing-boom")
+    for key, v in {"distance": "0.1", "v_max": "0.05", "a_max": "0.2", "dwell": "0.5"}.items():
+        page.fill(f'#servo-form [data-key="{key}"]', v)
+    page.click("#sizing-run")
+    page.wait_for_selector("#sizing td", timeout=120_000)
+    assert page.inner_text("#sizing-run") == "Size the cylinder"
+    # `grubler size luffing-boom --cylinder lift --move trapezoid --distance 0.1 --v-max 0.05 --a-max 0.2
+    # --dwell 0.5 --reverse`: "9 of 18 ... 1. 63 mm bore, 100 bar margin 2.19 (buckling); 1.34 kW"
+    first = page.evaluate("() => [...document.querySelectorAll('#sizing tr')[1].cells].map((c) => c.textContent)")
+    assert first[:6] == ["1", "63 mm bore, 100 bar", "35.3", "2.192", "buckling", "1.343"]
+    assert "9 of 18 bore × pressure combinations fit" in page.inner_text("#sizing-status")
+    page.locator("#servo").screenshot(path=str(shots / "14-cylinder-sizing.png"))
+    assert errors == []
+
+
+def test_run_servo_of_a_cylinder_preset_is_its_cylinder_under_position_control(servo_app, browser, shots):
+    """The luffing boom's servo is its hydraulic cylinder's valve under a PID on the lift's length, as
+    examples/cylinder_systems.py builds it; `grubler cosim examples/luffing_boom.ssd` of that system reads
+    (its CSV): tracking error up to 9.567 mm, 0.0431 mm at the end, pressure up to 98.42 bar, force 7.225 to
+    13.10 kN.  The page used to put a DC motor on the crank (tracking error up to 6.67 rad, 10 A)."""
+    url, folder = servo_app
+    page, errors = open_app(browser, url)
+    pick_preset(page, "luffing-boom")
+    assert page.is_visible('#servo-form [data-key="bore"]') and page.is_hidden("#s-motor")
+    assert page.input_value('#servo-form [data-key="bore"]') == "0.05"
+    assert page.input_value('#servo-form [data-key="move"]') == "0.1"
+    assert page.input_value('#servo-form [data-key="t_end"]') == "4"
+    page.click("#servo-run")  # the first run compiles the boom's mechanism FMU
+    page.wait_for_selector("#servo-plots svg path", timeout=300_000)
+    status = page.inner_text("#servo-status")
+    assert "a 50/28 mm hydraulic cylinder moves lift 100 mm" in status and "DC" not in status
+
+    def read(text, before, after):
+        return float(text.split(before)[1].split(after)[0])
+
+    assert read(status, "tracking error up to ", " mm") == pytest.approx(9.567, abs=0.05)
+    assert read(status, "mm (", " mm at the end") == pytest.approx(0.0431, abs=0.005)
+    assert read(status, "pressure up to ", " bar") == pytest.approx(98.42, abs=0.2)
+    assert "(supply 160 bar)" in status and read(status, "force ", " to") == pytest.approx(7.225, abs=0.02)
+    assert page.locator("#servo-plots svg").count() == 4
+    assert page.text_content("#servo-plots svg >> nth=2 >> text.ylabel") == "bar"
+    page.locator("#servo").screenshot(path=str(shots / "15-luffing-boom-servo.png"))
+    # a softer gain re-runs at once (the mechanism FMU kept) and follows worse
+    page.fill('#servo-form [data-key="K"]', "10")
+    page.press('#servo-form [data-key="K"]', "Enter")
+    page.wait_for_function("() => window.grublerStats.servo.length >= 2", timeout=120_000)
+    assert read(page.inner_text("#servo-status"), "tracking error up to ", " mm") > 9.567 * 1.5
+    # and a revolute drive's scene gets the DC motor back
+    pick_preset(page, "thesis-fourbar")
+    assert page.is_visible("#s-motor") and page.is_hidden('#servo-form [data-key="bore"]')
+    assert page.input_value('#servo-form [data-key="K"]') == "300" and page.inner_text("#k-unit") == "V/rad"
     assert errors == []

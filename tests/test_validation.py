@@ -131,7 +131,7 @@ def test_initial_state_that_cannot_be_assembled():
     with pytest.raises(AssemblyError) as info:
         grubler.simulate(load_scene(text), t_end=0.1)
     msg = str(info.value)
-    assert "theta2 = 1.74533 held" in msg and "triangle inequality" in msg and "0.6 to 1.2 m" in msg
+    assert "theta2 = 100 deg (1.74533 rad) held" in msg and "triangle inequality" in msg and "0.6 to 1.2 m" in msg
 
 
 def test_drive_and_rates_on_a_locked_coordinate():
@@ -229,7 +229,7 @@ def test_info_on_a_loop_that_closes_nowhere_gives_the_reason_alone(capsys, tmp_p
     assert run(["info", str(scene)]) == 2
     out, err = capsys.readouterr()
     assert out == ""  # no Grashof class of a mechanism that cannot be assembled
-    assert "theta2 = 1.74533 held (rad)" in err and "0.152 m from its closure" in err
+    assert "theta2 = 100 deg (1.74533 rad) held" in err and "0.152 m from its closure" in err
 
 
 def test_a_sweep_range_written_without_its_count_is_explained():

@@ -148,6 +148,8 @@ class AppServer(ThreadingHTTPServer):
         self.url = f"http://{'127.0.0.1' if host in ('0.0.0.0', '') else host}:{port}/"
         # the servo's FMUs, unpacked once for every re-run (a gain tuned is a re-run)
         self.unpacked = cosim.UnpackedFMUs()
+        # a cylinder's scene runs a mechanism FMU of its own: compiled once per scene, kept until the app stops
+        self.builds = limits.temp_dir("grubler-app-builds-")
 
         self.client_timeout = CLIENT_TIMEOUT
         self.connections = threading.BoundedSemaphore(MAX_CONNECTIONS)
@@ -155,6 +157,7 @@ class AppServer(ThreadingHTTPServer):
     def server_close(self) -> None:
         super().server_close()
         self.unpacked.close()
+        limits.remove_temp_dir(self.builds)
 
     def process_request(self, request, client_address):
         # a thread per connection, up to MAX_CONNECTIONS: a client that opens thousands is not given thousands
@@ -513,7 +516,7 @@ def a_drag(server, session, body):
     out = _form(moved)
     try:
         out.update(actions.analyse_drag(data, moved, handle, x, y, body.get("trace"), live=body.get("live") is True,
-                                        kinematics=body.get("kinematics") is True))
+                                        kinematics=body.get("kinematics") is True, drawn=body.get("drawn")))
     except GrublerError as exc:
         out["error"] = actions.error_of(exc)
     return out
@@ -563,7 +566,8 @@ def a_simulate(server, session, body, gone=None):
     with session.lock:
         session.cancel = threading.Event()
         res, view = actions.run_simulation(_data(body), body.get("t_end"), body.get("dt_out"), body.get("torque"),
-                                           cancel=AnyOf(session.cancel, gone), trace=body.get("trace"))
+                                           cancel=AnyOf(session.cancel, gone), trace=body.get("trace"),
+                                           actuator_force=body.get("actuator_force"))
         session.result = res
     return view
 
@@ -574,7 +578,11 @@ def a_cancel(server, session, body):
 
 
 def a_servo_defaults(server, session, body):
-    return actions.servo_defaults()
+    """The motor servo's defaults; with a scene, its cylinder servo's too (None: it has no actuator)."""
+    out = actions.servo_defaults()
+    if "scene" in body:
+        out["cylinder"] = actions.cylinder_servo_defaults(_data(body))
+    return out
 
 
 def a_servo(server, session, body, gone=None):
@@ -583,7 +591,8 @@ def a_servo(server, session, body, gone=None):
     with session.lock:
         session.cancel = threading.Event()
         return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"),
-                                 cancel=AnyOf(session.cancel, gone), unpacked=server.unpacked)
+                                 cancel=AnyOf(session.cancel, gone), unpacked=server.unpacked,
+                                 build_dir=server.builds)
 
 
 def a_sizing(server, session, body):

@@ -498,13 +498,15 @@ def export(scene, dest: Path | None = None, platforms=None, field: str = "output
     return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, platforms, fmi)
 
 
-def scene_fmu(scene: Scene, fmu_dir, build_dir=None) -> tuple:
+def scene_fmu(scene: Scene, fmu_dir, build_dir=None, reuse: bool = False) -> tuple:
     """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
 
     ``Mechanism.fmu`` (``python build_fmu.py``) serves every scene of its shape
     (three moving links, one closure: every four-link preset) through its
     parameters.  A scene of another shape gets its own FMU, exported into
-    ``build_dir`` (default ``fmu_dir``) as ``Mechanism_<scene>.fmu``.
+    ``build_dir`` (default ``fmu_dir``) as ``Mechanism_<scene>.fmu``; with
+    ``reuse``, one already there is taken as it is (a folder the caller keeps
+    for this very scene: the app's, keyed by the scene's text).
 
     Returns
     -------
@@ -523,7 +525,8 @@ def scene_fmu(scene: Scene, fmu_dir, build_dir=None) -> tuple:
     if same_shape(scene.mechanism, load_scene(STANDARD_SCENE).mechanism):
         return d / "Mechanism.fmu", fmu_parameters(scene)
     path = Path(build_dir or d) / f"{identifier_for(Path('Mechanism_' + (scene.name or 'scene')))}.fmu"
-    export(scene, path)
+    if not (reuse and path.is_file()):
+        export(scene, path)
     return path, fmu_parameters(scene)
 
 

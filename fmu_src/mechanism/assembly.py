@@ -128,7 +128,10 @@ def assemble(model: Mechanism, z0: np.ndarray, zd0: np.ndarray | None = None,
     if status != binding.OK:
         names = model.free_names
         # (a slide's coordinate is a length, a revolute's an angle)
-        held_txt = ", ".join(f"{names[i]} = {z0[i]:.6g} held ({'m' if names[i].startswith('B') else 'rad'})"
+        from grubler.mechanism.scene import coordinate_text  # (scene imports the builders, which assemble)
+
+        # in degrees as a scene writes its angles, and in radians as the run's CSV has them
+        held_txt = ", ".join(f"{names[i]} = {coordinate_text(names[i], z0[i], radians=True)} held"
                              for i in held) or "nothing held"
         unit = "m" if all(c.kind == "revolute" for c in model.closures) else "m (or rad, for a held orientation)"
         why = explain_unclosable(model, z0, held)

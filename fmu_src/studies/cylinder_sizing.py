@@ -58,6 +58,9 @@ from grubler.studies.sizing import DutyCycle, required_drive
 STEEL_MODULUS = 2.1e11  # Pa, the rod's Young's modulus
 BUCKLING_SAFETY = 3.5  # the usual factor on Euler's load for a cylinder's rod
 LIMITS = ("force", "flow", "stroke", "buckling")
+# the candidates held against a cycle unless told otherwise (`grubler size --cylinder`'s defaults, the app's
+# Size): bores in mm and supply pressures in bar as the options are typed, the rod over the bore, the stroke in m
+CANDIDATE_DEFAULTS = {"bores": "32,40,50,63,80,100", "pressures": "100,160,210", "rod_ratio": 0.56, "stroke": 0.3}
 # the units of the study table's numbers (CylinderAssessment.summary), as people size a cylinder
 SUMMARY_UNITS = {"bore": "mm", "rod": "mm", "supply_pressure": "bar", "installed_power": "kW"}
 

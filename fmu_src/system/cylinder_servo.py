@@ -97,6 +97,28 @@ class CylinderServoDesign:
     step: float = 1e-3
 
 
+# the cylinder presets under position control, as examples/cylinder_systems.py writes them (and the app's
+# Run servo starts from): what each one's cylinder and move are
+PRESET_DESIGNS = {
+    # a four-bar boom, 200 kg past the head, lifted 0.1 m of cylinder stroke by a 50/28 mm hydraulic cylinder
+    "luffing-boom": CylinderServoDesign(
+        "luffing-boom", cylinder="hydraulic", move=0.1, speed=0.1, acceleration=0.5, t_end=4.0,
+        pid={"K": 20.0, "Ts": 1e-3, "u_min": -1.0, "u_max": 1.0}),
+    # the slider-crank of the second type: a 32/18 mm hydraulic cylinder pulls the rod 50 mm down its line;
+    # the seals' friction changes sign over 50 mm/s, which a 1 ms coupling to a 12 kg rod can follow
+    "cylinder-slider-crank": CylinderServoDesign(
+        "cylinder-slider-crank", cylinder="hydraulic", move=-0.05, speed=0.1, acceleration=0.5, t_end=3.0,
+        start_position=0.1, constants={"bore": 0.032, "rod": 0.018, "stroke": 0.2, "smoothing_speed": 0.05},
+        pid={"K": 20.0, "Ts": 1e-3, "u_min": -1.0, "u_max": 1.0}),
+    # a 32/12 mm pneumatic cylinder closes the clamp to 6 degrees short of its toggle;
+    # PI(D): a pneumatic position loop needs the integral to pull through the seals' friction
+    "toggle-clamp": CylinderServoDesign(
+        "toggle-clamp", cylinder="pneumatic", move=0.02, speed=0.05, acceleration=0.5, t_end=4.0,
+        start_position=0.02, constants={"smoothing_speed": 0.05},
+        pid={"K": 20.0, "Ti": 0.3, "Td": 0.01, "N": 10.0, "Ts": 1e-3, "u_min": -1.0, "u_max": 1.0}),
+}
+
+
 def start_length(scene, actuator: str) -> float:
     """The actuator's length at the scene's assembled start, m.
 
@@ -140,11 +162,12 @@ def holding_force(scene, actuator: str) -> float:
 
 
 def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name: str = "cylinder_servo",
-                          build_dir: str | Path | None = None) -> System:
+                          build_dir: str | Path | None = None, reuse: bool = False) -> System:
     """The SSP system of a cylinder-driven linkage under position control (FMUs taken from ``fmu_dir``).
 
     A mechanism of another shape than ``Mechanism.fmu``'s gets its own FMU,
-    built in ``build_dir`` (default ``fmu_dir``).
+    built in ``build_dir`` (default ``fmu_dir``); with ``reuse``, one built
+    there before is taken (:func:`grubler.fmi.build.scene_fmu`).
 
     Raises
     ------
@@ -204,7 +227,7 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
     s.add("trajectory", d / design.trajectory_fmu, **(design.setpoint or move))
     s.add("controller", d / "PID.fmu", **design.pid)
     s.add("cylinder", d / FMU_OF[design.cylinder], **cylinder_parameters(cylinder), **start)
-    mech_fmu, scene_params = scene_fmu(scene, d, build_dir)
+    mech_fmu, scene_params = scene_fmu(scene, d, build_dir, reuse=reuse)
     s.add("mechanism", mech_fmu, **scene_params, **({"load_torque": scene.load_torque} if model.load else {}))
     s.connect("trajectory.position", "controller.setpoint")
     s.connect(f"mechanism.{act}_length", "controller.measurement")
@@ -231,4 +254,4 @@ def cylinder_servo_system(design: CylinderServoDesign, fmu_dir: str | Path, name
     return s
 
 
-__all__ = ["CylinderServoDesign", "cylinder_servo_system", "holding_force", "start_length"]
+__all__ = ["CylinderServoDesign", "PRESET_DESIGNS", "cylinder_servo_system", "holding_force", "start_length"]

@@ -96,7 +96,12 @@ async function analyse(body, opts = {}) {
 
 function show(out, opts = {}) {
   state.scene = out.scene;
+  // an answer without a sketch (a scene that does not build) keeps the facts and the drawing there were
+  if (!out.frame && state.analysis && state.analysis.frame && opts.drag) {
+    out = { ...state.analysis, scene: out.scene, fields: out.fields, error: out.error };
+  }
   state.analysis = out;
+  if (out.frame) state.drawn = out.sketch_of || out.scene;  // the scene the drawing is of
   const c = out.class;
   $("kind").textContent = c ? c.name + (c.inversion ? " — " + c.inversion : "") : "–";
   $("grashof").textContent = c && c.grashof
@@ -128,7 +133,13 @@ function show(out, opts = {}) {
   if (!opts.dragging) remember();
 }
 
-function fmt(v) { return Number(v).toPrecision(4).replace(/\.?0+$/, "").replace(/\.?0+e/, "e"); }
+// four significant digits, the zeros after a decimal point dropped (8000 stays 8000; 1.500e+6 is 1.5e6)
+function fmt(v) { return trimZeros(Number(v).toPrecision(4)); }
+function trimZeros(s) {
+  const [mantissa, exponent] = s.split("e");
+  const m = mantissa.includes(".") ? mantissa.replace(/\.?0+$/, "") : mantissa;
+  return exponent === undefined ? m : m + "e" + exponent.replace(/^\+/, "");
+}
 
 function renderFields(fields) {
   const form = $("fields");
@@ -238,6 +249,7 @@ function points(things) {
     f.bars.forEach((b) => { out.push(b, [b[2], b[3]]); });
     out.push(...f.joints, ...f.fixed, ...f.blocks);
     f.plates.forEach((pl) => out.push(...pl));
+    (f.actuators || []).forEach((a) => out.push([a[0], a[1]], [a[2], a[3]]));
   }
   return out;
 }
@@ -257,6 +269,10 @@ function frameMarkup(f, cls) {
   }
   for (const pl of f.plates) out += `<polygon class="plate" points="${pl.map((p) => p.join(",")).join(" ")}"/>`;
   for (const b of f.bars) out += `<line class="bar-link" x1="${b[0]}" y1="${b[1]}" x2="${b[2]}" y2="${b[3]}"/>`;
+  for (const a of f.actuators || []) {  // a cylinder: the rod along its whole line, the barrel from its first point
+    out += `<line class="rod" x1="${a[0]}" y1="${a[1]}" x2="${a[2]}" y2="${a[3]}"/>`;
+    out += `<line class="barrel" x1="${a[0]}" y1="${a[1]}" x2="${a[4]}" y2="${a[5]}"/>`;
+  }
   for (const b of f.blocks) {
     const w = 4 * r, h = 2.6 * r, deg = (b[2] * 180) / Math.PI;
     out += `<rect class="block" x="${-w / 2}" y="${-h / 2}" width="${w}" height="${h}" transform="translate(${b[0]},${b[1]}) rotate(${deg})"/>`;
@@ -483,7 +499,7 @@ function setupDrag() {
     const id = evt.target.dataset && evt.target.dataset.handle;
     if (!id || !state.scene) return;
     stopRun();
-    state.dragging = { id, start: state.scene };
+    state.dragging = { id, start: state.scene, drawn: state.drawn };
     state.lastMove = null;
     svg.setPointerCapture(evt.pointerId);
     evt.preventDefault();
@@ -516,7 +532,8 @@ function setupDrag() {
       const last = state.lastMove;
       if (last && !last.full && state.analysis && state.analysis.scene) {
         try {
-          show(await api("drag", { scene: last.drag.start, handle: last.drag.id, x: last.x, y: last.y, trace: state.trace }));
+          show(await api("drag", { scene: last.drag.start, handle: last.drag.id, x: last.x, y: last.y, trace: state.trace,
+            drawn: last.drag.drawn }), { drag: true });
         } catch (e) { notice(`${e.field}: ${e.message}`, true); }
       }
       const a = state.analysis;
@@ -551,8 +568,9 @@ async function pump() {
     const move = { x, y, drag };
     state.lastMove = move;
     const timing = {};
-    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live }, timing);
-    show(out, { dragging: true });
+    const out = await api("drag", { scene: drag.start, handle: drag.id, x, y, trace: state.trace, live, drawn: drag.drawn },
+      timing);
+    show(out, { dragging: true, drag: true });
     record("drag", at, timing);
     move.full = !live;  // an answer with the full curve: nothing to settle
   } catch (e) {
@@ -569,12 +587,14 @@ async function simulate() {
   $("simulate").disabled = true;
   $("cancel").disabled = false;
   $("run-status").textContent = "simulating…";
+  $("run-warnings").textContent = "";
   $("field-t_end").textContent = "";
   stopRun();
   try {
     const timing = {};
     const run = await api("simulate", {
       scene: state.scene, t_end: $("t_end").value, torque: $("torque").value, trace: state.trace,
+      actuator_force: $("actuator-force").value,
     }, timing);
     decodeColumns(run.columns);
     state.run = run;
@@ -591,6 +611,7 @@ async function simulate() {
     drawPanels();
     record("simulate", t0, timing);
     $("run-status").textContent = run.summary;
+    $("run-warnings").textContent = (run.warnings || []).map((w) => "warning: " + w).join("\n");
     play();
   } catch (e) {
     const at = e.field === "t_end" ? $("field-t_end") : $("run-status");
@@ -696,18 +717,39 @@ function label(name) {
   return c ? c.label : name;
 }
 
+// about n round values over [lo, hi] (1, 2 or 5 times a power of ten apart), and that step
 function ticks(lo, hi, n) {
   const step0 = (hi - lo) / n;
   const mag = Math.pow(10, Math.floor(Math.log10(step0)));
   const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => s >= step0) || step0;
   const out = [];
-  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+  const first = Math.ceil(lo / step);
+  for (let k = first; k * step <= hi + step * 1e-9; k++) out.push(k === 0 ? 0 : k * step);
+  out.step = step;
   return out;
+}
+
+// a tick's label, exact to its step: as many decimals as the step has (0.25 apart: 2), in powers of ten
+// beyond a million or below a ten-thousandth
+function tickText(v, step) {
+  if (v === 0) return "0";
+  const place = (x) => Math.floor(Math.log10(Math.abs(x)) + 1e-9);
+  if (Math.abs(v) >= 1e6 || step < 1e-4) {
+    return trimZeros(v.toExponential(Math.min(20, Math.max(0, place(v) - place(step) + 1))));
+  }
+  return trimZeros(v.toFixed(Math.min(20, Math.max(0, -place(step) + 1))));
+}
+
+// the y-axis says what is plotted: one signal's words and unit, or the units of several
+function axisLabel(cols) {
+  if (cols.length === 1) return cols[0].unit ? `${cols[0].name}, ${cols[0].unit}` : cols[0].name;
+  const units = [...new Set(cols.map((c) => c.unit || (/\(([^()]*)\)$/.exec(c.label) || [])[1] || ""))];
+  return units.filter(Boolean).join(", ");
 }
 
 // one plot: signals against time over [t0, t1], with optional horizontal limit lines
 function plot(svg, t, cols, t0, t1, opts = {}) {
-  const W = svg.clientWidth || 800, H = opts.height || 220, L = 64, R = 12, T = 10, B = 26;
+  const W = svg.clientWidth || 800, H = opts.height || 220, L = 84, R = 12, T = 10, B = 26;
   svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
   let lo = Infinity, hi = -Infinity;
   for (const c of cols) {
@@ -726,13 +768,20 @@ function plot(svg, t, cols, t0, t1, opts = {}) {
   const text = (x, y, anchor, fill, body) =>
     `<text x="${x}" y="${y}" text-anchor="${anchor}" font-size="11" fill="${fill}" font-family="sans-serif">${escapeXml(body)}</text>`;
   let html = `<rect x="0" y="0" width="${W}" height="${H}" fill="#fff"/>`;
-  for (const v of ticks(lo, hi, 5)) {
-    html += `<line x1="${L}" x2="${W - R}" y1="${Y(v)}" y2="${Y(v)}" stroke="#e1e4e8"/>` + text(L - 6, Y(v) + 4, "end", "#57606a", fmt(v));
+  const ys = ticks(lo, hi, 5), xs = ticks(t0, t1, 8);
+  for (const v of ys) {
+    html += `<line x1="${L}" x2="${W - R}" y1="${Y(v)}" y2="${Y(v)}" stroke="#e1e4e8"/>`;
+    html += `<g class="ytick" data-y="${Y(v)}">` + text(L - 6, Y(v) + 4, "end", "#57606a", tickText(v, ys.step)) + "</g>";
   }
-  for (const v of ticks(t0, t1, 8)) {
-    html += `<line x1="${X(v)}" x2="${X(v)}" y1="${T}" y2="${H - B}" stroke="#eef0f2"/>` + text(X(v), H - B + 15, "middle", "#57606a", fmt(v));
+  for (const v of xs) {
+    html += `<line x1="${X(v)}" x2="${X(v)}" y1="${T}" y2="${H - B}" stroke="#eef0f2"/>` + text(X(v), H - B + 15, "middle", "#57606a", tickText(v, xs.step));
   }
   html += text(W - R, H - 3, "end", "#57606a", "time, s");
+  const ylabel = axisLabel(cols);
+  if (ylabel) {
+    const mid = (T + H - B) / 2;
+    html += `<text class="ylabel" x="12" y="${mid}" text-anchor="middle" font-size="11" fill="#57606a" font-family="sans-serif" transform="rotate(-90 12 ${mid})">${escapeXml(ylabel)}</text>`;
+  }
   html += `<rect x="${L}" y="${T}" width="${W - L - R}" height="${H - T - B}" fill="none" stroke="#afb8c1"/>`;
   for (const h of opts.limits || []) {
     html += `<line x1="${L}" x2="${W - R}" y1="${Y(h.value)}" y2="${Y(h.value)}" stroke="#b42318" stroke-dasharray="6 3"/>`;
@@ -853,9 +902,8 @@ async function setupServo() {
     o.textContent = m;
     sel.appendChild(o);
   }
-  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
-    if (d[e.dataset.key] !== undefined) e.value = String(d[e.dataset.key]);
-  });
+  state.servoDefaults = d;
+  if ($("force-box").hidden) fillServo(d);  // a motor's scene (a cylinder's fills its own)
   $("servo-run").addEventListener("click", runServo);
   $("sizing-run").addEventListener("click", runSizing);
   // a new gain re-runs the response at once, once there is one to compare
@@ -879,7 +927,11 @@ async function runServo() {
     const lim = out.limits;
     const host = $("servo-plots");
     host.textContent = "";
-    const panels = [
+    const supply = lim.supply_pressure ? [{ value: lim.supply_pressure, label: "supply (rated)" }] : [];
+    const panels = out.kind === "cylinder" ? [
+      [[col("error")], []], [[col("setpoint"), col("response")], []],
+      [[col("pressure_a"), col("pressure_b")], supply], [[col("force")], []],
+    ] : [
       [[col("error")], []],
       [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
         { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
@@ -909,14 +961,19 @@ async function runSizing() {
   try {
     const out = await api("sizing", { scene: state.scene, servo: servoSettings() });
     const table = $("sizing");
-    table.innerHTML = "<tr><th>#</th><th>motor</th><th>ratio</th><th>margin</th><th>binding limit</th>" +
-      "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th><th class=\"why\">why not</th></tr>";
+    const cylinder = out.kind === "cylinder";  // bore x supply pressure, as `grubler size --cylinder` ranks them
+    table.innerHTML = (cylinder
+      ? "<tr><th>#</th><th>cylinder</th><th>rod, mm</th><th>margin</th><th>binding limit</th><th>installed power, kW</th>"
+      : "<tr><th>#</th><th>motor</th><th>ratio</th><th>margin</th><th>binding limit</th>" +
+        "<th>peak current, A</th><th>peak voltage, V</th><th>motor speed, rpm</th>") + "<th class=\"why\">why not</th></tr>";
     const fits = out.rows.filter((r) => r.fits).length;
     const shown = out.rows.slice(0, fits + 5);  // the ones that fit, and the nearest misses
     shown.forEach((r, k) => {
       const tr = document.createElement("tr");
       if (!r.fits) tr.className = "no";
-      for (const v of [r.fits ? k + 1 : "×", r.motor, r.ratio, r.margin, r.binding, r.peak_current, r.peak_voltage, r.rpm]) {
+      const cells = cylinder ? [r.cylinder, r.rod, r.margin, r.binding, r.power]
+        : [r.motor, r.ratio, r.margin, r.binding, r.peak_current, r.peak_voltage, r.rpm];
+      for (const v of [r.fits ? k + 1 : "×", ...cells]) {
         const td = document.createElement("td");
         td.textContent = String(v);
         tr.appendChild(td);
@@ -927,8 +984,8 @@ async function runSizing() {
       tr.appendChild(why);
       table.appendChild(tr);
     });
-    $("sizing-status").textContent = `${out.cycle}: ${fits} of ${out.rows.length} motor × ratio combinations fit, ` +
-      `best first` + (out.rows.length > shown.length ? `; the ${out.rows.length - shown.length} further misses are not shown` : "");
+    $("sizing-status").textContent = `${out.cycle}: ${fits} of ${out.rows.length} ` +
+      (cylinder ? "bore × pressure combinations fit, least installed power first" : "motor × ratio combinations fit, best first") + (out.rows.length > shown.length ? `; the ${out.rows.length - shown.length} further misses are not shown` : "");
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
     $("sizing-status").textContent = "";
@@ -949,6 +1006,10 @@ async function download() {
 
 // an export is a file, or a refusal in JSON
 async function exportFile(kind) {
+  if (kind === "pdf" && !state.run) {  // the session's run may be another scene's, which the page has left
+    notice("report: simulate first: the report is of this scene's run", true);
+    return;
+  }
   notice(`exporting ${kind}…`);
   const r = await fetch("/api/export", {
     method: "POST", headers: { "Content-Type": "application/json" },
@@ -982,6 +1043,7 @@ function forgetRun() {
   $("png").disabled = true;
   $("csv").classList.add("disabled");
   $("run-status").textContent = "";
+  $("run-warnings").textContent = "";
   if (state.showingRun && state.analysis) {
     state.showingRun = false;
     $("edit-mode").disabled = true;
@@ -994,8 +1056,55 @@ async function loadData(data, label) {
   forgetRun();
   $("trace").value = "";
   state.trace = "";
+  // a run's length and efforts are the new scene's own (its form's) until typed again
+  for (const id of ["t_end", "torque", "actuator-force"]) $(id).value = "";
+  $("field-t_end").textContent = "";
+  showSource(data);
+  await showDrives(data);  // before the drawing: the page is the new scene's once its sketch is on it
   await analyse({ scene: data }, { fit: true });
   if (label) notice(label);
+}
+
+// what drives the scene: a cylinder's force box for Simulate, and the servo that fits it (the cylinder's
+// valve under position control of its length, or a DC motor on the drive joint), from its defaults
+async function showDrives(data) {
+  const acts = (Array.isArray(data && data.actuator) ? data.actuator : []).map((a) => String(a && a.name));
+  const cylinder = acts.length > 0;
+  $("force-box").hidden = !cylinder;
+  $("force-name").textContent = cylinder ? acts[0] + " force" : "";
+  $("drive-note").textContent = cylinder
+    ? `this scene is driven by its cylinder ${acts[0]}: Simulate pushes it with the force given (none: 0 N, and ` +
+      "the mechanism falls); Run servo puts it under position control"
+    : "";
+  $("sizing-run").textContent = cylinder ? "Size the cylinder" : "Size the motor";
+  document.querySelectorAll("#servo .motor-only").forEach((e) => { e.hidden = cylinder; });
+  document.querySelectorAll("#servo .cyl-only").forEach((e) => { e.hidden = !cylinder; });
+  $("k-unit").textContent = cylinder ? "1/m" : "V/rad";
+  $("s-actuator").textContent = cylinder ? acts[0] + ", a cylinder" : "cylinder";
+  // the last scene's servo run is not this one's: its graphs go, and a gain typed now does not re-run it
+  state.servo = null;
+  $("servo-plots").textContent = "";
+  $("servo-status").textContent = "";
+  $("servo-error").textContent = "";
+  try {
+    const d = cylinder ? (await api("servo_defaults", { scene: data })).cylinder : state.servoDefaults;
+    if (d) fillServo(d);
+  } catch (e) { $("servo-error").textContent = `${e.field}: ${e.message}`; }
+}
+
+function fillServo(d) {
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    if (d[e.dataset.key] !== undefined && d[e.dataset.key] !== null) e.value = String(d[e.dataset.key]);
+  });
+}
+
+// the Preset and Type menus name the scene's preset (by its name) and its mechanism's type, or none
+function showSource(data) {
+  const name = data && data.name;
+  $("preset").value = [...$("preset").options].some((o) => o.value === name) ? name : "";
+  const type = data && data.mechanism && data.mechanism.type;
+  const option = [...$("type").options].find((o) => o.value && o.textContent === type);
+  $("type").value = option ? option.value : "";
 }
 
 async function start() {
@@ -1017,14 +1126,13 @@ async function start() {
   $("preset").addEventListener("change", async () => {
     if (!$("preset").value) return;
     const { scene } = await api("preset", { name: $("preset").value });
-    $("type").value = "";
     await loadData(scene);
   });
   $("type").addEventListener("change", async () => {
     if (!$("type").value) return;
+    const said = `a ${$("type").selectedOptions[0].textContent} from the ${$("type").value} preset's dimensions`;
     const { scene } = await api("preset", { name: $("type").value });
-    $("preset").value = "";
-    await loadData(scene, `a ${$("type").selectedOptions[0].textContent} from the ${$("type").value} preset's dimensions`);
+    await loadData(scene, said);
   });
   $("files").addEventListener("change", async () => {
     if (!$("files").value) return;
