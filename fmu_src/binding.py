@@ -80,15 +80,16 @@ class MasterFmu(ctypes.Structure):
     _fields_ = [("instance", c_void_p), ("set_real", c_void_p), ("get_real", c_void_p), ("do_step", c_void_p),
                 ("n_in", c_size_t), ("in_vr", c_void_p), ("in_slot", c_void_p), ("in_buf", c_void_p),
                 ("n_conn", c_size_t), ("n_read", c_size_t), ("read_vr", c_void_p), ("read_buf", c_void_p),
-                ("out_slot", c_void_p), ("seconds", c_void_p)]
+                ("out_slot", c_void_p), ("seconds", c_void_p), ("in_mode", c_void_p)]
 
 
 class MasterRun(ctypes.Structure):
     """``grb_run`` (system/c/master.c): the master, its clock, and where recorded rows go."""
 
-    _fields_ = [("jacobi", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
+    _fields_ = [("scheme", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
                 ("n_steps", c_long), ("record_every", c_long), ("n_columns", c_size_t), ("column_fmu", c_void_p),
-                ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p)]
+                ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p), ("n_slots", c_size_t),
+                ("start", c_void_p), ("prev", c_void_p)]
 
 
 class MasterFailure(ctypes.Structure):

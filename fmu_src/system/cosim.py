@@ -26,7 +26,7 @@ True
 
 :func:`run`'s ``master`` is one of :data:`MASTERS`:
 
->>> MASTERS == (GAUSS_SEIDEL, JACOBI) == ("gauss-seidel", "jacobi")
+>>> MASTERS == (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE) == ("gauss-seidel", "jacobi", "extrapolate")
 True
 """
 
@@ -43,6 +43,7 @@ from grubler.errors import Cancelled
 from grubler.limits import MAX_STEPS, brief, check_count, check_size
 from grubler.system.interface import FmuInterface, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
+from grubler.system.coupling import input_modes
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
 from grubler.system.result import CosimResult
@@ -50,7 +51,9 @@ from grubler.system.time_scales import TimeScale, step_warnings, time_scales
 
 GAUSS_SEIDEL = "gauss-seidel"
 JACOBI = "jacobi"
-MASTERS = (GAUSS_SEIDEL, JACOBI)
+EXTRAPOLATE = "extrapolate"  # Gauss-Seidel's order, continuous inputs at the step's midpoint (system/coupling.py)
+MASTERS = (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE)
+_SCHEME = {GAUSS_SEIDEL: 0, JACOBI: 1, EXTRAPOLATE: 2}  # system/c/master.c's grb_scheme
 _CHUNK = 1000  # communication steps per call of the C loop when nothing is to be read between steps
 
 
@@ -66,8 +69,13 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     t_end, step, start_time : float, optional
         Default to the system's DefaultExperiment and grubler annotation
         (``t_end`` 1 s, ``step`` 1 ms, ``start_time`` 0 when neither says).
-    master : {'gauss-seidel', 'jacobi'}
-        Jacobi steps every FMU on the previous step's values (what
+    master : {'gauss-seidel', 'jacobi', 'extrapolate'}
+        Extrapolate steps in Gauss-Seidel's order, but holds each continuous
+        input of a continuous component at its value at the step's midpoint,
+        interpolated or extrapolated from its source's communication points
+        (:mod:`grubler.system.coupling`): second order in the step where
+        Gauss-Seidel is first (the servo four-bar's crank at 1 ms, quantisation
+        off: docs/cosim.md).  Jacobi steps every FMU on the previous step's values (what
         ``fmpy.ssp.simulate_ssp`` does), for comparison: every connection then
         adds a step of delay, and a feedback loop through it loses accuracy
         (the servo four-bar's crank at 1 ms: 27 times further from a monolithic
@@ -124,7 +132,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     >>> run(s, t_end=1.0, master="newton")
     Traceback (most recent call last):
     ...
-    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, got 'newton'
+    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, extrapolate, got 'newton'
     >>> tmp.cleanup()
     """
     if not isinstance(system, System):
@@ -184,9 +192,10 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         times[0] = t0
         for j, (c, i) in enumerate(table.sources):
             data[0, j] = insts[c].read_buf[i] if c else values[i]
+        modes = input_modes(system, interfaces, seq) if master == EXTRAPOLATE else None
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
-                     data, profile)
+                     data, profile, modes and [modes[n] for n in seq])
         _step_through(loop, n_steps, cancel)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
@@ -359,18 +368,24 @@ class _Loop:
 
     def __init__(self, insts: list[_Instance], values, master: str, t0: float, step: float, t_end: float,
                  n_steps: int, record_every: int, column_fmu: list[int], column_index: list[int],
-                 times: np.ndarray, data: np.ndarray, profile: bool):
+                 times: np.ndarray, data: np.ndarray, profile: bool, in_modes: list[list[int]] | None = None):
         from grubler import binding
 
         self.insts, self.values = insts, values
         self.seconds = np.zeros((len(insts), 3)) if profile else None
+        # the extrapolating master's input modes and its history of the values (start, previous point)
+        self._modes = [(ctypes.c_int * len(m))(*m) for m in in_modes] if in_modes is not None else None
+        self._history = np.zeros((2, len(values))) if in_modes is not None else None
         self.fmus = (binding.MasterFmu * len(insts))(*[
-            inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data)
+            inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data,
+                           None if self._modes is None else self._modes[k])
             for k, inst in enumerate(insts)])
         self._columns = (np.asarray(column_fmu, dtype=np.intc), np.asarray(column_index, dtype=np.intc))
-        self.run = binding.MasterRun(master == JACOBI, t0, step, t_end, n_steps, record_every, len(column_fmu),
+        history = (0, None, None) if self._history is None else (
+            len(values), self._history[0].ctypes.data, self._history[1].ctypes.data)
+        self.run = binding.MasterRun(_SCHEME[master], t0, step, t_end, n_steps, record_every, len(column_fmu),
                                      self._columns[0].ctypes.data, self._columns[1].ctypes.data,
-                                     times.ctypes.data, data.ctypes.data)
+                                     times.ctypes.data, data.ctypes.data, *history)
         self.t, self.row, self.failure = ctypes.c_double(t0), ctypes.c_long(1), binding.MasterFailure()
         self._steps = binding.library().grb_master_steps
 
@@ -412,4 +427,4 @@ def _initialise(insts: dict[str, _Instance], seq: list[str], values, t0: float) 
 
 
 __all__ = ["run", "UnpackedFMUs", "check", "order", "interfaces_of", "initial_inputs", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
-           "GAUSS_SEIDEL", "JACOBI", "MASTERS"]
+           "GAUSS_SEIDEL", "JACOBI", "EXTRAPOLATE", "MASTERS"]

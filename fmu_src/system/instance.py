@@ -141,8 +141,9 @@ class _Instance:
         """The error of a call this FMU refused, with the last message it logged."""
         return CosimError(f"{self.name}: {what} failed (status {_STATUS.get(status, status)})" + _last_message(self))
 
-    def loop_view(self, seconds: int | None) -> "binding.MasterFmu":
-        """This instance as the C stepping loop sees it (``seconds``: where it sums its call times, or None)."""
+    def loop_view(self, seconds: int | None, in_mode=None) -> "binding.MasterFmu":
+        """This instance as the C stepping loop sees it (``seconds``: where it sums its call times, or None;
+        ``in_mode``: the extrapolating master's mode of each input, a ctypes int array, or None)."""
         from grubler import binding
 
         def at(fn) -> int:
@@ -152,7 +153,8 @@ class _Instance:
                                  ctypes.addressof(self.in_vr), ctypes.addressof(self.in_slot),
                                  ctypes.addressof(self.in_buf), self.n_conn, self.n_read,
                                  ctypes.addressof(self.read_vr), ctypes.addressof(self.read_buf),
-                                 ctypes.addressof(self.out_slots), seconds)
+                                 ctypes.addressof(self.out_slots), seconds,
+                                 None if in_mode is None else ctypes.addressof(in_mode))
 
     def free(self):
         for call in (self.fmu.terminate, self.fmu.freeInstance):
