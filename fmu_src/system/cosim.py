@@ -43,7 +43,7 @@ from grubler.errors import Cancelled
 from grubler.limits import MAX_STEPS, brief, check_count, check_size
 from grubler.system.interface import FmuInterface, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
-from grubler.system.coupling import input_modes
+from grubler.system.coupling import adaptive_plan, input_modes
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
 from grubler.system.result import CosimResult
@@ -58,9 +58,9 @@ _CHUNK = 1000  # communication steps per call of the C loop when nothing is to b
 
 
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
-        start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
+        start_time: float | None = None, master: str | None = None, record: list[str] | None = None,
         record_every: int = 1, step_order: list[str] | None = None, cancel=None,
-        unpacked: "UnpackedFMUs | None" = None, profile: bool = False) -> CosimResult:
+        unpacked: "UnpackedFMUs | None" = None, profile: bool = False, tol: float | None = None) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -70,6 +70,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         Default to the system's DefaultExperiment and grubler annotation
         (``t_end`` 1 s, ``step`` 1 ms, ``start_time`` 0 when neither says).
     master : {'gauss-seidel', 'jacobi', 'extrapolate'}
+        Default: Gauss-Seidel, or extrapolate when ``tol`` is given.
         Extrapolate steps in Gauss-Seidel's order, but holds each continuous
         input of a continuous component at its value at the step's midpoint,
         interpolated or extrapolated from its source's communication points
@@ -103,6 +104,13 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         Time each component's setReal, doStep and getReal calls of the
         communication steps (the result's ``profile``: seconds by component;
         the clock readings add a little to the run).
+    tol : float, optional
+        The extrapolating master with error control: the sampled components
+        step once per communication step, the continuous ones in sub-steps
+        whose error estimate (step doubling, relative to max(1, |value|) over
+        the coupled values) stays within ``tol`` (:mod:`grubler.system.coupling`).
+        The result's ``coupling`` counts the sub-steps.  A continuous component
+        that cannot roll back (no FMU state) leaves the fixed step, with a warning.
 
     Returns
     -------
@@ -147,6 +155,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         raise SystemDescriptionError(f"step: must be positive, got {step}")
     if t_end <= t0:
         raise SystemDescriptionError(f"t_end: {t_end} must be after the start time {t0}")
+    if tol is not None and not (isinstance(tol, (int, float)) and math.isfinite(tol) and 1e-14 <= tol < 1):
+        raise SystemDescriptionError(f"tol: must be a number from 1e-14 to below 1, got {brief(tol)}")
+    master = master if master is not None else (EXTRAPOLATE if tol is not None else GAUSS_SEIDEL)
+    if tol is not None and master != EXTRAPOLATE:
+        raise SystemDescriptionError(f"tol: the adaptive step is the extrapolating master's (master 'extrapolate'), "
+                                     f"got master {brief(master)}")
     if master not in MASTERS:
         raise SystemDescriptionError(f"master: must be one of {', '.join(MASTERS)}, got {brief(master)}")
     if not (isinstance(record_every, int) and record_every >= 1):
@@ -157,23 +171,30 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     unzipped = UnpackedFMUs() if own else unpacked
     try:
         return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel,
-                    profile)
+                    profile, tol)
     finally:
         if own:
             unzipped.close()
 
 
 def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: "UnpackedFMUs", cancel=None, profile: bool = False) -> CosimResult:
+         step_order, unzipped: "UnpackedFMUs", cancel=None, profile: bool = False,
+         tol: float | None = None) -> CosimResult:
     """Plan (interfaces, order, what to record), set up and initialise every FMU, then step and record."""
     interfaces = interfaces_of(system, unzipped)
     seq = _stepping_order(system, interfaces, step_order)
     warnings = step_warnings(step, time_scales(system, interfaces))
+    sampled: set[str] = set()
+    if tol is not None:
+        seq, sampled, said, can_adapt = adaptive_plan(system, interfaces, seq, step, tol)
+        warnings += said
+        tol = tol if can_adapt else None
     recorded = _recorded_outputs(system, interfaces, record)
     slot = _slots(system)
     values = (ctypes.c_double * max(1, len(slot)))()  # the C loop reads and writes them
     wall0 = _time.perf_counter()
     insts: dict[str, _Instance] = {}
+    loop = None
     try:
         table = _Recording()
         for name in seq:
@@ -195,14 +216,16 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         modes = input_modes(system, interfaces, seq) if master == EXTRAPOLATE else None
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
-                     data, profile, modes and [modes[n] for n in seq])
+                     data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
         _step_through(loop, n_steps, cancel)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
         return CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
-                           table.units, messages, warnings, loop.profile(seq))
+                           table.units, messages, warnings, loop.profile(seq), loop.coupling())
     finally:
+        if loop is not None:
+            loop.free_states()
         for inst in insts.values():
             inst.free()
 
@@ -368,24 +391,32 @@ class _Loop:
 
     def __init__(self, insts: list[_Instance], values, master: str, t0: float, step: float, t_end: float,
                  n_steps: int, record_every: int, column_fmu: list[int], column_index: list[int],
-                 times: np.ndarray, data: np.ndarray, profile: bool, in_modes: list[list[int]] | None = None):
+                 times: np.ndarray, data: np.ndarray, profile: bool, in_modes: list[list[int]] | None = None,
+                 tol: float | None = None, sampled: list[bool] | None = None):
         from grubler import binding
 
-        self.insts, self.values = insts, values
+        self.insts, self.values, self.tol = insts, values, tol
+        self._sampled = sampled or [False] * len(insts)
         self.seconds = np.zeros((len(insts), 3)) if profile else None
         # the extrapolating master's input modes and its history of the values (start, previous point)
         self._modes = [(ctypes.c_int * len(m))(*m) for m in in_modes] if in_modes is not None else None
         self._history = np.zeros((2, len(values))) if in_modes is not None else None
         self.fmus = (binding.MasterFmu * len(insts))(*[
             inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data,
-                           None if self._modes is None else self._modes[k])
+                           None if self._modes is None else self._modes[k], bool(sampled and sampled[k]),
+                           tol is not None and not (sampled and sampled[k]))
             for k, inst in enumerate(insts)])
+        # the adaptive master's sub-step clock (its first try: the whole step) and its work buffers
+        self._adapt = binding.MasterAdapt(step, 0.0, 0, 0, 0.0)
+        self._work = np.zeros(4 * len(values)) if tol is not None else None
         self._columns = (np.asarray(column_fmu, dtype=np.intc), np.asarray(column_index, dtype=np.intc))
         history = (0, None, None) if self._history is None else (
             len(values), self._history[0].ctypes.data, self._history[1].ctypes.data)
         self.run = binding.MasterRun(_SCHEME[master], t0, step, t_end, n_steps, record_every, len(column_fmu),
                                      self._columns[0].ctypes.data, self._columns[1].ctypes.data,
-                                     times.ctypes.data, data.ctypes.data, *history)
+                                     times.ctypes.data, data.ctypes.data, *history, tol or 0.0,
+                                     None if self._work is None else self._work.ctypes.data,
+                                     ctypes.addressof(self._adapt))
         self.t, self.row, self.failure = ctypes.c_double(t0), ctypes.c_long(1), binding.MasterFailure()
         self._steps = binding.library().grb_master_steps
 
@@ -394,8 +425,28 @@ class _Loop:
         if self._steps(self.fmus, len(self.insts), ctypes.addressof(self.values), ctypes.byref(self.run), first,
                        count, ctypes.byref(self.t), ctypes.byref(self.row), ctypes.byref(self.failure)):
             f = self.failure
-            what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal")[f.call]
+            if f.call == 4:
+                raise CosimError(f"tol {self.tol:g}: the coupling's error estimate stays above the tolerance down to "
+                                 f"a sub-step of {self._adapt.h:.3g} s at t = {f.t:.6g} s (sub-stepping "
+                                 f"{', '.join(i.name for k, i in enumerate(self.insts) if not self._sampled[k])}): give a larger tol")
+            what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal",
+                    f"fmi2GetFMUstate/fmi2SetFMUstate at t = {f.t:.6g} s")[f.call]
             raise self.insts[f.fmu].refused(what, f.status)
+
+    def coupling(self) -> dict:
+        """The adaptive master's counts (empty for the fixed-step masters)."""
+        if self.tol is None:
+            return {}
+        a = self._adapt
+        return {"tol": self.tol, "substeps": int(a.substeps), "rejected": int(a.rejected),
+                "worst_estimate": float(a.worst) * self.tol}
+
+    def free_states(self) -> None:
+        """The FMU states the adaptive master saved, freed (before the FMUs are)."""
+        if self.tol is not None:
+            from grubler import binding
+
+            binding.library().grb_master_free_states(self.fmus, len(self.insts))
 
     def profile(self, seq: list[str]) -> dict[str, tuple[float, float, float]]:
         """Seconds in setReal, doStep and getReal by component (empty unless profiled)."""

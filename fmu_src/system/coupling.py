@@ -29,6 +29,20 @@ Two kinds of input keep Gauss-Seidel's value (:data:`HELD`):
 The scheme asks nothing of an FMU beyond FMI 2.0's fmi2SetReal between
 fmi2DoStep and fmi2GetReal, so a foreign FMU runs on it as ours do.
 
+**With a tolerance** (``tol``) the communication step stays the sampled laws'
+grid (their sample instants are communication points) and the continuous
+components are coupled in sub-steps that adapt to an error estimate: each
+sub-step is taken whole and as two halves from one saved FMU state (step
+doubling; the halves' error is a third of the difference, second order), kept
+when the estimate, relative to max(1, |value|) over every coupled value, is
+within ``tol``, else rolled back and tried shorter.  The sampled components
+step first, once per communication step, reading their inputs at the sample
+instant; then the continuous ones sub-step in the stepping order.  Rolling back
+needs every continuous component's FMU to get and set its state
+(``canGetAndSetFMUstate``): when one cannot, the run is the fixed-step
+extrapolating master, without error control, and a warning says which
+component stopped it (:func:`adaptive_plan`).
+
 Examples
 --------
 >>> (HELD, INTERPOLATED, EXTRAPOLATED)
@@ -72,7 +86,8 @@ def input_modes(system: System, interfaces: dict[str, FmuInterface], seq: list[s
     modes: dict[str, list[int]] = {name: [] for name in seq}
     for c in system.connections:
         source = interfaces[c.start_element].ports[c.start_connector]
-        if c.end_element in sampled or source.variability == "discrete" or source.type != "Real":
+        if c.end_element in sampled or c.start_element in sampled or source.variability == "discrete" \
+                or source.type != "Real":
             mode = HELD
         elif position[c.start_element] < position[c.end_element]:
             mode = INTERPOLATED
@@ -82,4 +97,30 @@ def input_modes(system: System, interfaces: dict[str, FmuInterface], seq: list[s
     return modes
 
 
-__all__ = ["HELD", "INTERPOLATED", "EXTRAPOLATED", "sampled_components", "input_modes"]
+def adaptive_plan(system: System, interfaces: dict[str, FmuInterface], seq: list[str], step: float,
+                  tol: float) -> tuple[list[str], set[str], list[str], bool]:
+    """The adaptive master's stepping order (sampled components first, each order kept), its sampled
+    components, its warnings, and whether it can run (False: every continuous component cannot roll back).
+
+    A warning says when a continuous component cannot roll back (the run falls back to the fixed-step
+    extrapolating master: the caller drops ``tol``) and when a sample time is not a whole number of steps
+    (its samples then fall inside a step).
+    """
+    sampled = sampled_components(system, interfaces)
+    warnings = []
+    stuck = [name for name in seq if name not in sampled
+             and not getattr(interfaces[name].model_description.coSimulation, "canGetAndSetFMUstate", False)]
+    if stuck:
+        warnings.append(f"tol {tol:g}: {', '.join(stuck)} cannot get and set its FMU state "
+                        "(canGetAndSetFMUstate), which sub-steps with an error estimate need to roll back: "
+                        f"running the extrapolating master at the fixed step {step:g} s, without error control")
+    for sc in time_scales(system, interfaces):
+        ratio = sc.seconds / step
+        if sc.what.startswith("sample time") and abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            warnings.append(f"tol {tol:g}: {sc.component}'s {sc.what} ({sc.seconds:g} s) is not a whole number "
+                            f"of steps ({step:g} s): its samples fall inside a communication step")
+    order = [n for n in seq if n in sampled] + [n for n in seq if n not in sampled]
+    return order, sampled, warnings, not stuck
+
+
+__all__ = ["HELD", "INTERPOLATED", "EXTRAPOLATED", "sampled_components", "input_modes", "adaptive_plan"]
