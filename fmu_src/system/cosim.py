@@ -155,8 +155,8 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         raise SystemDescriptionError(f"step: must be positive, got {step}")
     if t_end <= t0:
         raise SystemDescriptionError(f"t_end: {t_end} must be after the start time {t0}")
-    if tol is not None and not (isinstance(tol, (int, float)) and math.isfinite(tol) and 1e-14 <= tol < 1):
-        raise SystemDescriptionError(f"tol: must be a number from 1e-14 to below 1, got {brief(tol)}")
+    if tol is not None and not (isinstance(tol, (int, float)) and math.isfinite(tol) and 1e-14 <= tol <= 0.5):
+        raise SystemDescriptionError(f"tol: must be a number from 1e-14 to 0.5, got {brief(tol)}")
     master = master if master is not None else (EXTRAPOLATE if tol is not None else GAUSS_SEIDEL)
     if tol is not None and master != EXTRAPOLATE:
         raise SystemDescriptionError(f"tol: the adaptive step is the extrapolating master's (master 'extrapolate'), "
@@ -217,7 +217,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
                      data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
-        _step_through(loop, n_steps, cancel)
+        _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
@@ -304,10 +304,11 @@ def _communication_steps(t0: float, t_end: float, step: float) -> int:
     return n_steps
 
 
-def _step_through(loop: "_Loop", n_steps: int, cancel) -> None:
+def _step_through(loop: "_Loop", n_steps: int, cancel, chunk: int = _CHUNK) -> None:
     """Every communication step.  The flag, if any, is read before each; without one the loop returns to
-    Python every _CHUNK steps, where a Ctrl-C is raised."""
-    chunk = 1 if cancel is not None else _CHUNK
+    Python every ``chunk`` steps, where a Ctrl-C is raised (every step under a tolerance: one may take
+    thousands of sub-steps)."""
+    chunk = 1 if cancel is not None else chunk
     for n in range(0, n_steps, chunk):
         if cancel is not None and cancel.is_set():
             raise Cancelled("run", f"cancelled at t = {loop.t.value:.6g} s")

@@ -306,7 +306,7 @@ static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const gr
         a->h_prev = h_prev;
         if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
         a->h = hs * (grow > 0.2 ? grow : 0.2);
-        if (!(a->h >= 1e-9 * run->step)) return failed(fail, k0, CALL_TOL, 0, t);
+        if (!(a->h >= 1e-6 * run->step)) return failed(fail, k0, CALL_TOL, 0, t); /* also a NaN */
     }
     return 0;
 }
