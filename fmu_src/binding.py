@@ -97,7 +97,7 @@ class MasterAdapt(ctypes.Structure):
     """``grb_adapt`` (system/c/master.c): the adaptive master's sub-step clock and counts."""
 
     _fields_ = [("h", c_double), ("h_prev", c_double), ("substeps", c_long), ("rejected", c_long),
-                ("worst", c_double)]
+                ("worst", c_double), ("worst_slot", c_long)]
 
 
 class MasterFailure(ctypes.Structure):

@@ -217,6 +217,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
                      data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
+        loop.slot_names = {s: name for name, s in slot.items()}
         _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
@@ -397,7 +398,6 @@ class _Loop:
         from grubler import binding
 
         self.insts, self.values, self.tol = insts, values, tol
-        self._sampled = sampled or [False] * len(insts)
         self.seconds = np.zeros((len(insts), 3)) if profile else None
         # the extrapolating master's input modes and its history of the values (start, previous point)
         self._modes = [(ctypes.c_int * len(m))(*m) for m in in_modes] if in_modes is not None else None
@@ -408,7 +408,8 @@ class _Loop:
                            tol is not None and not (sampled and sampled[k]))
             for k, inst in enumerate(insts)])
         # the adaptive master's sub-step clock (its first try: the whole step) and its work buffers
-        self._adapt = binding.MasterAdapt(step, 0.0, 0, 0, 0.0)
+        self._adapt = binding.MasterAdapt(step, 0.0, 0, 0, 0.0, -1)
+        self.slot_names: dict[int, str] = {}  # a value slot's output, for messages (set by the caller)
         self._work = np.zeros(4 * len(values)) if tol is not None else None
         self._columns = (np.asarray(column_fmu, dtype=np.intc), np.asarray(column_index, dtype=np.intc))
         history = (0, None, None) if self._history is None else (
@@ -427,9 +428,10 @@ class _Loop:
                        count, ctypes.byref(self.t), ctypes.byref(self.row), ctypes.byref(self.failure)):
             f = self.failure
             if f.call == 4:
+                worst = self.slot_names.get(self._adapt.worst_slot, "?")
                 raise CosimError(f"tol {self.tol:g}: the coupling's error estimate stays above the tolerance down to "
-                                 f"a sub-step of {self._adapt.h:.3g} s at t = {f.t:.6g} s (sub-stepping "
-                                 f"{', '.join(i.name for k, i in enumerate(self.insts) if not self._sampled[k])}): give a larger tol")
+                                 f"a sub-step of {self._adapt.h:.3g} s at t = {f.t:.6g} s, largest at {worst} "
+                                 "(the FMUs' own accuracy may be the floor): give a larger tol")
             what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal",
                     f"fmi2GetFMUstate/fmi2SetFMUstate at t = {f.t:.6g} s")[f.call]
             raise self.insts[f.fmu].refused(what, f.status)

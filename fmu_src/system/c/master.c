@@ -108,6 +108,7 @@ typedef struct grb_adapt {
     double h_prev;            /* the last sub-step taken (0: none yet, no slope to extrapolate) */
     long substeps, rejected;  /* sub-steps accepted (each two half-steps), tries rejected */
     double worst;             /* the largest error estimate accepted, relative to tol */
+    long worst_slot;          /* the value whose estimate was largest in the last try (-1: none) */
 } grb_adapt;
 
 /* Where a run stopped: the FMU, the call (0 setReal, 1 doStep, 2 getReal, 3 get/set FMU state, 4 the
@@ -254,15 +255,36 @@ static int substep(grb_fmu *fmus, int k0, int k1, double *values, const grb_run 
 
 /* The error estimate of a sub-step: two half-steps against one whole (step doubling; the coupling is second
  * order, so the halves' error is a third of their difference), over every value, relative to max(1, |value|). */
-static double estimate(const double *halves, const double *whole, size_t n) {
+static double estimate(const double *halves, const double *whole, size_t n, long *worst) {
     double e = 0.0, d, scale;
     size_t j;
+    *worst = -1;
     for (j = 0; j < n; j++) {
         scale = fabs(halves[j]) > 1.0 ? fabs(halves[j]) : 1.0;
         d = fabs(halves[j] - whole[j]) / scale / 3.0;
-        if (!(d <= e)) e = d; /* a NaN wins */
+        if (!(d <= e)) { /* a NaN wins */
+            e = d;
+            *worst = (long)j;
+        }
     }
     return e;
+}
+
+/* With no past point to extrapolate from (the run's first sub-step), a slope from a predictor: one
+ * sub-step of h on the start values, rolled back, whose end values the history then points at (a past
+ * point u0 - (u1 - u0) one h back), so that the sub-steps that follow take the midpoint of the predicted
+ * end: second order from the first sub-step, where a start value held would make it first order. */
+static int predict(grb_fmu *fmus, int k0, int k1, double *values, const grb_run *run, double t, double h,
+                   grb_failure *fail) {
+    size_t j, n = run->n_slots;
+    double *saved = run->work, *predicted = run->work + n;
+    int s;
+    if ((s = substep(fmus, k0, k1, values, run, t, h, 0, fail)) != 0) return s;
+    for (j = 0; j < n; j++) { predicted[j] = values[j]; values[j] = saved[j]; }
+    if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
+    for (j = 0; j < n; j++) run->start[j] = 2.0 * saved[j] - predicted[j];
+    run->adapt->h_prev = h;
+    return 0;
 }
 
 /* FMUs k0 .. k1 - 1 from tn to tn + h in sub-steps whose error estimate is within run->tol. */
@@ -271,7 +293,7 @@ static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const gr
     grb_adapt *a = run->adapt;
     size_t n = run->n_slots, j;
     double *saved = run->work, *whole = run->work + n, *start = run->work + 2 * n, *prev = run->work + 3 * n;
-    double t = tn, end = tn + h, hs, tried, h_prev, err, grow;
+    double t = tn, end = tn + h, hs, tried, h_prev, h_first, err, grow;
     int s, last;
     while (t < end) {
         tried = a->h;
@@ -279,7 +301,10 @@ static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const gr
         last = hs >= end - t || end - (t + hs) < 1e-9 * h; /* no sliver of a sub-step before the end */
         if (last) hs = end - t;
         if ((s = states(fmus, k0, k1, 1, t, fail)) != 0) return s;
-        for (j = 0; j < n; j++) { saved[j] = values[j]; start[j] = run->start[j]; prev[j] = run->prev[j]; }
+        for (j = 0; j < n; j++) saved[j] = values[j];
+        h_first = a->h_prev;
+        if (h_first <= 0.0 && (s = predict(fmus, k0, k1, values, run, t, hs, fail)) != 0) return s;
+        for (j = 0; j < n; j++) { start[j] = run->start[j]; prev[j] = run->prev[j]; }
         h_prev = a->h_prev;
         if ((s = substep(fmus, k0, k1, values, run, t, hs, 0, fail)) != 0) return s;
         for (j = 0; j < n; j++) { whole[j] = values[j]; values[j] = saved[j]; run->start[j] = start[j]; run->prev[j] = prev[j]; }
@@ -288,7 +313,7 @@ static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const gr
         if ((s = substep(fmus, k0, k1, values, run, t, 0.5 * hs, 0, fail)) != 0) return s;
         if ((s = substep(fmus, k0, k1, values, run, t + 0.5 * hs, last ? end - (t + 0.5 * hs) : 0.5 * hs,
                          recording && last, fail)) != 0) return s;
-        err = estimate(values, whole, n) / run->tol;
+        err = estimate(values, whole, n, &a->worst_slot) / run->tol;
         grow = err > 0.0 ? 0.9 * pow(err, -1.0 / 3.0) : 4.0; /* local error ~ h^3 */
         if (err <= 1.0) {
             a->substeps++;
@@ -300,10 +325,10 @@ static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const gr
             if (a->h > run->step) a->h = run->step;
             continue;
         }
-        /* rejected: back to the sub-step's start, and a shorter try */
+        /* rejected: back to the sub-step's start, and a shorter try (predicted again when it was) */
         a->rejected++;
         for (j = 0; j < n; j++) { values[j] = saved[j]; run->start[j] = start[j]; run->prev[j] = prev[j]; }
-        a->h_prev = h_prev;
+        a->h_prev = h_first > 0.0 ? h_prev : 0.0;
         if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
         a->h = hs * (grow > 0.2 ? grow : 0.2);
         if (!(a->h >= 1e-6 * run->step)) return failed(fail, k0, CALL_TOL, 0, t); /* also a NaN */
