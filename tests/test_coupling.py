@@ -187,3 +187,13 @@ def test_the_cli_refuses_a_bad_tolerance_in_one_line(system, tmp_path):
         proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(ssd), *args], capture_output=True,
                               text=True, timeout=300)
         assert proc.returncode == 2 and words in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_a_sample_time_between_communication_points_is_said(system):
+    s = dataclasses.replace(system, components=dict(system.components))
+    s.components["controller"] = dataclasses.replace(s.components["controller"],
+                                                     parameters={**s.components["controller"].parameters, "Ts": 2.5e-3})
+    r = cosim.run(s, t_end=0.01, step=1e-3, tol=1e-4, record=RECORD)
+    assert r.warnings == ["tol 0.0001: controller's sample time Ts (0.0025 s) is not a whole number of steps "
+                          "(0.001 s): its samples fall inside a communication step"]
+    assert cosim.run(s, t_end=0.01, step=5e-4, tol=1e-4, record=RECORD).warnings == []
