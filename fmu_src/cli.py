@@ -768,7 +768,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate"],
                    help="gauss-seidel (default): each component steps on the outputs of those before it; "
                         "extrapolate (default with --tol): in that order, a continuous input held at its value at "
-                        "the step's midpoint, interpolated or extrapolated (second order); jacobi: all step on the "
+                        "the step's midpoint, interpolated or extrapolated (second order, but less stable on a "
+                        "coupling stiff at the step: docs/cosim.md); jacobi: all step on the "
                         "last step's values, so every connection adds a step of delay (less accurate, for "
                         "comparison with fmpy and libcosim)")
     c.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),

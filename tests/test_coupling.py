@@ -197,3 +197,15 @@ def test_a_sample_time_between_communication_points_is_said(system):
     assert r.warnings == ["tol 0.0001: controller's sample time Ts (0.0025 s) is not a whole number of steps "
                           "(0.001 s): its samples fall inside a communication step"]
     assert cosim.run(s, t_end=0.01, step=5e-4, tol=1e-4, record=RECORD).warnings == []
+
+
+def test_the_cli_runs_a_tolerance_and_says_what_it_took(system, tmp_path):
+    ssd = system.write(tmp_path / "servo.ssd")
+    out = tmp_path / "servo.csv"
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "cosim", str(ssd), "--t-end", "0.02", "--tol", "1e-6",
+                           "--csv", str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    head = proc.stdout.splitlines()[0]
+    assert "(extrapolate, order encoder -> controller -> motor -> mechanism -> trajectory; tol 1e-06: " in head, head
+    assert " sub-steps, " in head and " rejected)" in head
+    assert len(out.read_text().splitlines()) == 1 + 21  # a row per communication step: the sampled laws' 1 ms
