@@ -209,3 +209,14 @@ def test_the_cli_runs_a_tolerance_and_says_what_it_took(system, tmp_path):
     assert "(extrapolate, order encoder -> controller -> motor -> mechanism -> trajectory; tol 1e-06: " in head, head
     assert " sub-steps, " in head and " rejected)" in head
     assert len(out.read_text().splitlines()) == 1 + 21  # a row per communication step: the sampled laws' 1 ms
+
+
+def test_a_step_refused_inside_a_sub_step_is_named_with_its_time_and_message(fmu_dir):
+    from grubler import ssp
+
+    s = ssp.System("refused", stop_time=0.1, step=0.01)
+    s.add("calm", fmu_dir / "Mechanism.fmu")
+    s.add("m", fmu_dir / "Mechanism.fmu", motor_torque=float("nan"))
+    with pytest.raises(cosim.CosimError, match=r"^m: doStep from t = 0 s failed \(status discard\): "
+                                               r"m: motor_torque is nan at t = 0 s: inputs must be finite$"):
+        cosim.run(s, tol=1e-6)
