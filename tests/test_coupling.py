@@ -220,3 +220,36 @@ def test_a_step_refused_inside_a_sub_step_is_named_with_its_time_and_message(fmu
     with pytest.raises(cosim.CosimError, match=r"^m: doStep from t = 0 s failed \(status discard\): "
                                                r"m: motor_torque is nan at t = 0 s: inputs must be finite$"):
         cosim.run(s, tol=1e-6)
+
+
+def test_an_fmu_the_master_may_roll_back_is_told_so_at_every_step(system, monkeypatch):
+    # FMI 2.0: noSetFMUStatePriorToCurrentPoint true lets an FMU drop what a rollback needs, so a step the
+    # adaptive master may undo says false; the fixed-step masters, which never roll back, still say true
+    import ctypes
+
+    from grubler.system.instance import _Instance
+
+    flags: dict[str, set[int]] = {}
+    keep = []
+    do_step_type = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int)
+    plain = _Instance.loop_view
+
+    def spied(self, *args, **kw):
+        view = plain(self, *args, **kw)
+        real = do_step_type(view.do_step)
+
+        def do_step(instance, t, h, no_prior, name=self.name):
+            flags.setdefault(name, set()).add(no_prior)
+            return real(instance, t, h, no_prior)
+
+        keep.append(do_step_type(do_step))
+        view.do_step = ctypes.cast(keep[-1], ctypes.c_void_p).value
+        return view
+
+    monkeypatch.setattr(_Instance, "loop_view", spied)
+    cosim.run(system, t_end=0.005, tol=1e-6, record=RECORD)
+    assert flags == {"encoder": {1}, "controller": {1}, "motor": {0}, "mechanism": {0}, "trajectory": {0}}
+    flags.clear()
+    cosim.run(system, t_end=0.005, master="extrapolate", record=RECORD)
+    assert set(flags) == {"encoder", "controller", "motor", "mechanism", "trajectory"}
+    assert all(f == {1} for f in flags.values()), flags

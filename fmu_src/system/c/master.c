@@ -155,9 +155,10 @@ static int push(grb_fmu *f, const double *values) {
     return s;
 }
 
+/* doStep; noSetFMUStatePriorToCurrentPoint is false only for an FMU the adaptive master may roll back */
 static int step(grb_fmu *f, double t, double h) {
     double t0 = f->seconds ? now() : 0.0;
-    int s = f->do_step(f->instance, t, h, 1);
+    int s = f->do_step(f->instance, t, h, f->get_state == NULL);
     if (f->seconds) f->seconds[CALL_STEP] += now() - t0;
     return s;
 }
