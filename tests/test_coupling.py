@@ -253,3 +253,12 @@ def test_an_fmu_the_master_may_roll_back_is_told_so_at_every_step(system, monkey
     cosim.run(system, t_end=0.005, master="extrapolate", record=RECORD)
     assert set(flags) == {"encoder", "controller", "motor", "mechanism", "trajectory"}
     assert all(f == {1} for f in flags.values()), flags
+
+
+def test_under_a_tolerance_only_a_sample_time_bounds_the_step(system):
+    # at 5 ms Gauss-Seidel is warned of the motor's mechanical time constant (the speed held over a step);
+    # under a tolerance the motor and the mechanism sub-step, and only the PID's and encoder's 1 ms are said
+    plain = cosim.run(system, t_end=0.01, step=5e-3, record=RECORD).warnings
+    sub = cosim.run(system, t_end=0.01, step=5e-3, tol=1e-4, record=RECORD).warnings
+    assert any("mechanical time constant" in w for w in plain), plain
+    assert len(sub) == 2 and all("sample time Ts" in w for w in sub) and not any("mechanical" in w for w in sub), sub

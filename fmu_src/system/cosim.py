@@ -183,12 +183,15 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     """Plan (interfaces, order, what to record), set up and initialise every FMU, then step and record."""
     interfaces = interfaces_of(system, unzipped)
     seq = _stepping_order(system, interfaces, step_order)
-    warnings = step_warnings(step, time_scales(system, interfaces))
+    scales = time_scales(system, interfaces)
     sampled: set[str] = set()
+    said: list[str] = []
     if tol is not None:
         seq, sampled, said, can_adapt = adaptive_plan(system, interfaces, seq, step, tol)
-        warnings += said
         tol = tol if can_adapt else None
+    if tol is not None:  # the continuous components sub-step: only the sampled ones' times bound the step
+        scales = [sc for sc in scales if sc.component in sampled]
+    warnings = step_warnings(step, scales) + said
     recorded = _recorded_outputs(system, interfaces, record)
     slot = _slots(system)
     values = (ctypes.c_double * max(1, len(slot)))()  # the C loop reads and writes them
