@@ -32,22 +32,27 @@ def main() -> None:
     ap.add_argument("--step", type=float, default=1e-3)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--system", type=Path, default=SSD, help="the .ssd to run (default: the README's servo four-bar)")
+    ap.add_argument("--master", choices=cosim.MASTERS, help="the master (default: cosim.run's)")
+    ap.add_argument("--tol", type=float, help="the extrapolating master's tolerance (default: none, a fixed step)")
     args = ap.parse_args()
+    how = {"master": args.master, "tol": args.tol}
     if args.system == SSD and not all((HERE.parent / "dist" / f"{n}.fmu").exists() for n in build_fmu.FMUS):
         build_fmu.build()
     system = args.system
-    cosim.run(system, t_end=0.1, step=args.step)  # warm: extraction, first loads
+    cosim.run(system, t_end=0.1, step=args.step, **how)  # warm: extraction, first loads
     walls = []
     for _ in range(args.repeat):
-        res = cosim.run(system, t_end=args.t_end, step=args.step)
+        res = cosim.run(system, t_end=args.t_end, step=args.step, **how)
         walls.append(res.wall_time)
-    res = cosim.run(system, t_end=args.t_end, step=args.step, profile=True)
+    res = cosim.run(system, t_end=args.t_end, step=args.step, profile=True, **how)
     steps = round(args.t_end / args.step)
     where = "" if system == SSD else f" --system {system}"
+    where += "".join(f" --{k} {v}" for k, v in how.items() if v is not None)
     print(f"Command: `python benchmarks/cosim_profile.py --t-end {args.t_end:g} --step {args.step:g} "
           f"--repeat {args.repeat}{where}`\n")
-    print(f"Wall time of {args.t_end:g} s at {args.step:g} s ({steps} steps), grubler's master: median "
-          f"{statistics.median(walls):.3f} s (runs: {', '.join(f'{w:.3f}' for w in walls)}).\n")
+    print(f"Wall time of {args.t_end:g} s at {args.step:g} s ({steps} steps), grubler's master ({res.master}): median "
+          f"{statistics.median(walls):.3f} s (runs: {', '.join(f'{w:.3f}' for w in walls)}), "
+          f"{args.t_end / statistics.median(walls):.0f}x real time.\n")
     print("| component | setReal (us/step) | doStep (us/step) | getReal (us/step) | total (s) | share |")
     print("|---|---|---|---|---|---|")
     grand = sum(sum(v) for v in res.profile.values())

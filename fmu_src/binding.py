@@ -80,19 +80,29 @@ class MasterFmu(ctypes.Structure):
     _fields_ = [("instance", c_void_p), ("set_real", c_void_p), ("get_real", c_void_p), ("do_step", c_void_p),
                 ("n_in", c_size_t), ("in_vr", c_void_p), ("in_slot", c_void_p), ("in_buf", c_void_p),
                 ("n_conn", c_size_t), ("n_read", c_size_t), ("read_vr", c_void_p), ("read_buf", c_void_p),
-                ("out_slot", c_void_p), ("seconds", c_void_p)]
+                ("out_slot", c_void_p), ("seconds", c_void_p), ("in_mode", c_void_p), ("sampled", c_int),
+                ("get_state", c_void_p), ("set_state", c_void_p), ("free_state", c_void_p), ("state", c_void_p)]
 
 
 class MasterRun(ctypes.Structure):
     """``grb_run`` (system/c/master.c): the master, its clock, and where recorded rows go."""
 
-    _fields_ = [("jacobi", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
+    _fields_ = [("scheme", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
                 ("n_steps", c_long), ("record_every", c_long), ("n_columns", c_size_t), ("column_fmu", c_void_p),
-                ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p)]
+                ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p), ("n_slots", c_size_t),
+                ("start", c_void_p), ("prev", c_void_p), ("tol", c_double), ("work", c_void_p), ("adapt", c_void_p)]
+
+
+class MasterAdapt(ctypes.Structure):
+    """``grb_adapt`` (system/c/master.c): the adaptive master's sub-step clock and counts."""
+
+    _fields_ = [("h", c_double), ("h_prev", c_double), ("substeps", c_long), ("rejected", c_long),
+                ("worst", c_double), ("worst_slot", c_long)]
 
 
 class MasterFailure(ctypes.Structure):
-    """``grb_failure`` (system/c/master.c): the FMU, the call (0 setReal, 1 doStep, 2 getReal), its status, t."""
+    """``grb_failure`` (system/c/master.c): the FMU, the call (0 setReal, 1 doStep, 2 getReal, 3 get/set FMU
+    state, 4 the tolerance not met), its status, t."""
 
     _fields_ = [("fmu", c_int), ("call", c_int), ("status", c_int), ("t", c_double)]
 
@@ -167,6 +177,7 @@ _SIGNATURES = {
     # the co-simulation master's stepping loop (system/c/master.c)
     "grb_master_steps": (c_int, [POINTER(MasterFmu), c_int, _P, POINTER(MasterRun), c_long, c_long,
                                  POINTER(c_double), POINTER(c_long), POINTER(MasterFailure)]),
+    "grb_master_free_states": (None, [POINTER(MasterFmu), c_int]),
 }
 
 

@@ -395,11 +395,14 @@ def cmd_cosim(args) -> int:
             raise InputError("--dt-out", f"{args.dt_out:g} s must be a multiple of the step {h:g} s")
         args.system = system
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
-              step_order=step_order, record_every=every)
+              step_order=step_order, record_every=every, tol=args.tol)
     steps = len(res.t) - 1
     _warn(res.warnings)
     how = ("jacobi: all on the last step's values" if res.master == "jacobi"
            else f"{res.master}, order {' -> '.join(res.order)}")
+    if res.coupling:
+        how += (f"; tol {res.coupling['tol']:g}: {res.coupling['substeps']} sub-steps, "
+                f"{res.coupling['rejected']} rejected")
     print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({how}): {res.wall_time:.3f} s wall")
     if args.csv:
         res.to_csv(args.csv)
@@ -777,10 +780,17 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--step", type=_positive("--step", "s"),
                    help="communication step, s (default: the system's); a warning says when it exceeds a "
                         "component's sample time or the motor's mechanical time constant")
-    c.add_argument("--master", choices=["gauss-seidel", "jacobi"], default="gauss-seidel",
-                   help="gauss-seidel (default): each component steps on the outputs of those before it; jacobi: "
-                        "all step on the last step's values, so every connection adds a step of delay (less "
-                        "accurate, for comparison with fmpy and libcosim)")
+    c.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate"],
+                   help="gauss-seidel (default): each component steps on the outputs of those before it; "
+                        "extrapolate (default with --tol): in that order, a continuous input held at its value at "
+                        "the step's midpoint, interpolated or extrapolated (second order, but less stable on a "
+                        "coupling stiff at the step: docs/cosim.md); jacobi: all step on the "
+                        "last step's values, so every connection adds a step of delay (less accurate, for "
+                        "comparison with fmpy and libcosim)")
+    c.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),
+                   help="error control: the continuous components sub-step within each communication step, each "
+                        "sub-step's coupling error estimate (step doubling) within TOL, relative to max(1, |value|) "
+                        "(e.g. 1e-8); the sampled laws keep the step")
     c.add_argument("--record", help="comma-separated component.output to record (default: all outputs)")
     c.add_argument("--dt-out", type=_positive("--dt-out", "s"),
                    help="record every this many seconds (a multiple of the step; default every step)")

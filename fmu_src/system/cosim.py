@@ -26,7 +26,7 @@ True
 
 :func:`run`'s ``master`` is one of :data:`MASTERS`:
 
->>> MASTERS == (GAUSS_SEIDEL, JACOBI) == ("gauss-seidel", "jacobi")
+>>> MASTERS == (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE) == ("gauss-seidel", "jacobi", "extrapolate")
 True
 """
 
@@ -43,6 +43,7 @@ from grubler.errors import Cancelled
 from grubler.limits import MAX_STEPS, brief, check_count, check_size
 from grubler.system.interface import FmuInterface, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
+from grubler.system.coupling import adaptive_plan, input_modes
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
 from grubler.system.result import CosimResult
@@ -50,14 +51,16 @@ from grubler.system.time_scales import TimeScale, step_warnings, time_scales
 
 GAUSS_SEIDEL = "gauss-seidel"
 JACOBI = "jacobi"
-MASTERS = (GAUSS_SEIDEL, JACOBI)
+EXTRAPOLATE = "extrapolate"  # Gauss-Seidel's order, continuous inputs at the step's midpoint (system/coupling.py)
+MASTERS = (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE)
+_SCHEME = {GAUSS_SEIDEL: 0, JACOBI: 1, EXTRAPOLATE: 2}  # system/c/master.c's grb_scheme
 _CHUNK = 1000  # communication steps per call of the C loop when nothing is to be read between steps
 
 
 def run(system: System | str | Path, t_end: float | None = None, step: float | None = None,
-        start_time: float | None = None, master: str = GAUSS_SEIDEL, record: list[str] | None = None,
+        start_time: float | None = None, master: str | None = None, record: list[str] | None = None,
         record_every: int = 1, step_order: list[str] | None = None, cancel=None,
-        unpacked: "UnpackedFMUs | None" = None, profile: bool = False) -> CosimResult:
+        unpacked: "UnpackedFMUs | None" = None, profile: bool = False, tol: float | None = None) -> CosimResult:
     """Co-simulate a system with a fixed communication step.
 
     Parameters
@@ -66,8 +69,14 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     t_end, step, start_time : float, optional
         Default to the system's DefaultExperiment and grubler annotation
         (``t_end`` 1 s, ``step`` 1 ms, ``start_time`` 0 when neither says).
-    master : {'gauss-seidel', 'jacobi'}
-        Jacobi steps every FMU on the previous step's values (what
+    master : {'gauss-seidel', 'jacobi', 'extrapolate'}
+        Default: Gauss-Seidel, or extrapolate when ``tol`` is given.
+        Extrapolate steps in Gauss-Seidel's order, but holds each continuous
+        input of a continuous component at its value at the step's midpoint,
+        interpolated or extrapolated from its source's communication points
+        (:mod:`grubler.system.coupling`): second order in the step where
+        Gauss-Seidel is first (the servo four-bar's crank at 1 ms, quantisation
+        off: docs/cosim.md).  Jacobi steps every FMU on the previous step's values (what
         ``fmpy.ssp.simulate_ssp`` does), for comparison: every connection then
         adds a step of delay, and a feedback loop through it loses accuracy
         (the servo four-bar's crank at 1 ms: 27 times further from a monolithic
@@ -95,6 +104,13 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         Time each component's setReal, doStep and getReal calls of the
         communication steps (the result's ``profile``: seconds by component;
         the clock readings add a little to the run).
+    tol : float, optional
+        The extrapolating master with error control: the sampled components
+        step once per communication step, the continuous ones in sub-steps
+        whose error estimate (step doubling, relative to max(1, |value|) over
+        the coupled values) stays within ``tol`` (:mod:`grubler.system.coupling`).
+        The result's ``coupling`` counts the sub-steps.  A continuous component
+        that cannot roll back (no FMU state) leaves the fixed step, with a warning.
 
     Returns
     -------
@@ -124,7 +140,7 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     >>> run(s, t_end=1.0, master="newton")
     Traceback (most recent call last):
     ...
-    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, got 'newton'
+    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, extrapolate, got 'newton'
     >>> tmp.cleanup()
     """
     if not isinstance(system, System):
@@ -139,6 +155,12 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
         raise SystemDescriptionError(f"step: must be positive, got {step}")
     if t_end <= t0:
         raise SystemDescriptionError(f"t_end: {t_end} must be after the start time {t0}")
+    if tol is not None and not (isinstance(tol, (int, float)) and math.isfinite(tol) and 1e-14 <= tol <= 0.5):
+        raise SystemDescriptionError(f"tol: must be a number from 1e-14 to 0.5, got {brief(tol)}")
+    master = master if master is not None else (EXTRAPOLATE if tol is not None else GAUSS_SEIDEL)
+    if tol is not None and master != EXTRAPOLATE:
+        raise SystemDescriptionError(f"tol: the adaptive step is the extrapolating master's (master 'extrapolate'), "
+                                     f"got master {brief(master)}")
     if master not in MASTERS:
         raise SystemDescriptionError(f"master: must be one of {', '.join(MASTERS)}, got {brief(master)}")
     if not (isinstance(record_every, int) and record_every >= 1):
@@ -149,23 +171,33 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     unzipped = UnpackedFMUs() if own else unpacked
     try:
         return _run(system, t0, t_end, step, master, record, int(record_every), step_order, unzipped, cancel,
-                    profile)
+                    profile, tol)
     finally:
         if own:
             unzipped.close()
 
 
 def _run(system: System, t0: float, t_end: float, step: float, master: str, record, record_every: int,
-         step_order, unzipped: "UnpackedFMUs", cancel=None, profile: bool = False) -> CosimResult:
+         step_order, unzipped: "UnpackedFMUs", cancel=None, profile: bool = False,
+         tol: float | None = None) -> CosimResult:
     """Plan (interfaces, order, what to record), set up and initialise every FMU, then step and record."""
     interfaces = interfaces_of(system, unzipped)
     seq = _stepping_order(system, interfaces, step_order)
-    warnings = step_warnings(step, time_scales(system, interfaces))
+    scales = time_scales(system, interfaces)
+    sampled: set[str] = set()
+    said: list[str] = []
+    if tol is not None:
+        seq, sampled, said, can_adapt = adaptive_plan(system, interfaces, seq, step, tol)
+        tol = tol if can_adapt else None
+    if tol is not None:  # the continuous components sub-step: only the sampled ones' times bound the step
+        scales = [sc for sc in scales if sc.component in sampled]
+    warnings = step_warnings(step, scales) + said
     recorded = _recorded_outputs(system, interfaces, record)
     slot = _slots(system)
     values = (ctypes.c_double * max(1, len(slot)))()  # the C loop reads and writes them
     wall0 = _time.perf_counter()
     insts: dict[str, _Instance] = {}
+    loop = None
     try:
         table = _Recording()
         for name in seq:
@@ -184,16 +216,20 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         times[0] = t0
         for j, (c, i) in enumerate(table.sources):
             data[0, j] = insts[c].read_buf[i] if c else values[i]
+        modes = input_modes(system, interfaces, seq) if master == EXTRAPOLATE else None
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
-                     data, profile)
-        _step_through(loop, n_steps, cancel)
+                     data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
+        loop.slot_names = {s: name for name, s in slot.items()}
+        _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
         return CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
-                           table.units, messages, warnings, loop.profile(seq))
+                           table.units, messages, warnings, loop.profile(seq), loop.coupling())
     finally:
+        if loop is not None:
+            loop.free_states()
         for inst in insts.values():
             inst.free()
 
@@ -272,10 +308,11 @@ def _communication_steps(t0: float, t_end: float, step: float) -> int:
     return n_steps
 
 
-def _step_through(loop: "_Loop", n_steps: int, cancel) -> None:
+def _step_through(loop: "_Loop", n_steps: int, cancel, chunk: int = _CHUNK) -> None:
     """Every communication step.  The flag, if any, is read before each; without one the loop returns to
-    Python every _CHUNK steps, where a Ctrl-C is raised."""
-    chunk = 1 if cancel is not None else _CHUNK
+    Python every ``chunk`` steps, where a Ctrl-C is raised (every step under a tolerance: one may take
+    thousands of sub-steps)."""
+    chunk = 1 if cancel is not None else chunk
     for n in range(0, n_steps, chunk):
         if cancel is not None and cancel.is_set():
             raise Cancelled("run", f"cancelled at t = {loop.t.value:.6g} s")
@@ -359,18 +396,32 @@ class _Loop:
 
     def __init__(self, insts: list[_Instance], values, master: str, t0: float, step: float, t_end: float,
                  n_steps: int, record_every: int, column_fmu: list[int], column_index: list[int],
-                 times: np.ndarray, data: np.ndarray, profile: bool):
+                 times: np.ndarray, data: np.ndarray, profile: bool, in_modes: list[list[int]] | None = None,
+                 tol: float | None = None, sampled: list[bool] | None = None):
         from grubler import binding
 
-        self.insts, self.values = insts, values
+        self.insts, self.values, self.tol = insts, values, tol
         self.seconds = np.zeros((len(insts), 3)) if profile else None
+        # the extrapolating master's input modes and its history of the values (start, previous point)
+        self._modes = [(ctypes.c_int * len(m))(*m) for m in in_modes] if in_modes is not None else None
+        self._history = np.zeros((2, len(values))) if in_modes is not None else None
         self.fmus = (binding.MasterFmu * len(insts))(*[
-            inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data)
+            inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data,
+                           None if self._modes is None else self._modes[k], bool(sampled and sampled[k]),
+                           tol is not None and not (sampled and sampled[k]))
             for k, inst in enumerate(insts)])
+        # the adaptive master's sub-step clock (its first try: the whole step) and its work buffers
+        self._adapt = binding.MasterAdapt(step, 0.0, 0, 0, 0.0, -1)
+        self.slot_names: dict[int, str] = {}  # a value slot's output, for messages (set by the caller)
+        self._work = np.zeros(4 * len(values)) if tol is not None else None
         self._columns = (np.asarray(column_fmu, dtype=np.intc), np.asarray(column_index, dtype=np.intc))
-        self.run = binding.MasterRun(master == JACOBI, t0, step, t_end, n_steps, record_every, len(column_fmu),
+        history = (0, None, None) if self._history is None else (
+            len(values), self._history[0].ctypes.data, self._history[1].ctypes.data)
+        self.run = binding.MasterRun(_SCHEME[master], t0, step, t_end, n_steps, record_every, len(column_fmu),
                                      self._columns[0].ctypes.data, self._columns[1].ctypes.data,
-                                     times.ctypes.data, data.ctypes.data)
+                                     times.ctypes.data, data.ctypes.data, *history, tol or 0.0,
+                                     None if self._work is None else self._work.ctypes.data,
+                                     ctypes.addressof(self._adapt))
         self.t, self.row, self.failure = ctypes.c_double(t0), ctypes.c_long(1), binding.MasterFailure()
         self._steps = binding.library().grb_master_steps
 
@@ -379,8 +430,29 @@ class _Loop:
         if self._steps(self.fmus, len(self.insts), ctypes.addressof(self.values), ctypes.byref(self.run), first,
                        count, ctypes.byref(self.t), ctypes.byref(self.row), ctypes.byref(self.failure)):
             f = self.failure
-            what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal")[f.call]
+            if f.call == 4:
+                worst = self.slot_names.get(self._adapt.worst_slot, "?")
+                raise CosimError(f"tol {self.tol:g}: the coupling's error estimate stays above the tolerance down to "
+                                 f"a sub-step of {self._adapt.h:.3g} s at t = {f.t:.6g} s, largest at {worst} "
+                                 "(the FMUs' own accuracy may be the floor): give a larger tol")
+            what = ("fmi2SetReal", f"doStep from t = {f.t:.6g} s", "fmi2GetReal",
+                    f"fmi2GetFMUstate/fmi2SetFMUstate at t = {f.t:.6g} s")[f.call]
             raise self.insts[f.fmu].refused(what, f.status)
+
+    def coupling(self) -> dict:
+        """The adaptive master's counts (empty for the fixed-step masters)."""
+        if self.tol is None:
+            return {}
+        a = self._adapt
+        return {"tol": self.tol, "substeps": int(a.substeps), "rejected": int(a.rejected),
+                "worst_estimate": float(a.worst) * self.tol}
+
+    def free_states(self) -> None:
+        """The FMU states the adaptive master saved, freed (before the FMUs are)."""
+        if self.tol is not None:
+            from grubler import binding
+
+            binding.library().grb_master_free_states(self.fmus, len(self.insts))
 
     def profile(self, seq: list[str]) -> dict[str, tuple[float, float, float]]:
         """Seconds in setReal, doStep and getReal by component (empty unless profiled)."""
@@ -412,4 +484,4 @@ def _initialise(insts: dict[str, _Instance], seq: list[str], values, t0: float) 
 
 
 __all__ = ["run", "UnpackedFMUs", "check", "order", "interfaces_of", "initial_inputs", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
-           "GAUSS_SEIDEL", "JACOBI", "MASTERS"]
+           "GAUSS_SEIDEL", "JACOBI", "EXTRAPOLATE", "MASTERS"]

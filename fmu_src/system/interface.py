@@ -29,6 +29,7 @@ class Port:
     type: str
     unit: str  # '' when unknown
     description: str
+    variability: str = "continuous"  # FMI 2's default; 'discrete' for a sampled law's outputs
 
 
 @dataclass
@@ -46,7 +47,7 @@ class FmuInterface:
     ...         z.writestr("modelDescription.xml", model_description(pid_spec("PID"), []))
     ...     itf = FmuInterface.of(fmu)
     >>> itf.ports["Ts"]
-    Port(name='Ts', vr=7, causality='parameter', type='Real', unit='s', description='sample time [s]')
+    Port(name='Ts', vr=7, causality='parameter', type='Real', unit='s', description='sample time [s]', variability='fixed')
     >>> itf.feedthrough                               # its output depends on no input at the same instant
     {'u': set()}
     """
@@ -68,7 +69,8 @@ class FmuInterface:
         for v in md.modelVariables:
             unit = v.unit or (v.declaredType.unit if v.declaredType is not None else None) or _bracket_unit(
                 v.description or "")
-            ports[v.name] = Port(v.name, v.valueReference, v.causality, v.type, unit or "", v.description or "")
+            ports[v.name] = Port(v.name, v.valueReference, v.causality, v.type, unit or "", v.description or "",
+                                 v.variability or "continuous")
         feed = {}
         for out in md.outputs:
             deps = out.dependencies

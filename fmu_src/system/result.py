@@ -64,6 +64,7 @@ class CosimResult:
     messages: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)  # why the result may not be trusted, one line each
     profile: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # run(..., profile=True)
+    coupling: dict = field(default_factory=dict)  # run(..., tol=...): tol, substeps, rejected, worst_estimate
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name == "t":

@@ -300,7 +300,7 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     memcpy(s->backup, inst->p, model_persistent_size() * sizeof(double));
     if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
     memset(&run, 0, sizeof run);
-    run.jacobi = 0;
+    run.scheme = GRB_GAUSS_SEIDEL;  /* the default master of grubler cosim */
     run.t0 = t;
     run.step = h / (double)n;
     run.t_end = t + h;

@@ -14,6 +14,20 @@
  *
  * Plain structs, caller-owned memory, no globals; every function returns a
  * status (0: done, 1: an FMU refused a call, described in the failure record).
+ *
+ * The extrapolating master (GRB_EXTRAPOLATE) steps in the Gauss-Seidel order
+ * but holds each continuous input of a continuous component at its value at
+ * the step's midpoint instead of its start: the mean of a smooth input over the
+ * step to O(h^2), so the coupling is second order where holding the start value
+ * is first.  The midpoint is interpolated between the source's values at the
+ * step's start and end when the source has already stepped, and extrapolated
+ * from its last two communication points when it has not.  After the step, the
+ * inputs are set to their end-of-step values before the outputs are read, so
+ * an output that depends on an input now (a motor's torque on its speed) is
+ * the end-of-step value too.  A sampled component (in_mode 0 on every input)
+ * and a discrete source are stepped as Gauss-Seidel steps them: a sampled law
+ * reads its inputs at the sample instant, and a discrete output is held.  It
+ * needs nothing of an FMU beyond fmi2SetReal between fmi2DoStep and fmi2GetReal.
  */
 /* GRB_MASTER_NO_CLOCK: no profiling clock, for a build that never profiles (the
  * system FMU, fmi/c/system_model.c, which includes this file: its binary then
@@ -27,6 +41,7 @@
 #include <windows.h>
 #endif
 #endif
+#include <math.h>
 #include <stddef.h>
 
 #if defined(_WIN32) && defined(GRB_SHARED)
@@ -40,6 +55,9 @@
 typedef int (*grb_set_real_fn)(void *instance, const unsigned int *vr, size_t n, const double *value);
 typedef int (*grb_get_real_fn)(void *instance, const unsigned int *vr, size_t n, double *value);
 typedef int (*grb_do_step_fn)(void *instance, double t, double h, int no_set_fmu_state_prior);
+typedef int (*grb_get_state_fn)(void *instance, void **state);
+typedef int (*grb_set_state_fn)(void *instance, void *state);
+typedef int (*grb_free_state_fn)(void *instance, void **state);
 
 /* One FMU instance as the loop drives it: its calls, its wiring, its buffers. */
 typedef struct {
@@ -57,11 +75,27 @@ typedef struct {
     double *read_buf;
     const int *out_slot;      /* where each connected output's value goes */
     double *seconds;          /* NULL, or three sums: setReal, doStep, getReal (s) */
+    const int *in_mode;       /* NULL, or per input a grb_input_mode (the extrapolating master's) */
+    int sampled;              /* adaptive: 1 steps once per communication step (a sampled law), 0 in sub-steps */
+    grb_get_state_fn get_state; /* adaptive, a sub-stepped FMU: its FMU state calls, for rollback */
+    grb_set_state_fn set_state;
+    grb_free_state_fn free_state;
+    void *state;              /* the state saved at a sub-step's start (the FMU's; grb_master_free_states) */
 } grb_fmu;
+
+/* How the extrapolating master sets an input over a step. */
+enum grb_input_mode {
+    GRB_INPUT_HELD = 0,         /* as Gauss-Seidel: its source's latest value */
+    GRB_INPUT_INTERPOLATED = 1, /* midpoint of its source's start and end values (the source stepped first) */
+    GRB_INPUT_EXTRAPOLATED = 2  /* midpoint extrapolated from its source's last two communication points */
+};
+
+/* The masters grb_run.scheme names. */
+enum grb_scheme { GRB_GAUSS_SEIDEL = 0, GRB_JACOBI = 1, GRB_EXTRAPOLATE = 2 };
 
 /* The run: which master, its clock, and where recorded rows go. */
 typedef struct {
-    int jacobi;               /* 0: Gauss-Seidel in the array's order; 1: Jacobi */
+    int scheme;               /* a grb_scheme: Gauss-Seidel (in the array's order), Jacobi, extrapolating */
     double t0, step, t_end;
     long n_steps, record_every;
     size_t n_columns;
@@ -69,15 +103,32 @@ typedef struct {
     const int *column_index;  /* ... and its index in that FMU's read buffer, or the slot */
     double *times;            /* one per recorded row */
     double *data;             /* rows x n_columns */
+    size_t n_slots;           /* the extrapolating master's history of the values (else 0 and NULL): */
+    double *start;            /* ... the values at the step's start */
+    double *prev;             /* ... and at the communication point before it */
+    double tol;               /* > 0: sub-steps of the continuous FMUs adapt to this error estimate */
+    double *work;             /* adaptive: 4 n_slots doubles */
+    struct grb_adapt *adapt;  /* adaptive: the sub-step's clock, carried from one call to the next */
 } grb_run;
 
-/* Where a run stopped: the FMU, the call (0 setReal, 1 doStep, 2 getReal), its status, the step's start. */
+/* The adaptive master's sub-step clock and counts. */
+typedef struct grb_adapt {
+    double h;                 /* the next sub-step to try */
+    double h_prev;            /* the last sub-step taken (0: none yet, no slope to extrapolate) */
+    long substeps, rejected;  /* sub-steps accepted (each two half-steps), tries rejected */
+    double worst;             /* the largest error estimate accepted, relative to tol */
+    long worst_slot;          /* the value whose estimate was largest in the last try (-1: none) */
+} grb_adapt;
+
+/* Where a run stopped: the FMU, the call (0 setReal, 1 doStep, 2 getReal, 3 get/set FMU state, 4 the
+ * tolerance: the error estimate stays above it down to the smallest sub-step), its status, the step's start
+ * (with call 4, fmu is the sub-step's first FMU and t the sub-step's start). */
 typedef struct {
     int fmu, call, status;
     double t;
 } grb_failure;
 
-enum { CALL_SET, CALL_STEP, CALL_GET };
+enum { CALL_SET, CALL_STEP, CALL_GET, CALL_STATE, CALL_TOL };
 
 static double now(void) {
 #if defined(GRB_MASTER_NO_CLOCK)
@@ -115,9 +166,10 @@ static int push(grb_fmu *f, const double *values) {
     return s;
 }
 
+/* doStep; noSetFMUStatePriorToCurrentPoint is false only for an FMU the adaptive master may roll back */
 static int step(grb_fmu *f, double t, double h) {
     double t0 = f->seconds ? now() : 0.0;
-    int s = f->do_step(f->instance, t, h, 1);
+    int s = f->do_step(f->instance, t, h, f->get_state == NULL);
     if (f->seconds) f->seconds[CALL_STEP] += now() - t0;
     return s;
 }
@@ -137,6 +189,193 @@ static int publish(grb_fmu *f, double *values, int everything) {
     return s;
 }
 
+/* An input's value over the step (at == 0.5, the midpoint) or at its end (at == 1) under the
+ * extrapolating master; ratio is this step over the last one (0 on the first step: no slope yet). */
+static double input_at(int mode, int slot, const double *values, const grb_run *run, double ratio, double at) {
+    double u0 = run->start[slot], u1;
+    if (mode == GRB_INPUT_HELD) return values[slot];
+    u1 = mode == GRB_INPUT_INTERPOLATED ? values[slot] : u0 + ratio * (u0 - run->prev[slot]);
+    return at == 1.0 ? u1 : u0 + at * (u1 - u0);
+}
+
+/* setReal of the connected inputs at a point of the step (the extrapolating master's push) */
+static int push_at(grb_fmu *f, const double *values, const grb_run *run, double ratio, double at) {
+    size_t i;
+    double t0 = 0.0;
+    int s;
+    if (f->n_in == 0) return 0;
+    for (i = 0; i < f->n_in; i++)
+        f->in_buf[i] = input_at(f->in_mode[i], f->in_slot[i], values, run, ratio, at);
+    if (f->seconds) t0 = now();
+    s = f->set_real(f->instance, f->in_vr, f->n_in, f->in_buf);
+    if (f->seconds) f->seconds[CALL_SET] += now() - t0;
+    return s;
+}
+
+static int moves_inputs(const grb_fmu *f) {
+    size_t i;
+    for (i = 0; i < f->n_in; i++)
+        if (f->in_mode[i] != GRB_INPUT_HELD) return 1;
+    return 0;
+}
+
+/* The history of the values at a new point: the start becomes the previous point (when there was one). */
+static void remember(const grb_run *run, const double *values, int shift) {
+    size_t j;
+    if (shift)
+        for (j = 0; j < run->n_slots; j++) run->prev[j] = run->start[j];
+    for (j = 0; j < run->n_slots; j++) run->start[j] = values[j];
+}
+
+/* FMUs k0 .. k1 - 1, in order, over one extrapolating step from tn over h; ratio is h over the last step. */
+static int extrapolating_pass(grb_fmu *fmus, int k0, int k1, double *values, const grb_run *run, double ratio,
+                              double tn, double h, int recording, grb_failure *fail) {
+    int k, s;
+    for (k = k0; k < k1; k++) {
+        grb_fmu *f = &fmus[k];
+        int moving = f->in_mode && moves_inputs(f);
+        if ((s = moving ? push_at(f, values, run, ratio, 0.5) : push(f, values)) > 1)
+            return failed(fail, k, CALL_SET, s, tn);
+        if ((s = step(f, tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
+        if (moving && (s = push_at(f, values, run, ratio, 1.0)) > 1) return failed(fail, k, CALL_SET, s, tn);
+        if ((s = publish(f, values, recording)) > 1) return failed(fail, k, CALL_GET, s, tn);
+    }
+    return 0;
+}
+
+/* -- the adaptive master: sampled FMUs once per communication step, the others in sub-steps ---------- */
+
+/* Every sub-stepped FMU's state saved (save) or restored (!save). */
+static int states(grb_fmu *fmus, int k0, int k1, int save, double t, grb_failure *fail) {
+    int k, s;
+    for (k = k0; k < k1; k++) {
+        s = save ? fmus[k].get_state(fmus[k].instance, &fmus[k].state) : fmus[k].set_state(fmus[k].instance, fmus[k].state);
+        if (s > 1) return failed(fail, k, CALL_STATE, s, t);
+    }
+    return 0;
+}
+
+/* One sub-step of FMUs k0 .. k1 - 1 from t over h, the history moved on. */
+static int substep(grb_fmu *fmus, int k0, int k1, double *values, const grb_run *run, double t, double h,
+                   int recording, grb_failure *fail) {
+    grb_adapt *a = run->adapt;
+    double ratio = a->h_prev > 0.0 ? h / a->h_prev : 0.0;
+    remember(run, values, a->h_prev > 0.0);
+    a->h_prev = h;
+    return extrapolating_pass(fmus, k0, k1, values, run, ratio, t, h, recording, fail);
+}
+
+/* The error estimate of a sub-step: two half-steps against one whole (step doubling; the coupling is second
+ * order, so the halves' error is a third of their difference), over every value, relative to max(1, |value|). */
+static double estimate(const double *halves, const double *whole, size_t n, long *worst) {
+    double e = 0.0, d, scale;
+    size_t j;
+    *worst = -1;
+    for (j = 0; j < n; j++) {
+        scale = fabs(halves[j]) > 1.0 ? fabs(halves[j]) : 1.0;
+        d = fabs(halves[j] - whole[j]) / scale / 3.0;
+        if (!(d <= e)) { /* a NaN wins */
+            e = d;
+            *worst = (long)j;
+        }
+    }
+    return e;
+}
+
+/* With no past point to extrapolate from (the run's first sub-step), a slope from a predictor: one
+ * sub-step of h on the start values, rolled back, whose end values the history then points at (a past
+ * point u0 - (u1 - u0) one h back), so that the sub-steps that follow take the midpoint of the predicted
+ * end: second order from the first sub-step, where a start value held would make it first order. */
+static int predict(grb_fmu *fmus, int k0, int k1, double *values, const grb_run *run, double t, double h,
+                   grb_failure *fail) {
+    size_t j, n = run->n_slots;
+    double *saved = run->work, *predicted = run->work + n;
+    int s;
+    if ((s = substep(fmus, k0, k1, values, run, t, h, 0, fail)) != 0) return s;
+    for (j = 0; j < n; j++) { predicted[j] = values[j]; values[j] = saved[j]; }
+    if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
+    for (j = 0; j < n; j++) run->start[j] = 2.0 * saved[j] - predicted[j];
+    run->adapt->h_prev = h;
+    return 0;
+}
+
+/* FMUs k0 .. k1 - 1 from tn to tn + h in sub-steps whose error estimate is within run->tol. */
+static int adaptive_span(grb_fmu *fmus, int k0, int k1, double *values, const grb_run *run, double tn, double h,
+                         int recording, grb_failure *fail) {
+    grb_adapt *a = run->adapt;
+    size_t n = run->n_slots, j;
+    double *saved = run->work, *whole = run->work + n, *start = run->work + 2 * n, *prev = run->work + 3 * n;
+    double t = tn, end = tn + h, hs, tried, h_prev, h_first, err, grow;
+    int s, last;
+    while (t < end) {
+        tried = a->h;
+        hs = tried < end - t ? tried : end - t;
+        last = hs >= end - t || end - (t + hs) < 1e-9 * h; /* no sliver of a sub-step before the end */
+        if (last) hs = end - t;
+        if ((s = states(fmus, k0, k1, 1, t, fail)) != 0) return s;
+        for (j = 0; j < n; j++) saved[j] = values[j];
+        h_first = a->h_prev;
+        if (h_first <= 0.0 && (s = predict(fmus, k0, k1, values, run, t, hs, fail)) != 0) return s;
+        for (j = 0; j < n; j++) { start[j] = run->start[j]; prev[j] = run->prev[j]; }
+        h_prev = a->h_prev;
+        if ((s = substep(fmus, k0, k1, values, run, t, hs, 0, fail)) != 0) return s;
+        for (j = 0; j < n; j++) { whole[j] = values[j]; values[j] = saved[j]; run->start[j] = start[j]; run->prev[j] = prev[j]; }
+        a->h_prev = h_prev;
+        if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
+        if ((s = substep(fmus, k0, k1, values, run, t, 0.5 * hs, 0, fail)) != 0) return s;
+        if ((s = substep(fmus, k0, k1, values, run, t + 0.5 * hs, last ? end - (t + 0.5 * hs) : 0.5 * hs,
+                         recording && last, fail)) != 0) return s;
+        err = estimate(values, whole, n, &a->worst_slot) / run->tol;
+        grow = err > 0.0 ? 0.9 * pow(err, -1.0 / 3.0) : 4.0; /* local error ~ h^3 */
+        if (err <= 1.0) {
+            a->substeps++;
+            if (err > a->worst) a->worst = err;
+            t = last ? end : t + hs;
+            /* the next try: grown, but never past the communication step */
+            a->h = hs * (grow < 4.0 ? grow : 4.0);
+            if (last && hs < tried && a->h < tried) a->h = tried; /* a piece cut to end the step says little */
+            if (a->h > run->step) a->h = run->step;
+            continue;
+        }
+        /* rejected: back to the sub-step's start, and a shorter try (predicted again when it was) */
+        a->rejected++;
+        for (j = 0; j < n; j++) { values[j] = saved[j]; run->start[j] = start[j]; run->prev[j] = prev[j]; }
+        a->h_prev = h_first > 0.0 ? h_prev : 0.0;
+        if ((s = states(fmus, k0, k1, 0, t, fail)) != 0) return s;
+        a->h = hs * (grow > 0.2 ? grow : 0.2);
+        if (!(a->h >= 1e-6 * run->step)) return failed(fail, k0, CALL_TOL, 0, t); /* also a NaN */
+    }
+    return 0;
+}
+
+/* One adaptive communication step: every sampled FMU once, in order, then every other one in sub-steps. */
+static int adaptive_step(grb_fmu *fmus, int n_fmus, double *values, const grb_run *run, double tn, double h,
+                         int recording, grb_failure *fail) {
+    int k, k1, s;
+    for (k = 0; k < n_fmus; k = k1) {
+        if (fmus[k].sampled) {
+            k1 = k + 1;
+            if ((s = push(&fmus[k], values)) > 1) return failed(fail, k, CALL_SET, s, tn);
+            if ((s = step(&fmus[k], tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
+            if ((s = publish(&fmus[k], values, recording)) > 1) return failed(fail, k, CALL_GET, s, tn);
+            continue;
+        }
+        for (k1 = k; k1 < n_fmus && !fmus[k1].sampled; k1++) {}
+        if ((s = adaptive_span(fmus, k, k1, values, run, tn, h, recording, fail)) != 0) return s;
+    }
+    return 0;
+}
+
+/* Free the FMU states the adaptive master saved (after the run, before the FMUs are freed). */
+GRB_MASTER_API void grb_master_free_states(grb_fmu *fmus, int n_fmus) {
+    int k;
+    for (k = 0; k < n_fmus; k++)
+        if (fmus[k].state && fmus[k].free_state) {
+            fmus[k].free_state(fmus[k].instance, &fmus[k].state);
+            fmus[k].state = NULL;
+        }
+}
+
 /* Communication steps first .. first + count - 1 of run (of run->n_steps), from time *t.
  * *row is the next recorded row, advanced by each one written; *t is the time reached. */
 GRB_MASTER_API int grb_master_steps(grb_fmu *fmus, int n_fmus, double *values, const grb_run *run, long first,
@@ -149,7 +388,13 @@ GRB_MASTER_API int grb_master_steps(grb_fmu *fmus, int n_fmus, double *values, c
         double h = run->step, tn = *t;
         int recording = (n + 1) % run->record_every == 0 || last;
         if (last && run->t_end - tn < h) h = run->t_end - tn;  /* a last, shorter step lands on t_end */
-        if (!run->jacobi) {
+        if (run->scheme == GRB_EXTRAPOLATE && run->tol > 0.0) {
+            if ((s = adaptive_step(fmus, n_fmus, values, run, tn, h, recording, fail)) != 0) return s;
+        } else if (run->scheme == GRB_EXTRAPOLATE) {
+            remember(run, values, n > 0);
+            if ((s = extrapolating_pass(fmus, 0, n_fmus, values, run, n > 0 ? h / run->step : 0.0, tn, h, recording,
+                                        fail)) != 0) return s;
+        } else if (run->scheme != GRB_JACOBI) {
             for (k = 0; k < n_fmus; k++) {
                 if ((s = push(&fmus[k], values)) > 1) return failed(fail, k, CALL_SET, s, tn);
                 if ((s = step(&fmus[k], tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
