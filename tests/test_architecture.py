@@ -160,16 +160,20 @@ C_FAMILIES = {
 
 
 def c_calls(path: Path) -> set[str]:
-    """The C families a module calls: an attribute ``x.grb_...`` or a name ``'ctl_...'`` given to a caller."""
+    """The C families a module calls: an attribute ``lib.grb_...``, or a name ``'ctl_...'`` handed to a
+    ``call`` (C text a module writes, a generated file's names, is no call)."""
     import re
 
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
-        name = node.attr if isinstance(node, ast.Attribute) else (
-            node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else "")
-        m = re.fullmatch(r"(grb|dcm|ctl)_[a-z0-9_]+", name)
-        if m:
-            out.add(m.group(1))
+        names = [node.attr] if isinstance(node, ast.Attribute) else []
+        if isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
+                and getattr(node.func, "attr", getattr(node.func, "id", "")) == "call":
+            names.append(str(node.args[0].value))
+        for name in names:
+            m = re.fullmatch(r"(grb|dcm|ctl)_[a-z0-9_]+", name)
+            if m:
+                out.add(m.group(1))
     return out
 
 

@@ -1,0 +1,120 @@
+"""A simulation run as the page plays and plots it: its frames, its columns in words, its CSV.
+
+Examples
+--------
+>>> describe("theta3_d")
+'angular rate of link 3 (theta3_d), rad/s'
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from grubler.errors import Cancelled
+from grubler.mechanism.kinematics import link_points
+from grubler.mechanism.scene import scene_from_dict
+from grubler.mechanism.simulate import simulate, unit_of
+from grubler.quantities import mechanism_output
+from grubler.views.animation import Sketch, trace_point
+from grubler.app.drawing import _frame, default_trace
+
+MAX_FRAMES = 400  # frames sent to the page: 40 per second of a 10 s run (the graphs get every output row)
+
+
+DEGREES = {"rad": "deg", "rad/s": "deg/s", "rad/s^2": "deg/s^2"}
+
+
+def describe(column: str, actuators=(), unit: str | None = None) -> str:
+    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
+    q = mechanism_output(column, actuators)
+    words = q.label if q else column
+    u = unit_of(column) if unit is None else unit
+    return f"{words} ({column})" + (f", {u}" if u else "")
+
+
+def plotted(column: str, values, actuators=()) -> dict:
+    """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so."""
+    u, values = unit_of(column), np.asarray(values, dtype=float)
+    if u in DEGREES:
+        u, values = DEGREES[u], np.degrees(values)
+    return {"name": column, "label": describe(column, actuators, u), "unit": u, "f32": _f32(values)}
+
+
+def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
+                   trace: str | None = None, actuator_force: float | None = None):
+    """Simulate the scene (the CLI's ``simulate``) and what the page plays and plots of it.
+
+    Returns
+    -------
+    result : grubler.Result
+        Kept by the session for the CSV export.
+    view : dict
+        Times, frames (at most :data:`MAX_FRAMES`, evenly spread), the traced
+        point's path, every output column with its description, and the
+        run's warnings (an actuator given no force holds nothing).
+    ``actuator_force`` (N, pushing its points apart) is the scene's first
+    actuator's, as ``grubler simulate --actuator-force NAME=N`` gives it.
+    """
+    from grubler.limits import number
+
+    scene = scene_from_dict(data)
+    kw = {}
+    if t_end not in (None, ""):
+        kw["t_end"] = number(t_end, "t_end", low=0.0, low_open=True, unit="s")
+    if dt_out not in (None, ""):
+        kw["dt_out"] = number(dt_out, "dt_out", low=0.0, low_open=True, unit="s")
+    if torque not in (None, ""):
+        kw["torque"] = number(torque, "torque")
+    if actuator_force not in (None, "") and scene.mechanism.actuator_names:
+        kw["actuator_forces"] = {scene.mechanism.actuator_names[0]: number(actuator_force, "actuator_force",
+                                                                           unit="N")}
+    point = trace_point(trace or default_trace(scene.mechanism), scene.mechanism)
+    res = simulate(scene, cancel=cancel, **kw)
+    _check_cancel(cancel, res.t[-1])
+    rows = np.unique(np.linspace(0, len(res.t) - 1, min(len(res.t), MAX_FRAMES)).round().astype(int))
+    sketch = Sketch(scene.mechanism, point)
+    pos = sketch.positions(res.z[rows])
+    frames = [_frame(sketch.geometry(p)) for p in pos]
+    k, local = point
+    path = link_points(scene.mechanism, res.z, [k], [local])[:, 0, :]
+    columns = res.columns
+    res.compute(["state", "dynamics", "energy"])  # every column in one kernel pass, then one more look at the flag
+    _check_cancel(cancel, res.t[-1])
+    view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
+            "path": np.round(path, 6).tolist(),
+            "columns": [plotted(c, res[c], scene.mechanism.actuator_names) for c in columns],
+            "summary": _summary(scene, res), "warnings": list(res.warnings)}
+    return res, view
+
+
+def _check_cancel(cancel, t: float) -> None:
+    """The run's outputs take a while too (a kernel pass over every row): a cancel then is honoured as well."""
+    if cancel is not None and cancel.is_set():
+        raise Cancelled("run", f"cancelled at t = {t:.6g} s (the end: its outputs were being computed)")
+
+
+def _f32(values) -> str:
+    """A column for the graphs: little-endian float32, base64 (a fifth of its JSON; the CSV keeps every digit)."""
+    import base64
+
+    return base64.b64encode(np.asarray(values, dtype="<f4").tobytes()).decode()
+
+
+def _summary(scene, res) -> str:
+    e = res["E"]
+    text = (f"{scene.name or 'scene'}: {len(res.t)} points to t = {res.t[-1]:g} s, method {res.method}, "
+            f"{res.stats['steps']} steps; max closure error {np.max(res['closure_error']):.3g}; "
+            f"energy {e[0]:.6g} J -> {e[-1]:.6g} J")
+    count = res.stats.get("passage_count", 0)
+    if count:
+        text += f"; passed {count} change point{'s' if count > 1 else ''}"
+    return text
+
+
+def result_csv(res, path) -> None:
+    """The run as ``grubler simulate --csv`` writes it."""
+    res.to_csv(path, ["state", "dynamics", "energy"])
+
+
+__all__ = ["describe", "plotted", "run_simulation", "result_csv"]
