@@ -29,7 +29,8 @@ from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, Problems, SceneError, raise_all
 from grubler.limits import (brief, did_you_mean, parse_angle, parse_angle_or_number, parse_length, parse_toml,
                             read_text)
-from grubler.mechanism.model import Actuator, Closure, Link, Mechanism, coordinate_names, link_problems
+from grubler.mechanism.model import (Actuator, Closure, JointSpring, Link, Mechanism, PointLoad, Spring,
+                                     coordinate_names, link_problems)
 
 def parse_coordinate(name: str, value, field: str) -> float:
     """A joint coordinate's value: a revolute's angle (:func:`parse_angle`), rad, or a
@@ -121,8 +122,18 @@ class Scene:
 
 
 _TOP = {"name", "description", "kind", "gravity", "mechanism", "ground", "closure", "drive", "load",
-        "initial", "simulate", "actuator"}
+        "initial", "simulate", "actuator", "spring", "joint_spring", "point_load"}
 _ACTUATOR_KEYS = {"name", "from_link", "from_point", "to_link", "to_point"}
+# the force elements' tables: each key, and how it is read (a length, a pair of lengths, a number or angle)
+_SPRING_KEYS = {"name": None, "from_link": "link", "from_point": "pair", "to_link": "link", "to_point": "pair",
+                "stiffness": "number", "free_length": "length", "preload": "number", "damping": "number",
+                "gas_force": "number", "gas_column": "length", "gas_exponent": "number"}
+_JOINT_SPRING_KEYS = {"name": None, "joint": None, "stiffness": "number", "free": "number", "preload": "number",
+                      "friction": "number", "friction_speed": "number"}
+_POINT_LOAD_KEYS = {"name": None, "link": "link", "point": "pair", "force": "numbers", "moment": "number"}
+_FORCE_TABLES = (("spring", Spring, _SPRING_KEYS, ("from_link", "from_point", "to_link", "to_point")),
+                 ("joint_spring", JointSpring, _JOINT_SPRING_KEYS, ("joint",)),
+                 ("point_load", PointLoad, _POINT_LOAD_KEYS, ("link",)))
 _LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping", "parent"}
 _CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain", "damping"}
 
@@ -280,6 +291,10 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     actuators = []
     with found.check():
         actuators = _actuators(data.get("actuator", []), n)
+    forces = []
+    for table, cls, keys, required in _FORCE_TABLES:
+        with found.check():
+            forces += _force_elements(data.get(table, []), table, cls, keys, required, n)
     found.raise_all()
     # what needs the whole chain (its loops, its joints' names) is checked on it
     mechanism = Mechanism(
@@ -296,6 +311,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         kind=str(data.get("kind", "")),
         description=str(data.get("description", "")),
         actuators=tuple(actuators),
+        forces=tuple(forces),
     )
     for problem in mechanism.problems(initial_rates=qd0):  # the mechanism passed: what is left is its rates
         found.add(problem)
@@ -374,6 +390,52 @@ def _actuators(given, n: int) -> list[Actuator]:
         out.append(Actuator(str(d["name"]) if isinstance(d["name"], str) else d["name"],
                             _link_number(d["from_link"], f"{f}.from_link", n), _pair(d["from_point"], f"{f}.from_point"),
                             _link_number(d["to_link"], f"{f}.to_link", n), _pair(d["to_point"], f"{f}.to_point")))
+    return out
+
+
+def _force_elements(given, table: str, cls, keys: dict, required: tuple, n: int) -> list:
+    """The scene's [[spring]], [[joint_spring]] or [[point_load]] tables (docs/scenes.md): each a force element."""
+    if isinstance(given, dict):
+        given = [given]
+    if not (isinstance(given, list) and all(isinstance(d, dict) for d in given)):
+        raise SceneError(table, f"must be an array of tables [[{table}]]")
+    out = []
+    for j, d in enumerate(given):
+        f = f"{table}[{j}]"
+        _check_keys(d, set(keys), f)
+        for key in required:
+            if key not in d:
+                raise SceneError(f"{f}.{key}", f"is required (a {table.replace('_', ' ')} needs "
+                                               f"{', '.join(required)})")
+        values = {"name": d.get("name", f"{table}{j + 1}")}
+        if not isinstance(values["name"], str):
+            raise SceneError(f"{f}.name", f"must be a name (a letter, then letters, digits or underscores), got "
+                                          f"{brief(values['name'])}")
+        if "joint" in d:
+            if not (isinstance(d["joint"], str) and re.fullmatch(r"(theta|B)\d+", d["joint"].strip())):
+                raise SceneError(f"{f}.joint", f"must name a real joint's coordinate (theta3, B2, ...), got "
+                                               f"{brief(d['joint'])}")
+            values["joint"] = d["joint"].strip()
+        for key, how in keys.items():
+            if key not in d or how is None:
+                continue
+            field = f"{f}.{key}"
+            if how == "link":
+                values[key] = _link_number(d[key], field, n)
+            elif how == "pair":
+                values[key] = _pair(d[key], field)
+            elif how == "numbers":
+                v = d[key]
+                if not (isinstance(v, (list, tuple)) and len(v) == 2):
+                    raise SceneError(field, f"must be [x, y], got {brief(v)}")
+                values[key] = tuple(parse_angle_or_number(x, field) for x in v)
+            elif how == "length":
+                values[key] = parse_length(d[key], field)
+            elif key == "free" and isinstance(values.get("joint"), str) and values["joint"].startswith("B"):
+                values[key] = parse_length(d[key], field)
+            else:
+                values[key] = parse_angle_or_number(d[key], field)
+        out.append(cls(**values))
     return out
 
 
