@@ -428,3 +428,93 @@ def test_gas_used_up_at_the_start_is_refused_by_name(forces_fmu):
     finally:
         slave.freeInstance()
     assert any("tie.gas_column: the gas is used up at the start" in m for m in messages), messages
+
+
+# -- joint springs: a torsion spring at a revolute, a linear spring at a slide ---------------------------
+
+# a bar on a ground pivot in a horizontal plane (no gravity), held by a torsion spring about theta2 = 0.3 rad,
+# with its joint's viscous damper: I_O theta'' + c theta' + k (theta - 0.3) = 0
+TORSION = """
+name = "torsion-pendulum"
+gravity = 0.0
+[link2]
+joint = "R"
+a = 0.5
+p = 0.25
+m = 2.0
+I = 0.04
+damping = 0.05
+[closure]
+type = "none"
+[initial]
+theta2 = 0.8
+[[joint_spring]]
+name = "coil"
+joint = "theta2"
+stiffness = 3.0
+free = 0.3
+"""
+
+
+def test_damped_torsional_pendulum_decays_as_its_closed_form():
+    res = simulate(load_scene(TORSION), t_end=5.0, dt_out=0.01, rtol=1e-11, atol=1e-12)
+    inertia = 0.04 + 2.0 * 0.25**2  # about the pivot
+    w = math.sqrt(3.0 / inertia)
+    zeta = 0.05 / (2 * inertia * w)
+    wd = w * math.sqrt(1 - zeta**2)
+    expected = 0.3 + 0.5 * np.exp(-zeta * w * res.t) * (np.cos(wd * res.t) + zeta * w / wd * np.sin(wd * res.t))
+    assert np.max(np.abs(res["theta2"] - expected)) < 1e-8
+    assert np.max(np.abs(res["coil_effort"] + 3.0 * (res["theta2"] - 0.3))) < 1e-12
+    assert np.max(np.abs(res["coil_energy"] - 1.5 * (res["theta2"] - 0.3) ** 2)) < 1e-12
+    # what the joint damper took is what the run lost (the spring's energy is in E)
+    lost = res["E"][0] - res["E"]
+    taken = cumulative_simpson(0.05 * res["theta2_d"] ** 2, x=res.t, initial=0.0)
+    assert np.max(np.abs(lost - taken)) < 1e-7
+    # the spring's moment is the pair's own: the pivot's reaction moment carries it and the damper's
+    out = simulate(load_scene(TORSION), t_end=0.3, dt_out=0.1)
+    assert np.max(np.abs(out["R1_Mz"] - (out["coil_effort"] - 0.05 * out["theta2_d"]))) < 1e-9
+
+
+def test_torsion_spring_on_a_link_of_a_chain_acts_on_the_relative_angle():
+    # at link 3 of a double pendulum the spring sees theta3 - theta2, and at rest its moment is the pair's
+    scene = load_scene(DOUBLE.replace("""[[spring]]
+name = "tie\"""", """[[joint_spring]]
+name = "knee"
+joint = "theta3"
+stiffness = 7.0
+free = -0.5
+preload = 0.4
+[[spring]]
+name = "tie\"""").replace("stiffness = 80.0", "stiffness = 0.0"))
+    m = scene.mechanism
+    out = evaluate(m, "exact", 0.0, m.z_from_q(m.q_ref), np.zeros(2), Inputs(), ["dynamics", "reactions", "forces"])
+    assert out["knee_position"] == pytest.approx(-1.2 - (-0.3), abs=1e-15)
+    assert out["knee_effort"] == pytest.approx(0.4 - 7.0 * (-0.9 + 0.5), rel=1e-14)
+    assert out["R2_Mz"] == pytest.approx(out["knee_effort"], rel=1e-12)  # what link 2 exerts on link 3
+
+
+def test_linear_spring_at_a_slide_swings_as_the_spring_mass():
+    # the block of SLIDE held by a joint spring on B1 instead of a spring between points
+    scene = load_scene(SLIDE.split("[[spring]]")[0] + """[[joint_spring]]
+name = "coil"
+joint = "B1"
+stiffness = 50.0
+free = "0 m"
+""")
+    res = simulate(scene, t_end=2.0, dt_out=0.01, rtol=1e-11, atol=1e-12)
+    assert np.max(np.abs(res["B1"] - 0.1 * np.cos(5.0 * res.t))) < 1e-8
+    assert np.max(np.abs(res["E"] - 0.25)) < 1e-9
+
+
+@pytest.mark.parametrize("table, field, words", [
+    ('joint = "theta2"', "joint_spring[0].joint", "B1 is a locked (fictitious) coordinate"),
+    ("stiffness = 3.0", "joint_spring[0].stiffness", "stiffness must be >= 0, got -3.0"),
+    ("free = 0.3", "joint_spring[0].friction_speed", "friction's regularising speed must be positive, got 0.0"),
+    ('joint = "theta2"', "joint_spring[0].joint", "unknown coordinate 'theta7'"),
+])
+def test_bad_joint_spring_is_refused_by_name(table, field, words):
+    bad = {"stiffness = 3.0": "stiffness = -3.0", "free = 0.3": "free = 0.3\nfriction = 1.0\nfriction_speed = 0.0",
+           'joint = "theta2"': 'joint = "B1"' if "B1" in words else 'joint = "theta7"'}[table]
+    with pytest.raises(SceneError) as err:
+        load_scene(TORSION.replace(table, bad))
+    assert err.value.field == field and words in str(err.value)
