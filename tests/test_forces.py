@@ -621,3 +621,26 @@ def test_block_sticks_on_a_slope_and_creeps_as_the_regularisation_says():
     # (over the steady creep: the record is too coarse for the first millisecond's transient)
     lost = res["E"][late][0] - res["E"][late][-1]
     assert lost == pytest.approx(float(np.trapezoid(res["contact_dissipation"][late], res.t[late])), rel=1e-4)
+
+
+def test_animation_draws_a_spring_between_its_points(tmp_path):
+    from PIL import Image
+
+    from grubler.views.animation import SPRING_COLOUR, animate, frame_geometry, zigzag
+
+    scene = load_scene(BOOM)
+    geo = frame_geometry(scene.mechanism, scene.mechanism.z_from_q(scene.mechanism.q_ref))
+    (p0, p1), = geo.springs
+    theta = math.radians(20.0)
+    assert tuple(p0) == (0.3, -0.4)
+    assert tuple(p1) == pytest.approx((0.5 * math.cos(theta) - 0.05 * math.sin(theta),
+                                       0.5 * math.sin(theta) + 0.05 * math.cos(theta)), abs=1e-15)
+    zz = zigzag(p0, p1)
+    assert tuple(zz[0]) == tuple(p0) and tuple(zz[-1]) == pytest.approx(tuple(p1))
+    # a GIF frame holds the spring's colour
+    res = simulate(scene, t_end=0.1, dt_out=0.05)
+    out = tmp_path / "boom.gif"
+    animate(scene.mechanism, res.t, res.z, str(out), fps=10, speed=1.0)
+    frame = Image.open(out).convert("RGB")
+    colour = tuple(int(SPRING_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
+    assert colour in {c for _, c in frame.getcolors(1 << 16)}
