@@ -644,3 +644,12 @@ def test_animation_draws_a_spring_between_its_points(tmp_path):
     frame = Image.open(out).convert("RGB")
     colour = tuple(int(SPRING_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
     assert colour in {c for _, c in frame.getcolors(1 << 16)}
+
+
+@pytest.mark.parametrize("name, words", [("link2", "is a scene table's name"), ("2bad", "must be a letter"),
+                                         ("coil", "names another actuator or force element already")])
+def test_element_names_that_would_clash_are_refused(name, words):
+    text = SLIDE + f'[[joint_spring]]\nname = "{name}"\njoint = "B1"\n'
+    with pytest.raises(SceneError) as err:
+        load_scene(text)
+    assert err.value.field == "joint_spring[0].name" and words in str(err.value)

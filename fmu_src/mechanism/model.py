@@ -364,6 +364,9 @@ def force_row(element, joint_link: int = 0) -> np.ndarray:
     return row
 
 
+# names an element may not take: its dotted parameters (NAME.damping) are the scene's own (link2.damping)
+_RESERVED_NAME = re.compile(r"link\d+|ground|gravity|closure|initial|drive|load|simulate|mechanism|method|"
+                            r"integrator|rtol|atol|max_step|step")
 MAX_ACTUATORS = 16  # the kernel's GRB_MAX_ACTUATORS
 ACTUATOR_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
 # columns of the actuator table (ModelArrays.actuators), one row per actuator
@@ -682,6 +685,9 @@ class Mechanism:
                                               f"(it names the columns <name>_force, ...), got {element.name!r}")
             if element.name in names:
                 raise SceneError(f"{f}.name", f"{element.name!r} names another actuator or force element already")
+            if _RESERVED_NAME.fullmatch(element.name):
+                raise SceneError(f"{f}.name", f"{element.name!r} is a scene table's name: its parameters "
+                                              f"({element.name}.stiffness, ...) would read as that table's")
             names.add(element.name)
             changes = {}
             for key, value in element.__dict__.items():
