@@ -653,3 +653,28 @@ def test_element_names_that_would_clash_are_refused(name, words):
     with pytest.raises(SceneError) as err:
         load_scene(text)
     assert err.value.field == "joint_spring[0].name" and words in str(err.value)
+
+
+def test_every_surface_reads_an_element_s_output_from_the_one_table():
+    # the CSV headings, the app's menus and the FMU's variables take an element's unit and words from
+    # grubler.quantities.FORCE_OUTPUTS
+    from grubler.app import actions
+    from grubler.fmi.mechanism import mechanism_spec
+    from grubler.mechanism.simulate import force_kinds, output_columns, unit_of
+    from grubler.quantities import fmi_text, fmi_unit, mechanism_output
+
+    scene = load_scene(ALL_KINDS)
+    m = scene.mechanism
+    columns = output_columns(m, ("forces",))[1:]
+    # the scene's springs, then its joint springs, then its loads, each in file order
+    assert columns == ["tie_length", "tie_rate", "tie_force", "tie_energy", "tie_power", "tie_dissipation",
+                       "hinge_position", "hinge_speed", "hinge_effort", "hinge_energy", "hinge_power",
+                       "hinge_dissipation", "push_power"]
+    declared = {v.name: v for v in mechanism_spec(scene).variables}
+    for c in columns:
+        q = mechanism_output(c, m.actuator_names, force_kinds(m))
+        assert q is not None and unit_of(c) == q.unit, c
+        assert actions.describe(c, m.actuator_names, force_kinds(m)).startswith(f"{q.label} ({c})"), c
+        assert declared[c].unit == fmi_unit(q.unit) and declared[c].description == fmi_text(q), c
+    assert mechanism_output("tie_force", (), force_kinds(m)).unit == "N"
+    assert mechanism_output("hinge_effort", (), force_kinds(m)).unit == "N m or N"

@@ -36,7 +36,7 @@ from grubler.mechanism.assembly import assemble, branches
 from grubler.mechanism.builders import BUILDER_DOCS, HANDLES, MOVES, Drawing, value
 from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import coordinate_text, preset_names, preset_text, scene_from_dict
-from grubler.mechanism.simulate import output_columns, simulate, unit_of
+from grubler.mechanism.simulate import force_kinds, output_columns, simulate, unit_of
 from grubler.quantities import mechanism_output, scene_field
 from grubler.views.animation import Sketch, trace_point
 
@@ -461,9 +461,11 @@ def _finite(v, field: str) -> float:
 # -- runs ----------------------------------------------------------------------------------------
 
 
-def describe(column: str, actuators=()) -> str:
-    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
-    q = mechanism_output(column, actuators)
+def describe(column: str, actuators=(), forces=()) -> str:
+    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'.
+
+    ``forces``: the force elements as (name, kind) pairs (grubler.mechanism.simulate.force_kinds)."""
+    q = mechanism_output(column, actuators, forces)
     words = q.label if q else column
     u = unit_of(column)
     return f"{words} ({column})" + (f", {u}" if u else "")
@@ -505,7 +507,8 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
-            "columns": [{"name": c, "label": describe(c, scene.mechanism.actuator_names), "f32": _f32(res[c])}
+            "columns": [{"name": c, "label": describe(c, scene.mechanism.actuator_names, force_kinds(scene.mechanism)),
+                         "f32": _f32(res[c])}
                         for c in columns],
             "summary": _summary(scene, res)}
     return res, view
