@@ -678,3 +678,29 @@ def test_every_surface_reads_an_element_s_output_from_the_one_table():
         assert declared[c].unit == fmi_unit(q.unit) and declared[c].description == fmi_text(q), c
     assert mechanism_output("tie_force", (), force_kinds(m)).unit == "N"
     assert mechanism_output("hinge_effort", (), force_kinds(m)).unit == "N m or N"
+
+
+def test_complex_step_twin_carries_every_kind_of_element():
+    # the exact Jacobian of the state equation (linearisation, the implicit integrators) against central
+    # differences of the real kernel, at a moving state where the gas, the damper and friction all act
+    from grubler.mechanism.integrators import StateEquation
+
+    scene = load_scene(ALL_KINDS)
+    res = simulate(scene, t_end=0.3, dt_out=0.3)
+    y = np.concatenate([res.z[-1], res.zd[-1]])
+    ode = StateEquation(scene.mechanism, method="exact", drive=0.0, load=0.0)
+    exact = ode.jacobian(0.3, y)
+    h = 1e-6
+    diff = np.column_stack([(ode(0.3, y + h * e) - ode(0.3, y - h * e)) / (2 * h) for e in np.eye(y.size)])
+    assert np.max(np.abs(exact - diff)) < 1e-5 * np.max(np.abs(exact))
+    # and the gas spring alone, whose force is a power of its column: its slope along the column
+    without = load_scene(ALL_KINDS.replace("gas_force = 30.0", "gas_force = 0.0"))
+    other = StateEquation(without.mechanism, method="exact", drive=0.0, load=0.0).jacobian(0.3, y)
+    assert np.max(np.abs(exact - other)) > 1.0  # the gas changes the Jacobian: the twin computes its share
+    # the torsion pendulum linearises to I s^2 + c s + k
+    from grubler.studies.linearize import linearize
+
+    sys_ = linearize(load_scene(TORSION.replace("[closure]", '[drive]\njoint = "theta2"\n[closure]')))
+    inertia = 0.04 + 2.0 * 0.25**2
+    assert np.sort_complex(np.linalg.eigvals(sys_.A)) == pytest.approx(
+        np.sort_complex(np.roots([inertia, 0.05, 3.0])), abs=1e-9)
