@@ -719,3 +719,21 @@ def test_fmu_sources_with_elements_are_strict_c99(forces_fmu, tmp_path, flags):
         importer_build(tmp_path / "u", *STRICT, *flags)
     except subprocess.CalledProcessError as exc:
         pytest.fail(f"the sources do not compile as strict C99 {flags}:\n{exc.stderr}")
+
+
+def test_animation_draws_a_load_as_an_arrow_onto_its_point(tmp_path):
+    from PIL import Image
+
+    from grubler.views.animation import LOAD_COLOUR, animate, frame_geometry
+
+    scene = load_scene(ALL_KINDS)
+    geo = frame_geometry(scene.mechanism, scene.mechanism.z_from_q(scene.mechanism.q_ref))
+    (p, u), = geo.loads
+    t2 = -0.3
+    assert tuple(p) == pytest.approx((0.7 * math.cos(t2) - 0.1 * math.sin(t2), 0.7 * math.sin(t2) + 0.1 * math.cos(t2)))
+    assert tuple(u) == pytest.approx((4.0 / math.hypot(4, 2), -2.0 / math.hypot(4, 2)))
+    res = simulate(scene, t_end=0.1, dt_out=0.05)
+    out = tmp_path / "all.gif"
+    animate(scene.mechanism, res.t, res.z, str(out), fps=10, speed=1.0)
+    colour = tuple(int(LOAD_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
+    assert colour in {c for _, c in Image.open(out).convert("RGB").getcolors(1 << 16)}

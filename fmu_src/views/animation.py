@@ -42,6 +42,8 @@ TRACE_COLOUR = "#ff7f0e"
 CYLINDER_COLOUR = "#17becf"  # an actuator's barrel
 SPRING_COLOUR = "#8c564b"  # a spring's zigzag
 SPRING_TURNS = 7  # the zigzag's points either side of its line
+LOAD_COLOUR = "#9467bd"  # a point load's arrow
+LOAD_ARROW_PX = 45  # an arrow's length on the GIF (its direction is the force's; its size says nothing)
 BARREL_SHARE = 0.55  # of an actuator's length, the barrel drawn from its first point (the rod runs the whole line)
 
 # the public names (the API reference's): the rest is the package's inside
@@ -72,6 +74,7 @@ class FrameGeometry:
     trace: np.ndarray | None = None  # the traced point, if any
     actuators: list = field(default_factory=list)  # [(first point, second point), ...]: a barrel and its rod
     springs: list = field(default_factory=list)  # [(first point, second point), ...]: a zigzag between them
+    loads: list = field(default_factory=list)  # [(point, unit direction), ...]: a point load's arrow, ending there
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
@@ -104,6 +107,8 @@ class Sketch:
         self.springs = [e for e in model.forces if e.table == "spring"]
         self.spring_ends = [(self._add(e.from_link - 2, *e.from_point), self._add(e.to_link - 2, *e.to_point))
                             for e in self.springs]
+        self.loads = [e for e in model.forces if e.table == "point_load" and np.hypot(*e.force) > 0]
+        self.load_points = [self._add(e.link - 2, *e.point) for e in self.loads]
         self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
         self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
@@ -186,6 +191,8 @@ class Sketch:
                     if min(np.linalg.norm(pos[i] - O[k]), np.linalg.norm(pos[i] - E[k])) > 1e-9:
                         geo.bars.append((O[k], pos[i]) if np.linalg.norm(pos[i] - O[k]) < np.linalg.norm(
                             pos[i] - E[k]) else (E[k], pos[i]))
+        for load, i in zip(self.loads, self.load_points):  # world axes: the force's direction is constant
+            geo.loads.append((pos[i], np.asarray(load.force, dtype=float) / np.hypot(*load.force)))
         for spring, (i0, i1) in zip(self.springs, self.spring_ends):
             geo.springs.append((pos[i0], pos[i1]))
             for link, i in ((spring.from_link, i0), (spring.to_link, i1)):
@@ -327,6 +334,9 @@ class Drawer:
         for p0, p1 in geo.springs:
             zz = zigzag(p0, p1)
             A += ax.plot(zz[:, 0], zz[:, 1], "-", color=SPRING_COLOUR, lw=1.8, zorder=2.5)
+        for p, u in geo.loads:  # an arrow of a fixed size in points, ending at the load's point
+            A.append(ax.annotate("", xy=tuple(p), xytext=(-40 * u[0], -40 * u[1]), textcoords="offset points",
+                                 arrowprops={"arrowstyle": "-|>", "color": LOAD_COLOUR, "lw": 2.0}, zorder=5))
         for c, angle in geo.blocks:
             u = np.array([math.cos(angle), math.sin(angle)])
             v = np.array([-u[1], u[0]])
@@ -370,7 +380,7 @@ CURSOR_COLOUR = "#d62728"
 # a frame stores only what moved, not the rectangle around everything that did)
 _INKS = {"white": "#ffffff", "black": "#000000", "link": LINK_COLOUR, "plate": PLATE_COLOUR, "joint": JOINT_COLOUR,
          "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR,
-         "cylinder": CYLINDER_COLOUR, "rod": "#404040", "spring": SPRING_COLOUR,
+         "cylinder": CYLINDER_COLOUR, "rod": "#404040", "spring": SPRING_COLOUR, "load": LOAD_COLOUR,
          "clear": "#ff00ff"}
 
 
@@ -663,6 +673,11 @@ class _Film:
             d.line([tuple(a), tuple(a + BARREL_SHARE * (b - a))], fill=ink["cylinder"], width=2 * _BAR)
         for p0, p1 in geo.springs:
             d.line([tuple(q) for q in zigzag(px(p0), px(p1))], fill=ink["spring"], width=3)
+        for p, u in geo.loads:  # the image's y points down
+            tip, u = px(p), np.array([u[0], -u[1]])
+            tail, side = tip - LOAD_ARROW_PX * u, np.array([-u[1], u[0]])
+            d.line([tuple(tail), tuple(tip)], fill=ink["load"], width=3)
+            d.polygon([tuple(tip), tuple(tip - 12 * u + 6 * side), tuple(tip - 12 * u - 6 * side)], fill=ink["load"])
         for c, angle in geo.blocks:
             c = px(c)
             u = np.array([math.cos(angle), -math.sin(angle)])
