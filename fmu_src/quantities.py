@@ -282,15 +282,22 @@ _FORCE_FIELDS = {
 }
 
 
-def force_field(table: str, field: str) -> Quantity:
+def force_field(table: str, field: str, on_slide: bool | None = None) -> Quantity:
     """A force element's field (``stiffness``) by the element's kind (``spring``, ``joint_spring``, ``point_load``).
+
+    ``on_slide``: whether a joint spring's joint is a slide (its unit then the second of 'N m/rad or N/m'),
+    None where that is not known.
 
     Examples
     --------
     >>> force_field("spring", "stiffness").unit, force_field("joint_spring", "stiffness").unit
     ('N/m', 'N m/rad or N/m')
+    >>> force_field("joint_spring", "stiffness", on_slide=True).unit
+    'N/m'
     """
     unit, text = _FORCE_FIELDS[table][field]
+    if on_slide is not None and " or " in unit:
+        unit = unit.split(" or ")[1 if on_slide else 0]
     return Quantity(field, unit, field, text)
 
 

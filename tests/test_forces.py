@@ -812,3 +812,33 @@ def test_inverse_dynamics_gives_back_the_drive_torque_with_elements_in_a_loop():
     power = res["P_drive"] + res["push_power"] - res["return_dissipation"] - res["hinge_dissipation"]
     residue = res["E"] - res["E"][0] - cumulative_simpson(power, x=res.t, initial=0.0)
     assert np.max(np.abs(residue)) < 1e-6
+
+
+def test_a_sweep_sets_an_element_s_numbers_by_its_name():
+    from grubler.mechanism.scene import override, parameter, parameter_names
+    from grubler.studies.sweep import scene_point_units
+
+    scene = load_scene(FOURBAR)
+    names = parameter_names(scene)
+    assert {"return.stiffness", "return.gas_column", "hinge.friction", "push.force_y", "push.moment"} <= set(names)
+    stiffer = override(scene, {"return.stiffness": 800.0, "return.free_length": "25 cm", "push.force_y": -5.0,
+                               "hinge.friction": 0.0})
+    spring, hinge, push = stiffer.mechanism.forces
+    assert (spring.stiffness, spring.free_length, push.force, hinge.friction) == (800.0, 0.25, (0.0, -5.0), 0.0)
+    assert parameter(stiffer, "push.force_y") == -5.0 and parameter(scene, "return.stiffness") == 400.0
+    units = scene_point_units(scene, ["return.stiffness", "hinge.stiffness", "hinge.free", "push.moment"])
+    assert [units[n] for n in ("return.stiffness", "hinge.stiffness", "hinge.free", "push.moment")] == \
+        ["N/m", "N m/rad", "rad", "N m"]
+    with pytest.raises(SceneError) as err:  # the values go through the scene's own rules
+        override(scene, {"return.stiffness": -1.0})
+    assert err.value.field == "spring[0].stiffness"
+    with pytest.raises(SceneError) as err:  # a length is a length
+        override(scene, {"return.free_length": "30 deg"})
+    assert err.value.field == "return.free_length"
+
+
+def test_a_sweep_point_s_energy_balance_counts_the_elements():
+    from grubler.studies.sweep import scene_point
+
+    out = scene_point(FOURBAR, 0.5, **{"return.stiffness": 800.0})
+    assert out["energy_balance"] < 0.01  # J: the trapezoid's error on a 10 ms grid (2.7 J with the elements left out)

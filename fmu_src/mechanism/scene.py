@@ -573,6 +573,19 @@ def with_overrides(scene: Scene, **changes) -> Scene:
 
 _LINK_PARAMS = ("a", "p", "q", "m", "I", "damping")
 _LINK_LENGTHS = ("a", "p", "q")  # m: read by parse_length, which refuses an angle
+# a force element's numbers a sweep may set, as NAME.field (the native FMU's parameters of the same names)
+ELEMENT_PARAMS = {"spring": ("stiffness", "free_length", "preload", "damping", "gas_force", "gas_column",
+                             "gas_exponent"),
+                  "joint_spring": ("stiffness", "free", "preload", "friction", "friction_speed"),
+                  "point_load": ("force_x", "force_y", "moment")}
+_ELEMENT_LENGTHS = ("free_length", "gas_column")
+
+
+def _element_value(element, field_: str) -> float:
+    """One of :data:`ELEMENT_PARAMS` of a force element (a load's force_x and force_y are its force's parts)."""
+    if field_ in ("force_x", "force_y"):
+        return element.force[field_ == "force_y"]
+    return getattr(element, field_)
 
 
 def parameter_names(scene: Scene) -> list[str]:
@@ -590,6 +603,8 @@ def parameter_names(scene: Scene) -> list[str]:
         names += [f"link{k}.{f}" for f in _LINK_PARAMS]
     if m.closures:
         names += ["closure.gain", "closure.damping"]
+    for e in m.forces:
+        names += [f"{e.name}.{f}" for f in ELEMENT_PARAMS[e.table]]
     names += ["drive_joint", "load_joint", "drive.inertia", "drive.torque", "load.torque"]
     for x in m.coordinate_names:
         names += [f"initial.{x}", f"initial.{x}_d"]
@@ -627,6 +642,9 @@ def parameter(scene: Scene, name: str):
             return getattr(m.links[k], field_)
     if head == "closure" and field_ in ("gain", "damping") and m.closures:
         return getattr(m.closures[0], field_)
+    for e in m.forces:
+        if head == e.name and field_ in ELEMENT_PARAMS[e.table]:
+            return _element_value(e, field_)
     if head == "initial":
         names = m.coordinate_names
         if field_ in names:
@@ -640,7 +658,7 @@ def _is_length(name: str) -> bool:
     """Whether a dotted parameter is a length, m: a link's a, p or q, a slide's initial B."""
     head, _, leaf = name.partition(".")
     return (head.startswith("link") and leaf in _LINK_LENGTHS) or (head == "initial" and re.fullmatch(r"B\d+", leaf)
-                                                                   is not None)
+                                                                   is not None) or leaf in _ELEMENT_LENGTHS
 
 
 def parameter_value(name: str, value):
@@ -704,10 +722,17 @@ def override(scene: Scene, values: dict) -> Scene:
         # one penalty tuning for every loop: a six-bar's two closures alike
         closures = tuple(replace(c, gain=ov.get("closure.gain", c.gain), damping=ov.get("closure.damping", c.damping))
                          for c in closures)
+    forces = []
+    for e in m.forces:
+        changes = {f: ov[f"{e.name}.{f}"] for f in ELEMENT_PARAMS[e.table] if f"{e.name}.{f}" in ov}
+        if "force_x" in changes or "force_y" in changes:
+            changes["force"] = (changes.pop("force_x", e.force[0]), changes.pop("force_y", e.force[1]))
+        forces.append(replace(e, **changes))
     names = m.coordinate_names
     q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
     qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, m.S @ scene.initial_rates)]
-    model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
+    model = m.replace(links=links, closures=closures, forces=tuple(forces), q_ref=q_ref,
+                      gravity=ov.get("gravity", m.gravity),
                       drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
                       drive_inertia=ov.get("drive.inertia", m.drive_inertia))
     out = replace(scene, mechanism=model, initial_rates=model.zd_from_qd(qd),
