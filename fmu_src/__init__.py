@@ -24,7 +24,7 @@ from grubler.mechanism.assembly import assemble
 from grubler.mechanism.dynamics import Inputs, forward_dynamics, inverse_dynamics, joint_reactions
 from grubler.errors import AssemblyError, GrublerError, IntegrationError, SceneError, SceneErrors
 from grubler.studies.linearize import OperatingPoint, linearize, operating_point
-from grubler.mechanism.model import Closure, Link, Mechanism
+from grubler.mechanism.model import Closure, JointSpring, Link, Mechanism, PointLoad, Spring
 from grubler.mechanism.scene import Scene, load_scene, preset_names, scene_from_dict
 from grubler.mechanism.simulate import Result, Simulator, evaluate, output_columns, simulate
 from grubler.system import cosim, ssp
@@ -39,8 +39,8 @@ sys.modules[__name__ + ".cosim"], sys.modules[__name__ + ".ssp"] = cosim, ssp
 
 
 __all__ = [
-    "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "Link",
+    "AssemblyError", "Closure", "Grashof", "GrublerError", "Inputs", "IntegrationError", "JointSpring", "Link",
     "Mechanism", "OperatingPoint", "Result", "Scene", "SceneError", "SceneErrors", "Simulator", "assemble", "classify", "evaluate",
     "forward_dynamics", "grashof", "inverse_dynamics", "joint_reactions", "kutzbach_mobility", "linearize",
-    "load_scene", "operating_point", "output_columns", "preset_names", "scene_from_dict", "simulate",
+    "load_scene", "operating_point", "output_columns", "PointLoad", "preset_names", "scene_from_dict", "simulate", "Spring",
 ]

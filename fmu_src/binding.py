@@ -41,7 +41,8 @@ class Model(ctypes.Structure):
 
     _fields_ = [("n_links", c_int), ("n_closures", c_int), ("links", c_void_p), ("closures", c_void_p),
                 ("theta1", c_double), ("gravity", c_double), ("drive", c_int), ("load", c_int),
-                ("drive_inertia", c_double), ("n_actuators", c_int), ("actuators", c_void_p)]
+                ("drive_inertia", c_double), ("n_actuators", c_int), ("actuators", c_void_p), ("n_forces", c_int),
+                ("forces", c_void_p)]
 
 
 class Settings(ctypes.Structure):
@@ -118,6 +119,8 @@ class Problem(ctypes.Structure):
 SCENE_LINK_COLUMNS = 8
 SCENE_CLOSURE_COLUMNS = 11  # GRB_SC_*: type (1 revolute, 2 prismatic), link, to_link (thesis), ...
 SCENE_ACTUATOR_COLUMNS = 6  # GRB_A_*: from_link, from x, y, to_link, to x, y (thesis)
+FORCE_COLUMNS = 19  # GRB_F_*: a force element's row (grubler.mechanism.model.F_*)
+FORCE_OUTPUTS = 6  # GRB_FO_*: length, rate, force, energy, power, dissipation
 
 
 class SceneView(ctypes.Structure):
@@ -130,7 +133,9 @@ class SceneView(ctypes.Structure):
                 ("actuator_column", c_int * SCENE_ACTUATOR_COLUMNS),
                 ("a1", c_double), ("theta1", c_double), ("gravity", c_double), ("q_ref", c_void_p), ("qd", c_void_p),
                 ("drive", c_int), ("load", c_int), ("drive_inertia", c_double), ("actuator_names", c_void_p),
-                ("drive_field", ctypes.c_char_p), ("load_field", ctypes.c_char_p)]
+                ("drive_field", ctypes.c_char_p), ("load_field", ctypes.c_char_p),
+                ("n_forces", c_int), ("forces", c_void_p), ("force_stride", c_int),
+                ("force_column", c_int * FORCE_COLUMNS), ("force_names", c_void_p)]
 
 
 _P = c_void_p  # a numpy buffer's address
@@ -147,6 +152,7 @@ _SIGNATURES = {
     "grb_observe_rows": (c_int, [_M, c_int, c_int, _P, _P, c_double, c_double, c_int, _P, _P]),
     "grb_set_actuator_forces": (c_int, [_M, _P, _P]),
     "grb_actuator_lines": (c_int, [_M, c_int, _P, _P, _P]),
+    "grb_force_rows": (c_int, [_M, c_int, _P, _P, _P]),
     "grb_point_on_link": (c_int, [_M, _P, c_int, c_double, c_double, _P, _P]),
     "grb_link_points_rows": (c_int, [_M, c_int, _P, c_int, _P, _P, _P, _P]),
     "grb_joint_reactions": (c_int, [_M, _P, _P]),
@@ -230,12 +236,14 @@ def address(a: np.ndarray) -> int:
 
 
 def model_struct(links: np.ndarray, closures: np.ndarray, theta1: float, gravity: float, drive: int, load: int,
-                 drive_inertia: float, actuators: np.ndarray | None = None) -> Model:
-    """A ``grb_model`` over its tables: links, closures and actuators (the caller keeps them alive)."""
+                 drive_inertia: float, actuators: np.ndarray | None = None,
+                 forces: np.ndarray | None = None) -> Model:
+    """A ``grb_model`` over its tables: links, closures, actuators and force elements (the caller keeps them alive)."""
     n_act = 0 if actuators is None else actuators.shape[0]
+    n_forces = 0 if forces is None else forces.shape[0]
     return Model(links.shape[0], closures.shape[0], address(links), address(closures) if closures.size else None,
                  float(theta1), float(gravity), int(drive), int(load), float(drive_inertia), n_act,
-                 address(actuators) if n_act else None)
+                 address(actuators) if n_act else None, n_forces, address(forces) if n_forces else None)
 
 
 def set_actuator_forces(model: int, work: np.ndarray, forces) -> None:
@@ -291,7 +299,8 @@ def _problems(call) -> list[tuple[str, str]]:
 
 def scene_problems(links: np.ndarray, closures: np.ndarray, actuators: np.ndarray, a1: float, theta1: float,
                    gravity: float, q_ref: np.ndarray, qd: np.ndarray | None, drive: int, load: int,
-                   drive_inertia: float) -> list[tuple[str, str]]:
+                   drive_inertia: float, forces: np.ndarray | None = None,
+                   force_names: list[str] | None = None) -> list[tuple[str, str]]:
     """grb_scene_check (grb_scene.h): every refusal of a scene's mechanism rules, as (field, reason), in order.
 
     The native mechanism FMU refuses its parameters with the same C function.
@@ -300,7 +309,9 @@ def scene_problems(links: np.ndarray, closures: np.ndarray, actuators: np.ndarra
     2 prismatic, link, to_link, point, to_point, angle, psi, gain, damping),
     ``actuators`` (A x 6: from_link, from_point, to_link, to_point, thesis
     numbering), ``q_ref`` (2N), ``qd`` (2N initial absolute rates, or None: not
-    judged), ``drive`` and ``load`` (index in q, -1 none).
+    judged), ``drive`` and ``load`` (index in q, -1 none), ``forces`` (F x
+    FORCE_COLUMNS, the kernel's force rows with thesis link numbers) named by
+    ``force_names`` in the messages.
     """
     tables = [np.ascontiguousarray(t, dtype=float) for t in (links, closures, actuators, q_ref)]
     rates = None if qd is None else np.ascontiguousarray(qd, dtype=float)
@@ -312,6 +323,12 @@ def scene_problems(links: np.ndarray, closures: np.ndarray, actuators: np.ndarra
                      float(a1), float(theta1), float(gravity), address(q) if q.size else None,
                      None if rates is None else address(rates), int(drive), int(load), float(drive_inertia),
                      None, None, None)
+    F = np.zeros((0, FORCE_COLUMNS)) if forces is None else np.ascontiguousarray(forces, dtype=float)
+    names = [n.encode() for n in (force_names or [])]
+    name_array = (ctypes.c_char_p * max(len(names), 1))(*names)
+    view.n_forces, view.forces, view.force_stride = F.shape[0], address(F) if F.size else None, FORCE_COLUMNS
+    view.force_column = tuple(range(FORCE_COLUMNS))
+    view.force_names = ctypes.cast(name_array, c_void_p) if names else None
     return _problems(lambda found, capacity, count: library().grb_scene_check(ctypes.byref(view), found, capacity,
                                                                                count))
 

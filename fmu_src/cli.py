@@ -227,7 +227,7 @@ def cmd_simulate(args) -> int:
         raise InputError("--reactions", "adds the joints' reaction columns to the CSV: give --csv FILE (the plot and "
                                         "the printed table do not show them)")
     scene = load_scene(args.scene)
-    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators"]
+    groups = ["state", "dynamics", "energy"] + (["reactions"] if args.reactions else []) + ["actuators", "forces"]
     names = scene.mechanism.actuator_names
     for name, _ in args.actuator_force or []:
         if name not in names:

@@ -39,7 +39,8 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["RPM", "Quantity", "FIXED_OBSERVATIONS", "ACTUATOR_OUTPUTS", "mechanism_output", "scene_field", "fmi_unit", "fmi_text"]
+__all__ = ["RPM", "Quantity", "FIXED_OBSERVATIONS", "ACTUATOR_OUTPUTS", "FORCE_OUTPUTS", "force_field", "force_fields",
+           "mechanism_output", "scene_field", "fmi_unit", "fmi_text"]
 
 
 RPM = 30.0 / math.pi  # rpm per rad/s: a motor's speed is read in rpm, as on its datasheet
@@ -71,7 +72,8 @@ FIXED_OBSERVATIONS = (
     Quantity("Fy", "N", "closing joint force y", "force the ground exerts on the last link at the closing joint, y"),
     Quantity("Mz", "N m", "closing joint moment", "moment the ground exerts on the last link at the closing joint"),
     Quantity("KE", "J", "kinetic energy", "kinetic energy"),
-    Quantity("PE", "J", "potential energy", "potential energy (gravity, plus the penalty springs')"),
+    Quantity("PE", "J", "potential energy",
+             "potential energy (gravity, plus the penalty springs' and the force elements' stored energy)"),
     Quantity("E", "J", "total energy", "kinetic plus potential energy"),
     Quantity("tau_drive", "N m or N", "drive torque", "drive effort at the drive joint"),
     Quantity("P_drive", "W", "drive power", "power of the drive effort"),
@@ -83,6 +85,32 @@ ACTUATOR_OUTPUTS = (
     Quantity("force", "N", "force", "force along its line, positive pushing its points apart"),
     Quantity("power", "W", "power", "power it puts in"),
 )
+# a force element's outputs by its kind (its scene table), each column '<element>_<name>', and where the kernel
+# puts each (grb_force_rows: length, rate, force, energy, power, dissipation: enum GRB_FO_* in kernel/grubler.h)
+FORCE_OUTPUTS = {
+    "spring": (
+        (Quantity("length", "m", "length", "length (its points' distance)"), 0),
+        (Quantity("rate", "m/s", "rate", "rate of extension"), 1),
+        (Quantity("force", "N", "force", "force along its line (spring, damper and gas), positive pushing its "
+                                         "points apart"), 2),
+        (Quantity("energy", "J", "stored energy", "stored energy (spring, preload and gas; 0 at its free length)"),
+         3),
+        (Quantity("power", "W", "power", "power it puts in (force x rate)"), 4),
+        (Quantity("dissipation", "W", "dissipated power", "power its damper dissipates"), 5),
+    ),
+    "joint_spring": (
+        (Quantity("position", "rad or m", "joint position", "its joint's coordinate (relative angle, or slide)"), 0),
+        (Quantity("speed", "rad/s or m/s", "joint speed", "its joint's rate"), 1),
+        (Quantity("effort", "N m or N", "effort", "effort on its joint (spring, preload and friction)"), 2),
+        (Quantity("energy", "J", "stored energy", "stored energy (spring and preload; 0 at its free position)"), 3),
+        (Quantity("power", "W", "power", "power it puts in (effort x speed)"), 4),
+        (Quantity("dissipation", "W", "dissipated power", "power its friction dissipates"), 5),
+    ),
+    "point_load": (
+        (Quantity("power", "W", "power", "power it puts in (force x the point's velocity + moment x the link's "
+                                         "rate)"), 4),
+    ),
+}
 _OTHER_OUTPUTS = (
     Quantity("t", "s", "time", "time"),
     Quantity("drive_angle", "rad or m", "drive angle", "coordinate of the drive joint (relative)"),
@@ -94,10 +122,12 @@ _ORDER = {"": 0, "_d": 1, "_dd": 2}
 _PER = ("", "/s", "/s^2")
 
 
-def mechanism_output(name: str, actuators=()) -> Quantity | None:
+def mechanism_output(name: str, actuators=(), forces=()) -> Quantity | None:
     """The mechanism's output ``name`` (a CSV column, an FMU output), or None for a name that is none.
 
-    ``actuators``: the scene's actuator names, whose columns are '<actuator>_length' and so on.
+    ``actuators``: the scene's actuator names, whose columns are '<actuator>_length' and so on;
+    ``forces``: its force elements as (name, table) pairs (``("lift", "spring")``), whose columns are
+    :data:`FORCE_OUTPUTS`'s of their kind.
 
     Examples
     --------
@@ -139,6 +169,11 @@ def mechanism_output(name: str, actuators=()) -> Quantity | None:
         for q in ACTUATOR_OUTPUTS:
             if name == f"{a}_{q.name}":
                 return Quantity(name, q.unit, f"actuator {a} {q.label}", f"actuator {a}'s {q.description}")
+    for e, table in forces:
+        for q, _ in FORCE_OUTPUTS[table]:
+            if name == f"{e}_{q.name}":
+                what = table.replace("_", " ")
+                return Quantity(name, q.unit, f"{what} {e} {q.label}", f"{what} {e}'s {q.description}")
     return None
 
 
@@ -152,6 +187,7 @@ _FIELDS = {
     "m": ("kg", None, "mass (> 0)"),
     "I": ("kg m^2", None, "centroidal moment of inertia"),
     "damping": ("N m s/rad", "N s/m", "viscous damping of its real joint"),
+
     "gravity": ("m/s^2", None, "gravity g, acting along -y"),
     "inertia": ("kg m^2", "kg", "inertia a motor adds at drive_joint: rotor inertia x gear ratio^2"),
     "torque": ("N m", "N", "a constant effort at the joint"),
@@ -211,7 +247,71 @@ def scene_field(key: str, on_slide: bool | None = None) -> Quantity:
         return Quantity(key, unit, leaf, text)
     if leaf in _WORDS or leaf.startswith("branch") or leaf.endswith("_side"):
         return Quantity(key, "", leaf, "")
+    for table in _FORCE_FIELDS.values():  # a force element's field (its table's unit where tables share a name)
+        if leaf in table:
+            unit, text = table[leaf]
+            return Quantity(key, unit, leaf, text)
     return Quantity(key, "m", leaf, "a length")
+
+
+# a force element's fields by its kind (its scene table): unit and description
+_FORCE_FIELDS = {
+    "spring": {
+        "from_link": ("", "the link carrying its first point, 1: the ground"),
+        "from_point_x": ("m", "its first point, along its link's vector (world x on the ground)"),
+        "from_point_y": ("m", "its first point, across its link's vector (world y on the ground)"),
+        "to_link": ("", "the link carrying its second point, 1: the ground"),
+        "to_point_x": ("m", "its second point, along its link's vector (world x on the ground)"),
+        "to_point_y": ("m", "its second point, across its link's vector (world y on the ground)"),
+        "stiffness": ("N/m", "spring stiffness"),
+        "free_length": ("m", "length at rest"),
+        "preload": ("N", "force at the free length, positive pushing apart"),
+        "damping": ("N s/m", "viscous damping along its line"),
+        "gas_force": ("N", "gas spring: its gas force at the free length, p0 A (0: no gas)"),
+        "gas_column": ("m", "gas spring: its gas column at the free length, V0 / A"),
+        "gas_exponent": ("", "gas spring: the polytropic exponent n (1 isothermal, 1.4 adiabatic air)"),
+    },
+    "joint_spring": {
+        "link": ("", "the link whose real joint it acts at"),
+        "stiffness": ("N m/rad or N/m", "torsion (slide: linear) spring stiffness"),
+        "free": ("rad or m", "the joint coordinate where the spring is relaxed (a relative angle, or a slide)"),
+        "preload": ("N m or N", "effort at the free position, along the joint's coordinate"),
+        "friction": ("N m or N", "Coulomb friction"),
+        "friction_speed": ("rad/s or m/s", "the rate over which friction's tanh regularisation rises"),
+    },
+    "point_load": {
+        "link": ("", "the moving link it acts on"),
+        "point_x": ("m", "its point, along the link's vector"),
+        "point_y": ("m", "its point, across the link's vector"),
+        "force_x": ("N", "force, world x"),
+        "force_y": ("N", "force, world y"),
+        "moment": ("N m", "moment, counter-clockwise"),
+    },
+}
+
+
+def force_field(table: str, field: str, on_slide: bool | None = None) -> Quantity:
+    """A force element's field (``stiffness``) by the element's kind (``spring``, ``joint_spring``, ``point_load``).
+
+    ``on_slide``: whether a joint spring's joint is a slide (its unit then the second of 'N m/rad or N/m'),
+    None where that is not known.
+
+    Examples
+    --------
+    >>> force_field("spring", "stiffness").unit, force_field("joint_spring", "stiffness").unit
+    ('N/m', 'N m/rad or N/m')
+    >>> force_field("joint_spring", "stiffness", on_slide=True).unit
+    'N/m'
+    """
+    unit, text = _FORCE_FIELDS[table][field]
+    if on_slide is not None and " or " in unit:
+        unit = unit.split(" or ")[1 if on_slide else 0]
+    return Quantity(field, unit, field, text)
+
+
+def force_fields(table: str) -> tuple[str, ...]:
+    """A force element kind's fields, in the order the native FMU lays them out."""
+    return tuple(_FORCE_FIELDS[table])
 
 
 def fmi_text(q: Quantity) -> str:

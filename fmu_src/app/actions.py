@@ -37,6 +37,7 @@ from grubler.errors import InputError
 from grubler.limits import brief
 
 
+
 EXPORTS = {"fmu": "the mechanism FMU (grubler export)", "ssp": "the servo system as an SSP archive",
            "pdf": "the one-page run report (grubler report)"}
 

@@ -14,7 +14,7 @@ import numpy as np
 from grubler.errors import Cancelled
 from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import scene_from_dict
-from grubler.mechanism.simulate import simulate, unit_of
+from grubler.mechanism.simulate import force_kinds, simulate, unit_of
 from grubler.quantities import mechanism_output
 from grubler.views.animation import Sketch, trace_point
 from grubler.app.drawing import _frame, default_trace
@@ -25,20 +25,22 @@ MAX_FRAMES = 400  # frames sent to the page: 40 per second of a 10 s run (the gr
 DEGREES = {"rad": "deg", "rad/s": "deg/s", "rad/s^2": "deg/s^2"}
 
 
-def describe(column: str, actuators=(), unit: str | None = None) -> str:
-    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'."""
-    q = mechanism_output(column, actuators)
+def describe(column: str, actuators=(), unit: str | None = None, forces=()) -> str:
+    """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'.
+
+    ``forces``: the force elements as (name, kind) pairs (grubler.mechanism.simulate.force_kinds)."""
+    q = mechanism_output(column, actuators, forces)
     words = q.label if q else column
     u = unit_of(column) if unit is None else unit
     return f"{words} ({column})" + (f", {u}" if u else "")
 
 
-def plotted(column: str, values, actuators=()) -> dict:
+def plotted(column: str, values, actuators=(), forces=()) -> dict:
     """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so."""
     u, values = unit_of(column), np.asarray(values, dtype=float)
     if u in DEGREES:
         u, values = DEGREES[u], np.degrees(values)
-    return {"name": column, "label": describe(column, actuators, u), "unit": u, "f32": _f32(values)}
+    return {"name": column, "label": describe(column, actuators, u, forces), "unit": u, "f32": _f32(values)}
 
 
 def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
@@ -83,7 +85,8 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
-            "columns": [plotted(c, res[c], scene.mechanism.actuator_names) for c in columns],
+            "columns": [plotted(c, res[c], scene.mechanism.actuator_names, force_kinds(scene.mechanism))
+                        for c in columns],
             "summary": _summary(scene, res), "warnings": list(res.warnings)}
     return res, view
 

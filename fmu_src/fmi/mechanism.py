@@ -26,10 +26,10 @@ from __future__ import annotations
 
 from grubler.mechanism.dynamics import observation_names
 from grubler.errors import SceneError
-from grubler.mechanism.model import PRISMATIC, Mechanism
+from grubler.mechanism.model import FORCE_COLUMN, FORCE_KIND, PRISMATIC, JointSpring, Mechanism
 from grubler.mechanism.scene import Scene
-from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL
-from grubler.quantities import fmi_text, fmi_unit, mechanism_output, scene_field
+from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL, force_kinds
+from grubler.quantities import FORCE_OUTPUTS, fmi_text, fmi_unit, force_field, force_fields, mechanism_output, scene_field
 from grubler.fmi.variables import ENUMERATION, INPUT, INTEGER, OUTPUT, PARAMETER, REAL, STRING, EnumType, ModelSpec, Variable
 
 JOINT = EnumType("JointType", "which joint of a link's pair is real",
@@ -106,6 +106,11 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
         p.update({f"{a.name}.from_link": a.from_link, f"{a.name}.from_point_x": a.from_point[0],
                   f"{a.name}.from_point_y": a.from_point[1], f"{a.name}.to_link": a.to_link,
                   f"{a.name}.to_point_x": a.to_point[0], f"{a.name}.to_point_y": a.to_point[1]})
+    table = m.force_table()  # thesis link numbers, as the parameters give them
+    for j, e in enumerate(m.forces):
+        for f in force_fields(e.table):
+            value = table[j, FORCE_COLUMN[f]]
+            p[f"{e.name}.{f}"] = int(value) if f.endswith("link") else float(value)
     qd = m.S @ scene.initial_rates
     for i, x in enumerate(m.coordinate_names):
         p[f"initial.{x}"] = float(m.q_ref[i])
@@ -150,7 +155,8 @@ def same_shape(a: Mechanism, b: Mechanism) -> bool:
     >>> same_shape(load_scene("slider-crank").mechanism, fourbar), same_shape(load_scene("watt-ii").mechanism, fourbar)
     (True, False)
     """
-    return (a.n_links, len(a.closures), a.actuator_names) == (b.n_links, len(b.closures), b.actuator_names)
+    return ((a.n_links, len(a.closures), a.actuator_names, [(e.name, e.table) for e in a.forces])
+            == (b.n_links, len(b.closures), b.actuator_names, [(e.name, e.table) for e in b.forces]))
 
 
 def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
@@ -231,7 +237,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
              + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
     assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
     def output(name, level, feed, slot):
-        q = mechanism_output(name, m.actuator_names)
+        q = mechanism_output(name, m.actuator_names, force_kinds(m))
         v.append(Variable(name, REAL, OUTPUT, fmi_text(q), unit=fmi_unit(q.unit), level=level, feedthrough=feed,
                           slot=slot))
 
@@ -265,6 +271,27 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
         output(f"{a.name}_length", LEVEL_DRIVE, False, n_out + 2 * j)
         output(f"{a.name}_rate", LEVEL_DRIVE, False, n_out + 2 * j + 1)
 
+    # the force elements after everything else: an FMU without them keeps its value references.  Each element's
+    # parameters are its kind's fields (grubler.quantities.force_fields); the C model puts each into its kernel
+    # column (FORCE_PARAM_ELEMENT, FORCE_PARAM_COLUMN), and publishes its kind's outputs (FORCE_OUTPUT_INDEX:
+    # element * GRB_FO_COUNT + the kernel's output index), which the state alone decides
+    out_forces = n_out + 2 * len(m.actuators)
+    force_output_index = []
+    for j, e in enumerate(m.forces):
+        for f in force_fields(e.table):
+            q = force_field(e.table, f)
+            if f.endswith("link"):
+                lo = 2 if e.table != "spring" else 1
+                par(f"{e.name}.{f}", INTEGER, f"{e.table.replace('_', ' ')} {e.name}: {q.description} (structural)",
+                    None, lo, n + 1)
+            else:
+                par(f"{e.name}.{f}", REAL, f"{e.table.replace('_', ' ')} {e.name}: {fmi_text(q)}",
+                    fmi_unit(q.unit))
+        for q, k in FORCE_OUTPUTS[e.table]:
+            output(f"{e.name}_{q.name}", LEVEL_DRIVE, False, out_forces + len(force_output_index))
+            force_output_index.append(j * 6 + k)
+    force_params = [(j, FORCE_COLUMN[f]) for j, e in enumerate(m.forces) for f in force_fields(e.table)]
+
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]
     slot_order += [f"{closure_prefix(nc, j)}.{f}" for j in range(nc) for f in CLOSURE_FIELDS]
@@ -272,6 +299,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     slot_order += ["motor_torque", "load_torque"]
     slot_order += [f"{a.name}.{f}" for a in m.actuators for f in ACTUATOR_FIELDS]
     slot_order += [f"{a.name}_force" for a in m.actuators]
+    slot_order += [f"{e.name}.{f}" for e in m.forces for f in force_fields(e.table)]
     defines = {"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
                "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": len(obs), "N_ACTUATORS": len(m.actuators),
                "ACTUATOR_STRIDE": len(ACTUATOR_FIELDS), "OUT_ACTUATORS": n_out}
@@ -285,6 +313,15 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     defines["SLOT_ACTUATORS"] = defines["SLOT_LOAD_TORQUE"] + 1
     defines["SLOT_ACTUATOR_FORCE"] = defines["SLOT_ACTUATORS"] + len(m.actuators) * len(ACTUATOR_FIELDS)
     defines.update({f"AF_{f.upper()}": k for k, f in enumerate(ACTUATOR_FIELDS)})
+    defines["N_FORCES"] = len(m.forces)
+    defines["SLOT_FORCES"] = defines["SLOT_ACTUATOR_FORCE"] + len(m.actuators)
+    defines["OUT_FORCES"] = out_forces
+    defines["N_FORCE_OUTPUTS"] = len(force_output_index)
+    if m.forces:
+        defines["FORCE_KINDS"] = tuple(FORCE_KIND[type(e)] for e in m.forces)
+        defines["FORCE_PARAM_ELEMENT"] = tuple(j for j, _ in force_params)
+        defines["FORCE_PARAM_COLUMN"] = tuple(c for _, c in force_params)
+        defines["FORCE_OUTPUT_INDEX"] = tuple(force_output_index)
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
     # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
@@ -292,7 +329,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
-                     tuple(v), "mechanism_model.c", defines, n_out + 2 * len(m.actuators), tuple(slot_order),
+                     tuple(v), "mechanism_model.c", defines, out_forces + len(force_output_index), tuple(slot_order),
                      (JOINT, CLOSURE),
                      ("kernel",), run_state(n, len(m.actuators)))
 

@@ -24,6 +24,9 @@ typedef char grb_link_columns_check[(offsetof(grb_link, revolute) == GRB_L_REV *
                                      sizeof(grb_link) == GRB_L_COLUMNS * sizeof(double)) ? 1 : -1];
 typedef char grb_actuator_columns_check[(offsetof(grb_actuator, to_point) == GRB_A_TO_X * sizeof(double) &&
                                          sizeof(grb_actuator) == GRB_A_COLUMNS * sizeof(double)) ? 1 : -1];
+typedef char grb_force_columns_check[(offsetof(grb_force, stiffness) == GRB_F_STIFFNESS * sizeof(double) &&
+                                      offsetof(grb_force, force) == GRB_F_FX * sizeof(double) &&
+                                      sizeof(grb_force) == GRB_F_COLUMNS * sizeof(double)) ? 1 : -1];
 typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_CL_TX * sizeof(double) &&
                                         offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
                                         sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
@@ -73,6 +76,7 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     if (n < 1 || n > GRB_MAX_LINKS || n_closures < 0 || !buffer) return GRB_BAD_ARGUMENT;
     if (md->n_actuators < 0 || md->n_actuators > GRB_MAX_ACTUATORS || (md->n_actuators > 0 && !md->actuators))
         return GRB_BAD_ARGUMENT;
+    if (md->n_forces < 0 || (md->n_forces > 0 && !md->forces)) return GRB_BAD_ARGUMENT;
     if (RE(buffer[WORK_TAG]) != GRB_WORK_TAG) {
         /* a buffer no call has used: the caller sized it (grb_work_size) */
         if (needs != GRB_FILLED_NOTHING) return GRB_BAD_ARGUMENT;
@@ -210,12 +214,9 @@ void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, r
     r[3] = w->frame[k].o_bias[1] - w2 * army;
 }
 
-/* One end of actuator a (end 0 its first point, 1 its second): position and
- * Jacobian (2 x N, row stride N) from the frames in w; a ground point is fixed. */
-static void actuator_end(const grb_model *md, const grb_ws *w, int a, int end, real *J, real *r) {
-    const grb_actuator *act = &grb_actuators(md)[a];
-    int k = (int)(end == 0 ? act->from_link : act->to_link);
-    const double *local = end == 0 ? act->from_point : act->to_point;
+/* A point fixed to moving link k (-1: the ground, whose points are the
+ * world's): position and Jacobian (2 x N, row stride N) from the frames in w. */
+static void fixed_point(const grb_model *md, const grb_ws *w, int k, const double *local, real *J, real *r) {
     if (k >= 0) {
         GRB(point)(md, w, k, local[0], local[1], J, r);
         return;
@@ -225,17 +226,18 @@ static void actuator_end(const grb_model *md, const grb_ws *w, int a, int end, r
     r[1] = local[1];
 }
 
-/* Actuator a's line at the frames in w: its length L, returned, the unit
- * vector u from its first point to its second, both points (ends[0..1] the
- * first, ends[2..3] the second) and the Jacobian of its length, dL/dz =
- * u^T (J_second - J_first), into jl (N).  A zero length has no direction: u
- * and jl are then zero (assembly refuses such a start; a motion through it
- * feels no actuator force there). */
-static real actuator_line(const grb_model *md, const grb_ws *w, int a, real *u, real *ends, real *jl) {
+/* The line from point p0 of link k0 to point p1 of link k1 at the frames in w:
+ * its length L, returned, the unit vector u from the first point to the
+ * second, both points (ends[0..1] the first, ends[2..3] the second) and the
+ * Jacobian of its length, dL/dz = u^T (J_second - J_first), into jl (N).  A
+ * zero length has no direction: u and jl are then zero (assembly refuses such
+ * an actuator at the start; a motion through it feels no force along it there). */
+static real line_between(const grb_model *md, const grb_ws *w, int k0, const double *p0, int k1, const double *p1,
+                         real *u, real *ends, real *jl) {
     int n = md->n_links;
     real J0[2 * GRB_MAX_LINKS], J1[2 * GRB_MAX_LINKS], r0[4], r1[4];
-    actuator_end(md, w, a, 0, J0, r0);
-    actuator_end(md, w, a, 1, J1, r1);
+    fixed_point(md, w, k0, p0, J0, r0);
+    fixed_point(md, w, k1, p1, J1, r1);
     real dx = r1[0] - r0[0], dy = r1[1] - r0[1];
     real length = RSQRT(dx * dx + dy * dy);
     ends[0] = r0[0];
@@ -251,6 +253,103 @@ static real actuator_line(const grb_model *md, const grb_ws *w, int a, real *u, 
     u[1] = dy / length;
     for (int i = 0; i < n; i++) jl[i] = u[0] * (J1[i] - J0[i]) + u[1] * (J1[n + i] - J0[n + i]);
     return length;
+}
+
+/* Actuator a's line (line_between its two points). */
+static real actuator_line(const grb_model *md, const grb_ws *w, int a, real *u, real *ends, real *jl) {
+    const grb_actuator *act = &grb_actuators(md)[a];
+    return line_between(md, w, (int)act->from_link, act->from_point, (int)act->to_link, act->to_point, u, ends, jl);
+}
+
+/* Link k's real joint coordinate and rate (its relative angle or its slide),
+ * from the frames in w: what a joint's force element reads. */
+static void joint_motion(const grb_model *md, const grb_ws *w, int k, real *q, real *qd) {
+    int pk = grb_parent(md, k);
+    if (grb_links(md)[k].revolute != 0.0) {
+        *q = w->frame[k].z_sum - (pk < 0 ? 0.0 : w->frame[pk].z_sum);
+        *qd = w->frame[k].omega - (pk < 0 ? 0.0 : w->frame[pk].omega);
+    } else {
+        *q = w->frame[k].slide;
+        *qd = w->frame[k].rate;
+    }
+}
+
+/* Force element e at the frames in w (grubler.h, GRB_FORCE_*): its outputs
+ * (GRB_FO_*) into val, its generalised force added to gen (N) unless gen is
+ * NULL, and where it acts: a spring's two ends (ends[0..3]) and the unit
+ * vector u from the first to the second; a load's point (ends[0..1]). */
+static void force_element(const grb_model *md, const grb_ws *w, int e, real *val, real *gen, real *ends, real *u) {
+    const grb_force *fe = &grb_forces(md)[e];
+    int n = md->n_links;
+    for (int o = 0; o < GRB_FO_COUNT; o++) val[o] = 0.0;
+    if (fe->kind == GRB_FORCE_SPRING) {
+        real jl[GRB_MAX_LINKS], rate = 0.0;
+        real length = line_between(md, w, (int)fe->link, fe->point, (int)fe->to_link, fe->to_point, u, ends, jl);
+        for (int i = 0; i < n; i++) {
+            real q, qd;
+            joint_motion(md, w, i, &q, &qd);
+            rate += jl[i] * qd;
+        }
+        real d = length - fe->free;
+        real force = fe->preload - fe->stiffness * d - fe->damping * rate;
+        real energy = 0.5 * fe->stiffness * d * d - fe->preload * d;
+        if (fe->gas_force != 0.0) {
+            /* p V^n = p0 V0^n over the gas column h = V / A; none left: no finite force */
+            real h = fe->gas_column + d;
+            if (RE(h) > 0.0) {
+                real ratio = fe->gas_column / h;
+                force += fe->gas_force * RPOW(ratio, fe->gas_exponent);
+                if (fe->gas_exponent == 1.0)
+                    energy += fe->gas_force * fe->gas_column * RLOG(ratio);
+                else
+                    energy += fe->gas_force * fe->gas_column / (fe->gas_exponent - 1.0) *
+                              (RPOW(ratio, fe->gas_exponent - 1.0) - 1.0);
+            } else {
+                force = energy = NAN;
+            }
+        }
+        val[GRB_FO_LENGTH] = length;
+        val[GRB_FO_RATE] = rate;
+        val[GRB_FO_FORCE] = force;
+        val[GRB_FO_ENERGY] = energy;
+        val[GRB_FO_POWER] = force * rate;
+        val[GRB_FO_DISSIPATION] = fe->damping * rate * rate;
+        if (gen)
+            for (int i = 0; i < n; i++) gen[i] += jl[i] * force;
+    } else if (fe->kind == GRB_FORCE_JOINT) {
+        int k = (int)fe->link;
+        real q, qd, friction = 0.0;
+        joint_motion(md, w, k, &q, &qd);
+        if (fe->friction != 0.0) friction = fe->friction * RTANH(qd / fe->friction_speed);
+        real d = q - fe->free;
+        real effort = fe->preload - fe->stiffness * d - friction;
+        val[GRB_FO_LENGTH] = q;
+        val[GRB_FO_RATE] = qd;
+        val[GRB_FO_FORCE] = effort;
+        val[GRB_FO_ENERGY] = 0.5 * fe->stiffness * d * d - fe->preload * d;
+        val[GRB_FO_POWER] = effort * qd;
+        val[GRB_FO_DISSIPATION] = friction * qd;
+        if (gen) gen[k] += effort;
+    } else if (fe->kind == GRB_FORCE_LOAD) {
+        int k = (int)fe->link;
+        real J[2 * GRB_MAX_LINKS], r[4], vx = 0.0, vy = 0.0;
+        GRB(point)(md, w, k, fe->point[0], fe->point[1], J, r);
+        for (int i = 0; i < n; i++) {
+            real q, qd;
+            joint_motion(md, w, i, &q, &qd);
+            vx += J[i] * qd;
+            vy += J[n + i] * qd;
+        }
+        ends[0] = r[0];
+        ends[1] = r[1];
+        val[GRB_FO_POWER] = fe->force[0] * vx + fe->force[1] * vy + fe->moment * w->frame[k].omega;
+        if (gen)
+            for (int i = 0; i < n; i++) {
+                /* a moment does work through the revolutes on the link's path */
+                real jw = grb_on_path(w, i, k) ? grb_links(md)[i].revolute : 0.0;
+                gen[i] += J[i] * fe->force[0] + J[n + i] * fe->force[1] + jw * fe->moment;
+            }
+    }
 }
 
 /* Constraint rows of every closure (MODEL.md section 3), any pair of links:
@@ -376,6 +475,11 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
         real force = w->actuator_force[a];
         actuator_line(md, w, a, u, ends, jl);
         for (int i = 0; i < n; i++) f[i] += jl[i] * force;
+    }
+    /* and each force element's, by the same virtual work */
+    for (int e = 0; e < md->n_forces; e++) {
+        real val[GRB_FO_COUNT], ends[4], u[2];
+        force_element(md, w, e, val, f, ends, u);
     }
 }
 
@@ -552,6 +656,34 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
             out[3 * k + 2] += (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx;
         }
     }
+    /* and the force elements' on the links they act on: a spring as an
+     * actuator; a load on its link (a joint's effort is the pair's own, which
+     * the reaction of its joint carries) */
+    for (int e = 0; e < md->n_forces; e++) {
+        const grb_force *fe = &grb_forces(md)[e];
+        real val[GRB_FO_COUNT], ends[4], u[2];
+        if (fe->kind == GRB_FORCE_JOINT) continue;
+        force_element(md, w, e, val, NULL, ends, u);
+        for (int end = 0; end < 2; end++) {
+            int k = (int)(end == 0 ? fe->link : fe->to_link);
+            real fx, fy, mz = 0.0;
+            if (fe->kind == GRB_FORCE_LOAD) {
+                if (end == 1) break;
+                fx = fe->force[0];
+                fy = fe->force[1];
+                mz = fe->moment;
+            } else {
+                real sign = end == 0 ? -1.0 : 1.0;
+                fx = sign * val[GRB_FO_FORCE] * u[0];
+                fy = sign * val[GRB_FO_FORCE] * u[1];
+            }
+            if (k < 0) continue;
+            real px = ends[2 * end], py = ends[2 * end + 1];
+            out[3 * k] += fx;
+            out[3 * k + 1] += fy;
+            out[3 * k + 2] += mz + (px - w->frame[k].o[0]) * fy - (py - w->frame[k].o[1]) * fx;
+        }
+    }
     for (int k = n - 1; k >= 0; k--) {
         real ax = w->frame[k].com_bias[0], ay = w->frame[k].com_bias[1], alpha = 0.0;
         for (int i = 0; i <= k; i++) { /* Jc's columns off k's path are zero */
@@ -626,6 +758,11 @@ grb_status GRB(observe)(const grb_model *md, int method, const real *y, real tau
         for (int j = 0; j < n; j++) ke += zd[i] * MASS_(w, i, j) * zd[j];
     for (int k = 0; k < n; k++) pe += grb_links(md)[k].m * w->frame[k].com[1];
     pe *= md->gravity;
+    for (int e = 0; e < md->n_forces; e++) { /* the springs' stored energy */
+        real val[GRB_FO_COUNT], ends[4], u[2];
+        force_element(md, w, e, val, NULL, ends, u);
+        pe += val[GRB_FO_ENERGY];
+    }
     if (method == GRB_PENALTY) /* the penalty springs store energy too */
         for (int r = 0; r < m; r++) pe += 0.5 * grb_closures(md)[r / 2].gain * w->row[r].phi * w->row[r].phi;
     out[o + GRB_OBS_KE] = 0.5 * ke;
@@ -695,6 +832,25 @@ grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, do
             o[0] = actuator_line(md, &w, a, u, ends, jl);
             for (int j = 0; j < n; j++) rate += jl[j] * yi[n + j];
             o[1] = rate;
+        }
+    }
+    return GRB_OK;
+}
+#endif
+
+#ifndef GRB_COMPLEX_STEP
+grb_status grb_force_rows(const grb_model *md, int rows, const double *y, double *work, double *out) {
+    grb_ws w;
+    int n = md->n_links, nf = md->n_forces;
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    if (rows < 0) return GRB_BAD_ARGUMENT;
+    for (int i = 0; i < rows; i++) {
+        const double *yi = y + (size_t)i * 2 * n;
+        grb_chain(md, yi, yi + n, &w);
+        for (int e = 0; e < nf; e++) {
+            double ends[4], u[2];
+            force_element(md, &w, e, out + ((size_t)i * nf + e) * GRB_FO_COUNT, NULL, ends, u);
         }
     }
     return GRB_OK;

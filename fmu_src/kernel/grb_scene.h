@@ -42,7 +42,7 @@ enum { GRB_SC_KIND, GRB_SC_LINK, GRB_SC_TO, GRB_SC_PX, GRB_SC_PY, GRB_SC_TX, GRB
 enum { GRB_SK_JOINT, GRB_SK_PARENT, GRB_SK_A, GRB_SK_P, GRB_SK_Q, GRB_SK_M, GRB_SK_I, GRB_SK_DAMP,
        GRB_SK_COLUMNS };
 /* The closure columns are GRB_SC_* (type counted from 1 as above), the
- * actuators' GRB_A_* (links thesis-numbered). */
+ * actuators' GRB_A_* and the force elements' GRB_F_* (links thesis-numbered). */
 
 typedef struct grb_scene_view {
     int n_links, n_closures, n_actuators;
@@ -62,6 +62,12 @@ typedef struct grb_scene_view {
      * (NULL: the scene's "drive.joint", "load.joint") */
     const char *const *actuator_names;
     const char *drive_field, *load_field;
+    /* the force elements (grubler.h's GRB_F_* columns, links thesis-numbered:
+     * 1 the ground), each named by force_names[j] ("force[j]" when NULL) */
+    int n_forces;
+    const double *forces;           /* element j's fields at forces[j * force_stride + force_column[GRB_F_*]] */
+    int force_stride, force_column[GRB_F_COLUMNS];
+    const char *const *force_names;
 } grb_scene_view;
 
 /* One refusal: the field at fault, as the user spells it, and the reason. */
@@ -72,7 +78,7 @@ typedef struct grb_problem {
 
 /* Every rule a mechanism obeys, in the library's order: the number of links,
  * the ground and gravity, each link (every problem of every link), the
- * closures, the actuators, the loops (two revolutes each, no parallel slides on
+ * closures, the actuators, the force elements, the loops (two revolutes each, no parallel slides on
  * one link, mobility >= 0), the drive inertia, the drive and load joints (real
  * ones), then the initial rates of the locked coordinates (each problem).  A
  * group with problems ends the check (what follows reads it).  Up to

@@ -106,6 +106,58 @@ typedef struct grb_actuator {
 /* The most actuators a model may have (their forces sit in the workspace's header). */
 #define GRB_MAX_ACTUATORS 16
 
+/* Columns of the force-element table, one row per element: the springs,
+ * dampers, joint springs, friction and constant loads a scene holds, model data
+ * beside the actuators (whose forces are inputs).  Each row's kind says which
+ * columns it reads:
+ *   GRB_FORCE_SPRING: a spring-damper between a point of link and a point of
+ *     to_link (moving-link index, -1 the ground; points in the link's frame, the
+ *     world's on the ground).  Its force along the line through them, positive
+ *     pushing them apart, at length L and rate Ld:
+ *       F = preload - stiffness (L - free) - damping Ld + F_gas,
+ *       F_gas = gas_force (gas_column / h)^gas_exponent, h = gas_column + L - free,
+ *     the polytropic law p V^n = const of a gas spring of bore area A: gas_force
+ *     = p0 A, its force at the free length, where the gas column (V / A) is
+ *     gas_column; F_gas is 0 when gas_force is 0, and not finite once h <= 0.
+ *     Stored energy: stiffness (L - free)^2 / 2 - preload (L - free) + the gas's
+ *     (0 at the free length);
+ *   GRB_FORCE_JOINT: at the real joint of link `link` (its coordinate z: the
+ *     angle relative to its predecessor, or the slide), the effort
+ *       Q = preload - stiffness (z - free) - friction tanh(zd / friction_speed)
+ *     (N m, or N on a slide): a torsion or linear spring with Coulomb friction
+ *     regularised over the rate scale friction_speed (the joint's viscous
+ *     damping is the link table's);
+ *   GRB_FORCE_LOAD: a constant force (world axes) and moment on link `link` at
+ *     point. */
+enum { GRB_F_KIND, GRB_F_LINK, GRB_F_X, GRB_F_Y, GRB_F_TO_LINK, GRB_F_TO_X, GRB_F_TO_Y, GRB_F_STIFFNESS,
+       GRB_F_FREE, GRB_F_PRELOAD, GRB_F_DAMPING, GRB_F_GAS_FORCE, GRB_F_GAS_COLUMN, GRB_F_GAS_EXPONENT,
+       GRB_F_FRICTION, GRB_F_FRICTION_SPEED, GRB_F_FX, GRB_F_FY, GRB_F_MZ, GRB_F_COLUMNS };
+enum grb_force_kind { GRB_FORCE_SPRING = 0, GRB_FORCE_JOINT = 1, GRB_FORCE_LOAD = 2 };
+/* One row of the force-element table by name. */
+typedef struct grb_force {
+    double kind;            /* enum grb_force_kind */
+    double link;            /* the (first) link: moving-link index, -1 the ground */
+    double point[2];        /* spring, load: the (first) point in link's frame, m */
+    double to_link;         /* spring: the second point's link */
+    double to_point[2];     /* spring: the second point in to_link's frame, m */
+    double stiffness;       /* N/m (N m/rad at a revolute) */
+    double free;            /* free length, m (joint: the free angle, rad, or slide, m) */
+    double preload;         /* the force at the free length, N (N m), positive pushing apart (joint: along +z) */
+    double damping;         /* spring: viscous damping along the line, N s/m */
+    double gas_force;       /* spring: p0 A, the gas force at the free length, N (0: no gas) */
+    double gas_column;      /* spring: V0 / A, the gas column at the free length, m */
+    double gas_exponent;    /* spring: the polytropic exponent n (1 isothermal, 1.4 adiabatic air) */
+    double friction;        /* joint: Coulomb friction, N m (N on a slide) */
+    double friction_speed;  /* joint: the rate over which friction's tanh rises, rad/s (m/s) */
+    double force[2];        /* load: the force, world axes, N */
+    double moment;          /* load: the moment, N m */
+} grb_force;
+/* What grb_force_rows gives for each element, in order: its length (a joint:
+ * its coordinate, a load: 0), rate, force (a joint: its effort; a load: 0),
+ * stored energy, the power it puts into the mechanism, and the power its damper
+ * and friction dissipate (>= 0). */
+enum { GRB_FO_LENGTH, GRB_FO_RATE, GRB_FO_FORCE, GRB_FO_ENERGY, GRB_FO_POWER, GRB_FO_DISSIPATION, GRB_FO_COUNT };
+
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
 
@@ -125,6 +177,8 @@ typedef struct grb_model {
     double drive_inertia;     /* reflected rotor inertia on z[drive] */
     int n_actuators;          /* A linear actuators, 0 .. GRB_MAX_ACTUATORS */
     const double *actuators;  /* A x GRB_A_COLUMNS, row-major (NULL when A = 0) */
+    int n_forces;             /* F force elements (0: none, and the kernel's work is as without them) */
+    const double *forces;     /* F x GRB_F_COLUMNS, row-major (NULL when F = 0) */
 } grb_model;
 
 /* The fixed outputs of grb_observe, in order after the coordinates, rates and
@@ -139,7 +193,7 @@ typedef enum grb_observation {
     GRB_OBS_FY,
     GRB_OBS_MZ,            /* ... and moment, N m */
     GRB_OBS_KE,            /* kinetic energy, J */
-    GRB_OBS_PE,            /* potential energy (gravity and penalty springs), J */
+    GRB_OBS_PE,            /* potential energy (gravity, penalty springs, the force elements'), J */
     GRB_OBS_E,             /* KE + PE, J */
     GRB_OBS_TAU_DRIVE,     /* the drive effort, N m or N */
     GRB_OBS_P_DRIVE,       /* its power, W */
@@ -172,6 +226,11 @@ GRB_API grb_status grb_set_actuator_forces(const grb_model *m, double *work, con
  * out[(i * A + a) * 2 + 0..1] for actuator a in row i.  Kinematics only (the
  * forces are not read); the workspace is left holding no dynamics. */
 GRB_API grb_status grb_actuator_lines(const grb_model *m, int rows, const double *y, double *work, double *out);
+
+/* Each force element's outputs (GRB_FO_*) over rows states y (rows x 2N):
+ * out[((i * F + e) * GRB_FO_COUNT + o] for element e in row i.  The state alone
+ * decides them (no input).  The workspace is left holding no dynamics. */
+GRB_API grb_status grb_force_rows(const grb_model *m, int rows, const double *y, double *work, double *out);
 
 /* The state equation ydot = (zd, zdd) at y; out may alias nothing in work.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular. */

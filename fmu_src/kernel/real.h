@@ -9,7 +9,7 @@
  * with no step-size trade-off, which is what linearisation needs.
  *
  * Complex-step rules the code keeps: arithmetic and cos, sin, sqrt are
- * analytic; a comparison or a pivot choice looks at the real part (RE), and an
+ * analytic (and exp, log, tanh); a comparison or a pivot choice looks at the real part (RE), and an
  * absolute value flips the sign of the whole number (RABS), the analytic
  * continuation of |x| away from zero. */
 #ifndef GRUBLER_REAL_H
@@ -35,7 +35,25 @@ static inline real grb_csqrt(real z) {
     t = sqrt(0.5 * (fabs(a) + sqrt(a * a + b * b)));
     return a >= 0.0 ? t + I * (0.5 * b / t) : 0.5 * fabs(b) / t + I * copysign(t, b);
 }
+/* exp, log and tanh likewise (the force elements' gas law and friction):
+ * log on the principal branch, and tanh saturated where its real part makes
+ * its slope (4 e^-2|a|) vanish against 1, before cosh and sinh overflow */
+static inline real grb_cexp(real z) { return exp(creal(z)) * (cos(cimag(z)) + I * sin(cimag(z))); }
+static inline real grb_clog(real z) {
+    double a = creal(z), b = cimag(z);
+    return 0.5 * log(a * a + b * b) + I * atan2(b, a);
+}
+static inline real grb_ctanh(real z) {
+    double a = creal(z), b = cimag(z), d;
+    if (fabs(a) > 20.0) return copysign(1.0, a);
+    d = cosh(2.0 * a) + cos(2.0 * b);
+    return sinh(2.0 * a) / d + I * (sin(2.0 * b) / d);
+}
 #define RE(x) creal(x)
+#define REXP(x) grb_cexp(x)
+#define RLOG(x) grb_clog(x)
+#define RTANH(x) grb_ctanh(x)
+#define RPOW(x, y) grb_cexp((y) * grb_clog(x))
 #define RCOS(x) grb_ccos(x)
 #define RSIN(x) grb_csin(x)
 #define RSQRT(x) grb_csqrt(x)
@@ -43,6 +61,10 @@ static inline real grb_csqrt(real z) {
 #else
 typedef double real;
 #define RE(x) (x)
+#define REXP(x) exp(x)
+#define RLOG(x) log(x)
+#define RTANH(x) tanh(x)
+#define RPOW(x, y) pow(x, y)
 #define RCOS(x) cos(x)
 #define RSIN(x) sin(x)
 #define RSQRT(x) sqrt(x)

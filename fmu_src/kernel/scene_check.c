@@ -265,6 +265,104 @@ static void actuator_rules(tally *t, const grb_scene_view *s) {
     }
 }
 
+static double force_field(const grb_scene_view *s, int j, int f) {
+    return s->forces[j * s->force_stride + s->force_column[f]];
+}
+
+static void force_name(const grb_scene_view *s, int j, const char *what, char *buf, size_t size) {
+    if (s->force_names && s->force_names[j])
+        snprintf(buf, size, "%s%s", s->force_names[j], what);
+    else
+        snprintf(buf, size, "force[%d]%s", j, what);
+}
+
+/* One force element's rules (grubler.h, GRB_FORCE_*): the links it acts on
+ * exist, a spring joins two links, and no number makes it a source of energy
+ * or of nonsense (a negative stiffness, length, damping or friction). */
+static void force_rules(tally *t, const grb_scene_view *s) {
+    static const struct { int column; const char *name, *rule; int positive; } spring_rules[] = {
+        {GRB_F_STIFFNESS, ".stiffness", "stiffness must be >= 0", 0},
+        {GRB_F_FREE, ".free_length", "free length must be >= 0", 0},
+        {GRB_F_DAMPING, ".damping", "damping must be >= 0", 0},
+        {GRB_F_GAS_FORCE, ".gas_force", "the gas force (p0 A) must be >= 0", 0},
+    }, joint_rules[] = {
+        {GRB_F_STIFFNESS, ".stiffness", "stiffness must be >= 0", 0},
+        {GRB_F_FRICTION, ".friction", "friction must be >= 0", 0},
+    };
+    char field[64], v[40];
+    int j, n = s->n_links;
+    size_t r;
+    for (j = 0; j < s->n_forces && !t->count; j++) {
+        double kind = force_field(s, j, GRB_F_KIND), link = force_field(s, j, GRB_F_LINK);
+        if (kind != GRB_FORCE_SPRING && kind != GRB_FORCE_JOINT && kind != GRB_FORCE_LOAD) {
+            force_name(s, j, ".kind", field, sizeof field);
+            real_text(kind, v, sizeof v);
+            refuse(t, field, "must be 0 (a spring), 1 (a joint's spring and friction) or 2 (a load), got %s", v);
+            continue;
+        }
+        if (kind == GRB_FORCE_SPRING) {
+            double to = force_field(s, j, GRB_F_TO_LINK);
+            if (!link_in(link, 1, n + 1) || !link_in(to, 1, n + 1)) {
+                force_name(s, j, link_in(link, 1, n + 1) ? ".to_link" : ".from_link", field, sizeof field);
+                link_text(link_in(link, 1, n + 1) ? to : link, v, sizeof v);
+                refuse(t, field, "link %s does not exist: the mechanism has the ground (1) and links 2..%d", v, n + 1);
+                continue;
+            }
+            if (link == to) {
+                force_name(s, j, ".to_link", field, sizeof field);
+                refuse(t, field, "must be another link than from_link (%d): a spring within one link keeps its "
+                       "length and does nothing", (int)link);
+                continue;
+            }
+            for (r = 0; r < sizeof spring_rules / sizeof spring_rules[0]; r++) {
+                double x = force_field(s, j, spring_rules[r].column);
+                if (!(x >= 0)) {
+                    force_name(s, j, spring_rules[r].name, field, sizeof field);
+                    real_text(x, v, sizeof v);
+                    refuse(t, field, "%s, got %s", spring_rules[r].rule, v);
+                }
+            }
+            if (!t->count && force_field(s, j, GRB_F_GAS_FORCE) > 0) {
+                double column = force_field(s, j, GRB_F_GAS_COLUMN), n_exp = force_field(s, j, GRB_F_GAS_EXPONENT);
+                if (!(column > 0)) {
+                    force_name(s, j, ".gas_column", field, sizeof field);
+                    real_text(column, v, sizeof v);
+                    refuse(t, field, "a gas spring's gas column (V0 / A at the free length) must be positive, got %s",
+                           v);
+                } else if (!(n_exp > 0)) {
+                    force_name(s, j, ".gas_exponent", field, sizeof field);
+                    real_text(n_exp, v, sizeof v);
+                    refuse(t, field, "the polytropic exponent must be positive (1 isothermal, 1.4 adiabatic air), "
+                           "got %s", v);
+                }
+            }
+            continue;
+        }
+        if (!link_in(link, 2, n + 1)) {
+            force_name(s, j, kind == GRB_FORCE_JOINT ? ".joint" : ".link", field, sizeof field);
+            link_text(link, v, sizeof v);
+            refuse(t, field, kind == GRB_FORCE_JOINT ? "link %s does not exist: a joint's element acts at the joint of "
+                   "a moving link 2..%d" : "link %s does not exist or is the ground: a load acts on a moving link "
+                   "2..%d", v, n + 1);
+            continue;
+        }
+        if (kind == GRB_FORCE_LOAD) continue;
+        for (r = 0; r < sizeof joint_rules / sizeof joint_rules[0]; r++) {
+            double x = force_field(s, j, joint_rules[r].column);
+            if (!(x >= 0)) {
+                force_name(s, j, joint_rules[r].name, field, sizeof field);
+                real_text(x, v, sizeof v);
+                refuse(t, field, "%s, got %s", joint_rules[r].rule, v);
+            }
+        }
+        if (!t->count && force_field(s, j, GRB_F_FRICTION) > 0 && !(force_field(s, j, GRB_F_FRICTION_SPEED) > 0)) {
+            force_name(s, j, ".friction_speed", field, sizeof field);
+            real_text(force_field(s, j, GRB_F_FRICTION_SPEED), v, sizeof v);
+            refuse(t, field, "friction's regularising speed must be positive, got %s", v);
+        }
+    }
+}
+
 /* The revolutes of closure j's loop: its own if revolute, and those of the
  * chain's pairs on the tree path between its two links (Mechanism.loop_pairs). */
 static int loop_revolutes(const grb_scene_view *s, int j) {
@@ -402,13 +500,15 @@ int grb_scene_check(const grb_scene_view *s, grb_problem *found, int capacity, i
     t.capacity = found ? capacity : 0;
     t.count = 0;
     if (!s || (s->n_links > 0 && (!s->links || !s->q_ref)) || (s->n_closures > 0 && !s->closures) ||
-        (s->n_actuators > 0 && !s->actuators) || s->n_closures < 0 || s->n_actuators < 0)
+        (s->n_actuators > 0 && !s->actuators) || s->n_closures < 0 || s->n_actuators < 0 || s->n_forces < 0 ||
+        (s->n_forces > 0 && !s->forces))
         return GRB_BAD_ARGUMENT;
     ground_rules(&t, s);
     if (!t.count)  /* every problem of every link at once: they are independent */
         for (i = 0; i < s->n_links; i++) link_rules(&t, i + 2, s->links + i * s->link_stride, s->link_column);
     if (!t.count) closure_rules(&t, s);
     if (!t.count) actuator_rules(&t, s);
+    if (!t.count) force_rules(&t, s);
     if (!t.count) topology_rules(&t, s);
     if (!t.count) drive_rules(&t, s);
     if (!t.count && s->qd) rate_rules(&t, s);

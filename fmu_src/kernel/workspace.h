@@ -103,6 +103,7 @@ static inline const grb_closure *grb_closures(const grb_model *m) { return (cons
 /* the predecessor of link k: an earlier moving link, or -1 the ground */
 static inline int grb_parent(const grb_model *m, int k) { return (int)grb_links(m)[k].parent; }
 static inline const grb_actuator *grb_actuators(const grb_model *m) { return (const grb_actuator *)m->actuators; }
+static inline const grb_force *grb_forces(const grb_model *m) { return (const grb_force *)m->forces; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
 static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }

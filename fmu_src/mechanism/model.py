@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import ctypes
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -186,6 +186,187 @@ class Actuator:
     to_point: tuple[float, float]
 
 
+@dataclass(frozen=True)
+class Spring:
+    """A spring, a damper and a gas spring in parallel between a point of one link and a point of another.
+
+    Its force acts along the line through its two points, positive pushing
+    them apart; at length L and rate L' (docs/scenes.md, ``[[spring]]``)::
+
+        F = preload - stiffness (L - free_length) - damping L' + F_gas
+        F_gas = gas_force (gas_column / h) ** gas_exponent,   h = gas_column + L - free_length
+
+    the polytropic law p V^n = p0 V0^n of a gas spring of bore area A, with
+    ``gas_force`` = p0 A its gas force at the free length and ``gas_column`` =
+    V0 / A its gas column there (0: no gas).  Its stored energy (0 at the free
+    length) enters the potential energy, its damper's power the dissipation.
+
+    Parameters
+    ----------
+    name : str
+        Names its outputs (``<name>_force``, ``<name>_length``, ...).
+    from_link, to_link : int
+        The links carrying its two points, thesis numbering (1 the ground).
+    from_point, to_point : (float, float)
+        The points in their link's frame (along, across its vector), m; a
+        ground point is in the world frame.
+    stiffness : float
+        N/m (>= 0).
+    free_length : float
+        Its length at rest, m (>= 0).
+    preload : float
+        The force it pushes apart with at its free length, N (negative: pulls).
+    damping : float
+        A viscous damper in parallel, N s/m (>= 0).
+    gas_force, gas_column, gas_exponent : float
+        p0 A (N, >= 0), V0 / A (m, > 0 with a gas force) and the polytropic
+        exponent n (> 0: 1 isothermal, 1.4 adiabatic air).
+
+    Examples
+    --------
+    >>> from grubler import Spring
+    >>> Spring("return", from_link=1, from_point=(0.0, 0.0), to_link=2, to_point=(0.1, 0.0), stiffness=200.0,
+    ...        free_length=0.05).stiffness
+    200.0
+    """
+
+    name: str
+    from_link: int
+    from_point: tuple[float, float]
+    to_link: int
+    to_point: tuple[float, float]
+    stiffness: float = 0.0
+    free_length: float = 0.0
+    preload: float = 0.0
+    damping: float = 0.0
+    gas_force: float = 0.0
+    gas_column: float = 0.0
+    gas_exponent: float = 1.0
+
+    table = "spring"  # its table in a scene file
+
+
+@dataclass(frozen=True)
+class JointSpring:
+    """A torsion spring at a revolute (a linear spring at a slide) with Coulomb friction, at a real joint.
+
+    Its effort on the joint's coordinate z (a revolute's angle relative to its
+    predecessor, or a slide's B)::
+
+        Q = preload - stiffness (z - free) - friction tanh(z' / friction_speed)
+
+    in N m (N on a slide).  The Coulomb friction is regularised: it rises over
+    rates of the order of ``friction_speed`` (docs/scenes.md says how far a
+    loaded joint creeps for it).  The joint's viscous damper is its link's
+    ``damping``.
+
+    Parameters
+    ----------
+    name : str
+    joint : str
+        The real joint's coordinate, ``'theta3'`` or ``'B2'``.
+    stiffness : float
+        N m/rad, or N/m on a slide (>= 0).
+    free : float
+        The coordinate where the spring is relaxed: rad (relative to the
+        predecessor) or m.
+    preload : float
+        Its effort at ``free``, N m or N, along +z.
+    friction : float
+        Coulomb friction, N m or N (>= 0).
+    friction_speed : float
+        The regularisation's rate scale, rad/s or m/s (> 0 with friction).
+
+    Examples
+    --------
+    >>> from grubler import JointSpring
+    >>> JointSpring("hinge", joint="theta3", stiffness=20.0, free=0.5).joint
+    'theta3'
+    """
+
+    name: str
+    joint: str
+    stiffness: float = 0.0
+    free: float = 0.0
+    preload: float = 0.0
+    friction: float = 0.0
+    friction_speed: float = 1e-3
+
+    table = "joint_spring"
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """A constant force (world axes) and moment on a link, at a point of it.
+
+    Parameters
+    ----------
+    name : str
+    link : int
+        A moving link, thesis numbering.
+    point : (float, float)
+        Where the force acts, in the link's frame (along, across its vector), m.
+    force : (float, float)
+        N, world axes.
+    moment : float
+        N m, counter-clockwise.
+
+    Examples
+    --------
+    >>> from grubler import PointLoad
+    >>> PointLoad("payload", link=3, point=(0.8, 0.0), force=(0.0, -50.0)).force
+    (0.0, -50.0)
+    """
+
+    name: str
+    link: int
+    point: tuple[float, float] = (0.0, 0.0)
+    force: tuple[float, float] = (0.0, 0.0)
+    moment: float = 0.0
+
+    table = "point_load"
+
+
+FORCE_ELEMENTS = (Spring, JointSpring, PointLoad)
+# columns of the force-element table (ModelArrays.forces; the kernel's GRB_F_*), one row per element
+(F_KIND, F_LINK, F_X, F_Y, F_TO_LINK, F_TO_X, F_TO_Y, F_STIFFNESS, F_FREE, F_PRELOAD, F_DAMPING, F_GAS_FORCE,
+ F_GAS_COLUMN, F_GAS_EXPONENT, F_FRICTION, F_FRICTION_SPEED, F_FX, F_FY, F_MZ) = range(19)
+FORCE_KIND = {Spring: 0, JointSpring: 1, PointLoad: 2}  # GRB_FORCE_SPRING, _JOINT, _LOAD
+# the kernel column each field of an element (as the native FMU names its parameters) sits in
+FORCE_COLUMN = {"from_link": F_LINK, "from_point_x": F_X, "from_point_y": F_Y, "to_link": F_TO_LINK,
+                "to_point_x": F_TO_X, "to_point_y": F_TO_Y, "stiffness": F_STIFFNESS, "free_length": F_FREE,
+                "free": F_FREE, "preload": F_PRELOAD, "damping": F_DAMPING, "gas_force": F_GAS_FORCE,
+                "gas_column": F_GAS_COLUMN, "gas_exponent": F_GAS_EXPONENT, "friction": F_FRICTION,
+                "friction_speed": F_FRICTION_SPEED, "link": F_LINK, "point_x": F_X, "point_y": F_Y,
+                "force_x": F_FX, "force_y": F_FY, "moment": F_MZ}
+
+
+def force_row(element, joint_link: int = 0) -> np.ndarray:
+    """A force element's row of the kernel's table, links in thesis numbering (1 the ground).
+
+    ``joint_link``: a joint spring's link (the one whose real joint its coordinate is).
+    """
+    row = np.zeros(19)
+    row[F_KIND] = FORCE_KIND[type(element)]
+    if isinstance(element, Spring):
+        row[F_LINK], (row[F_X], row[F_Y]) = element.from_link, element.from_point
+        row[F_TO_LINK], (row[F_TO_X], row[F_TO_Y]) = element.to_link, element.to_point
+        row[[F_STIFFNESS, F_FREE, F_PRELOAD, F_DAMPING, F_GAS_FORCE, F_GAS_COLUMN, F_GAS_EXPONENT]] = (
+            element.stiffness, element.free_length, element.preload, element.damping, element.gas_force,
+            element.gas_column, element.gas_exponent)
+    elif isinstance(element, JointSpring):
+        row[F_LINK] = joint_link
+        row[[F_STIFFNESS, F_FREE, F_PRELOAD, F_FRICTION, F_FRICTION_SPEED]] = (
+            element.stiffness, element.free, element.preload, element.friction, element.friction_speed)
+    else:
+        row[F_LINK], (row[F_X], row[F_Y]) = element.link, element.point
+        row[[F_FX, F_FY, F_MZ]] = (*element.force, element.moment)
+    return row
+
+
+# names an element may not take: its dotted parameters (NAME.damping) are the scene's own (link2.damping)
+_RESERVED_NAME = re.compile(r"link\d+|ground|gravity|closure|initial|drive|load|simulate|mechanism|method|"
+                            r"integrator|rtol|atol|max_step|step")
 MAX_ACTUATORS = 16  # the kernel's GRB_MAX_ACTUATORS
 ACTUATOR_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
 # columns of the actuator table (ModelArrays.actuators), one row per actuator
@@ -216,6 +397,7 @@ class ModelArrays:
     links: np.ndarray  # (N, 11) float
     closures: np.ndarray  # (C, 11) float
     actuators: np.ndarray  # (A, 6) float
+    forces: np.ndarray  # (F, 19) float: the force elements, links 0-based (-1 the ground)
     m: np.ndarray
     I: np.ndarray
     p: np.ndarray
@@ -236,7 +418,7 @@ class ModelArrays:
 
     def _struct(self):
         return binding.model_struct(self.links, self.closures, self.theta1, self.gravity, self.drive, self.load,
-                                    self.drive_inertia, self.actuators)
+                                    self.drive_inertia, self.actuators, self.forces)
 
     # the struct holds the tables' addresses: never carry it to another process
     def __getstate__(self):
@@ -268,9 +450,12 @@ class ModelArrays:
         A = np.array([(a.from_link - 2, *a.from_point, a.to_link - 2, *a.to_point) for a in model.actuators],
                      dtype=float).reshape(len(model.actuators), 6)
         A.setflags(write=False)
-        struct = binding.model_struct(L, C, model.theta1, model.gravity, drive, load, model.drive_inertia, A)
+        F = model.force_table()
+        F[:, [F_LINK, F_TO_LINK]] -= 2  # the kernel's links are 0-based, -1 the ground
+        F.setflags(write=False)
+        struct = binding.model_struct(L, C, model.theta1, model.gravity, drive, load, model.drive_inertia, A, F)
         return ModelArrays(
-            links=L, closures=C, actuators=A,
+            links=L, closures=C, actuators=A, forces=F,
             m=L[:, L_M], I=L[:, L_I], p=L[:, L_P], q=L[:, L_Q], a=L[:, L_A], a_pred=L[:, L_APRED],
             damping=L[:, L_DAMP], revolute=L[:, L_REV] != 0.0,
             gain=np.repeat(C[:, CL_GAIN], 2), closure_damping=np.repeat(C[:, CL_DAMP], 2),
@@ -371,6 +556,9 @@ class Mechanism:
     actuators : sequence of Actuator
         Linear actuators between links: each takes a force as an input and
         gives its length and rate.
+    forces : sequence of Spring, JointSpring or PointLoad
+        Force elements: model data, each with its outputs (force, stored
+        energy, ...).
 
     Examples
     --------
@@ -398,6 +586,7 @@ class Mechanism:
     kind: str = ""
     description: str = ""
     actuators: tuple[Actuator, ...] = ()
+    forces: tuple = ()
     # derived structure, filled in __post_init__
     _S: np.ndarray = field(init=False, repr=False, compare=False)
     _q_locked: np.ndarray = field(init=False, repr=False, compare=False)
@@ -408,6 +597,7 @@ class Mechanism:
         object.__setattr__(self, "links", tuple(self.links))
         object.__setattr__(self, "closures", tuple(self.closures))
         object.__setattr__(self, "actuators", tuple(self.actuators))
+        object.__setattr__(self, "forces", tuple(self.forces))
         n = len(self.links)
         # the numbers and types here; the mechanism's rules are the kernel's (problems())
         q_ref = tuple(self.q_ref) if len(self.q_ref) else (0.0,) * (2 * n)
@@ -423,6 +613,7 @@ class Mechanism:
         self._validate_links()
         self._validate_closures()
         self._validate_actuators()
+        self._validate_forces()
         raise_all(self.problems())
         self._build_structure()
         object.__setattr__(self, "arrays", ModelArrays.of(self))
@@ -477,6 +668,61 @@ class Mechanism:
                                   points["to_point"]))
         object.__setattr__(self, "actuators", tuple(clean))
 
+    def force_field(self, j: int) -> str:
+        """Force element j's name in messages, as a scene file spells its table: ``spring[0]``, ``point_load[1]``."""
+        element = self.forces[j]
+        return f"{element.table}[{sum(type(e) is type(element) for e in self.forces[:j])}]"
+
+    def _validate_forces(self):
+        names = set(self.actuator_names)
+        clean = []
+        for j, element in enumerate(self.forces):
+            if type(element) not in FORCE_ELEMENTS:
+                raise SceneError("forces", f"must be Spring, JointSpring or PointLoad elements, got {element!r}")
+            f = self.force_field(j)
+            if not (isinstance(element.name, str) and ACTUATOR_NAME.fullmatch(element.name)):
+                raise SceneError(f"{f}.name", "must be a letter, then up to 31 letters, digits or underscores "
+                                              f"(it names the columns <name>_force, ...), got {element.name!r}")
+            if element.name in names:
+                raise SceneError(f"{f}.name", f"{element.name!r} names another actuator or force element already")
+            if _RESERVED_NAME.fullmatch(element.name):
+                raise SceneError(f"{f}.name", f"{element.name!r} is a scene table's name: its parameters "
+                                              f"({element.name}.stiffness, ...) would read as that table's")
+            names.add(element.name)
+            changes = {}
+            for key, value in element.__dict__.items():
+                if key in ("name", "joint"):
+                    continue
+                if key in ("from_link", "to_link", "link"):
+                    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                        raise SceneError(f"{f}.{key}", f"link {value!r} does not exist: the mechanism has the ground "
+                                                       f"(1) and links 2..{len(self.links) + 1}")
+                    changes[key] = int(value)
+                elif key in ("from_point", "to_point", "point", "force"):
+                    if not (isinstance(value, (tuple, list)) and len(value) == 2):
+                        raise SceneError(f"{f}.{key}", f"must be [x, y], got {value!r}")
+                    changes[key] = tuple(_finite(f"{f}.{key}", x) for x in value)
+                else:
+                    changes[key] = _finite(f"{f}.{key}", value)
+            if isinstance(element, JointSpring):
+                if element.joint not in self.coordinate_names:
+                    raise SceneError(f"{f}.joint", f"unknown coordinate {element.joint!r}; expected one of "
+                                                   f"{', '.join(self.coordinate_names)}")
+                self.free_index(element.joint, f"{f}.joint")  # a real joint: the kernel's rule
+            clean.append(replace(element, **changes))
+        object.__setattr__(self, "forces", tuple(clean))
+
+    def force_table(self) -> np.ndarray:
+        """The force elements as the kernel's rows (F x 19), links thesis-numbered (1 the ground)."""
+        rows = [force_row(e, self.coordinate_names.index(e.joint) // 2 + 2 if isinstance(e, JointSpring) else 0)
+                for e in self.forces]
+        return np.array(rows, dtype=float).reshape(len(rows), 19)
+
+    @property
+    def force_names(self) -> list[str]:
+        """The force elements' names, in scene order."""
+        return [e.name for e in self.forces]
+
     def problems(self, initial_rates=None) -> list[SceneError]:
         """Every refusal of the mechanism's rules (the kernel's grb_scene_check, which the native FMU runs too).
 
@@ -501,7 +747,8 @@ class Mechanism:
             joints.append(-1 if joint is None else names.index(joint))
         found = binding.scene_problems(links, closures, actuators, self.a1, self.theta1, self.gravity,
                                        np.array(self.q_ref, dtype=float), initial_rates, joints[0], joints[1],
-                                       self.drive_inertia)
+                                       self.drive_inertia, self.force_table(),
+                                       [self.force_field(j) for j in range(len(self.forces))])
         return [SceneError(f, r) for f, r in found]
 
     # -- structure ----------------------------------------------------------
@@ -645,6 +892,6 @@ class Mechanism:
         """A copy with some fields changed (re-validated)."""
         kw = {f: getattr(self, f) for f in (
             "links", "closures", "q_ref", "a1", "theta1", "gravity", "drive", "load", "drive_inertia",
-            "name", "kind", "description", "actuators")}
+            "name", "kind", "description", "actuators", "forces")}
         kw.update(changes)
         return Mechanism(**kw)

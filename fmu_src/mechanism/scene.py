@@ -29,7 +29,8 @@ from grubler.mechanism.dynamics import METHODS
 from grubler.errors import InputError, Problems, SceneError, raise_all
 from grubler.limits import (brief, did_you_mean, parse_angle, parse_angle_or_number, parse_length, parse_number,
                             parse_toml, read_text)
-from grubler.mechanism.model import Actuator, Closure, Link, Mechanism, coordinate_names, link_problems
+from grubler.mechanism.model import (Actuator, Closure, JointSpring, Link, Mechanism, PointLoad, Spring,
+                                     coordinate_names, link_problems)
 from grubler.quantities import ANGLE_UNIT, scene_field
 
 def parse_coordinate(name: str, value, field: str) -> float:
@@ -122,8 +123,18 @@ class Scene:
 
 
 _TOP = {"name", "description", "kind", "gravity", "mechanism", "ground", "closure", "drive", "load",
-        "initial", "simulate", "actuator"}
+        "initial", "simulate", "actuator", "spring", "joint_spring", "point_load"}
 _ACTUATOR_KEYS = {"name", "from_link", "from_point", "to_link", "to_point"}
+# the force elements' tables: each key, and how it is read (a length, a pair of lengths, a number or angle)
+_SPRING_KEYS = {"name": None, "from_link": "link", "from_point": "pair", "to_link": "link", "to_point": "pair",
+                "stiffness": "number", "free_length": "length", "preload": "number", "damping": "number",
+                "gas_force": "number", "gas_column": "length", "gas_exponent": "number"}
+_JOINT_SPRING_KEYS = {"name": None, "joint": None, "stiffness": "number", "free": "number", "preload": "number",
+                      "friction": "number", "friction_speed": "number"}
+_POINT_LOAD_KEYS = {"name": None, "link": "link", "point": "pair", "force": "numbers", "moment": "number"}
+_FORCE_TABLES = (("spring", Spring, _SPRING_KEYS, ("from_link", "from_point", "to_link", "to_point")),
+                 ("joint_spring", JointSpring, _JOINT_SPRING_KEYS, ("joint",)),
+                 ("point_load", PointLoad, _POINT_LOAD_KEYS, ("link",)))
 _LINK_KEYS = {"joint", "existence", "a", "p", "q", "m", "I", "damping", "parent"}
 _CLOSURE_KEYS = {"type", "point", "angle", "psi", "link", "at", "to_link", "gain", "damping"}
 
@@ -281,6 +292,10 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     actuators = []
     with found.check():
         actuators = _actuators(data.get("actuator", []), n)
+    forces = []
+    for table, cls, keys, required in _FORCE_TABLES:
+        with found.check():
+            forces += _force_elements(data.get(table, []), table, cls, keys, required, n)
     found.raise_all()
     # what needs the whole chain (its loops, its joints' names) is checked on it
     mechanism = Mechanism(
@@ -297,6 +312,7 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
         kind=str(data.get("kind", "")),
         description=str(data.get("description", "")),
         actuators=tuple(actuators),
+        forces=tuple(forces),
     )
     for problem in mechanism.problems(initial_rates=qd0):  # the mechanism passed: what is left is its rates
         found.add(problem)
@@ -324,7 +340,7 @@ def parse_field(value, field: str) -> float:
     link2.m: '1 deg' is not a plain number: write the value in kg as a number (2.5)
     """
     unit = scene_field(field).unit
-    if unit == ANGLE_UNIT:
+    if unit in (ANGLE_UNIT, "rad or m"):  # (a joint spring's free position: an angle, or a slide's number)
         return parse_angle_or_number(value, field)
     if unit == "m":
         return parse_length(value, field)
@@ -398,6 +414,52 @@ def _actuators(given, n: int) -> list[Actuator]:
         out.append(Actuator(str(d["name"]) if isinstance(d["name"], str) else d["name"],
                             _link_number(d["from_link"], f"{f}.from_link", n), _pair(d["from_point"], f"{f}.from_point"),
                             _link_number(d["to_link"], f"{f}.to_link", n), _pair(d["to_point"], f"{f}.to_point")))
+    return out
+
+
+def _force_elements(given, table: str, cls, keys: dict, required: tuple, n: int) -> list:
+    """The scene's [[spring]], [[joint_spring]] or [[point_load]] tables (docs/scenes.md): each a force element."""
+    if isinstance(given, dict):
+        given = [given]
+    if not (isinstance(given, list) and all(isinstance(d, dict) for d in given)):
+        raise SceneError(table, f"must be an array of tables [[{table}]]")
+    out = []
+    for j, d in enumerate(given):
+        f = f"{table}[{j}]"
+        _check_keys(d, set(keys), f)
+        for key in required:
+            if key not in d:
+                raise SceneError(f"{f}.{key}", f"is required (a {table.replace('_', ' ')} needs "
+                                               f"{', '.join(required)})")
+        values = {"name": d.get("name", f"{table}{j + 1}")}
+        if not isinstance(values["name"], str):
+            raise SceneError(f"{f}.name", f"must be a name (a letter, then letters, digits or underscores), got "
+                                          f"{brief(values['name'])}")
+        if "joint" in d:
+            if not (isinstance(d["joint"], str) and re.fullmatch(r"(theta|B)\d+", d["joint"].strip())):
+                raise SceneError(f"{f}.joint", f"must name a real joint's coordinate (theta3, B2, ...), got "
+                                               f"{brief(d['joint'])}")
+            values["joint"] = d["joint"].strip()
+        for key, how in keys.items():
+            if key not in d or how is None:
+                continue
+            field = f"{f}.{key}"
+            if how == "link":
+                values[key] = _link_number(d[key], field, n)
+            elif how == "pair":
+                values[key] = _pair(d[key], field)
+            elif how == "numbers":
+                v = d[key]
+                if not (isinstance(v, (list, tuple)) and len(v) == 2):
+                    raise SceneError(field, f"must be [x, y], got {brief(v)}")
+                values[key] = tuple(parse_number(x, field, "N") for x in v)  # a load's force, world x and y
+            elif how == "length":
+                values[key] = parse_length(d[key], field)
+            elif key == "free" and isinstance(values.get("joint"), str) and values["joint"].startswith("B"):
+                values[key] = parse_length(d[key], field)
+            else:
+                values[key] = parse_field(d[key], field)
+        out.append(cls(**values))
     return out
 
 
@@ -534,6 +596,18 @@ def with_overrides(scene: Scene, **changes) -> Scene:
 
 
 _LINK_PARAMS = ("a", "p", "q", "m", "I", "damping")
+# a force element's numbers a sweep may set, as NAME.field (the native FMU's parameters of the same names)
+ELEMENT_PARAMS = {"spring": ("stiffness", "free_length", "preload", "damping", "gas_force", "gas_column",
+                             "gas_exponent"),
+                  "joint_spring": ("stiffness", "free", "preload", "friction", "friction_speed"),
+                  "point_load": ("force_x", "force_y", "moment")}
+
+
+def _element_value(element, field_: str) -> float:
+    """One of :data:`ELEMENT_PARAMS` of a force element (a load's force_x and force_y are its force's parts)."""
+    if field_ in ("force_x", "force_y"):
+        return element.force[field_ == "force_y"]
+    return getattr(element, field_)
 
 
 def parameter_names(scene: Scene) -> list[str]:
@@ -551,6 +625,8 @@ def parameter_names(scene: Scene) -> list[str]:
         names += [f"link{k}.{f}" for f in _LINK_PARAMS]
     if m.closures:
         names += ["closure.gain", "closure.damping"]
+    for e in m.forces:
+        names += [f"{e.name}.{f}" for f in ELEMENT_PARAMS[e.table]]
     names += ["drive_joint", "load_joint", "drive.inertia", "drive.torque", "load.torque"]
     for x in m.coordinate_names:
         names += [f"initial.{x}", f"initial.{x}_d"]
@@ -588,6 +664,9 @@ def parameter(scene: Scene, name: str):
             return getattr(m.links[k], field_)
     if head == "closure" and field_ in ("gain", "damping") and m.closures:
         return getattr(m.closures[0], field_)
+    for e in m.forces:
+        if head == e.name and field_ in ELEMENT_PARAMS[e.table]:
+            return _element_value(e, field_)
     if head == "initial":
         names = m.coordinate_names
         if field_ in names:
@@ -595,6 +674,7 @@ def parameter(scene: Scene, name: str):
         if field_.endswith("_d") and field_[:-2] in names:
             return float((m.S @ scene.initial_rates)[names.index(field_[:-2])])
     raise SceneError(name, f"no such parameter of this scene (it has: {', '.join(parameter_names(scene))})")
+
 
 
 def parameter_value(name: str, value):
@@ -658,10 +738,17 @@ def override(scene: Scene, values: dict) -> Scene:
         # one penalty tuning for every loop: a six-bar's two closures alike
         closures = tuple(replace(c, gain=ov.get("closure.gain", c.gain), damping=ov.get("closure.damping", c.damping))
                          for c in closures)
+    forces = []
+    for e in m.forces:
+        changes = {f: ov[f"{e.name}.{f}"] for f in ELEMENT_PARAMS[e.table] if f"{e.name}.{f}" in ov}
+        if "force_x" in changes or "force_y" in changes:
+            changes["force"] = (changes.pop("force_x", e.force[0]), changes.pop("force_y", e.force[1]))
+        forces.append(replace(e, **changes))
     names = m.coordinate_names
     q_ref = tuple(ov.get(f"initial.{x}", v) for x, v in zip(names, m.q_ref))
     qd = [ov.get(f"initial.{x}_d", v) for x, v in zip(names, m.S @ scene.initial_rates)]
-    model = m.replace(links=links, closures=closures, q_ref=q_ref, gravity=ov.get("gravity", m.gravity),
+    model = m.replace(links=links, closures=closures, forces=tuple(forces), q_ref=q_ref,
+                      gravity=ov.get("gravity", m.gravity),
                       drive=ov.get("drive_joint", m.drive) or None, load=ov.get("load_joint", m.load) or None,
                       drive_inertia=ov.get("drive.inertia", m.drive_inertia))
     out = replace(scene, mechanism=model, initial_rates=model.zd_from_qd(qd),

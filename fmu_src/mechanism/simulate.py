@@ -25,7 +25,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from grubler import binding
-from grubler.quantities import ACTUATOR_OUTPUTS, mechanism_output
+from grubler.quantities import ACTUATOR_OUTPUTS, FORCE_OUTPUTS, mechanism_output
 from grubler.mechanism.assembly import POSITION_TOL, assemble
 from grubler.mechanism.analysis import explain_singular_start
 from grubler.mechanism.dynamics import (EXACT, METHOD_CODE, METHODS, PENALTY, Inputs, actuator_forces,
@@ -40,9 +40,10 @@ from grubler.mechanism.scene import Scene, load_scene
 # serves 'state', 'dynamics' and 'energy' alike; only 'reactions' adds work, a
 # Newton-Euler pass, and only when asked for.  The joint coordinates and rates
 # need no evaluation at all: they are the stored states.
-GROUPS = ("state", "dynamics", "energy", "reactions", "actuators")
-DEFAULT_GROUPS = ("state", "dynamics", "energy", "actuators")
-# each actuator's columns: <name>_length, _rate (kinematics), _force (the input), _power (force x rate)
+GROUPS = ("state", "dynamics", "energy", "reactions", "actuators", "forces")
+DEFAULT_GROUPS = ("state", "dynamics", "energy", "actuators", "forces")
+# each actuator's columns: <name>_length, _rate (kinematics), _force (the input), _power (force x rate);
+# each force element's: its kind's (grubler.quantities.FORCE_OUTPUTS), from the state alone
 
 DEFAULT_RTOL = 1e-9
 DEFAULT_ATOL = 1e-9
@@ -60,11 +61,18 @@ def output_columns(model: Mechanism, groups: Iterable[str] = DEFAULT_GROUPS) -> 
     >>> grubler.output_columns(m, ["state"])[-3:]
     ['tip_x', 'tip_y', 'closure_error']
     """
-    return list(_columns(model.n_links, frozenset(groups), len(model.closures), tuple(model.actuator_names)))
+    return list(_columns(model.n_links, frozenset(groups), len(model.closures), tuple(model.actuator_names),
+                         force_kinds(model)))
+
+
+def force_kinds(model: Mechanism) -> tuple[tuple[str, str], ...]:
+    """Each force element's name and kind (its scene table: 'spring', 'joint_spring', 'point_load')."""
+    return tuple((e.name, e.table) for e in model.forces)
 
 
 @functools.lru_cache(maxsize=64)
-def _columns(n_links: int, groups: frozenset, n_closures: int = 1, actuators: tuple[str, ...] = ()) -> tuple[str, ...]:
+def _columns(n_links: int, groups: frozenset, n_closures: int = 1, actuators: tuple[str, ...] = (),
+             forces: tuple[tuple[str, str], ...] = ()) -> tuple[str, ...]:
     names = coordinate_names(n_links)
     cols = ["t"]
     if "state" in groups:
@@ -87,6 +95,8 @@ def _columns(n_links: int, groups: frozenset, n_closures: int = 1, actuators: tu
             cols += [f"closure{j}_Fx", f"closure{j}_Fy", f"closure{j}_Mz"]
     if "actuators" in groups:
         cols += [f"{a}_{q.name}" for a in actuators for q in ACTUATOR_OUTPUTS]
+    if "forces" in groups:
+        cols += [f"{e}_{q.name}" for e, table in forces for q, _ in FORCE_OUTPUTS[table]]
     return tuple(cols)
 
 
@@ -99,7 +109,8 @@ def unit_of(column: str) -> str:
     q = mechanism_output(column)
     if q is not None:
         return q.unit
-    return next((q.unit for q in ACTUATOR_OUTPUTS if column.endswith(f"_{q.name}")), "")
+    known = [*ACTUATOR_OUTPUTS, *(q for outputs in FORCE_OUTPUTS.values() for q, _ in outputs)]
+    return next((q.unit for q in known if column.endswith(f"_{q.name}")), "")
 
 
 @functools.lru_cache(maxsize=64)
@@ -151,7 +162,24 @@ def evaluate(model: Mechanism, method: str, t: float, z: np.ndarray, zd: np.ndar
             length, rate = lines[model.actuators.index(a)]
             out.update({f"{a.name}_length": length, f"{a.name}_rate": rate, f"{a.name}_force": force,
                         f"{a.name}_power": force * rate})
+    if "forces" in groups and model.forces:
+        out.update({c: float(v[0]) for c, v in force_outputs(model, y[None, :], work).items()})
     return out
+
+
+def force_outputs(model: Mechanism, y: np.ndarray, work: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Each force element's output columns (its kind's, :data:`~grubler.quantities.FORCE_OUTPUTS`) at states
+    ``y`` (rows x 2N): the kernel's ``grb_force_rows``, from the state alone."""
+    y = np.ascontiguousarray(y, dtype=float)
+    out = np.empty((y.shape[0], len(model.forces), binding.FORCE_OUTPUTS))
+    if work is None:
+        work = binding.work(model.n_links, len(model.closures))
+    status = binding.library().grb_force_rows(model.arrays.c, y.shape[0], binding.address(y), binding.address(work),
+                                              binding.address(out))
+    if status != binding.OK:
+        raise ValueError(f"force elements: {binding.status_message(status)}")
+    return {f"{e.name}_{q.name}": out[:, j, k].copy() for j, e in enumerate(model.forces)
+            for q, k in FORCE_OUTPUTS[e.table]}
 
 
 def actuator_lines(model: Mechanism, y: np.ndarray, work: np.ndarray | None = None) -> np.ndarray:
@@ -203,6 +231,22 @@ def mechanism_size(model: Mechanism) -> float:
     for c in model.closures:
         sizes += [math.hypot(*c.point), math.hypot(*c.to_point)]
     return max(sizes) or 1.0
+
+
+def _check_gas_columns(model: Mechanism, z: np.ndarray) -> None:
+    """A gas spring whose gas column is used up at the start has no finite force to start from."""
+    springs = [(j, e) for j, e in enumerate(model.forces) if e.table == "spring" and e.gas_force > 0]
+    if not springs:
+        return
+    y = np.concatenate([z, np.zeros_like(z)])[None, :]
+    outputs = force_outputs(model, y)
+    for j, e in springs:
+        length = float(outputs[f"{e.name}_length"][0])
+        h = e.gas_column + length - e.free_length
+        if not h > 0:
+            raise SceneError(f"{model.force_field(j)}.gas_column",
+                             f"the gas is used up at the start: its column gas_column + length - free_length is "
+                             f"{h:.4g} m at the start's length {length:.4g} m; a gas spring needs a positive column")
 
 
 def closure_warnings(model: Mechanism, t: np.ndarray, closure_error: np.ndarray) -> list[str]:
@@ -325,6 +369,7 @@ class Simulator:
         elif m.n_constraints:
             _check_penalty_inertia(m, z)
         _check_actuator_lengths(m, z)
+        _check_gas_columns(m, z)
         self._n = m.n_free
         ode = StateEquation(m, self.method, self.inputs.drive, self.inputs.load, drive_function=self.drive_function,
                             project_state=self.method == EXACT and m.n_constraints > 0,
@@ -501,6 +546,11 @@ class Result:
                     f"{act.name}_length": lines[:, a, 0].copy(), f"{act.name}_rate": lines[:, a, 1].copy(),
                     f"{act.name}_force": np.full(rows, forces[a]), f"{act.name}_power": forces[a] * lines[:, a, 1]})
             todo = [g for g in todo if g != "actuators"]
+            if not todo:
+                return
+        if "forces" in todo:
+            self._cache["forces"] = force_outputs(m, y, work) if m.forces else {}
+            todo = [g for g in todo if g != "forces"]
             if not todo:
                 return
         put_actuator_forces(m, work, held)

@@ -500,14 +500,16 @@ def scene_point(scene: str, t_end: float = 2.0, method: str | None = None, rtol:
     """
     from grubler.views.report import energy_balance
     from grubler.mechanism.scene import load_scene, override
-    from grubler.mechanism.simulate import simulate
+    from grubler.mechanism.simulate import output_columns, simulate
 
     sc = override(load_scene(scene), params)
     t0 = time.perf_counter()
     res = simulate(sc, t_end=t_end, dt_out=min(0.01, t_end / 10), method=method, rtol=rtol, atol=rtol)
     wall = time.perf_counter() - t0
     m = sc.mechanism
-    cols = {c: res[c] for c in ["t", "E", "P_drive"] + [f"{n}_d" for n in m.coordinate_names]}
+    # the balance's terms: the drive's work, the force elements' work and losses (the joint dampers' come from the rates)
+    cols = {c: res[c] for c in ["t", "E", "P_drive"] + [f"{n}_d" for n in m.coordinate_names]
+            + output_columns(m, ("forces",))[1:]}
     out = {"final_drive_angle": math.nan, "peak_drive_speed": math.nan}
     if m.drive is not None:
         out["final_drive_angle"] = float(res[m.drive][-1])
@@ -530,7 +532,7 @@ def scene_point_units(scene, names=()) -> dict[str, str]:
     ('m', 'N m', 'rad/s', 'N')
     """
     from grubler.mechanism.simulate import unit_of
-    from grubler.quantities import ANGLE_UNIT, scene_field
+    from grubler.quantities import ANGLE_UNIT, force_field, scene_field
 
     m = scene.mechanism
     drive = m.drive
@@ -538,10 +540,16 @@ def scene_point_units(scene, names=()) -> dict[str, str]:
     units = {"final_drive_angle": unit_of(drive) if drive else "", "peak_drive_speed": unit_of(f"{drive}_d") if drive
              else "", "peak_closure_force": "N", "max_closure_error": unit_of("closure_error"), "energy_balance": "J",
              "run_seconds": "s"}
+    elements = {e.name: e for e in m.forces}
     for name in names:  # scene parameters (grubler.mechanism.scene.parameter_names)
         head, _, last = name.partition(".")
         if head == "initial":
             units[name] = unit_of(last)
+            continue
+        if head in elements:  # a force element's field, its unit by its kind (and a joint spring's joint)
+            e = elements[head]
+            q = force_field(e.table, last, on_slide=e.joint.startswith("B") if e.table == "joint_spring" else None)
+            units[name] = q.unit
             continue
         # on a slide joint a damping is in N s/m and an effort in N
         link_slide = head.startswith("link") and head[4:].isdigit() and 0 <= int(head[4:]) - 2 < m.n_links \

@@ -40,6 +40,10 @@ BLOCK_COLOUR = "#2ca02c"
 GUIDE_COLOUR = "#7f7f7f"
 TRACE_COLOUR = "#ff7f0e"
 CYLINDER_COLOUR = "#17becf"  # an actuator's barrel
+SPRING_COLOUR = "#8c564b"  # a spring's zigzag
+SPRING_TURNS = 7  # the zigzag's points either side of its line
+LOAD_COLOUR = "#9467bd"  # a point load's arrow
+LOAD_ARROW_PX = 45  # an arrow's length on the GIF (its direction is the force's; its size says nothing)
 BARREL_SHARE = 0.55  # of an actuator's length, the barrel drawn from its first point (the rod runs the whole line)
 
 # the public names (the API reference's): the rest is the package's inside
@@ -69,10 +73,12 @@ class FrameGeometry:
     plates: list = field(default_factory=list)  # links with three or more corners: their corners, in order
     trace: np.ndarray | None = None  # the traced point, if any
     actuators: list = field(default_factory=list)  # [(first point, second point), ...]: a barrel and its rod
+    springs: list = field(default_factory=list)  # [(first point, second point), ...]: a zigzag between them
+    loads: list = field(default_factory=list)  # [(point, unit direction), ...]: a point load's arrow, ending there
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
-        pts += [p for line in self.actuators for p in line]
+        pts += [p for line in self.actuators + self.springs for p in line]
         return np.array(pts, dtype=float).reshape(-1, 2)
 
 
@@ -98,6 +104,11 @@ class Sketch:
         self.trace = self._add(trace[0], *trace[1]) if trace else None
         self.actuator_ends = [(self._add(a.from_link - 2, *a.from_point), self._add(a.to_link - 2, *a.to_point))
                               for a in model.actuators]
+        self.springs = [e for e in model.forces if e.table == "spring"]
+        self.spring_ends = [(self._add(e.from_link - 2, *e.from_point), self._add(e.to_link - 2, *e.to_point))
+                            for e in self.springs]
+        self.loads = [e for e in model.forces if e.table == "point_load" and np.hypot(*e.force) > 0]
+        self.load_points = [self._add(e.link - 2, *e.point) for e in self.loads]
         self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
         self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
@@ -180,7 +191,27 @@ class Sketch:
                     if min(np.linalg.norm(pos[i] - O[k]), np.linalg.norm(pos[i] - E[k])) > 1e-9:
                         geo.bars.append((O[k], pos[i]) if np.linalg.norm(pos[i] - O[k]) < np.linalg.norm(
                             pos[i] - E[k]) else (E[k], pos[i]))
+        for load, i in zip(self.loads, self.load_points):  # world axes: the force's direction is constant
+            geo.loads.append((pos[i], np.asarray(load.force, dtype=float) / np.hypot(*load.force)))
+        for spring, (i0, i1) in zip(self.springs, self.spring_ends):
+            geo.springs.append((pos[i0], pos[i1]))
+            for link, i in ((spring.from_link, i0), (spring.to_link, i1)):
+                geo.joints.append(pos[i])
+                if link == 1:
+                    geo.fixed.append(pos[i])
         return geo
+
+
+def zigzag(p0, p1) -> np.ndarray:
+    """A spring's drawing between two points: straight ends, a zigzag of :data:`SPRING_TURNS` points either side
+    of the line in its middle, its width a tenth of its length (points, in the points' own axes)."""
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    d = p1 - p0
+    across = np.array([-d[1], d[0]]) * 0.1
+    k = 2 * SPRING_TURNS
+    s = np.concatenate([[0.0, 0.2], 0.2 + 0.6 * (np.arange(k) + 0.5) / k, [0.8, 1.0]])
+    side = np.concatenate([[0.0, 0.0], np.where(np.arange(k) % 2, -0.5, 0.5), [0.0, 0.0]])
+    return p0 + s[:, None] * d + side[:, None] * across
 
 
 def frame_geometry(model: Mechanism, z: np.ndarray, trace=None) -> FrameGeometry:
@@ -300,6 +331,12 @@ class Drawer:
             A += ax.plot([p0[0], p1[0]], [p0[1], p1[1]], "-", color="0.25", lw=2.5, zorder=2.5)
             A += ax.plot([p0[0], barrel[0]], [p0[1], barrel[1]], "-", color=CYLINDER_COLOUR, lw=9,
                          solid_capstyle="butt", zorder=2.6)
+        for p0, p1 in geo.springs:
+            zz = zigzag(p0, p1)
+            A += ax.plot(zz[:, 0], zz[:, 1], "-", color=SPRING_COLOUR, lw=1.8, zorder=2.5)
+        for p, u in geo.loads:  # an arrow of a fixed size in points, ending at the load's point
+            A.append(ax.annotate("", xy=tuple(p), xytext=(-40 * u[0], -40 * u[1]), textcoords="offset points",
+                                 arrowprops={"arrowstyle": "-|>", "color": LOAD_COLOUR, "lw": 2.0}, zorder=5))
         for c, angle in geo.blocks:
             u = np.array([math.cos(angle), math.sin(angle)])
             v = np.array([-u[1], u[0]])
@@ -343,7 +380,7 @@ CURSOR_COLOUR = "#d62728"
 # a frame stores only what moved, not the rectangle around everything that did)
 _INKS = {"white": "#ffffff", "black": "#000000", "link": LINK_COLOUR, "plate": PLATE_COLOUR, "joint": JOINT_COLOUR,
          "block": BLOCK_COLOUR, "guide": GUIDE_COLOUR, "trace": TRACE_COLOUR, "cursor": CURSOR_COLOUR,
-         "cylinder": CYLINDER_COLOUR, "rod": "#404040",
+         "cylinder": CYLINDER_COLOUR, "rod": "#404040", "spring": SPRING_COLOUR, "load": LOAD_COLOUR,
          "clear": "#ff00ff"}
 
 
@@ -634,6 +671,13 @@ class _Film:
             a, b = px(p0), px(p1)
             d.line([tuple(a), tuple(b)], fill=ink["rod"], width=3)
             d.line([tuple(a), tuple(a + BARREL_SHARE * (b - a))], fill=ink["cylinder"], width=2 * _BAR)
+        for p0, p1 in geo.springs:
+            d.line([tuple(q) for q in zigzag(px(p0), px(p1))], fill=ink["spring"], width=3)
+        for p, u in geo.loads:  # the image's y points down
+            tip, u = px(p), np.array([u[0], -u[1]])
+            tail, side = tip - LOAD_ARROW_PX * u, np.array([-u[1], u[0]])
+            d.line([tuple(tail), tuple(tip)], fill=ink["load"], width=3)
+            d.polygon([tuple(tip), tuple(tip - 12 * u + 6 * side), tuple(tip - 12 * u - 6 * side)], fill=ink["load"])
         for c, angle in geo.blocks:
             c = px(c)
             u = np.array([math.cos(angle), -math.sin(angle)])

@@ -23,7 +23,8 @@ BLUE, ORANGE, GREEN, GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "0.35"
 
 
 def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarray:
-    """E(t) - E(0) minus the work of the drive and the actuators plus what the joint dampers took (J).
+    """E(t) - E(0) minus the work of the drive, the actuators and the point loads plus what the joint dampers
+    and the force elements' dampers and friction took (J).
 
     Zero for an exact run: what is left is integration error (and the trapezoid
     rule's error on the output grid for the work).  In a co-simulation the drive
@@ -52,6 +53,11 @@ def energy_balance(columns: dict[str, np.ndarray], model: Mechanism) -> np.ndarr
             power = power + columns[f"{name}_power"]
         elif f"{name}_force" in columns and f"{name}_rate" in columns:
             power = power + columns[f"{name}_force"] * columns[f"{name}_rate"]
+    for element in model.forces:  # a spring's stored energy is in E; a load's work and a damper's loss are not
+        if element.table == "point_load":
+            power = power + columns.get(f"{element.name}_power", 0.0)
+        else:
+            power = power - columns.get(f"{element.name}_dissipation", 0.0)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
     e = columns["E"]
     return e - e[0] - work

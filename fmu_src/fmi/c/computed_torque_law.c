@@ -64,6 +64,9 @@ static void describe(const double *p, const double *links, const double *closure
     /* the demand is the drive's alone: no actuator pushes (the library's runs with their forces at 0) */
     m->n_actuators = 0;
     m->actuators = NULL;
+    /* nor a force element: ComputedTorque takes the scene's links and closures alone (scene_parameters) */
+    m->n_forces = 0;
+    m->forces = NULL;
 }
 
 /* The kernel's tables of the parameters (as the Mechanism FMU builds them) and the model over them. */
