@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from grubler.mechanism.dynamics import observation_names
 from grubler.errors import SceneError
-from grubler.mechanism.model import FORCE_COLUMN, FORCE_KIND, PRISMATIC, JointSpring, Mechanism
+from grubler.mechanism.model import FORCE_COLUMN, FORCE_KIND, PRISMATIC, Mechanism
 from grubler.mechanism.scene import Scene
 from grubler.mechanism.simulate import DEFAULT_ATOL, DEFAULT_RTOL, force_kinds
 from grubler.quantities import FORCE_OUTPUTS, fmi_text, fmi_unit, force_field, force_fields, mechanism_output, scene_field
@@ -159,139 +159,151 @@ def same_shape(a: Mechanism, b: Mechanism) -> bool:
             == (b.n_links, len(b.closures), b.actuator_names, [(e.name, e.table) for e in b.forces]))
 
 
-def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
-    """The variables of a mechanism FMU with ``scene``'s shape and defaults.
+class _Declared:
+    """The FMU's variables as they are declared, in value-reference order: parameters at the scene's values,
+    outputs with their slot in the model's output vector and words and units from the one table."""
 
-    Examples
-    --------
-    >>> from grubler.mechanism.scene import load_scene
-    >>> spec = mechanism_spec(load_scene("watt-ii"), "WattII")     # build_fmu(spec, ...) compiles it
-    >>> spec.identifier, spec.defines["N_LINKS"]
-    ('WattII', 5)
-    """
-    m = scene.mechanism
-    n, nc = m.n_links, len(m.closures)
-    if scene.method not in METHODS:
-        raise SceneError("method", f"must be one of {', '.join(METHODS)}, got {scene.method!r}")
-    start = fmu_parameters(scene)
-    names = m.coordinate_names
-    v: list[Variable] = []
+    def __init__(self, scene: Scene):
+        self.m = scene.mechanism
+        self.start = fmu_parameters(scene)
+        self.start.update({"integrator": "auto", "rtol": DEFAULT_RTOL, "atol": DEFAULT_ATOL, "max_step": 0.0,
+                           "step": 1e-3})
+        self.v: list[Variable] = []
 
-    def par(name, type_, text, unit=None, lo=None, hi=None, choices=(), enum=None):
-        v.append(Variable(name, type_, PARAMETER, text, start[name] if name in start else None, unit, lo, hi,
-                          choices, enum))
+    def par(self, name, type_, text, unit=None, lo=None, hi=None, choices=(), enum=None):
+        self.v.append(Variable(name, type_, PARAMETER, text, self.start.get(name), unit, lo, hi, choices, enum))
 
-    par("method", STRING, "closure method: exact (index-1 DAE, projected) | penalty (the thesis's "
-                          "spring-damper imaginary joint)", choices=METHODS)
-    start.update({"integrator": "auto", "rtol": DEFAULT_RTOL, "atol": DEFAULT_ATOL, "max_step": 0.0,
-                  "step": 1e-3})
-    par("integrator", STRING, "auto | dop853 | rk45 | rk4 (auto: dop853); radau and bdf exist only in the "
-                              "Python library", choices=INTEGRATORS)
-    par("rtol", REAL, "relative tolerance of the internal integration [-]", None, 0.0)
-    par("atol", REAL, "absolute tolerance of the internal integration [rad, m]", None, 0.0)
-    par("max_step", REAL, "largest internal step (0: no limit)", "s", 0.0)
-    par("step", REAL, "fixed internal step of rk4", "s", 0.0)
-    field = scene_field("gravity")
-    par("gravity", REAL, field.description, fmi_unit(field.unit), 0.0)
-    par("ground.a1", REAL, "ground vector length a1 (link 1)", "m", 0.0)
-    par("ground.theta1", REAL, "ground vector angle theta1", "rad")
+    def field(self, name: str, text_prefix: str = "", lo=None):
+        """A REAL parameter whose unit and words are the scene field's (grubler.quantities.scene_field)."""
+        q = scene_field(name)
+        self.par(name, REAL, f"{text_prefix}{fmi_text(q)}", fmi_unit(q.unit), lo)
+
+    def output(self, name, level, feed, slot):
+        q = mechanism_output(name, self.m.actuator_names, force_kinds(self.m))
+        self.v.append(Variable(name, REAL, OUTPUT, fmi_text(q), unit=fmi_unit(q.unit), level=level, feedthrough=feed,
+                               slot=slot))
+
+
+def _run_settings(d: _Declared) -> None:
+    """How the FMU integrates: the closure method, the integrator and its tolerances and steps."""
+    d.par("method", STRING, "closure method: exact (index-1 DAE, projected) | penalty (the thesis's "
+                            "spring-damper imaginary joint)", choices=METHODS)
+    d.par("integrator", STRING, "auto | dop853 | rk45 | rk4 (auto: dop853); radau and bdf exist only in the "
+                                "Python library", choices=INTEGRATORS)
+    d.par("rtol", REAL, "relative tolerance of the internal integration [-]", None, 0.0)
+    d.par("atol", REAL, "absolute tolerance of the internal integration [rad, m]", None, 0.0)
+    d.par("max_step", REAL, "largest internal step (0: no limit)", "s", 0.0)
+    d.par("step", REAL, "fixed internal step of rk4", "s", 0.0)
+
+
+def _scene_parameters(d: _Declared) -> None:
+    """Every scene quantity: gravity, the ground, the efforts' joints, the links, the closures, the sketch."""
+    m = d.m
+    n, nc, names = m.n_links, len(m.closures), m.coordinate_names
+    d.field("gravity", lo=0.0)
+    d.par("ground.a1", REAL, "ground vector length a1 (link 1)", "m", 0.0)
+    d.par("ground.theta1", REAL, "ground vector angle theta1", "rad")
     coord_choices = ("",) + tuple(names)
-    par("drive_joint", STRING, "real joint the motor acts on (e.g. theta2; empty: none)", choices=coord_choices)
-    par("load_joint", STRING, "real joint the load acts on (empty: none)", choices=coord_choices)
-    field = scene_field("drive.inertia")
-    par("drive.inertia", REAL, fmi_text(field), fmi_unit(field.unit), 0.0)
+    d.par("drive_joint", STRING, "real joint the motor acts on (e.g. theta2; empty: none)", choices=coord_choices)
+    d.par("load_joint", STRING, "real joint the load acts on (empty: none)", choices=coord_choices)
+    d.field("drive.inertia", lo=0.0)
     lowest = {"a": 0.0, "m": 0.0, "I": 0.0, "damping": 0.0}
     for k in range(2, n + 2):
-        par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
+        d.par(f"link{k}.joint", ENUMERATION, f"link {k}: which joint of its pair is real (structural)", enum=JOINT)
         for f in LINK_FIELDS[1:-1]:
-            field = scene_field(f"link{k}.{f}")
-            par(f"link{k}.{f}", REAL, f"link {k}: {fmi_text(field)}", fmi_unit(field.unit), lowest.get(f))
+            d.field(f"link{k}.{f}", f"link {k}: ", lowest.get(f))
     for j in range(nc):
         pre = closure_prefix(nc, j)
-        par(f"{pre}.type", ENUMERATION, "closing joint type (structural)", enum=CLOSURE)
-        par(f"{pre}.link", INTEGER, "link carrying the closing point (structural)", None, 2, n + 1)
-        par(f"{pre}.to_link", INTEGER, "link carrying the target point or line, 1: the ground (structural)",
-            None, 1, n + 1)
-        par(f"{pre}.at_x", REAL, "closing point on the link, along its vector", "m")
-        par(f"{pre}.at_y", REAL, "closing point on the link, across its vector", "m")
-        par(f"{pre}.point_x", REAL, "target point (or a point of the line) in to_link's frame, x", "m")
-        par(f"{pre}.point_y", REAL, "target point (or a point of the line) in to_link's frame, y", "m")
-        par(f"{pre}.angle", REAL, "prismatic: direction of the line in to_link's frame", "rad")
-        par(f"{pre}.psi", REAL, "prismatic: held orientation of the link relative to to_link", "rad")
+        d.par(f"{pre}.type", ENUMERATION, "closing joint type (structural)", enum=CLOSURE)
+        d.par(f"{pre}.link", INTEGER, "link carrying the closing point (structural)", None, 2, n + 1)
+        d.par(f"{pre}.to_link", INTEGER, "link carrying the target point or line, 1: the ground (structural)",
+              None, 1, n + 1)
+        d.par(f"{pre}.at_x", REAL, "closing point on the link, along its vector", "m")
+        d.par(f"{pre}.at_y", REAL, "closing point on the link, across its vector", "m")
+        d.par(f"{pre}.point_x", REAL, "target point (or a point of the line) in to_link's frame, x", "m")
+        d.par(f"{pre}.point_y", REAL, "target point (or a point of the line) in to_link's frame, y", "m")
+        d.par(f"{pre}.angle", REAL, "prismatic: direction of the line in to_link's frame", "rad")
+        d.par(f"{pre}.psi", REAL, "prismatic: held orientation of the link relative to to_link", "rad")
         for f in ("gain", "damping"):
-            field = scene_field(f"{pre}.{f}")
-            par(f"{pre}.{f}", REAL, fmi_text(field), fmi_unit(field.unit), 0.0)
+            d.field(f"{pre}.{f}", lo=0.0)
     for x in names:
-        par(f"initial.{x}", REAL, f"initial {x} (a guess for the coordinates assembly solves for)",
-            fmi_unit(mechanism_output(x).unit))
-        par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)",
-            fmi_unit(mechanism_output(f"{x}_d").unit))
-    v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint [N m, or N on a slide]", 0.0))
-    v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint [N m, or N on a slide]", 0.0))
+        d.par(f"initial.{x}", REAL, f"initial {x} (a guess for the coordinates assembly solves for)",
+              fmi_unit(mechanism_output(x).unit))
+        d.par(f"initial.{x}_d", REAL, f"initial rate of {x} (the held coordinates' are kept)",
+              fmi_unit(mechanism_output(f"{x}_d").unit))
 
-    obs = observation_names(n)
+
+def _observations(d: _Declared, obs: list[str]) -> None:
+    """The kernel's observations the FMU publishes, the drive's coordinate and rate, the other closures' forces."""
+    m = d.m
+    n, nc, names = m.n_links, len(m.closures), m.coordinate_names
     index = {name: i for i, name in enumerate(obs)}
     # published in today's order: state, dynamics, energy, reactions
     order = ([*names, *(f"{x}_d" for x in names), "tip_x", "tip_y", "closure_error",
               *(f"{x}_dd" for x in names), "Fx", "Fy", "Mz", "KE", "PE"]
              + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
     assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
-    def output(name, level, feed, slot):
-        q = mechanism_output(name, m.actuator_names, force_kinds(m))
-        v.append(Variable(name, REAL, OUTPUT, fmi_text(q), unit=fmi_unit(q.unit), level=level, feedthrough=feed,
-                          slot=slot))
-
     for name in order:
         reaction = name.startswith("R") and name[1].isdigit()
         # the efforts reach the accelerations and the constraint forces at once
         feed = reaction or name in ("Fx", "Fy", "Mz") or name.endswith("_dd")
-        output(name, LEVEL_REACTIONS if reaction else LEVEL_OBSERVE, feed, index[name])
-    output("drive_angle", LEVEL_DRIVE, False, len(obs))
-    output("drive_speed", LEVEL_DRIVE, False, len(obs) + 1)
+        d.output(name, LEVEL_REACTIONS if reaction else LEVEL_OBSERVE, feed, index[name])
+    d.output("drive_angle", LEVEL_DRIVE, False, len(obs))
+    d.output("drive_speed", LEVEL_DRIVE, False, len(obs) + 1)
     # the first closure's force is Fx, Fy, Mz; a chain of several loops (a
     # six-bar) publishes the others' as the library names them, closureJ_*
     for j in range(1, nc):
         for c, comp in enumerate(("Fx", "Fy", "Mz")):
-            output(f"closure{j}_{comp}", LEVEL_REACTIONS, True, len(obs) + 2 + 3 * (j - 1) + c)
-    for k in range(2, n + 2):  # last: the value references above are those of an FMU before trees
-        par(f"link{k}.parent", INTEGER, f"link {k}: the link its joint pair hangs from, 1: the ground "
-                                        "(structural; the previous link for a serial chain)", None, 1, k - 1)
-    # the actuators after everything else: an FMU without them keeps its value references
-    n_out = len(obs) + 2 + 3 * max(nc - 1, 0)
-    for j, a in enumerate(m.actuators):
-        for end in ("from", "to"):
-            par(f"{a.name}.{end}_link", INTEGER, f"actuator {a.name}: the link carrying its {end} point, 1: the "
-                                                 "ground (structural)", None, 1, n + 1)
-            for axis, words in (("x", "along"), ("y", "across")):
-                par(f"{a.name}.{end}_point_{axis}", REAL, f"actuator {a.name}: its {end} point, {words} its link's "
-                                                          "vector (world axes on the ground)", "m")
-        force = mechanism_output(f"{a.name}_force", [a.name])
-        v.append(Variable(force.name, REAL, INPUT, force.description, 0.0, fmi_unit(force.unit)))
-        # kinematics: the state alone gives them, no input at the same instant
-        output(f"{a.name}_length", LEVEL_DRIVE, False, n_out + 2 * j)
-        output(f"{a.name}_rate", LEVEL_DRIVE, False, n_out + 2 * j + 1)
+            d.output(f"closure{j}_{comp}", LEVEL_REACTIONS, True, len(obs) + 2 + 3 * (j - 1) + c)
 
-    # the force elements after everything else: an FMU without them keeps its value references.  Each element's
-    # parameters are its kind's fields (grubler.quantities.force_fields); the C model puts each into its kernel
-    # column (FORCE_PARAM_ELEMENT, FORCE_PARAM_COLUMN), and publishes its kind's outputs (FORCE_OUTPUT_INDEX:
-    # element * GRB_FO_COUNT + the kernel's output index), which the state alone decides
-    out_forces = n_out + 2 * len(m.actuators)
+
+def _actuators(d: _Declared, n_out: int) -> None:
+    """Each actuator's points (parameters), its force (an input) and its length and rate (outputs)."""
+    n = d.m.n_links
+    for j, a in enumerate(d.m.actuators):
+        for end in ("from", "to"):
+            d.par(f"{a.name}.{end}_link", INTEGER, f"actuator {a.name}: the link carrying its {end} point, 1: the "
+                                                   "ground (structural)", None, 1, n + 1)
+            for axis, words in (("x", "along"), ("y", "across")):
+                d.par(f"{a.name}.{end}_point_{axis}", REAL, f"actuator {a.name}: its {end} point, {words} its "
+                                                            "link's vector (world axes on the ground)", "m")
+        force = mechanism_output(f"{a.name}_force", [a.name])
+        d.v.append(Variable(force.name, REAL, INPUT, force.description, 0.0, fmi_unit(force.unit)))
+        # kinematics: the state alone gives them, no input at the same instant
+        d.output(f"{a.name}_length", LEVEL_DRIVE, False, n_out + 2 * j)
+        d.output(f"{a.name}_rate", LEVEL_DRIVE, False, n_out + 2 * j + 1)
+
+
+def _force_elements(d: _Declared, out_forces: int) -> tuple[list[int], list[tuple[int, int]]]:
+    """Each force element's parameters (its kind's fields, grubler.quantities.force_fields) and outputs.
+
+    Returns where each output comes from (element * GRB_FO_COUNT + the kernel's output index) and where each
+    parameter goes (element, kernel column): the C model's FORCE_OUTPUT_INDEX, FORCE_PARAM_ELEMENT and
+    FORCE_PARAM_COLUMN.  The state alone decides the outputs.
+    """
+    n = d.m.n_links
     force_output_index = []
-    for j, e in enumerate(m.forces):
+    for j, e in enumerate(d.m.forces):
         for f in force_fields(e.table):
             q = force_field(e.table, f)
             if f.endswith("link"):
                 lo = 2 if e.table != "spring" else 1
-                par(f"{e.name}.{f}", INTEGER, f"{e.table.replace('_', ' ')} {e.name}: {q.description} (structural)",
-                    None, lo, n + 1)
+                d.par(f"{e.name}.{f}", INTEGER, f"{e.table.replace('_', ' ')} {e.name}: {q.description} "
+                                                "(structural)", None, lo, n + 1)
             else:
-                par(f"{e.name}.{f}", REAL, f"{e.table.replace('_', ' ')} {e.name}: {fmi_text(q)}",
-                    fmi_unit(q.unit))
+                d.par(f"{e.name}.{f}", REAL, f"{e.table.replace('_', ' ')} {e.name}: {fmi_text(q)}",
+                      fmi_unit(q.unit))
         for q, k in FORCE_OUTPUTS[e.table]:
-            output(f"{e.name}_{q.name}", LEVEL_DRIVE, False, out_forces + len(force_output_index))
+            d.output(f"{e.name}_{q.name}", LEVEL_DRIVE, False, out_forces + len(force_output_index))
             force_output_index.append(j * 6 + k)
-    force_params = [(j, FORCE_COLUMN[f]) for j, e in enumerate(m.forces) for f in force_fields(e.table)]
+    force_params = [(j, FORCE_COLUMN[f]) for j, e in enumerate(d.m.forces) for f in force_fields(e.table)]
+    return force_output_index, force_params
 
+
+def _layout(m: Mechanism, n_observed: int, n_out: int, out_forces: int, force_output_index: list[int],
+            force_params: list[tuple[int, int]]) -> tuple[list[str], dict]:
+    """Where each parameter lies in the C model's block (slot order) and the defines that say so (config.h)."""
+    n, nc, names = m.n_links, len(m.closures), m.coordinate_names
     slot_order = [*GLOBALS]
     slot_order += [f"link{k}.{f}" for k in range(2, n + 2) for f in LINK_FIELDS]
     slot_order += [f"{closure_prefix(nc, j)}.{f}" for j in range(nc) for f in CLOSURE_FIELDS]
@@ -301,7 +313,7 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     slot_order += [f"{a.name}_force" for a in m.actuators]
     slot_order += [f"{e.name}.{f}" for e in m.forces for f in force_fields(e.table)]
     defines = {"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
-               "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": len(obs), "N_ACTUATORS": len(m.actuators),
+               "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": n_observed, "N_ACTUATORS": len(m.actuators),
                "ACTUATOR_STRIDE": len(ACTUATOR_FIELDS), "OUT_ACTUATORS": n_out}
     defines.update({f"SLOT_{g.upper().replace('.', '_')}": k for k, g in enumerate(GLOBALS)})
     defines["SLOT_LINKS"] = len(GLOBALS)
@@ -326,12 +338,47 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
     # fmi2GetDirectionalDerivative from the kernel's complex-step twin (grubler_cs.h)
     defines["MODEL_DIRECTIONAL_DERIVATIVE"] = 1
+    return slot_order, defines
+
+
+def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
+    """The variables of a mechanism FMU with ``scene``'s shape and defaults.
+
+    Declared in value-reference order, each stage a function: the run settings, the scene's quantities, the
+    efforts (inputs), the observations, the links' parents, the actuators, the force elements (each group
+    after the last, so an FMU without them keeps the value references it had); then the block's layout.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> spec = mechanism_spec(load_scene("watt-ii"), "WattII")     # build_fmu(spec, ...) compiles it
+    >>> spec.identifier, spec.defines["N_LINKS"]
+    ('WattII', 5)
+    """
+    m = scene.mechanism
+    n, nc = m.n_links, len(m.closures)
+    if scene.method not in METHODS:
+        raise SceneError("method", f"must be one of {', '.join(METHODS)}, got {scene.method!r}")
+    d = _Declared(scene)
+    _run_settings(d)
+    _scene_parameters(d)
+    d.v.append(Variable("motor_torque", REAL, INPUT, "drive effort at drive_joint [N m, or N on a slide]", 0.0))
+    d.v.append(Variable("load_torque", REAL, INPUT, "load effort at load_joint [N m, or N on a slide]", 0.0))
+    obs = observation_names(n)
+    _observations(d, obs)
+    for k in range(2, n + 2):  # after the outputs: the value references above are those of an FMU before trees
+        d.par(f"link{k}.parent", INTEGER, f"link {k}: the link its joint pair hangs from, 1: the ground "
+                                          "(structural; the previous link for a serial chain)", None, 1, k - 1)
+    n_out = len(obs) + 2 + 3 * max(nc - 1, 0)
+    _actuators(d, n_out)
+    out_forces = n_out + 2 * len(m.actuators)
+    force_output_index, force_params = _force_elements(d, out_forces)
+    slot_order, defines = _layout(m, len(obs), n_out, out_forces, force_output_index, force_params)
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",
-                     tuple(v), "mechanism_model.c", defines, out_forces + len(force_output_index), tuple(slot_order),
-                     (JOINT, CLOSURE),
-                     ("kernel",), run_state(n, len(m.actuators)))
+                     tuple(d.v), "mechanism_model.c", defines, out_forces + len(force_output_index),
+                     tuple(slot_order), (JOINT, CLOSURE), ("kernel",), run_state(n, len(m.actuators)))
 
 
 # the public names (the API reference's): the rest is the package's inside
