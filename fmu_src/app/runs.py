@@ -25,7 +25,7 @@ MAX_FRAMES = 400  # frames sent to the page: 40 per second of a 10 s run (the gr
 DEGREES = {"rad": "deg", "rad/s": "deg/s", "rad/s^2": "deg/s^2"}
 
 
-def describe(column: str, actuators=(), unit: str | None = None, forces=()) -> str:
+def describe(column: str, actuators=(), forces=(), unit: str | None = None) -> str:
     """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'.
 
     ``forces``: the force elements as (name, kind) pairs (grubler.mechanism.simulate.force_kinds)."""
@@ -40,7 +40,7 @@ def plotted(column: str, values, actuators=(), forces=()) -> dict:
     u, values = unit_of(column), np.asarray(values, dtype=float)
     if u in DEGREES:
         u, values = DEGREES[u], np.degrees(values)
-    return {"name": column, "label": describe(column, actuators, u, forces), "unit": u, "f32": _f32(values)}
+    return {"name": column, "label": describe(column, actuators, forces, unit=u), "unit": u, "f32": _f32(values)}
 
 
 def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
