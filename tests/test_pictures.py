@@ -164,11 +164,9 @@ def test_the_sizing_picture_has_the_winner_first_no_blank_panel_and_no_legend_ov
 
 
 def test_the_margin_panel_draws_no_runaway_as_a_zero(sizing_study):
-    from grubler.studies.sizing import _runaway
-
     margin = sizing_study.figure().axes[4]
     assert margin.get_yscale() == "log"
-    runaways = sum(_runaway(a) for a in sizing_study.assessments)
+    runaways = sum(a.runaway for a in sizing_study.assessments)
     assert runaways > 0  # what the check is about: small ratios overheat the winding without bound
     drawn = np.concatenate([line.get_ydata() for line in margin.get_lines() if line.get_marker() == "o"])
     assert np.all(np.isnan(drawn) | (drawn > 0))

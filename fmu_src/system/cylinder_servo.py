@@ -23,6 +23,8 @@ Examples
 >>> boom = load_scene("luffing-boom")
 >>> round(start_length(boom, "lift"), 4), round(holding_force(boom, "lift"))
 (1.226, 10816)
+>>> sorted(PRESET_DESIGNS), PRESET_DESIGNS["luffing-boom"].cylinder    # the shipped presets' designs
+(['cylinder-slider-crank', 'luffing-boom', 'toggle-clamp'], 'hydraulic')
 """
 
 from __future__ import annotations
