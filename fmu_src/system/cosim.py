@@ -45,6 +45,7 @@ from grubler.system.interface import FmuInterface, generic_unit, units_compatibl
 from grubler.system.ssp import System, SystemDescriptionError, read
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
+from grubler.system import coupling_energy
 from grubler.system.result import CosimResult
 from grubler.system.time_scales import TimeScale, step_warnings, time_scales
 
@@ -187,12 +188,22 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
                      data, profile)
-        _step_through(loop, n_steps, cancel)
+        try:
+            _step_through(loop, n_steps, cancel)
+        except CosimError as exc:  # what the rows before the failure show (a coupling making energy) is added
+            k = loop.row.value
+            note = coupling_energy.diagnosis(CosimResult(times[:k], table.columns, data[:k], system, seq, master,
+                                                         step, 0.0, table.units), record_every == 1)
+            if note:
+                raise CosimError(f"{note}; then {exc}") from exc  # the cause first: a long line keeps its head
+            raise
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
-        return CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
-                           table.units, messages, warnings, loop.profile(seq))
+        result = CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
+                             table.units, messages, warnings, loop.profile(seq))
+        coupling_energy.judge(result, record_every == 1)  # the power at each mechanical connection; divergence
+        return result
     finally:
         for inst in insts.values():
             inst.free()
