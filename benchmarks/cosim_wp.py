@@ -14,7 +14,8 @@ Systems (:data:`SYSTEMS`), each with its monolithic reference written apart from
   (trajectory -> PID -> valve -> cylinder -> mechanism), against tests/cylinder_reference.py (mechanism,
   cylinder, valve and PID as one ODE); compared on the actuator's length.
 
-Masters (:data:`MASTERS`: a name and a function ``(case, step, folder) -> (t, values, wall seconds)``):
+Masters (:data:`MASTERS`: a name and a function ``(case, step, folder) -> (t, values, wall seconds)``, or
+with a fourth item, the master's own word that the run diverged, which the table and figure show):
 grubler's Gauss-Seidel and Jacobi, ``fmpy.ssp.simulate_ssp``, the system exported as one FMU (fmpy's
 container, ``grubler export``) run by ``fmpy.simulate_fmu``, and libcosim (libcosimpy) from the .ssd alone.
 To add a master, add an entry; a master that fails (or raises) on a case is a row that says so.
@@ -46,7 +47,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "examples")]
 from grubler import cosim  # noqa: E402
 from grubler.system.ssp import System  # noqa: E402
 
-STEPS = (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
+STEPS = (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)  # each a multiple or a divisor of the laws' 1 ms sample
 SAMPLE = 1e-3  # the references' sample period (the PID's and the encoder's)
 
 
@@ -115,7 +116,7 @@ def grubler_master(master: str):
     def run(case: Case, h: float, tmp: Path):
         r = cosim.run(case.system, t_end=case.t_end, step=h, master=master, record=[case.signal],
                       unpacked=case.unpacked)
-        return r.t, r[case.signal], r.wall_time
+        return r.t, r[case.signal], r.wall_time, (r.diverged.message if r.diverged else "")
     return run
 
 
@@ -209,6 +210,7 @@ class Point:
     error: float = float("nan")
     walls: list = dataclasses.field(default_factory=list)
     failure: str = ""
+    diverged: str = ""  # the master said so (grubler's coupling_energy), the run finished
 
     @property
     def wall(self) -> float:
@@ -221,12 +223,13 @@ def measure(case: Case, master: str, h: float, tmp: Path, point: Point | None = 
     if point.failure:
         return point
     try:
-        t, y, wall = MASTERS[master](case, h, tmp)
+        t, y, wall, *said = MASTERS[master](case, h, tmp)
     except Exception as exc:  # noqa: BLE001 - a master that cannot run a case is a result too
         point.failure = " ".join(str(exc).split())[:160] or type(exc).__name__
         return point
     if not point.walls:
         point.error = error(case, t, y)
+        point.diverged = said[0] if said else ""
     point.walls.append(wall)
     return point
 
@@ -259,17 +262,20 @@ def table(cases: list[Case], points: list[Point]) -> str:
         if p.failure:
             lines.append(f"| {p.system} | {p.step * 1e3:g} ms | {p.master} | — | failed: {p.failure} |")
         else:
+            said = f" (said: {p.diverged[:90]})" if p.diverged else ""
             lines.append(f"| {p.system} | {p.step * 1e3:g} ms | {p.master} | {p.wall:.3f} s | "
-                         f"{p.error:.2e} {unit[p.system]} |")
+                         f"{p.error:.2e} {unit[p.system]}{said} |")
     return "\n".join(lines)
 
 
-def observed_orders(cases: list[Case], points: list[Point], master: str = "grubler, Gauss-Seidel") -> dict:
-    """The slope of log(error) on log(step) of ``master``'s finite errors, by system."""
+def observed_orders(cases: list[Case], points: list[Point], master: str = "grubler, Gauss-Seidel",
+                    longest: float = 1e-3) -> dict:
+    """The slope of log(error) on log(step) of ``master``'s runs at steps up to ``longest``, by system."""
     out = {}
     for c in cases:
         pts = [(p.step, p.error) for p in points if p.system == c.name and p.master == master
-               and not p.failure and np.isfinite(p.error) and p.error > 0]
+               and p.step <= longest * (1 + 1e-9) and not p.failure and not p.diverged
+               and np.isfinite(p.error) and p.error > 0]
         if len(pts) >= 2:
             h, e = np.log(np.array(pts)).T
             out[c.name] = float(np.polyfit(h, e, 1)[0])
@@ -296,6 +302,11 @@ def figure(cases: list[Case], points: list[Point], path: Path) -> None:
                 continue
             color, marker = style[m]
             ax.loglog([p.wall for p in pts], [p.error for p in pts], marker=marker, color=color, label=m)
+            said = [p for p in pts if p.diverged]
+            if said:
+                ax.loglog([p.wall for p in said], [p.error for p in said], "x", color="k", markersize=11,
+                          label="the run said: diverged" if ax.get_legend_handles_labels()[1].count(
+                              "the run said: diverged") == 0 else None)
             for p in pts:
                 ax.annotate(f"{p.step * 1e3:g}", (p.wall, p.error), textcoords="offset points", xytext=(4, 3),
                             fontsize=7, color=color)
@@ -306,7 +317,7 @@ def figure(cases: list[Case], points: list[Point], path: Path) -> None:
         ax.legend(fontsize=7)
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    fig.suptitle("Co-simulation work-precision (labels: communication step, ms; a diverged run is left out)",
+    fig.suptitle("Co-simulation work-precision (labels: communication step, ms; a run that failed is left out)",
                  fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -324,7 +335,7 @@ def report(cases: list[Case], points: list[Point], rounds: int, command: str, pn
         "",
         table(cases, points),
         "",
-        "Observed order of grubler's Gauss-Seidel (slope of log error on log step): "
+        "Observed order of grubler's Gauss-Seidel (slope of log error on log step, steps of 1 ms and less): "
         + ", ".join(f"{k} {v:.2f}" for k, v in orders.items()) + ".",
         "",
         *([f"![work-precision of the masters]({png})", ""] if png else []),

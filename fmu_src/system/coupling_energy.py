@@ -204,12 +204,15 @@ def judge(result, consecutive: bool = True) -> None:
 
 
 def diagnosis(result, consecutive: bool = True) -> str:
-    """What the rows of a run that failed show went wrong first, or '' (``cosim.run`` adds it to the error)."""
+    """What the rows of a run that failed show went wrong at a connection first, or '' (``cosim.run`` puts it
+    before the error).  A value that is not finite in a component's own output is the failure itself: the
+    FMU's message says it."""
     try:
         _, findings = check(result, consecutive)
     except Exception:  # noqa: BLE001 - the failure itself is what the user must see; this only adds to it
         return ""
-    return findings[0].message if findings else ""
+    at_connection = [f for f in findings if f.message.startswith("diverged at ")]
+    return at_connection[0].message if at_connection else ""
 
 
 __all__ = ["PowerBond", "BondEnergy", "Finding", "power_bonds", "bond_energy", "check", "judge", "diagnosis",
