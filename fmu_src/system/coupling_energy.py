@@ -171,8 +171,9 @@ def check(result, consecutive: bool = True) -> tuple[list[BondEnergy], list[Find
     for c in system.connections:  # a non-finite value on a connection first: it is where it entered
         if c.end in col and not np.all(np.isfinite(data[:, col[c.end]])):
             k = int(np.argmax(~np.isfinite(data[:, col[c.end]])))
-            findings.append(Finding(f"diverged at {c.start} -> {c.end}: it is {data[k, col[c.end]]} at t = {t[k]:.6g} s",
-                                    f"{c.start} -> {c.end}", True))
+            findings.append(Finding(f"diverged at {c.start} -> {c.end}: it is {data[k, col[c.end]]} at "
+                                    f"t = {t[k]:.6g} s", f"{c.start} -> {c.end}", True))
+            break
     if not findings:
         bad = [c for c in columns if not np.all(np.isfinite(data[:, col[c]]))]
         if bad:
