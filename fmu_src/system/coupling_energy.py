@@ -23,17 +23,18 @@ A run diverged when a recorded value is not finite, when a bond's coupling
 energy is more than :data:`ENERGY_FRACTION` of the energy that passed through
 it, or when its giver took in net energy that its taker says it received
 (:data:`CONTRADICTION_FRACTION`); a coupling energy under :data:`ENERGY_FLOOR`
-never counts.  :func:`check`
-returns what it finds; ``cosim.run`` puts the lines in the result's warnings
-and ``grubler cosim`` exits 2 on a divergence, naming the connection.
+never counts.  :func:`check` returns what it finds; ``cosim.run`` puts the
+lines in the result's warnings and ``grubler cosim`` exits 2 on a divergence,
+naming the connection.
 
 Examples
 --------
->>> import numpy as np
 >>> from grubler.system.ssp import System
->>> s = System("two")
->>> s.connections  # no connections: no bonds
-[]
+>>> s = System("drive")
+>>> _ = s.add("motor", "m.fmu"), s.add("load", "l.fmu")
+>>> _ = s.connect("motor.torque", "load.torque_in"), s.connect("load.speed", "motor.speed_in")
+>>> [b.name for b in power_bonds(s.connections, {"motor.torque": "N.m", "load.speed": "rad/s or m/s"})]
+['motor.torque -> load.torque_in with load.speed -> motor.speed_in']
 >>> unit_kind("N.m", "rad/s"), unit_kind("N", "m/s"), unit_kind("N", "rad/s")
 ('rotational', 'translational', None)
 """
