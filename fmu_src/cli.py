@@ -397,13 +397,16 @@ def cmd_cosim(args) -> int:
     res = run(args.system, t_end=args.t_end, step=args.step, master=args.master, record=record,
               step_order=step_order, record_every=every, tol=args.tol)
     steps = len(res.t) - 1
-    _warn(res.warnings)
+    diverged = res.diverged
+    _warn(w for w in res.warnings if diverged is None or w != diverged.message)  # that one is the error below
     how = ("jacobi: all on the last step's values" if res.master == "jacobi"
            else f"{res.master}, order {' -> '.join(res.order)}")
     if res.coupling:
         how += (f"; tol {res.coupling['tol']:g}: {res.coupling['substeps']} sub-steps, "
                 f"{res.coupling['rejected']} rejected")
     print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({how}): {res.wall_time:.3f} s wall")
+    for bond in res.power:  # the power at each mechanical connection, where coupling makes energy
+        print(f"power at {bond.line()}")
     if args.csv:
         res.to_csv(args.csv)
         print(f"wrote {args.csv}: {len(res.columns)} signals, {steps + 1} rows")
@@ -414,6 +417,10 @@ def cmd_cosim(args) -> int:
         print(f"wrote {args.plot}")
         _warn(filter(None, [coarse_sampling(res.t, {c: res[c] for c in res.columns if res.units.get(c) == "rad"},
                                             "--dt-out")]))
+    if diverged is not None:  # the CSV and plot are written, to look at; the status says they are not a result
+        from grubler.system.cosim import CosimError
+
+        raise CosimError(diverged.message)
     return 0
 
 

@@ -15,7 +15,9 @@
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,47 +26,13 @@ from scipy.integrate import solve_ivp
 from grubler.errors import SceneError
 from grubler.motors.hydraulic import DEFAULT, FIELDS, CylinderSimulator, HydraulicCylinder
 
-ATM = 101325.0
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cylinder_reference import ATM, circuit_derivatives  # noqa: E402
 
 
-# -- the circuit written again, from hydraulic_cylinder.h's equations -----------------
+# -- the circuit written again, from hydraulic_cylinder.h's equations (tests/cylinder_reference.py) -------
 def reference_rhs(c: HydraulicCylinder, command: float, length_at, rate: float):
-    K = c.nominal_flow / math.sqrt(c.nominal_pressure_drop)
-    Aa, Ab = math.pi * c.bore ** 2 / 4, math.pi * (c.bore ** 2 - c.rod ** 2) / 4
-
-    def beta(pg):
-        pa = max(pg + ATM, 100.0)  # at a vacuum, as soft as at 100 Pa
-        b = c.bulk_modulus
-        if c.air_fraction:
-            air = c.air_fraction * ATM / pa
-            x = air / (air + 1 - c.air_fraction)
-            b = 1 / ((1 - x) / c.bulk_modulus + x / pa)
-        return b * pa ** 2 / (pa ** 2 + 1000.0 ** 2)  # cavitation near a vacuum
-
-    def orifice(a, dp):
-        return K * a * dp / (dp * dp + c.transition_pressure ** 2) ** 0.25 + c.valve_leakage * dp
-
-    def rhs(t, y):
-        x, xd, pa, pb, ps = y
-        s = length_at(t) - c.retracted_length
-        s_vol = min(max(s, 0.0), c.stroke)
-        v = 0.0 if (s <= 0 and rate < 0) or (s >= c.stroke and rate > 0) else rate
-        Va, Vb = c.dead_volume_a + Aa * s_vol, c.dead_volume_b + Ab * (c.stroke - s_vol)
-        xo = min(max(x, -1.0), 1.0)
-        plus = max(xo - c.overlap, 0) / (1 - c.overlap)
-        minus = max(-xo - c.overlap, 0) / (1 - c.overlap)
-        q_pa, q_at = orifice(plus, ps - pa), orifice(minus, pa - c.tank_pressure)
-        q_pb, q_bt = orifice(minus, ps - pb), orifice(plus, pb - c.tank_pressure)
-        q_l = c.leakage * (pa - pb)
-        q_r = c.relief_gradient * max(ps - c.relief_pressure, 0.0)
-        w = c.valve_frequency
-        u = min(max(command, -1.0), 1.0)
-        return [xd, w * w * (u - x) - 2 * c.valve_damping * w * xd,
-                beta(pa) / Va * (q_pa - q_at - q_l - Aa * v),
-                beta(pb) / Vb * (q_pb - q_bt + q_l + Ab * v),
-                beta(ps) / c.supply_volume * (c.pump_flow - q_r - q_pa - q_pb)]
-
-    return rhs
+    return lambda t, y: circuit_derivatives(c, y, command, length_at(t), rate)
 
 
 def scenario(n=300, dt=1e-3):

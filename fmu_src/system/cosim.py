@@ -46,6 +46,7 @@ from grubler.system.ssp import System, SystemDescriptionError, read
 from grubler.system.coupling import adaptive_plan, input_modes
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
+from grubler.system import coupling_energy
 from grubler.system.result import CosimResult
 from grubler.system.time_scales import TimeScale, step_warnings, time_scales
 
@@ -221,12 +222,22 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
                      data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
         loop.slot_names = {s: name for name, s in slot.items()}
-        _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
+        try:
+            _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
+        except CosimError as exc:  # what the rows before the failure show (a coupling making energy) is added
+            k = loop.row.value
+            note = coupling_energy.diagnosis(CosimResult(times[:k], table.columns, data[:k], system, seq, master,
+                                                         step, 0.0, table.units), record_every == 1)
+            if note:
+                raise CosimError(f"{note}; then {exc}") from exc  # the cause first: a long line keeps its head
+            raise
         k = loop.row.value
         wall = _time.perf_counter() - wall0
         messages = [m for inst in insts.values() for m in inst.messages]
-        return CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
-                           table.units, messages, warnings, loop.profile(seq), loop.coupling())
+        result = CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
+                             table.units, messages, warnings, loop.profile(seq), loop.coupling())
+        coupling_energy.judge(result, record_every == 1)  # the power at each mechanical connection; divergence
+        return result
     finally:
         if loop is not None:
             loop.free_states()

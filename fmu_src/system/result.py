@@ -65,6 +65,14 @@ class CosimResult:
     warnings: list[str] = field(default_factory=list)  # why the result may not be trusted, one line each
     profile: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # run(..., profile=True)
     coupling: dict = field(default_factory=dict)  # run(..., tol=...): tol, substeps, rejected, worst_estimate
+    # the power bonds' energies (coupling_energy.BondEnergy) and what went wrong (coupling_energy.Finding)
+    power: list = field(default_factory=list)
+    findings: list = field(default_factory=list)
+
+    @property
+    def diverged(self):
+        """The first finding that makes the run's values meaningless (a ``coupling_energy.Finding``), or None."""
+        return next((f for f in self.findings if f.diverged), None)
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name == "t":
