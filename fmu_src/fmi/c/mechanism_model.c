@@ -275,13 +275,12 @@ static int joint_index(int choice) { return choice == 0 ? -1 : (choice - 1) / 2;
 
 static const char *status_text(int status) { return grb_status_message((grb_status)status); }
 
-fmi2Status model_prepare(grb_instance *inst) {
+/* The kernel's model from the parameters: the scene's tables, the actuators'
+ * and force elements' rows in the kernel's link numbering, the efforts' joints. */
+static fmi2Status build_model(grb_instance *inst) {
     mech *mm = (mech *)inst->model;
     double *p = inst->p;
-    int i, j, st, method, tableau;
-    fmi2Status s = model_check(inst, p);
-    if (s != fmi2OK) return s;
-    st = scene_tables_of(p, mm->revolute, mm->parent, mm->links, mm->closures);
+    int j, st = scene_tables_of(p, mm->revolute, mm->parent, mm->links, mm->closures);
     if (st != GRB_OK) BAD("closure: a link number is out of range");
     grb_real_coordinates(N, mm->revolute, mm->q_index);
     for (j = 0; j < NA; j++) {  /* thesis numbering to the kernel's 0-based links (-1 the ground) */
@@ -311,10 +310,13 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->m.drive_inertia = p[SLOT_DRIVE_INERTIA];
     mm->m.drive = joint_index((int)p[SLOT_DRIVE_JOINT]);
     mm->m.load = joint_index((int)p[SLOT_LOAD_JOINT]);
+    return fmi2OK;
+}
 
-    /* how to integrate: what grubler.mechanism.simulate.Simulator sets up */
-    method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
-    tableau = (int)p[SLOT_INTEGRATOR] == 2 ? GRB_RK45 : (int)p[SLOT_INTEGRATOR] == 3 ? GRB_RK4 : GRB_DOP853;
+/* How to integrate: what grubler.mechanism.simulate.Simulator sets up. */
+static void integration_settings(mech *mm, const double *p) {
+    int i, method = (int)p[SLOT_METHOD] == 1 ? GRB_PENALTY : GRB_EXACT;
+    int tableau = (int)p[SLOT_INTEGRATOR] == 2 ? GRB_RK45 : (int)p[SLOT_INTEGRATOR] == 3 ? GRB_RK4 : GRB_DOP853;
     mm->scale = 1.0;
     for (i = 0; i < N; i++)
         if (fabs(link_field(p, i, LF_A)) > mm->scale) mm->scale = fabs(link_field(p, i, LF_A));
@@ -333,86 +335,109 @@ fmi2Status model_prepare(grb_instance *inst) {
     mm->s.passage_log = mm->passage_log;
     mm->s.passage_capacity = (int)(sizeof mm->passage_log / sizeof mm->passage_log[0]);
     mm->n_hold = N - 2 * NC;  /* Grübler/Kutzbach mobility with one-DOF joints (>= 0: model_check) */
+}
 
-    if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
+/* The sketch assembled (exact closure) holding the drive, into y. */
+static fmi2Status assemble_start(grb_instance *inst, double *z, double *zd) {
+    mech *mm = (mech *)inst->model;
+    double closest = 0.0;
+    char names[256];
+    size_t used = 0;
+    int i, n_held = 0, st = grb_hold_count(&mm->m, z, mm->work, &mm->n_hold);
+    if (st != GRB_OK) BAD("initial: cannot count the coordinates to hold (%s)", status_text(st));
+    st = grb_held_coordinates(&mm->m, mm->n_hold, z, mm->held, &n_held, mm->work);
+    if (st != GRB_OK) BAD("initial: cannot choose the coordinates to hold (%s)", status_text(st));
+    names[0] = '\0';
+    for (i = 0; i < n_held && used + 40 < sizeof names; i++) {
+        char buf[32];
+        int w = snprintf(names + used, sizeof names - used, "%s%s = %.6g", i ? ", " : "",
+                         coordinate_name(mm->q_index[mm->held[i]], buf, sizeof buf), z[mm->held[i]]);
+        if (w > 0) used += (size_t)w;
+    }
+    st = grb_assemble(&mm->m, n_held, mm->held, mm->scale, z, zd, &closest, mm->work);
+    if (st == GRB_NOT_CLOSED)
+        BAD("initial: the loop cannot be closed with %s held: the closest the tip gets is %.3g from its "
+            "closure", n_held ? names : "nothing", closest);
+    if (st != GRB_OK) BAD("initial: assembly failed (%s)", status_text(st));
+    return fmi2OK;
+}
 
-    /* the initial state: the sketch, assembled (exact closure) holding the drive */
-    {
-        double *y = p + P_Y, *z = y, *zd = y + N, closest = 0.0;
-        int n_held = 0;
-        grb_z_from_q(N, mm->revolute, mm->parent, p[SLOT_GROUND_THETA1], p + SLOT_Q0, z);
-        grb_zd_from_qd(N, mm->revolute, mm->parent, p + SLOT_QD0, zd);
-        if (method == GRB_EXACT && NC > 0) {
-            char names[256];
-            size_t used = 0;
-            st = grb_hold_count(&mm->m, z, mm->work, &mm->n_hold);
-            if (st != GRB_OK) BAD("initial: cannot count the coordinates to hold (%s)", status_text(st));
-            st = grb_held_coordinates(&mm->m, mm->n_hold, z, mm->held, &n_held, mm->work);
-            if (st != GRB_OK) BAD("initial: cannot choose the coordinates to hold (%s)", status_text(st));
-            names[0] = '\0';
-            for (i = 0; i < n_held && used + 40 < sizeof names; i++) {
-                char buf[32];
-                int w = snprintf(names + used, sizeof names - used, "%s%s = %.6g", i ? ", " : "",
-                                 coordinate_name(mm->q_index[mm->held[i]], buf, sizeof buf), z[mm->held[i]]);
-                if (w > 0) used += (size_t)w;
-            }
-            st = grb_assemble(&mm->m, n_held, mm->held, mm->scale, z, zd, &closest, mm->work);
-            if (st == GRB_NOT_CLOSED)
-                BAD("initial: the loop cannot be closed with %s held: the closest the tip gets is %.3g from its "
-                    "closure", n_held ? names : "nothing", closest);
-            if (st != GRB_OK) BAD("initial: assembly failed (%s)", status_text(st));
-        }
-        if (method == GRB_PENALTY && NC > 0) {
-            /* the penalty springs act through inertia: every real coordinate needs some
-             * (grubler.simulate's check, which names the link from M's eigenvectors) */
-            double yd[NS];
-            int k, finite = 1;
-            st = grb_rhs(&mm->m, GRB_PENALTY, y, 0.0, 0.0, mm->work, yd);
-            for (k = 0; k < NS; k++) finite = finite && isfinite(yd[k]);
-            if (st != GRB_OK || !finite)
-                BAD("method: the penalty closure cannot move the mechanism: a real coordinate carries no inertia "
-                    "(a link with I = 0 and its mass centre on its joint), so the imaginary joint's spring would "
-                    "accelerate it without bound; give that link a positive I or use the exact closure");
-        }
+/* The penalty springs act through inertia: every real coordinate needs some
+ * (grubler.simulate's check, which names the link from M's eigenvectors). */
+static fmi2Status penalty_can_move(grb_instance *inst, const double *y) {
+    mech *mm = (mech *)inst->model;
+    double yd[NS];
+    int k, finite = 1, st = grb_rhs(&mm->m, GRB_PENALTY, y, 0.0, 0.0, mm->work, yd);
+    for (k = 0; k < NS; k++) finite = finite && isfinite(yd[k]);
+    if (st != GRB_OK || !finite)
+        BAD("method: the penalty closure cannot move the mechanism: a real coordinate carries no inertia "
+            "(a link with I = 0 and its mass centre on its joint), so the imaginary joint's spring would "
+            "accelerate it without bound; give that link a positive I or use the exact closure");
+    return fmi2OK;
+}
+
+/* What the start state decides of the actuators and force elements (the library's checks): an actuator's
+ * two points apart, a gas spring's column not used up. */
+static fmi2Status elements_at_start_ok(grb_instance *inst, const double *y) {
+#if N_ACTUATORS > 0 || NF > 0
+    mech *mm = (mech *)inst->model;
+    int i, st;
+#endif
 #if N_ACTUATORS > 0
-        {
-            /* an actuator whose points coincide has no line for its force (the library's check) */
-            double lines[2 * NA];
-            st = grb_actuator_lines(&mm->m, 1, y, mm->work, lines);
-            if (st != GRB_OK) BAD("actuators: %s", status_text(st));
-            for (i = 0; i < NA; i++)
-                if (!(lines[2 * i] > 1e-9 * mm->scale))
-                    BAD("%s: the actuator's two points coincide at the start (length %.3g m): its force has no line "
-                        "to act along; move from_point or to_point",
-                        slot_name(SLOT_ACTUATORS + i * ACTUATOR_STRIDE + AF_TO_POINT_X), lines[2 * i]);
-        }
+    {
+        double lines[2 * NA];
+        st = grb_actuator_lines(&mm->m, 1, y, mm->work, lines);
+        if (st != GRB_OK) BAD("actuators: %s", status_text(st));
+        for (i = 0; i < NA; i++)
+            if (!(lines[2 * i] > 1e-9 * mm->scale))
+                BAD("%s: the actuator's two points coincide at the start (length %.3g m): its force has no line "
+                    "to act along; move from_point or to_point",
+                    slot_name(SLOT_ACTUATORS + i * ACTUATOR_STRIDE + AF_TO_POINT_X), lines[2 * i]);
+    }
 #endif
 #if NF > 0
-        {
-            /* a gas spring whose gas column is used up has no finite force (the library's check) */
-            st = grb_force_rows(&mm->m, 1, y, mm->work, mm->force_out);
-            if (st != GRB_OK) BAD("force elements: %s", status_text(st));
-            for (i = 0; i < NF; i++) {
-                const double *row = mm->forces + i * GRB_F_COLUMNS;
-                double length = mm->force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
-                double h = row[GRB_F_GAS_COLUMN] + length - row[GRB_F_FREE];
-                if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(h > 0)) {
-                    int k;
-                    for (k = 0; k < N_FORCE_PARAMS; k++)  /* its gas_column parameter names it */
-                        if (force_param_element[k] == i && force_param_column[k] == GRB_F_GAS_COLUMN) break;
-                    BAD("%s: the gas is used up at the start: its column gas_column + length - free_length is "
-                        "%.4g m at the start's length %.4g m; a gas spring needs a positive column",
-                        slot_name(SLOT_FORCES + k), h, length);
-                }
-            }
+    st = grb_force_rows(&mm->m, 1, y, mm->work, mm->force_out);
+    if (st != GRB_OK) BAD("force elements: %s", status_text(st));
+    for (i = 0; i < NF; i++) {
+        const double *row = mm->forces + i * GRB_F_COLUMNS;
+        double length = mm->force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
+        double h = row[GRB_F_GAS_COLUMN] + length - row[GRB_F_FREE];
+        if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(h > 0)) {
+            int k;
+            for (k = 0; k < N_FORCE_PARAMS; k++)  /* its gas_column parameter names it */
+                if (force_param_element[k] == i && force_param_column[k] == GRB_F_GAS_COLUMN) break;
+            BAD("%s: the gas is used up at the start: its column gas_column + length - free_length is "
+                "%.4g m at the start's length %.4g m; a gas spring needs a positive column",
+                slot_name(SLOT_FORCES + k), h, length);
         }
-#endif
-        p[P_T] = inst->start_time;
-        p[P_H] = 0.0;
-        p[P_HAVE_F] = 0.0;
-        p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = p[P_PASSAGES] = p[P_KAPPA_SEEN] = 0.0;
-        p[P_DRIVE_USED] = p[P_LOAD_USED] = 0.0;
     }
+#endif
+#if !(N_ACTUATORS > 0 || NF > 0)
+    (void)inst;
+    (void)y;
+#endif
+    return fmi2OK;
+}
+
+/* Ready to run: the parameters checked, the model built, the integration set up
+ * and, for a run not restored, the start state (the sketch, closed) and a fresh clock. */
+fmi2Status model_prepare(grb_instance *inst) {
+    mech *mm = (mech *)inst->model;
+    double *p = inst->p, *y = p + P_Y;
+    fmi2Status s;
+    if ((s = model_check(inst, p)) != fmi2OK || (s = build_model(inst)) != fmi2OK) return s;
+    integration_settings(mm, p);
+    if (p[P_STARTED] != 0.0) return fmi2OK;  /* a restored run keeps its state */
+    grb_z_from_q(N, mm->revolute, mm->parent, p[SLOT_GROUND_THETA1], p + SLOT_Q0, y);
+    grb_zd_from_qd(N, mm->revolute, mm->parent, p + SLOT_QD0, y + N);
+    if (mm->s.method == GRB_EXACT && NC > 0 && (s = assemble_start(inst, y, y + N)) != fmi2OK) return s;
+    if (mm->s.method == GRB_PENALTY && NC > 0 && (s = penalty_can_move(inst, y)) != fmi2OK) return s;
+    if ((s = elements_at_start_ok(inst, y)) != fmi2OK) return s;
+    p[P_T] = inst->start_time;
+    p[P_H] = 0.0;
+    p[P_HAVE_F] = 0.0;
+    p[P_STEPS] = p[P_REJECTED] = p[P_EVALS] = p[P_PASSAGES] = p[P_KAPPA_SEEN] = 0.0;
+    p[P_DRIVE_USED] = p[P_LOAD_USED] = 0.0;
     return fmi2OK;
 }
 
