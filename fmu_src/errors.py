@@ -161,7 +161,7 @@ class AssemblyError(SceneError):
     ...     grubler.assemble(m, [0.0, 0.0, 0.0])     # the crank held at 0: the loop cannot close
     ... except grubler.AssemblyError as e:
     ...     print(e.field, "|", e.reason[:45])
-    initial | the loop cannot be closed with theta2 = 0 hel
+    initial | the loop cannot be closed with theta2 = 0 deg
     """
 
 
