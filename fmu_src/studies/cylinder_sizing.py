@@ -47,12 +47,14 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from grubler.errors import SceneError
 from grubler.mechanism.inverse import drive_demand
 from grubler.mechanism.model import Mechanism
+from grubler.studies.ranking import RankedStudy
 from grubler.studies.sizing import DutyCycle, required_drive
 
 STEEL_MODULUS = 2.1e11  # Pa, the rod's Young's modulus
@@ -292,7 +294,7 @@ def assess_cylinder(demand: ActuatorDemand, candidate: CylinderCandidate) -> Cyl
 
 
 @dataclass
-class CylinderStudy:
+class CylinderStudy(RankedStudy):
     """Every candidate's assessment; ``ranked`` the feasible ones, least installed power first.
 
     Examples
@@ -309,6 +311,8 @@ class CylinderStudy:
     ['50 mm bore, 100 bar', '50 mm bore, 160 bar']
     """
 
+    summary_units: ClassVar[dict] = SUMMARY_UNITS  # each table column's unit
+
     demand: ActuatorDemand
     assessments: list[CylinderAssessment]
 
@@ -320,31 +324,6 @@ class CylinderStudy:
     def best(self) -> CylinderAssessment | None:
         ranked = self.ranked
         return ranked[0] if ranked else None
-
-    @property
-    def rejected(self) -> list[CylinderAssessment]:
-        """The infeasible ones, fewest broken limits first, then the nearest to fitting."""
-        return sorted((a for a in self.assessments if not a.feasible),
-                      key=lambda a: (len(a.failures), -a.min_margin))
-
-    def table(self) -> list[dict]:
-        """One row per candidate: the ranked ones (rank 1, 2, ...), then the rejected ones with their reasons."""
-        return ([{"rank": k + 1, **a.summary()} for k, a in enumerate(self.ranked)]
-                + [{"rank": "rejected", **a.summary()} for a in self.rejected])
-
-    def write_csv(self, path) -> None:
-        """:meth:`table` as CSV, each heading with its unit (``bore [mm]``)."""
-        import csv
-
-        from grubler.records import column_heading
-
-        rows = self.table()
-        cols = list(dict.fromkeys(c for r in rows for c in r))
-        with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow([column_heading(c, SUMMARY_UNITS.get(c, "")) for c in cols])
-            for r in rows:
-                w.writerow([repr(v) if isinstance(v, float) else v for v in (r.get(c, "") for c in cols)])
 
     def plot(self, path) -> None:
         """Save the study's figure (:func:`grubler.views.sizing.cylinder_sizing_figure`) to ``path``."""

@@ -46,16 +46,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from grubler.errors import SceneError
-from grubler.limits import check_size, number, open_output
+from grubler.limits import check_size, number
 from grubler.mechanism.inverse import DriveDemand
 from grubler.mechanism.model import Mechanism
 from grubler.quantities import RPM
 from grubler.studies.closed_loop import ClosedLoop, Control, closed_loop_current
 from grubler.studies.duty_cycle import DutyCycle, drive_inertia, required_drive, rms
+from grubler.studies.ranking import RankedStudy
 from grubler.studies.sizing_check import CheckResult, CheckRow, closed_loop_check
 from grubler.studies.thermal import periodic_temperature
 
@@ -279,7 +281,7 @@ def assess(demand: DriveDemand, cycle: DutyCycle, candidate: Candidate, ambient:
 
 
 @dataclass
-class SizingStudy:
+class SizingStudy(RankedStudy):
     """Every candidate's assessment; ``ranked`` holds the feasible ones, best first.
 
     Examples
@@ -297,6 +299,8 @@ class SizingStudy:
     [(1, 50, True), ('rejected', 20, False)]
     """
 
+    summary_units: ClassVar[dict] = SUMMARY_UNITS  # each table column's unit
+
     demand: DriveDemand
     cycle: DutyCycle
     assessments: list[Assessment]
@@ -305,31 +309,6 @@ class SizingStudy:
     @property
     def best(self) -> Assessment | None:
         return self.ranked[0] if self.ranked else None
-
-    @property
-    def rejected(self) -> list[Assessment]:
-        """The combinations that break a limit: fewest broken limits first, then the closest to fitting."""
-        return sorted((a for a in self.assessments if not a.feasible),
-                      key=lambda a: (len(a.failures), -a.min_margin))
-
-    def table(self) -> list[dict]:
-        """One row per combination: the ranked ones (rank 1, 2, ...), then the rejected ones with their reasons."""
-        return ([{"rank": k + 1, **a.summary()} for k, a in enumerate(self.ranked)]
-                + [{"rank": "rejected", **a.summary()} for a in self.rejected])
-
-    def write_csv(self, path) -> None:
-        """:meth:`table` as CSV, each heading with its unit (``peak_motor_speed [rpm]``)."""
-        import csv
-
-        from grubler.records import column_heading
-
-        rows = self.table()
-        cols = list(dict.fromkeys(c for r in rows for c in r))
-        with open_output(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow([column_heading(c, SUMMARY_UNITS.get(c, "")) for c in cols])
-            for r in rows:
-                w.writerow([repr(v) if isinstance(v, float) else v for v in (r.get(c, "") for c in cols)])
 
     def plot(self, path) -> None:
         """Save :meth:`figure` to ``path`` (PNG or any format matplotlib writes)."""
