@@ -819,3 +819,109 @@ def test_an_actuator_s_attachment_dragged_moves_its_point_on_its_link(app):
     moved = next(h for h in out["handles"] if h["id"] == "actuator[0].to_point")
     assert moved["xy"] == pytest.approx([x, y], abs=1e-4)
     assert out["frame"]["actuators"][0][2:4] == pytest.approx([x, y], abs=1e-4)
+
+
+# -- the force elements: springs, dampers, gas springs, joint springs and friction, loads --------------------
+def test_the_force_elements_are_drawn_from_the_animation_s_own_geometry():
+    """One rule: the page's zigzag, coil and arrow are the frames' geometry grubler animate draws."""
+    from grubler.views.animation import coil, frame_geometry, zigzag
+
+    data = actions.preset_data("gas-spring-boom")
+    out = actions.analyse(data)
+    scene = scene_from_dict(data)
+    m = scene.mechanism
+    z = actions.assemble(m, m.z_from_q(m.q_ref), scene.initial_rates)[0]
+    geo = frame_geometry(m, z)
+    assert len(geo.springs) == len(geo.coils) == len(geo.loads) == 1
+    np.testing.assert_allclose(out["frame"]["springs"][0], zigzag(*geo.springs[0]), atol=1e-6)
+    (cx, cy, angle), (centre, link_angle) = out["frame"]["coils"][0], geo.coils[0]
+    np.testing.assert_allclose([cx, cy, angle], [*centre, link_angle], atol=1e-6)
+    # the hinge is theta3's: at pin A, turned as link 3 (the head) is
+    a = next(h["xy"] for h in out["handles"] if h["id"] == "A")
+    assert [cx, cy] == pytest.approx(a, abs=1e-6) and angle == pytest.approx(float(z[0] + z[1]), abs=1e-6)
+    np.testing.assert_allclose(out["frame"]["loads"][0], [*geo.loads[0][0], 0.0, -1.0], atol=1e-6)
+    np.testing.assert_allclose(actions.coil_shape(), coil((0, 0), 1.0, 0.0), atol=1e-4)
+    # a joint spring at a slide is a zigzag along it, from the slide's base to its block
+    slide = actions.preset_data("double-slider")
+    slide["joint_spring"] = [{"name": "buffer", "joint": "B1", "stiffness": 100.0}]
+    frame = actions.analyse(slide)["frame"]
+    assert len(frame["springs"]) == 1 and frame["coils"] == []
+    assert frame["springs"][0][-1] == pytest.approx(frame["blocks"][0][:2], abs=1e-6)
+
+
+def test_force_elements_are_added_with_every_field_refused_by_name_and_removed(app):
+    data = actions.preset_data("fourbar-crank-rocker")
+    for kind in ("spring", "joint_spring", "point_load"):
+        data, _ = post(app, "add_element", {"scene": data, "kind": kind})
+        assert "error" not in data, data
+        data = data["scene"]
+    out, _ = post(app, "analyse", {"scene": data})
+    assert len(out["frame"]["springs"]) == len(out["frame"]["coils"]) == len(out["frame"]["loads"]) == 1
+    # a new element does nothing at the start: the spring at its free length, the torsion spring relaxed
+    scene = scene_from_dict(data)
+    res = simulate(scene, t_end=0.01)
+    res.compute(["energy"])
+    assert abs(res["spring1_force"][0]) < 1e-6 and abs(res["joint_spring1_effort"][0]) < 1e-2
+    # every field of each, with the unit of its kind (a revolute's torsion spring in N m/rad)
+    units = {f["key"]: f["unit"] for f in out["fields"]}
+    assert units["spring[0].damping"] == "N s/m" and units["spring[0].gas_force"] == "N"
+    assert units["joint_spring[0].stiffness"] == "N m/rad" and units["joint_spring[0].friction"] == "N m"
+    assert units["point_load[0].force"] == "N" and units["point_load[0].point"] == "m"
+    # a field left out of a table is in the form at the reader's value, and set there
+    del data["spring"][0]["damping"]
+    out, _ = post(app, "analyse", {"scene": data})
+    assert next(f for f in out["fields"] if f["key"] == "spring[0].damping")["value"] == 0.0
+    # bad values refused by the scene reader's rules (grb_scene_check), naming the field
+    for key, value, words in [("spring[0].stiffness", "-5", "stiffness must be >= 0"),
+                              ("spring[0].to_link", "ground", "must be another link than from_link"),
+                              ("joint_spring[0].friction", "-1", "friction must be >= 0"),
+                              ("point_load[0].link", "9", "")]:
+        out, _ = post(app, "edit", {"scene": data, "key": key, "value": value})
+        assert out["error"]["field"] == key and words in out["error"]["reason"], out["error"]
+    out, _ = post(app, "add_element", {"scene": data, "kind": "rubber_band"})
+    assert out["error"]["field"] == "element"
+    out, _ = post(app, "remove_element", {"scene": data, "element": "spring[3]"})
+    assert out["error"]["field"] == "element"
+    out, _ = post(app, "remove_element", {"scene": data, "element": "spring[0]"})
+    assert "spring" not in out["scene"] and out["frame"]["springs"] == [] and len(out["frame"]["coils"]) == 1
+    assert not any(h["id"].startswith("spring[") for h in out["handles"])
+
+
+def test_a_spring_s_end_and_a_load_s_point_dragged_move_their_points_on_their_links(app):
+    data = actions.preset_data("gas-spring-boom")
+    a = actions.analyse(data)
+    pin = next(h for h in a["handles"] if h["id"] == "spring[0].to_point")
+    # a quarter metre further along the jib (link 2, at 50 deg): the point's u grows by 0.25, v stays 0
+    x, y = pin["xy"][0] + 0.25 * math.cos(math.radians(50)), pin["xy"][1] + 0.25 * math.sin(math.radians(50))
+    out, _ = post(app, "drag", {"scene": data, "handle": "spring[0].to_point", "x": x, "y": y})
+    assert out["scene"]["spring"][0]["to_point"] == [1.45, 0.0]
+    assert out["frame"]["springs"][0][-1] == pytest.approx([x, y], abs=1e-4)
+    out, _ = post(app, "drag", {"scene": data, "handle": "spring[0].from_point", "x": 1.0, "y": -0.4})
+    assert out["scene"]["spring"][0]["from_point"] == [1.0, -0.4]
+    load = next(h for h in a["handles"] if h["id"] == "point_load[0].point")
+    out, _ = post(app, "drag", {"scene": data, "handle": "point_load[0].point", "x": load["xy"][0],
+                                "y": load["xy"][1] + 0.1})
+    assert out["frame"]["loads"][0][:2] == pytest.approx([load["xy"][0], load["xy"][1] + 0.1], abs=1e-4)
+
+
+def test_a_run_s_graphs_have_the_elements_forces_energies_and_the_balance_that_holds_them(app):
+    data = actions.preset_data("gas-spring-boom")
+    out, _ = post(app, "simulate", {"scene": data, "t_end": 3})
+    assert out["elements"] == [{"name": "strut", "kind": "spring"}, {"name": "hinge", "kind": "joint_spring"},
+                               {"name": "payload", "kind": "point_load"}]
+    cols = {c["name"]: c for c in out["columns"]}
+    values = {n: np.frombuffer(__import__("base64").b64decode(c["f32"]), "<f4") for n, c in cols.items()}
+    for name in ("strut_force", "strut_energy", "strut_dissipation", "hinge_effort", "hinge_energy",
+                 "payload_power"):
+        assert name in cols, name
+    assert cols["strut_force"]["unit"] == "N" and cols["strut_energy"]["unit"] == "J"
+    # the library's own numbers, as the CLI writes them
+    res = simulate(scene_from_dict(data), t_end=3)
+    res.compute(["energy"])
+    np.testing.assert_allclose(values["strut_force"], res["strut_force"], rtol=1e-6)
+    # the balance holds the elements: E rose by the payload's work (some 100 J), the balance stays at the
+    # output grid's quadrature error
+    rise = values["E"].max() - values["E"][0]
+    assert rise > 100
+    assert np.abs(values["energy_balance"]).max() < 1e-3 * rise
+    assert cols["energy_balance"]["unit"] == "J" and "energy balance" in cols["energy_balance"]["label"]

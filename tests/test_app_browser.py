@@ -647,3 +647,86 @@ def test_run_servo_of_a_cylinder_preset_is_its_cylinder_under_position_control(s
     assert page.is_visible("#s-motor") and page.is_hidden('#servo-form [data-key="bore"]')
     assert page.input_value('#servo-form [data-key="K"]') == "300" and page.inner_text("#k-unit") == "V/rad"
     assert errors == []
+
+
+def test_a_scene_s_springs_torsion_springs_and_loads_are_drawn_in_the_sketch_and_the_run(app, browser, shots):
+    """The gas-spring boom's strut (a zigzag), its head hinge's torsion spring (a coil) and its payload (an
+    arrow), drawn from the frames' geometry the GIFs draw (grubler.views.animation), in the sketch and as they
+    move in the run; the run's graphs start with their forces, stored energies and the energy balance."""
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "gas-spring-boom")
+    frame = page.evaluate("() => state.analysis.frame")
+    assert len(frame["springs"]) == 1 and len(frame["coils"]) == 1 and len(frame["loads"]) == 1
+    spring = page.locator("#drawing polyline.spring")
+    assert spring.count() == 1 and page.locator("#drawing polyline.coil").count() == 1
+    assert page.locator("#drawing g.load polygon").count() == 1
+    points = [[float(v) for v in p.split(",")] for p in spring.get_attribute("points").split()]
+    assert points[0] == [0.9, -0.3] and len(points) == 18  # from the ground point, the GIFs' zigzag of 7 a side
+    assert points == frame["springs"][0]
+    # the coil sits at the head's hinge (pin A), turned with the jib-to-head link
+    coil = page.locator("#drawing polyline.coil").get_attribute("transform")
+    a = handle_at(page, "A")
+    assert coil.startswith(f"translate({a[0]},{a[1]}) rotate(")
+    # the payload's arrow ends at its point, pointing down
+    tip = page.locator("#drawing g.load polygon").get_attribute("points").split()[0]
+    assert [float(v) for v in tip.split(",")] == handle_at(page, "point_load[0].point")
+    page.screenshot(path=str(shots / "15-gas-spring-boom.png"))
+
+    page.fill("#t_end", "3")
+    page.click("#simulate")
+    page.wait_for_selector("#panels svg path")
+    page.click("#play")  # paused at a late instant: the strut drawn where the boom has sagged to
+    page.evaluate("() => { state.t = 1.0; drawRunFrame(); }")
+    moved = [[float(v) for v in p.split(",")] for p in
+             page.locator("#drawing polyline.spring").get_attribute("points").split()]
+    assert moved[0] == [0.9, -0.3] and moved[-1] != points[-1]
+    assert page.locator("#drawing polyline.coil").count() == 1 and page.locator("#drawing g.load").count() == 1
+    series = page.evaluate("() => state.panels")
+    assert ["strut_force"] in series and ["hinge_effort"] in series and ["strut_energy", "hinge_energy"] in series
+    assert ["energy_balance"] in series
+    labels = page.eval_on_selector_all("#panels .chip", "(cs) => cs.map((c) => c.textContent)")
+    assert any(t.startswith("spring strut force (strut_force), N") for t in labels)
+    page.screenshot(path=str(shots / "16-gas-spring-boom-run.png"), full_page=True)
+    assert errors == []
+
+
+def test_force_elements_are_added_edited_dragged_refused_by_name_and_removed(app, browser, shots):
+    page, errors = open_app(browser, app.url)
+    pick_preset(page, "fourbar-crank-rocker")
+    assert page.locator("#drawing polyline.spring").count() == 0
+    page.click('#elements-bar button[data-kind="spring"]')
+    page.wait_for_selector("#drawing polyline.spring")
+    # every field of a spring in the form, with its unit: the damper and the gas law too
+    for key in ("stiffness", "free_length", "preload", "damping", "gas_force", "gas_column", "gas_exponent"):
+        assert page.locator(f'[data-key="spring[0].{key}"]').count() == 1, key
+    assert "(N s/m)" in page.inner_text('label[for="f-spring_0__damping"]')
+    # a bad value: refused by the scene reader's words, next to its field
+    page.fill('[data-key="spring[0].stiffness"]', "-5")
+    page.press('[data-key="spring[0].stiffness"]', "Enter")
+    page.wait_for_selector('[data-err="spring[0].stiffness"]:has-text("stiffness must be >= 0")')
+    page.fill('[data-key="spring[0].stiffness"]', "800")
+    page.press('[data-key="spring[0].stiffness"]', "Enter")
+    page.wait_for_function("() => state.scene.spring[0].stiffness === 800 && !state.analysis.error")
+    # its ground end dragged: the form and the zigzag follow
+    drag_handle(page, "spring[0].from_point", 0.3, -0.2)
+    assert page.input_value('[data-key="spring[0].from_point"]') == "[0.3, -0.2]"
+    first = page.locator("#drawing polyline.spring").get_attribute("points").split()[0]
+    assert [float(v) for v in first.split(",")] == [0.3, -0.2]
+    # a torsion spring with friction at a joint, and a load
+    page.click('#elements-bar button[data-kind="joint_spring"]')
+    page.wait_for_selector("#drawing polyline.coil")
+    assert page.input_value('[data-key="joint_spring[0].joint"]') == "theta2"
+    page.fill('[data-key="joint_spring[0].friction"]', "0.5")
+    page.press('[data-key="joint_spring[0].friction"]', "Enter")
+    page.wait_for_function("() => state.scene.joint_spring[0].friction === 0.5")
+    page.click('#elements-bar button[data-kind="point_load"]')
+    page.wait_for_selector("#drawing g.load")
+    page.screenshot(path=str(shots / "17-elements-added.png"))
+    # removed: the spring's drawing, fields and handles go
+    page.click('button.remove-element[data-element="spring[0]"]')
+    page.wait_for_function("() => !state.scene.spring")
+    assert page.locator("#drawing polyline.spring").count() == 0
+    assert page.locator('[data-key="spring[0].stiffness"]').count() == 0
+    assert page.locator('circle.handle[data-handle="spring[0].from_point"]').count() == 0
+    assert page.locator("#drawing polyline.coil").count() == 1
+    assert errors == []

@@ -842,3 +842,24 @@ def test_a_sweep_point_s_energy_balance_counts_the_elements():
 
     out = scene_point(FOURBAR, 0.5, **{"return.stiffness": 800.0})
     assert out["energy_balance"] < 0.01  # J: the trapezoid's error on a 10 ms grid (2.7 J with the elements left out)
+
+
+def test_animation_draws_a_torsion_spring_as_a_coil_at_its_joint_turning_with_its_link(tmp_path):
+    # the geometry the GIF and the app's page both draw: the coil at the pin, its outer end along the link
+    from PIL import Image
+
+    from grubler.views.animation import SPRING_COLOUR, animate, coil, frame_geometry
+
+    scene = load_scene(TORSION)
+    m = scene.mechanism
+    geo = frame_geometry(m, m.z_from_q(m.q_ref))
+    (centre, angle), = geo.coils
+    assert tuple(centre) == (0.0, 0.0) and angle == pytest.approx(0.8) and geo.springs == []
+    spiral = coil(centre, 0.1, angle)
+    assert spiral[-1] == pytest.approx([0.1 * math.cos(0.8), 0.1 * math.sin(0.8)])
+    assert np.hypot(*spiral[0]) == pytest.approx(0.025)  # from a quarter of its radius, at the pin
+    res = simulate(scene, t_end=0.1, dt_out=0.05)
+    out = tmp_path / "coil.gif"
+    animate(m, res.t, res.z, str(out), fps=10, speed=1.0)
+    colour = tuple(int(SPRING_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
+    assert colour in {c for _, c in Image.open(out).convert("RGB").getcolors(1 << 16)}

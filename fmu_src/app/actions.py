@@ -22,10 +22,11 @@ True
 
 from __future__ import annotations
 
-from grubler.app.drawing import (SWEEP_STEPS, analyse, analyse_drag, analysis_view, coupler_curve, default_trace,
-                                 drag, drive_sweep, handles, pick_trace, run_instant)
+from grubler.app.drawing import (SWEEP_STEPS, analyse, analyse_drag, analysis_view, coil_shape, coupler_curve,
+                                 default_trace, drag, drive_sweep, handles, pick_trace, run_instant)
 from grubler.app.drives import (check_fmu_folder, cylinder_servo_defaults, run_cylinder_servo, run_servo, run_sizing,
                                 servo_defaults)
+from grubler.app.elements import add_element, remove_element
 from grubler.app.runs import describe, plotted, result_csv, run_simulation
 from grubler.app.scene_form import (catalog, choices, echoed, edit, error_of, fields, parse_scene_text, preset_data,
                                     scene_toml, unit)
@@ -87,4 +88,4 @@ __all__ = ["analyse", "analyse_drag", "analysis_view", "run_instant", "catalog",
            "result_csv", "output_columns", "servo_defaults", "check_fmu_folder", "run_servo",
            "cylinder_servo_defaults", "run_cylinder_servo", "run_sizing", "export_file", "error_of", "handles",
            "pick_trace", "drive_sweep", "coupler_curve", "default_trace", "unit", "EXPORTS", "SWEEP_STEPS",
-           "assemble", "preset_names", "scene_from_dict"]
+           "assemble", "preset_names", "scene_from_dict", "add_element", "remove_element", "coil_shape"]

@@ -28,7 +28,7 @@ from grubler.mechanism.assembly import assemble, branches
 from grubler.mechanism.builders import HANDLES, MOVES, Drawing, value
 from grubler.mechanism.kinematics import link_points
 from grubler.mechanism.scene import coordinate_text, scene_from_dict
-from grubler.views.animation import BARREL_SHARE, Sketch, trace_point
+from grubler.views.animation import BARREL_SHARE, Sketch, coil, trace_point, zigzag
 from grubler.app.scene_form import _is_tables, echoed, edit, error_of
 
 SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 degrees apart)
@@ -43,7 +43,18 @@ def _frame(geo) -> dict:
             "plates": [[r(p) for p in plate] for plate in geo.plates],
             # a cylinder: its barrel from the first point (as the GIFs draw it), the rod the whole line
             "actuators": [r(a) + r(b) + r(np.asarray(a) + BARREL_SHARE * (np.asarray(b) - a))
-                          for a, b in geo.actuators]}
+                          for a, b in geo.actuators],
+            # the force elements as the GIFs draw them: a spring's zigzag (its points), a torsion spring's coil at
+            # its joint (centre and its link's angle: the page draws the catalog's coil there), a load's direction
+            "springs": [[r(p) for p in zigzag(a, b)] for a, b in geo.springs],
+            "coils": [r(c) + [round(float(a), 6)] for c, a in geo.coils],
+            "loads": [r(p) + [round(float(u[0]), 6), round(float(u[1]), 6)] for p, u in geo.loads]}
+
+
+def coil_shape() -> list:
+    """A torsion spring's coil as the GIFs draw it, of radius 1 about (0, 0) with its outer end along +x: the page
+    draws it at each of a frame's ``coils``, turned by its angle and scaled to the view."""
+    return np.round(coil((0.0, 0.0), 1.0, 0.0), 4).tolist()
 
 
 def default_trace(model) -> str:
@@ -199,31 +210,54 @@ def handles(data: dict, model, z: np.ndarray) -> list[dict]:
 
 def _actuator_tables(data: dict) -> list:
     """The scene's ``[[actuator]]`` tables, in the model's order (their keys: ``actuator[j]``)."""
-    tables = data.get("actuator")
+    return _tables(data, "actuator")
+
+
+def _tables(data: dict, table: str) -> list:
+    """The scene's ``[[table]]`` tables, in the model's order (their keys: ``table[j]``)."""
+    tables = data.get(table)
     return tables if _is_tables(tables) else []
 
 
+def _attachments(data: dict, model) -> list:
+    """Every point a cylinder, a spring or a load is pinned at: (its key, its link 0-based (-1 the ground), point).
+
+    The keys name the scene's fields (``actuator[0].from_point``, ``spring[1].to_point``, ``point_load[0].point``):
+    the handle's id, and what dragging it sets."""
+    out = []
+    ends = [("actuator", list(model.actuators))] + [
+        ("spring", [e for e in model.forces if e.table == "spring"])]
+    for table, items in ends:
+        for j, item in enumerate(items[: len(_tables(data, table))]):
+            for end, k, point in (("from", item.from_link, item.from_point), ("to", item.to_link, item.to_point)):
+                out.append((f"{table}[{j}].{end}_point", k - 2, point))
+    loads = [e for e in model.forces if e.table == "point_load"]
+    for j, load in enumerate(loads[: len(_tables(data, "point_load"))]):
+        out.append((f"point_load[{j}].point", load.link - 2, load.point))
+    return out
+
+
 def actuator_handles(data: dict, model, z: np.ndarray, add) -> None:
-    """Each actuator's two attachments, dragged to move the point on its link (a ground point: in the world)."""
-    for j, act in enumerate(model.actuators[: len(_actuator_tables(data))]):
-        for end, k, point in (("from", act.from_link, act.from_point), ("to", act.to_link, act.to_point)):
-            key = f"actuator[{j}].{end}_point"
-            add(key, Drawing(model, z).at(k - 2, *point), key)
+    """Each actuator's and spring's two attachments and each load's point, dragged to move the point on its
+    link (a ground point: in the world)."""
+    for key, k, point in _attachments(data, model):
+        add(key, Drawing(model, z).at(k, *point), key)
 
 
 def _move_actuator(data: dict, out: dict, handle: str, x: float, y: float) -> bool:
-    """An actuator's attachment dragged to (x, y): its point in its link's frame (False: not such a handle)."""
-    found = re.fullmatch(r"actuator\[(\d+)\]\.(from|to)_point", handle)
-    if not found or int(found[1]) >= len(_actuator_tables(out)):
+    """An actuator's or a spring's attachment, or a load's point, dragged to (x, y): its point in its link's
+    frame (False: not such a handle)."""
+    found = re.fullmatch(r"(actuator|spring|point_load)\[(\d+)\]\.(from_point|to_point|point)", handle)
+    if not found or int(found[2]) >= len(_tables(out, found[1])):
         return False
     model, z = _sketch(data)
-    act = model.actuators[int(found[1])]
-    k = (act.from_link if found[2] == "from" else act.to_link) - 2
+    k = next((k for key, k, _ in _attachments(data, model) if key == handle), None)
+    if k is None:
+        return False
     # the link's origin and unit axes where the sketch closes: the point's (along, across) in that frame
     o, e_u, e_v = link_points(model, z[None, :], [k] * 3, [(0, 0), (1, 0), (0, 1)])[0]
     d = np.array([x, y]) - o
-    _actuator_tables(out)[int(found[1])][f"{found[2]}_point"] = [_r(np.dot(d, e_u - o)) + 0.0,
-                                                                 _r(np.dot(d, e_v - o)) + 0.0]
+    _tables(out, found[1])[int(found[2])][found[3]] = [_r(np.dot(d, e_u - o)) + 0.0, _r(np.dot(d, e_v - o)) + 0.0]
     return True
 
 

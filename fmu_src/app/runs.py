@@ -86,9 +86,25 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
             "columns": [plotted(c, res[c], scene.mechanism.actuator_names, force_kinds(scene.mechanism))
-                        for c in columns],
+                        for c in columns] + [balance_column(res, columns)],
+            # the force elements, whose columns the page's graphs start with (their force and stored energy)
+            "elements": [{"name": n, "kind": k} for n, k in force_kinds(scene.mechanism)],
             "summary": _summary(scene, res), "warnings": list(res.warnings)}
     return res, view
+
+
+BALANCE = "energy_balance"  # the graphs' column of grubler report's energy balance
+
+
+def balance_column(res, columns) -> dict:
+    """The run's energy balance as ``grubler report`` draws it (:func:`grubler.views.report.energy_balance`):
+    E - E(0) less the work of the drive, the actuators and the loads, plus what the dampers and the force
+    elements' dampers and friction took, J.  Zero but for integration error: a force left out shows."""
+    from grubler.views.report import energy_balance, residue_name
+
+    values = energy_balance({c: res[c] for c in columns}, res.model)
+    return {"name": BALANCE, "unit": "J", "f32": _f32(values),
+            "label": f"{residue_name(False)}: E - E(0) - work in + dissipated ({BALANCE}), J"}
 
 
 def _check_cancel(cancel, t: float) -> None:

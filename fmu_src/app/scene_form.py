@@ -24,6 +24,7 @@ import tomllib
 from functools import lru_cache
 
 
+from grubler.app.elements import completed, element_unit
 from grubler.errors import GrublerError, InputError, SceneError
 from grubler.limits import brief, parse_toml
 from grubler.mechanism.analysis import classify
@@ -157,9 +158,12 @@ def fields(data: dict) -> list[dict]:
                 add(key + ".", v)
             elif _is_tables(v):
                 for j, t in enumerate(v):
-                    add(f"{key}[{j}].", t)
+                    # a force element's every field: those its table leaves out at the reader's value
+                    add(f"{key}[{j}].", completed(k, t))
             else:
-                entry = {"key": key, "value": v, "unit": unit(key), "text": k in _TEXT or isinstance(v, bool)}
+                u = element_unit(key, table)
+                entry = {"key": key, "value": v, "unit": unit(key) if u is None else u,
+                         "text": k in _TEXT or isinstance(v, bool)}
                 if choices(key):
                     entry["choices"] = choices(key)
                 out.append(entry)

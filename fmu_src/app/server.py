@@ -482,7 +482,7 @@ def _data(body: dict) -> dict:
 
 
 def a_catalog(server, session, body):
-    return {**actions.catalog(), "start": server.start_scene}
+    return {**actions.catalog(), "start": server.start_scene, "coil": actions.coil_shape()}
 
 
 def _form(data: dict) -> dict:
@@ -508,6 +508,14 @@ def a_analyse(server, session, body):
 
 def a_edit(server, session, body):
     return a_analyse(server, session, {**body, "scene": actions.edit(_data(body), body.get("key"), body.get("value"))})
+
+
+def a_add_element(server, session, body):
+    return a_analyse(server, session, {**body, "scene": actions.add_element(_data(body), body.get("kind"))})
+
+
+def a_remove_element(server, session, body):
+    return a_analyse(server, session, {**body, "scene": actions.remove_element(_data(body), body.get("element"))})
 
 
 def a_drag(server, session, body):
@@ -602,7 +610,8 @@ def a_sizing(server, session, body):
 ACTIONS = {"catalog": a_catalog, "preset": a_preset, "analyse": a_analyse, "edit": a_edit, "drag": a_drag,
            "toml": a_toml, "parse": a_parse, "files": a_files, "open": a_open, "save": a_save,
            "simulate": a_simulate, "cancel": a_cancel, "servo_defaults": a_servo_defaults, "pick": a_pick, "servo": a_servo,
-           "sizing": a_sizing, "instant": a_instant}
+           "sizing": a_sizing, "instant": a_instant, "add_element": a_add_element,
+           "remove_element": a_remove_element}
 RUNS = {a_simulate, a_servo}  # the actions whose run stops when their client leaves (they take its flag)
 
 

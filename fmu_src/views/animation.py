@@ -42,6 +42,7 @@ TRACE_COLOUR = "#ff7f0e"
 CYLINDER_COLOUR = "#17becf"  # an actuator's barrel
 SPRING_COLOUR = "#8c564b"  # a spring's zigzag
 SPRING_TURNS = 7  # the zigzag's points either side of its line
+COIL_TURNS = 2  # a torsion spring's spiral at its joint
 LOAD_COLOUR = "#9467bd"  # a point load's arrow
 LOAD_ARROW_PX = 45  # an arrow's length on the GIF (its direction is the force's; its size says nothing)
 BARREL_SHARE = 0.55  # of an actuator's length, the barrel drawn from its first point (the rod runs the whole line)
@@ -75,6 +76,7 @@ class FrameGeometry:
     actuators: list = field(default_factory=list)  # [(first point, second point), ...]: a barrel and its rod
     springs: list = field(default_factory=list)  # [(first point, second point), ...]: a zigzag between them
     loads: list = field(default_factory=list)  # [(point, unit direction), ...]: a point load's arrow, ending there
+    coils: list = field(default_factory=list)  # [(joint centre, link angle), ...]: a torsion spring at a revolute
 
     def points(self) -> np.ndarray:
         pts = [p for bar in self.bars for p in bar] + self.joints + self.fixed + [b[0] for b in self.blocks]
@@ -109,6 +111,9 @@ class Sketch:
                             for e in self.springs]
         self.loads = [e for e in model.forces if e.table == "point_load" and np.hypot(*e.force) > 0]
         self.load_points = [self._add(e.link - 2, *e.point) for e in self.loads]
+        # a joint spring acts at its link's real joint: coordinate pairs (B, theta) per link, the slide first
+        self.joint_springs = [divmod(model.coordinate_names.index(e.joint), 2) for e in model.forces
+                              if e.table == "joint_spring"]
         self.n_drawn = len(self.link)  # the points so far are drawn (and fit the view); the directions are not
         self.across = [self._add(k, 0.0, 1.0) for k in range(n)]  # e_perp(theta_k): its children's slide axis
         self.along = [self._add(k, 1.0, 0.0) for k in range(n)]  # e(theta_k): a prismatic closure's base angle
@@ -199,6 +204,13 @@ class Sketch:
                 geo.joints.append(pos[i])
                 if link == 1:
                     geo.fixed.append(pos[i])
+        for k, revolute in self.joint_springs:  # a coil at a pin; a zigzag along a slide, from its base to its block
+            if revolute:
+                geo.coils.append((O[k], self._angle(pos, self.origin[k], self.along[k])))
+            else:
+                base = pos[self.ground_end] if parent[k] < 0 else E[parent[k]]
+                if np.linalg.norm(O[k] - base) > 1e-9:
+                    geo.springs.append((base, O[k]))
         return geo
 
 
@@ -212,6 +224,15 @@ def zigzag(p0, p1) -> np.ndarray:
     s = np.concatenate([[0.0, 0.2], 0.2 + 0.6 * (np.arange(k) + 0.5) / k, [0.8, 1.0]])
     side = np.concatenate([[0.0, 0.0], np.where(np.arange(k) % 2, -0.5, 0.5), [0.0, 0.0]])
     return p0 + s[:, None] * d + side[:, None] * across
+
+
+def coil(centre, radius: float, angle: float) -> np.ndarray:
+    """A torsion spring's drawing at a joint: a spiral of :data:`COIL_TURNS` turns out to ``radius``, its
+    outer end along ``angle`` (the link's, so that it winds up as the link turns).  Points, in ``centre``'s axes."""
+    s = np.linspace(0.0, 1.0, 12 * COIL_TURNS + 1)
+    a = angle + 2 * math.pi * COIL_TURNS * (s - 1.0)
+    r = radius * (0.25 + 0.75 * s)
+    return np.asarray(centre, dtype=float) + np.column_stack([r * np.cos(a), r * np.sin(a)])
 
 
 def frame_geometry(model: Mechanism, z: np.ndarray, trace=None) -> FrameGeometry:
@@ -334,6 +355,9 @@ class Drawer:
         for p0, p1 in geo.springs:
             zz = zigzag(p0, p1)
             A += ax.plot(zz[:, 0], zz[:, 1], "-", color=SPRING_COLOUR, lw=1.8, zorder=2.5)
+        for c, angle in geo.coils:
+            cc = coil(c, 2.6 * r, angle)
+            A += ax.plot(cc[:, 0], cc[:, 1], "-", color=SPRING_COLOUR, lw=1.8, zorder=3.5)
         for p, u in geo.loads:  # an arrow of a fixed size in points, ending at the load's point
             A.append(ax.annotate("", xy=tuple(p), xytext=(-40 * u[0], -40 * u[1]), textcoords="offset points",
                                  arrowprops={"arrowstyle": "-|>", "color": LOAD_COLOUR, "lw": 2.0}, zorder=5))
@@ -673,6 +697,8 @@ class _Film:
             d.line([tuple(a), tuple(a + BARREL_SHARE * (b - a))], fill=ink["cylinder"], width=2 * _BAR)
         for p0, p1 in geo.springs:
             d.line([tuple(q) for q in zigzag(px(p0), px(p1))], fill=ink["spring"], width=3)
+        for c, angle in geo.coils:  # the image's y points down: the world's angle turns the other way
+            d.line([tuple(q) for q in coil(px(c), 2.6 * _JOINT, -angle)], fill=ink["spring"], width=3)
         for p, u in geo.loads:  # the image's y points down
             tip, u = px(p), np.array([u[0], -u[1]])
             tail, side = tip - LOAD_ARROW_PX * u, np.array([-u[1], u[0]])

@@ -185,6 +185,7 @@ function renderFields(fields) {
     row.append(label, input, err);
     form.appendChild(row);
   }
+  decorateElements(form);  // a force element's Remove (forces.js)
   if (focused) {
     const again = form.querySelector(`[data-key="${CSS.escape(focused)}"]`);
     if (again) again.focus();
@@ -250,6 +251,7 @@ function points(things) {
     out.push(...f.joints, ...f.fixed, ...f.blocks);
     f.plates.forEach((pl) => out.push(...pl));
     (f.actuators || []).forEach((a) => out.push([a[0], a[1]], [a[2], a[3]]));
+    out.push(...forcePoints(f));
   }
   return out;
 }
@@ -273,6 +275,7 @@ function frameMarkup(f, cls) {
     out += `<line class="rod" x1="${a[0]}" y1="${a[1]}" x2="${a[2]}" y2="${a[3]}"/>`;
     out += `<line class="barrel" x1="${a[0]}" y1="${a[1]}" x2="${a[4]}" y2="${a[5]}"/>`;
   }
+  out += forcesMarkup(f, s);  // springs, torsion springs, loads (forces.js)
   for (const b of f.blocks) {
     const w = 4 * r, h = 2.6 * r, deg = (b[2] * 180) / Math.PI;
     out += `<rect class="block" x="${-w / 2}" y="${-h / 2}" width="${w}" height="${h}" transform="translate(${b[0]},${b[1]}) rotate(${deg})"/>`;
@@ -292,7 +295,7 @@ function polyline(points, cls) {
 // -- the analysis on the drawing: velocities, accelerations, instant centres, forces ----------------------
 // the server computes them (grubler.mechanism.instant) when the layer is on; this draws them, each kind
 // scaled to its largest: a velocity arrow of the fastest point is a fifth of the view
-const ANALYSED = new Set(["analyse", "drag", "edit"]);
+const ANALYSED = new Set(["analyse", "drag", "edit", "add_element", "remove_element"]);
 const LAYER = { v: "velocity", a: "acceleration", ic: "instant centres", f: "joint forces" };
 
 function setupAnalysis() {
@@ -663,6 +666,7 @@ function defaultPanels() {
   const names = state.run.columns.map((c) => c.name);
   const drive = (state.analysis && state.analysis.drive) || names[1];
   state.panels = [[names.includes(drive) ? drive : names[1]], [names.includes("E") ? "E" : names[2]]];
+  state.panels.push(...elementPanels(state.run));  // the force elements' forces, energies, balance (forces.js)
   renderPanelControls();
 }
 
@@ -1109,6 +1113,7 @@ function showSource(data) {
 
 async function start() {
   const cat = await api("catalog", {});
+  state.coil = cat.coil;  // a torsion spring's drawing (forces.js)
   for (const p of cat.presets) {
     const o = document.createElement("option");
     o.value = p.name;
