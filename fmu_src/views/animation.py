@@ -198,6 +198,11 @@ class Sketch:
                             pos[i] - E[k]) else (E[k], pos[i]))
         for load, i in zip(self.loads, self.load_points):  # world axes: the force's direction is constant
             geo.loads.append((pos[i], np.asarray(load.force, dtype=float) / np.hypot(*load.force)))
+            k = load.link - 2  # a point past its link's ends (a payload hung beyond a boom's head) is held by a bar
+            if min(np.linalg.norm(pos[i] - O[k]), np.linalg.norm(pos[i] - E[k])) > 1e-9 and not _between(
+                    pos[i], O[k], E[k]):
+                geo.bars.append((O[k], pos[i]) if np.linalg.norm(pos[i] - O[k]) < np.linalg.norm(
+                    pos[i] - E[k]) else (E[k], pos[i]))
         for spring, (i0, i1) in zip(self.springs, self.spring_ends):
             geo.springs.append((pos[i0], pos[i1]))
             for link, i in ((spring.from_link, i0), (spring.to_link, i1)):
@@ -212,6 +217,16 @@ class Sketch:
                 if np.linalg.norm(O[k] - base) > 1e-9:
                     geo.springs.append((base, O[k]))
         return geo
+
+
+def _between(p, a, b) -> bool:
+    """Whether point ``p`` lies on the segment a-b (a link's bar already draws it)."""
+    d = np.asarray(b) - a
+    span = float(np.dot(d, d))
+    if span == 0.0:
+        return False
+    s = float(np.dot(np.asarray(p) - a, d)) / span
+    return 0.0 <= s <= 1.0 and float(np.linalg.norm(np.asarray(a) + s * d - p)) <= 1e-9 * max(1.0, span ** 0.5)
 
 
 def zigzag(p0, p1) -> np.ndarray:
