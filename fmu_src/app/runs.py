@@ -35,9 +35,11 @@ def describe(column: str, actuators=(), forces=(), unit: str | None = None) -> s
     return f"{words} ({column})" + (f", {u}" if u else "")
 
 
-def plotted(column: str, values, actuators=(), forces=()) -> dict:
-    """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so."""
-    u, values = unit_of(column), np.asarray(values, dtype=float)
+def plotted(column: str, values, actuators=(), forces=(), unit: str | None = None) -> dict:
+    """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so.
+
+    ``unit``: the column's unit where the scene decides it (:func:`joint_units`), else the column's own."""
+    u, values = unit or unit_of(column), np.asarray(values, dtype=float)
     if u in DEGREES:
         u, values = DEGREES[u], np.degrees(values)
     return {"name": column, "label": describe(column, actuators, forces, unit=u), "unit": u, "f32": _f32(values)}
@@ -85,12 +87,27 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     _check_cancel(cancel, res.t[-1])
     view = {"t": res.t.tolist(), "frame_t": res.t[rows].tolist(), "frames": frames,
             "path": np.round(path, 6).tolist(),
-            "columns": [plotted(c, res[c], scene.mechanism.actuator_names, force_kinds(scene.mechanism))
-                        for c in columns] + [balance_column(res, columns)],
+            "columns": [plotted(c, res[c], scene.mechanism.actuator_names, force_kinds(scene.mechanism),
+                                joint_units(scene.mechanism).get(c)) for c in columns] + [balance_column(res, columns)],
             # the force elements, whose columns the page's graphs start with (their force and stored energy)
             "elements": [{"name": n, "kind": k} for n, k in force_kinds(scene.mechanism)],
             "summary": _summary(scene, res), "warnings": list(res.warnings)}
     return res, view
+
+
+def joint_units(model) -> dict:
+    """A joint spring's columns whose unit its joint decides ('N m or N'), each in its joint's: a revolute's
+    effort in N m, a slide's in N (its position and speed: rad and rad/s, or m and m/s)."""
+    from grubler.quantities import FORCE_OUTPUTS
+
+    out = {}
+    for e in model.forces:
+        if e.table == "joint_spring":
+            slide = e.joint.startswith("B")
+            for q, _ in FORCE_OUTPUTS["joint_spring"]:
+                if " or " in q.unit:
+                    out[f"{e.name}_{q.name}"] = q.unit.split(" or ")[slide]
+    return out
 
 
 BALANCE = "energy_balance"  # the graphs' column of grubler report's energy balance
