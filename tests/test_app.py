@@ -930,3 +930,18 @@ def test_a_run_s_graphs_have_the_elements_forces_energies_and_the_balance_that_h
     assert rise > 100
     assert np.abs(values["energy_balance"]).max() < 1e-3 * rise
     assert cols["energy_balance"]["unit"] == "J" and "energy balance" in cols["energy_balance"]["label"]
+
+
+def test_every_preset_takes_each_new_element_relaxed_at_its_start():
+    for name in preset_names():
+        data = actions.preset_data(name)
+        for kind, column in (("spring", "_force"), ("joint_spring", "_effort"), ("point_load", "_power")):
+            added = actions.add_element(data, kind)
+            scene = scene_from_dict(added)  # the reader takes what Add wrote
+            element = next(e for e in scene.mechanism.forces if e.name == added[kind][-1]["name"])
+            res = simulate(scene, t_end=0.02, dt_out=0.01)
+            res.compute(["energy"])
+            values = res[element.name + column]
+            assert np.all(np.isfinite(values)), (name, kind)
+            if kind == "spring":  # at its free length: no force but what its damper gives the start's rate
+                assert abs(values[0]) < 1e-6 * element.stiffness, (name, values[0])  # a micrometre off

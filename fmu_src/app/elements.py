@@ -115,12 +115,15 @@ def add_element(data: dict, kind) -> dict:
     name = _unused(out, kind)
     if kind == "spring":
         a = model.links[0].a or 0.1
-        mid = link_points(model, z[None, :], [0], [(a / 2, 0.0)])[0, 0]
+        along = round(a / 2, 4)
+        mid = link_points(model, z[None, :], [0], [(along, 0.0)])[0, 0]
         length = abs(a) / 2
         ground = [round(float(mid[0]), 4) + 0.0, round(float(mid[1]) - length, 4) + 0.0]
+        # free where it is drawn: its length between the points as written (a micrometre's rounding)
+        free = round(math.dist(ground, mid), 6)
         table = {"name": name, "from_link": "ground", "from_point": ground, "to_link": "link2",
-                 "to_point": [round(a / 2, 4), 0.0], "stiffness": _sig(weight / (0.2 * length)),
-                 "free_length": round(length, 4), "preload": 0.0, "damping": 0.0, "gas_force": 0.0,
+                 "to_point": [along, 0.0], "stiffness": _sig(weight / (0.2 * length)),
+                 "free_length": free, "preload": 0.0, "damping": 0.0, "gas_force": 0.0,
                  "gas_column": round(length, 4), "gas_exponent": 1.4}
     elif kind == "joint_spring":
         joint = next((n for n in model.free_names if n.startswith("theta")), model.free_names[0])
