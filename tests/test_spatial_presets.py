@@ -88,9 +88,10 @@ def joint_moments_of_the_body_model(system, y_body):
 def minimum_norm_and_effort_checks(m, y, tau=None):
     """The kernel's reactions are a solution the loop can carry: about each revolute's own axis only the
     joint's effort passes, and the closure multipliers have no part in the null space of J^T (numpy's SVD,
-    not the kernel's): the minimum-norm one."""
+    not the kernel's): the minimum-norm one.  (Every link of these presets turns on one revolute: coordinate k
+    is link k's.)"""
     _, joints = m.reactions(y, tau)
-    efforts = np.zeros(len(m.links)) if tau is None else np.asarray(tau)[:len(m.links)]
+    efforts = np.zeros(len(m.links)) if tau is None else np.asarray(tau)
     effort_error = np.abs(joints[:, 5] - efforts).max()
     _, lam, _ = m.dynamics(y, tau)
     _, J = m.constraint(y[:m.n_coords])
@@ -137,7 +138,7 @@ def test_hooke_joint_agrees_with_a_body_coordinate_model_with_its_determinate_re
     joints = [(0, -1, centre, ez), (1, 0, centre, first_pin), (2, -1, centre, w), (1, 2, centre, second_pin)]
     system = bodies_at_start(m, z0, joints, [(0, ez, tau[0])])
     rows = slice(0, 41, 5)  # 0.4 s: the Python body model is slow
-    part = type(res)(m, res.t[rows], res.y[rows])
+    part = sp.SpatialResult(m, res.t[rows], res.y[rows])
     ys = system.run(part.t, rtol=1e-11, atol=1e-11)
     assert worst_frame_error(m, part, system, ys) < 1e-7
     # the determinate reactions (every axis through the centre: the moments square to each pin, not the
@@ -289,7 +290,7 @@ def test_bricard_agrees_with_a_body_coordinate_model(a04_run):
     joints = [(0, -1, *A04_JOINTS[0])] + [(k, k - 1, *A04_JOINTS[k]) for k in range(1, 5)] + [(4, -1, *A04_JOINTS[5])]
     system = bodies_at_start(m, res.z[0], joints)
     rows = slice(0, 101, 10)  # the first second (P3 from x = 1 to 0.2), every 0.1 s
-    part = type(res)(m, res.t[rows], res.y[rows])
+    part = sp.SpatialResult(m, res.t[rows], res.y[rows])
     ys = system.run(part.t, rtol=1e-11, atol=1e-11)
     assert worst_frame_error(m, part, system, ys) < 1e-7
     # P3: the body model's rod 2 end (its mass centre plus half the rod along -y in its start axes)
