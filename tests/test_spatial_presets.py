@@ -347,3 +347,69 @@ def test_every_preset_is_in_the_registry_and_builds():
         m = build()
         y0 = m.assembled_start()
         assert np.abs(m.constraint(y0[:m.n_coords])[0]).max() < 1e-12, name
+
+
+# -- the RSSP against the body model: motion and every reaction (the loop is not overconstrained) --------------------
+def test_rssp_agrees_with_a_body_coordinate_model_in_motion_and_every_reaction():
+    from spatial_bodies import GroundPrismatic, GroundRevolute, Spherical
+
+    m, g = sp.rssp(), sp.rssp_geometry()
+    tau = np.zeros(m.n_coords)
+    tau[0] = 1.0
+    res = m.simulate(m.assembled_start(), t_end=0.5, dt_out=0.05, tau=tau, **TIGHT)
+    z0 = res.z[0]
+    origins, frames = m.frames(z0)
+    crank, coupler, slider = 0, 3, 4
+    bodies, com = [], []
+    for k in (crank, coupler, slider):
+        link = m.links[k]
+        com.append(np.array(link.com))
+        bodies.append(Body(link.mass, np.array(link.inertia), origins[k] + frames[k] @ com[-1], frames[k]))
+    ez = np.array([0, 0, 1.0])
+    line = np.array([0.0, -math.sin(g.twist), math.cos(g.twist)])
+    joints = [GroundRevolute(0, -com[0], np.array([0, 0, g.height]), ez, ez),
+              Spherical(0, np.array([g.crank, 0, 0]) - com[0], 1, -com[1]),
+              Spherical(1, np.array([0, 0, g.coupler]) - com[1], 2, -com[2]),
+              GroundPrismatic(2, -com[2], np.array([g.offset, 0, 0]), line, frames[slider])]
+    slider_start = frames[slider]
+    system = BodySystem(bodies, joints, np.array(m.gravity), [Torque(0, ez, tau[0])])
+    ys = system.run(res.t, rtol=1e-11, atol=1e-11)
+    assert res.z[-1, 0] - res.z[0, 0] > 2.0
+    worst_motion = worst_reaction = 0.0
+    for y_kernel, y_body in zip(res.y, ys):
+        z = y_kernel[:m.n_coords]
+        (c0, q0, *_), (c1, q1, *_), (c2, q2, *_) = system.unpack(y_body)
+        Rc = rotation(q0)
+        crank_angle = math.atan2(Rc[1, 0], Rc[0, 0])
+        slide = (c2 - np.array([g.offset, 0, 0])) @ line
+        _, frames = m.frames(z)
+        worst_motion = max(worst_motion, abs(wrapped(crank_angle - z[0])), abs(slide - z[4]),
+                           np.abs(frames[coupler] - rotation(q1)).max(), np.abs(frames[slider] - rotation(q2)).max())
+        closure, joint = m.reactions(y_kernel, tau)
+        _, lam = system.accelerations(y_body)
+        scale = max(1.0, np.abs(lam).max())
+        # the ball at the coupler's end: the slider on the coupler
+        worst_reaction = max(worst_reaction, np.abs(frames[slider] @ closure[0, :3] - lam[8:11]).max() / scale)
+        # the crank's bearing: the ground on the crank (about its axis only the drive passes)
+        u = Rc[:, 2]
+        n1 = np.array([1.0, 0, 0])
+        n2 = np.cross(ez, n1)
+        moment = lam[3] * np.cross(u, n1) + lam[4] * np.cross(u, n2)
+        kernel = frames[crank] @ joint[crank, 3:]
+        worst_reaction = max(worst_reaction, np.abs(frames[crank] @ joint[crank, :3] - lam[0:3]).max() / scale,
+                             np.abs(kernel - (kernel @ u) * u - moment).max() / scale)
+        # the ball at the crank pin: the crank on the coupler is minus the coupler on the crank; no moment
+        worst_reaction = max(worst_reaction, np.abs(frames[coupler] @ joint[coupler, :3] + lam[5:8]).max() / scale,
+                             np.abs(joint[coupler, 3:]).max() / scale)
+        # the slide: the ground on the slider, a force across the line and a moment that holds its axes
+        e = np.array([1.0, 0, 0]) if abs(line[0]) < 0.9 else np.array([0, 1.0, 0])  # spatial_bodies' n1, n2
+        m1 = e - (e @ line) * line
+        m1 /= np.linalg.norm(m1)
+        force = lam[11] * m1 + lam[12] * np.cross(line, m1)
+        R2 = rotation(q2)  # the rows R e_a . R0 e_b: each multiplier a moment lam (R e_a x R0 e_b)
+        moment = sum(lam[13 + r] * np.cross(R2[:, a], slider_start[:, b])
+                     for r, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))))
+        worst_reaction = max(worst_reaction, np.abs(frames[slider] @ joint[slider, :3] - force).max() / scale,
+                             np.abs(frames[slider] @ joint[slider, 3:] - moment).max() / scale)
+    assert worst_motion < 1e-7
+    assert worst_reaction < 1e-6
