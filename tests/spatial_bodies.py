@@ -80,6 +80,18 @@ class GroundRevolute:
 
 
 @dataclass
+class GroundPrismatic:
+    """Body i slides along world axis w without turning: its point a (from its mass centre) stays on the line
+    through p along w (two rows, across w), and its axes stay those of R0 (three rows: R e1 . R0 e2,
+    R e1 . R0 e3, R e2 . R0 e3)."""
+    i: int
+    a: np.ndarray
+    p: np.ndarray
+    w: np.ndarray
+    R0: np.ndarray
+
+
+@dataclass
 class Revolute:
     """Body i's point a and axis u (body i's frame, from its mass centre) on body j's point b and axis v
     (body j's; j = -1: the world's point b and axis v)."""
@@ -173,6 +185,23 @@ class BodySystem:
                     udot, ndot = np.cross(wi, u), np.cross(wj, n)
                     rows_phi.append(np.array([u @ n])), rows_J.append(Jr)
                     rows_bias.append(np.array([np.cross(wi, udot) @ n + 2 * udot @ ndot + u @ np.cross(wj, ndot)]))
+            elif isinstance(jt, GroundPrismatic):
+                p, J, bias = self._point(parts, jt.i, jt.a)
+                wn = jt.w / np.linalg.norm(jt.w)
+                e = np.array([1.0, 0, 0]) if abs(wn[0]) < 0.9 else np.array([0, 1.0, 0])
+                n1 = e - (e @ wn) * wn
+                n1 /= np.linalg.norm(n1)
+                for n in (n1, np.cross(wn, n1)):  # the point on the line
+                    rows_phi.append(np.array([(p - jt.p) @ n])), rows_J.append(block(jt.i, (n @ J)[None, :]))
+                    rows_bias.append(np.array([bias @ n]))
+                c, q, v, w = parts[jt.i]
+                R = rotation(q)
+                for a_, b_ in ((0, 1), (0, 2), (1, 2)):  # the axes held
+                    u, n = R[:, a_], jt.R0[:, b_]
+                    Jr = np.zeros((1, 6))
+                    Jr[0, 3:] = np.cross(u, n)
+                    rows_phi.append(np.array([u @ n])), rows_J.append(block(jt.i, Jr))
+                    rows_bias.append(np.array([np.cross(w, np.cross(w, u)) @ n]))
             else:
                 p, J, bias = self._point(parts, jt.i, jt.a)
                 rows_phi.append(p - jt.p), rows_J.append(block(jt.i, J)), rows_bias.append(bias)

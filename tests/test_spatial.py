@@ -349,6 +349,26 @@ def test_rssr_agrees_with_a_body_coordinate_newton_euler_model(rssr_driven):
         force = frames[4] @ closure[0, :3]
         _, lam = system.accelerations(y_body)
         worst_force = max(worst_force, np.abs(force - lam[8:11]).max() / max(1.0, np.abs(force).max()))
+        # the tree's joints (all determinate: the loop is not overconstrained), each the parent's on the link:
+        # the crank's bearing (its rows 0..4: the point, then the axis square to n1 = x, n2 = y), the crank-pin
+        # ball (rows 5..7, the coupler on the crank: minus it on the coupler), the rocker's bearing (rows 11..15,
+        # its n1, n2 as spatial_bodies builds them across the shaft)
+        _, joints = m.reactions(y_kernel, tau)
+        scale = max(1.0, np.abs(lam).max())
+        u = Rc[:, 2]
+        moment = lam[3] * np.cross(u, [1.0, 0, 0]) + lam[4] * np.cross(u, [0, 1.0, 0])
+        kernel = frames[0] @ joints[0, 3:]
+        worst_force = max(worst_force, np.abs(frames[0] @ joints[0, :3] - lam[0:3]).max() / scale,
+                          np.abs(kernel - (kernel @ u) * u - moment).max() / scale,
+                          np.abs(frames[3] @ joints[3, :3] + lam[5:8]).max() / scale)
+        e = np.array([1.0, 0, 0]) if abs(shaft[0]) < 0.9 else np.array([0, 1.0, 0])
+        n1 = e - (e @ shaft) * shaft
+        n1 /= np.linalg.norm(n1)
+        u = Rr[:, 2]
+        moment = lam[14] * np.cross(u, n1) + lam[15] * np.cross(u, np.cross(shaft, n1))
+        kernel = frames[4] @ joints[4, 3:]
+        worst_force = max(worst_force, np.abs(frames[4] @ joints[4, :3] - lam[11:14]).max() / scale,
+                          np.abs(kernel - (kernel @ u) * u - moment).max() / scale)
     assert worst_angle < 1e-7
     assert worst_frame < 1e-7
     assert worst_force < 1e-6

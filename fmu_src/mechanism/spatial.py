@@ -20,7 +20,10 @@ motion stays exact and the multipliers are the minimum-norm ones:
 Presets: :func:`rssr` (a crank-rocker between skew shafts), :func:`rssp` (a
 spatial slider-crank),
 :func:`spherical_fourbar` and :func:`planar_fourbar` (the thesis four-bar
-written as spatial, which reproduces the planar kernel).
+written as spatial, which reproduces the planar kernel), :func:`hooke_joint`
+(a universal joint as a spherical four-bar), :func:`bennett` (the
+overconstrained, mobile 4R loop) and :func:`bricard` (IFToMM benchmark A04);
+:data:`PRESETS` names them.
 
 Examples
 --------
@@ -691,3 +694,155 @@ def planar_fourbar(closure: str = "revolute", gravity=(0.0, -GRAVITY, 0.0)) -> S
     m = SpatialMechanism(links, [cl], gravity)
     m.sketch = np.array([0.0, math.pi / 3, -2 * math.pi / 3])  # the thesis's start: theta3 = pi/3, theta4 = -pi/3
     return m
+
+
+# -- the universal (Hooke) joint, the Bennett and the Bricard linkages ------------------------------------------------
+@dataclass(frozen=True)
+class _Hooke:
+    shaft_angle: float = math.radians(30)  # beta: between the input and the output shaft
+    shaft: float = 0.3                     # each shaft's length from the cross, m
+    shaft_mass: float = 1.0                # kg (shaft and yoke)
+    cross: float = 0.05                    # the cross's arm, centre to pin, m
+    cross_mass: float = 0.2                # kg
+
+
+def hooke_joint_geometry() -> _Hooke:
+    """The Hooke joint preset's dimensions (the input shaft is the world z axis, the output shaft
+    Rx(shaft_angle) e_z, both through the cross's centre at the origin)."""
+    return _Hooke()
+
+
+def hooke_joint(gravity=(0.0, 0.0, -GRAVITY), shaft_angle: float | None = None) -> SpatialMechanism:
+    """A universal (Hooke) joint as a spherical four-bar: input shaft, cross, output shaft.
+
+    Every joint axis passes through the cross's centre: the input shaft turns about the
+    world z axis, its yoke carries the cross on a pin square to the shaft (DH alpha
+    pi/2), the cross's second pin is square to its first (pi/2) and to the output
+    shaft (pi/2), which turns about Rx(shaft_angle) e_z.  The spherical four-bar's
+    link angles are thus shaft_angle (the ground), pi/2, pi/2, pi/2.  The cross closes
+    on the output yoke with a revolute closure (5 rows, rank 2, as any spherical
+    four-bar's: the closure's forces are indeterminate, its moments square to the pin
+    are not).  Coordinates: input, cross (about the input yoke's pin), output.
+    """
+    g = hooke_joint_geometry()
+    beta = g.shaft_angle if shaft_angle is None else float(shaft_angle)
+    if not (math.isfinite(beta) and 0.0 <= beta < math.radians(80)):
+        raise InputError("shaft_angle", f"expected an angle in [0, 80) degrees, got {beta!r} rad")
+    shaft = tuple(map(tuple, _rod_inertia(g.shaft_mass, g.shaft, 2, radius=0.01)))
+    arm = g.cross_mass / 2 * (2 * g.cross) ** 2 / 12  # each of the cross's two bars about a transverse axis
+    spin = g.cross_mass / 2 * 0.005 ** 2 / 2
+    # the cross's bars lie along its z (the input yoke's pin) and its y (the output yoke's pin)
+    cross = ((2 * arm, 0, 0), (0, arm + spin, 0), (0, 0, arm + spin))
+    links = [SpatialLink("input", mass=g.shaft_mass, com=(0, 0, -g.shaft / 2), inertia=shaft),
+             SpatialLink("cross", alpha=math.pi / 2, parent=0, mass=g.cross_mass, inertia=cross),
+             SpatialLink("output", alpha=beta, parent=-1, mass=g.shaft_mass, com=(0, 0, g.shaft / 2), inertia=shaft)]
+    closure = SpatialClosure("revolute", link=1, to=2, axis=(0, -1, 0), to_axis=(0, -1, 0))
+    m = SpatialMechanism(links, [closure], gravity)
+    # input 0: its yoke's pin along -y, in the shafts' plane; the output yoke's pin is then along x
+    m.sketch = np.array([0.0, math.pi / 2, math.pi / 2])
+    return m
+
+
+@dataclass(frozen=True)
+class _Bennett:
+    a1: float = 0.15                 # m: links 1 and 3 (a1 = a3)
+    alpha1: float = math.radians(45)  # their twist (alpha1 = alpha3)
+    alpha2: float = math.radians(75)  # links 2 and 4's twist (alpha2 = alpha4)
+    mass: float = 0.5                # kg per metre of link
+
+    @property
+    def a2(self) -> float:
+        """Links 2 and 4's length from Bennett's condition a1 / sin(alpha1) = a2 / sin(alpha2), m."""
+        return self.a1 * math.sin(self.alpha2) / math.sin(self.alpha1)
+
+
+def bennett_geometry() -> _Bennett:
+    """The Bennett preset's dimensions: opposite links equal, a1 / sin(alpha1) = a2 / sin(alpha2)."""
+    return _Bennett()
+
+
+def bennett(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
+    """The Bennett linkage: four revolutes on skew axes, overconstrained and mobile.
+
+    Denavit-Hartenberg loop: link i runs from axis i to axis i + 1 along their common
+    normal, of length a_i and twist alpha_i; a1 = a3, a2 = a4, alpha1 = alpha3,
+    alpha2 = alpha4 and a1 / sin(alpha1) = a2 / sin(alpha2) (Bennett 1903).  The world
+    is the frame of axis 4 (the ground link's far joint): its z is axis 4, its x the
+    common normal to axis 1.  Links 1, 2, 3 are a serial chain (rows alpha4 a4,
+    alpha1 a1, alpha2 a2); link 3's end closes on the ground at axis 4 with a revolute
+    closure (5 rows, rank 2: a general 4R loop would be rigid).  Coordinates: the joint
+    angles theta1..theta3 (DH, between consecutive common normals).  Each link is a
+    rod along its common normal.
+    """
+    g = bennett_geometry()
+    lengths, twists = (g.a1, g.a2, g.a1, g.a2), (g.alpha1, g.alpha2, g.alpha1, g.alpha2)
+    links = []
+    for k, name in enumerate(("link1", "link2", "link3")):
+        mass = g.mass * lengths[k]
+        links.append(SpatialLink(name, a=lengths[k - 1], alpha=twists[k - 1], parent=k - 1, mass=mass,
+                                 com=(lengths[k] / 2, 0, 0),
+                                 inertia=tuple(map(tuple, _rod_inertia(mass, lengths[k], 0, radius=0.008)))))
+    closure = SpatialClosure("revolute", link=2, to=-1, point=(lengths[2], 0, 0),
+                             axis=(0, -math.sin(twists[2]), math.cos(twists[2])))
+    m = SpatialMechanism(links, [closure], gravity)
+    m.sketch = np.array([math.pi / 2, 2.0, -math.pi / 2])  # near the closed pose at theta1 = pi/2
+    return m
+
+
+@dataclass(frozen=True)
+class _Bricard:
+    rod: float = 1.0      # m: every rod, the ground's too
+    mass: float = 1.0     # kg per rod
+    section: float = 0.1  # the rods' square cross-section's side, m
+
+
+def bricard_geometry() -> _Bricard:
+    """IFToMM benchmark A04's dimensions: rods of 1 m and 1 kg, square section 0.1 m."""
+    return _Bricard()
+
+
+# A04's joints: the points and axes of joints 1..6 at the start (the ground link runs from joint 6 to 1)
+BRICARD_JOINTS = (((0, 0, 0), (0, 1, 0)), ((1, 0, 0), (0, 0, 1)), ((1, -1, 0), (1, 0, 0)),
+                  ((1, -1, 1), (0, 1, 0)), ((0, -1, 1), (0, 0, 1)), ((0, 0, 1), (1, 0, 0)))
+
+
+def bricard(gravity=(0.0, -GRAVITY, 0.0)) -> SpatialMechanism:
+    """The Bricard linkage as IFToMM benchmark A04 specifies it (González et al. 2006).
+
+    Six revolutes in a loop, each link a rod of 1 m and 1 kg (square section 0.1 m),
+    gravity along -y; Grübler's count gives no mobility, the axes' layout gives one.
+    At the start the joints are at (0,0,0) axis y, (1,0,0) axis z, (1,-1,0) axis x
+    (the benchmark's point P3), (1,-1,1) axis y, (0,-1,1) axis z, (0,0,1) axis x
+    (:data:`BRICARD_JOINTS`); the ground is the rod from joint 6 to joint 1.  Each
+    rod is the common normal of its two axes, so the chain is five DH rows (a 1 m,
+    alpha +-pi/2) and rod 5 closes on the ground at joint 6 with a revolute closure
+    (5 rows, rank 4).  The benchmark starts at rest there: ``m.sketch`` is that pose
+    (all coordinates 0).
+    """
+    g = bricard_geometry()
+    L, s = g.rod, g.section
+    rod = ((g.mass * 2 * s * s / 12, 0, 0), (0, g.mass * (L * L + s * s) / 12, 0), (0, 0, g.mass * (L * L + s * s) / 12))
+    half = math.pi / 2
+    # (alpha, a, theta) of each rod's row; worked out from the joints above, the rod k along its frame's x
+    rows = ((-half, 0.0, 0.0), (half, L, -half), (-half, L, -half), (half, L, -half), (-half, L, -half))
+    links = [SpatialLink(f"rod{k + 1}", a=a, alpha=alpha, theta=theta, parent=k - 1, mass=g.mass, com=(L / 2, 0, 0),
+                         inertia=rod) for k, (alpha, a, theta) in enumerate(rows)]
+    point, axis = BRICARD_JOINTS[5]
+    # joint 6 on rod 5: its end, the axis turned by alpha5 = pi/2 about the rod
+    closure = SpatialClosure("revolute", link=4, to=-1, point=(L, 0, 0), axis=(0, -1, 0), to_point=point,
+                             to_axis=axis)
+    m = SpatialMechanism(links, [closure], gravity)
+    m.sketch = np.zeros(5)
+    return m
+
+
+def bricard_p3(m: SpatialMechanism, y) -> np.ndarray:
+    """The benchmark's point P3 (rod 2's far end, joint 3) over states y (rows x 3), m."""
+    return m.points(y, [1], [(m.links[2].a, 0.0, 0.0)])[:, 0, :]
+
+
+# name -> builder: every preset takes gravity as its first (optional) argument
+PRESETS = {"rssr": rssr, "rssp": rssp, "spherical-fourbar": spherical_fourbar, "planar-fourbar": planar_fourbar,
+           "hooke-joint": hooke_joint, "bennett": bennett, "bricard": bricard}
+__all__ += ["hooke_joint", "hooke_joint_geometry", "bennett", "bennett_geometry", "bricard", "bricard_geometry",
+            "bricard_p3", "BRICARD_JOINTS", "PRESETS"]
