@@ -285,6 +285,9 @@ def cmd_animate(args) -> int:
     if args.camera:
         raise InputError("--camera", "sets the perspective view of a spatial scene (dimension = 3); a planar "
                                      "scene is drawn in its plane")
+    if args.out and args.out.endswith(".png"):
+        raise InputError("--out", f"{limits.brief(args.out)}: a planar film is a GIF or an MP4, use one of .gif, .mp4 "
+                                  "(a .png still is a spatial scene's)")
     if args.source.endswith(".csv"):
         if not args.scene:
             raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "

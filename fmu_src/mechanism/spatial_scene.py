@@ -110,7 +110,7 @@ def rod_inertia(mass: float, rod, radius: float = ROD_RADIUS) -> tuple[np.ndarra
     Examples
     --------
     >>> com, I = rod_inertia(0.5, (0.1, 0.0, 0.0))
-    >>> com.tolist(), [round(v, 9) for v in np.diag(I)]
+    >>> com.tolist(), np.diag(I).round(9).tolist()
     ([0.05, 0.0, 0.0], [6.25e-06, 0.000419792, 0.000419792])
     """
     rod = np.asarray(rod, dtype=float)

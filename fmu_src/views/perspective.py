@@ -92,7 +92,7 @@ def up_direction(gravity) -> np.ndarray:
     """
     g = np.asarray(gravity, dtype=float)
     n = np.linalg.norm(g)
-    return -g / n if n > 0 else np.array([0.0, 0.0, 1.0])
+    return -g / n + 0.0 if n > 0 else np.array([0.0, 0.0, 1.0])  # (+ 0.0: no negative zero)
 
 
 def _direction(azimuth: float, elevation: float, up) -> np.ndarray:

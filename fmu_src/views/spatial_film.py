@@ -130,7 +130,7 @@ def spatial_film(sketch: SpatialSketch, t: np.ndarray, frames: np.ndarray, out: 
                 width = max(1, int(round(width * (grow if kind in ("link", "ground") else 1.0))))
                 draw.line(xy, fill=ink, width=width)
                 if kind in ("link", "ground") and width > 3:  # round ends: tubes meet without notches
-                    r = width / 2
+                    r = (width - 1) / 2  # (Pillow's ellipse spans both its corners: a pixel wider)
                     for u, v in (xy[:2], xy[2:]):
                         draw.ellipse((u - r, v - r, u + r, v + r), fill=ink)
             else:
