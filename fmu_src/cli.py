@@ -114,6 +114,12 @@ def cmd_motors(args) -> int:
 
 
 def cmd_info(args) -> int:
+    from grubler.mechanism.spatial_scene import is_spatial
+
+    if is_spatial(args.scene):
+        from grubler.spatial_cli import info_spatial
+
+        return info_spatial(args)
     scene = load_scene(args.scene)
     m = scene.mechanism
     c = classify(m)

@@ -17,7 +17,7 @@ from grubler.mechanism.spatial import REACTION_NAMES
 from grubler.mechanism.spatial_scene import load_spatial_scene
 from grubler.records import column_heading
 
-__all__ = ["simulate_spatial", "animate_spatial", "run_table"]
+__all__ = ["simulate_spatial", "animate_spatial", "info_spatial", "run_table"]
 
 _INTEGRATORS = ("dop853", "rk45")
 
@@ -98,6 +98,32 @@ def simulate_spatial(args) -> int:
         print("  ".join(f"{c:>14}" for c in shown))
         for i in np.linspace(0, len(res.t) - 1, min(len(res.t), 11)).astype(int):
             print("  ".join(f"{rows[i, names.index(c)]:14.6g}" for c in shown))
+    return 0
+
+
+def info_spatial(args) -> int:
+    """Coordinates, closures, freedoms and the assembled start of a spatial scene, and which reactions the
+    motion determines there (:meth:`~grubler.mechanism.spatial.SpatialMechanism.determinacy_report`)."""
+    if args.at:
+        raise InputError("--at", "sets a planar scene's drive angle; a spatial scene starts from its [initial] "
+                                 "sketch (a spatial scene)")
+    scene = load_spatial_scene(args.scene)
+    m = scene.mechanism
+    y0 = scene.start()
+    z0 = y0[:m.n_coords]
+    rank = m.determinacy(z0)[1] if m.n_rows else 0
+    kinds = ", ".join(f"{c.kind} ({m.links[c.link].name} on {'ground' if c.to < 0 else m.links[c.to].name})"
+                      for c in m.closures) or "none (an open tree)"
+    print(f"{scene.name or 'spatial scene'}: {scene.description}".rstrip(": "))
+    print(f"spatial chain of {len(m.links)} links, {m.n_coords} coordinates; closures: {kinds}")
+    free = m.n_coords - rank
+    print(f"closure rows {m.n_rows}, of rank {rank} here: {free} degree{'s' if free != 1 else ''} of freedom")
+    z0 = np.where(np.abs(z0) < 1e-12, 0.0, z0)  # an assembly's rounding is not a position
+    print("assembled start: " + ", ".join(
+        f"{n} = {np.degrees(v) + 0.0:.6g} deg" if n.endswith(".theta") else f"{n} = {v + 0.0:.6g} m"
+        for n, v in zip(m.coordinate_names, z0)))
+    if m.n_rows:
+        print("\n".join(m.determinacy_report(z0)))
     return 0
 
 

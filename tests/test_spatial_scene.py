@@ -255,3 +255,34 @@ def test_cli_refuses_a_bad_spatial_file_naming_the_field(tmp_path, capsys):
     assert run(["simulate", str(bad)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("grubler: error: link[2].alpha:"), err
+
+
+def test_info_tells_freedoms_start_and_determinacy(capsys):
+    assert run(["info", "spherical-fourbar"]) == 0
+    out = capsys.readouterr().out
+    assert "closure rows 5, of rank 2 here: 1 degree of freedom" in out
+    assert "closure 0 (revolute): determinate My, Mx; indeterminate Fx, Fy, Fz" in out
+    assert "crank.theta = 0 deg" in out
+
+
+def test_hold_keeps_the_named_coordinates_and_damping_takes_a_pair():
+    text = _preset_toml("rssr").replace('"rocker.theta" = "42.9 deg"', '"rocker.theta" = "50 deg"\n'
+                                        'hold = ["rocker.theta"]')
+    text = text.replace("mass = 0.8", "mass = 0.8\ndamping = [0.02, 0]")
+    scene = load_spatial_scene(text)
+    y0 = scene.start()
+    names = scene.mechanism.coordinate_names
+    assert y0[names.index("rocker.theta")] == pytest.approx(math.radians(50), abs=1e-15)
+    assert y0[names.index("crank.theta")] != pytest.approx(0.0, abs=1e-3)   # the crank moved to close it
+    assert scene.mechanism.links[4].damping == (0.02, 0.0)
+    with pytest.raises(SceneError, match=r"initial\.hold: must list the coordinates"):
+        load_spatial_scene(text.replace('hold = ["rocker.theta"]', 'hold = ["rocker"]'))
+
+
+def test_simulate_plots_a_spatial_run(tmp_path):
+    from PIL import Image
+
+    png = tmp_path / "rssp.png"
+    assert run(["simulate", "rssp", "--t-end", "0.2", "--plot", str(png)]) == 0
+    with Image.open(png) as im:
+        assert im.size[0] > 400 and im.size[1] > 400
