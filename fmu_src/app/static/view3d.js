@@ -65,7 +65,8 @@ function shade(ink, s) {  // s in [0, 1]: the nearest full, the farthest mixed h
 
 function draw() {
   const d = view.data, canvas = $("view3d"), g = canvas.getContext("2d");
-  g.clearRect(0, 0, canvas.width, canvas.height);
+  g.fillStyle = "#fff";  // painted, not transparent: a saved picture has the background it is seen on
+  g.fillRect(0, 0, canvas.width, canvas.height);
   if (!d) return;
   const project = projector(view.cam, canvas), reference = view.cam.distance;
   g.lineCap = "round";
