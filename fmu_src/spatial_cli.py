@@ -12,7 +12,7 @@ import csv
 import numpy as np
 
 from grubler.errors import InputError
-from grubler.limits import open_output
+from grubler.limits import check_size, open_output
 from grubler.mechanism.spatial import REACTION_NAMES
 from grubler.mechanism.spatial_scene import load_spatial_scene
 from grubler.records import column_heading
@@ -77,6 +77,11 @@ def simulate_spatial(args) -> int:
     m = scene.mechanism
     t_end = args.t_end or scene.t_end
     dt_out = args.dt_out or min(scene.dt_out, t_end)
+    if dt_out > t_end:
+        raise InputError("--dt-out", f"{dt_out:g} s is longer than the run ({t_end:g} s)")
+    # the rows are held (state, and the table's columns) before they are written: refused past the budget
+    columns = 2 * m.n_coords + 5 + (6 * (len(m.closures) + len(m.links)) if args.reactions else 0)
+    check_size(t_end / dt_out + 1, 8 * (2 * m.n_coords + columns), "the run's rows", "--t-end or --dt-out")
     res = m.simulate(scene.start(), t_end, dt_out, tau=scene.tau(args.torque), rtol=args.rtol,
                      atol=args.atol or args.rtol, tableau=args.integrator or "dop853")
     names, units, rows = run_table(res, args.reactions)

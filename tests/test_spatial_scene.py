@@ -239,6 +239,8 @@ def test_simulate_writes_coordinates_energy_closure_error_and_reactions(tmp_path
     (["simulate", "rssr", "--method", "penalty"], "--method: the spatial kernel closes its loops exactly"),
     (["simulate", "rssr", "--integrator", "radau"], "--integrator: the spatial advance has dop853 and rk45"),
     (["simulate", "rssr", "--reactions"], "--reactions:"),
+    (["simulate", "rssr", "--t-end", "1e9", "--dt-out", "1e-6"], "--t-end or --dt-out: the run's rows would take"),
+    (["simulate", "rssr", "--t-end", "1", "--dt-out", "2"], "--dt-out: 2 s is longer than the run"),
     (["animate", "rssr", "--camera", "30,20"], "--camera azimuth: '30' has no unit"),
     (["animate", "rssr", "--trace", "tip"], "--trace: a trace is a planar film's"),
     (["animate", "thesis-fourbar", "--camera", "30 deg,20 deg"], "--camera: sets the perspective view"),
