@@ -99,6 +99,10 @@ def cmd_presets(args) -> int:
         scene = load_scene(name)
         c = classify(scene.mechanism)
         print(f"{name:<{width}}  {c.chain:<10} {c.name}")
+    from grubler.mechanism.spatial_scene import load_spatial_scene, spatial_preset_names
+
+    for name in spatial_preset_names():
+        print(f"{name:<{width}}  {'spatial':<10} {load_spatial_scene(name).description}")
     return 0
 
 
@@ -110,6 +114,12 @@ def cmd_motors(args) -> int:
 
 
 def cmd_info(args) -> int:
+    from grubler.mechanism.spatial_scene import is_spatial
+
+    if is_spatial(args.scene):
+        from grubler.spatial_cli import info_spatial
+
+        return info_spatial(args)
     scene = load_scene(args.scene)
     m = scene.mechanism
     c = classify(m)
@@ -223,6 +233,12 @@ def _print_branches(m, z0) -> None:
 
 
 def cmd_simulate(args) -> int:
+    from grubler.mechanism.spatial_scene import is_spatial
+
+    if is_spatial(args.scene):
+        from grubler.spatial_cli import simulate_spatial
+
+        return simulate_spatial(args)
     if args.reactions and not args.csv:  # its columns go to the CSV alone: without one it would do nothing
         raise InputError("--reactions", "adds the joints' reaction columns to the CSV: give --csv FILE (the plot and "
                                         "the printed table do not show them)")
@@ -266,7 +282,18 @@ def cmd_animate(args) -> int:
     from grubler.views.animation import MAX_SIGNALS, animate, check_frames, sampling_warnings
     from grubler.views.plotting import kind_words
     from grubler.views.runs import check_fits, read_run, select_signals, signal_names
+    from grubler.mechanism.spatial_scene import is_spatial
 
+    if not args.source.endswith(".csv") and is_spatial(args.source):
+        from grubler.spatial_cli import animate_spatial
+
+        return animate_spatial(args, args.source, args.camera)
+    if args.camera:
+        raise InputError("--camera", "sets the perspective view of a spatial scene (dimension = 3); a planar "
+                                     "scene is drawn in its plane")
+    if args.out and args.out.endswith(".png"):
+        raise InputError("--out", f"{limits.brief(args.out)}: a planar film is a GIF or an MP4, use one of .gif, .mp4 "
+                                  "(a .png still is a spatial scene's)")
     if args.source.endswith(".csv"):
         if not args.scene:
             raise InputError("--scene", "a CSV holds coordinates only; name the scene it came from "
@@ -698,8 +725,9 @@ def build_parser() -> argparse.ArgumentParser:
     a = sub.add_parser("animate", help="draw a scene's motion (or a simulate or cosim CSV) to a GIF or MP4")
     a.add_argument("source", help="preset name, TOML scene, or a CSV written by `grubler simulate` or `cosim`")
     a.add_argument("--scene", help="the scene a CSV came from (preset or TOML)")
-    a.add_argument("--out", type=_output("--out", (".gif", ".mp4")),
-                   help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg); default SCENE.gif")
+    a.add_argument("--out", type=_output("--out", (".gif", ".mp4", ".png")),
+                   help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg), or FILE.png for a spatial scene's still at t = 0; "
+                        "default SCENE.gif")
     a.add_argument("--fps", type=_number("--fps", low=0.01, high=100.0), default=25.0,
                    help="frames per second of film, 0.01 to 100 (a GIF frame lasts 10 ms to 655 s)")
     a.add_argument("--speed", type=_positive("--speed"), default=1.0, help="seconds of motion per second of film")
@@ -711,6 +739,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "simulate's columns (e.g. theta2,tau_drive,E)")
     a.add_argument("--t-end", type=_positive("--t-end", "s"), help="simulated time, s (scene sources)")
     a.add_argument("--torque", type=_finite("--torque"), help="drive torque, N m (scene sources)")
+    a.add_argument("--camera", metavar="AZ,EL[,DIST]",
+                   help="a spatial scene's perspective view: azimuth about the up direction (against gravity) from "
+                        "world x, elevation, and distance from the motion's middle, e.g. '30 deg,20 deg,1.5 m' "
+                        "(default -55 deg,25 deg, the distance that fits the motion to the picture)")
     a.set_defaults(func=cmd_animate)
     r = sub.add_parser("report", help="one-page report (PNG or PDF) of a run CSV")
     r.add_argument("csv", help="a CSV written by `grubler simulate` or `grubler cosim`")

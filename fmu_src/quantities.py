@@ -212,7 +212,28 @@ _CLOSURE_FIELDS = {
     "gain": ("N/m or N m/rad", "penalty closure stiffness G"),
     "damping": ("N s/m or N m s/rad", "penalty closure damping C"),
 }
-_ANGLE = re.compile(r"(theta\d+|.*_angle|angle|psi|theta1)$")
+_ANGLE = re.compile(r"(theta\d*|.*_angle|angle|psi|alpha)$")  # (theta, alpha: a spatial link's DH angles)
+# a spatial scene's fields ([[link]] and [[closure]] tables, named link[j].field, closure[c].field), where they
+# differ from a planar scene's of the same name; its angles (alpha, theta) and its coordinates' rates
+# (initial."crank.theta_d", initial."slider.d_d") follow the rules above
+_SPATIAL_FIELDS = {
+    "link": {
+        "a": ("m", "DH length along the parent's x axis"),
+        "d": ("m", "DH offset along the joint axis"),
+        "mass": ("kg", "mass"),
+        "com": ("m", "mass centre, in the link's frame"),
+        "inertia": ("kg m^2", "inertia tensor about the mass centre, in the link's axes"),
+        "rod": ("m", "a slender rod from the link's origin to this point (its mass centre and inertia)"),
+        "radius": ("m", "the rod's radius"),
+        "damping": ("N m s/rad or N s/m", "viscous damping on theta and on d"),
+    },
+    "closure": {
+        "point": ("m", "the joint's point on the closing link, in its frame"),
+        "to_point": ("m", "the joint's point on the target, in its frame (the world's on the ground)"),
+        "axis": ("", "the joint axis on the closing link (a direction: made unit)"),
+        "to_axis": ("", "the joint axis on the target (a direction: made unit)"),
+    },
+}
 
 
 def scene_field(key: str, on_slide: bool | None = None) -> Quantity:
@@ -232,9 +253,17 @@ def scene_field(key: str, on_slide: bool | None = None) -> Quantity:
     ('rad/s', "rad, or '30 deg'")
     >>> scene_field("mechanism.branch1").unit, scene_field("closure[1].gain").unit
     ('', 'N/m or N m/rad')
+    >>> scene_field("link[1].inertia[0][2]").unit, scene_field("link[1].alpha").unit, scene_field("gravity[2]").unit
+    ('kg m^2', "rad, or '30 deg'", 'm/s^2')
+    >>> scene_field("initial.crank.theta_d").unit, scene_field("initial.slider.d_d").unit
+    ('rad/s', 'm/s')
     """
+    key = re.sub(r"(\[\d+\])+$", "", key)  # a vector's or a tensor's part (gravity[2], link[0].inertia[1][2])
     leaf = key.rsplit(".", 1)[-1]
-    if leaf.endswith("_d") and (_ANGLE.match(leaf[:-2]) or re.fullmatch(r"B\d+", leaf[:-2])):
+    spatial = re.match(r"(link|closure)\[\d+\]\.", key)
+    if spatial and leaf in _SPATIAL_FIELDS[spatial[1]]:
+        return Quantity(key, *_SPATIAL_FIELDS[spatial[1]][leaf][:1], leaf, _SPATIAL_FIELDS[spatial[1]][leaf][1])
+    if leaf.endswith("_d") and (_ANGLE.match(leaf[:-2]) or re.fullmatch(r"B\d+|d", leaf[:-2])):
         return Quantity(key, "rad/s" if _ANGLE.match(leaf[:-2]) else "m/s", leaf, f"initial rate of {leaf[:-2]}")
     if _ANGLE.match(leaf):
         return Quantity(key, ANGLE_UNIT, leaf, "an angle")

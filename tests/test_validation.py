@@ -189,8 +189,11 @@ def test_docs_example_is_valid():
     doc = (pathlib.Path(__file__).parents[1] / "docs" / "scenes.md").read_text()
     blocks = re.findall(r"```toml\n(.*?)```", doc, re.S)
     assert blocks
+    from grubler.mechanism.spatial_scene import is_spatial, load_spatial_scene
+
     for block in blocks:
-        load_scene(textwrap.dedent(block))
+        text = textwrap.dedent(block)
+        (load_spatial_scene if is_spatial(text) else load_scene)(text)  # the spatial form's too
 
 
 def test_dotted_overrides_name_what_is_wrong():

@@ -615,6 +615,22 @@ ACTIONS = {"catalog": a_catalog, "preset": a_preset, "analyse": a_analyse, "edit
 RUNS = {a_simulate, a_servo}  # the actions whose run stops when their client leaves (they take its flag)
 
 
+def a_spatial_catalog(server, session, body):
+    from grubler.app.spatial_view import spatial_catalog
+
+    return spatial_catalog()
+
+
+def a_spatial(server, session, body):
+    from grubler.app.spatial_view import spatial_view
+
+    return spatial_view(body)
+
+
+# the 3D view of the spatial presets (static/view3d.html, view3d.js)
+ACTIONS.update({"spatial_catalog": a_spatial_catalog, "spatial": a_spatial})
+
+
 def serve(scene: str | None = None, host: str = "127.0.0.1", port: int = 0, open_browser: bool = True,
           root: str | Path = ".", ready=None) -> None:
     """Run the app until interrupted: print its URL, open the browser unless told not to.

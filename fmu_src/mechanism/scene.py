@@ -209,6 +209,9 @@ def scene_from_dict(data: dict, name: str = "") -> Scene:
     ('pendulum', 0.5)
     """
     data = dict(data)
+    if data.get("dimension") == 3:  # the other form: said so, rather than its every key refused as unknown
+        raise SceneError("dimension", "a spatial scene (dimension = 3): `grubler simulate` and `grubler animate` take "
+                                      "it; in Python, grubler.mechanism.spatial_scene.load_spatial_scene")
     found = Problems()
     link_keys = sorted((k for k in data if re.fullmatch(r"link\d+", k)), key=lambda k: int(k[4:]))
     with found.check():
