@@ -22,11 +22,12 @@ True
 
 from __future__ import annotations
 
-from grubler.app.drawing import (SWEEP_STEPS, analyse, analyse_drag, analysis_view, coil_shape, coupler_curve,
+from grubler.app.drawing import (SWEEP_STEPS, _sketch, analyse, analyse_drag, analysis_view, coil_shape, coupler_curve,
                                  default_trace, drag, drive_sweep, handles, pick_trace, run_instant)
 from grubler.app.drives import (check_fmu_folder, cylinder_servo_defaults, run_cylinder_servo, run_servo, run_sizing,
                                 servo_defaults)
-from grubler.app.elements import add_element, remove_element
+from grubler.app import elements
+from grubler.app.elements import remove_element
 from grubler.app.runs import describe, plotted, result_csv, run_simulation
 from grubler.app.scene_form import (catalog, choices, echoed, edit, error_of, fields, parse_scene_text, preset_data,
                                     scene_toml, unit)
@@ -89,3 +90,8 @@ __all__ = ["analyse", "analyse_drag", "analysis_view", "run_instant", "catalog",
            "cylinder_servo_defaults", "run_cylinder_servo", "run_sizing", "export_file", "error_of", "handles",
            "pick_trace", "drive_sweep", "coupler_curve", "default_trace", "unit", "EXPORTS", "SWEEP_STEPS",
            "assemble", "preset_names", "scene_from_dict", "add_element", "remove_element", "coil_shape"]
+
+
+def add_element(data: dict, kind) -> dict:
+    """Scene data with a new force element of ``kind``, placed on the scene's sketch (grubler.app.elements)."""
+    return elements.add_element(data, kind, _sketch)

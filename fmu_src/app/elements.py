@@ -10,8 +10,9 @@ mechanism's own scale; the scene reader then checks it as it checks a file.
 
 Examples
 --------
+>>> from grubler.app.drawing import _sketch
 >>> from grubler.app.scene_form import preset_data
->>> data = add_element(preset_data("fourbar-crank-rocker"), "spring")
+>>> data = add_element(preset_data("fourbar-crank-rocker"), "spring", _sketch)
 >>> data["spring"][0]["name"], data["spring"][0]["from_link"], data["spring"][0]["to_link"]
 ('spring1', 'ground', 'link2')
 >>> "spring" in remove_element(data, "spring[0]")
@@ -89,7 +90,7 @@ def _sig(v: float, digits: int = 2) -> float:
     return float(f"{v:.{digits}g}") if v else 0.0
 
 
-def add_element(data: dict, kind) -> dict:
+def add_element(data: dict, kind, sketch) -> dict:
     """Scene data with a new force element of ``kind`` ('spring', 'joint_spring' or 'point_load').
 
     It starts doing nothing or little, every field written out: a spring from a
@@ -98,13 +99,16 @@ def add_element(data: dict, kind) -> dict:
     a torsion spring at the drive joint (the first real joint) relaxed where the
     sketch closes; a load of the links' weight, downwards, on the last moving
     link (an open chain's tip, a loop's last link's middle).
+
+    ``sketch`` turns scene data into its model and the coordinates where its
+    sketch closes (the drawing's ``_sketch``: passed in, as the drawing imports
+    this module for the form).
     """
-    from grubler.app.drawing import _sketch
     from grubler.mechanism.kinematics import link_points
 
     if kind not in KINDS:
         raise InputError("element", f"must be one of {', '.join(KINDS)}, got {brief(kind)}")
-    model, z = _sketch(data)
+    model, z = sketch(data)
     weight = G * sum(link.m for link in model.links) or G
     out = json.loads(json.dumps(data))
     tables = out.get(kind)
