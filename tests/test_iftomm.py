@@ -96,3 +96,8 @@ def test_a03_script_writes_the_seven_angles_as_json(tmp_path, capsys):
         assert data["digits_published"][name] > 9.0
     assert data["cpu_s"] > 0 and data["cpu_s_0_05"] > 0
     assert "CPU time" in capsys.readouterr().out
+
+
+def test_a03_energy_balance_over_the_library_run_of_0_05_s():
+    # no damping: E - E(0) is the drive's work, 0.033 N m times the crank's turn (1.12 J by 0.05 s); 8e-13 J here
+    assert a03.energy_drift(1e-12) < 1e-9

@@ -54,6 +54,7 @@ PUBLISHED = np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.408222401
 PUBLISHED_RATES = np.array([0.1139920302151208e+4, -0.1424379294994111e+4, 0.1103291221937134e+2,
                             0.1929337464421385e+2, 0.5735699284790808e+0, -0.1929337464421385e+2,
                             0.3231791658026955e+0])
+MOM = 0.033  # N m, the drive torque
 OPENSIM_005 = 0.384  # s, OpenSim 3.2, A03 for 0.05 s (Intel i5-4570 @ 3.2 GHz)
 
 
@@ -100,6 +101,17 @@ def compare(angles: np.ndarray, independent: np.ndarray | None) -> dict:
     return out
 
 
+def energy_drift(rtol: float, t_end: float = 0.05) -> float:
+    """The largest |E(t) - E(0) - mom (beta(t) - beta(0))| over a run, J: the energy balance (no damping here).
+
+    E = KE + PE holds the spring's energy; the drive's work is its constant torque
+    times the crank's turn.
+    """
+    res = simulate(load_scene(SCENE), t_end=t_end, dt_out=t_end / 100, rtol=rtol, atol=rtol)
+    work = MOM * (res["theta2"] - res["theta2"][0])
+    return float(np.max(np.abs(res["E"] - res["E"][0] - work)))
+
+
 def sweep(independent: np.ndarray, repeat: int) -> list[dict]:
     rows = []
     for rtol in (1e-6, 1e-8, 1e-10, 1e-12, 1e-13):
@@ -125,7 +137,8 @@ def main(argv=None) -> int:
     angles = final_angles(res)
     independent = None if args.no_independent else andrews_reference.solve(T_REF)[0]
     out = compare(angles, independent)
-    out.update(rtol=args.rtol, steps=res.stats["steps"], cpu_s=cpu, cpu_s_0_05=cpu05, repeat=args.repeat,
+    drift = energy_drift(args.rtol)
+    out.update(energy_drift_0_05=drift, rtol=args.rtol, steps=res.stats["steps"], cpu_s=cpu, cpu_s_0_05=cpu05, repeat=args.repeat,
                machine=machine())
 
     print(f"A03 Andrews' squeezing mechanism at t = {T_REF} s, DOP853 rtol = atol = {args.rtol:g} "
@@ -140,6 +153,8 @@ def main(argv=None) -> int:
         print(line)
     print(f"  digits matched (the fewest): published {min(out['digits_published'].values()):.1f}"
           + (f", independent {min(out['digits_independent'].values()):.1f}" if independent is not None else ""))
+    print(f"  energy balance over 0.05 s: max |E - E0 - drive work| = {drift:.1e} J "
+          f"(the drive puts in {MOM * (final_angles(run(args.rtol, 0.05))[0] - andrews_reference.Q0[0]):.4f} J)")
     print(f"  CPU time: {cpu:.4f} s to 0.03 s, {cpu05:.4f} s to 0.05 s (median of {args.repeat}; "
           f"OpenSim 3.2, 0.05 s: {OPENSIM_005} s)")
     print(f"  machine: {out['machine']}")
