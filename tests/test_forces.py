@@ -959,3 +959,44 @@ def test_computed_torque_fmu_sources_with_elements_are_strict_c99(sprung_ct_fmu,
         importer_build(tmp_path / "u", *STRICT, "-D__STDC_NO_COMPLEX__")
     except subprocess.CalledProcessError as exc:
         pytest.fail(f"the sources do not compile as strict C99:\n{exc.stderr}")
+
+
+# a gas strut on the sprung four-bar whose column the sketch has used up: free length 2 m, column 0.1 m, at a
+# length of 0.56 m; its force is not finite there, and no demand can be met
+USED_UP = SPRUNG_FOURBAR.replace("damping = 4.0", "damping = 4.0\ngas_force = 10.0\ngas_column = 0.1\n"
+                                                   "gas_exponent = 1.4").replace("free_length = 0.5",
+                                                                                 "free_length = 2.0")
+
+
+def test_computed_torque_refuses_a_used_up_gas_spring_by_name_not_with_a_nan():
+    from grubler.controllers import ComputedTorque
+    from grubler.mechanism.inverse import drive_demand
+
+    with pytest.raises(SceneError) as err:
+        ComputedTorque(load_scene(USED_UP))
+    assert err.value.field == "spring[0].gas_column" and "the gas is used up" in err.value.reason
+    # along a crank turn the strut shortens from 0.563 m to 0.462 m (sample 13 of 73): a 0.02 m column, 0.083 m
+    # at the start, runs out on the way, and the sample where it does is named
+    m = load_scene(SPRUNG_FOURBAR.replace("damping = 4.0", "damping = 4.0\ngas_force = 10.0\ngas_column = 0.02\n"
+                                                           "gas_exponent = 1.4")).mechanism
+    pos = float(m.z_from_q(m.q_ref)[0]) + np.linspace(0.0, 2 * math.pi, 73)
+    with pytest.raises(SceneError) as err:
+        drive_demand(m, pos, np.ones_like(pos), np.zeros_like(pos))
+    assert err.value.field == "spring[0].gas_column"
+    k = int(err.value.reason.split("at trajectory sample ")[1].split()[0])
+    assert 0 < k < 13
+
+
+def test_computed_torque_fmu_refuses_a_used_up_gas_spring_by_its_parameter(sprung_ct_fmu):
+    messages = []
+    md, vr, slave = _slave(sprung_ct_fmu[0], "gas-ct", messages)
+    try:
+        slave.setupExperiment(startTime=0.0)
+        slave.setReal([vr["tie.gas_force"], vr["tie.gas_column"], vr["tie.gas_exponent"], vr["tie.free_length"]],
+                      [10.0, 0.1, 1.4, 2.0])
+        with pytest.raises(Exception):
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+    finally:
+        slave.freeInstance()
+    assert any(m.startswith("tie.gas_column: the gas is used up at the sketch") for m in messages), messages

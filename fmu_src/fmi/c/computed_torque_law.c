@@ -161,6 +161,29 @@ int law_check(const double *param, double *work, int *field, const char **why) {
             return ctl_refuse(SLOT_Q0 + 2 * m.drive + (revolute[m.drive] ? 1 : 0), LAW_N_PARAMS,
                               "the loop cannot be closed at the sketch with the drive held there (or it is a "
                               "change point)", field, why);
+#if N_FORCES > 0
+        {
+            /* a gas spring whose column is used up there has no finite force: no demand can be met */
+            double y[2 * N], force_out[N_FORCES * GRB_FO_COUNT], h, length;
+            int e, st;
+            for (i = 0; i < N; i++) {
+                y[i] = z_out[i];
+                y[N + i] = 0.0;
+            }
+            e = scene_used_up_gas(&m, y, work + TABLE_WORK, force_out, &h, &length, &st);
+            (void)st; /* a failing evaluation leaves e = -1: the samples then meet it */
+            if (e >= 0) {
+                /* the refusal lives past the call: in work, before the tables (which are done with) */
+                char *refusal = (char *)(void *)work;
+                snprintf(refusal, REFUSAL_LENGTH, "%s.gas_column: the gas is used up at the sketch: its column "
+                         "gas_column + length - free_length is %.4g m at the length %.4g m; a gas spring needs a "
+                         "positive column", force_name[e], h, length);
+                *field = LAW_FIELD_IN_WHY;
+                *why = refusal;
+                return CTL_BAD_PARAMETER;
+            }
+        }
+#endif
     }
     return CTL_OK;
 }

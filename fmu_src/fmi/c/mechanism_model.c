@@ -348,20 +348,13 @@ static fmi2Status elements_at_start_ok(grb_instance *inst, const double *y) {
     }
 #endif
 #if NF > 0
-    st = grb_force_rows(&mm->m, 1, y, mm->work, mm->force_out);
-    if (st != GRB_OK) BAD("force elements: %s", status_text(st));
-    for (i = 0; i < NF; i++) {
-        const double *row = mm->forces + i * GRB_F_COLUMNS;
-        double length = mm->force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
-        double h = row[GRB_F_GAS_COLUMN] + length - row[GRB_F_FREE];
-        if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(h > 0)) {
-            int k;
-            for (k = 0; k < N_FORCE_PARAMS; k++)  /* its gas_column parameter names it */
-                if (force_param_element[k] == i && force_param_column[k] == GRB_F_GAS_COLUMN) break;
-            BAD("%s: the gas is used up at the start: its column gas_column + length - free_length is "
-                "%.4g m at the start's length %.4g m; a gas spring needs a positive column",
-                slot_name(SLOT_FORCES + k), h, length);
-        }
+    {
+        double h, length;
+        i = scene_used_up_gas(&mm->m, y, mm->work, mm->force_out, &h, &length, &st);
+        if (st != GRB_OK) BAD("force elements: %s", status_text(st));
+        if (i >= 0)
+            BAD("%s.gas_column: the gas is used up at the start: its column gas_column + length - free_length is "
+                "%.4g m at the start's length %.4g m; a gas spring needs a positive column", force_name[i], h, length);
     }
 #endif
 #if !(N_ACTUATORS > 0 || NF > 0)

@@ -137,4 +137,24 @@ static void scene_force_view(const double *p, grb_scene_view *v, double *rows) {
 #endif
 }
 
+/* The first gas spring whose gas column (gas_column + length - free_length)
+ * is used up at the state y (2N, kernel numbering in m's rows), with that
+ * column and its length; -1 when every column is positive (the library's
+ * used_up_gas).  There the spring's force is not finite.  force_out:
+ * N_FORCES x GRB_FO_COUNT the caller owns; *status: grb_force_rows's. */
+static int scene_used_up_gas(const grb_model *m, const double *y, double *work, double *force_out, double *h,
+                             double *length, int *status) {
+    int i;
+    *status = GRB_OK;
+    if (N_FORCES == 0) return -1;
+    if ((*status = grb_force_rows(m, 1, y, work, force_out)) != GRB_OK) return -1;
+    for (i = 0; i < N_FORCES; i++) {
+        const double *row = m->forces + i * GRB_F_COLUMNS;
+        *length = force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
+        *h = row[GRB_F_GAS_COLUMN] + *length - row[GRB_F_FREE];
+        if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(*h > 0)) return i;
+    }
+    return -1;
+}
+
 #endif
