@@ -101,3 +101,13 @@ def test_a03_script_writes_the_seven_angles_as_json(tmp_path, capsys):
 def test_a03_energy_balance_over_the_library_run_of_0_05_s():
     # no damping: E - E(0) is the drive's work, 0.033 N m times the crank's turn (1.12 J by 0.05 s); 8e-13 J here
     assert a03.energy_drift(1e-12) < 1e-9
+
+
+def test_a03_film_plots_the_spring_force_under_the_squeezer(tmp_path):
+    # as a user films it: the spring's force is one of simulate's columns, so --signals takes it
+    from grubler.cli import main as cli
+
+    out = tmp_path / "a03.gif"
+    assert cli(["animate", str(a03.SCENE), "--out", str(out), "--speed", "0.01", "--fps", "10",
+                "--signals", "theta2,spring_force"]) == 0
+    assert out.stat().st_size > 0
