@@ -1000,3 +1000,32 @@ def test_computed_torque_fmu_refuses_a_used_up_gas_spring_by_its_parameter(sprun
     finally:
         slave.freeInstance()
     assert any(m.startswith("tie.gas_column: the gas is used up at the sketch") for m in messages), messages
+
+
+# the issue's three refusals (a negative stiffness, a point on a link that does not exist, both ends on one link),
+# for every kind of element, through the command line: exit 2 and one line naming the field
+FOURBAR_TEXT = (Path(grubler.__file__).parent / "presets" / "thesis-fourbar.toml").read_text()
+SPRING_ROWS = 'from_link = "ground"\nfrom_point = [0.5, 0.9]\nto_link = "link3"\nto_point = [0.4, 0.0]\n'
+
+
+@pytest.mark.parametrize("element, line", [
+    ("[[spring]]\n" + SPRING_ROWS + "stiffness = -5.0\nfree_length = 0.5",
+     "spring[0].stiffness: stiffness must be >= 0, got -5.0"),
+    ("[[joint_spring]]\njoint = \"theta4\"\nstiffness = -2.0",
+     "joint_spring[0].stiffness: stiffness must be >= 0, got -2.0"),
+    ("[[spring]]\n" + SPRING_ROWS.replace('"link3"', '"link7"') + "stiffness = 5.0\nfree_length = 0.5",
+     "spring[0].to_link: link 7 does not exist"),
+    ("[[point_load]]\nlink = \"link7\"\npoint = [0.1, 0.0]\nforce = [1.0, 0.0]",
+     "point_load[0].link: link 7 does not exist"),
+    ("[[joint_spring]]\njoint = \"theta7\"\nstiffness = 2.0", "joint_spring[0].joint: unknown coordinate 'theta7'"),
+    ("[[spring]]\n" + SPRING_ROWS.replace('"ground"', '"link3"') + "stiffness = 5.0\nfree_length = 0.5",
+     "spring[0].to_link: must be another link than from_link (3)"),
+])
+def test_cli_refuses_the_issues_bad_elements_by_name(tmp_path, capsys, element, line):
+    from grubler.cli import main as cli
+
+    scene = tmp_path / "bad.toml"
+    scene.write_text(FOURBAR_TEXT + "\n" + element + "\n")
+    assert cli(["simulate", str(scene), "--t-end", "0.01"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("grubler: error: " + line) and "\n" not in err, err
