@@ -231,9 +231,11 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
 
     The law's parameters, then the scene's as the Mechanism FMU shows them
     (:func:`grubler.fmi.mechanism.mechanism_spec`: gravity, the ground vector,
-    ``drive_joint``, every link's and closure's fields and the sketch
-    ``initial.*``), starting at ``scene``'s values (default the thesis
-    four-bar): one FMU serves every mechanism of that shape.
+    ``drive_joint``, every link's and closure's fields, the sketch
+    ``initial.*`` and the force elements' fields), starting at ``scene``'s
+    values (default the thesis four-bar): one FMU serves every mechanism of
+    that shape.  The demand holds the force elements' efforts, as the
+    library's does.
 
     Raises
     ------
@@ -242,7 +244,7 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
     """
     from grubler.controllers.computed_torque import ComputedTorque
     from grubler.fmi.mechanism import (CLOSURE, CLOSURE_FIELDS, JOINT, LINK_FIELDS, STANDARD_SCENE, closure_prefix,
-                                       mechanism_spec, scene_parameters)
+                                       force_defines, force_parameter_names, mechanism_spec, scene_parameters)
     from grubler.mechanism.scene import Scene, load_scene
 
     scene = scene if isinstance(scene, Scene) else load_scene(scene or STANDARD_SCENE)
@@ -267,7 +269,10 @@ def computed_torque_spec(scene=None, identifier: str = "ComputedTorque") -> Mode
                     "CT_WORK_SIZE": binding.work_size(n, nc)})
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
-    tables = m.arrays.links.size + m.arrays.closures.size
+    # the force elements, as the Mechanism FMU and the library compute with them: the demand holds their efforts
+    defines.update(force_defines(m, slot[force_parameter_names(m)[0]] if m.forces else len(slot)))
+    defines["TABLE_FORCE_SIZE"] = m.force_table().size
+    tables = m.arrays.links.size + m.arrays.closures.size + defines["TABLE_FORCE_SIZE"]
     # as every control FMU's, a description ends in its unit ([1]: none, or a joint's that slides or turns)
     extra = tuple(v if v.description.endswith("]") else replace(v, description=f"{v.description} [{v.unit or '1'}]")
                   for v in (plant[x] for x in scene_names))

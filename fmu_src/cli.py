@@ -305,7 +305,7 @@ def cmd_animate(args) -> int:
         series = raw
     else:
         scene = load_scene(args.source)
-        available = output_columns(scene.mechanism, ["state", "dynamics", "energy"])
+        available = output_columns(scene.mechanism)  # simulate's columns: the elements' too
         n_signals = len(signal_names(args.signals, available, limit=MAX_SIGNALS)) if args.signals else 0
         check_frames(args.t_end or scene.t_end, args.fps, args.speed, n_signals)  # before simulating for them
         res = simulate(scene, t_end=args.t_end, dt_out=min(0.01, args.speed / args.fps), torque=args.torque)

@@ -330,3 +330,16 @@ def test_a_turning_crank_strip_is_wrapped_and_a_film_too_coarse_for_it_warns_nam
     assert main(["animate", "fourbar-crank-rocker", "--t-end", "2", "--fps", "5", "--out", str(out)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert out.exists() and any(e.startswith("warning: --fps: theta2 turns") for e in err)
+
+
+def test_time_label_tells_frames_apart_on_a_short_run():
+    # Andrews' squeezer: 0.03 s of motion filmed at speed 0.01 (0.4 ms a frame); to the hundredth every
+    # label of a dozen frames running read "t = 0.02 s"
+    from grubler.views.animation import time_label
+
+    interval = 0.01 / 25
+    labels = [time_label(k * interval, interval) for k in range(76)]
+    assert len(set(labels)) == 76
+    assert labels[38] == "t = 0.0152 s"
+    # a film at the default speed keeps its two decimals
+    assert time_label(1.2345, 1.0 / 25) == "t = 1.23 s"

@@ -12,11 +12,13 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import cumulative_simpson
 
+import grubler
 from grubler.errors import SceneError
 from grubler.mechanism.scene import load_scene
 from grubler.mechanism.simulate import evaluate, simulate
@@ -393,6 +395,12 @@ def test_fmu_equals_the_library_with_every_kind_of_element(forces_fmu):
     ("tie.gas_column", 0.0, "tie.gas_column: a gas spring's gas column (V0 / A at the free length) must be "
                             "positive, got 0.0"),
     ("push.link", 1, "push.link must be in 2 .. 3, got 1"),  # the ground: the variable's range refuses it when set
+    # the issue's three: a negative stiffness, a point on a link that does not exist, both ends on one link
+    ("hinge.stiffness", -1.0, "hinge.stiffness: stiffness must be >= 0, got -1.0"),
+    ("tie.to_link", 9, "tie.to_link must be in 1 .. 3, got 9"),
+    ("hinge.link", 9, "hinge.link must be in 2 .. 3, got 9"),
+    ("push.link", 9, "push.link must be in 2 .. 3, got 9"),
+    ("tie.from_link", 3, "tie.to_link: must be another link than from_link (3)"),
 ])
 def test_fmu_refuses_a_bad_element_by_its_parameter(forces_fmu, name, value, expected):
     messages = []
@@ -863,3 +871,180 @@ def test_animation_draws_a_torsion_spring_as_a_coil_at_its_joint_turning_with_it
     animate(m, res.t, res.z, str(out), fps=10, speed=1.0)
     colour = tuple(int(SPRING_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
     assert colour in {c for _, c in Image.open(out).convert("RGB").getcolors(1 << 16)}
+# -- the ComputedTorque FMU: the drive's demand holds the elements' efforts -------------------------------
+
+# the thesis four-bar loaded by every kind of element: a spring from a ground point to the coupler, a torsion
+# spring with friction at the rocker's joint, a constant force and moment on the crank
+SPRUNG_FOURBAR = (Path(grubler.__file__).parent / "presets" / "thesis-fourbar.toml").read_text().replace(
+    'name = "thesis-fourbar"', 'name = "sprung-fourbar"') + """
+[[spring]]
+name = "tie"
+from_link = "ground"
+from_point = [0.5, 0.9]
+to_link = "link3"
+to_point = [0.4, 0.0]
+stiffness = 300.0
+free_length = 0.5
+damping = 4.0
+
+[[joint_spring]]
+name = "hinge"
+joint = "theta4"
+stiffness = 20.0
+free = -1.0
+friction = 0.8
+friction_speed = 0.5
+
+[[point_load]]
+name = "push"
+link = "link2"
+point = [0.2, 0.0]
+force = [0.0, -30.0]
+moment = 1.5
+"""
+
+
+@pytest.fixture(scope="module")
+def sprung_ct_fmu(tmp_path_factory):
+    from grubler.controllers.native_fmu import export_computed_torque
+
+    path, params = export_computed_torque(load_scene(SPRUNG_FOURBAR), tmp_path_factory.mktemp("ct"))
+    return path, params
+
+
+def test_computed_torque_fmu_holds_the_force_elements_as_the_library_does(sprung_ct_fmu):
+    from grubler.controllers import ComputedTorque
+
+    path, params = sprung_ct_fmu
+    assert path.name == "ComputedTorque_sprung_fourbar.fmu"
+    assert params["tie.stiffness"] == 300.0 and params["hinge.link"] == 4 and params["push.moment"] == 1.5
+    scene = load_scene(SPRUNG_FOURBAR)
+    z0 = float(scene.mechanism.z_from_q(scene.mechanism.q_ref)[0])
+    samples = [(z0 + 0.4 * math.sin(0.3 * k), 4.0 * math.cos(0.3 * k), -12.0 * math.sin(0.3 * k)) for k in range(12)]
+    md, vr, slave = _slave(path, "ct")
+    got = []
+    try:
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        for k, (x, v, a) in enumerate(samples):
+            slave.setReal([vr["position"], vr["velocity"], vr["acceleration"]], [x, v, a])
+            slave.doStep(0.01 * k, 0.01)
+            got.append(slave.getReal([vr["torque"]])[0])
+    finally:
+        slave.terminate()
+        slave.freeInstance()
+    ct = ComputedTorque(scene)
+    want = np.array([ct.drive_torque(*s) for s in samples])
+    assert np.max(np.abs(np.array(got) - want)) < 1e-9
+    # the elements matter here: the same four-bar without them needs other torques, by newtons-metres
+    bare = ComputedTorque(load_scene("thesis-fourbar"))
+    assert np.min(np.abs(want - np.array([bare.drive_torque(*s) for s in samples]))) > 0.5
+
+
+@pytest.mark.parametrize("name, value, expected", [
+    ("tie.stiffness", -1.0, "tie.stiffness: stiffness must be >= 0, got -1.0"),
+    ("hinge.friction_speed", 0.0, "hinge.friction_speed: friction's regularising speed must be positive"),
+    ("tie.to_link", 1, "tie.to_link: must be another link than from_link (1)"),
+    ("tie.from_link", 3, "tie.to_link: must be another link than from_link (3)"),
+    ("hinge.stiffness", -1.0, "hinge.stiffness: stiffness must be >= 0, got -1.0"),
+    ("tie.to_link", 9, "tie.to_link must be in 1 .. 4, got 9"),
+    ("push.link", 1, "push.link must be in 2 .. 4, got 1"),
+])
+def test_computed_torque_fmu_refuses_a_bad_element_by_its_parameter(sprung_ct_fmu, name, value, expected):
+    messages = []
+    md, vr, slave = _slave(sprung_ct_fmu[0], "bad-ct", messages)
+    try:
+        slave.setupExperiment(startTime=0.0)
+        with pytest.raises(Exception):
+            if name.endswith("link"):
+                slave.setInteger([vr[name]], [value])
+            else:
+                slave.setReal([vr[name]], [value])
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+    finally:
+        slave.freeInstance()
+    assert any(expected in m for m in messages), messages
+
+
+def test_computed_torque_fmu_sources_with_elements_are_strict_c99(sprung_ct_fmu, tmp_path):
+    import zipfile
+
+    from test_platforms import STRICT, importer_build
+
+    zipfile.ZipFile(sprung_ct_fmu[0]).extractall(tmp_path / "u")
+    try:
+        importer_build(tmp_path / "u", *STRICT, "-D__STDC_NO_COMPLEX__")
+    except subprocess.CalledProcessError as exc:
+        pytest.fail(f"the sources do not compile as strict C99:\n{exc.stderr}")
+
+
+# a gas strut on the sprung four-bar whose column the sketch has used up: free length 2 m, column 0.1 m, at a
+# length of 0.56 m; its force is not finite there, and no demand can be met
+USED_UP = SPRUNG_FOURBAR.replace("damping = 4.0", "damping = 4.0\ngas_force = 10.0\ngas_column = 0.1\n"
+                                                   "gas_exponent = 1.4").replace("free_length = 0.5",
+                                                                                 "free_length = 2.0")
+
+
+def test_computed_torque_refuses_a_used_up_gas_spring_by_name_not_with_a_nan():
+    from grubler.controllers import ComputedTorque
+    from grubler.mechanism.inverse import drive_demand
+
+    with pytest.raises(SceneError) as err:
+        ComputedTorque(load_scene(USED_UP))
+    assert err.value.field == "spring[0].gas_column" and "the gas is used up" in err.value.reason
+    # along a crank turn the strut shortens from 0.563 m to 0.462 m (sample 13 of 73): a 0.02 m column, 0.083 m
+    # at the start, runs out on the way, and the sample where it does is named
+    m = load_scene(SPRUNG_FOURBAR.replace("damping = 4.0", "damping = 4.0\ngas_force = 10.0\ngas_column = 0.02\n"
+                                                           "gas_exponent = 1.4")).mechanism
+    pos = float(m.z_from_q(m.q_ref)[0]) + np.linspace(0.0, 2 * math.pi, 73)
+    with pytest.raises(SceneError) as err:
+        drive_demand(m, pos, np.ones_like(pos), np.zeros_like(pos))
+    assert err.value.field == "spring[0].gas_column"
+    k = int(err.value.reason.split("at trajectory sample ")[1].split()[0])
+    assert 0 < k < 13
+
+
+def test_computed_torque_fmu_refuses_a_used_up_gas_spring_by_its_parameter(sprung_ct_fmu):
+    messages = []
+    md, vr, slave = _slave(sprung_ct_fmu[0], "gas-ct", messages)
+    try:
+        slave.setupExperiment(startTime=0.0)
+        slave.setReal([vr["tie.gas_force"], vr["tie.gas_column"], vr["tie.gas_exponent"], vr["tie.free_length"]],
+                      [10.0, 0.1, 1.4, 2.0])
+        with pytest.raises(Exception):
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+    finally:
+        slave.freeInstance()
+    assert any(m.startswith("tie.gas_column: the gas is used up at the sketch") for m in messages), messages
+
+
+# the issue's three refusals (a negative stiffness, a point on a link that does not exist, both ends on one link),
+# for every kind of element, through the command line: exit 2 and one line naming the field
+FOURBAR_TEXT = (Path(grubler.__file__).parent / "presets" / "thesis-fourbar.toml").read_text()
+SPRING_ROWS = 'from_link = "ground"\nfrom_point = [0.5, 0.9]\nto_link = "link3"\nto_point = [0.4, 0.0]\n'
+
+
+@pytest.mark.parametrize("element, line", [
+    ("[[spring]]\n" + SPRING_ROWS + "stiffness = -5.0\nfree_length = 0.5",
+     "spring[0].stiffness: stiffness must be >= 0, got -5.0"),
+    ("[[joint_spring]]\njoint = \"theta4\"\nstiffness = -2.0",
+     "joint_spring[0].stiffness: stiffness must be >= 0, got -2.0"),
+    ("[[spring]]\n" + SPRING_ROWS.replace('"link3"', '"link7"') + "stiffness = 5.0\nfree_length = 0.5",
+     "spring[0].to_link: link 7 does not exist"),
+    ("[[point_load]]\nlink = \"link7\"\npoint = [0.1, 0.0]\nforce = [1.0, 0.0]",
+     "point_load[0].link: link 7 does not exist"),
+    ("[[joint_spring]]\njoint = \"theta7\"\nstiffness = 2.0", "joint_spring[0].joint: unknown coordinate 'theta7'"),
+    ("[[spring]]\n" + SPRING_ROWS.replace('"ground"', '"link3"') + "stiffness = 5.0\nfree_length = 0.5",
+     "spring[0].to_link: must be another link than from_link (3)"),
+])
+def test_cli_refuses_the_issues_bad_elements_by_name(tmp_path, capsys, element, line):
+    from grubler.cli import main as cli
+
+    scene = tmp_path / "bad.toml"
+    scene.write_text(FOURBAR_TEXT + "\n" + element + "\n")
+    assert cli(["simulate", str(scene), "--t-end", "0.01"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("grubler: error: " + line) and "\n" not in err, err

@@ -38,8 +38,9 @@ def config_header(spec: ModelSpec) -> str:
         f"#define GRB_MAX_MAGNITUDE {MAX_MAGNITUDE!r}",
     ]
     for k, value in spec.defines.items():
-        # a tuple is an array's initialiser (per-element tables: the force elements' kinds and fields)
-        text = "{" + ", ".join(str(int(x)) for x in value) + "}" if isinstance(value, tuple) else str(int(value))
+        # a tuple is an array's initialiser (per-element tables: the force elements' kinds, fields and names)
+        text = ("{" + ", ".join(_c_string(x) if isinstance(x, str) else str(int(x)) for x in value) + "}"
+                if isinstance(value, tuple) else str(int(value)))
         lines.append(f"#define {k} {text}")
     if spec.state:
         lines += ["", "/* the model's own part of the persistent block: each field's index */"]

@@ -120,7 +120,8 @@ def fmu_parameters(scene: Scene) -> dict[str, float | int | str]:
 
 def scene_parameters(scene: Scene) -> dict[str, float | int | str]:
     """The scene alone as FMU parameters: gravity, the ground vector, the drive
-    joint, every link's and closure's fields and the sketch (``initial.*``).
+    joint, every link's and closure's fields, the sketch (``initial.*``) and
+    the force elements' fields (``strut.stiffness``).
 
     What a model of the mechanism that does not integrate it takes (the
     ComputedTorque FMU): :func:`fmu_parameters` less the integration's and the
@@ -139,6 +140,7 @@ def scene_parameters(scene: Scene) -> dict[str, float | int | str]:
     names += [f"link{k}.{f}" for k in range(2, m.n_links + 2) for f in LINK_FIELDS]
     names += [f"{closure_prefix(len(m.closures), j)}.{f}" for j in range(len(m.closures)) for f in CLOSURE_FIELDS]
     names += [f"initial.{x}" for x in m.coordinate_names]
+    names += force_parameter_names(m)  # last: a scene without elements keeps its slots
     return {x: p[x] for x in names}
 
 
@@ -277,9 +279,9 @@ def _actuators(d: _Declared, n_out: int) -> None:
 def _force_elements(d: _Declared, out_forces: int) -> tuple[list[int], list[tuple[int, int]]]:
     """Each force element's parameters (its kind's fields, grubler.quantities.force_fields) and outputs.
 
-    Returns where each output comes from (element * GRB_FO_COUNT + the kernel's output index) and where each
-    parameter goes (element, kernel column): the C model's FORCE_OUTPUT_INDEX, FORCE_PARAM_ELEMENT and
-    FORCE_PARAM_COLUMN.  The state alone decides the outputs.
+    Returns where each output comes from (element * GRB_FO_COUNT + the kernel's output index): the C
+    model's FORCE_OUTPUT_INDEX (where each parameter goes: :func:`force_defines`).  The state alone decides
+    the outputs.
     """
     n = d.m.n_links
     force_output_index = []
@@ -296,12 +298,38 @@ def _force_elements(d: _Declared, out_forces: int) -> tuple[list[int], list[tupl
         for q, k in FORCE_OUTPUTS[e.table]:
             d.output(f"{e.name}_{q.name}", LEVEL_DRIVE, False, out_forces + len(force_output_index))
             force_output_index.append(j * 6 + k)
-    force_params = [(j, FORCE_COLUMN[f]) for j, e in enumerate(d.m.forces) for f in force_fields(e.table)]
-    return force_output_index, force_params
+    return force_output_index
 
 
-def _layout(m: Mechanism, n_observed: int, n_out: int, out_forces: int, force_output_index: list[int],
-            force_params: list[tuple[int, int]]) -> tuple[list[str], dict]:
+def force_defines(m: Mechanism, slot_forces: int) -> dict:
+    """config.h's words for the force elements whose parameters start at ``slot_forces`` (scene_slots.h reads
+    them): their count, each one's kind and name, and where each parameter goes (element, kernel column).
+
+    One table for every model that serves a scene: the Mechanism FMU and the ComputedTorque FMU.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.scene import load_scene
+    >>> force_defines(load_scene("thesis-fourbar").mechanism, 40)
+    {'N_FORCES': 0, 'SLOT_FORCES': 40}
+    """
+    defines = {"N_FORCES": len(m.forces), "SLOT_FORCES": slot_forces}
+    if m.forces:
+        params = [(j, FORCE_COLUMN[f]) for j, e in enumerate(m.forces) for f in force_fields(e.table)]
+        defines["FORCE_KINDS"] = tuple(FORCE_KIND[type(e)] for e in m.forces)
+        defines["FORCE_NAMES"] = tuple(e.name for e in m.forces)
+        defines["FORCE_PARAM_ELEMENT"] = tuple(j for j, _ in params)
+        defines["FORCE_PARAM_COLUMN"] = tuple(c for _, c in params)
+    return defines
+
+
+def force_parameter_names(m: Mechanism) -> list[str]:
+    """The force elements' parameters in slot order: each element's fields (grubler.quantities.force_fields)."""
+    return [f"{e.name}.{f}" for e in m.forces for f in force_fields(e.table)]
+
+
+def _layout(m: Mechanism, n_observed: int, n_out: int, out_forces: int,
+            force_output_index: list[int]) -> tuple[list[str], dict]:
     """Where each parameter lies in the C model's block (slot order) and the defines that say so (config.h)."""
     n, nc, names = m.n_links, len(m.closures), m.coordinate_names
     slot_order = [*GLOBALS]
@@ -311,7 +339,7 @@ def _layout(m: Mechanism, n_observed: int, n_out: int, out_forces: int, force_ou
     slot_order += ["motor_torque", "load_torque"]
     slot_order += [f"{a.name}.{f}" for a in m.actuators for f in ACTUATOR_FIELDS]
     slot_order += [f"{a.name}_force" for a in m.actuators]
-    slot_order += [f"{e.name}.{f}" for e in m.forces for f in force_fields(e.table)]
+    slot_order += force_parameter_names(m)
     defines = {"N_LINKS": n, "N_CLOSURES": nc, "LINK_STRIDE": len(LINK_FIELDS),
                "CLOSURE_STRIDE": len(CLOSURE_FIELDS), "N_OBSERVED": n_observed, "N_ACTUATORS": len(m.actuators),
                "ACTUATOR_STRIDE": len(ACTUATOR_FIELDS), "OUT_ACTUATORS": n_out}
@@ -325,14 +353,10 @@ def _layout(m: Mechanism, n_observed: int, n_out: int, out_forces: int, force_ou
     defines["SLOT_ACTUATORS"] = defines["SLOT_LOAD_TORQUE"] + 1
     defines["SLOT_ACTUATOR_FORCE"] = defines["SLOT_ACTUATORS"] + len(m.actuators) * len(ACTUATOR_FIELDS)
     defines.update({f"AF_{f.upper()}": k for k, f in enumerate(ACTUATOR_FIELDS)})
-    defines["N_FORCES"] = len(m.forces)
-    defines["SLOT_FORCES"] = defines["SLOT_ACTUATOR_FORCE"] + len(m.actuators)
+    defines.update(force_defines(m, defines["SLOT_ACTUATOR_FORCE"] + len(m.actuators)))
     defines["OUT_FORCES"] = out_forces
     defines["N_FORCE_OUTPUTS"] = len(force_output_index)
     if m.forces:
-        defines["FORCE_KINDS"] = tuple(FORCE_KIND[type(e)] for e in m.forces)
-        defines["FORCE_PARAM_ELEMENT"] = tuple(j for j, _ in force_params)
-        defines["FORCE_PARAM_COLUMN"] = tuple(c for _, c in force_params)
         defines["FORCE_OUTPUT_INDEX"] = tuple(force_output_index)
     defines.update({f"LF_{f.upper()}": k for k, f in enumerate(LINK_FIELDS)})
     defines.update({f"CF_{f.upper()}": k for k, f in enumerate(CLOSURE_FIELDS)})
@@ -372,8 +396,8 @@ def mechanism_spec(scene: Scene, identifier: str = "Mechanism") -> ModelSpec:
     n_out = len(obs) + 2 + 3 * max(nc - 1, 0)
     _actuators(d, n_out)
     out_forces = n_out + 2 * len(m.actuators)
-    force_output_index, force_params = _force_elements(d, out_forces)
-    slot_order, defines = _layout(m, len(obs), n_out, out_forces, force_output_index, force_params)
+    force_output_index = _force_elements(d, out_forces)
+    slot_order, defines = _layout(m, len(obs), n_out, out_forces, force_output_index)
     return ModelSpec(identifier,
                      f"{m.name or 'mechanism'}: planar {n}-link chain by the imaginary-joints method"
                      f" ({m.kind or 'Grübler mechanism'}); every scene quantity is a parameter",

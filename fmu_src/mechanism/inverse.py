@@ -149,6 +149,20 @@ def drive_demand(model: Mechanism, position, velocity, acceleration, load=0.0,
                                     "joints' speeds, and so the drive torque, do not follow from the drive's motion; "
                                     "give a motion that stays clear of it")
         raise SceneError(field, binding.status_message(run.status))
+    if not np.all(np.isfinite(run.torque)):
+        # a force element without a finite force there: a gas spring whose column the motion used up
+        from grubler.mechanism.simulate import used_up_gas
+
+        k = int(np.argmin(np.isfinite(run.torque)))
+        where = f"sample {k} (drive {pos[k]:.6g})"
+        used = used_up_gas(model, run.z[k])
+        if used is not None:
+            j, h, length = used
+            raise SceneError(f"{model.force_field(j)}.gas_column",
+                             f"the gas is used up at trajectory {where}: its column gas_column + length - "
+                             f"free_length is {h:.4g} m at the length {length:.4g} m; a gas spring needs a "
+                             "positive column")
+        raise SceneError(f"trajectory at {where}", "the drive torque is not finite there")
     return DriveDemand(pos, vel, acc, run.torque, run.z, run.zd, run.zdd, run.closing_force)
 
 

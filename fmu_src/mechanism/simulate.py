@@ -233,20 +233,32 @@ def mechanism_size(model: Mechanism) -> float:
     return max(sizes) or 1.0
 
 
-def _check_gas_columns(model: Mechanism, z: np.ndarray) -> None:
-    """A gas spring whose gas column is used up at the start has no finite force to start from."""
+def used_up_gas(model: Mechanism, z: np.ndarray) -> tuple[int, float, float] | None:
+    """The first gas spring whose gas column is used up at the configuration ``z``: (its index, its column
+    gas_column + length - free_length, m, its length, m); None when every column is positive.
+
+    There its force is not finite: a run cannot start there, nor a drive demand be met."""
     springs = [(j, e) for j, e in enumerate(model.forces) if e.table == "spring" and e.gas_force > 0]
     if not springs:
-        return
+        return None
     y = np.concatenate([z, np.zeros_like(z)])[None, :]
     outputs = force_outputs(model, y)
     for j, e in springs:
         length = float(outputs[f"{e.name}_length"][0])
         h = e.gas_column + length - e.free_length
         if not h > 0:
-            raise SceneError(f"{model.force_field(j)}.gas_column",
-                             f"the gas is used up at the start: its column gas_column + length - free_length is "
-                             f"{h:.4g} m at the start's length {length:.4g} m; a gas spring needs a positive column")
+            return j, h, length
+    return None
+
+
+def _check_gas_columns(model: Mechanism, z: np.ndarray) -> None:
+    """A gas spring whose gas column is used up at the start has no finite force to start from."""
+    used = used_up_gas(model, z)
+    if used is not None:
+        j, h, length = used
+        raise SceneError(f"{model.force_field(j)}.gas_column",
+                         f"the gas is used up at the start: its column gas_column + length - free_length is "
+                         f"{h:.4g} m at the start's length {length:.4g} m; a gas spring needs a positive column")
 
 
 def closure_warnings(model: Mechanism, t: np.ndarray, closure_error: np.ndarray) -> list[str]:

@@ -506,7 +506,7 @@ def animate(model: Mechanism, t: np.ndarray, zs: np.ndarray, out: str, fps: floa
     sketch = Sketch(model, point)
     pos = sketch.positions(zs[rows])  # every point of every frame: one kernel call
     path = trace_path(model, zs, point) if point else None  # at every row of the record
-    film = _Film(model, sketch, pos, path, t, signals, title, size)
+    film = _Film(model, sketch, pos, path, t, signals, title, size, interval=speed / fps)
     frames = (film.frame(f, r) for f, r in enumerate(rows))
     if out.endswith(".gif"):
         first = next(frames)
@@ -529,7 +529,20 @@ def still_figure(model: Mechanism, t: np.ndarray, zs: np.ndarray, fps: float = 2
     sketch = Sketch(model, point)
     path = trace_path(model, zs, point) if point else None
     return _Film(model, sketch, sketch.positions(zs[rows]), path, t, list(signals or []), title, size,
-                 keep_figure=True).figure
+                 keep_figure=True, interval=speed / fps).figure
+
+
+def time_label(t: float, interval: float) -> str:
+    """A frame's time, to as many decimals as tell one frame from the next (at least 2).
+
+    A film of Andrews' squeezer (0.03 s of motion at 0.4 ms a frame) labelled to
+    the hundredth would show "t = 0.02 s" on a dozen frames running.
+
+    >>> time_label(1.234, 0.04), time_label(0.01523, 0.0004)
+    ('t = 1.23 s', 't = 0.0152 s')
+    """
+    decimals = min(9, max(2, math.ceil(-math.log10(interval) - 1e-9))) if interval > 0 else 2
+    return f"t = {t:.{decimals}f} s"
 
 
 def sampling_warnings(model: Mechanism, t: np.ndarray, zs: np.ndarray, fps: float, speed: float) -> list[str]:
@@ -599,8 +612,10 @@ class _Film:
     """The still background (matplotlib, once) and the frames drawn over it (Pillow)."""
 
     def __init__(self, model: Mechanism, sketch: Sketch, pos: np.ndarray, path, t: np.ndarray, signals, title: str,
-                 size, keep_figure: bool = False):
+                 size, keep_figure: bool = False, interval: float = 0.04):
         from PIL import Image, ImageFont
+
+        self.interval = interval  # s of motion between frames: the time label's resolution
 
         signals = [strip_signal(label, values) for label, values in signals]
         self.sketch, self.pos, self.path, self.t, self.signals = sketch, pos, path, t, signals
@@ -732,7 +747,7 @@ class _Film:
         if geo.trace is not None:
             c = px(geo.trace)
             d.ellipse([c[0] - 5, c[1] - 5, c[0] + 5, c[1] + 5], fill=ink["trace"], outline=ink["black"])
-        label = f"t = {self.t[row]:.2f} s"
+        label = time_label(self.t[row], self.interval)
         box = d.textbbox(self.label_at, label, font=self.font)
         d.rectangle([box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3], fill=ink["white"])  # off the grid lines
         d.text(self.label_at, label, fill=ink["black"], font=self.font)

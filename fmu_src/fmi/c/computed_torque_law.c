@@ -8,11 +8,13 @@
  * scene as the Mechanism FMU shows it: gravity, the ground vector, the drive
  * joint, each link's fields (SLOT_LINKS + k LINK_STRIDE + LF_*), each
  * closure's (SLOT_CLOSURES + j CLOSURE_STRIDE + CF_*) and the sketch q
- * (SLOT_Q0, 2N), whose branch the first sample closes on.
+ * (SLOT_Q0, 2N), whose branch the first sample closes on, and the force
+ * elements' fields (SLOT_FORCES on: scene_slots.h), whose efforts the demand
+ * holds as the library's and the Mechanism FMU's do.
  * Inputs: the drive's position, velocity and acceleration.  Outputs: torque,
  * motor_torque, voltage.  State: z (N), the last sample's configuration, the
- * next one's guess.  Scratch: the kernel's link and closure tables, then its
- * workspace (CT_WORK_SIZE doubles), overwritten by each sample and carrying
+ * next one's guess.  Scratch: the kernel's link, closure and force tables, then
+ * its workspace (CT_WORK_SIZE doubles), overwritten by each sample and carrying
  * nothing from one to the next. */
 #include <math.h>
 #include <stdio.h>
@@ -27,7 +29,9 @@
 #define NC N_CLOSURES
 #define TABLE_LINKS 0
 #define TABLE_CLOSURES (N * GRB_L_COLUMNS)
-#define TABLE_WORK (TABLE_CLOSURES + NC * GRB_CL_COLUMNS)
+#define TABLE_FORCES (TABLE_CLOSURES + NC * GRB_CL_COLUMNS)
+#define TABLE_WORK (TABLE_FORCES + N_FORCES * GRB_F_COLUMNS)
+typedef char force_table_fits[TABLE_FORCE_SIZE == N_FORCES * GRB_F_COLUMNS ? 1 : -1];
 typedef char scratch_fits[LAW_N_SCRATCH == TABLE_WORK + CT_WORK_SIZE ? 1 : -1];
 typedef char check_fits[LAW_N_CHECK == LAW_N_SCRATCH ? 1 : -1];
 typedef char state_fits[LAW_N_STATE == N ? 1 : -1];
@@ -45,7 +49,8 @@ static int drive_index(const double *p, const int *revolute) {
 
 /* The model over the kernel's tables, and the length scale of the closure
  * tolerance (grubler.mechanism.assembly._scale: the longest link, at least 1 m). */
-static void describe(const double *p, const double *links, const double *closures, grb_model *m, double *scale) {
+static void describe(const double *p, const double *links, const double *closures, const double *forces,
+                     grb_model *m, double *scale) {
     int revolute[N], i;
     *scale = 1.0;
     for (i = 0; i < N; i++) {
@@ -64,16 +69,18 @@ static void describe(const double *p, const double *links, const double *closure
     /* the demand is the drive's alone: no actuator pushes (the library's runs with their forces at 0) */
     m->n_actuators = 0;
     m->actuators = NULL;
-    /* nor a force element: ComputedTorque takes the scene's links and closures alone (scene_parameters) */
-    m->n_forces = 0;
-    m->forces = NULL;
+    /* the force elements push as in the run: springs, joint springs and friction, loads */
+    m->n_forces = N_FORCES;
+    m->forces = N_FORCES > 0 ? forces : NULL;
 }
 
 /* The kernel's tables of the parameters (as the Mechanism FMU builds them) and the model over them. */
-static int build(const double *p, double *links, double *closures, grb_model *m, double *scale) {
+static int build(const double *p, double *tables, grb_model *m, double *scale) {
     int revolute[N], parent[N];
-    if (scene_tables_of(p, revolute, parent, links, closures) != GRB_OK) return CTL_BAD_PARAMETER;
-    describe(p, links, closures, m, scale);
+    if (scene_tables_of(p, revolute, parent, tables + TABLE_LINKS, tables + TABLE_CLOSURES) != GRB_OK)
+        return CTL_BAD_PARAMETER;
+    scene_force_rows_for_kernel(p, tables + TABLE_FORCES);
+    describe(p, tables + TABLE_LINKS, tables + TABLE_CLOSURES, tables + TABLE_FORCES, m, scale);
     return CTL_OK;
 }
 
@@ -123,9 +130,11 @@ int law_check(const double *param, double *work, int *field, const char **why) {
          * words (the refusal, field first, is written into work: it outlives the call) */
         grb_scene_view view;
         grb_problem *problem = (grb_problem *)(void *)work;
+        double force_rows[(N_FORCES > 0 ? N_FORCES : 1) * GRB_F_COLUMNS];
         int found;
         char *refusal = (char *)(void *)work + sizeof(grb_problem);
         scene_view_of(param, &view);
+        scene_force_view(param, &view, force_rows);
         view.drive_inertia = 0.0;  /* the law's own parameter, judged above */
         if (grb_scene_check(&view, problem, 1, &found) != GRB_OK) {
             snprintf(refusal, REFUSAL_LENGTH, "%s: %s", problem->field, problem->reason);
@@ -144,7 +153,7 @@ int law_check(const double *param, double *work, int *field, const char **why) {
          * grows with the links squared */
         double z[N], z_out[N], tau, scale;
         grb_model m;
-        if (build(param, work + TABLE_LINKS, work + TABLE_CLOSURES, &m, &scale) != CTL_OK ||
+        if (build(param, work, &m, &scale) != CTL_OK ||
             grb_work_init(N, NC, work + TABLE_WORK, CT_WORK_SIZE) != GRB_OK)
             return ctl_refuse(SLOT_CLOSURES, LAW_N_PARAMS, "a closure's link is out of range", field, why);
         sketch(param, z);
@@ -152,6 +161,29 @@ int law_check(const double *param, double *work, int *field, const char **why) {
             return ctl_refuse(SLOT_Q0 + 2 * m.drive + (revolute[m.drive] ? 1 : 0), LAW_N_PARAMS,
                               "the loop cannot be closed at the sketch with the drive held there (or it is a "
                               "change point)", field, why);
+#if N_FORCES > 0
+        {
+            /* a gas spring whose column is used up there has no finite force: no demand can be met */
+            double y[2 * N], force_out[N_FORCES * GRB_FO_COUNT], h, length;
+            int e, st;
+            for (i = 0; i < N; i++) {
+                y[i] = z_out[i];
+                y[N + i] = 0.0;
+            }
+            e = scene_used_up_gas(&m, y, work + TABLE_WORK, force_out, &h, &length, &st);
+            (void)st; /* a failing evaluation leaves e = -1: the samples then meet it */
+            if (e >= 0) {
+                /* the refusal lives past the call: in work, before the tables (which are done with) */
+                char *refusal = (char *)(void *)work;
+                snprintf(refusal, REFUSAL_LENGTH, "%s.gas_column: the gas is used up at the sketch: its column "
+                         "gas_column + length - free_length is %.4g m at the length %.4g m; a gas spring needs a "
+                         "positive column", force_name[e], h, length);
+                *field = LAW_FIELD_IN_WHY;
+                *why = refusal;
+                return CTL_BAD_PARAMETER;
+            }
+        }
+#endif
     }
     return CTL_OK;
 }
@@ -172,8 +204,7 @@ const char *law_state_name(int field) {
 int law_prepare(const double *param, double *scratch) {
     grb_model m;
     double scale;
-    if (build(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, &m, &scale) != CTL_OK)
-        return CTL_BAD_PARAMETER;
+    if (build(param, scratch, &m, &scale) != CTL_OK) return CTL_BAD_PARAMETER;
     return grb_work_init(N, NC, scratch + TABLE_WORK, CT_WORK_SIZE) == GRB_OK ? CTL_OK : CTL_BAD_ARGUMENT;
 }
 
@@ -191,7 +222,7 @@ int law_sample(const double *param, double *scratch, double *state, double t, co
     double *work = scratch + TABLE_WORK;
     int i, st;
     (void)t;
-    describe(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, &m, &scale);
+    describe(param, scratch + TABLE_LINKS, scratch + TABLE_CLOSURES, scratch + TABLE_FORCES, &m, &scale);
     if ((st = demand(&m, scale, work, state, in[0], in[1], in[2], z, &tau)) != CTL_OK) return st;
     /* ComputedTorque.motor: through the gearbox, motoring or braking; the steady-current voltage */
     tau_m = tau * in[1] >= 0 ? tau / (n * eta) : tau * eta / n;

@@ -130,37 +130,16 @@ static const char *coordinate_name(int index, char *buf, size_t size) {
 #define BAD(...) do { grb_log(inst, fmi2Error, __VA_ARGS__); return fmi2Error; } while (0)
 
 #if NF > 0
-/* Each force element's kind, and where each of the elements' parameters goes
- * (its element and its kernel column), from grubler.fmi.mechanism: a table,
- * not a branch per kind. */
-static const int force_kind[NF] = FORCE_KINDS;
-static const int force_param_element[] = FORCE_PARAM_ELEMENT;
-static const int force_param_column[] = FORCE_PARAM_COLUMN;
+/* where each element's outputs come from (the kinds, parameters and names: scene_slots.h) */
 static const int force_output_index[] = FORCE_OUTPUT_INDEX;
-#define N_FORCE_PARAMS ((int)(sizeof force_param_column / sizeof force_param_column[0]))
 #endif
-
-/* The force elements' rows (GRB_F_*, links thesis-numbered as the parameters
- * give them: 1 the ground) from the parameter block. */
-static void force_rows_of(const double *p, double *rows) {
-#if NF > 0
-    int i;
-    for (i = 0; i < NF * GRB_F_COLUMNS; i++) rows[i] = 0.0;
-    for (i = 0; i < NF; i++) rows[i * GRB_F_COLUMNS + GRB_F_KIND] = force_kind[i];
-    for (i = 0; i < N_FORCE_PARAMS; i++)
-        rows[force_param_element[i] * GRB_F_COLUMNS + force_param_column[i]] = p[SLOT_FORCES + i];
-#else
-    (void)p;
-    (void)rows;
-#endif
-}
 
 /* The scene's parameters where they lie in the block (scene_slots.h's view)
  * with the actuators, each named by its variables' prefix ("lift" of
  * lift.to_link), and the force elements, each by its parameters' prefix
  * ("strut" of strut.stiffness). */
 static void mechanism_view_of(const double *p, grb_scene_view *v, char (*names)[48], const char **name_of,
-                              double *force_rows, char (*force_names)[48], const char **force_name_of) {
+                              double *force_rows) {
     static const int actuator_column[GRB_A_COLUMNS] = {AF_FROM_LINK, AF_FROM_POINT_X, AF_FROM_POINT_Y, AF_TO_LINK,
                                                        AF_TO_POINT_X, AF_TO_POINT_Y};
     int k;
@@ -177,30 +156,7 @@ static void mechanism_view_of(const double *p, grb_scene_view *v, char (*names)[
         name_of[k] = names[k];
     }
     v->actuator_names = NA > 0 ? name_of : NULL;
-    /* each element named by its parameters' prefix ("strut" of strut.stiffness) */
-    force_rows_of(p, force_rows);
-    v->n_forces = NF;
-    v->forces = force_rows;
-    v->force_stride = GRB_F_COLUMNS;
-    for (k = 0; k < GRB_F_COLUMNS; k++) v->force_column[k] = k;
-#if NF > 0
-    {
-        int i;
-        for (i = 0; i < N_FORCE_PARAMS; i++) {
-            int e = force_param_element[i];
-            char *dot;
-            if (i > 0 && force_param_element[i - 1] == e) continue;
-            snprintf(force_names[e], 48, "%s", slot_name(SLOT_FORCES + i));
-            dot = strrchr(force_names[e], '.');
-            if (dot) *dot = '\0';
-            force_name_of[e] = force_names[e];
-        }
-    }
-    v->force_names = force_name_of;
-#else
-    (void)force_names;
-    (void)force_name_of;
-#endif
+    scene_force_view(p, v, force_rows);
 }
 
 /* The mechanism's rules (the kernel's grb_scene_check, the library's), the
@@ -233,11 +189,11 @@ fmi2Status model_check(grb_instance *inst, const double *p) {
         /* the mechanism's rules: the kernel's, which the library runs too (grb_scene_check) */
         grb_scene_view view;
         grb_problem problem;
-        char names[NA > 0 ? NA : 1][48], force_names[NF > 0 ? NF : 1][48];
-        const char *name_of[NA > 0 ? NA : 1], *force_name_of[NF > 0 ? NF : 1];
+        char names[NA > 0 ? NA : 1][48];
+        const char *name_of[NA > 0 ? NA : 1];
         double force_rows[(NF > 0 ? NF : 1) * GRB_F_COLUMNS];
         int found;
-        mechanism_view_of(p, &view, names, name_of, force_rows, force_names, force_name_of);
+        mechanism_view_of(p, &view, names, name_of, force_rows);
         if (grb_scene_check(&view, &problem, 1, &found) != GRB_OK) BAD("%s: %s", problem.field, problem.reason);
     }
     for (i = 0; i < N; i++) revolute[i] = (int)link_field(p, i, LF_JOINT) == 1;
@@ -294,11 +250,7 @@ static fmi2Status build_model(grb_instance *inst) {
     }
     mm->m.n_actuators = NA;
     mm->m.actuators = NA > 0 ? mm->actuators : NULL;
-    force_rows_of(p, mm->forces);
-    for (j = 0; j < NF; j++) {  /* thesis numbering to the kernel's 0-based links (-1 the ground) */
-        mm->forces[j * GRB_F_COLUMNS + GRB_F_LINK] -= 2;
-        mm->forces[j * GRB_F_COLUMNS + GRB_F_TO_LINK] -= 2;
-    }
+    scene_force_rows_for_kernel(p, mm->forces);
     mm->m.n_forces = NF;
     mm->m.forces = NF > 0 ? mm->forces : NULL;
     mm->m.n_links = N;
@@ -396,20 +348,13 @@ static fmi2Status elements_at_start_ok(grb_instance *inst, const double *y) {
     }
 #endif
 #if NF > 0
-    st = grb_force_rows(&mm->m, 1, y, mm->work, mm->force_out);
-    if (st != GRB_OK) BAD("force elements: %s", status_text(st));
-    for (i = 0; i < NF; i++) {
-        const double *row = mm->forces + i * GRB_F_COLUMNS;
-        double length = mm->force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
-        double h = row[GRB_F_GAS_COLUMN] + length - row[GRB_F_FREE];
-        if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(h > 0)) {
-            int k;
-            for (k = 0; k < N_FORCE_PARAMS; k++)  /* its gas_column parameter names it */
-                if (force_param_element[k] == i && force_param_column[k] == GRB_F_GAS_COLUMN) break;
-            BAD("%s: the gas is used up at the start: its column gas_column + length - free_length is "
-                "%.4g m at the start's length %.4g m; a gas spring needs a positive column",
-                slot_name(SLOT_FORCES + k), h, length);
-        }
+    {
+        double h, length;
+        i = scene_used_up_gas(&mm->m, y, mm->work, mm->force_out, &h, &length, &st);
+        if (st != GRB_OK) BAD("force elements: %s", status_text(st));
+        if (i >= 0)
+            BAD("%s.gas_column: the gas is used up at the start: its column gas_column + length - free_length is "
+                "%.4g m at the start's length %.4g m; a gas spring needs a positive column", force_name[i], h, length);
     }
 #endif
 #if !(N_ACTUATORS > 0 || NF > 0)

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "grb_scene.h"
+#include "grubler.h"
 
 static double scene_link_field(const double *p, int i, int f) { return p[SLOT_LINKS + i * LINK_STRIDE + f]; }
 static double scene_closure_field(const double *p, int j, int f) {
@@ -78,6 +79,82 @@ static void scene_view_of(const double *p, grb_scene_view *v) {
 #endif
     v->drive_field = "drive_joint";
     v->load_field = "load_joint";
+}
+
+/* The force elements (config.h: N_FORCES, their parameters from SLOT_FORCES on,
+ * FORCE_KINDS, and where each parameter goes, its element FORCE_PARAM_ELEMENT and
+ * kernel column FORCE_PARAM_COLUMN; FORCE_NAMES, each element's name, the prefix
+ * of its parameters: "strut" of strut.stiffness), from grubler.fmi.mechanism: a
+ * table, not a branch per kind.  Every model that serves a scene computes with
+ * them: the Mechanism FMU's run and the ComputedTorque FMU's demand alike. */
+#ifndef N_FORCES
+#define N_FORCES 0
+#endif
+#if N_FORCES > 0
+static const int force_kind[N_FORCES] = FORCE_KINDS;
+static const int force_param_element[] = FORCE_PARAM_ELEMENT;
+static const int force_param_column[] = FORCE_PARAM_COLUMN;
+static const char *const force_name[N_FORCES] = FORCE_NAMES;
+#define N_FORCE_PARAMS ((int)(sizeof force_param_column / sizeof force_param_column[0]))
+#endif
+
+/* The force elements' rows (GRB_F_*, N_FORCES of them), links thesis-numbered
+ * as the parameters give them (1 the ground), from the parameter block. */
+static void scene_force_rows_of(const double *p, double *rows) {
+#if N_FORCES > 0
+    int i;
+    for (i = 0; i < N_FORCES * GRB_F_COLUMNS; i++) rows[i] = 0.0;
+    for (i = 0; i < N_FORCES; i++) rows[i * GRB_F_COLUMNS + GRB_F_KIND] = force_kind[i];
+    for (i = 0; i < N_FORCE_PARAMS; i++)
+        rows[force_param_element[i] * GRB_F_COLUMNS + force_param_column[i]] = p[SLOT_FORCES + i];
+#else
+    (void)p;
+    (void)rows;
+#endif
+}
+
+/* The same rows in the kernel's link numbering (0-based, -1 the ground): what grb_model.forces holds. */
+static void scene_force_rows_for_kernel(const double *p, double *rows) {
+    int j;
+    scene_force_rows_of(p, rows);
+    for (j = 0; j < N_FORCES; j++) {
+        rows[j * GRB_F_COLUMNS + GRB_F_LINK] -= 2;
+        rows[j * GRB_F_COLUMNS + GRB_F_TO_LINK] -= 2;
+    }
+}
+
+/* The force elements into a scene view (grb_scene_check judges them, naming
+ * each by its parameters' prefix); rows: N_FORCES x GRB_F_COLUMNS the caller owns. */
+static void scene_force_view(const double *p, grb_scene_view *v, double *rows) {
+    int k;
+    scene_force_rows_of(p, rows);
+    v->n_forces = N_FORCES;
+    v->forces = rows;
+    v->force_stride = GRB_F_COLUMNS;
+    for (k = 0; k < GRB_F_COLUMNS; k++) v->force_column[k] = k;
+#if N_FORCES > 0
+    v->force_names = force_name;
+#endif
+}
+
+/* The first gas spring whose gas column (gas_column + length - free_length)
+ * is used up at the state y (2N, kernel numbering in m's rows), with that
+ * column and its length; -1 when every column is positive (the library's
+ * used_up_gas).  There the spring's force is not finite.  force_out:
+ * N_FORCES x GRB_FO_COUNT the caller owns; *status: grb_force_rows's. */
+static int scene_used_up_gas(const grb_model *m, const double *y, double *work, double *force_out, double *h,
+                             double *length, int *status) {
+    int i;
+    *status = GRB_OK;
+    if (N_FORCES == 0) return -1;
+    if ((*status = grb_force_rows(m, 1, y, work, force_out)) != GRB_OK) return -1;
+    for (i = 0; i < N_FORCES; i++) {
+        const double *row = m->forces + i * GRB_F_COLUMNS;
+        *length = force_out[i * GRB_FO_COUNT + GRB_FO_LENGTH];
+        *h = row[GRB_F_GAS_COLUMN] + *length - row[GRB_F_FREE];
+        if (row[GRB_F_KIND] == GRB_FORCE_SPRING && row[GRB_F_GAS_FORCE] > 0 && !(*h > 0)) return i;
+    }
+    return -1;
 }
 
 #endif
