@@ -871,6 +871,8 @@ def test_animation_draws_a_torsion_spring_as_a_coil_at_its_joint_turning_with_it
     animate(m, res.t, res.z, str(out), fps=10, speed=1.0)
     colour = tuple(int(SPRING_COLOUR[i: i + 2], 16) for i in (1, 3, 5))
     assert colour in {c for _, c in Image.open(out).convert("RGB").getcolors(1 << 16)}
+
+
 # -- the ComputedTorque FMU: the drive's demand holds the elements' efforts -------------------------------
 
 # the thesis four-bar loaded by every kind of element: a spring from a ground point to the coupler, a torsion
