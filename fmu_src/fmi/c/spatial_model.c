@@ -121,10 +121,14 @@ static int coordinate_link(int i) {
     }
     return -1;
 }
+/* is coordinate i a slide (a link's d) rather than a rotation (its theta)? */
 static int is_slide(int i) {
-    int k = coordinate_link(i), first = 0, j;
-    for (j = 0; j < k; j++) first += link_revolute[j] + link_prismatic[j];
-    return link_prismatic[k] && (i > first || !link_revolute[k]);
+    int k, c = 0;
+    for (k = 0; k < NL; k++) {
+        if (link_revolute[k] && c++ == i) return 0;
+        if (link_prismatic[k] && c++ == i) return 1;
+    }
+    return 0;
 }
 
 /* The kernel's tables from a block: the shape's fixed columns, the parameters in theirs, the motor's

@@ -1,0 +1,395 @@
+"""The native spatial mechanism FMU (c/spatial_model.c over kernel/spatial): the same kernel as
+SpatialMechanism, behind the FMI 2.0 and 3.0 wrappers.
+
+References: SpatialMechanism.simulate (the library, the same kernel through ctypes) on the RSSR and the
+spherical four-bar, run at communication points that are powers of two so that the FMU's t + h and the
+library's output grid are the same doubles; the reactions against SpatialMechanism.reactions; the
+directional derivatives against central differences of the outputs; the FMI contract through fmpy,
+fmpy's validator and the C host (tests/fmi_host.c) in an empty environment.  Each FMU is built once
+(tests/builds.py).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).parent
+sys.path.insert(0, str(HERE))
+
+import builds  # noqa: E402
+from test_native_fmu import ERROR, DISCARD, OK, Host, craft, refused_and_usable, saved_state  # noqa: E402
+
+from grubler.fmi.spatial import spatial_parameters, spatial_preset  # noqa: E402
+
+# slow: FMU builds and C hosts (pytest -m 'not slow' leaves them out; CI runs them)
+pytestmark = pytest.mark.slow
+
+PRESETS = ("rssr", "spherical_fourbar")
+H = 2.0 ** -7  # a communication step whose multiples are exact: the FMU's t + h is the library's grid
+STEPS = 128
+TORQUE = {"rssr": 0.5, "spherical_fourbar": 0.2}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """(preset, fmi) -> (fmu path, unzipped folder, model description), linux64 binaries."""
+    from fmpy import read_model_description
+
+    out = {}
+    for preset in PRESETS:
+        for fmi in (2, 3):
+            d = tmp_path_factory.mktemp(f"{preset}{fmi}")
+            path = builds.spatial(preset, d / f"{preset.title().replace('_', '')}.fmu", "linux64", fmi)
+            zipfile.ZipFile(path).extractall(d / "x")
+            out[preset, fmi] = (path, d / "x", read_model_description(str(path)))
+    return out
+
+
+def slave(built, preset: str, fmi: int = 2, params: dict | None = None):
+    """An fmpy slave of the build, its Real parameters set, initialised; and its value references."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    path, _, md = built[preset, fmi]
+    s = (FMU2Slave if fmi == 2 else FMU3Slave)(guid=md.guid, unzipDirectory=extract(str(path)),
+                                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName="s")
+    s.instantiate()
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    if fmi == 2:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+    else:
+        s.enterInitializationMode(startTime=0.0)
+    for name, value in (params or {}).items():
+        (s.setReal if fmi == 2 else s.setFloat64)([vr[name]], [value])
+    s.exitInitializationMode()
+    return s, vr
+
+
+def get(s, fmi, refs):
+    return np.array((s.getReal if fmi == 2 else s.getFloat64)(refs))
+
+
+def state_refs(m, vr):
+    return [vr[x] for x in m.coordinate_names] + [vr[f"{x}_d"] for x in m.coordinate_names]
+
+
+def run(built, preset: str, fmi: int, names, n: int = STEPS, torque: float | None = None):
+    """n steps of H with motor_torque held (and max_step the run's length, as simulate's h_max), the
+    outputs ``names`` read after each: the start state and the rows."""
+    m = spatial_preset(preset)
+    s, vr = slave(built, preset, fmi, {"max_step": n * H})
+    y0 = get(s, fmi, state_refs(m, vr))
+    (s.setReal if fmi == 2 else s.setFloat64)([vr["motor_torque"]], [TORQUE[preset] if torque is None else torque])
+    rows = []
+    for i in range(n):
+        s.doStep(i * H, H)
+        rows.append(get(s, fmi, [vr[x] for x in names]))
+    s.terminate()
+    s.freeInstance()
+    return y0, np.array(rows)
+
+
+# -- the library's numbers ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("preset", PRESETS)
+def test_the_fmu_in_fmpy_runs_as_spatial_mechanism_simulate(built, preset):
+    m = spatial_preset(preset)
+    names = [*m.coordinate_names, *(f"{x}_d" for x in m.coordinate_names)]
+    joints = [f"{l.name}.{c}" for l in m.links for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")]
+    y0, rows = run(built, preset, 2, names + ["KE", "PE", "closure_error"] + joints)
+    # the start: the preset's sketch closed holding the crank, as assembled_start closes it
+    assert np.abs(y0 - m.assembled_start()).max() <= 1e-12
+    tau = np.zeros(m.n_coords)
+    tau[0] = TORQUE[preset]
+    ref = m.simulate(y0, t_end=STEPS * H, dt_out=H, tau=tau)
+    n = 2 * m.n_coords
+    # the same kernel, steps and output times: the same doubles (measured: 0 on both presets)
+    assert np.abs(rows[:, :n] - ref.y[1:]).max() <= 1e-12
+    assert np.abs(rows[:, n:n + 2] - ref.energy()[1:]).max() <= 1e-9
+    assert rows[:, n + 2].max() < 1e-10  # closed all along
+    assert abs(ref.y[-1, 0] - y0[0]) > 1.0  # the crank did turn
+    # every joint's reaction at the last state, the library's (the same code over the same state)
+    _, library_joints = m.reactions(rows[-1, :n], tau)
+    np.testing.assert_allclose(rows[-1, n + 3:], library_joints.ravel(), rtol=0, atol=1e-9 * np.abs(library_joints).max())
+
+
+@pytest.mark.parametrize("preset", PRESETS)
+def test_fmi2_and_fmi3_builds_give_the_same_bits(built, preset):
+    m = spatial_preset(preset)
+    names = [*m.coordinate_names, "KE", "closure.Fx", f"{m.links[0].name}.Mz"]
+    a = run(built, preset, 2, names, n=40)[1]
+    b = run(built, preset, 3, names, n=40)[1]
+    assert np.array_equal(a, b)
+
+
+def test_the_model_description_gives_units_and_inputs_on_every_real_joint(built):
+    md = built["rssr", 2][2]
+    by = {v.name: v for v in md.modelVariables}
+    m = spatial_preset("rssr")
+    assert [v.name for v in md.modelVariables if v.causality == "input"] == \
+        ["motor_torque", *(f"effort.{x}" for x in m.coordinate_names)]
+    assert by["effort.crank.theta"].unit == "N.m" and by["crank.theta_d"].unit == "rad/s"
+    for link in m.links:
+        assert [by[f"{link.name}.{c}"].unit for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")] == ["N"] * 3 + ["N.m"] * 3
+    assert by["closure.Fz"].unit == "N" and by["KE"].unit == "J" and by["crank.I_zz"].unit == "kg.m2"
+    assert by["crank.dh.d"].start == "0.12" and by["coupler.mass"].start == "1.0"
+    assert md.coSimulation.providesDirectionalDerivative and md.coSimulation.canSerializeFMUstate
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_fmpy_validates_it(built, fmi):
+    from fmpy.validation import validate_fmu
+
+    for preset in PRESETS:
+        assert validate_fmu(str(built[preset, fmi][0])) == [], preset
+
+
+def test_a_tuned_parameter_is_the_model_the_library_builds_with_it(built):
+    # a longer crank set on the FMU: the library's rssr with that crank (its pin, the ball's a, moves out)
+    import dataclasses
+
+    from grubler.mechanism import spatial
+
+    m0 = spatial_preset("rssr")
+    links = list(m0.links)
+    links[1] = dataclasses.replace(links[1], a=0.12)
+    links[0] = dataclasses.replace(links[0], com=(0.06, 0.0, 0.0), mass=0.7)
+    m = spatial.SpatialMechanism(links, m0.closures, m0.gravity)
+    y0 = m.assemble(m0.sketch)
+    p = {"coupler1.dh.a": 0.12, "crank.com_x": 0.06, "crank.mass": 0.7, "max_step": 32 * H,
+         **{f"initial.{x}": float(v) for x, v in zip(m.coordinate_names, y0)}}
+    s, vr = slave(built, "rssr", 2, p)
+    start = get(s, 2, state_refs(m, vr))
+    s.setReal([vr["motor_torque"]], [0.5])
+    for i in range(32):
+        s.doStep(i * H, H)
+    end = get(s, 2, state_refs(m, vr))
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.5
+    ref = m.simulate(start, t_end=32 * H, dt_out=H, tau=tau)
+    assert np.abs(end - ref.y[-1]).max() <= 1e-12
+
+
+# -- state -------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_saved_and_serialised_state_restores_bit_identically(built, fmi):
+    m = spatial_preset("rssr")
+    s, vr = slave(built, "rssr", fmi)
+    refs = state_refs(m, vr) + [vr["crank.Fx"], vr["closure.Fz"]]
+    setr = s.setReal if fmi == 2 else s.setFloat64
+    setr([vr["motor_torque"]], [0.5])
+    for i in range(20):
+        s.doStep(i * H, H)
+    saved = s.getFMUstate() if fmi == 2 else s.getFMUState()
+    blob = s.serializeFMUstate(saved) if fmi == 2 else s.serializeFMUState(saved)
+    first = []
+    for i in range(20, 40):
+        s.doStep(i * H, H)
+        first.append(get(s, fmi, refs))
+    (s.setFMUstate if fmi == 2 else s.setFMUState)(saved)
+    again = []
+    for i in range(20, 40):
+        s.doStep(i * H, H)
+        again.append(get(s, fmi, refs))
+    assert np.array_equal(np.array(first), np.array(again))
+    # a fresh instance from the serialised bytes steps on the same
+    t, _ = slave(built, "rssr", fmi)
+    restored = t.deSerializeFMUstate(blob) if fmi == 2 else t.deserializeFMUState(blob)
+    (t.setFMUstate if fmi == 2 else t.setFMUState)(restored)
+    (t.setReal if fmi == 2 else t.setFloat64)([vr["motor_torque"]], [0.5])
+    third = []
+    for i in range(20, 40):
+        t.doStep(i * H, H)
+        third.append(get(t, fmi, refs))
+    assert np.array_equal(np.array(first), np.array(third))
+    for x in (s, t):
+        x.terminate()
+        x.freeInstance()
+
+
+@pytest.fixture(scope="module")
+def host():
+    return builds.host()
+
+
+def host_of(host, built, preset: str) -> Host:
+    _, d, md = built[preset, 2]
+    ident = md.coSimulation.modelIdentifier
+    return Host(host, d / "binaries" / "linux64" / f"{ident}.so", md.guid,
+                {v.name: v.valueReference for v in md.modelVariables})
+
+
+def spec_of(preset: str, identifier: str):
+    from grubler.fmi.spatial import spatial_spec
+
+    return spatial_spec(spatial_preset(preset), identifier)
+
+
+def test_crafted_states_are_refused_naming_the_field(host, built, tmp_path):
+    h, md = host_of(host, built, "rssr"), built["rssr", 2][2]
+    spec = spec_of("rssr", md.coSimulation.modelIdentifier)
+    assert spec.guid == md.guid
+    good = saved_state(h, md, tmp_path / "good.bin", {"motor_torque": 0.5})
+    y = spec.state_slot("y")
+    blob = good.read_bytes()
+    z0 = np.frombuffer(blob[48 + 8 * y:48 + 8 * (y + 1)], "<f8")[0]
+    cases = [
+        ({y + 4: z0 + 0.3}, "state.y: the joint state does not close the loops"),  # the rocker moved off the ball
+        ({y + 1: float("nan")}, "state.coupler1.theta: the joint state must be finite"),
+        ({y + 5 + 4: 1e300}, "state.rocker.theta_d: the joint state must be finite and in range"),
+        ({spec.state_slot("h"): -1.0}, "state.h: the next step must be >= 0"),
+        ({spec.state_slot("started"): 0.5}, "state.started: must be 0 or 1"),
+        ({spec.slot("crank.mass"): -2.0}, "crank.mass: a mass must be >= 0"),
+        ({spec.slot("drive_joint"): 9.0}, "drive_joint must be the index of one of its 5 accepted values"),
+        ({spec.slot("crank.I_xx"): 5.0}, "crank.I_xx .. crank.I_zz: not a real body's inertia tensor"),
+    ]
+    for values, field in cases:
+        refused_and_usable(h, md, good, tmp_path / "bad.bin", values, field, "crank.theta")
+
+
+def test_a_state_of_another_spatial_fmu_is_refused(host, built, tmp_path):
+    h, md = host_of(host, built, "rssr"), built["rssr", 2][2]
+    other = saved_state(host_of(host, built, "spherical_fourbar"), built["spherical_fourbar", 2][2],
+                        tmp_path / "other.bin", {})
+    t = h.run(h.start(md=md) + [f"deser 1 {other}", "free"])
+    assert t.statuses("deser") == [ERROR] and t.logged("the state belongs to another model"), t.logs
+
+
+# -- bad parameters and inputs -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, value, field", [
+    ("crank.mass", -1.0, "crank.mass: a mass must be >= 0, got -1"),
+    ("coupler.damping_r", -0.1, "coupler.damping_r: a damping must be >= 0"),
+    ("crank.I_zz", 1.0, "crank.I_xx .. crank.I_zz: not a real body's inertia tensor"),
+    ("rocker.dh.a", float("inf"), "rocker.dh.a: must be finite"),
+    ("gravity_z", 1e300, "gravity_z: magnitude above"),
+    ("rtol", 0.0, "rtol: must be positive"),
+    ("closure.point_z", 5.0, "initial: the loops cannot be closed near this sketch with crank.theta = 0 held"),
+    ("drive.inertia", -1.0, "drive.inertia: must be >= 0"),
+])
+def test_a_bad_parameter_is_an_error_naming_it(host, built, name, value, field):
+    h, md = host_of(host, built, "rssr"), built["rssr", 2][2]
+    t = h.run(["new 0 m", "setup 0.0", "enter", f"setr {h.vr[name]} {value!r}", "exit", "free"])
+    assert t.statuses("exit") == [ERROR] and t.logged(field), t.logs
+
+
+def test_a_non_unit_closure_axis_is_refused_naming_its_three_parameters(host, built):
+    h, md = host_of(host, built, "spherical_fourbar"), built["spherical_fourbar", 2][2]
+    t = h.run(["new 0 m", "setup 0.0", "enter", f"setr {h.vr['closure.axis_x']} 0.5", "exit", "free"])
+    assert t.statuses("exit") == [ERROR]
+    assert t.logged("closure.axis_x, closure.axis_y, closure.axis_z: an axis must be a unit vector"), t.logs
+
+
+def test_a_non_finite_input_discards_the_step_and_the_run_goes_on(host, built):
+    h, md = host_of(host, built, "rssr"), built["rssr", 2][2]
+    t = h.run(h.start(md=md) + [f"setr {h.vr['effort.rocker.theta']} nan", "step 0.0 0.01",
+                                f"setr {h.vr['effort.rocker.theta']} 0.0", h.run_steps(0.0, 0.01, 3, "crank.theta"),
+                                "free"])
+    assert t.statuses("step") == [DISCARD] and t.logged("effort.rocker.theta is nan at t = 0 s"), t.logs
+    assert t.statuses("run") == [OK] and len(t.rows()) == 3
+
+
+def test_the_drive_inertia_is_a_disc_on_the_drive_joint(built):
+    # J on the crank's axis: the crank's own inertia about its axis grows by J, and the response to a torque
+    # is the library's with the crank's tensor given J about z and J / 2 across
+    import dataclasses
+
+    from grubler.mechanism import spatial
+
+    J = 0.01
+    m0 = spatial_preset("rssr")
+    I = np.array(m0.links[0].inertia) + np.diag([J / 2, J / 2, J])
+    links = [dataclasses.replace(m0.links[0], inertia=tuple(map(tuple, I))), *m0.links[1:]]
+    m = spatial.SpatialMechanism(links, m0.closures, m0.gravity)
+    s, vr = slave(built, "rssr", 2, {"drive.inertia": J, "max_step": 16 * H})
+    y0 = get(s, 2, state_refs(m, vr))
+    s.setReal([vr["motor_torque"]], [0.5])
+    for i in range(16):
+        s.doStep(i * H, H)
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.5
+    assert np.abs(get(s, 2, state_refs(m, vr)) - m.simulate(y0, 16 * H, H, tau).y[-1]).max() <= 1e-12
+
+
+# -- directional derivatives -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("preset", PRESETS)
+def test_directional_derivatives_are_the_outputs_slopes(built, preset):
+    m = spatial_preset(preset)
+    md = built[preset, 2][2]
+    s, vr = slave(built, preset, 2)
+    s.setReal([vr["motor_torque"]], [TORQUE[preset]])
+    for i in range(10):
+        s.doStep(i * H, H)
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+    inputs = ["motor_torque", f"effort.{m.coordinate_names[-1]}"]
+    for name in inputs:
+        slope = np.array(s.getDirectionalDerivative(outs, [vr[name]], [1.0]))
+        base = s.getReal([vr[name]])[0]
+        delta = 1e-3
+        s.setReal([vr[name]], [base + delta])
+        up = np.array(s.getReal(outs))
+        s.setReal([vr[name]], [base - delta])
+        down = np.array(s.getReal(outs))
+        s.setReal([vr[name]], [base])
+        central = (up - down) / (2 * delta)  # exact but for rounding: the outputs are affine in the efforts
+        assert np.abs(slope).max() > 1.0, name
+        np.testing.assert_allclose(slope, central, rtol=0, atol=1e-7 * np.abs(central).max())
+        # the state's outputs (coordinates, rates, energies) do not move with an input
+        states = [k for k, v in enumerate(md.modelVariables[r - 1] for r in outs) if not v.name.endswith(
+            ("_dd", "Fx", "Fy", "Fz", "Mx", "My", "Mz"))]
+        assert not np.any(slope[states])
+    s.terminate()
+    s.freeInstance()
+
+
+# -- outside Python ----------------------------------------------------------------------------------
+
+def test_the_c_host_runs_it_with_an_empty_environment_as_fmpy_does(host, built):
+    for preset in PRESETS:
+        h, md = host_of(host, built, preset), built[preset, 2][2]
+        m = spatial_preset(preset)
+        names = [*m.coordinate_names, "closure.Fx", f"{m.links[-1].name}.Mz", "KE"]
+        t = h.run(h.start({"max_step": 16 * H}, md=md) + [f"setr {h.vr['motor_torque']} {TORQUE[preset]!r}",
+                                                          h.run_steps(0.0, H, 16, *names), "free"])
+        assert t.statuses("run") == [OK], t.logs
+        _, rows = run(built, preset, 2, names, n=16)
+        assert np.array_equal(t.rows()[:, 1:], rows), preset
+        so = h.cmd[1]
+        undefined = subprocess.run(["nm", "-D", "--undefined-only", so], capture_output=True, text=True,
+                                   check=True).stdout
+        assert "Py" not in undefined
+
+
+def test_no_function_of_it_keeps_more_than_8_kb_on_its_stack(built, tmp_path):
+    # as tests/test_fmi3.py checks build_fmu.py's FMUs: every C file of its sources/, compiled as the FMU is
+    from grubler.fmi.build import CFLAGS
+
+    cc = shutil.which("gcc") or shutil.which("cc")
+    check = "-Wstack-usage=8192" if "gcc" in Path(cc).name else "-Wframe-larger-than=8192"
+    for preset in PRESETS:
+        src = built[preset, 2][1] / "sources"
+        for c in sorted(src.glob("*.c")):
+            proc = subprocess.run([cc, *CFLAGS, check, "-Werror", "-c", str(c), "-o", str(tmp_path / "x.o"),
+                                   "-I", str(src)], capture_output=True, text=True)
+            assert proc.returncode == 0, f"{preset}/{c.name}:\n{proc.stderr[-2000:]}"
+
+
+def test_grubler_export_takes_a_spatial_preset(tmp_path):
+    out = tmp_path / "Wrist.fmu"
+    proc = subprocess.run([sys.executable, "-m", "grubler.cli", "export", "spherical-fourbar", "-o", str(out),
+                           "--platforms", "linux64", "--fmi", "3"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    names = zipfile.ZipFile(out).namelist()
+    assert "binaries/x86_64-linux/Wrist.so" in names and "sources/spatial_model.c" in names
+    assert "sources/sp_chain.c" in names and "sources/chain.c" not in names  # the spatial kernel only
