@@ -66,7 +66,7 @@ DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
 # the public names (the API reference's): the rest is the package's inside
-__all__ = ["export", "export_spatial", "build_fmu", "scene_fmu", "computed_torque_fmu", "select_targets", "host_target",
+__all__ = ["export", "export_spatial", "build_fmu", "scene_fmu", "spatial_fmu", "computed_torque_fmu", "select_targets", "host_target",
            "platforms_note", "check_destination", "BuildError", "TARGETS"]
 
 
@@ -521,8 +521,12 @@ def export_spatial(mechanism, dest: Path, platforms=None, field: str = "output",
 
     Examples
     --------
+    Compiling takes a few seconds (``tests/test_spatial_fmu.py`` exports and runs
+    them); a refused destination is refused before any compiling:
+
+    >>> import pathlib
     >>> from grubler.mechanism.spatial import rssr
-    >>> export_spatial(rssr(), pathlib.Path("RSSR.zip"))        # doctest: +SKIP
+    >>> export_spatial(rssr(), pathlib.Path("RSSR.zip"))
     Traceback (most recent call last):
     ...
     grubler.errors.SceneError: output: an FMU's file name ends in .fmu, got 'RSSR.zip'
@@ -568,6 +572,33 @@ def scene_fmu(scene: Scene, fmu_dir, build_dir=None, reuse: bool = False) -> tup
     if not (reuse and path.is_file()):
         export(scene, path)
     return path, fmu_parameters(scene)
+
+
+def spatial_fmu(mechanism, fmu_dir) -> tuple:
+    """The spatial FMU in ``fmu_dir`` that runs ``mechanism`` (a spatial preset's), and its parameters.
+
+    ``<name>.fmu``, what ``grubler export <name> -o fmu_dir/<name>.fmu`` writes
+    (the path is named, not built, as :func:`scene_fmu` names ``Mechanism.fmu``);
+    its parameters make it the mechanism (every number of the model is one), so
+    one FMU of the preset's shape serves re-tuned copies.
+
+    Examples
+    --------
+    >>> from grubler.fmi.spatial import spatial_preset
+    >>> path, parameters = spatial_fmu(spatial_preset("rssr"), "dist")
+    >>> path.name, parameters["drive_joint"]
+    ('rssr.fmu', 'crank.theta')
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        :func:`grubler.fmi.spatial.spatial_parameters`.
+    """
+    from grubler.fmi.spatial import spatial_parameters
+
+    path = Path(fmu_dir) / f"{identifier_for(Path(getattr(mechanism, 'name', '') or 'spatial'))}.fmu"
+    return path, spatial_parameters(mechanism)
 
 
 def computed_torque_fmu(scene: Scene, fmu_dir) -> tuple:
