@@ -440,3 +440,93 @@ def test_the_shipped_servo_rssr_ssd_is_what_its_example_script_writes(servo_dir)
         assert shipped.components[name].parameters == comp.parameters, name
         assert shipped.source_path(shipped.components[name]).resolve() == built.source_path(comp).resolve()
     assert shipped.connections == built.connections and shipped.order == built.order
+
+
+# -- every platform (the cross extra: zig) ------------------------------------------------------------
+
+from test_platforms import GLIBC_OLDEST, SYSROOT, host_build, needs_zig, wine_prefix  # noqa: E402,F401
+
+from grubler.fmi.build import TARGETS  # noqa: E402
+
+# another platform's run against linux64's, of each output's size (at least 1): the aarch64 binary
+# (zig's clang fuses a * b + c into one rounding there) and its C library's sin and cos differ in the last
+# bits, and over 128 steps the RSSR's coupler spin about its own axis, a coordinate of little inertia,
+# carries that to 1.5e-12 (measured under qemu-user 7.2); the planar test's 1e-12 is for 100 steps of its
+# four-bar
+CROSS_RELATIVE = 1e-11
+
+
+@pytest.fixture(scope="module")
+def cross_built(tmp_path_factory):
+    """The RSSR FMU with a binary for every platform, unzipped."""
+    from fmpy import read_model_description
+
+    d = tmp_path_factory.mktemp("cross")
+    path = builds.spatial("rssr", d / "RSSR.fmu")
+    zipfile.ZipFile(path).extractall(d / "x")
+    return d / "x", read_model_description(str(path))
+
+
+def cross_library(cross_built, folder: str) -> Path:
+    suffix = next(t.suffix for t in TARGETS if t.fmi2 == folder)
+    return cross_built[0] / "binaries" / folder / f"RSSR{suffix}"
+
+
+@needs_zig
+@pytest.mark.parametrize("folder", list(dict.fromkeys(t.fmi2 for t in TARGETS)))
+def test_each_platforms_binary_needs_only_the_c_library_and_exports_only_fmi2(cross_built, folder):
+    # test_platforms' check of build_fmu.py's FMUs, on the spatial one
+    from binaries import read
+
+    slices = read(cross_library(cross_built, folder).read_bytes())
+    assert sorted(a for a, _ in slices) == sorted(t.name.split("-")[0] for t in TARGETS if t.fmi2 == folder)
+    for arch, link in slices:
+        exports = set(link.exports) - {"_mh_dylib_header", "__dso_handle"}
+        assert "fmi2DoStep" in exports and all(e.startswith("fmi2") for e in exports), (arch, sorted(exports))
+        if folder in ("linux64", "aarch64-linux"):
+            assert set(link.libraries) <= {"libc.so.6", "libm.so.6"}, link.libraries
+            for symbol, version in link.imports.items():
+                assert tuple(int(x) for x in version[6:].split(".")[:2]) <= GLIBC_OLDEST, (symbol, version)
+        elif folder == "win64":
+            dlls = {x.lower() for x in link.libraries}
+            assert "kernel32.dll" in dlls and all(
+                x in ("kernel32.dll", "msvcrt.dll", "ucrtbase.dll") or x.startswith("api-ms-win-crt-") for x in dlls)
+        else:
+            assert link.libraries == ["/usr/lib/libSystem.B.dylib"], (arch, link)
+
+
+def agree_with_linux64(cross_built, folder, wrapper, exe, env, tmp_path):
+    """128 steps of H with every output read after each, and each output's slope along the inputs at the
+    end, through the C host on ``folder``'s binary and on linux64's: the same to rounding (test_platforms)."""
+    d, md = cross_built
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    native = Host(host_build(tmp_path, "x86_64-linux-gnu.2.17"), cross_library(cross_built, "linux64"), md.guid, vr)
+    other = Host(exe, cross_library(cross_built, folder), md.guid, vr, wrapper=wrapper)
+    script = native.start(md=md) + [f"setr {vr['motor_torque']} 0.5", native.run_steps(0.0, H, STEPS, *outputs)]
+    script += [f"ddr {vr[i]} " + " ".join(str(vr[o]) for o in outputs) for i in ("motor_torque", "effort.rocker.theta")]
+    ours, theirs = native.run(script), other.run(script, env=env)
+    assert ours.rows().shape[0] == STEPS
+    scale = np.maximum(np.abs(ours.rows()).max(axis=0), 1.0)
+    worst = (np.abs(theirs.rows() - ours.rows()) / scale).max(axis=0)
+    assert worst.max() <= CROSS_RELATIVE, sorted(zip(worst, ["t", *outputs]))[-6:]
+    slopes = [np.array(t.values(k), float) for t in (ours, theirs) for k in range(len(t.results))
+              if t.results[k][0] == "ddr"]
+    for a, b in zip(slopes[:2], slopes[2:]):
+        np.testing.assert_allclose(b, a, rtol=CROSS_RELATIVE, atol=CROSS_RELATIVE * np.abs(a).max())
+
+
+@needs_zig
+def test_the_win64_binary_under_wine_agrees(cross_built, wine_prefix, tmp_path):
+    wine, env = wine_prefix
+    agree_with_linux64(cross_built, "win64", [wine], host_build(tmp_path, "x86_64-windows-gnu"), env, tmp_path)
+
+
+@needs_zig
+def test_the_aarch64_linux_binary_under_qemu_agrees(cross_built, tmp_path):
+    qemu = shutil.which("qemu-aarch64") or shutil.which("qemu-aarch64-static")
+    if qemu is None or not (SYSROOT / "lib" / "ld-linux-aarch64.so.1").is_file():
+        pytest.skip("running aarch64 binaries here needs qemu-user and an aarch64 C library "
+                    "(Debian: apt-get install qemu-user libc6-arm64-cross)")
+    agree_with_linux64(cross_built, "aarch64-linux", [qemu, "-L", str(SYSROOT)],
+                       host_build(tmp_path, "aarch64-linux-gnu.2.17"), {}, tmp_path)
