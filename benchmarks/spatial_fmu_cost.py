@@ -41,13 +41,13 @@ def main() -> None:
         d = Path(tmp)
         platform = host_target().fmi2
         build_fmu.build(d, ["Mechanism", "DCMotor", "PID", "Encoder", "Trajectory"], platforms=platform)
-        export_spatial(spatial_preset("rssr"), d / "rssr.fmu", platform)
+        export_spatial(spatial_preset("rssr"), d / "RSSR.fmu", platform)
         planar = servo_system(servo_fourbar.DESIGN, d, name="servo_fourbar")
         spatial = servo_system(servo_rssr.DESIGN, d, name="servo_rssr")
         loose = servo_system(servo_rssr.DESIGN, d, name="servo_rssr")
         loose.components["mechanism"].parameters.update(rtol=1e-9, atol=1e-9)
-        cases = {"planar four-bar (Mechanism.fmu, rtol 1e-9)": planar, "RSSR (rssr.fmu, rtol 1e-10)": spatial,
-                 "RSSR (rssr.fmu, rtol 1e-9)": loose}
+        cases = {"planar four-bar (Mechanism.fmu, rtol 1e-9)": planar, "RSSR (RSSR.fmu, rtol 1e-10)": spatial,
+                 "RSSR (RSSR.fmu, rtol 1e-9)": loose}
         times = {k: [] for k in cases}
         steps = round(args.t_end / 1e-3)
         for _ in range(args.repeat):

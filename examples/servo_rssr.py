@@ -2,8 +2,7 @@
 spatial preset ``rssr``) under PID position control, with an encoder: the servo four-bar's system
 (examples/servo_fourbar.py) with the native spatial FMU as its mechanism.
 
-    python build_fmu.py                        # the motor and the laws, into dist/
-    grubler export rssr -o dist/rssr.fmu       # the spatial mechanism, the native FMU (docs/spatial.md)
+    python build_fmu.py                        # the motor, the laws and RSSR.fmu, into dist/
     python examples/servo_rssr.py              # writes examples/servo_rssr.ssd
 
 then run it from the command line:

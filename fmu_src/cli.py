@@ -358,12 +358,12 @@ def cmd_export(args) -> int:
                    "a Python with their packages installed); fmusim or a C host cannot run it"])
         return 0
     from grubler.fmi.build import export, export_spatial, platforms_note, select_targets
-    from grubler.fmi.spatial import spatial_preset
+    from grubler.fmi.spatial import fmu_name, spatial_preset
 
     platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
     spatial = spatial_preset(args.scene)  # a spatial preset (rssr, spherical_fourbar, ...): docs/spatial.md
     if spatial is not None:
-        path = export_spatial(spatial, args.out or f"{spatial.name}.fmu", platforms, "--out", args.fmi)
+        path = export_spatial(spatial, args.out or f"{fmu_name(spatial.name)}.fmu", platforms, "--out", args.fmi)
     else:
         path = export(args.scene, args.out, platforms, field="--out", fmi=args.fmi)
     print(f"wrote {path}")

@@ -577,8 +577,9 @@ def scene_fmu(scene: Scene, fmu_dir, build_dir=None, reuse: bool = False) -> tup
 def spatial_fmu(mechanism, fmu_dir) -> tuple:
     """The spatial FMU in ``fmu_dir`` that runs ``mechanism`` (a spatial preset's), and its parameters.
 
-    ``<name>.fmu``, what ``grubler export <name> -o fmu_dir/<name>.fmu`` writes
-    (the path is named, not built, as :func:`scene_fmu` names ``Mechanism.fmu``);
+    ``RSSR.fmu`` for the RSSR (:func:`grubler.fmi.spatial.fmu_name`), what
+    ``python build_fmu.py`` builds and ``grubler export rssr`` writes (the path is
+    named, not built, as :func:`scene_fmu` names ``Mechanism.fmu``);
     its parameters make it the mechanism (every number of the model is one), so
     one FMU of the preset's shape serves re-tuned copies.
 
@@ -587,7 +588,7 @@ def spatial_fmu(mechanism, fmu_dir) -> tuple:
     >>> from grubler.fmi.spatial import spatial_preset
     >>> path, parameters = spatial_fmu(spatial_preset("rssr"), "dist")
     >>> path.name, parameters["drive_joint"]
-    ('rssr.fmu', 'crank.theta')
+    ('RSSR.fmu', 'crank.theta')
 
     Returns
     -------
@@ -595,9 +596,9 @@ def spatial_fmu(mechanism, fmu_dir) -> tuple:
     parameters : dict
         :func:`grubler.fmi.spatial.spatial_parameters`.
     """
-    from grubler.fmi.spatial import spatial_parameters
+    from grubler.fmi.spatial import fmu_name, spatial_parameters
 
-    path = Path(fmu_dir) / f"{identifier_for(Path(getattr(mechanism, 'name', '') or 'spatial'))}.fmu"
+    path = Path(fmu_dir) / f"{identifier_for(Path(fmu_name(getattr(mechanism, 'name', '') or 'spatial')))}.fmu"
     return path, spatial_parameters(mechanism)
 
 

@@ -272,4 +272,19 @@ def spatial_preset(name: str) -> SpatialMechanism | None:
     return None
 
 
-__all__ += ["spatial_preset"]
+def fmu_name(preset: str) -> str:
+    """The name (and model identifier) a spatial preset's FMU has by default: a mechanism named by its
+    joints in capitals, another in CamelCase.
+
+    Examples
+    --------
+    >>> fmu_name("rssr"), fmu_name("spherical_fourbar")
+    ('RSSR', 'SphericalFourbar')
+    """
+    key = str(preset).replace("-", "_")
+    if key and set(key) <= set("rspcu"):  # the joints' letters: revolute, spherical, prismatic, ...
+        return key.upper()
+    return "".join(part.title() for part in key.split("_"))
+
+
+__all__ += ["spatial_preset", "fmu_name"]
