@@ -164,7 +164,6 @@ static void tables_of(const double *p, double *links, double *closures, double *
             if (fabs(row[GRS_CL_POINT + i]) > point) point = fabs(row[GRS_CL_POINT + i]);
         if (point > top) top = point;
     }
-    (void)closures;
     *scale = top > 1e-3 ? top : 1e-3;
 }
 
