@@ -6,7 +6,8 @@ The plant is native (grubler.fmi): Mechanism.fmu (the thesis four-bar's
 defaults; every scene quantity a parameter), DCMotor.fmu (the maxon RE 40's
 data; every datasheet number a parameter) and HydraulicCylinder.fmu and
 PneumaticCylinder.fmu (a valve, a cylinder and its supply; every constant a
-parameter) are the C models behind one FMI 2.0
+parameter) and RSSR.fmu (the spatial crank-rocker between skew shafts; every
+number of the spatial model a parameter, docs/spatial.md) are the C models behind one FMI 2.0
 wrapper (``--fmi 3``: its FMI 3.0 adapter, the same model files), with its C
 sources inside.  It runs without Python.  With the ``cross`` extra (``pip
 install 'grubler[cross]'``, the zig C compiler) each carries binaries for
@@ -39,6 +40,7 @@ from grubler.controllers.native_fmu import (cascade_spec, computed_torque_spec, 
 from grubler.errors import InputError
 from grubler.fmi.build import TARGETS, build_fmu, platforms_note, select_targets
 from grubler.fmi.mechanism import mechanism_spec
+from grubler.fmi.spatial import spatial_preset, spatial_spec
 from grubler.fmi.cylinder import hydraulic_spec, pneumatic_spec
 from grubler.fmi.motor import DEFAULT_MOTOR, motor_spec
 from grubler.mechanism.scene import load_scene
@@ -58,6 +60,8 @@ NATIVE = {
     "Trajectory": lambda: trajectory_spec("Trajectory"),
     "ComputedTorque": lambda: computed_torque_spec(load_scene("thesis-fourbar"), "ComputedTorque"),
     "LinearController": lambda: linear_spec(linear_default(), "LinearController"),
+    # the spatial kernel's (docs/spatial.md): the RSSR, every number of it a parameter
+    "RSSR": lambda: spatial_spec(spatial_preset("rssr"), "RSSR", name="rssr"),
 }
 FMUS = list(NATIVE)
 

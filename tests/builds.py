@@ -7,7 +7,7 @@ same FMUs.  Each build here is made once and kept on disk in the pytest cache
 folder clears it), in a folder named after a key hashed from everything that goes
 into it:
 
-* an FMU (``fmu``, ``dist``, ``export``): every source file of the package
+* an FMU (``fmu``, ``dist``, ``export``, ``spatial``): every source file of the package
   (``fmu_src/``, ``motors/``, ``controllers/``: the C, the headers, the Python
   exporters that write modelDescription.xml, the presets and data they read) and
   ``build_fmu.py``, the compiler's identity (``cc --version``), grubler's compiler
@@ -206,6 +206,20 @@ def export(scene: str, dest: Path, platforms=None, fmi: int = 2) -> Path:
     key = digest(package_key(), scene, dest.name, platforms or "", fmi)
     return copy_to(cached(f"scene-{scene}-{dest.stem}-fmi{fmi}", key,
                           lambda d: export_scene(scene, d / dest.name, platforms=platforms, fmi=fmi)), dest)
+
+
+def spatial(preset: str, dest: Path, platforms=None, fmi: int = 2) -> Path:
+    """``grubler.fmi.build.export_spatial`` of a spatial preset, by name, from the cache: a copy at ``dest``."""
+    from grubler.fmi.build import export_spatial
+    from grubler.fmi.spatial import spatial_preset
+
+    mechanism = spatial_preset(preset)
+    if mechanism is None:
+        raise ValueError(f"builds.spatial takes a spatial preset's name, not {preset!r}")
+    dest = Path(dest)
+    key = digest(package_key(), "spatial", preset, dest.name, platforms or "", fmi)
+    return copy_to(cached(f"spatial-{preset}-{dest.stem}-fmi{fmi}", key,
+                          lambda d: export_spatial(mechanism, d / dest.name, platforms=platforms, fmi=fmi)), dest)
 
 
 def controller_fmu(law: type, dest: Path) -> Path:

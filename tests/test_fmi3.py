@@ -43,7 +43,8 @@ EVERY = pytest.mark.parametrize("name", NATIVE)
 # inputs held through a run (the cylinders: the valve open half way, the rod moving);
 # a model not named here runs on its inputs' start values
 INPUTS = {"Mechanism": {"motor_torque": 3.0}, "DCMotor": {"voltage": 24.0, "shaft_speed": 5.0},
-          "HydraulicCylinder": {"command": 0.5, "rate": 0.05}, "PneumaticCylinder": {"command": 0.5, "rate": 0.05}}
+          "HydraulicCylinder": {"command": 0.5, "rate": 0.05}, "PneumaticCylinder": {"command": 0.5, "rate": 0.05},
+          "RSSR": {"motor_torque": 0.5}}
 
 
 # slow: FMU builds, C hosts and co-simulations (pytest -m 'not slow' leaves them out; CI runs them)

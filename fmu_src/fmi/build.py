@@ -66,7 +66,7 @@ DIRECTIONAL = "MODEL_DIRECTIONAL_DERIVATIVE"
 CFLAGS = ["-O2", "-std=c99", "-fvisibility=hidden", "-Wall", "-Wno-unused-function", "-Werror=vla"]
 MINGW = "x86_64-w64-mingw32-gcc"
 # the public names (the API reference's): the rest is the package's inside
-__all__ = ["export", "build_fmu", "scene_fmu", "computed_torque_fmu", "select_targets", "host_target",
+__all__ = ["export", "export_spatial", "build_fmu", "scene_fmu", "spatial_fmu", "computed_torque_fmu", "select_targets", "host_target",
            "platforms_note", "check_destination", "BuildError", "TARGETS"]
 
 
@@ -88,7 +88,11 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     drives = Path(motors.__file__).resolve().parent / "kernel"
     # the control laws' C sits in grubler.controllers, beside grubler.motors in a source tree and installed
     laws = drives.parent.parent / "controllers" / "kernel"
-    return {"kernel": (HERE.parent / "kernel", ("*",)), "motor": (drives, ("dc_motor.*",)),
+    kernel = HERE.parent / "kernel"
+    # the spatial chain, and the planar kernel's files it stands on (its status words, small solvers, tableaus)
+    spatial_base = ("grubler.h", "workspace.h", "real.h", "status.c", "linalg.c", "tableaus*")
+    return {"kernel": (kernel, ("*",)), "spatial": (kernel / "spatial", ("*",)),
+            "spatial_base": (kernel, spatial_base), "motor": (drives, ("dc_motor.*",)),
             "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h", "law_struct.h")),
             "user_law": (C_DIR, ("grubler_law.h",)),
             "hydraulic": (drives, ("hydraulic_cylinder.*", "cylinder.*", "rosenbrock.*")),
@@ -498,6 +502,46 @@ def export(scene, dest: Path | None = None, platforms=None, field: str = "output
     return build_fmu(mechanism_spec(scene, identifier_for(dest)), dest, platforms, fmi)
 
 
+def export_spatial(mechanism, dest: Path, platforms=None, field: str = "output", fmi: int = 2, y0=None,
+                   name: str = "") -> Path:
+    """Export a :class:`~grubler.mechanism.spatial.SpatialMechanism` as a native FMU (``c/spatial_model.c``
+    over ``kernel/spatial``; :func:`grubler.fmi.spatial.spatial_spec` says its variables).
+
+    Parameters
+    ----------
+    mechanism : SpatialMechanism
+    dest : path
+        The ``.fmu`` to write; its name is the model identifier.
+    platforms, fmi :
+        As :func:`build_fmu`.
+    y0 : array, optional
+        The start state (default: the preset's sketch, closed, at rest).
+    name : str
+        The mechanism's name in the FMU's description.
+
+    Examples
+    --------
+    Compiling takes a few seconds (``tests/test_spatial_fmu.py`` exports and runs
+    them); a refused destination is refused before any compiling:
+
+    >>> import pathlib
+    >>> from grubler.mechanism.spatial import rssr
+    >>> export_spatial(rssr(), pathlib.Path("RSSR.zip"))
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: output: an FMU's file name ends in .fmu, got 'RSSR.zip'
+    """
+    from grubler.fmi.spatial import spatial_spec
+
+    check_fmi_version(fmi, "fmi")
+    dest = Path(dest)
+    if dest.suffix != ".fmu":
+        raise SceneError(field, f"an FMU's file name ends in .fmu, got {dest.name!r}")
+    check_destination(dest, field)
+    spec = spatial_spec(mechanism, identifier_for(dest), y0, name or getattr(mechanism, "name", ""))
+    return build_fmu(spec, dest, platforms, fmi)
+
+
 def scene_fmu(scene: Scene, fmu_dir, build_dir=None, reuse: bool = False) -> tuple:
     """The mechanism FMU in ``fmu_dir`` that runs ``scene``, and the parameters that make it so.
 
@@ -528,6 +572,34 @@ def scene_fmu(scene: Scene, fmu_dir, build_dir=None, reuse: bool = False) -> tup
     if not (reuse and path.is_file()):
         export(scene, path)
     return path, fmu_parameters(scene)
+
+
+def spatial_fmu(mechanism, fmu_dir) -> tuple:
+    """The spatial FMU in ``fmu_dir`` that runs ``mechanism`` (a spatial preset's), and its parameters.
+
+    ``RSSR.fmu`` for the RSSR (:func:`grubler.fmi.spatial.fmu_name`), what
+    ``python build_fmu.py`` builds and ``grubler export rssr`` writes (the path is
+    named, not built, as :func:`scene_fmu` names ``Mechanism.fmu``);
+    its parameters make it the mechanism (every number of the model is one), so
+    one FMU of the preset's shape serves re-tuned copies.
+
+    Examples
+    --------
+    >>> from grubler.fmi.spatial import spatial_preset
+    >>> path, parameters = spatial_fmu(spatial_preset("rssr"), "dist")
+    >>> path.name, parameters["drive_joint"]
+    ('RSSR.fmu', 'crank.theta')
+
+    Returns
+    -------
+    path : Path
+    parameters : dict
+        :func:`grubler.fmi.spatial.spatial_parameters`.
+    """
+    from grubler.fmi.spatial import fmu_name, spatial_parameters
+
+    path = Path(fmu_dir) / f"{identifier_for(Path(fmu_name(getattr(mechanism, 'name', '') or 'spatial')))}.fmu"
+    return path, spatial_parameters(mechanism)
 
 
 def computed_torque_fmu(scene: Scene, fmu_dir) -> tuple:

@@ -125,14 +125,29 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
     from grubler.fmi.motor import motor_parameters
     from grubler.mechanism.scene import load_scene
 
+    from grubler.fmi.build import spatial_fmu
+    from grubler.fmi.spatial import closure_prefix, spatial_preset
+
     data = load_motor(design.motor)
     motor = DCMotor(data, Gearbox(design.gear_ratio, design.gear_efficiency),
                     Drive(design.supply_voltage, design.current_limit))
-    scene = load_scene(design.scene)
-    model = scene.mechanism
-    start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
     d = Path(fmu_dir)
-    s = System(name, description=f"{data.name} through {design.gear_ratio:g}:1 driving {model.name or 'a mechanism'} "
+    spatial = spatial_preset(design.scene)  # a spatial preset (rssr, ...): its native FMU, docs/spatial.md
+    if spatial is not None:
+        if design.feedforward or design.load_joint:
+            raise SceneError("feedforward" if design.feedforward else "load_joint",
+                             f"{design.scene} is spatial: its servo has no computed-torque feedforward or load "
+                             "joint yet (the spatial FMU's effort.* inputs take a load)")
+        mech_fmu, scene_params = spatial_fmu(spatial, d)
+        start = scene_params[f"initial.{scene_params['drive_joint']}"]
+        model = spatial
+    else:
+        scene = load_scene(design.scene)
+        model = scene.mechanism
+        start = float(model.z_from_q(model.q_ref)[model.free_index(model.drive)]) if model.drive else 0.0
+        mech_fmu, scene_params = scene_fmu(scene, d)
+    s = System(name, description=f"{data.name} through {design.gear_ratio:g}:1 driving "
+                                 f"{getattr(model, 'name', '') or 'a mechanism'} "
                                  "under PID position control", start_time=0.0, stop_time=design.t_end,
                step=design.step)
     s.add("trajectory", d / "Trajectory.fmu", **{"start": start, **design.trajectory})
@@ -146,7 +161,6 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
                                          if math.isfinite(design.current_limit) else 0.0})
     loads = {"load_joint": design.load_joint, "load_torque": float(design.load_torque)} if design.load_joint else {}
     # the native mechanism FMU is re-tuned into the scene through its parameters
-    mech_fmu, scene_params = scene_fmu(scene, d)
     s.add("mechanism", mech_fmu, **{**scene_params, "drive.inertia": motor.reflected_inertia, **loads})
     s.connect("trajectory.position", "controller.setpoint")
     s.connect("mechanism.drive_angle", "encoder.position")
@@ -185,7 +199,11 @@ def servo_system(design: ServoDesign, fmu_dir: str | Path, name: str = "servo") 
              {"motor.voltage": "commanded", "motor.terminal_voltage": "applied"}),
         Plot("torque at the crank [N m]", ["motor.shaft_torque"], {"motor.shaft_torque": "gearbox output torque"}),
     ]
-    if model.closures:  # an open chain (a pendulum driven at its first joint) has no closing joint to load
+    if spatial is not None and spatial.closures:  # the first closure's force, in its frame on the target
+        pre = f"mechanism.{closure_prefix(len(spatial.closures), 0)}"
+        s.plots.append(Plot("force at the closing joint [N]", [f"{pre}.F{c}" for c in "xyz"],
+                            {f"{pre}.F{c}": f"closing joint, {c} (its frame)" for c in "xyz"}))
+    elif spatial is None and model.closures:  # an open chain (a pendulum driven at its first joint) has none
         s.plots.append(Plot("force at the closing joint [N]", ["mechanism.Fx", "mechanism.Fy"],
                             {"mechanism.Fx": f"{closing_force_words(model)}, x",
                              "mechanism.Fy": f"{closing_force_words(model)}, y"}))

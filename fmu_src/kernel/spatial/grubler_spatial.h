@@ -109,6 +109,10 @@ GRB_API int grs_n_rows(const grs_model *m);
 /* Doubles of workspace for the model, and laying a buffer out (its length checked). */
 GRB_API size_t grs_work_size(const grs_model *m);
 GRB_API grb_status grs_work_init(const grs_model *m, double *work, size_t length);
+/* The same size from the model's shape alone (links, real coordinates, closure
+ * rows; 0 outside the kernel's limits): for a caller that sizes its memory
+ * before it has the tables, a native FMU whose shape is fixed at export. */
+GRB_API size_t grs_work_size_for(int n_links, int n_coords, int n_rows);
 
 /* The state equation ydot = (zd, zdd) at y with the generalised efforts tau
  * (N: a joint torque or force per coordinate; NULL none). */

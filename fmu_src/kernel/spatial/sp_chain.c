@@ -145,9 +145,16 @@ static void offsets(int L, int n, int m, size_t *off) {
 }
 
 size_t grs_work_size(const grs_model *md) {
-    size_t off[11];
     if (grs_check(md, NULL, NULL) != GRB_OK) return 0;
-    offsets(md->n_links, grs_n_coords(md), grs_n_rows(md), off);
+    return grs_work_size_for(md->n_links, grs_n_coords(md), grs_n_rows(md));
+}
+
+size_t grs_work_size_for(int n_links, int n_coords, int n_rows) {
+    size_t off[11];
+    if (n_links < 1 || n_links > GRS_MAX_LINKS || n_coords < 1 || n_coords > GRS_MAX_COORDS || n_rows < 0 ||
+        n_rows > GRS_MAX_ROWS)
+        return 0;
+    offsets(n_links, n_coords, n_rows, off);
     return off[10];
 }
 
