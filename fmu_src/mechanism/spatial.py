@@ -841,8 +841,11 @@ def bricard_p3(m: SpatialMechanism, y) -> np.ndarray:
     return m.points(y, [1], [(m.links[2].a, 0.0, 0.0)])[:, 0, :]
 
 
-# name -> builder: every preset takes gravity as its first (optional) argument
-PRESETS = {"rssr": rssr, "rssp": rssp, "spherical-fourbar": spherical_fourbar, "planar-fourbar": planar_fourbar,
+# name -> builder: every preset takes gravity as its first (optional) argument.  The names are the scene files'
+# in presets/spatial/ (each file reproduces its builder: tests/test_spatial_scene.py holds both lists equal), and
+# they share the command line with the planar presets: the planar four-bar written as spatial is
+# 'planar-fourbar-3d', apart from any planar name.
+PRESETS = {"rssr": rssr, "rssp": rssp, "spherical-fourbar": spherical_fourbar, "planar-fourbar-3d": planar_fourbar,
            "hooke-joint": hooke_joint, "bennett": bennett, "bricard": bricard}
 __all__ += ["hooke_joint", "hooke_joint_geometry", "bennett", "bennett_geometry", "bricard", "bricard_geometry",
             "bricard_p3", "BRICARD_JOINTS", "PRESETS"]
