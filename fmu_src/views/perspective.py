@@ -250,17 +250,46 @@ class SpatialSketch:
 
         in_ball = {k for k, link in enumerate(L) if link.mass == 0 and coincident(k) and link.joint == "R"
                    and children[k]}
+        # each body's pins besides its own joint: (axis in its frame, the body across: a child or a closure's other)
+        pins = {k: [(axis_in[c], c) for c in children[k]] for k in range(len(L))}
+        for c in m.closures:
+            if c.kind != "spherical":
+                pins[c.link].append((np.asarray(c.axis, dtype=float), c.to))
+                if c.to >= 0:
+                    pins[c.to].append((np.asarray(c.to_axis, dtype=float), c.link))
+
+        def meeting(k):  # a body between axes that meet (a spherical linkage's): how it is drawn, or None
+            link = L[k]
+            axes = [np.array([0, 0, 1.0])] + [a for a, _ in pins[k]]
+            if not (coincident(k) and link.mass > 0 and any(np.linalg.norm(np.cross(axes[0], a)) > 1e-9
+                                                              for a in axes[1:])):
+                return None
+            com = np.asarray(link.com, dtype=float)
+            if np.linalg.norm(com) < eps:
+                return "cross"  # its mass centre at the meeting point: a Hooke joint's cross
+            if np.linalg.norm(np.cross(com, axes[0])) < 1e-9 * np.linalg.norm(com):
+                return "shaft"  # its mass centre on its own axis: a shaft with a yoke on each pin
+            return "arcs"
+
+        shape = {k: meeting(k) for k in range(len(L))}
+        yoked = {k for k, v in shape.items() if v in ("shaft", "cross")}
         for k, link in enumerate(L):
             body = k
             if k in in_ball:
                 continue
             # the body's tubes: origin to each child's attachment, then along the child's axis by its offset
             axes = [np.array([0, 0, 1.0])] + [axis_in[c] for c in children[k]] + closure_axes[k]
-            turns = any(np.linalg.norm(np.cross(axes[0], a)) > 1e-9 for a in axes[1:])
-            concurrent = coincident(k) and link.mass > 0 and turns  # a body between axes that meet
-            if concurrent:
+            concurrent = shape[k] is not None
+            if shape[k] == "arcs":
                 radius = float(np.linalg.norm(link.com)) or 0.3 * scale
                 self._arcs(k, axes, radius, body)
+            elif shape[k] == "cross":
+                half = self._cross_half(link)
+                for a in axes:
+                    a = a / np.linalg.norm(a)
+                    self._segment((k, -half * a), (k, half * a), body, "link")
+            elif shape[k] == "shaft":
+                self._shaft(k, link, pins[k], body)
             else:
                 self._body(k, children[k], L, axis_in, body, "link")
                 for c in m.closures:
@@ -274,6 +303,12 @@ class SpatialSketch:
             ball = link.parent in in_ball
             kind = "ball" if ball else {"R": "revolute", "P": "slide", "C": "slide", "F": "fixed"}[link.joint]
             origin = self._point(k, np.zeros(3))
+            if k in yoked:
+                # a shaft's or a cross's joints are its pins, drawn where the yokes hold them; a shaft's bearing
+                # on the ground sits on its axis, at its mass centre
+                if shape[k] == "shaft" and link.parent == -1:
+                    self.markers.append((self._point(k, np.asarray(link.com, dtype=float)), -1, "pin"))
+                continue
             if not ball and link.joint in "RC" and not (concurrent and coincident(link.parent)):
                 self.segments.append((self._point(k, np.array([0, 0, -arm])), self._point(k, np.array([0, 0, arm])),
                                       body, "axis"))
@@ -284,7 +319,8 @@ class SpatialSketch:
             self.markers.append((origin, body, kind))
             if link.parent == -1:
                 self.markers.append((self._point(-1, np.array([link.a, 0, 0])), -1, "pin"))
-        if coincident(-1) and any(L[c].mass > 0 for c in children[-1]) and len(children[-1]) > 1:
+        arcs_on_ground = [c for c in children[-1] if shape[c] == "arcs"]
+        if coincident(-1) and arcs_on_ground and len(children[-1]) > 1:
             radius = max(float(np.linalg.norm(L[c].com)) for c in children[-1]) or 0.3 * scale
             self._arcs(-1, [axis_in[c] for c in children[-1]] + closure_axes[-1], radius, -1, kind="ground")
         else:
@@ -293,6 +329,8 @@ class SpatialSketch:
             if c.to == -1 and not coincident(-1) and np.linalg.norm(c.to_point) > eps:
                 self._segment((-1, np.zeros(3)), (-1, np.asarray(c.to_point, float)), -1, "ground")
         for c in m.closures:
+            if c.link in yoked and c.to in yoked:
+                continue  # a pin in a yoke: the yoke draws it
             kind = {"spherical": "ball", "revolute": "revolute", "cylindrical": "slide"}[c.kind]
             p = self._point(c.link, np.asarray(c.point, float))
             self.markers.append((p, c.link, kind))
@@ -323,6 +361,42 @@ class SpatialSketch:
                 self._segment((k, np.zeros(3)), (k, attach), body, kind)
             if L[c].d and L[c].joint not in "PC":  # a slide's offset is its coordinate: its guide shows it
                 self._segment((k, attach), (k, attach + L[c].d * axis_in[c]), body, kind)
+
+    def _cross_half(self, link) -> float:
+        """A cross's arm, centre to pin: its bars' half-length from its largest moment of inertia (two bars of
+        half-length c across each other: I = m (2c)^2 / 12 about the axis square to both, as one bar's)."""
+        largest = float(np.linalg.eigvalsh(np.asarray(link.inertia, dtype=float)).max())
+        half = math.sqrt(3 * largest / link.mass) if link.mass > 0 else 0.0
+        return half or 0.1 * self._reach()
+
+    def _reach(self) -> float:
+        """The mechanism's size for parts its rows do not measure: its links' lengths, or twice the farthest
+        mass centre (a spherical linkage's rows are all zero)."""
+        return max(self.mechanism.scale, *(2 * float(np.linalg.norm(l.com)) for l in self.mechanism.links))
+
+    def _shaft(self, k, link, pins, body):
+        """A shaft on its own axis (to twice its mass centre, as a rod's) and, for each pin it holds, a yoke: a
+        bridge across the shaft and two arms to the pin's ends, as far out as the part across reaches."""
+        L = self.mechanism.links
+        com = np.asarray(link.com, dtype=float)
+        w = com / np.linalg.norm(com)  # from the meeting point towards the shaft
+        base = None
+        for axis, other in pins:
+            p = axis - (axis @ w) * w
+            if np.linalg.norm(p) < 1e-9:
+                continue  # a pin along the shaft: no yoke holds it
+            p = p / np.linalg.norm(p)
+            across = L[other] if other >= 0 else None
+            reach = (self._cross_half(across) if across is not None and across.mass > 0
+                     and np.linalg.norm(across.com) < 1e-9 * self._reach() else np.linalg.norm(com) / 3)
+            base = reach * w
+            self._segment((k, base - reach * p), (k, base + reach * p), body, "link")
+            for end in (reach * p, -reach * p):
+                self._segment((k, base + end), (k, end), body, "link")
+                self.segments.append((self._point(k, end - 0.4 * reach * p), self._point(k, end + 0.4 * reach * p),
+                                      body, "axis"))
+                self.markers.append((self._point(k, end), body, "revolute"))
+        self._segment((k, np.zeros(3) if base is None else base), (k, 2 * com), body, "link")
 
     def _arcs(self, k, axes, radius, body, kind="link", pieces=10):
         """Great-circle arcs of ``radius`` joining the link's axes in turn (a spherical linkage's link)."""
