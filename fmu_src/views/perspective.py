@@ -17,6 +17,11 @@ Examples
 >>> uv, depth = cam.project([[0.0, 0.0, 0.0], [0.0, 0.5, 0.5]])
 >>> uv.round(6).tolist(), depth.tolist()      # the target at the centre; +y to the right, +z up
 ([[100.0, 50.0], [125.0, 25.0]], [2.0, 2.0])
+
+The default view, its lens (the picture's height seen from the camera) and side, in degrees:
+
+>>> [round(math.degrees(a), 9) for a in (FIELD_OF_VIEW, AZIMUTH, ELEVATION)]
+[30.0, -55.0, 25.0]
 """
 
 from __future__ import annotations
@@ -44,6 +49,15 @@ class Camera:
     A point p is seen at depth ``(p - position) . f`` along the view direction f,
     and drawn at ``(w/2 + F x / depth, h/2 - F y / depth)`` with x and y its
     distances right of and above the view axis.
+
+    Examples
+    --------
+    From 2 m up the z axis looking down, y up in the picture: +x is to the right.
+
+    >>> cam = Camera(np.array([0.0, 0, 2]), np.zeros(3), np.array([0.0, 1, 0]), focal=100.0, size=(200, 100))
+    >>> uv, depth = cam.project([[0.5, 0.0, 0.0], [0.0, 0.0, 3.0]])
+    >>> uv[0].tolist(), depth.tolist(), bool(np.isnan(uv[1]).all())    # the second is behind the camera
+    ([125.0, 50.0], [2.0, -1.0], True)
     """
 
     position: np.ndarray
@@ -109,7 +123,14 @@ def _focal(size, fov: float) -> float:
 
 def orbit_camera(azimuth: float, elevation: float, distance: float, target, up=(0, 0, 1), size=(960, 720),
                  focal: float | None = None, fov: float = FIELD_OF_VIEW) -> Camera:
-    """A camera ``distance`` from ``target`` at ``azimuth`` (about up, from world x) and ``elevation``, rad."""
+    """A camera ``distance`` from ``target`` at ``azimuth`` (about up, from world x) and ``elevation``, rad.
+
+    Examples
+    --------
+    >>> cam = orbit_camera(math.pi / 2, 0.0, 2.0, target=(0, 0, 0))    # on the y axis, level
+    >>> cam.position.round(12).tolist(), cam.focal == 720 / 2 / math.tan(FIELD_OF_VIEW / 2)
+    ([0.0, 2.0, 0.0], True)
+    """
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     target = np.asarray(target, dtype=float)
     position = target + distance * _direction(azimuth, elevation, up)
@@ -210,7 +231,20 @@ class SpatialSketch:
     ground attachment).  ``body`` is the link drawn (-1 the ground).  A link whose
     joints all sit at one point (a spherical linkage's, whose axes meet) is
     drawn as the arc between its axes on a sphere of its mass centre's radius;
-    the massless links inside a ball joint are not drawn: the ball is.
+    the massless links inside a ball joint are not drawn: the ball is.  Where such a
+    body's mass centre is on its own axis it is a shaft with a yoke on each pin it
+    holds, and where it is at the meeting point a cross (the Hooke joint's).
+
+    Examples
+    --------
+    >>> from grubler.mechanism.spatial import rssr
+    >>> m = rssr()
+    >>> y0 = m.assembled_start()
+    >>> sketch = SpatialSketch(m, y0[None, :m.n_coords])
+    >>> sorted({kind for *_, kind in sketch.markers}), sorted({kind for *_, kind in sketch.segments})
+    (['ball', 'pin', 'revolute'], ['axis', 'ground', 'link'])
+    >>> sketch.positions(y0[None]).shape == (1, len(sketch.links), 3)
+    True
     """
 
     mechanism: object
@@ -430,7 +464,14 @@ class SpatialSketch:
 
 def ground_grid(points, up, lines: int = 8) -> list[tuple[np.ndarray, np.ndarray]]:
     """A square grid on the floor under ``points`` (square to ``up``, through their lowest), spaced by a round
-    number (1, 2 or 5 x 10^k m) so that about ``lines`` lines cross the motion's footprint."""
+    number (1, 2 or 5 x 10^k m) so that about ``lines`` lines cross the motion's footprint.
+
+    Examples
+    --------
+    >>> lines = ground_grid([[0, 0, 0], [1, 1, 0.5]], up=(0, 0, 1))    # 0.1 m apart, a step beyond each side
+    >>> len(lines), [p.round(12).tolist() for p in lines[0]]
+    (26, [[-0.1, -0.1, 0.0], [-0.1, 1.1, 0.0]])
+    """
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     h1 = _square(up)
@@ -453,7 +494,19 @@ def ground_grid(points, up, lines: int = 8) -> list[tuple[np.ndarray, np.ndarray
 def draw_list(camera: Camera, sketch: SpatialSketch, frame: np.ndarray) -> list[tuple]:
     """One frame's parts, far to near: ('segment', body, kind, (u0, v0, u1, v1), depth) and ('marker', body,
     kind, (u, v), depth), from the sketch's world points at that frame (P x 3).  A part with a point
-    behind the camera is left out."""
+    behind the camera is left out.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.spatial import rssr
+    >>> m = rssr()
+    >>> y0 = m.assembled_start()
+    >>> sketch = SpatialSketch(m, y0[None, :m.n_coords])
+    >>> frame = sketch.positions(y0[None])[0]
+    >>> parts = draw_list(fit_camera(frame), sketch, frame)
+    >>> len(parts) == len(sketch.segments) + len(sketch.markers), all(a[4] >= b[4] for a, b in zip(parts, parts[1:]))
+    (True, True)
+    """
     uv, depth = camera.project(frame)
     parts = []
     for i, j, body, kind in sketch.segments:
