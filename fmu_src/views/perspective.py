@@ -237,14 +237,15 @@ class SpatialSketch:
 
     Examples
     --------
-    >>> from grubler.mechanism.spatial import rssr
-    >>> m = rssr()
-    >>> y0 = m.assembled_start()
-    >>> sketch = SpatialSketch(m, y0[None, :m.n_coords])
-    >>> sorted({kind for *_, kind in sketch.markers}), sorted({kind for *_, kind in sketch.segments})
-    (['ball', 'pin', 'revolute'], ['axis', 'ground', 'link'])
-    >>> sketch.positions(y0[None]).shape == (1, len(sketch.links), 3)
-    True
+    The Hooke joint: two shafts (a tube and a yoke of three each), the cross's two bars, a
+    short axis line at each of the four pins; a bearing on each shaft and the four pins.
+
+    >>> from grubler.mechanism.spatial import hooke_joint
+    >>> sketch = SpatialSketch(hooke_joint(), np.zeros((1, 3)))    # the motion's coordinates: one row here
+    >>> [sum(kind == k for *_, kind in sketch.segments) for k in ("link", "axis")]
+    [10, 4]
+    >>> [sum(kind == k for *_, kind in sketch.markers) for k in ("pin", "revolute")]
+    [2, 4]
     """
 
     mechanism: object
