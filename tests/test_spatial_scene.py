@@ -166,6 +166,35 @@ def test_the_fit_puts_every_point_of_the_motion_inside_the_picture(name):
     assert (uv.max(axis=0) + uv.min(axis=0)) / 2 == pytest.approx(np.array(size) / 2, abs=1e-6)
 
 
+@pytest.mark.parametrize("name", ["hooke-joint", "bricard"])
+def test_the_film_and_the_app_keep_the_title_band_free(name):
+    # the title is written in the top TITLE_PX of a film's frame and of the app's canvas: the fit is below it
+    from grubler.app.spatial_view import CANVAS, spatial_view
+    from grubler.views.perspective import TITLE_PX, Camera
+    from grubler.views.spatial_film import FRAME_SIZE, film_camera
+
+    scene = load_spatial_scene(name)
+    res = scene.mechanism.simulate(scene.start(), 1.0, 0.05, tau=scene.tau())
+    sketch = SpatialSketch(scene.mechanism, res.z)
+    frames = sketch.positions(res.y)
+    cam = film_camera(sketch, frames)
+    uv, _ = cam.project(frames.reshape(-1, 3))
+    below = FRAME_SIZE[1] - TITLE_PX
+    assert uv[:, 1].min() >= TITLE_PX + 0.03 * below - 1e-6 and uv[:, 1].max() <= FRAME_SIZE[1] + 1e-6
+    span = uv.max(axis=0) - uv.min(axis=0)
+    assert max(span[0] / FRAME_SIZE[0], span[1] / below) == pytest.approx(0.94, abs=1e-6)
+    # the app's camera, rebuilt as view3d.js rebuilds it from the answer, leaves its band free too
+    view = spatial_view({"name": name, "t_end": 1.0})
+    c = view["camera"]
+    lens = c["zoom"] * CANVAS[1] / 2 / math.tan(c["fov"] / 2)
+    position = np.array(c["target"]) + c["distance"] * (cam.position - cam.target) / np.linalg.norm(
+        cam.position - cam.target)
+    page = Camera(position, np.array(c["target"]), np.array(c["up"]), lens, CANVAS,
+                  (c["centre"][0] * CANVAS[0], c["centre"][1] * CANVAS[1]))
+    v = page.project(np.array(view["frames"]).reshape(-1, 3))[0][:, 1]
+    assert v.min() >= TITLE_PX
+
+
 def test_a_set_distance_is_kept_and_parts_are_drawn_far_to_near():
     scene = load_spatial_scene("rssr")
     y0 = scene.start()

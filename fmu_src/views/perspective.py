@@ -22,6 +22,12 @@ The default view, its lens (the picture's height seen from the camera) and side,
 
 >>> [round(math.degrees(a), 9) for a in (FIELD_OF_VIEW, AZIMUTH, ELEVATION)]
 [30.0, -55.0, 25.0]
+
+A fit keeps the title's band free (``TITLE_PX`` at the top) where a film or the app writes one:
+
+>>> cam = fit_camera([[0, 0, 0], [1, 1, 1]], size=(400, 300), top=TITLE_PX)
+>>> bool(cam.project([[0, 0, 0], [1, 1, 1]])[0][:, 1].min() > TITLE_PX)
+True
 """
 
 from __future__ import annotations
@@ -35,11 +41,12 @@ from grubler.errors import SceneError
 from grubler.limits import brief, parse_angle, parse_length
 
 __all__ = ["Camera", "orbit_camera", "fit_camera", "parse_camera", "up_direction", "SpatialSketch", "draw_list",
-           "ground_grid", "FIELD_OF_VIEW", "AZIMUTH", "ELEVATION"]
+           "ground_grid", "FIELD_OF_VIEW", "AZIMUTH", "ELEVATION", "TITLE_PX"]
 
 FIELD_OF_VIEW = math.radians(30)  # the picture's height, seen from the camera: a normal lens's
 AZIMUTH, ELEVATION = math.radians(-55), math.radians(25)  # the default view: from the front right, above
 MARGIN = 0.06  # of the half-picture left free around a fitted motion
+TITLE_PX = 36  # px at the picture's top a film's or the app's title line takes: a fit leaves it free
 
 
 @dataclass(frozen=True)
@@ -138,8 +145,10 @@ def orbit_camera(azimuth: float, elevation: float, distance: float, target, up=(
 
 
 def fit_camera(points, azimuth: float = AZIMUTH, elevation: float = ELEVATION, up=(0, 0, 1), size=(960, 720),
-               distance: float | None = None, fov: float = FIELD_OF_VIEW, margin: float = MARGIN) -> Camera:
-    """A camera looking at the middle of ``points`` (every point of a motion, P x 3) from the given side.
+               distance: float | None = None, fov: float = FIELD_OF_VIEW, margin: float = MARGIN,
+               top: float = 0.0) -> Camera:
+    """A camera looking at the middle of ``points`` (every point of a motion, P x 3) from the given side,
+    fitted to the picture below a band of ``top`` px (where a title is written; 0: the whole picture).
 
     Without a ``distance``, the nearest at which every point lies inside the
     picture, ``margin`` of the half-picture free: for a point at x right of the
@@ -162,6 +171,10 @@ def fit_camera(points, azimuth: float = AZIMUTH, elevation: float = ELEVATION, u
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if not len(pts):
         raise SceneError("camera", "no finite point to look at")
+    if top:  # the fit below the band, then the picture's centre moved down by it
+        camera = fit_camera(pts, azimuth, elevation, up, (size[0], size[1] - top), distance, fov, margin)
+        cu, cv = camera.centre or (size[0] / 2, (size[1] - top) / 2)
+        return Camera(camera.position, camera.target, camera.up, camera.focal, tuple(size), (cu, cv + top))
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     target = (lo + hi) / 2
