@@ -341,7 +341,7 @@ def test_new_presets_conserve_energy_on_free_runs(build, rate):
 
 
 def test_every_preset_is_in_the_registry_and_builds():
-    assert set(sp.PRESETS) >= {"rssr", "rssp", "spherical-fourbar", "planar-fourbar", "hooke-joint", "bennett",
+    assert set(sp.PRESETS) >= {"rssr", "rssp", "spherical-fourbar", "planar-fourbar-3d", "hooke-joint", "bennett",
                                "bricard"}
     for name, build in sp.PRESETS.items():
         m = build()

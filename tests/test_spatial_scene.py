@@ -9,10 +9,11 @@ from grubler.errors import SceneError
 from grubler.mechanism import spatial
 from grubler.mechanism.spatial_scene import (is_spatial, load_spatial_scene, rod_inertia, spatial_preset_names,
                                              spatial_scene_from_dict)
-from grubler.mechanism.scene import load_scene, preset_text
+from grubler.mechanism.scene import load_scene, preset_names, preset_text
 
-BUILDERS = {"rssr": spatial.rssr, "rssp": spatial.rssp, "spherical-fourbar": spatial.spherical_fourbar,
-            "planar-fourbar-3d": spatial.planar_fourbar}
+# one registry of the spatial presets' names: the builders' (spatial.PRESETS); every shipped scene file is one
+# of them and reproduces it (the tests below), so the two lists cannot drift
+BUILDERS = spatial.PRESETS
 
 
 def _preset_toml(name: str) -> str:
@@ -33,8 +34,15 @@ def test_each_spatial_preset_reproduces_its_builder(name):
     np.testing.assert_allclose(scene.start(), built.assembled_start(), atol=1e-10)
 
 
-def test_every_shipped_spatial_preset_has_a_builder():
+def test_every_shipped_spatial_preset_has_a_builder_and_every_builder_a_file():
     assert sorted(spatial_preset_names()) == sorted(BUILDERS)
+
+
+def test_spatial_preset_names_are_apart_from_the_planar_ones():
+    # one namespace on the command line: a spatial preset named as a planar one would hide it
+    # (grubler simulate NAME reads the spatial preset first)
+    assert set(spatial_preset_names()).isdisjoint(preset_names())
+    assert "planar-fourbar-3d" in spatial_preset_names() and "planar-fourbar" not in spatial.PRESETS
 
 
 def test_a_spatial_scene_runs_as_its_builder():
@@ -158,6 +166,35 @@ def test_the_fit_puts_every_point_of_the_motion_inside_the_picture(name):
     assert (uv.max(axis=0) + uv.min(axis=0)) / 2 == pytest.approx(np.array(size) / 2, abs=1e-6)
 
 
+@pytest.mark.parametrize("name", ["hooke-joint", "bricard"])
+def test_the_film_and_the_app_keep_the_title_band_free(name):
+    # the title is written in the top TITLE_PX of a film's frame and of the app's canvas: the fit is below it
+    from grubler.app.spatial_view import CANVAS, spatial_view
+    from grubler.views.perspective import TITLE_PX, Camera
+    from grubler.views.spatial_film import FRAME_SIZE, film_camera
+
+    scene = load_spatial_scene(name)
+    res = scene.mechanism.simulate(scene.start(), 1.0, 0.05, tau=scene.tau())
+    sketch = SpatialSketch(scene.mechanism, res.z)
+    frames = sketch.positions(res.y)
+    cam = film_camera(sketch, frames)
+    uv, _ = cam.project(frames.reshape(-1, 3))
+    below = FRAME_SIZE[1] - TITLE_PX
+    assert uv[:, 1].min() >= TITLE_PX + 0.03 * below - 1e-6 and uv[:, 1].max() <= FRAME_SIZE[1] + 1e-6
+    span = uv.max(axis=0) - uv.min(axis=0)
+    assert max(span[0] / FRAME_SIZE[0], span[1] / below) == pytest.approx(0.94, abs=1e-6)
+    # the app's camera, rebuilt as view3d.js rebuilds it from the answer, leaves its band free too
+    view = spatial_view({"name": name, "t_end": 1.0})
+    c = view["camera"]
+    lens = c["zoom"] * CANVAS[1] / 2 / math.tan(c["fov"] / 2)
+    position = np.array(c["target"]) + c["distance"] * (cam.position - cam.target) / np.linalg.norm(
+        cam.position - cam.target)
+    page = Camera(position, np.array(c["target"]), np.array(c["up"]), lens, CANVAS,
+                  (c["centre"][0] * CANVAS[0], c["centre"][1] * CANVAS[1]))
+    v = page.project(np.array(view["frames"]).reshape(-1, 3))[0][:, 1]
+    assert v.min() >= TITLE_PX
+
+
 def test_a_set_distance_is_kept_and_parts_are_drawn_far_to_near():
     scene = load_spatial_scene("rssr")
     y0 = scene.start()
@@ -176,6 +213,37 @@ def test_a_set_distance_is_kept_and_parts_are_drawn_far_to_near():
         ends = [n for n, p in enumerate(parts) if p[0] == "segment"
                 and any(i in s[:2] and p[4] == d[list(s[:2])].max() for s in sketch.segments)]
         assert all(n < marker_at for n in ends)
+
+
+def test_the_hooke_joint_is_drawn_as_shafts_yokes_and_a_cross():
+    # its joints all meet at the cross's centre: a spherical four-bar's arcs would not show it; each shaft is a
+    # tube along its own axis with a yoke whose pins hold the cross's ends, in every frame of the motion
+    scene, g = load_spatial_scene("hooke-joint"), spatial.hooke_joint_geometry()
+    m = scene.mechanism
+    res = m.simulate(scene.start(), 0.8, 0.1, tau=scene.tau(0.02))
+    sketch = SpatialSketch(m, res.z)
+    frames = sketch.positions(res.y)
+    names = [l.name for l in m.links]
+    cross, shafts = names.index("cross"), (names.index("input"), names.index("output"))
+    bars = [(i, j) for i, j, b, kind in sketch.segments if b == cross and kind == "link"]
+    pins = [i for i, b, kind in sketch.markers if b in shafts and kind == "revolute"]
+    assert len(bars) == 2 and len(pins) == 4
+    beta = g.shaft_angle
+    directions = {shafts[0]: np.array([0, 0, -1.0]), shafts[1]: np.array([0, -math.sin(beta), math.cos(beta)])}
+    for f in frames:
+        ends = np.array([f[k] for bar in bars for k in bar])
+        assert np.linalg.norm(ends, axis=1) == pytest.approx([g.cross] * 4, abs=1e-12)  # bars through the centre
+        for p in pins:  # each yoke's pin on one of the cross's ends
+            assert np.linalg.norm(ends - f[p], axis=1).min() < 1e-12
+        for b in shafts:  # the shaft's tube along its bearing's axis, out to its length
+            tube = max(((i, j) for i, j, bb, kind in sketch.segments if bb == b and kind == "link"),
+                       key=lambda s: np.linalg.norm(f[s[1]] - f[s[0]]))
+            for k in tube:
+                assert np.linalg.norm(np.cross(f[k], directions[b])) < 1e-12
+            assert max(f[k] @ directions[b] for k in tube) == pytest.approx(g.shaft, abs=1e-12)
+    # the bearings are on the ground, on the shafts' axes; no arc of a spherical linkage is drawn
+    bearings = [i for i, b, kind in sketch.markers if b == -1 and kind == "pin"]
+    assert len(bearings) == 2 and not [s for s in sketch.segments if s[3] == "ground"]
 
 
 @pytest.mark.parametrize("text, field, words", [

@@ -24,8 +24,8 @@ import numpy as np
 from grubler.errors import InputError
 from grubler.limits import brief, number
 from grubler.mechanism.spatial_scene import load_spatial_scene, spatial_preset_names
-from grubler.views.perspective import AZIMUTH, ELEVATION, FIELD_OF_VIEW, SpatialSketch, fit_camera, ground_grid, \
-    up_direction
+from grubler.views.perspective import AZIMUTH, ELEVATION, FIELD_OF_VIEW, TITLE_PX, SpatialSketch, fit_camera, \
+    ground_grid, up_direction
 
 __all__ = ["spatial_catalog", "spatial_view", "MAX_FRAMES"]
 
@@ -57,7 +57,7 @@ def spatial_view(body: dict) -> dict:
     sketch = SpatialSketch(scene.mechanism, res.z)
     frames = sketch.positions(res.y)
     up = up_direction(scene.mechanism.gravity)
-    cam = fit_camera(frames.reshape(-1, 3), AZIMUTH, ELEVATION, up, size=CANVAS)
+    cam = fit_camera(frames.reshape(-1, 3), AZIMUTH, ELEVATION, up, size=CANVAS, top=TITLE_PX)
     lens = CANVAS[1] / 2 / math.tan(FIELD_OF_VIEW / 2)
     return {
         "name": name,

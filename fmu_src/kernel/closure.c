@@ -10,6 +10,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "project.h"
 #include "workspace.h"
 
 #define POSITION_TOL 1e-12     /* m (or rad): closure reached by assembly and projection */
@@ -47,32 +48,17 @@ static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
     grb_closure_rows(md, rest, w);
 }
 
-static double worst_violation(const grb_ws *w) {
-    double worst = 0.0;
-    for (int r = 0; r < w->m; r++)
-        if (!(fabs(w->row[r].phi) <= worst)) worst = fabs(w->row[r].phi); /* a nan wins */
-    return worst;
-}
+static void rows_of(const void *md, const double *z, void *w) { rows_at(md, z, w); }
+
+static double worst_violation(const grb_ws *w) { return grb_worst_row(&w->row[0].phi, R_COLUMNS, w->m); }
 
 /* Minimum-norm projection of y = (z, zd) onto the closures, in place:
- * Gauss-Newton on phi(z) = 0, then the rates onto the null space of J. */
+ * Gauss-Newton on phi(z) = 0, then the rates onto the null space of J
+ * (project.h, which the spatial kernel shares). */
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
-    int n = w->n, m = w->m;
-    double *z = y, *zd = y + n;
     scratch s = scratch_of(w);
-    for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
-        rows_at(md, z, w);
-        if (worst_violation(w) <= POSITION_TOL * scale) break;
-        grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].phi, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
-        for (int i = 0; i < n; i++) z[i] -= s.x[i];
-    }
-    for (int r = 0; r < m; r++) {
-        double v = 0.0;
-        for (int i = 0; i < n; i++) v += J_(w, r, i) * zd[i];
-        w->row[r].b = v;
-    }
-    grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].b, R_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
-    for (int i = 0; i < n; i++) zd[i] -= s.x[i];
+    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, R_COLUMNS, w->n, w->m};
+    grb_project_rows(&rows, POSITION_TOL * scale, LSTSQ_RCOND, PROJECTION_ITERATIONS, y, s.x, s.U, s.V);
 }
 
 grb_status grb_project(const grb_model *md, double scale, double *y, double *work) {

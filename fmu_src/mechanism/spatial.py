@@ -34,6 +34,16 @@ Examples
 >>> res = m.simulate(y0, t_end=0.2, dt_out=0.1)
 >>> bool(abs(res.closure_error()).max() < 1e-10)
 True
+
+The joint kinds (existence factors of the revolute and the slide), the closure
+kinds (kernel code, rows), gravity's size, the presets and A04's joints:
+
+>>> JOINTS["C"], CLOSURE_KINDS["revolute"], GRAVITY
+((1, 1), (1, 5), 9.81)
+>>> sorted(PRESETS)
+['bennett', 'bricard', 'hooke-joint', 'planar-fourbar-3d', 'rssp', 'rssr', 'spherical-fourbar']
+>>> BRICARD_JOINTS[2]    # joint 3 (the benchmark's point P3) and its axis, at the start
+((1, -1, 0), (1, 0, 0))
 """
 
 from __future__ import annotations
@@ -103,6 +113,14 @@ class SpatialLink:
         The inertia tensor about the mass centre in the link's axes, kg m^2.
     damping : (float, float)
         Viscous damping on theta (N m s/rad) and on d (N s/m).
+
+    Examples
+    --------
+    >>> arm = SpatialLink("arm", a=0.2, alpha=math.pi / 2, joint="C", mass=1.0)
+    >>> arm.row(0)[:7].tolist()    # the kernel's row: a, alpha, theta, d, revolute, slide, parent
+    [0.2, 1.5707963267948966, 0.0, 0.0, 1.0, 1.0, -1.0]
+    >>> SpatialMechanism([arm]).coordinate_names    # a cylindrical joint: both of its variables
+    ('arm.theta', 'arm.d')
     """
 
     name: str
@@ -154,6 +172,15 @@ class SpatialClosure:
         world's on the ground), m.
     axis, to_axis : 3 floats
         The joint axis in each frame (unit; not read for a spherical joint).
+
+    Examples
+    --------
+    >>> ball = SpatialClosure("spherical", link=2, point=(0.8, 0, 0), to_point=(1.0, 0, 0))
+    >>> ball.row(0)[:6].tolist()    # kind code, link, to (the ground), point
+    [0.0, 2.0, -1.0, 0.8, 0.0, 0.0]
+    >>> m = planar_fourbar("spherical")
+    >>> m.closures[0].kind, m.n_rows
+    ('spherical', 3)
     """
 
     kind: str
@@ -175,7 +202,17 @@ class SpatialClosure:
 
 @dataclass
 class SpatialResult:
-    """A spatial run: times ``t`` (T) and states ``y`` (T x 2N) over its mechanism."""
+    """A spatial run: times ``t`` (T) and states ``y`` (T x 2N) over its mechanism.
+
+    Examples
+    --------
+    >>> m = rssr()
+    >>> res = m.simulate(m.assembled_start(), t_end=0.1, dt_out=0.05)
+    >>> res.t.tolist(), res.z.shape, res.energy().shape
+    ([0.0, 0.05, 0.1], (3, 5), (3, 2))
+    >>> bool(res.closure_error().max() < 1e-10)
+    True
+    """
 
     mechanism: "SpatialMechanism"
     t: np.ndarray
@@ -218,6 +255,20 @@ class SpatialMechanism:
     InputError
         A field the kernel's check (grs_check, the one place validity is
         decided) refuses, named as ``links[k].field`` or ``closures[c].field``.
+
+    Examples
+    --------
+    A pendulum: a point mass of 1 kg 0.5 m out on a revolute about z, gravity along -y,
+    let go level: its angular acceleration is -g / 0.5.
+
+    >>> m = SpatialMechanism([SpatialLink("pendulum", mass=1.0, com=(0.5, 0, 0))], gravity=(0, -9.81, 0))
+    >>> zdd, lam, (ke, pe) = m.dynamics([0.0, 0.0])
+    >>> round(float(zdd[0]), 9), float(ke)
+    (-19.62, 0.0)
+    >>> SpatialMechanism([SpatialLink("pendulum", mass=-1.0)])
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: links[0].mass: expected a mass >= 0
     """
 
     def __init__(self, links, closures=(), gravity=(0.0, 0.0, -GRAVITY)):
@@ -531,7 +582,14 @@ class _RSSR:
 
 def rssr_geometry() -> _RSSR:
     """The RSSR preset's dimensions (the crank shaft is the world z axis; the rocker
-    shaft crosses the x axis at ``offset``, twisted by ``twist`` about x)."""
+    shaft crosses the x axis at ``offset``, twisted by ``twist`` about x).
+
+    Examples
+    --------
+    >>> g = rssr_geometry()
+    >>> g.crank, g.coupler, g.rocker, g.offset
+    (0.1, 0.4, 0.2, 0.35)
+    """
     return _RSSR()
 
 
@@ -545,6 +603,14 @@ def rssr(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     closes with a spherical pin between the coupler's far end and the
     rocker's.  Coordinates: crank, the ball's three angles, rocker: two
     degrees of freedom, the crank's and the coupler's spin about its own axis.
+
+    Examples
+    --------
+    >>> m = rssr()
+    >>> m.coordinate_names
+    ('crank.theta', 'coupler1.theta', 'coupler2.theta', 'coupler.theta', 'rocker.theta')
+    >>> m.determinacy(m.assembled_start()[:m.n_coords])[1]    # rank 3 of 3 rows: not overconstrained
+    3
     """
     g = rssr_geometry()
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
@@ -595,7 +661,14 @@ class _RSSP:
 
 def rssp_geometry() -> _RSSP:
     """The RSSP preset's dimensions (crank on the world z axis; the slide's line through (offset, 0, 0)
-    along Rx(twist) e_z)."""
+    along Rx(twist) e_z).
+
+    Examples
+    --------
+    >>> g = rssp_geometry()
+    >>> g.crank, g.coupler, g.offset
+    (0.1, 0.5, 0.3)
+    """
     return _RSSP()
 
 
@@ -606,6 +679,12 @@ def rssp(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     The crank and the ball at its pin are the RSSR's; the slider is a second branch from the ground, a
     prismatic joint whose axis is the slide's line, its ball at the slider frame's origin.
     Coordinates: crank, the ball's three angles, the slide.
+
+    Examples
+    --------
+    >>> m = rssp()
+    >>> m.coordinate_names[-1], m.n_rows
+    ('slider.d', 3)
     """
     g = rssp_geometry()
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
@@ -635,7 +714,14 @@ class _Spherical4:
 
 
 def spherical_fourbar_geometry() -> _Spherical4:
-    """The spherical four-bar preset's angular link lengths (every joint axis through the origin)."""
+    """The spherical four-bar preset's angular link lengths (every joint axis through the origin).
+
+    Examples
+    --------
+    >>> g = spherical_fourbar_geometry()
+    >>> [round(math.degrees(a), 9) for a in (g.ground, g.crank, g.coupler, g.rocker)]
+    [70.0, 25.0, 60.0, 55.0]
+    """
     return _Spherical4()
 
 
@@ -650,6 +736,12 @@ def spherical_fourbar(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     three force rows vanish identically (every joint is at the origin), so the
     loop is overconstrained as a spatial one: the motion is exact and those
     reactions are indeterminate.
+
+    Examples
+    --------
+    >>> m = spherical_fourbar()
+    >>> m.n_rows, m.determinacy(m.assembled_start()[:m.n_coords])[1]    # 5 rows of rank 2
+    (5, 2)
     """
     g = spherical_fourbar_geometry()
     R = g.radius
@@ -682,6 +774,14 @@ def planar_fourbar(closure: str = "revolute", gravity=(0.0, -GRAVITY, 0.0)) -> S
     rows, of which the motion fixes two: the other three reactions are
     indeterminate) or a spherical one (3 rows).  Each link's inertia about its
     z axis is the planar I; the moments across it do not enter a planar motion.
+
+    Examples
+    --------
+    >>> m = planar_fourbar()
+    >>> m.coordinate_names, m.n_rows
+    (('link2.theta', 'link3.theta', 'link4.theta'), 5)
+    >>> [round(math.degrees(v), 6) for v in m.assembled_start()[:3]]    # the thesis's start
+    [0.0, 60.0, -120.0]
     """
     f = _THESIS_FOURBAR
     links, previous = [], 0.0
@@ -708,7 +808,14 @@ class _Hooke:
 
 def hooke_joint_geometry() -> _Hooke:
     """The Hooke joint preset's dimensions (the input shaft is the world z axis, the output shaft
-    Rx(shaft_angle) e_z, both through the cross's centre at the origin)."""
+    Rx(shaft_angle) e_z, both through the cross's centre at the origin).
+
+    Examples
+    --------
+    >>> g = hooke_joint_geometry()
+    >>> round(math.degrees(g.shaft_angle), 9), g.shaft, g.cross
+    (30.0, 0.3, 0.05)
+    """
     return _Hooke()
 
 
@@ -723,6 +830,20 @@ def hooke_joint(gravity=(0.0, 0.0, -GRAVITY), shaft_angle: float | None = None) 
     on the output yoke with a revolute closure (5 rows, rank 2, as any spherical
     four-bar's: the closure's forces are indeterminate, its moments square to the pin
     are not).  Coordinates: input, cross (about the input yoke's pin), output.
+
+    Examples
+    --------
+    At the start the input yoke's pin lies in the shafts' plane: the output turns
+    1 / cos(shaft_angle) times as fast as the input, the speed ratio's largest.
+
+    >>> m = hooke_joint()
+    >>> y0 = m.assemble(m.sketch, [1.0, 0.0, 0.0])    # the input at 1 rad/s
+    >>> round(float(y0[5] / y0[3]), 9), round(1 / math.cos(math.radians(30)), 9)
+    (1.154700538, 1.154700538)
+    >>> hooke_joint(shaft_angle=math.radians(85))
+    Traceback (most recent call last):
+    ...
+    grubler.errors.InputError: shaft_angle: expected an angle in [0, 80) degrees, got 1.4835298641951802 rad
     """
     g = hooke_joint_geometry()
     beta = g.shaft_angle if shaft_angle is None else float(shaft_angle)
@@ -757,7 +878,14 @@ class _Bennett:
 
 
 def bennett_geometry() -> _Bennett:
-    """The Bennett preset's dimensions: opposite links equal, a1 / sin(alpha1) = a2 / sin(alpha2)."""
+    """The Bennett preset's dimensions: opposite links equal, a1 / sin(alpha1) = a2 / sin(alpha2).
+
+    Examples
+    --------
+    >>> g = bennett_geometry()
+    >>> g.a1, round(g.a2, 9), round(math.degrees(g.alpha1), 9), round(math.degrees(g.alpha2), 9)
+    (0.15, 0.204903811, 45.0, 75.0)
+    """
     return _Bennett()
 
 
@@ -773,6 +901,18 @@ def bennett(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     closure (5 rows, rank 2: a general 4R loop would be rigid).  Coordinates: the joint
     angles theta1..theta3 (DH, between consecutive common normals).  Each link is a
     rod along its common normal.
+
+    Examples
+    --------
+    The assembled start keeps Bennett's input-output equation
+    tan(theta1 / 2) tan(theta2 / 2) = sin((alpha2 + alpha1) / 2) / sin((alpha2 - alpha1) / 2):
+
+    >>> m, g = bennett(), bennett_geometry()
+    >>> t1, t2 = m.assembled_start()[:2]
+    >>> round(math.tan(t1 / 2) * math.tan(t2 / 2), 9)
+    3.346065215
+    >>> round(math.sin((g.alpha2 + g.alpha1) / 2) / math.sin((g.alpha2 - g.alpha1) / 2), 9)
+    3.346065215
     """
     g = bennett_geometry()
     lengths, twists = (g.a1, g.a2, g.a1, g.a2), (g.alpha1, g.alpha2, g.alpha1, g.alpha2)
@@ -797,7 +937,14 @@ class _Bricard:
 
 
 def bricard_geometry() -> _Bricard:
-    """IFToMM benchmark A04's dimensions: rods of 1 m and 1 kg, square section 0.1 m."""
+    """IFToMM benchmark A04's dimensions: rods of 1 m and 1 kg, square section 0.1 m.
+
+    Examples
+    --------
+    >>> g = bricard_geometry()
+    >>> g.rod, g.mass, g.section
+    (1.0, 1.0, 0.1)
+    """
     return _Bricard()
 
 
@@ -818,6 +965,12 @@ def bricard(gravity=(0.0, -GRAVITY, 0.0)) -> SpatialMechanism:
     alpha +-pi/2) and rod 5 closes on the ground at joint 6 with a revolute closure
     (5 rows, rank 4).  The benchmark starts at rest there: ``m.sketch`` is that pose
     (all coordinates 0).
+
+    Examples
+    --------
+    >>> m = bricard()
+    >>> m.n_coords, m.n_rows, m.determinacy(m.sketch)[1]    # one freedom where Grubler counts none
+    (5, 5, 4)
     """
     g = bricard_geometry()
     L, s = g.rod, g.section
@@ -837,12 +990,22 @@ def bricard(gravity=(0.0, -GRAVITY, 0.0)) -> SpatialMechanism:
 
 
 def bricard_p3(m: SpatialMechanism, y) -> np.ndarray:
-    """The benchmark's point P3 (rod 2's far end, joint 3) over states y (rows x 3), m."""
+    """The benchmark's point P3 (rod 2's far end, joint 3) over states y (rows x 3), m.
+
+    Examples
+    --------
+    >>> m = bricard()
+    >>> bricard_p3(m, m.assembled_start()).round(12).tolist()
+    [[1.0, -1.0, 0.0]]
+    """
     return m.points(y, [1], [(m.links[2].a, 0.0, 0.0)])[:, 0, :]
 
 
-# name -> builder: every preset takes gravity as its first (optional) argument
-PRESETS = {"rssr": rssr, "rssp": rssp, "spherical-fourbar": spherical_fourbar, "planar-fourbar": planar_fourbar,
+# name -> builder: every preset takes gravity as its first (optional) argument.  The names are the scene files'
+# in presets/spatial/ (each file reproduces its builder: tests/test_spatial_scene.py holds both lists equal), and
+# they share the command line with the planar presets: the planar four-bar written as spatial is
+# 'planar-fourbar-3d', apart from any planar name.
+PRESETS = {"rssr": rssr, "rssp": rssp, "spherical-fourbar": spherical_fourbar, "planar-fourbar-3d": planar_fourbar,
            "hooke-joint": hooke_joint, "bennett": bennett, "bricard": bricard}
 __all__ += ["hooke_joint", "hooke_joint_geometry", "bennett", "bennett_geometry", "bricard", "bricard_geometry",
             "bricard_p3", "BRICARD_JOINTS", "PRESETS"]

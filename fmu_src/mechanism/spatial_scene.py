@@ -71,6 +71,14 @@ class SpatialScene:
         The coordinate the constant ``torque`` acts on (N m, or N on a slide).
     t_end, dt_out : float
         Default run length and output interval, s.
+
+    Examples
+    --------
+    >>> scene = load_spatial_scene("bennett")
+    >>> scene.drive, scene.torque, scene.t_end
+    ('link1.theta', 0.001, 4.0)
+    >>> scene.tau().tolist(), scene.tau(0.0).tolist()
+    ([0.001, 0.0, 0.0], [0.0, 0.0, 0.0])
     """
 
     mechanism: SpatialMechanism
@@ -391,7 +399,13 @@ def _source(source) -> tuple[str, str] | None:
 
 def is_spatial(source) -> bool:
     """Whether a scene source (preset name, file or TOML text) is a spatial scene: a spatial preset, or TOML
-    that says ``dimension = 3``.  What is not readable is left to the planar loader to refuse."""
+    that says ``dimension = 3``.  What is not readable is left to the planar loader to refuse.
+
+    Examples
+    --------
+    >>> is_spatial("hooke-joint"), is_spatial("thesis-fourbar"), is_spatial("dimension = 3\\n")
+    (True, False, True)
+    """
     found = _source(source)
     if found is None:
         return False
@@ -408,6 +422,16 @@ def load_spatial_scene(source) -> SpatialScene:
     ------
     SceneError
         Naming the field at fault.
+
+    Examples
+    --------
+    >>> scene = load_spatial_scene("bricard")
+    >>> scene.mechanism.coordinate_names[:2], scene.t_end, scene.dt_out
+    (('rod1.theta', 'rod2.theta'), 10.0, 0.025)
+    >>> load_spatial_scene("rsr")
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SceneError: scene: 'rsr' is neither a spatial preset nor a TOML file; did you mean 'rssr'?
     """
     found = _source(source)
     if found is None:

@@ -17,6 +17,17 @@ Examples
 >>> uv, depth = cam.project([[0.0, 0.0, 0.0], [0.0, 0.5, 0.5]])
 >>> uv.round(6).tolist(), depth.tolist()      # the target at the centre; +y to the right, +z up
 ([[100.0, 50.0], [125.0, 25.0]], [2.0, 2.0])
+
+The default view, its lens (the picture's height seen from the camera) and side, in degrees:
+
+>>> [round(math.degrees(a), 9) for a in (FIELD_OF_VIEW, AZIMUTH, ELEVATION)]
+[30.0, -55.0, 25.0]
+
+A fit keeps the title's band free (``TITLE_PX`` at the top) where a film or the app writes one:
+
+>>> cam = fit_camera([[0, 0, 0], [1, 1, 1]], size=(400, 300), top=TITLE_PX)
+>>> bool(cam.project([[0, 0, 0], [1, 1, 1]])[0][:, 1].min() > TITLE_PX)
+True
 """
 
 from __future__ import annotations
@@ -30,11 +41,12 @@ from grubler.errors import SceneError
 from grubler.limits import brief, parse_angle, parse_length
 
 __all__ = ["Camera", "orbit_camera", "fit_camera", "parse_camera", "up_direction", "SpatialSketch", "draw_list",
-           "ground_grid", "FIELD_OF_VIEW", "AZIMUTH", "ELEVATION"]
+           "ground_grid", "FIELD_OF_VIEW", "AZIMUTH", "ELEVATION", "TITLE_PX"]
 
 FIELD_OF_VIEW = math.radians(30)  # the picture's height, seen from the camera: a normal lens's
 AZIMUTH, ELEVATION = math.radians(-55), math.radians(25)  # the default view: from the front right, above
 MARGIN = 0.06  # of the half-picture left free around a fitted motion
+TITLE_PX = 36  # px at the picture's top a film's or the app's title line takes: a fit leaves it free
 
 
 @dataclass(frozen=True)
@@ -44,6 +56,15 @@ class Camera:
     A point p is seen at depth ``(p - position) . f`` along the view direction f,
     and drawn at ``(w/2 + F x / depth, h/2 - F y / depth)`` with x and y its
     distances right of and above the view axis.
+
+    Examples
+    --------
+    From 2 m up the z axis looking down, y up in the picture: +x is to the right.
+
+    >>> cam = Camera(np.array([0.0, 0, 2]), np.zeros(3), np.array([0.0, 1, 0]), focal=100.0, size=(200, 100))
+    >>> uv, depth = cam.project([[0.5, 0.0, 0.0], [0.0, 0.0, 3.0]])
+    >>> uv[0].tolist(), depth.tolist(), bool(np.isnan(uv[1]).all())    # the second is behind the camera
+    ([125.0, 50.0], [2.0, -1.0], True)
     """
 
     position: np.ndarray
@@ -109,7 +130,14 @@ def _focal(size, fov: float) -> float:
 
 def orbit_camera(azimuth: float, elevation: float, distance: float, target, up=(0, 0, 1), size=(960, 720),
                  focal: float | None = None, fov: float = FIELD_OF_VIEW) -> Camera:
-    """A camera ``distance`` from ``target`` at ``azimuth`` (about up, from world x) and ``elevation``, rad."""
+    """A camera ``distance`` from ``target`` at ``azimuth`` (about up, from world x) and ``elevation``, rad.
+
+    Examples
+    --------
+    >>> cam = orbit_camera(math.pi / 2, 0.0, 2.0, target=(0, 0, 0))    # on the y axis, level
+    >>> cam.position.round(12).tolist(), cam.focal == 720 / 2 / math.tan(FIELD_OF_VIEW / 2)
+    ([0.0, 2.0, 0.0], True)
+    """
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     target = np.asarray(target, dtype=float)
     position = target + distance * _direction(azimuth, elevation, up)
@@ -117,8 +145,10 @@ def orbit_camera(azimuth: float, elevation: float, distance: float, target, up=(
 
 
 def fit_camera(points, azimuth: float = AZIMUTH, elevation: float = ELEVATION, up=(0, 0, 1), size=(960, 720),
-               distance: float | None = None, fov: float = FIELD_OF_VIEW, margin: float = MARGIN) -> Camera:
-    """A camera looking at the middle of ``points`` (every point of a motion, P x 3) from the given side.
+               distance: float | None = None, fov: float = FIELD_OF_VIEW, margin: float = MARGIN,
+               top: float = 0.0) -> Camera:
+    """A camera looking at the middle of ``points`` (every point of a motion, P x 3) from the given side,
+    fitted to the picture below a band of ``top`` px (where a title is written; 0: the whole picture).
 
     Without a ``distance``, the nearest at which every point lies inside the
     picture, ``margin`` of the half-picture free: for a point at x right of the
@@ -141,6 +171,10 @@ def fit_camera(points, azimuth: float = AZIMUTH, elevation: float = ELEVATION, u
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if not len(pts):
         raise SceneError("camera", "no finite point to look at")
+    if top:  # the fit below the band, then the picture's centre moved down by it
+        camera = fit_camera(pts, azimuth, elevation, up, (size[0], size[1] - top), distance, fov, margin)
+        cu, cv = camera.centre or (size[0] / 2, (size[1] - top) / 2)
+        return Camera(camera.position, camera.target, camera.up, camera.focal, tuple(size), (cu, cv + top))
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     target = (lo + hi) / 2
@@ -210,7 +244,21 @@ class SpatialSketch:
     ground attachment).  ``body`` is the link drawn (-1 the ground).  A link whose
     joints all sit at one point (a spherical linkage's, whose axes meet) is
     drawn as the arc between its axes on a sphere of its mass centre's radius;
-    the massless links inside a ball joint are not drawn: the ball is.
+    the massless links inside a ball joint are not drawn: the ball is.  Where such a
+    body's mass centre is on its own axis it is a shaft with a yoke on each pin it
+    holds, and where it is at the meeting point a cross (the Hooke joint's).
+
+    Examples
+    --------
+    The Hooke joint: two shafts (a tube and a yoke of three each), the cross's two bars, a
+    short axis line at each of the four pins; a bearing on each shaft and the four pins.
+
+    >>> from grubler.mechanism.spatial import hooke_joint
+    >>> sketch = SpatialSketch(hooke_joint(), np.zeros((1, 3)))    # the motion's coordinates: one row here
+    >>> [sum(kind == k for *_, kind in sketch.segments) for k in ("link", "axis")]
+    [10, 4]
+    >>> [sum(kind == k for *_, kind in sketch.markers) for k in ("pin", "revolute")]
+    [2, 4]
     """
 
     mechanism: object
@@ -250,17 +298,46 @@ class SpatialSketch:
 
         in_ball = {k for k, link in enumerate(L) if link.mass == 0 and coincident(k) and link.joint == "R"
                    and children[k]}
+        # each body's pins besides its own joint: (axis in its frame, the body across: a child or a closure's other)
+        pins = {k: [(axis_in[c], c) for c in children[k]] for k in range(len(L))}
+        for c in m.closures:
+            if c.kind != "spherical":
+                pins[c.link].append((np.asarray(c.axis, dtype=float), c.to))
+                if c.to >= 0:
+                    pins[c.to].append((np.asarray(c.to_axis, dtype=float), c.link))
+
+        def meeting(k):  # a body between axes that meet (a spherical linkage's): how it is drawn, or None
+            link = L[k]
+            axes = [np.array([0, 0, 1.0])] + [a for a, _ in pins[k]]
+            if not (coincident(k) and link.mass > 0 and any(np.linalg.norm(np.cross(axes[0], a)) > 1e-9
+                                                              for a in axes[1:])):
+                return None
+            com = np.asarray(link.com, dtype=float)
+            if np.linalg.norm(com) < eps:
+                return "cross"  # its mass centre at the meeting point: a Hooke joint's cross
+            if np.linalg.norm(np.cross(com, axes[0])) < 1e-9 * np.linalg.norm(com):
+                return "shaft"  # its mass centre on its own axis: a shaft with a yoke on each pin
+            return "arcs"
+
+        shape = {k: meeting(k) for k in range(len(L))}
+        yoked = {k for k, v in shape.items() if v in ("shaft", "cross")}
         for k, link in enumerate(L):
             body = k
             if k in in_ball:
                 continue
             # the body's tubes: origin to each child's attachment, then along the child's axis by its offset
             axes = [np.array([0, 0, 1.0])] + [axis_in[c] for c in children[k]] + closure_axes[k]
-            turns = any(np.linalg.norm(np.cross(axes[0], a)) > 1e-9 for a in axes[1:])
-            concurrent = coincident(k) and link.mass > 0 and turns  # a body between axes that meet
-            if concurrent:
+            concurrent = shape[k] is not None
+            if shape[k] == "arcs":
                 radius = float(np.linalg.norm(link.com)) or 0.3 * scale
                 self._arcs(k, axes, radius, body)
+            elif shape[k] == "cross":
+                half = self._cross_half(link)
+                for a in axes:
+                    a = a / np.linalg.norm(a)
+                    self._segment((k, -half * a), (k, half * a), body, "link")
+            elif shape[k] == "shaft":
+                self._shaft(k, link, pins[k], body)
             else:
                 self._body(k, children[k], L, axis_in, body, "link")
                 for c in m.closures:
@@ -274,6 +351,12 @@ class SpatialSketch:
             ball = link.parent in in_ball
             kind = "ball" if ball else {"R": "revolute", "P": "slide", "C": "slide", "F": "fixed"}[link.joint]
             origin = self._point(k, np.zeros(3))
+            if k in yoked:
+                # a shaft's or a cross's joints are its pins, drawn where the yokes hold them; a shaft's bearing
+                # on the ground sits on its axis, at its mass centre
+                if shape[k] == "shaft" and link.parent == -1:
+                    self.markers.append((self._point(k, np.asarray(link.com, dtype=float)), -1, "pin"))
+                continue
             if not ball and link.joint in "RC" and not (concurrent and coincident(link.parent)):
                 self.segments.append((self._point(k, np.array([0, 0, -arm])), self._point(k, np.array([0, 0, arm])),
                                       body, "axis"))
@@ -284,7 +367,8 @@ class SpatialSketch:
             self.markers.append((origin, body, kind))
             if link.parent == -1:
                 self.markers.append((self._point(-1, np.array([link.a, 0, 0])), -1, "pin"))
-        if coincident(-1) and any(L[c].mass > 0 for c in children[-1]) and len(children[-1]) > 1:
+        arcs_on_ground = [c for c in children[-1] if shape[c] == "arcs"]
+        if coincident(-1) and arcs_on_ground and len(children[-1]) > 1:
             radius = max(float(np.linalg.norm(L[c].com)) for c in children[-1]) or 0.3 * scale
             self._arcs(-1, [axis_in[c] for c in children[-1]] + closure_axes[-1], radius, -1, kind="ground")
         else:
@@ -293,6 +377,8 @@ class SpatialSketch:
             if c.to == -1 and not coincident(-1) and np.linalg.norm(c.to_point) > eps:
                 self._segment((-1, np.zeros(3)), (-1, np.asarray(c.to_point, float)), -1, "ground")
         for c in m.closures:
+            if c.link in yoked and c.to in yoked:
+                continue  # a pin in a yoke: the yoke draws it
             kind = {"spherical": "ball", "revolute": "revolute", "cylindrical": "slide"}[c.kind]
             p = self._point(c.link, np.asarray(c.point, float))
             self.markers.append((p, c.link, kind))
@@ -323,6 +409,42 @@ class SpatialSketch:
                 self._segment((k, np.zeros(3)), (k, attach), body, kind)
             if L[c].d and L[c].joint not in "PC":  # a slide's offset is its coordinate: its guide shows it
                 self._segment((k, attach), (k, attach + L[c].d * axis_in[c]), body, kind)
+
+    def _cross_half(self, link) -> float:
+        """A cross's arm, centre to pin: its bars' half-length from its largest moment of inertia (two bars of
+        half-length c across each other: I = m (2c)^2 / 12 about the axis square to both, as one bar's)."""
+        largest = float(np.linalg.eigvalsh(np.asarray(link.inertia, dtype=float)).max())
+        half = math.sqrt(3 * largest / link.mass) if link.mass > 0 else 0.0
+        return half or 0.1 * self._reach()
+
+    def _reach(self) -> float:
+        """The mechanism's size for parts its rows do not measure: its links' lengths, or twice the farthest
+        mass centre (a spherical linkage's rows are all zero)."""
+        return max(self.mechanism.scale, *(2 * float(np.linalg.norm(l.com)) for l in self.mechanism.links))
+
+    def _shaft(self, k, link, pins, body):
+        """A shaft on its own axis (to twice its mass centre, as a rod's) and, for each pin it holds, a yoke: a
+        bridge across the shaft and two arms to the pin's ends, as far out as the part across reaches."""
+        L = self.mechanism.links
+        com = np.asarray(link.com, dtype=float)
+        w = com / np.linalg.norm(com)  # from the meeting point towards the shaft
+        base = None
+        for axis, other in pins:
+            p = axis - (axis @ w) * w
+            if np.linalg.norm(p) < 1e-9:
+                continue  # a pin along the shaft: no yoke holds it
+            p = p / np.linalg.norm(p)
+            across = L[other] if other >= 0 else None
+            reach = (self._cross_half(across) if across is not None and across.mass > 0
+                     and np.linalg.norm(across.com) < 1e-9 * self._reach() else np.linalg.norm(com) / 3)
+            base = reach * w
+            self._segment((k, base - reach * p), (k, base + reach * p), body, "link")
+            for end in (reach * p, -reach * p):
+                self._segment((k, base + end), (k, end), body, "link")
+                self.segments.append((self._point(k, end - 0.4 * reach * p), self._point(k, end + 0.4 * reach * p),
+                                      body, "axis"))
+                self.markers.append((self._point(k, end), body, "revolute"))
+        self._segment((k, np.zeros(3) if base is None else base), (k, 2 * com), body, "link")
 
     def _arcs(self, k, axes, radius, body, kind="link", pieces=10):
         """Great-circle arcs of ``radius`` joining the link's axes in turn (a spherical linkage's link)."""
@@ -356,7 +478,14 @@ class SpatialSketch:
 
 def ground_grid(points, up, lines: int = 8) -> list[tuple[np.ndarray, np.ndarray]]:
     """A square grid on the floor under ``points`` (square to ``up``, through their lowest), spaced by a round
-    number (1, 2 or 5 x 10^k m) so that about ``lines`` lines cross the motion's footprint."""
+    number (1, 2 or 5 x 10^k m) so that about ``lines`` lines cross the motion's footprint.
+
+    Examples
+    --------
+    >>> lines = ground_grid([[0, 0, 0], [1, 1, 0.5]], up=(0, 0, 1))    # 0.1 m apart, a step beyond each side
+    >>> len(lines), [p.round(12).tolist() for p in lines[0]]
+    (26, [[-0.1, -0.1, 0.0], [-0.1, 1.1, 0.0]])
+    """
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     h1 = _square(up)
@@ -379,7 +508,19 @@ def ground_grid(points, up, lines: int = 8) -> list[tuple[np.ndarray, np.ndarray
 def draw_list(camera: Camera, sketch: SpatialSketch, frame: np.ndarray) -> list[tuple]:
     """One frame's parts, far to near: ('segment', body, kind, (u0, v0, u1, v1), depth) and ('marker', body,
     kind, (u, v), depth), from the sketch's world points at that frame (P x 3).  A part with a point
-    behind the camera is left out."""
+    behind the camera is left out.
+
+    Examples
+    --------
+    >>> from grubler.mechanism.spatial import rssr
+    >>> m = rssr()
+    >>> y0 = m.assembled_start()
+    >>> sketch = SpatialSketch(m, y0[None, :m.n_coords])
+    >>> frame = sketch.positions(y0[None])[0]
+    >>> parts = draw_list(fit_camera(frame), sketch, frame)
+    >>> len(parts) == len(sketch.segments) + len(sketch.markers), all(a[4] >= b[4] for a, b in zip(parts, parts[1:]))
+    (True, True)
+    """
     uv, depth = camera.project(frame)
     parts = []
     for i, j, body, kind in sketch.segments:

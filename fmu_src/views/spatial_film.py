@@ -15,7 +15,7 @@ import numpy as np
 
 from grubler.errors import SceneError
 from grubler.views.perspective import SpatialSketch, draw_list, fit_camera, ground_grid, up_direction, AZIMUTH, \
-    ELEVATION
+    ELEVATION, TITLE_PX
 
 __all__ = ["spatial_film", "film_camera", "FRAME_SIZE"]
 
@@ -61,7 +61,7 @@ def film_camera(sketch: SpatialSketch, frames: np.ndarray, view=None, size=FRAME
     the default side where None; the distance fitted to every point of every frame where not given."""
     az, el, distance = view if view is not None else (AZIMUTH, ELEVATION, None)
     up = up_direction(sketch.mechanism.gravity)
-    return fit_camera(frames.reshape(-1, 3), az, el, up, size, distance=distance)
+    return fit_camera(frames.reshape(-1, 3), az, el, up, size, distance=distance, top=TITLE_PX)
 
 
 def _background(camera, frames, palette, size, title):

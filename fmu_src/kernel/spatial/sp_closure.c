@@ -10,6 +10,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "project.h"
 #include "sp_workspace.h"
 
 #define POSITION_TOL 1e-12      /* m (or rad), times the scale: closure reached */
@@ -43,30 +44,16 @@ void grs_rows_at(const grs_model *md, const double *z, grs_ws *w) {
     grs_closure_rows(md, w);
 }
 
-static double worst_violation(const grs_ws *w) {
-    double worst = 0.0;
-    for (int r = 0; r < w->m; r++)
-        if (!(fabs(w->row[r].phi) <= worst)) worst = fabs(w->row[r].phi); /* a nan wins */
-    return worst;
-}
+static void rows_of(const void *md, const double *z, void *w) { grs_rows_at(md, z, w); }
 
+static double worst_violation(const grs_ws *w) { return grb_worst_row(&w->row[0].phi, GRS_ROW_COLUMNS, w->m); }
+
+/* Minimum-norm projection of y = (z, zd) onto the closures, in place: the
+ * planar kernel's routine (project.h) over the spatial rows. */
 void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w) {
-    int n = w->n, m = w->m;
-    double *z = y, *zd = y + n;
     scratch s = scratch_of(w);
-    for (int it = 0; it < PROJECTION_ITERATIONS; it++) {
-        grs_rows_at(md, z, w);
-        if (worst_violation(w) <= POSITION_TOL * scale) break;
-        grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].phi, GRS_ROW_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
-        for (int i = 0; i < n; i++) z[i] -= s.x[i];
-    }
-    for (int r = 0; r < m; r++) {
-        double v = 0.0;
-        for (int i = 0; i < n; i++) v += SP_J(w, r, i) * zd[i];
-        w->row[r].b = v;
-    }
-    grb_lstsq_min_norm(w->J, n, m, n, &w->row[0].b, GRS_ROW_COLUMNS, LSTSQ_RCOND, s.x, s.U, s.V);
-    for (int i = 0; i < n; i++) zd[i] -= s.x[i];
+    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, GRS_ROW_COLUMNS, w->n, w->m};
+    grb_project_rows(&rows, POSITION_TOL * scale, LSTSQ_RCOND, PROJECTION_ITERATIONS, y, s.x, s.U, s.V);
 }
 
 grb_status grs_project(const grs_model *md, double scale, double *y, double *work) {
