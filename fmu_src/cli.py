@@ -385,12 +385,14 @@ def cmd_export(args) -> int:
                    "a Python with their packages installed); fmusim or a C host cannot run it"])
         return 0
     from grubler.fmi.build import export, export_spatial, platforms_note, select_targets
-    from grubler.fmi.spatial import fmu_name, spatial_preset
+    from grubler.fmi.spatial import fmu_name
+    from grubler.mechanism.spatial_scene import is_spatial, load_spatial_scene
 
     platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
-    spatial = spatial_preset(args.scene)  # a spatial preset (rssr, spherical_fourbar, ...): docs/spatial.md
-    if spatial is not None:
-        path = export_spatial(spatial, args.out or f"{fmu_name(spatial.name)}.fmu", platforms, "--out", args.fmi)
+    if is_spatial(args.scene):  # a spatial preset (rssr, spherical-fourbar, ...) or scene file: docs/spatial.md
+        scene = load_spatial_scene(args.scene)
+        path = export_spatial(scene.mechanism, args.out or f"{fmu_name(scene.name)}.fmu", platforms, "--out", args.fmi,
+                              y0=scene.start(), name=scene.name)
     else:
         path = export(args.scene, args.out, platforms, field="--out", fmi=args.fmi)
     print(f"wrote {path}")
@@ -851,8 +853,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.set_defaults(func=cmd_app)
     e = sub.add_parser("export", help="a native FMI 2.0 or 3.0 co-simulation FMU of a scene (no Python needed to "
                                       "run it), or one FMU of a whole system (.ssd or .ssp)")
-    e.add_argument("scene", help="preset name (a spatial one too: rssr, rssp, spherical_fourbar, planar_fourbar) or "
-                                 "TOML file; the FMU's parameters default to its values. Or a system "
+    e.add_argument("scene", help="preset name (a spatial one too: rssr, spherical-fourbar, bennett, ...) or "
+                                 "TOML file, planar or spatial; the FMU's parameters default to its values. Or a system "
                                  "(.ssd, .ssp): when every FMU is a native grubler FMU, one native FMU of their "
                                  "models stepped as `grubler cosim` steps them; else its FMUs nested in fmpy's "
                                  "container FMU, stepped as `grubler cosim --master jacobi` steps them")

@@ -199,10 +199,10 @@ def test_the_planar_fourbar_as_spatial_runs_as_the_planar_mechanism_fmu(tmp_path
     angles = ["theta2", "theta3", "theta4"]
     start = np.array(p.getReal([pv[x] for x in angles] + [pv[f"{x}_d"] for x in angles]))
     relative = np.concatenate([np.diff(start[:3], prepend=0.0), np.diff(start[3:], prepend=0.0)])
-    path = builds.spatial("planar_fourbar", tmp_path / "PlanarFourbar.fmu", "linux64")
-    m = spatial_preset("planar_fourbar")
+    path = builds.spatial("planar-fourbar-3d", tmp_path / "PlanarFourbar.fmu", "linux64")
+    m = spatial_preset("planar-fourbar-3d")
     names = list(m.coordinate_names)
-    s, sv = slave({("planar_fourbar", 2): (path, None, read_model_description(str(path)))}, "planar_fourbar", 2,
+    s, sv = slave({("planar-fourbar-3d", 2): (path, None, read_model_description(str(path)))}, "planar-fourbar-3d", 2,
                   {**tight, **{f"initial.{x}": relative[i] for i, x in enumerate(names)},
                    **{f"initial.{x}_d": relative[3 + i] for i, x in enumerate(names)}})
     for x, v in ((p, pv), (s, sv)):

@@ -246,30 +246,25 @@ def spatial_spec(mechanism: SpatialMechanism, identifier: str = "Spatial", y0=No
 __all__ = ["spatial_parameters", "spatial_spec"]
 
 
-# the spatial presets `grubler export` takes by name: the builders of grubler.mechanism.spatial
-PRESET_BUILDERS = ("rssr", "rssp", "spherical_fourbar", "planar_fourbar")
-
-
 def spatial_preset(name: str) -> SpatialMechanism | None:
-    """The spatial preset called ``name`` (``rssr``, ``spherical_fourbar`` or ``spherical-fourbar``, ...;
-    a ``PRESETS`` table of :mod:`grubler.mechanism.spatial`, where there is one, names more), or None.
+    """The spatial preset called ``name`` (a key of :data:`grubler.mechanism.spatial.PRESETS`, the one list
+    of them, ``_`` read as ``-``), named so, or None.
 
     Examples
     --------
-    >>> spatial_preset("spherical-fourbar").n_coords, spatial_preset("thesis-fourbar") is None
-    (3, True)
+    >>> spatial_preset("spherical_fourbar").n_coords, spatial_preset("rssr").name
+    (3, 'rssr')
+    >>> spatial_preset("thesis-fourbar") is None
+    True
     """
-    from grubler.mechanism import spatial
+    from grubler.mechanism.spatial import PRESETS
 
-    key = str(name).replace("-", "_")
-    table = getattr(spatial, "PRESETS", {})
-    if key in table:
-        return table[key]()
-    if key in PRESET_BUILDERS:
-        m = getattr(spatial, key)()
-        m.name = key
-        return m
-    return None
+    key = str(name).replace("_", "-")
+    if key not in PRESETS:
+        return None
+    m = PRESETS[key]()
+    m.name = key
+    return m
 
 
 def fmu_name(preset: str) -> str:
