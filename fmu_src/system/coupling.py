@@ -137,8 +137,11 @@ def adaptive_plan(system: System, interfaces: dict[str, FmuInterface], seq: list
 
 
 # the Newton master's iteration: a step ends when every coupled value's residual, relative to max(1, |value|), is
-# within NEWTON_TOL (far below any coupling error a step makes), or after NEWTON_MAX_ITER evaluations
-NEWTON_TOL = 1e-7
+# within NEWTON_TOL, or after NEWTON_MAX_ITER evaluations.  1e-5 is below what the coupling's own error shows:
+# on the servo four-bar (1 and 0.2 ms) and the cylinder slider-crank (10 and 1 ms) the errors against the
+# monolithic references are those of 1e-7 to three digits, in 1.6 to 2.8 evaluations a step against 2.1 to 2.9
+# (1e-8 is the cylinder's noise floor: the FMUs' own integration, seen through the perturbed steps)
+NEWTON_TOL = 1e-5
 NEWTON_MAX_ITER = 8
 
 
