@@ -3,6 +3,7 @@
     python benchmarks/cosim_wp.py                      # every system, every master (~15 min on the 2-core box)
     python benchmarks/cosim_wp.py --systems servo_exact --steps 1e-3 1e-4 --masters "grubler, Gauss-Seidel"
     python benchmarks/cosim_wp.py --out docs/cosim.md --png docs/images/cosim_wp.png
+    python benchmarks/cosim_wp.py --from docs/cosim.md --png docs/images/cosim_wp.png   # report a merged table again
 
 Systems (:data:`SYSTEMS`), each with its monolithic reference written apart from the FMUs:
 
@@ -270,9 +271,10 @@ def time_to_reach(points: list[Point], system: str, master: str, target: float) 
 
     The coarsest step whose run is within ``target`` is the one a user would take; its time is interpolated
     (log wall time linear in log error) towards the next coarser run, which misses it.  When the coarsest
-    run is within it, its time is an upper bound ('at most').  When no run is, the time is extrapolated along
-    the line through the two finest runs ('extrapolated'), if their error still falls (by 1.5x or more:
-    a master whose error has stopped falling, Jacobi's on the servo, gives nan, 'not reached').
+    run is within it, or the coarser run took longer (a run far off, a diverging one), its time is an upper
+    bound ('at most').  When no run is, the time is extrapolated along the line through the two finest runs
+    ('extrapolated'), if their error still falls (by 1.5x or more) and the finer took longer: otherwise
+    (a master whose error has stopped falling, Jacobi's on the servo) it is nan, 'not reached'.
     A run that failed or said it diverged is left out.
 
     Examples
@@ -285,7 +287,7 @@ def time_to_reach(points: list[Point], system: str, master: str, target: float) 
                   and not p.failure and not p.diverged and np.isfinite(p.error) and p.error > 0), reverse=True)
     within = [k for k, (_, e, _) in enumerate(pts) if e <= target]
     if not within:
-        if len(pts) >= 2 and pts[-2][1] >= 1.5 * pts[-1][1]:
+        if len(pts) >= 2 and pts[-2][1] >= 1.5 * pts[-1][1] and pts[-1][2] > pts[-2][2]:
             (_, e0, w0), (_, e1, w1) = pts[-2:]
             x = (np.log(target) - np.log(e0)) / (np.log(e1) - np.log(e0))
             return float(np.exp(np.log(w0) + x * (np.log(w1) - np.log(w0)))), "extrapolated from the two finest runs"
@@ -295,6 +297,8 @@ def time_to_reach(points: list[Point], system: str, master: str, target: float) 
     if k == 0:
         return w, f"at most (the coarsest run, {h * 1e3:g} ms, is within it)"
     _, e0, w0 = pts[k - 1]
+    if w0 >= w:
+        return w, f"at most (the {h * 1e3:g} ms run; the coarser one took longer)"
     x = (np.log(target) - np.log(e0)) / (np.log(e) - np.log(e0))
     return float(np.exp(np.log(w0) + x * (np.log(w) - np.log(w0)))), "interpolated"
 
@@ -306,7 +310,7 @@ def equal_error(cases: list[Case], points: list[Point], master: str = "grubler, 
     for c in cases:
         for target in TARGETS.get(c.name, ()):
             ours = time_to_reach(points, c.name, master, target)[0]
-            for m in masters:
+            for m in (m for m in masters if any(p.system == c.name and p.master == m for p in points)):
                 w, how = time_to_reach(points, c.name, m, target)
                 speed = f"{w / ours:.3g}x" if np.isfinite(w) and np.isfinite(ours) and m != master else ""
                 shown = f"{w:.3g} s ({how})" if np.isfinite(w) else how
@@ -448,14 +452,19 @@ def main(argv=None) -> None:
     ap.add_argument("--fmus", type=Path, help="folder of built FMUs to use (default: built into a temporary one)")
     ap.add_argument("--out", type=Path, help="markdown file whose '<!-- work-precision -->' section is replaced")
     ap.add_argument("--png", type=Path, help="the figure (default: next to --out, else none)")
-    ap.add_argument("--equal-error", type=Path, metavar="MD",
-                    help="run nothing: print the equal-error table of the work-precision table in MD")
+    ap.add_argument("--from", dest="table", type=Path, metavar="MD",
+                    help="run nothing: from the work-precision table in MD (rows of several runs merged), print "
+                         "the equal-error table and, with --png, draw the figure")
     args = ap.parse_args(argv)
-    if args.equal_error:
-        points = read_table(args.equal_error.read_text())
+    if args.table:
+        points = read_table(args.table.read_text())
         names = list(dict.fromkeys(p.system for p in points))
-        units = {n: "rad" if n.startswith("servo") else "m" for n in names}
-        print(equal_error([Case(n, None, "", units[n], 0.0, np.empty(0)) for n in names], points))
+        signal = {n: ("mechanism.drive_angle", "rad") if n.startswith("servo") else ("the actuator's length", "m")
+                  for n in names}
+        cases = [Case(n, None, signal[n][0], signal[n][1], T_END.get(n, 0.0), np.empty(0)) for n in names]
+        if args.png:
+            figure(cases, points, args.png)
+        print(equal_error(cases, points))
         return
     command = "python benchmarks/cosim_wp.py " + " ".join(a for a in (argv or sys.argv[1:]))
     with tempfile.TemporaryDirectory() as tmp:

@@ -68,7 +68,7 @@ def test_at_10_ms_gauss_seidel_diverges_and_newton_holds_the_reference(bench):
     # the step's iteration met its tolerance at every step, in a few evaluations
     c = r.coupling
     assert c["steps"] == 100 and c["unconverged"] == 0 and c["worst_residual"] <= coupling.NEWTON_TOL
-    assert 2 <= c["evaluations"] / c["steps"] <= 6, c  # measured 3.7
+    assert 2 <= c["evaluations"] / c["steps"] <= 6, c  # measured 3.3
 
 
 def test_newton_converges_at_second_order_far_below_gauss_seidel(bench):
@@ -84,7 +84,7 @@ def test_newton_converges_at_second_order_far_below_gauss_seidel(bench):
     for c in counts:
         # a kept Jacobian serves many steps, and a step takes a guess and one or two Newton updates
         assert c["unconverged"] == 0 and c["jacobians"] < c["steps"] / 10, c
-        assert 1 < c["evaluations"] / c["steps"] < 4, c  # measured 2.4
+        assert 1 < c["evaluations"] / c["steps"] < 4, c  # measured 1.7 and 1.4
 
 
 def test_the_cli_runs_newton_and_says_what_it_took(bench, tmp_path):

@@ -67,6 +67,10 @@ def test_the_equal_error_table_reads_each_masters_time_off_its_curve():
         0.1, "at most (the coarsest run, 10 ms, is within it)")
     assert cosim_wp.time_to_reach(points, "s", "stuck", 1e-5)[1] == "not reached (best 0.0069 at the steps run)"
     assert cosim_wp.time_to_reach(points, "s", "broken", 1e-5)[1] == "not reached"
+    # a coarse run far off that took longer (a diverging one) is no curve to read: fmpy's loop on the cylinder
+    odd = [P("s", "odd", 1e-3, 0.5, [5.0]), P("s", "odd", 1e-4, 0.1, [1.0])]
+    assert cosim_wp.time_to_reach(odd, "s", "odd", 0.2) == (1.0, "at most (the 0.1 ms run; the coarser one took longer)")
+    assert cosim_wp.time_to_reach(odd, "s", "odd", 1e-3)[1] == "not reached (best 0.1 at the steps run)"
     cosim_wp.TARGETS["s"] = (1e-5,)
     try:
         text = cosim_wp.equal_error([cosim_wp.Case("s", None, "", "m", 1.0, None)], points)
