@@ -3,6 +3,7 @@
     python benchmarks/cosim_wp.py                      # every system, every master (~15 min on the 2-core box)
     python benchmarks/cosim_wp.py --systems servo_exact --steps 1e-3 1e-4 --masters "grubler, Gauss-Seidel"
     python benchmarks/cosim_wp.py --out docs/cosim.md --png docs/images/cosim_wp.png
+    python benchmarks/cosim_wp.py --from docs/cosim.md --png docs/images/cosim_wp.png   # report a merged table again
 
 Systems (:data:`SYSTEMS`), each with its monolithic reference written apart from the FMUs:
 
@@ -16,7 +17,7 @@ Systems (:data:`SYSTEMS`), each with its monolithic reference written apart from
 
 Masters (:data:`MASTERS`: a name and a function ``(case, step, folder) -> (t, values, wall seconds)``, or
 with a fourth item, the master's own word that the run diverged, which the table and figure show):
-grubler's Gauss-Seidel and Jacobi, ``fmpy.ssp.simulate_ssp``, the system exported as one FMU (fmpy's
+grubler's Gauss-Seidel, Jacobi, extrapolating (fixed step and ``--tol``) and Newton masters, ``fmpy.ssp.simulate_ssp``, the system exported as one FMU (fmpy's
 container, ``grubler export``) run by ``fmpy.simulate_fmu``, and libcosim (libcosimpy) from the .ssd alone.
 To add a master, add an entry; a master that fails (or raises) on a case is a row that says so.
 
@@ -187,6 +188,7 @@ MASTERS: dict[str, Callable] = {
     "grubler, Jacobi": grubler_master(cosim.JACOBI),
     "grubler, extrapolate": grubler_master(cosim.EXTRAPOLATE),
     "grubler, --tol 1e-6": grubler_master(cosim.EXTRAPOLATE, tol=1e-6),
+    "grubler, newton": grubler_master(cosim.NEWTON),
     "fmpy.ssp.simulate_ssp": fmpy_ssp,
     "one FMU (fmpy container) in fmpy": container,
     "libcosim (libcosimpy)": libcosim,
@@ -255,6 +257,96 @@ def sweep(cases: list[Case], masters: list[str], steps, rounds: int, tmp: Path, 
                     log(f"round {r + 1} {c.name} {h:g} s {m}: "
                         + (f"failed: {p.failure}" if p.failure else f"{p.walls[-1]:.3f} s, error {p.error:.3e}"))
     return list(points.values())
+
+
+# -- equal error: each master's wall time for an error, read off its work-precision curve -------------------
+# the errors each system is compared at (its signal's unit)
+TARGETS = {"servo": (1e-3, 3e-4), "servo_exact": (1e-4, 1e-5, 1e-6), "luffing_boom": (1e-5, 1e-6, 1e-7),
+           "cylinder_slider_crank": (1e-5, 1e-6, 1e-7)}
+PEERS = ("fmpy.ssp.simulate_ssp", "one FMU (fmpy container) in fmpy", "libcosim (libcosimpy)")
+
+
+def time_to_reach(points: list[Point], system: str, master: str, target: float) -> tuple[float, str]:
+    """The wall time ``master`` takes on ``system`` to an error of ``target``, and how it was read.
+
+    The coarsest step whose run is within ``target`` is the one a user would take; its time is interpolated
+    (log wall time linear in log error) towards the next coarser run, which misses it.  When the coarsest
+    run is within it, or the coarser run took longer (a run far off, a diverging one), its time is an upper
+    bound ('at most').  When no run is, the time is extrapolated along the line through the two finest runs
+    ('extrapolated'), if their error still falls (by 1.5x or more) and the finer took longer: otherwise
+    (a master whose error has stopped falling, Jacobi's on the servo) it is nan, 'not reached'.
+    A run that failed or said it diverged is left out.
+
+    Examples
+    --------
+    >>> pts = [Point("s", "m", h, e, [w]) for h, e, w in ((4e-3, 1e-3, 1.0), (2e-3, 1e-4, 2.0), (1e-3, 1e-5, 4.0))]
+    >>> [(round(w, 9), how) for w, how in (time_to_reach(pts, "s", "m", e) for e in (1e-4, 1e-6))]
+    [(2.0, 'interpolated'), (8.0, 'extrapolated from the two finest runs')]
+    """
+    pts = sorted(((p.step, p.error, p.wall) for p in points if p.system == system and p.master == master
+                  and not p.failure and not p.diverged and np.isfinite(p.error) and p.error > 0), reverse=True)
+    within = [k for k, (_, e, _) in enumerate(pts) if e <= target]
+    if not within:
+        if len(pts) >= 2 and pts[-2][1] >= 1.5 * pts[-1][1] and pts[-1][2] > pts[-2][2]:
+            (_, e0, w0), (_, e1, w1) = pts[-2:]
+            x = (np.log(target) - np.log(e0)) / (np.log(e1) - np.log(e0))
+            return float(np.exp(np.log(w0) + x * (np.log(w1) - np.log(w0)))), "extrapolated from the two finest runs"
+        return float("nan"), "not reached" + (f" (best {min(e for _, e, _ in pts):.2g} at the steps run)" if pts else "")
+    k = within[0]
+    h, e, w = pts[k]
+    if k == 0:
+        return w, f"at most (the coarsest run, {h * 1e3:g} ms, is within it)"
+    _, e0, w0 = pts[k - 1]
+    if w0 >= w:
+        return w, f"at most (the {h * 1e3:g} ms run; the coarser one took longer)"
+    x = (np.log(target) - np.log(e0)) / (np.log(e) - np.log(e0))
+    return float(np.exp(np.log(w0) + x * (np.log(w) - np.log(w0)))), "interpolated"
+
+
+def equal_error(cases: list[Case], points: list[Point], master: str = "grubler, newton") -> str:
+    """A table: at each system's target errors, every master's time, and ``master``'s speed-up on each."""
+    masters = list(dict.fromkeys(p.master for p in points))
+    lines = [f"| system | error | master | wall time to reach it | {master}'s speed-up |", "|---|---|---|---|---|"]
+    for c in cases:
+        for target in TARGETS.get(c.name, ()):
+            ours = time_to_reach(points, c.name, master, target)[0]
+            for m in (m for m in masters if any(p.system == c.name and p.master == m for p in points)):
+                w, how = time_to_reach(points, c.name, m, target)
+                speed = f"{w / ours:.3g}x" if np.isfinite(w) and np.isfinite(ours) and m != master else ""
+                shown = f"{w:.3g} s ({how})" if np.isfinite(w) else how
+                lines.append(f"| {c.name} | {target:g} {c.unit} | {m} | {shown} | {speed} |")
+    return "\n".join(lines)
+
+
+def read_table(text: str) -> list[Point]:
+    """The points of a work-precision table as :func:`table` writes it (docs/cosim.md's), to report again.
+
+    Examples
+    --------
+    >>> p, q = read_table("| servo | 1 ms | grubler, newton | 0.110 s | 7.75e-05 rad |\\n"
+    ...                   "| servo | 10 ms | libcosim (libcosimpy) | — | failed: step failed |")
+    >>> (p.system, p.step, p.master, p.wall, p.error), q.failure
+    (('servo', 0.001, 'grubler, newton', 0.11, 7.75e-05), 'step failed')
+    """
+    points = []
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) != 5 or not cells[1].endswith(" ms"):
+            continue
+        try:
+            step = float(cells[1][:-3]) * 1e-3
+        except ValueError:
+            continue
+        p = Point(cells[0], cells[2], step)
+        if cells[4].startswith("failed: "):
+            p.failure = cells[4][len("failed: "):]
+        else:
+            p.walls = [float(cells[3].split()[0])]
+            p.error = float(cells[4].split()[0])
+            if "(said: " in cells[4]:
+                p.diverged = cells[4].split("(said: ", 1)[1].rstrip(")")
+        points.append(p)
+    return points
 
 
 # -- reporting --------------------------------------------------------------------------------------------
@@ -341,6 +433,9 @@ def report(cases: list[Case], points: list[Point], rounds: int, command: str, pn
         "Observed order of grubler's Gauss-Seidel (slope of log error on log step, steps of 1 ms and less): "
         + ", ".join(f"{k} {v:.2f}" for k, v in orders.items()) + ".",
         "",
+        *(["At equal error: each master's wall time to an error, read off its curve above (`time_to_reach`: "
+           "the coarsest step within the error, its time interpolated towards the next coarser run's).", "",
+           equal_error(cases, points), ""] if any(p.master == "grubler, newton" for p in points) else []),
         *([f"![work-precision of the masters]({png})", ""] if png else []),
         f"Machine: {os.cpu_count()} cores ({cpu}), load average {os.getloadavg()[0]:.1f}, Python "
         f"{platform.python_version()}. Command: `{command}`.",
@@ -357,7 +452,20 @@ def main(argv=None) -> None:
     ap.add_argument("--fmus", type=Path, help="folder of built FMUs to use (default: built into a temporary one)")
     ap.add_argument("--out", type=Path, help="markdown file whose '<!-- work-precision -->' section is replaced")
     ap.add_argument("--png", type=Path, help="the figure (default: next to --out, else none)")
+    ap.add_argument("--from", dest="table", type=Path, metavar="MD",
+                    help="run nothing: from the work-precision table in MD (rows of several runs merged), print "
+                         "the equal-error table and, with --png, draw the figure")
     args = ap.parse_args(argv)
+    if args.table:
+        points = read_table(args.table.read_text())
+        names = list(dict.fromkeys(p.system for p in points))
+        signal = {n: ("mechanism.drive_angle", "rad") if n.startswith("servo") else ("the actuator's length", "m")
+                  for n in names}
+        cases = [Case(n, None, signal[n][0], signal[n][1], T_END.get(n, 0.0), np.empty(0)) for n in names]
+        if args.png:
+            figure(cases, points, args.png)
+        print(equal_error(cases, points))
+        return
     command = "python benchmarks/cosim_wp.py " + " ".join(a for a in (argv or sys.argv[1:]))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

@@ -91,13 +91,23 @@ class MasterRun(ctypes.Structure):
     _fields_ = [("scheme", c_int), ("t0", c_double), ("step", c_double), ("t_end", c_double),
                 ("n_steps", c_long), ("record_every", c_long), ("n_columns", c_size_t), ("column_fmu", c_void_p),
                 ("column_index", c_void_p), ("times", c_void_p), ("data", c_void_p), ("n_slots", c_size_t),
-                ("start", c_void_p), ("prev", c_void_p), ("tol", c_double), ("work", c_void_p), ("adapt", c_void_p)]
+                ("start", c_void_p), ("prev", c_void_p), ("tol", c_double), ("work", c_void_p), ("adapt", c_void_p),
+                ("newton", c_void_p)]
 
 
 class MasterAdapt(ctypes.Structure):
     """``grb_adapt`` (system/c/master.c): the adaptive master's sub-step clock and counts."""
 
     _fields_ = [("h", c_double), ("h_prev", c_double), ("substeps", c_long), ("rejected", c_long),
+                ("worst", c_double), ("worst_slot", c_long)]
+
+
+class MasterNewton(ctypes.Structure):
+    """``grb_newton`` (system/c/master.c): the Newton master's unknowns, work and counts."""
+
+    _fields_ = [("tol", c_double), ("max_iter", c_long), ("n_unknown", c_size_t), ("unknown_slot", c_void_p),
+                ("index", c_void_p), ("work", c_void_p), ("pivot", c_void_p), ("have_jacobian", c_int),
+                ("steps", c_long), ("evaluations", c_long), ("jacobians", c_long), ("unconverged", c_long),
                 ("worst", c_double), ("worst_slot", c_long)]
 
 

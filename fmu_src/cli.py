@@ -435,9 +435,12 @@ def cmd_cosim(args) -> int:
     _warn(w for w in res.warnings if diverged is None or w != diverged.message)  # that one is the error below
     how = ("jacobi: all on the last step's values" if res.master == "jacobi"
            else f"{res.master}, order {' -> '.join(res.order)}")
-    if res.coupling:
+    if "tol" in res.coupling:
         how += (f"; tol {res.coupling['tol']:g}: {res.coupling['substeps']} sub-steps, "
                 f"{res.coupling['rejected']} rejected")
+    elif "evaluations" in res.coupling:  # the Newton master
+        how += (f"; {res.coupling['evaluations'] / max(1, res.coupling['steps']):.2f} evaluations a step, "
+                f"{res.coupling['jacobians']} Jacobians")
     print(f"{res.system.name}: {res.t[-1] - res.t[0]:g} s at step {res.step:g} s ({how}): {res.wall_time:.3f} s wall")
     for bond in res.power:  # the power at each mechanical connection, where coupling makes energy
         print(f"power at {bond.line()}")
@@ -826,11 +829,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--step", type=_positive("--step", "s"),
                    help="communication step, s (default: the system's); a warning says when it exceeds a "
                         "component's sample time or the motor's mechanical time constant")
-    c.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate"],
+    c.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate", "newton"],
                    help="gauss-seidel (default): each component steps on the outputs of those before it; "
                         "extrapolate (default with --tol): in that order, a continuous input held at its value at "
                         "the step's midpoint, interpolated or extrapolated (second order, but less stable on a "
-                        "coupling stiff at the step: docs/cosim.md); jacobi: all step on the "
+                        "coupling stiff at the step: docs/cosim.md); newton: each step iterated to its fixed "
+                        "point, the continuous components rolled back and stepped again (stable on stiff "
+                        "couplings, second order, a few steps' work a step); jacobi: all step on the "
                         "last step's values, so every connection adds a step of delay (less accurate, for "
                         "comparison with fmpy and libcosim)")
     c.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),

@@ -30,7 +30,7 @@ def one_component(tmp_path):
     ({"step": math.inf}, "step: must be finite, got inf"),
     ({"step": 0.0}, "step: must be positive, got 0.0"),
     ({"t_end": 1.0, "start_time": 2.0}, "t_end: 1.0 must be after the start time 2.0"),
-    ({"master": "newton"}, "master: must be one of gauss-seidel, jacobi, extrapolate, got 'newton'"),
+    ({"master": "newtn"}, "master: must be one of gauss-seidel, jacobi, extrapolate, newton, got 'newtn'"),
     ({"record_every": 0}, "record_every: must be a whole number >= 1, got 0"),
 ])
 def test_the_runner_names_a_bad_setting(tmp_path, kwargs, message):

@@ -47,3 +47,37 @@ def test_a_master_that_fails_is_a_row_that_says_so(bench):
     p = cosim_wp.measure(case, "grubler, Gauss-Seidel", 1e-2, tmp)
     assert "mechanism" in p.failure and not p.walls
     assert "failed: " in cosim_wp.table([case], [p])
+
+
+def test_the_equal_error_table_reads_each_masters_time_off_its_curve():
+    """Made-up curves: the coarsest step within the error is interpolated towards the next coarser run, a
+    curve that has stopped falling is 'not reached', and the speed-up is the other master's time over ours."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import cosim_wp
+
+    P = cosim_wp.Point
+    points = [P("s", "grubler, newton", 1e-2, 1e-5, [0.1]), P("s", "grubler, newton", 1e-3, 1e-7, [1.0]),
+              P("s", "slow", 1e-3, 1e-4, [1.0]), P("s", "slow", 1e-4, 1e-5, [10.0]),
+              P("s", "stuck", 1e-3, 7e-3, [1.0]), P("s", "stuck", 1e-4, 6.9e-3, [10.0]),
+              P("s", "broken", 1e-3, failure="step failed")]
+    assert cosim_wp.time_to_reach(points, "s", "slow", 1e-5) == (pytest.approx(10.0), "interpolated")
+    w, how = cosim_wp.time_to_reach(points, "s", "grubler, newton", 1e-6)
+    assert how == "interpolated" and abs(w - 10 ** -0.5) < 1e-9  # halfway in log between 1e-5 and 1e-7
+    assert cosim_wp.time_to_reach(points, "s", "grubler, newton", 1e-3) == (
+        0.1, "at most (the coarsest run, 10 ms, is within it)")
+    assert cosim_wp.time_to_reach(points, "s", "stuck", 1e-5)[1] == "not reached (best 0.0069 at the steps run)"
+    assert cosim_wp.time_to_reach(points, "s", "broken", 1e-5)[1] == "not reached"
+    # a coarse run far off that took longer (a diverging one) is no curve to read: fmpy's loop on the cylinder
+    odd = [P("s", "odd", 1e-3, 0.5, [5.0]), P("s", "odd", 1e-4, 0.1, [1.0])]
+    assert cosim_wp.time_to_reach(odd, "s", "odd", 0.2) == (1.0, "at most (the 0.1 ms run; the coarser one took longer)")
+    assert cosim_wp.time_to_reach(odd, "s", "odd", 1e-3)[1] == "not reached (best 0.1 at the steps run)"
+    cosim_wp.TARGETS["s"] = (1e-5,)
+    try:
+        text = cosim_wp.equal_error([cosim_wp.Case("s", None, "", "m", 1.0, None)], points)
+    finally:
+        del cosim_wp.TARGETS["s"]
+    assert "| s | 1e-05 m | slow | 10 s (interpolated) | 100x |" in text, text
+    # the table a run wrote reads back as the points it came from
+    again = cosim_wp.read_table(cosim_wp.table([cosim_wp.Case("s", None, "", "m", 1.0, None)], points))
+    assert [(p.master, p.step, p.error, p.wall, p.failure) for p in again if not p.failure] == [
+        (p.master, p.step, float(f"{p.error:.2e}"), p.wall, "") for p in points if not p.failure]

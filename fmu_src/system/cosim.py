@@ -26,7 +26,7 @@ True
 
 :func:`run`'s ``master`` is one of :data:`MASTERS`:
 
->>> MASTERS == (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE) == ("gauss-seidel", "jacobi", "extrapolate")
+>>> MASTERS == (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE, NEWTON) == ("gauss-seidel", "jacobi", "extrapolate", "newton")
 True
 """
 
@@ -43,7 +43,7 @@ from grubler.errors import Cancelled
 from grubler.limits import MAX_STEPS, brief, check_count, check_size
 from grubler.system.interface import FmuInterface, generic_unit, units_compatible
 from grubler.system.ssp import System, SystemDescriptionError, read
-from grubler.system.coupling import adaptive_plan, input_modes
+from grubler.system.coupling import NEWTON_MAX_ITER, NEWTON_TOL, NewtonPlan, adaptive_plan, input_modes, newton_plan
 from grubler.system.instance import CosimError, UnpackedFMUs, _call, _Instance, _last_message, interfaces_of
 from grubler.system.plan import check, order
 from grubler.system import coupling_energy
@@ -53,8 +53,9 @@ from grubler.system.time_scales import TimeScale, step_warnings, time_scales
 GAUSS_SEIDEL = "gauss-seidel"
 JACOBI = "jacobi"
 EXTRAPOLATE = "extrapolate"  # Gauss-Seidel's order, continuous inputs at the step's midpoint (system/coupling.py)
-MASTERS = (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE)
-_SCHEME = {GAUSS_SEIDEL: 0, JACOBI: 1, EXTRAPOLATE: 2}  # system/c/master.c's grb_scheme
+NEWTON = "newton"  # each step iterated to its fixed point with rollback, a Newton update (system/coupling.py)
+MASTERS = (GAUSS_SEIDEL, JACOBI, EXTRAPOLATE, NEWTON)
+_SCHEME = {GAUSS_SEIDEL: 0, JACOBI: 1, EXTRAPOLATE: 2, NEWTON: 3}  # system/c/master.c's grb_scheme
 _CHUNK = 1000  # communication steps per call of the C loop when nothing is to be read between steps
 
 
@@ -70,8 +71,15 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     t_end, step, start_time : float, optional
         Default to the system's DefaultExperiment and grubler annotation
         (``t_end`` 1 s, ``step`` 1 ms, ``start_time`` 0 when neither says).
-    master : {'gauss-seidel', 'jacobi', 'extrapolate'}
+    master : {'gauss-seidel', 'jacobi', 'extrapolate', 'newton'}
         Default: Gauss-Seidel, or extrapolate when ``tol`` is given.
+        Newton (strong coupling) iterates each communication step to its fixed point: the continuous
+        components are rolled back through their FMU state and stepped again, their coupled inputs held at
+        the mean of the step's start value and a guess of the end value, the guess moved by a Newton update
+        whose Jacobian comes from perturbed steps (:func:`grubler.system.coupling.newton_plan`): stable on a
+        coupling stiff at the step (the cylinder slider-crank at 10 ms, where Gauss-Seidel and extrapolate
+        diverge), second order.  A component that cannot roll back leaves the run on Gauss-Seidel, with a
+        warning, and the result's ``master`` says so.
         Extrapolate steps in Gauss-Seidel's order, but holds each continuous
         input of a continuous component at its value at the step's midpoint,
         interpolated or extrapolated from its source's communication points
@@ -138,10 +146,10 @@ def run(system: System | str | Path, t_end: float | None = None, step: float | N
     (['move.position', 'move.velocity', 'move.acceleration'], 101, [])
     >>> round(float(r["move.position"][-1]), 6), r.units["move.position"]   # the 1 rad move done in 1 s
     (1.0, 'rad')
-    >>> run(s, t_end=1.0, master="newton")
+    >>> run(s, t_end=1.0, master="newtn")
     Traceback (most recent call last):
     ...
-    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, extrapolate, got 'newton'
+    grubler.errors.SystemDescriptionError: master: must be one of gauss-seidel, jacobi, extrapolate, newton, got 'newtn'
     >>> tmp.cleanup()
     """
     if not isinstance(system, System):
@@ -187,10 +195,18 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
     scales = time_scales(system, interfaces)
     sampled: set[str] = set()
     said: list[str] = []
+    newton: NewtonPlan | None = None
     if tol is not None:
         seq, sampled, said, can_adapt = adaptive_plan(system, interfaces, seq, step, tol)
         tol = tol if can_adapt else None
-    if tol is not None:  # the continuous components sub-step: only the sampled ones' times bound the step
+    if master == NEWTON:
+        newton, said = newton_plan(system, interfaces, seq)
+        if newton is None:  # a component cannot roll back: the run says which scheme it ran
+            master = GAUSS_SEIDEL
+        else:
+            seq, sampled = newton.order, newton.sampled
+    if tol is not None or newton is not None:
+        # the continuous components sub-step or iterate: only the sampled ones' times bound the step
         scales = [sc for sc in scales if sc.component in sampled]
     warnings = step_warnings(step, scales) + said
     recorded = _recorded_outputs(system, interfaces, record)
@@ -217,10 +233,11 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
         times[0] = t0
         for j, (c, i) in enumerate(table.sources):
             data[0, j] = insts[c].read_buf[i] if c else values[i]
-        modes = input_modes(system, interfaces, seq) if master == EXTRAPOLATE else None
+        modes = newton.modes if newton else input_modes(system, interfaces, seq) if master == EXTRAPOLATE else None
         loop = _Loop([insts[n] for n in seq], values, master, t0, step, t_end, n_steps, record_every,
                      [seq.index(c) if c else -1 for c, _ in table.sources], [i for _, i in table.sources], times,
-                     data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq])
+                     data, profile, modes and [modes[n] for n in seq], tol, [n in sampled for n in seq],
+                     newton and ([n in newton.iterated for n in seq], [slot[u] for u in newton.unknowns]))
         loop.slot_names = {s: name for name, s in slot.items()}
         try:
             _step_through(loop, n_steps, cancel, 1 if tol is not None else _CHUNK)
@@ -233,6 +250,7 @@ def _run(system: System, t0: float, t_end: float, step: float, master: str, reco
             raise
         k = loop.row.value
         wall = _time.perf_counter() - wall0
+        warnings += loop.iteration_warnings()
         messages = [m for inst in insts.values() for m in inst.messages]
         result = CosimResult(times[:k].copy(), table.columns, data[:k].copy(), system, seq, master, step, wall,
                              table.units, messages, warnings, loop.profile(seq), loop.coupling())
@@ -408,10 +426,25 @@ class _Loop:
     def __init__(self, insts: list[_Instance], values, master: str, t0: float, step: float, t_end: float,
                  n_steps: int, record_every: int, column_fmu: list[int], column_index: list[int],
                  times: np.ndarray, data: np.ndarray, profile: bool, in_modes: list[list[int]] | None = None,
-                 tol: float | None = None, sampled: list[bool] | None = None):
+                 tol: float | None = None, sampled: list[bool] | None = None,
+                 newton: tuple[list[bool], list[int]] | None = None):
         from grubler import binding
 
         self.insts, self.values, self.tol = insts, values, tol
+        # the Newton master's iterated components and unknowns' slots, and its counts and work (else None)
+        self._newton, self._newton_arrays = None, ()
+        if newton is not None:
+            iterated, unknowns = newton
+            n, nu = len(values), len(unknowns)
+            index = np.full(max(1, n), -1, dtype=np.intc)
+            index[unknowns] = np.arange(nu)
+            arrays = (np.asarray(unknowns or [0], dtype=np.intc), index, np.zeros(3 * n + 3 * nu + nu * nu + 1),
+                      np.zeros(max(1, nu), dtype=np.intc))
+            self._newton_arrays = arrays  # kept: C holds the pointers
+            self._newton = binding.MasterNewton(NEWTON_TOL, NEWTON_MAX_ITER, nu, *(a.ctypes.data for a in arrays),
+                                                0, 0, 0, 0, 0, 0.0, -1)
+        rollback = iterated if newton is not None else [
+            tol is not None and not (sampled and sampled[k]) for k in range(len(insts))]
         self.seconds = np.zeros((len(insts), 3)) if profile else None
         # the extrapolating master's input modes and its history of the values (start, previous point)
         self._modes = [(ctypes.c_int * len(m))(*m) for m in in_modes] if in_modes is not None else None
@@ -419,7 +452,7 @@ class _Loop:
         self.fmus = (binding.MasterFmu * len(insts))(*[
             inst.loop_view(None if self.seconds is None else self.seconds[k].ctypes.data,
                            None if self._modes is None else self._modes[k], bool(sampled and sampled[k]),
-                           tol is not None and not (sampled and sampled[k]))
+                           rollback[k])
             for k, inst in enumerate(insts)])
         # the adaptive master's sub-step clock (its first try: the whole step) and its work buffers
         self._adapt = binding.MasterAdapt(step, 0.0, 0, 0, 0.0, -1)
@@ -432,7 +465,8 @@ class _Loop:
                                      self._columns[0].ctypes.data, self._columns[1].ctypes.data,
                                      times.ctypes.data, data.ctypes.data, *history, tol or 0.0,
                                      None if self._work is None else self._work.ctypes.data,
-                                     ctypes.addressof(self._adapt))
+                                     ctypes.addressof(self._adapt),
+                                     None if self._newton is None else ctypes.addressof(self._newton))
         self.t, self.row, self.failure = ctypes.c_double(t0), ctypes.c_long(1), binding.MasterFailure()
         self._steps = binding.library().grb_master_steps
 
@@ -451,16 +485,32 @@ class _Loop:
             raise self.insts[f.fmu].refused(what, f.status)
 
     def coupling(self) -> dict:
-        """The adaptive master's counts (empty for the fixed-step masters)."""
+        """The adaptive master's counts, or the Newton master's (empty for the other fixed-step masters)."""
+        if self._newton is not None:
+            nw = self._newton
+            return {"newton_tol": NEWTON_TOL, "steps": int(nw.steps), "evaluations": int(nw.evaluations),
+                    "jacobians": int(nw.jacobians), "unconverged": int(nw.unconverged),
+                    "worst_residual": float(nw.worst) * NEWTON_TOL,
+                    "worst_at": self.slot_names.get(int(nw.worst_slot), "")}
         if self.tol is None:
             return {}
         a = self._adapt
         return {"tol": self.tol, "substeps": int(a.substeps), "rejected": int(a.rejected),
                 "worst_estimate": float(a.worst) * self.tol}
 
+    def iteration_warnings(self) -> list[str]:
+        """The Newton master's word on steps it kept unconverged (none: every step met its tolerance)."""
+        c = self.coupling() if self._newton is not None else {}
+        if not c.get("unconverged"):
+            return []
+        return [f"master newton: {c['unconverged']} of {c['steps']} steps kept after {NEWTON_MAX_ITER} evaluations "
+                f"with a coupling residual above {NEWTON_TOL:g} (largest {c['worst_residual']:.3g}, relative, at "
+                f"{c['worst_at']}): the FMUs' own accuracy may be the floor, or the coupling too nonlinear at the "
+                "step (a shorter step)"]
+
     def free_states(self) -> None:
-        """The FMU states the adaptive master saved, freed (before the FMUs are)."""
-        if self.tol is not None:
+        """The FMU states the adaptive and Newton masters saved, freed (before the FMUs are)."""
+        if self.tol is not None or self._newton is not None:
             from grubler import binding
 
             binding.library().grb_master_free_states(self.fmus, len(self.insts))
@@ -495,4 +545,4 @@ def _initialise(insts: dict[str, _Instance], seq: list[str], values, t0: float) 
 
 
 __all__ = ["run", "UnpackedFMUs", "check", "order", "interfaces_of", "initial_inputs", "time_scales", "step_warnings", "TimeScale", "units_compatible", "CosimResult", "CosimError", "FmuInterface",
-           "GAUSS_SEIDEL", "JACOBI", "EXTRAPOLATE", "MASTERS"]
+           "GAUSS_SEIDEL", "JACOBI", "EXTRAPOLATE", "NEWTON", "MASTERS"]

@@ -91,7 +91,7 @@ enum grb_input_mode {
 };
 
 /* The masters grb_run.scheme names. */
-enum grb_scheme { GRB_GAUSS_SEIDEL = 0, GRB_JACOBI = 1, GRB_EXTRAPOLATE = 2 };
+enum grb_scheme { GRB_GAUSS_SEIDEL = 0, GRB_JACOBI = 1, GRB_EXTRAPOLATE = 2, GRB_NEWTON = 3 };
 
 /* The run: which master, its clock, and where recorded rows go. */
 typedef struct {
@@ -109,6 +109,7 @@ typedef struct {
     double tol;               /* > 0: sub-steps of the continuous FMUs adapt to this error estimate */
     double *work;             /* adaptive: 4 n_slots doubles */
     struct grb_adapt *adapt;  /* adaptive: the sub-step's clock, carried from one call to the next */
+    struct grb_newton *newton; /* GRB_NEWTON: what it solves for, its work and counts (else NULL) */
 } grb_run;
 
 /* The adaptive master's sub-step clock and counts. */
@@ -119,6 +120,23 @@ typedef struct grb_adapt {
     double worst;             /* the largest error estimate accepted, relative to tol */
     long worst_slot;          /* the value whose estimate was largest in the last try (-1: none) */
 } grb_adapt;
+
+/* The Newton master's unknowns, work and counts (GRB_NEWTON; the caller owns every array).
+ * The unknowns are the end-of-step values of the outputs that continuous inputs of the iterated FMUs read
+ * (the slots an in_mode other than GRB_INPUT_HELD reads). */
+typedef struct grb_newton {
+    double tol;               /* a step's iteration ends when every residual, relative to max(1, |value|), is within */
+    long max_iter;            /* evaluations a step may take before it is kept unconverged */
+    size_t n_unknown;
+    const int *unknown_slot;  /* n_unknown: each unknown's slot */
+    const int *index;         /* n_slots: a slot's unknown, or -1 */
+    double *work;             /* 3 n_slots + 3 n_unknown + n_unknown^2 doubles */
+    int *pivot;               /* n_unknown */
+    int have_jacobian;        /* the factored Jacobian in work is usable (kept from step to step) */
+    long steps, evaluations, jacobians, unconverged;
+    double worst;             /* the largest residual a step ended with, relative to tol */
+    long worst_slot;          /* ... and its slot */
+} grb_newton;
 
 /* Where a run stopped: the FMU, the call (0 setReal, 1 doStep, 2 getReal, 3 get/set FMU state, 4 the
  * tolerance: the error estimate stays above it down to the smallest sub-step), its status, the step's start
@@ -366,7 +384,205 @@ static int adaptive_step(grb_fmu *fmus, int n_fmus, double *values, const grb_ru
     return 0;
 }
 
-/* Free the FMU states the adaptive master saved (after the run, before the FMUs are freed). */
+/* -- the Newton master: each step's coupled values iterated to their fixed point, with rollback --------- */
+
+/* An FMU the Newton master iterates: continuous (not sampled), with an input that moves with the unknowns. */
+static int iterated(const grb_fmu *f) {
+    return !f->sampled && f->in_mode != NULL && moves_inputs(f);
+}
+
+/* setReal of the connected inputs on a guess of the unknowns' end values: a moving input held over the step
+ * at the mean of its source's start value and the guess (at == 0.5), or at the guess (at == 1: the end, set
+ * before the outputs are read); a held input at its value. */
+static int push_guess(grb_fmu *f, const double *values, const double *start, const double *guess, double at) {
+    size_t i;
+    double t0 = 0.0;
+    int s;
+    if (f->n_in == 0) return 0;
+    for (i = 0; i < f->n_in; i++) {
+        int slot = f->in_slot[i];
+        f->in_buf[i] = f->in_mode[i] == GRB_INPUT_HELD ? values[slot]
+                       : at == 1.0 ? guess[slot] : start[slot] + at * (guess[slot] - start[slot]);
+    }
+    if (f->seconds) t0 = now();
+    s = f->set_real(f->instance, f->in_vr, f->n_in, f->in_buf);
+    if (f->seconds) f->seconds[CALL_SET] += now() - t0;
+    return s;
+}
+
+/* Iterated FMU k over the step on the guess (from its saved state when restore), its outputs into values. */
+static int evaluate(grb_fmu *fmus, int k, double *values, const double *start, const double *guess, double tn,
+                    double h, int recording, int restore, grb_failure *fail) {
+    grb_fmu *f = &fmus[k];
+    int s;
+    if (restore && (s = f->set_state(f->instance, f->state)) > 1) return failed(fail, k, CALL_STATE, s, tn);
+    if ((s = push_guess(f, values, start, guess, 0.5)) > 1) return failed(fail, k, CALL_SET, s, tn);
+    if ((s = step(f, tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
+    if ((s = push_guess(f, values, start, guess, 1.0)) > 1) return failed(fail, k, CALL_SET, s, tn);
+    if ((s = publish(f, values, recording)) > 1) return failed(fail, k, CALL_GET, s, tn);
+    return 0;
+}
+
+/* Does FMU f read slot through an input that moves? */
+static int reads_moving(const grb_fmu *f, int slot) {
+    size_t i;
+    for (i = 0; i < f->n_in; i++)
+        if (f->in_slot[i] == slot && f->in_mode[i] != GRB_INPUT_HELD) return 1;
+    return 0;
+}
+
+/* LU factorisation with partial pivoting of the n x n row-major a, in place; 1 when singular. */
+static int lu_factor(double *a, int *pivot, size_t n) {
+    size_t i, j, k, p;
+    double t;
+    for (k = 0; k < n; k++) {
+        p = k;
+        for (i = k + 1; i < n; i++)
+            if (fabs(a[i * n + k]) > fabs(a[p * n + k])) p = i;
+        if (!(fabs(a[p * n + k]) > 0.0)) return 1; /* also a NaN */
+        pivot[k] = (int)p;
+        if (p != k)
+            for (j = 0; j < n; j++) { t = a[k * n + j]; a[k * n + j] = a[p * n + j]; a[p * n + j] = t; }
+        for (i = k + 1; i < n; i++) {
+            a[i * n + k] /= a[k * n + k];
+            for (j = k + 1; j < n; j++) a[i * n + j] -= a[i * n + k] * a[k * n + j];
+        }
+    }
+    return 0;
+}
+
+/* x = A^-1 b with A factored by lu_factor (b overwritten by x). */
+static void lu_solve(const double *a, const int *pivot, double *b, size_t n) {
+    size_t i, j, k;
+    double t;
+    for (k = 0; k < n; k++)
+        if ((size_t)pivot[k] != k) { t = b[k]; b[k] = b[pivot[k]]; b[pivot[k]] = t; }
+    for (i = 1; i < n; i++)
+        for (j = 0; j < i; j++) b[i] -= a[i * n + j] * b[j];
+    for (i = n; i-- > 0;) {
+        for (j = i + 1; j < n; j++) b[i] -= a[i * n + j] * b[j];
+        b[i] /= a[i * n + i];
+    }
+}
+
+/* The Jacobian of the residual R(guess) = Y(guess) - guess over the step, factored: each column by one
+ * perturbed step of the FMUs that read that unknown, from their saved state (the FMUs' own directional
+ * derivatives are instantaneous, d output / d input at one instant, where a state's is zero; the step's
+ * sensitivity of a state to an input held over it is what the iteration needs).  y holds Y(guess). */
+static int jacobian(grb_fmu *fmus, int n_fmus, double *values, const grb_run *run, double *guess,
+                    const double *y, const double *base, double tn, double h, grb_failure *fail) {
+    grb_newton *nw = run->newton;
+    size_t nu = nw->n_unknown, n_s = run->n_slots, i, j, o;
+    double *jac = nw->work + 3 * n_s + 3 * nu, g, d;
+    int k, s, slot;
+    for (j = 0; j < nu; j++) {
+        slot = nw->unknown_slot[j];
+        g = guess[slot];
+        d = 1e-4 * (fabs(g) > 1.0 ? fabs(g) : 1.0); /* well above the FMUs' own integration noise */
+        guess[slot] = g + d;
+        for (i = 0; i < nu; i++) jac[i * nu + j] = i == j ? -1.0 : 0.0;
+        for (k = 0; k < n_fmus; k++) {
+            grb_fmu *f = &fmus[k];
+            if (!iterated(f) || !reads_moving(f, slot)) continue;
+            for (i = 0; i < n_s; i++) values[i] = base[i];
+            if ((s = evaluate(fmus, k, values, run->start, guess, tn, h, 0, 1, fail)) != 0) return s;
+            for (o = 0; o < f->n_conn; o++) {
+                int r = nw->index[f->out_slot[o]];
+                if (r >= 0) jac[(size_t)r * nu + j] += (values[f->out_slot[o]] - y[f->out_slot[o]]) / d;
+            }
+        }
+        guess[slot] = g;
+    }
+    nw->jacobians++;
+    nw->have_jacobian = !lu_factor(jac, nw->pivot, nu);
+    return 0;
+}
+
+/* One Newton communication step: the sampled FMUs once, reading the sample instant's values; the continuous
+ * FMUs that no iterated value feeds once; then the iterated ones from one saved state, on a guess of the
+ * unknowns' end values (extrapolated from the last two points), again and again, each guess moved by a
+ * Newton update R'(guess) d = -R(guess) of the residual R = Y(guess) - guess, until every residual is within
+ * tol.  The Jacobian is kept from step to step and made again when a kept one converges too slowly. */
+static int newton_step(grb_fmu *fmus, int n_fmus, double *values, const grb_run *run, long n, double tn,
+                       double h, int recording, grb_failure *fail) {
+    grb_newton *nw = run->newton;
+    size_t n_s = run->n_slots, nu = nw->n_unknown, j;
+    double *guess = nw->work, *base = guess + n_s, *y = base + n_s, *r = y + n_s;
+    double *jac = nw->work + 3 * n_s + 3 * nu, err = 0.0, err_prev = 0.0, e, ratio = n > 0 ? h / run->step : 0.0;
+    long it, worst = -1;
+    int k, s, slot, fresh = 0;
+    for (k = 0; k < n_fmus; k++) {
+        grb_fmu *f = &fmus[k];
+        if (!f->sampled) continue;
+        if ((s = push(f, values)) > 1) return failed(fail, k, CALL_SET, s, tn);
+        if ((s = step(f, tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
+        if ((s = publish(f, values, recording)) > 1) return failed(fail, k, CALL_GET, s, tn);
+    }
+    remember(run, values, n > 0);
+    for (k = 0; k < n_fmus; k++) {
+        grb_fmu *f = &fmus[k];
+        if (f->sampled || iterated(f)) continue;
+        if ((s = push(f, values)) > 1) return failed(fail, k, CALL_SET, s, tn);
+        if ((s = step(f, tn, h)) > 1) return failed(fail, k, CALL_STEP, s, tn);
+        if ((s = publish(f, values, recording)) > 1) return failed(fail, k, CALL_GET, s, tn);
+    }
+    for (j = 0; j < n_s; j++) base[j] = guess[j] = values[j];
+    for (j = 0; j < nu; j++) {
+        slot = nw->unknown_slot[j];
+        guess[slot] = run->start[slot] + ratio * (run->start[slot] - run->prev[slot]);
+    }
+    for (k = 0; k < n_fmus; k++)
+        if (iterated(&fmus[k]) && (s = fmus[k].get_state(fmus[k].instance, &fmus[k].state)) > 1)
+            return failed(fail, k, CALL_STATE, s, tn);
+    for (it = 0;; it++) {
+        if (it > 0)
+            for (j = 0; j < n_s; j++) values[j] = base[j];
+        for (k = 0; k < n_fmus; k++)
+            if (iterated(&fmus[k]) && (s = evaluate(fmus, k, values, run->start, guess, tn, h, recording, it > 0,
+                                                    fail)) != 0)
+                return s;
+        nw->evaluations++;
+        err = 0.0;
+        for (j = 0; j < nu; j++) {
+            slot = nw->unknown_slot[j];
+            r[j] = values[slot] - guess[slot];
+            e = fabs(r[j]) / (fabs(guess[slot]) > 1.0 ? fabs(guess[slot]) : 1.0);
+            if (!(e <= err)) { /* a NaN wins */
+                err = e;
+                worst = slot;
+            }
+        }
+        err /= nw->tol;
+        if (err <= 1.0) break;
+        if (it + 1 >= nw->max_iter) {
+            nw->unconverged++;
+            break;
+        }
+        /* a kept Jacobian is made again when, at the rate it converges, it would take more than two more
+         * evaluations (a fresh one converges quadratically: about two, and costs one perturbed step per
+         * unknown of the FMUs that read it) */
+        if (!nw->have_jacobian || (it > 0 && !fresh && !(err * (err / err_prev) * (err / err_prev) <= 1.0))) {
+            for (j = 0; j < n_s; j++) y[j] = values[j];
+            if ((s = jacobian(fmus, n_fmus, values, run, guess, y, base, tn, h, fail)) != 0) return s;
+            fresh = 1;
+        }
+        if (nw->have_jacobian) {
+            lu_solve(jac, nw->pivot, r, nu); /* R'(guess) x = R(guess): the guess moves by -x */
+            for (j = 0; j < nu; j++) guess[nw->unknown_slot[j]] -= r[j];
+        } else { /* a singular Jacobian: a fixed-point pass, the guess moved to what the FMUs gave */
+            for (j = 0; j < nu; j++) guess[nw->unknown_slot[j]] += r[j];
+        }
+        err_prev = err;
+    }
+    if (!(err <= nw->worst)) {
+        nw->worst = err;
+        nw->worst_slot = worst;
+    }
+    nw->steps++;
+    return 0;
+}
+
+/* Free the FMU states the adaptive and Newton masters saved (after the run, before the FMUs are freed). */
 GRB_MASTER_API void grb_master_free_states(grb_fmu *fmus, int n_fmus) {
     int k;
     for (k = 0; k < n_fmus; k++)
@@ -388,7 +604,9 @@ GRB_MASTER_API int grb_master_steps(grb_fmu *fmus, int n_fmus, double *values, c
         double h = run->step, tn = *t;
         int recording = (n + 1) % run->record_every == 0 || last;
         if (last && run->t_end - tn < h) h = run->t_end - tn;  /* a last, shorter step lands on t_end */
-        if (run->scheme == GRB_EXTRAPOLATE && run->tol > 0.0) {
+        if (run->scheme == GRB_NEWTON) {
+            if ((s = newton_step(fmus, n_fmus, values, run, n, tn, h, recording, fail)) != 0) return s;
+        } else if (run->scheme == GRB_EXTRAPOLATE && run->tol > 0.0) {
             if ((s = adaptive_step(fmus, n_fmus, values, run, tn, h, recording, fail)) != 0) return s;
         } else if (run->scheme == GRB_EXTRAPOLATE) {
             remember(run, values, n > 0);
