@@ -31,7 +31,11 @@ typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_C
                                         offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
                                         sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
 
-/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer (after its header). */
+/* 64-bit words per row of a workspace's path table (workspace.h) */
+static size_t path_words(int n) { return ((size_t)n + 63) / 64; }
+
+/* Offsets of the tables K, Jc, J, R, T, Q, S, X in the workspace buffer
+ * (after its header), and its end: off[0 .. 8]. */
 static void ws_offsets(int n, int m, size_t *off) {
     size_t N = (size_t)n, M = (size_t)m;
     off[0] = WORK_HEADER;
@@ -41,6 +45,12 @@ static void ws_offsets(int n, int m, size_t *off) {
     off[4] = off[3] + M * R_COLUMNS;
     off[5] = off[4] + N * (2 * N + M + 3); /* M, the force, the solver table, zdd */
     off[6] = off[5] + M * (3 * M + 1);
+    /* assembly's scratch: U (N x M), V (M x M), a compact Jacobian (M x N),
+     * four N-vectors and two M-vectors, and room to spare */
+    off[7] = off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
+    /* X: the paths (a 64-bit word takes no more room than a real), a line's
+     * Jacobians, the singular values, the index lists */
+    off[8] = off[7] + N * path_words(n) + 5 * N + M + (4 * N + M + 2);
 }
 
 /* Offsets of the dynamics' arrays within T (from off[4]): mass, force, solve, zdd. */
@@ -53,11 +63,9 @@ static void dynamics_offsets(int n, int m, const size_t *off, size_t *dyn) {
 }
 
 size_t GRB(work_size)(int n, int n_closures) {
-    size_t off[7], N = (size_t)n, M = 2 * (size_t)n_closures;
-    ws_offsets(n, (int)M, off);
-    /* assembly's scratch: U (N x M), V (M x M), a compact Jacobian (M x N),
-     * four N-vectors and two M-vectors, and room to spare */
-    return off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
+    size_t off[9];
+    ws_offsets(n, 2 * n_closures, off);
+    return off[8];
 }
 
 grb_status GRB(work_init)(int n, int n_closures, real *buffer, size_t length) {
@@ -88,7 +96,7 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
                RE(buffer[WORK_FILLED]) < needs)
         return GRB_BAD_ARGUMENT;
     if (needs == GRB_FILLED_NOTHING) buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
-    size_t off[7], dyn[4];
+    size_t off[9], dyn[4];
     ws_offsets(n, m, off);
     dynamics_offsets(n, m, off, dyn);
     w->header = buffer;
@@ -109,11 +117,23 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     w->eigvec = w->eig_work + (size_t)m * m;
     w->eigval = w->eigvec + (size_t)m * m;
     w->S = buffer + off[6];
+    /* X: the path table's words sit in reals' room (a real is at least 8 bytes, and as aligned) */
+    size_t words = path_words(n);
+    w->words = (int)words;
+    w->path = (uint64_t *)(buffer + off[7]);
+    w->line_jl = buffer + off[7] + (size_t)n * words;
+    w->line_j0 = w->line_jl + n;
+    w->line_j1 = w->line_j0 + 2 * (size_t)n;
+    w->singular = (double *)(w->line_j1 + 2 * (size_t)n);
+    w->index = (int *)(buffer + off[7] + (size_t)n * words + 5 * (size_t)n + (size_t)m);
     /* which joints move which link is the model's structure, not the state: set here, so that a call that reads
      * a filled workspace (a point's Jacobian, the reactions) sees it as the pass that filled the tables did */
     for (int k = 0; k < n; k++) {
         int pk = grb_parent(md, k);
-        w->path[k] = (pk < 0 || pk >= k ? 0ull : w->path[pk]) | (1ull << k);  /* parents come first (model_check) */
+        uint64_t *row = w->path + (size_t)k * words;
+        const uint64_t *from = pk < 0 || pk >= k ? NULL : w->path + (size_t)pk * words; /* parents come first */
+        for (size_t i = 0; i < words; i++) row[i] = from ? from[i] : 0u;
+        row[k >> 6] |= (uint64_t)1u << (k & 63);
     }
     return GRB_OK;
 }
@@ -127,7 +147,6 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         /* the predecessor's frame; the ground's is its vector at theta1, at rest */
         int pk = grb_parent(md, k);
         real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
-        w->path[k] = (pk < 0 ? 0ull : w->path[pk]) | (1ull << k);
         if (pk < 0) {
             cp = RCOS(md->theta1);
             sp = RSIN(md->theta1);
@@ -235,7 +254,7 @@ static void fixed_point(const grb_model *md, const grb_ws *w, int k, const doubl
 static real line_between(const grb_model *md, const grb_ws *w, int k0, const double *p0, int k1, const double *p1,
                          real *u, real *ends, real *jl) {
     int n = md->n_links;
-    real J0[2 * GRB_MAX_LINKS], J1[2 * GRB_MAX_LINKS], r0[4], r1[4];
+    real *J0 = w->line_j0, *J1 = w->line_j1, r0[4], r1[4];
     fixed_point(md, w, k0, p0, J0, r0);
     fixed_point(md, w, k1, p1, J1, r1);
     real dx = r1[0] - r0[0], dy = r1[1] - r0[1];
@@ -283,7 +302,7 @@ static void force_element(const grb_model *md, const grb_ws *w, int e, real *val
     int n = md->n_links;
     for (int o = 0; o < GRB_FO_COUNT; o++) val[o] = 0.0;
     if (fe->kind == GRB_FORCE_SPRING) {
-        real jl[GRB_MAX_LINKS], rate = 0.0;
+        real *jl = w->line_jl, rate = 0.0;
         real length = line_between(md, w, (int)fe->link, fe->point, (int)fe->to_link, fe->to_point, u, ends, jl);
         for (int i = 0; i < n; i++) {
             real q, qd;
@@ -332,7 +351,7 @@ static void force_element(const grb_model *md, const grb_ws *w, int e, real *val
         if (gen) gen[k] += effort;
     } else if (fe->kind == GRB_FORCE_LOAD) {
         int k = (int)fe->link;
-        real J[2 * GRB_MAX_LINKS], r[4], vx = 0.0, vy = 0.0;
+        real *J = w->line_j0, r[4], vx = 0.0, vy = 0.0;
         GRB(point)(md, w, k, fe->point[0], fe->point[1], J, r);
         for (int i = 0; i < n; i++) {
             real q, qd;
@@ -439,12 +458,12 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
         for (int j = 0; j < n; j++) MASS_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
-        unsigned long long path = w->path[k];
+        const uint64_t *path = w->path + (size_t)k * w->words;
         for (int i = 0; i <= k; i++) {
-            if (!((path >> i) & 1u)) continue;
+            if (!((path[i >> 6] >> (i & 63)) & 1u)) continue;
             real wi = ik * grb_links(md)[i].revolute;
             for (int j = i; j <= k; j++) {
-                if (!((path >> j) & 1u)) continue;
+                if (!((path[j >> 6] >> (j & 63)) & 1u)) continue;
                 MASS_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * grb_links(md)[j].revolute;
             }
@@ -471,7 +490,7 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
     if (md->load >= 0) f[md->load] += tau_load;
     /* each actuator's force F along its line: virtual work F dL = F J_L dz */
     for (int a = 0; a < md->n_actuators; a++) {
-        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real u[2], ends[4], *jl = w->line_jl;
         real force = w->actuator_force[a];
         actuator_line(md, w, a, u, ends, jl);
         for (int i = 0; i < n; i++) f[i] += jl[i] * force;
@@ -643,7 +662,7 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     /* then the actuators' forces on the links they join: +F u on the second
      * point's link, -F u on the first's (the ground takes its own) */
     for (int a = 0; a < md->n_actuators; a++) {
-        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real u[2], ends[4], *jl = w->line_jl;
         real force = w->actuator_force[a];
         actuator_line(md, w, a, u, ends, jl);
         for (int end = 0; end < 2; end++) {
@@ -788,7 +807,7 @@ grb_status GRB(observe_rows)(const grb_model *md, int method, int rows, const re
 }
 
 void GRB(work_layout)(int n, int n_closures, long *layout) {
-    size_t off[7], dyn[4];
+    size_t off[9], dyn[4];
     int m = 2 * n_closures;
     ws_offsets(n, m, off);
     dynamics_offsets(n, m, off, dyn);
@@ -827,7 +846,7 @@ grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, do
         const double *yi = y + (size_t)i * 2 * n;
         grb_chain(md, yi, yi + n, &w);
         for (int a = 0; a < na; a++) {
-            double u[2], ends[4], jl[GRB_MAX_LINKS], rate = 0.0;
+            double u[2], ends[4], *jl = w.line_jl, rate = 0.0;
             double *o = out + ((size_t)i * na + a) * 2;
             o[0] = actuator_line(md, &w, a, u, ends, jl);
             for (int j = 0; j < n; j++) rate += jl[j] * yi[n + j];
