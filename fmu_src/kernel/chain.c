@@ -507,6 +507,11 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
  * undetermined; dropping that direction keeps the motion defined through it,
  * and the projection removes the small drift it leaves. */
 #define SINGULAR_RCOND 1e-10
+/* Smallest Cholesky pivot, relative to the largest diagonal entry, for which
+ * the multipliers of many closure rows are solved by the factor rather than by
+ * the eigenvectors (a pivot bounds the smallest eigenvalue from above: the
+ * margin over SINGULAR_RCOND keeps the factor away from a lost direction) */
+#define CHOLESKY_RCOND 1e-6
 
 /* Solve S lam = b (S = Q[:, :M] symmetric, >= 0) dropping lost directions. */
 static void closure_multipliers(grb_ws *w) {
@@ -519,6 +524,16 @@ static void closure_multipliers(grb_ws *w) {
         if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
             w->row[0].lambda = (SCHUR_(w, 1, 1) * w->row[0].b - SCHUR_(w, 0, 1) * w->row[1].b) / det;
             w->row[1].lambda = (SCHUR_(w, 0, 0) * w->row[1].b - SCHUR_(w, 1, 0) * w->row[0].b) / det;
+            return;
+        }
+    }
+    if (m > GRB_JACOBI_ROWS) {
+        /* many rows: a Cholesky factor while S is well conditioned (no
+         * direction near lost: the change-point chart takes over before) */
+        for (int i = 0; i < m * m; i++) w->eig_work[i] = w->schur[i];
+        if (GRB(cholesky)(w->eig_work, m, m, CHOLESKY_RCOND)) {
+            for (int r = 0; r < m; r++) w->row[r].lambda = w->row[r].b;
+            GRB(cholesky_solve)(w->eig_work, m, m, &w->row[0].lambda, R_COLUMNS);
             return;
         }
     }

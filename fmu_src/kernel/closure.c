@@ -272,7 +272,10 @@ static void squared_singular_values(grb_ws *w, double *e) {
         e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
         return;
     }
-    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    if (m > GRB_JACOBI_ROWS)
+        grb_sym_eigenvalues(w->schur, w->eig_work, w->eigval, m);
+    else
+        grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     for (int i = 0; i < m; i++) e[i] = w->eigval[i];
     for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
         for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {

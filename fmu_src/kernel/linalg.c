@@ -7,11 +7,16 @@
  * one-sided (Hestenes) Jacobi SVD with a relative singular-value cut-off (gelsd).
  * Jacobi methods are as accurate as their LAPACK counterparts (more so for small
  * singular values) and converge in a handful of sweeps at these sizes. */
+#include <float.h>
+
 #include "workspace.h"
 
 #define MAX_SWEEPS 60
 /* det / trace^2 of J J^T above which two rows are solved in closed form */
 #define GRAM_CUTOFF 1e-8
+/* smallest pivot of Gaussian elimination, relative to the largest, for which a
+ * square system of many rows is solved by it rather than by the SVD */
+#define LU_CUTOFF 1e-10
 
 /* Solve A Y = X in place: A is the n x n block of T from column a0 (destroyed),
  * X the ncols columns from x0 (overwritten by Y).  GRB_SINGULAR when a pivot
@@ -57,6 +62,44 @@ grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) 
     return GRB_OK;
 #undef A
 #undef X
+}
+
+/* Cholesky factor of the symmetric n x n matrix A (row stride) in place, in
+ * its lower triangle: 1, or 0 when a pivot falls to or below cutoff times the
+ * largest diagonal entry (too near singular for the caller's use; A is then
+ * spoilt).  The solve with the factor follows. */
+int GRB(cholesky)(real *A, int stride, int n, double cutoff) {
+#define A(r, c) A[(r) * stride + (c)]
+    double big = 0.0;
+    for (int i = 0; i < n; i++) big = fmax(big, RE(A(i, i)));
+    if (!(big > 0.0)) return 0;
+    for (int j = 0; j < n; j++) {
+        real d = A(j, j);
+        for (int k = 0; k < j; k++) d -= A(j, k) * A(j, k);
+        if (!(RE(d) > cutoff * big)) return 0;
+        d = RSQRT(d);
+        A(j, j) = d;
+        for (int i = j + 1; i < n; i++) {
+            real v = A(i, j);
+            for (int k = 0; k < j; k++) v -= A(i, k) * A(j, k);
+            A(i, j) = v / d;
+        }
+    }
+    return 1;
+#undef A
+}
+
+void GRB(cholesky_solve)(const real *L, int stride, int n, real *b, int bstride) {
+    for (int i = 0; i < n; i++) {
+        real v = b[i * bstride];
+        for (int k = 0; k < i; k++) v -= L[i * stride + k] * b[k * bstride];
+        b[i * bstride] = v / L[i * stride + i];
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        real v = b[i * bstride];
+        for (int k = i + 1; k < n; k++) v -= L[k * stride + i] * b[k * bstride];
+        b[i * bstride] = v / L[i * stride + i];
+    }
 }
 
 /* Cosine and sine of the Jacobi rotation that zeroes apq (Rutishauser's form). */
@@ -117,6 +160,87 @@ void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m) {
 }
 
 #ifndef GRB_COMPLEX_STEP
+/* The eigenvalues (not sorted) of the symmetric m x m matrix S (kept) into
+ * values, B m x m scratch: Householder reduction to tridiagonal form, then the
+ * implicit QL method with Wilkinson's shift (Golub and Van Loan 8.3), some
+ * 4/3 m^3 operations where Jacobi's sweeps take tens of m^3.  For
+ * conditioning and rank, where no eigenvector is needed. */
+void grb_sym_eigenvalues(const double *S, double *B, double *values, int m) {
+#define B(i, j) B[(i) * m + (j)]
+    double *d = values, *e = B + (size_t)m * (m - 1); /* e: B's last row, free once the reduction is done */
+    for (int i = 0; i < m * m; i++) B[i] = S[i];
+    /* H = I - v v^T 2 / v^T v on rows and columns k+1 .. of B, v from column k;
+     * v sits in column k below the subdiagonal while p (B v 2 / v^T v) is formed */
+    double *p = values; /* scratch for p until the eigenvalues are written */
+    for (int k = 0; k + 2 < m; k++) {
+        double norm = 0.0;
+        for (int i = k + 1; i < m; i++) norm += B(i, k) * B(i, k);
+        if (norm == 0.0) continue;
+        double alpha = B(k + 1, k) > 0.0 ? -sqrt(norm) : sqrt(norm);
+        double v0 = B(k + 1, k) - alpha, vv = norm - B(k + 1, k) * B(k + 1, k) + v0 * v0;
+        if (vv == 0.0) continue;
+        B(k + 1, k) = v0; /* v: column k, rows k+1 .. */
+        double beta = 2.0 / vv, vp = 0.0;
+        for (int i = k + 1; i < m; i++) {
+            double s = 0.0;
+            for (int j = k + 1; j < m; j++) s += B(i, j) * B(j, k);
+            p[i] = beta * s;
+            vp += B(i, k) * p[i];
+        }
+        double half = 0.5 * beta * vp;
+        for (int i = k + 1; i < m; i++) p[i] -= half * B(i, k); /* w = p - (beta v^T p / 2) v */
+        for (int i = k + 1; i < m; i++)
+            for (int j = k + 1; j < m; j++) B(i, j) -= B(i, k) * p[j] + p[i] * B(j, k);
+        B(k + 1, k) = alpha;
+        B(k, k + 1) = alpha;
+        for (int i = k + 2; i < m; i++) B(i, k) = B(k, i) = 0.0;
+    }
+    /* the tridiagonal matrix: diagonal into d, e[i] couples i and i + 1 (e in
+     * B's last row, below its diagonal entry, which d takes first) */
+    for (int i = 0; i < m; i++) d[i] = B(i, i);
+    for (int i = 0; i + 1 < m; i++) e[i] = B(i + 1, i);
+    if (m > 0) e[m - 1] = 0.0;
+    for (int l = 0; l < m; l++) {
+        for (int iter = 0; iter < MAX_SWEEPS; iter++) {
+            int n_ = l;
+            for (; n_ + 1 < m; n_++) {
+                double dd = fabs(d[n_]) + fabs(d[n_ + 1]);
+                if (fabs(e[n_]) <= DBL_EPSILON * dd) break;
+            }
+            if (n_ == l) break;
+            /* Wilkinson's shift from the leading 2 x 2 block, chased up from n_ */
+            double g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+            double r = sqrt(g * g + 1.0);
+            g = d[n_] - d[l] + e[l] / (g + (g >= 0.0 ? r : -r));
+            double s = 1.0, c = 1.0, shift = 0.0;
+            int i, deflated = 0;
+            for (i = n_ - 1; i >= l; i--) {
+                double f = s * e[i], b = c * e[i];
+                r = sqrt(f * f + g * g);
+                e[i + 1] = r;
+                if (r == 0.0) { /* underflow: split here and start over */
+                    d[i + 1] -= shift;
+                    e[n_] = 0.0;
+                    deflated = 1;
+                    break;
+                }
+                s = f / r;
+                c = g / r;
+                g = d[i + 1] - shift;
+                r = (d[i] - g) * s + 2.0 * c * b;
+                shift = s * r;
+                d[i + 1] = g + shift;
+                g = c * r - b;
+            }
+            if (deflated) continue;
+            d[l] -= shift;
+            e[l] = g;
+            e[n_] = 0.0;
+        }
+    }
+#undef B
+}
+
 /* Minimum-norm least-squares solution x (n) of J x = b with J (m x n, row
  * stride jstride) and b[r * bstride].  Singular values below rcond times the
  * largest count as zero, as in numpy.linalg.lstsq.  U (n x m) and V (m x m) are
@@ -143,6 +267,72 @@ int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double 
             double y0 = (g11 * b0 - g01 * b1) / det, y1 = (g00 * b1 - g01 * b0) / det;
             for (int k = 0; k < n; k++) x[k] = JJ(0, k) * y0 + JJ(1, k) * y1;
             return 2;
+        }
+    }
+    if (m > GRB_JACOBI_ROWS && m == n) {
+        /* many rows, square (a branch point's dependent columns): Gaussian
+         * elimination with partial pivoting, kept while its pivots stay
+         * within LU_CUTOFF (or a thousand times the cut-off asked for) of the
+         * largest: the matrix is then regular and its solution the minimum-norm
+         * one; a smaller pivot goes to the SVD below (U holds the factors) */
+        double cutoff = fmax(LU_CUTOFF, 1e3 * rcond), big = 0.0, small = INFINITY;
+        for (int r = 0; r < m; r++) {
+            for (int c = 0; c < m; c++) UU(r, c) = JJ(r, c);
+            x[r] = b[r * bstride];
+        }
+        int regular = 1;
+        for (int c = 0; c < m && regular; c++) {
+            int p = c;
+            for (int r = c + 1; r < m; r++)
+                if (fabs(UU(r, c)) > fabs(UU(p, c))) p = r;
+            if (p != c) {
+                for (int j = 0; j < m; j++) {
+                    double t = UU(c, j);
+                    UU(c, j) = UU(p, j);
+                    UU(p, j) = t;
+                }
+                double t = x[c];
+                x[c] = x[p];
+                x[p] = t;
+            }
+            double pivot = fabs(UU(c, c));
+            big = fmax(big, pivot);
+            small = fmin(small, pivot);
+            if (!(pivot > 0.0)) regular = 0;
+            for (int r = c + 1; r < m && regular; r++) {
+                double f = UU(r, c) / UU(c, c);
+                if (f == 0.0) continue;
+                for (int j = c + 1; j < m; j++) UU(r, j) -= f * UU(c, j);
+                x[r] -= f * x[c];
+            }
+        }
+        if (regular && small > cutoff * big) {
+            for (int c = m - 1; c >= 0; c--) {
+                double v = x[c];
+                for (int k = c + 1; k < m; k++) v -= UU(c, k) * x[k];
+                x[c] = v / UU(c, c);
+            }
+            return m;
+        }
+    } else if (m > GRB_JACOBI_ROWS) {
+        /* many rows: the same normal equations, J J^T y = b (the Gram matrix in
+         * V, y in U), by a Cholesky factor whose pivots stay above the two-row
+         * form's cut-off; a Gram matrix nearer singular goes to the SVD below */
+        for (int r = 0; r < m; r++)
+            for (int c = 0; c <= r; c++) {
+                double g = 0.0;
+                for (int k = 0; k < n; k++) g += JJ(r, k) * JJ(c, k);
+                VV(r, c) = VV(c, r) = g;
+            }
+        if (grb_cholesky(V, m, m, GRAM_CUTOFF)) {
+            for (int r = 0; r < m; r++) U[r] = b[r * bstride];
+            grb_cholesky_solve(V, m, m, U, 1);
+            for (int k = 0; k < n; k++) {
+                double v = 0.0;
+                for (int r = 0; r < m; r++) v += JJ(r, k) * U[r];
+                x[k] = v;
+            }
+            return m;
         }
     }
     /* one-sided Jacobi on the columns of J^T: J^T V = U diag(sigma) */

@@ -144,6 +144,17 @@ static inline int grb_on_path(const grb_ws *w, int j, int k) {
  * the least-squares solver exists in the plain (double) build only */
 grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
 void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
+/* Up to this many closure rows the symmetric eigenproblems and the minimum-norm
+ * solves are the Jacobi methods' (the presets' numbers were made with them, and
+ * at these sizes they take a handful of sweeps); above it, where a sweep costs
+ * some 4 M^3 and a change-point passage of a chain of many loops (IFToMM A02)
+ * thousands of them, the eigenvalues alone come from a tridiagonal QL and a
+ * well-conditioned system from a Cholesky factor, the Jacobi method remaining
+ * the answer wherever the factor finds the matrix near singular. */
+#define GRB_JACOBI_ROWS 8
+int GRB(cholesky)(real *A, int stride, int n, double cutoff);
+void GRB(cholesky_solve)(const real *L, int stride, int n, real *b, int bstride);
+void grb_sym_eigenvalues(const double *S, double *B, double *values, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
 
