@@ -90,3 +90,23 @@ def test_many_rows_near_singular_keep_the_cutoff():
     x, rank = _solve(J, b, rcond=1e-8)
     assert rank == 9
     np.testing.assert_allclose(x, np.linalg.lstsq(J, b, rcond=1e-8)[0], rtol=1e-7, atol=1e-9)
+
+
+@pytest.mark.parametrize("m", [9, 10, 40, 80])
+def test_eigenvalues_of_many_rows_match_lapack(m):
+    # grb_sym_eigenvalues (tridiagonal QL: the closures' conditioning and rank beyond 8 rows) on Gram matrices
+    # J J^T as the kernel forms them: full rank, and rank-deficient with a cluster of zeros (A02's pinch)
+    import ctypes
+
+    from grubler.binding import address, library
+
+    fn = library().grb_sym_eigenvalues
+    fn.restype, fn.argtypes = None, [ctypes.c_void_p] * 4 + [ctypes.c_int]
+    rng = np.random.default_rng(m)
+    for rank in (m, m // 2):
+        J = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, m + 1))
+        G = np.ascontiguousarray(J @ J.T)
+        B, v, values = np.zeros(m * m), np.zeros(m), np.zeros(m)
+        fn(address(G), address(B), address(v), address(values), m)
+        expected = np.linalg.eigvalsh(G)
+        np.testing.assert_allclose(np.sort(values), expected, rtol=0, atol=1e-12 * expected[-1])

@@ -143,6 +143,35 @@ def run(n: int, t_end: float, rtol: float = 1e-10, atol: float = 1e-10):
     return result, time.process_time() - start
 
 
+def plot(n: int, t: np.ndarray, ours: np.ndarray, ref: np.ndarray, path: Path) -> None:
+    """B0's x, y and vx against the reference (top) and |difference| of all four (bottom), log scale."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for k, name in enumerate(("x", "y", "vx")):
+        top.plot(t, ref[:, k], color="0.6", lw=3, label=f"{name} reference" if k == 0 else None)
+        top.plot(t, ours[:, k], lw=1, label=f"B0 {name}")
+    top.set_ylabel("m, m/s")
+    top.legend(loc="upper right", fontsize=8, ncol=4)
+    top.set_title(f"IFToMM A02, N = {n} ({2 * n + 1} links, {n} loops): point B0, grubler against the exact "
+                  "1-DOF reference", fontsize=9)
+    for k, name in enumerate(("x", "y", "vx", "vy")):
+        bottom.semilogy(t, np.maximum(np.abs(ours[:, k] - ref[:, k]), 1e-16), lw=1, label=name)
+    horizontal = t[np.r_[False, np.diff(np.sign(ref[:, 0] * 0 + ref[:, 1])) != 0]]
+    for th in horizontal:
+        bottom.axvline(th, color="0.85", lw=0.8)
+    bottom.axhline(HIGH_BAND, color="red", lw=0.8, ls="--", label="high band 1e-3")
+    bottom.set_ylabel("|grubler - reference|")
+    bottom.set_xlabel("t, s (grey: the horizontal, every loop singular)")
+    bottom.legend(loc="lower right", fontsize=8, ncol=5)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[1, 2, 5, 10, 20, 40], help="windows N (default the table's)")
@@ -152,6 +181,7 @@ def main(argv=None) -> int:
     ap.add_argument("--atol", type=float, default=1e-10)
     ap.add_argument("--csv", type=Path, help="write t, x, y, vx, vy of B0 (the last N) here")
     ap.add_argument("--scene", type=Path, help="write the scene of the last N here and stop")
+    ap.add_argument("--png", type=Path, help="plot B0 against the reference and the difference (the last N) here")
     args = ap.parse_args(argv)
     if args.scene:
         args.scene.write_text(scene_text(args.n[-1], args.t_end))
@@ -175,6 +205,8 @@ def main(argv=None) -> int:
         published = PUBLISHED.get((n, args.t_end))
         if published:
             print(f"    published: {published[0]}: {published[1]} s")
+        if args.png and n == args.n[-1]:
+            plot(n, result.t, ours, ref, args.png)
         if args.csv and n == args.n[-1]:
             with open(args.csv, "w", newline="") as fh:
                 w = csv.writer(fh)

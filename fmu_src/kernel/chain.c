@@ -50,7 +50,7 @@ static void ws_offsets(int n, int m, size_t *off) {
     off[7] = off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
     /* X: the paths (a 64-bit word takes no more room than a real), a line's
      * Jacobians, the singular values, the index lists */
-    off[8] = off[7] + N * path_words(n) + 5 * N + M + (4 * N + M + 2);
+    off[8] = off[7] + N * path_words(n) + 5 * N + M + (4 * N + M + 2) + 2 * M;
 }
 
 /* Offsets of the dynamics' arrays within T (from off[4]): mass, force, solve, zdd. */
@@ -126,6 +126,7 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     w->line_j1 = w->line_j0 + 2 * (size_t)n;
     w->singular = (double *)(w->line_j1 + 2 * (size_t)n);
     w->index = (int *)(buffer + off[7] + (size_t)n * words + 5 * (size_t)n + (size_t)m);
+    w->span = w->index + 4 * (size_t)n + (size_t)m + 2;
     /* which joints move which link is the model's structure, not the state: set here, so that a call that reads
      * a filled workspace (a point's Jacobian, the reactions) sees it as the pass that filled the tables did */
     for (int k = 0; k < n; k++) {
@@ -436,6 +437,17 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
     }
 }
 
+void GRB(row_spans)(const grb_ws *w, int rows, int *span) {
+    int n = w->n;
+    for (int r = 0; r < rows; r++) {
+        int first = 0, last = n - 1;
+        while (first < n && J_(w, r, first) == 0.0) first++;
+        while (last >= first && J_(w, r, last) == 0.0) last--;
+        span[2 * r] = first;
+        span[2 * r + 1] = last;
+    }
+}
+
 /* Mass centres, their Jacobians and bias accelerations. */
 static void mass_centres(const grb_model *md, grb_ws *w) {
     for (int k = 0; k < md->n_links; k++) {
@@ -600,21 +612,33 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
+    /* each row's columns: all of them up to GRB_JACOBI_ROWS rows (the presets' sums, term for term); beyond,
+     * only its span (the terms left out are exact zeros) */
+    int *span = w->span;
+    if (m > GRB_JACOBI_ROWS)
+        GRB(row_spans)(w, m, span);
+    else
+        for (int r = 0; r < m; r++) {
+            span[2 * r] = 0;
+            span[2 * r + 1] = n - 1;
+        }
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
-            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
             SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
-            for (int j = 0; j < n; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
+            if (i < span[2 * r] || i > span[2 * r + 1]) continue;
+            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
+            for (int j = span[2 * r]; j <= span[2 * r + 1]; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
         }
     grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
+        int lo = span[2 * r], hi = span[2 * r + 1];
         real s = w->row[r].gamma;
-        for (int i = 0; i < n; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
+        for (int i = lo; i <= hi; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
         w->row[r].b = s;
         for (int c = 0; c < m; c++) {
             real q = 0.0;
-            for (int i = 0; i < n; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            for (int i = lo; i <= hi; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
             SCHUR_(w, r, c) = q;
         }
     }

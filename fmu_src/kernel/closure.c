@@ -250,7 +250,19 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
 /* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into schur,
  * where grb_sym_eig finds its eigenvectors and eigenvalues. */
 static void gram(grb_ws *w) {
-    int n = w->n, m = w->m;
+    int n = w->n, m = w->m, *span = w->span;
+    if (m > GRB_JACOBI_ROWS) { /* over the columns where both rows are not zero (chain.c's row_spans) */
+        grb_row_spans(w, m, span);
+        for (int r = 0; r < m; r++)
+            for (int c = 0; c < m; c++) {
+                int lo = span[2 * r] > span[2 * c] ? span[2 * r] : span[2 * c];
+                int hi = span[2 * r + 1] < span[2 * c + 1] ? span[2 * r + 1] : span[2 * c + 1];
+                double g = 0.0;
+                for (int i = lo; i <= hi; i++) g += J_(w, r, i) * J_(w, c, i);
+                SCHUR_(w, r, c) = g;
+            }
+        return;
+    }
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
             double g = 0.0;
@@ -273,7 +285,7 @@ static void squared_singular_values(grb_ws *w, double *e) {
         return;
     }
     if (m > GRB_JACOBI_ROWS)
-        grb_sym_eigenvalues(w->schur, w->eig_work, w->eigval, m);
+        grb_sym_eigenvalues(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     else
         grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     for (int i = 0; i < m; i++) e[i] = w->eigval[i];

@@ -164,33 +164,38 @@ void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m) {
  * values, B m x m scratch: Householder reduction to tridiagonal form, then the
  * implicit QL method with Wilkinson's shift (Golub and Van Loan 8.3), some
  * 4/3 m^3 operations where Jacobi's sweeps take tens of m^3.  For
- * conditioning and rank, where no eigenvector is needed. */
-void grb_sym_eigenvalues(const double *S, double *B, double *values, int m) {
+ * conditioning and rank, where no eigenvector is needed.  v: m scratch. */
+void grb_sym_eigenvalues(const double *S, double *B, double *v, double *values, int m) {
 #define B(i, j) B[(i) * m + (j)]
     double *d = values, *e = B + (size_t)m * (m - 1); /* e: B's last row, free once the reduction is done */
     for (int i = 0; i < m * m; i++) B[i] = S[i];
-    /* H = I - v v^T 2 / v^T v on rows and columns k+1 .. of B, v from column k;
-     * v sits in column k below the subdiagonal while p (B v 2 / v^T v) is formed */
+    /* H = I - v v^T 2 / v^T v on rows and columns k+1 .. of B, v from column k
+     * (row k: B is kept whole and symmetric, so every loop runs along rows) */
     double *p = values; /* scratch for p until the eigenvalues are written */
     for (int k = 0; k + 2 < m; k++) {
         double norm = 0.0;
-        for (int i = k + 1; i < m; i++) norm += B(i, k) * B(i, k);
+        for (int i = k + 1; i < m; i++) norm += B(k, i) * B(k, i);
         if (norm == 0.0) continue;
-        double alpha = B(k + 1, k) > 0.0 ? -sqrt(norm) : sqrt(norm);
-        double v0 = B(k + 1, k) - alpha, vv = norm - B(k + 1, k) * B(k + 1, k) + v0 * v0;
+        double alpha = B(k, k + 1) > 0.0 ? -sqrt(norm) : sqrt(norm);
+        for (int i = k + 1; i < m; i++) v[i] = B(k, i);
+        v[k + 1] -= alpha;
+        double vv = 0.0;
+        for (int i = k + 1; i < m; i++) vv += v[i] * v[i];
         if (vv == 0.0) continue;
-        B(k + 1, k) = v0; /* v: column k, rows k+1 .. */
         double beta = 2.0 / vv, vp = 0.0;
         for (int i = k + 1; i < m; i++) {
+            const double *row = &B(i, 0);
             double s = 0.0;
-            for (int j = k + 1; j < m; j++) s += B(i, j) * B(j, k);
+            for (int j = k + 1; j < m; j++) s += row[j] * v[j];
             p[i] = beta * s;
-            vp += B(i, k) * p[i];
+            vp += v[i] * p[i];
         }
         double half = 0.5 * beta * vp;
-        for (int i = k + 1; i < m; i++) p[i] -= half * B(i, k); /* w = p - (beta v^T p / 2) v */
-        for (int i = k + 1; i < m; i++)
-            for (int j = k + 1; j < m; j++) B(i, j) -= B(i, k) * p[j] + p[i] * B(j, k);
+        for (int i = k + 1; i < m; i++) p[i] -= half * v[i]; /* w = p - (beta v^T p / 2) v */
+        for (int i = k + 1; i < m; i++) {
+            double *row = &B(i, 0), vi = v[i], pi = p[i];
+            for (int j = k + 1; j < m; j++) row[j] -= vi * p[j] + pi * v[j];
+        }
         B(k + 1, k) = alpha;
         B(k, k + 1) = alpha;
         for (int i = k + 2; i < m; i++) B(i, k) = B(k, i) = 0.0;

@@ -20,8 +20,8 @@
  *   X  what a pass needs in proportion to N, kept here rather than on the
  *      stack so that no call's stack grows with the chain (the native FMU runs
  *      in a host's thread): the links' paths from the ground (N rows of W
- *      64-bit words), a line's Jacobians (5N), M singular values, and index
- *      lists (4N + M + 2 ints)
+ *      64-bit words), a line's Jacobians (5N), M singular values, index
+ *      lists (4N + M + 2 ints) and each closure row's span (2M ints)
  * with N moving links and M = 2C closure rows. */
 #ifndef GRUBLER_WORKSPACE_H
 #define GRUBLER_WORKSPACE_H
@@ -102,6 +102,7 @@ typedef struct grb_ws {
     double *singular;  /* M: the closure Jacobian's squared singular values (closure.c) */
     int *index;       /* 4N + M + 2 ints of index lists (the callers of closure.c, chart.c, minimal.c, demand.c
                          each own a part: see WS_INDEX_*) */
+    int *span;        /* 2M ints: the first and last column of each closure row of J that is not zero (row_spans) */
 } grb_ws;
 /* The parts of w->index (offsets in ints, N links, M closure rows): the held
  * coordinates a drive demand hands to assembly, the coordinates a chart build
@@ -154,9 +155,16 @@ void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
 #define GRB_JACOBI_ROWS 8
 int GRB(cholesky)(real *A, int stride, int n, double cutoff);
 void GRB(cholesky_solve)(const real *L, int stride, int n, real *b, int bstride);
-void grb_sym_eigenvalues(const double *S, double *B, double *values, int m);
+void grb_sym_eigenvalues(const double *S, double *B, double *v, double *values, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
+
+/* Where each of the first `rows` rows of J is not zero: span[2r] .. span[2r + 1]
+ * (an empty row: first > last).  A closure row reaches only the joints on its
+ * two links' paths, a few of many in a chain of many loops: the products over
+ * many rows (the Gram matrix, the Schur complement) skip the columns outside
+ * both rows' spans, whose terms are exact zeros (chain.c). */
+void GRB(row_spans)(const grb_ws *w, int rows, int *span);
 
 /* the kinematic and dynamic passes (chain.c) */
 void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w);
