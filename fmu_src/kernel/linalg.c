@@ -45,20 +45,27 @@ grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) 
                 X(p, j) = t;
             }
         }
+        int last = n - 1; /* the pivot row's last entry that is not zero (see the back-substitution) */
+        while (last > c && A(c, last) == 0.0) last--;
         for (int r = c + 1; r < n; r++) {
             real f = A(r, c) / A(c, c);
             if (f != 0.0) {
-                for (int j = c + 1; j < n; j++) A(r, j) -= f * A(c, j);
+                for (int j = c + 1; j <= last; j++) A(r, j) -= f * A(c, j);
                 for (int j = 0; j < ncols; j++) X(r, j) -= f * X(c, j);
             }
         }
     }
-    for (int c = n - 1; c >= 0; c--)
+    for (int c = n - 1; c >= 0; c--) {
+        /* up to the row's last entry that is not zero (the rest add exact zeros: a banded matrix, as a
+         * chain of many small loops makes, is solved in proportion to its band) */
+        int last = n - 1;
+        while (last > c && A(c, last) == 0.0) last--;
         for (int j = 0; j < ncols; j++) {
             real s = X(c, j);
-            for (int k = c + 1; k < n; k++) s -= A(c, k) * X(k, j);
+            for (int k = c + 1; k <= last; k++) s -= A(c, k) * X(k, j);
             X(c, j) = s / A(c, c);
         }
+    }
     return GRB_OK;
 #undef A
 #undef X
