@@ -110,3 +110,22 @@ def test_eigenvalues_of_many_rows_match_lapack(m):
         fn(address(G), address(B), address(v), address(values), m)
         expected = np.linalg.eigvalsh(G)
         np.testing.assert_allclose(np.sort(values), expected, rtol=0, atol=1e-12 * expected[-1])
+
+
+@pytest.mark.parametrize("m, band", [(9, 2), (40, 3), (80, 3), (80, 20)])
+def test_eigenvalues_of_a_banded_matrix_match_lapack(m, band):
+    # a narrow band (a chain of many small loops: A02's J J^T has half bandwidth 3) goes to tridiagonal form by
+    # Givens rotations and bulge chasing instead of Householder reflections
+    import ctypes
+
+    from grubler.binding import address, library
+
+    fn = library().grb_sym_eigenvalues
+    fn.restype, fn.argtypes = None, [ctypes.c_void_p] * 4 + [ctypes.c_int]
+    rng = np.random.default_rng(m + band)
+    A = rng.normal(size=(m, m))
+    G = np.ascontiguousarray(np.triu(np.tril(A + A.T, band), -band))
+    B, v, values = np.zeros(m * m), np.zeros(m), np.zeros(m)
+    fn(address(G), address(B), address(v), address(values), m)
+    expected = np.linalg.eigvalsh(G)
+    np.testing.assert_allclose(np.sort(values), expected, rtol=0, atol=1e-13 * np.max(np.abs(expected)))
