@@ -183,6 +183,10 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", type=Path, help="write the scene of the last N here and stop")
     ap.add_argument("--png", type=Path, help="plot B0 against the reference and the difference (the last N) here")
     args = ap.parse_args(argv)
+    if min(args.n) < 1 or max(args.n) > 511:
+        ap.error(f"--n: N four-bar windows, 1 to 511 (2N + 1 links, at most the kernel's 1024), got {args.n}")
+    if not args.t_end > 0:
+        ap.error(f"--t-end: must be > 0 s, got {args.t_end}")
     if args.scene:
         args.scene.write_text(scene_text(args.n[-1], args.t_end))
         return 0
