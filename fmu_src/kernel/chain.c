@@ -129,13 +129,19 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     w->span = w->index + 4 * (size_t)n + (size_t)m + 2;
     /* which joints move which link is the model's structure, not the state: set here, so that a call that reads
      * a filled workspace (a point's Jacobian, the reactions) sees it as the pass that filled the tables did */
-    for (int k = 0; k < n; k++) {
-        int pk = grb_parent(md, k);
-        uint64_t *row = w->path + (size_t)k * words;
-        const uint64_t *from = pk < 0 || pk >= k ? NULL : w->path + (size_t)pk * words; /* parents come first */
-        for (size_t i = 0; i < words; i++) row[i] = from ? from[i] : 0u;
-        row[k >> 6] |= (uint64_t)1u << (k & 63);
-    }
+    if (words == 1) /* up to 64 links: one word a link */
+        for (int k = 0; k < n; k++) {
+            int pk = grb_parent(md, k);
+            w->path[k] = (pk < 0 || pk >= k ? 0u : w->path[pk]) | ((uint64_t)1u << k); /* parents come first */
+        }
+    else
+        for (int k = 0; k < n; k++) {
+            int pk = grb_parent(md, k);
+            uint64_t *row = w->path + (size_t)k * words;
+            const uint64_t *from = pk < 0 || pk >= k ? NULL : w->path + (size_t)pk * words;
+            for (size_t i = 0; i < words; i++) row[i] = from ? from[i] : 0u;
+            row[k >> 6] |= (uint64_t)1u << (k & 63);
+        }
     return GRB_OK;
 }
 
@@ -203,6 +209,19 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     }
 }
 
+/* Column j of a point's Jacobian (J, 2 x N): joint j moves the point at
+ * (rx, ry) about O_j (a revolute) or along its slide axis. */
+static inline void point_column(const grb_model *md, const grb_ws *w, int j, real rx, real ry, real *J) {
+    int n = md->n_links;
+    if (grb_links(md)[j].revolute != 0.0) {
+        J[j] = -(ry - w->frame[j].o[1]);
+        J[n + j] = rx - w->frame[j].o[0];
+    } else {
+        J[j] = w->frame[j].axis[0];
+        J[n + j] = w->frame[j].axis[1];
+    }
+}
+
 /* Position r[0..1] and bias acceleration r[2..3] of the point (lx along, ly
  * across the link vector) of moving link k; its Jacobian (rdot = J zd) into the
  * two rows of J (row stride N).  A revolute at O_j moves the point with
@@ -217,15 +236,15 @@ void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, r
         J[j] = 0.0;
         J[n + j] = 0.0;
     }
-    for (int j = 0; j <= k; j++) {
-        if (!grb_on_path(w, j, k)) continue;
-        if (grb_links(md)[j].revolute != 0.0) {
-            J[j] = -(ry - w->frame[j].o[1]);
-            J[n + j] = rx - w->frame[j].o[0];
-        } else {
-            J[j] = w->frame[j].axis[0];
-            J[n + j] = w->frame[j].axis[1];
-        }
+    /* the joints on the path from the ground: one word's bits up to 64 links (the common case, kept as cheap
+     * as it was), the path table's row beyond */
+    if (w->words == 1) {
+        uint64_t bits = w->path[k];
+        for (int j = 0; j <= k; j++)
+            if ((bits >> j) & 1u) point_column(md, w, j, rx, ry, J);
+    } else {
+        for (int j = 0; j <= k; j++)
+            if (grb_on_path(w, j, k)) point_column(md, w, j, rx, ry, J);
     }
     real w2 = w->frame[k].omega * w->frame[k].omega;
     r[0] = rx;
@@ -470,7 +489,7 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
         for (int j = 0; j < n; j++) MASS_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
-        const uint64_t *path = w->path + (size_t)k * w->words;
+        const uint64_t *path = grb_path_row(w, k);
         for (int i = 0; i <= k; i++) {
             if (!((path[i >> 6] >> (i & 63)) & 1u)) continue;
             real wi = ik * grb_links(md)[i].revolute;
@@ -495,8 +514,14 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
         real mk = grb_links(md)[k].m;
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
         real fx = -mk * w->frame[k].com_bias[0], fy = -mk * (md->gravity + w->frame[k].com_bias[1]);
-        for (int i = 0; i <= k; i++)
-            if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        if (w->words == 1) { /* as in grb_point */
+            uint64_t bits = w->path[k];
+            for (int i = 0; i <= k; i++)
+                if ((bits >> i) & 1u) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        } else {
+            for (int i = 0; i <= k; i++)
+                if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        }
     }
     if (md->drive >= 0) f[md->drive] += tau_drive;
     if (md->load >= 0) f[md->load] += tau_load;
@@ -574,6 +599,49 @@ void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, rea
     generalised_force(md, zd, tau_drive, tau_load, w);
 }
 
+/* After the solve: the multipliers, and the accelerations they give. */
+static grb_status closure_accelerations(grb_status status, grb_ws *w) {
+    int n = w->n, m = w->m, f = n;
+    if (status == GRB_OK) closure_multipliers(w);
+    for (int i = 0; i < n; i++) {
+        real s = SOLVE_(w, i, f);
+        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
+        w->zdd[i] = status == GRB_OK ? s : NAN;
+    }
+    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
+    return status;
+}
+
+/* The closures' part of the solve for many rows (more than GRB_JACOBI_ROWS),
+ * each row over its span of columns that are not zero (row_spans): a loop of
+ * a chain of many loops reaches a few joints, and the products skip only
+ * exact zeros.  The mass matrix and the force are in the solver's table. */
+static grb_status wide_closure_products(const grb_model *md, real a, grb_ws *w) {
+    int n = md->n_links, m = w->m, f = n, *span = w->span;
+    GRB(row_spans)(w, m, span);
+    for (int r = 0; r < m; r++) {
+        int lo = span[2 * r], hi = span[2 * r + 1];
+        for (int i = 0; i < n; i++) SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
+        for (int i = lo; i <= hi; i++) {
+            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
+            for (int j = lo; j <= hi; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
+        }
+    }
+    grb_status status = GRB(lu_solve_banded)(w->solve, w->sc, n, 0, f, m + 1);
+    for (int r = 0; r < m; r++) {
+        int lo = span[2 * r], hi = span[2 * r + 1];
+        real s = w->row[r].gamma;
+        for (int i = lo; i <= hi; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
+        w->row[r].b = s;
+        for (int c = 0; c < m; c++) {
+            real q = 0.0;
+            for (int i = lo; i <= hi; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            SCHUR_(w, r, c) = q;
+        }
+    }
+    return closure_accelerations(status, w);
+}
+
 /* Joint accelerations (zdd) and closure multipliers (lambda) at one state.
  * GRB_SINGULAR (and nan accelerations) when the matrix to solve is singular.
  * The solver's table holds the matrix in its first N columns, then the
@@ -612,44 +680,28 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
-    /* each row's columns: all of them up to GRB_JACOBI_ROWS rows (the presets' sums, term for term); beyond,
-     * only its span (the terms left out are exact zeros) */
-    int *span = w->span;
-    if (m > GRB_JACOBI_ROWS)
-        GRB(row_spans)(w, m, span);
-    else
-        for (int r = 0; r < m; r++) {
-            span[2 * r] = 0;
-            span[2 * r + 1] = n - 1;
-        }
+    /* every row over all its columns up to GRB_JACOBI_ROWS rows (the presets' sums, term for term); beyond, each
+     * row over its span only (the terms left out are exact zeros: wide_closure_products) */
+    if (m > GRB_JACOBI_ROWS) return wide_closure_products(md, a, w);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
-            SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
-            if (i < span[2 * r] || i > span[2 * r + 1]) continue;
             SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
-            for (int j = span[2 * r]; j <= span[2 * r + 1]; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
+            SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
+            for (int j = 0; j < n; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
         }
     grb_status status = GRB(lu_solve)(w->solve, w->sc, n, 0, f, m + 1);
     /* the Schur complement J (M + a J^T J)^-1 J^T and what the closure still lacks */
     for (int r = 0; r < m; r++) {
-        int lo = span[2 * r], hi = span[2 * r + 1];
         real s = w->row[r].gamma;
-        for (int i = lo; i <= hi; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
+        for (int i = 0; i < n; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
         w->row[r].b = s;
         for (int c = 0; c < m; c++) {
             real q = 0.0;
-            for (int i = lo; i <= hi; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            for (int i = 0; i < n; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
             SCHUR_(w, r, c) = q;
         }
     }
-    if (status == GRB_OK) closure_multipliers(w);
-    for (int i = 0; i < n; i++) {
-        real s = SOLVE_(w, i, f);
-        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
-        w->zdd[i] = status == GRB_OK ? s : NAN;
-    }
-    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
-    return status;
+    return closure_accelerations(status, w);
 }
 
 grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,

@@ -21,7 +21,12 @@
 /* Solve A Y = X in place: A is the n x n block of T from column a0 (destroyed),
  * X the ncols columns from x0 (overwritten by Y).  GRB_SINGULAR when a pivot
  * is exactly zero, as gesv reports it. */
-grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
+/* (inlined into each of the two entries below, so that each is compiled for its
+ * own `banded`: the dense one as it was) */
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+static inline grb_status lu(real *T, int stride, int n, int a0, int x0, int ncols, int banded) {
 #define A(r, c) T[(r) * stride + a0 + (c)]
 #define X(r, c) T[(r) * stride + x0 + (c)]
     for (int c = 0; c < n; c++) {
@@ -45,8 +50,8 @@ grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) 
                 X(p, j) = t;
             }
         }
-        int last = n - 1; /* the pivot row's last entry that is not zero (see the back-substitution) */
-        while (last > c && A(c, last) == 0.0) last--;
+        int last = n - 1; /* banded: the pivot row's last entry that is not zero */
+        while (banded && last > c && A(c, last) == 0.0) last--;
         for (int r = c + 1; r < n; r++) {
             real f = A(r, c) / A(c, c);
             if (f != 0.0) {
@@ -56,10 +61,8 @@ grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) 
         }
     }
     for (int c = n - 1; c >= 0; c--) {
-        /* up to the row's last entry that is not zero (the rest add exact zeros: a banded matrix, as a
-         * chain of many small loops makes, is solved in proportion to its band) */
         int last = n - 1;
-        while (last > c && A(c, last) == 0.0) last--;
+        while (banded && last > c && A(c, last) == 0.0) last--;
         for (int j = 0; j < ncols; j++) {
             real s = X(c, j);
             for (int k = c + 1; k <= last; k++) s -= A(c, k) * X(k, j);
@@ -69,6 +72,18 @@ grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) 
     return GRB_OK;
 #undef A
 #undef X
+}
+
+grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols) {
+    return lu(T, stride, n, a0, x0, ncols, 0);
+}
+
+/* The same for a banded matrix (many closure rows: the equations of a chain of
+ * many small loops): each pivot row only up to its last entry that is not
+ * zero, the rest adding exact zeros, so that it costs in proportion to the
+ * band; the same numbers as lu_solve but for the sign of a zero. */
+grb_status GRB(lu_solve_banded)(real *T, int stride, int n, int a0, int x0, int ncols) {
+    return lu(T, stride, n, a0, x0, ncols, 1);
 }
 
 /* Cholesky factor of the symmetric n x n matrix A (row stride) in place, in

@@ -131,6 +131,8 @@ static inline const grb_actuator *grb_actuators(const grb_model *m) { return (co
 static inline const grb_force *grb_forces(const grb_model *m) { return (const grb_force *)m->forces; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
+/* Link k's row of the path table (bit j % 64 of word j / 64: link j's joint moves k). */
+static inline const uint64_t *grb_path_row(const grb_ws *w, int k) { return w->path + (size_t)k * w->words; }
 static inline int grb_on_path(const grb_ws *w, int j, int k) {
     return (int)((w->path[(size_t)k * w->words + (j >> 6)] >> (j & 63)) & 1u);
 }
@@ -144,6 +146,7 @@ static inline int grb_on_path(const grb_ws *w, int j, int k) {
 /* dense linear algebra on small matrices (linalg.c); row-major with a stride;
  * the least-squares solver exists in the plain (double) build only */
 grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
+grb_status GRB(lu_solve_banded)(real *T, int stride, int n, int a0, int x0, int ncols);
 void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
 /* Up to this many closure rows the symmetric eigenproblems and the minimum-norm
  * solves are the Jacobi methods' (the presets' numbers were made with them, and
