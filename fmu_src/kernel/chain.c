@@ -31,7 +31,11 @@ typedef char grb_closure_columns_check[(offsetof(grb_closure, to_point) == GRB_C
                                         offsetof(grb_closure, damping) == GRB_CL_DAMP * sizeof(double) &&
                                         sizeof(grb_closure) == GRB_CL_COLUMNS * sizeof(double)) ? 1 : -1];
 
-/* Offsets of the tables K, Jc, J, R, T, Q, S in the workspace buffer (after its header). */
+/* 64-bit words per row of a workspace's path table (workspace.h) */
+static size_t path_words(int n) { return ((size_t)n + 63) / 64; }
+
+/* Offsets of the tables K, Jc, J, R, T, Q, S, X in the workspace buffer
+ * (after its header), and its end: off[0 .. 8]. */
 static void ws_offsets(int n, int m, size_t *off) {
     size_t N = (size_t)n, M = (size_t)m;
     off[0] = WORK_HEADER;
@@ -41,6 +45,12 @@ static void ws_offsets(int n, int m, size_t *off) {
     off[4] = off[3] + M * R_COLUMNS;
     off[5] = off[4] + N * (2 * N + M + 3); /* M, the force, the solver table, zdd */
     off[6] = off[5] + M * (3 * M + 1);
+    /* assembly's scratch: U (N x M), V (M x M), a compact Jacobian (M x N),
+     * four N-vectors and two M-vectors, and room to spare */
+    off[7] = off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
+    /* X: the paths (a 64-bit word takes no more room than a real), a line's
+     * Jacobians, the singular values, the index lists */
+    off[8] = off[7] + N * path_words(n) + 5 * N + M + (4 * N + M + 2) + 2 * M;
 }
 
 /* Offsets of the dynamics' arrays within T (from off[4]): mass, force, solve, zdd. */
@@ -53,11 +63,9 @@ static void dynamics_offsets(int n, int m, const size_t *off, size_t *dyn) {
 }
 
 size_t GRB(work_size)(int n, int n_closures) {
-    size_t off[7], N = (size_t)n, M = 2 * (size_t)n_closures;
-    ws_offsets(n, (int)M, off);
-    /* assembly's scratch: U (N x M), V (M x M), a compact Jacobian (M x N),
-     * four N-vectors and two M-vectors, and room to spare */
-    return off[6] + 2 * (M + 3) * (N + 3) + 6 * N + 2 * M + 8 + M * M;
+    size_t off[9];
+    ws_offsets(n, 2 * n_closures, off);
+    return off[8];
 }
 
 grb_status GRB(work_init)(int n, int n_closures, real *buffer, size_t length) {
@@ -88,7 +96,7 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
                RE(buffer[WORK_FILLED]) < needs)
         return GRB_BAD_ARGUMENT;
     if (needs == GRB_FILLED_NOTHING) buffer[WORK_FILLED] = GRB_FILLED_NOTHING;
-    size_t off[7], dyn[4];
+    size_t off[9], dyn[4];
     ws_offsets(n, m, off);
     dynamics_offsets(n, m, off, dyn);
     w->header = buffer;
@@ -109,12 +117,31 @@ grb_status GRB(ws_init)(grb_ws *w, const grb_model *md, real *buffer, grb_filled
     w->eigvec = w->eig_work + (size_t)m * m;
     w->eigval = w->eigvec + (size_t)m * m;
     w->S = buffer + off[6];
+    /* X: the path table's words sit in reals' room (a real is at least 8 bytes, and as aligned) */
+    size_t words = path_words(n);
+    w->words = (int)words;
+    w->path = (uint64_t *)(buffer + off[7]);
+    w->line_jl = buffer + off[7] + (size_t)n * words;
+    w->line_j0 = w->line_jl + n;
+    w->line_j1 = w->line_j0 + 2 * (size_t)n;
+    w->singular = (double *)(w->line_j1 + 2 * (size_t)n);
+    w->index = (int *)(buffer + off[7] + (size_t)n * words + 5 * (size_t)n + (size_t)m);
+    w->span = w->index + 4 * (size_t)n + (size_t)m + 2;
     /* which joints move which link is the model's structure, not the state: set here, so that a call that reads
      * a filled workspace (a point's Jacobian, the reactions) sees it as the pass that filled the tables did */
-    for (int k = 0; k < n; k++) {
-        int pk = grb_parent(md, k);
-        w->path[k] = (pk < 0 || pk >= k ? 0ull : w->path[pk]) | (1ull << k);  /* parents come first (model_check) */
-    }
+    if (words == 1) /* up to 64 links: one word a link */
+        for (int k = 0; k < n; k++) {
+            int pk = grb_parent(md, k);
+            w->path[k] = (pk < 0 || pk >= k ? 0u : w->path[pk]) | ((uint64_t)1u << k); /* parents come first */
+        }
+    else
+        for (int k = 0; k < n; k++) {
+            int pk = grb_parent(md, k);
+            uint64_t *row = w->path + (size_t)k * words;
+            const uint64_t *from = pk < 0 || pk >= k ? NULL : w->path + (size_t)pk * words;
+            for (size_t i = 0; i < words; i++) row[i] = from ? from[i] : 0u;
+            row[k >> 6] |= (uint64_t)1u << (k & 63);
+        }
     return GRB_OK;
 }
 
@@ -127,7 +154,6 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
         /* the predecessor's frame; the ground's is its vector at theta1, at rest */
         int pk = grb_parent(md, k);
         real cp, sp, wp, z_sum, w_sum, ox, oy, bx, by;
-        w->path[k] = (pk < 0 ? 0ull : w->path[pk]) | (1ull << k);
         if (pk < 0) {
             cp = RCOS(md->theta1);
             sp = RSIN(md->theta1);
@@ -183,6 +209,19 @@ void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w) {
     }
 }
 
+/* Column j of a point's Jacobian (J, 2 x N): joint j moves the point at
+ * (rx, ry) about O_j (a revolute) or along its slide axis. */
+static inline void point_column(const grb_model *md, const grb_ws *w, int j, real rx, real ry, real *J) {
+    int n = md->n_links;
+    if (grb_links(md)[j].revolute != 0.0) {
+        J[j] = -(ry - w->frame[j].o[1]);
+        J[n + j] = rx - w->frame[j].o[0];
+    } else {
+        J[j] = w->frame[j].axis[0];
+        J[n + j] = w->frame[j].axis[1];
+    }
+}
+
 /* Position r[0..1] and bias acceleration r[2..3] of the point (lx along, ly
  * across the link vector) of moving link k; its Jacobian (rdot = J zd) into the
  * two rows of J (row stride N).  A revolute at O_j moves the point with
@@ -197,15 +236,15 @@ void GRB(point)(const grb_model *md, const grb_ws *w, int k, real lx, real ly, r
         J[j] = 0.0;
         J[n + j] = 0.0;
     }
-    for (int j = 0; j <= k; j++) {
-        if (!grb_on_path(w, j, k)) continue;
-        if (grb_links(md)[j].revolute != 0.0) {
-            J[j] = -(ry - w->frame[j].o[1]);
-            J[n + j] = rx - w->frame[j].o[0];
-        } else {
-            J[j] = w->frame[j].axis[0];
-            J[n + j] = w->frame[j].axis[1];
-        }
+    /* the joints on the path from the ground: one word's bits up to 64 links (the common case, kept as cheap
+     * as it was), the path table's row beyond */
+    if (w->words == 1) {
+        uint64_t bits = w->path[k];
+        for (int j = 0; j <= k; j++)
+            if ((bits >> j) & 1u) point_column(md, w, j, rx, ry, J);
+    } else {
+        for (int j = 0; j <= k; j++)
+            if (grb_on_path(w, j, k)) point_column(md, w, j, rx, ry, J);
     }
     real w2 = w->frame[k].omega * w->frame[k].omega;
     r[0] = rx;
@@ -235,7 +274,7 @@ static void fixed_point(const grb_model *md, const grb_ws *w, int k, const doubl
 static real line_between(const grb_model *md, const grb_ws *w, int k0, const double *p0, int k1, const double *p1,
                          real *u, real *ends, real *jl) {
     int n = md->n_links;
-    real J0[2 * GRB_MAX_LINKS], J1[2 * GRB_MAX_LINKS], r0[4], r1[4];
+    real *J0 = w->line_j0, *J1 = w->line_j1, r0[4], r1[4];
     fixed_point(md, w, k0, p0, J0, r0);
     fixed_point(md, w, k1, p1, J1, r1);
     real dx = r1[0] - r0[0], dy = r1[1] - r0[1];
@@ -283,7 +322,7 @@ static void force_element(const grb_model *md, const grb_ws *w, int e, real *val
     int n = md->n_links;
     for (int o = 0; o < GRB_FO_COUNT; o++) val[o] = 0.0;
     if (fe->kind == GRB_FORCE_SPRING) {
-        real jl[GRB_MAX_LINKS], rate = 0.0;
+        real *jl = w->line_jl, rate = 0.0;
         real length = line_between(md, w, (int)fe->link, fe->point, (int)fe->to_link, fe->to_point, u, ends, jl);
         for (int i = 0; i < n; i++) {
             real q, qd;
@@ -332,7 +371,7 @@ static void force_element(const grb_model *md, const grb_ws *w, int e, real *val
         if (gen) gen[k] += effort;
     } else if (fe->kind == GRB_FORCE_LOAD) {
         int k = (int)fe->link;
-        real J[2 * GRB_MAX_LINKS], r[4], vx = 0.0, vy = 0.0;
+        real *J = w->line_j0, r[4], vx = 0.0, vy = 0.0;
         GRB(point)(md, w, k, fe->point[0], fe->point[1], J, r);
         for (int i = 0; i < n; i++) {
             real q, qd;
@@ -417,6 +456,17 @@ void GRB(closure_rows)(const grb_model *md, const real *zd, grb_ws *w) {
     }
 }
 
+void GRB(row_spans)(const grb_ws *w, int rows, int *span) {
+    int n = w->n;
+    for (int r = 0; r < rows; r++) {
+        int first = 0, last = n - 1;
+        while (first < n && J_(w, r, first) == 0.0) first++;
+        while (last >= first && J_(w, r, last) == 0.0) last--;
+        span[2 * r] = first;
+        span[2 * r + 1] = last;
+    }
+}
+
 /* Mass centres, their Jacobians and bias accelerations. */
 static void mass_centres(const grb_model *md, grb_ws *w) {
     for (int k = 0; k < md->n_links; k++) {
@@ -439,12 +489,12 @@ static void mass_matrix(const grb_model *md, grb_ws *w) {
         for (int j = 0; j < n; j++) MASS_(w, i, j) = 0.0;
     for (int k = 0; k < n; k++) {
         real mk = grb_links(md)[k].m, ik = grb_links(md)[k].inertia;
-        unsigned long long path = w->path[k];
+        const uint64_t *path = grb_path_row(w, k);
         for (int i = 0; i <= k; i++) {
-            if (!((path >> i) & 1u)) continue;
+            if (!((path[i >> 6] >> (i & 63)) & 1u)) continue;
             real wi = ik * grb_links(md)[i].revolute;
             for (int j = i; j <= k; j++) {
-                if (!((path >> j) & 1u)) continue;
+                if (!((path[j >> 6] >> (j & 63)) & 1u)) continue;
                 MASS_(w, i, j) += mk * (JC_(w, k, 0, i) * JC_(w, k, 0, j) + JC_(w, k, 1, i) * JC_(w, k, 1, j)) +
                                wi * grb_links(md)[j].revolute;
             }
@@ -464,14 +514,20 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
         real mk = grb_links(md)[k].m;
         /* gravity along -y, and the bias (Coriolis, centripetal) acceleration */
         real fx = -mk * w->frame[k].com_bias[0], fy = -mk * (md->gravity + w->frame[k].com_bias[1]);
-        for (int i = 0; i <= k; i++)
-            if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        if (w->words == 1) { /* as in grb_point */
+            uint64_t bits = w->path[k];
+            for (int i = 0; i <= k; i++)
+                if ((bits >> i) & 1u) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        } else {
+            for (int i = 0; i <= k; i++)
+                if (grb_on_path(w, i, k)) f[i] += JC_(w, k, 0, i) * fx + JC_(w, k, 1, i) * fy;
+        }
     }
     if (md->drive >= 0) f[md->drive] += tau_drive;
     if (md->load >= 0) f[md->load] += tau_load;
     /* each actuator's force F along its line: virtual work F dL = F J_L dz */
     for (int a = 0; a < md->n_actuators; a++) {
-        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real u[2], ends[4], *jl = w->line_jl;
         real force = w->actuator_force[a];
         actuator_line(md, w, a, u, ends, jl);
         for (int i = 0; i < n; i++) f[i] += jl[i] * force;
@@ -488,6 +544,11 @@ static void generalised_force(const grb_model *md, const real *zd, real tau_driv
  * undetermined; dropping that direction keeps the motion defined through it,
  * and the projection removes the small drift it leaves. */
 #define SINGULAR_RCOND 1e-10
+/* Smallest Cholesky pivot, relative to the largest diagonal entry, for which
+ * the multipliers of many closure rows are solved by the factor rather than by
+ * the eigenvectors (a pivot bounds the smallest eigenvalue from above: the
+ * margin over SINGULAR_RCOND keeps the factor away from a lost direction) */
+#define CHOLESKY_RCOND 1e-6
 
 /* Solve S lam = b (S = Q[:, :M] symmetric, >= 0) dropping lost directions. */
 static void closure_multipliers(grb_ws *w) {
@@ -500,6 +561,16 @@ static void closure_multipliers(grb_ws *w) {
         if (RE(det) > SINGULAR_RCOND * RE(tr * tr)) {
             w->row[0].lambda = (SCHUR_(w, 1, 1) * w->row[0].b - SCHUR_(w, 0, 1) * w->row[1].b) / det;
             w->row[1].lambda = (SCHUR_(w, 0, 0) * w->row[1].b - SCHUR_(w, 1, 0) * w->row[0].b) / det;
+            return;
+        }
+    }
+    if (m > GRB_JACOBI_ROWS) {
+        /* many rows: a Cholesky factor while S is well conditioned (no
+         * direction near lost: the change-point chart takes over before) */
+        for (int i = 0; i < m * m; i++) w->eig_work[i] = w->schur[i];
+        if (GRB(cholesky)(w->eig_work, m, m, CHOLESKY_RCOND)) {
+            for (int r = 0; r < m; r++) w->row[r].lambda = w->row[r].b;
+            GRB(cholesky_solve)(w->eig_work, m, m, &w->row[0].lambda, R_COLUMNS);
             return;
         }
     }
@@ -526,6 +597,49 @@ void GRB(mass_and_force)(const grb_model *md, const real *z, const real *zd, rea
     mass_centres(md, w);
     mass_matrix(md, w);
     generalised_force(md, zd, tau_drive, tau_load, w);
+}
+
+/* After the solve: the multipliers, and the accelerations they give. */
+static grb_status closure_accelerations(grb_status status, grb_ws *w) {
+    int n = w->n, m = w->m, f = n;
+    if (status == GRB_OK) closure_multipliers(w);
+    for (int i = 0; i < n; i++) {
+        real s = SOLVE_(w, i, f);
+        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
+        w->zdd[i] = status == GRB_OK ? s : NAN;
+    }
+    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
+    return status;
+}
+
+/* The closures' part of the solve for many rows (more than GRB_JACOBI_ROWS),
+ * each row over its span of columns that are not zero (row_spans): a loop of
+ * a chain of many loops reaches a few joints, and the products skip only
+ * exact zeros.  The mass matrix and the force are in the solver's table. */
+static grb_status wide_closure_products(const grb_model *md, real a, grb_ws *w) {
+    int n = md->n_links, m = w->m, f = n, *span = w->span;
+    GRB(row_spans)(w, m, span);
+    for (int r = 0; r < m; r++) {
+        int lo = span[2 * r], hi = span[2 * r + 1];
+        for (int i = 0; i < n; i++) SOLVE_(w, i, f + 1 + r) = J_(w, r, i);
+        for (int i = lo; i <= hi; i++) {
+            SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
+            for (int j = lo; j <= hi; j++) SOLVE_(w, i, j) += a * J_(w, r, i) * J_(w, r, j);
+        }
+    }
+    grb_status status = GRB(lu_solve_banded)(w->solve, w->sc, n, 0, f, m + 1);
+    for (int r = 0; r < m; r++) {
+        int lo = span[2 * r], hi = span[2 * r + 1];
+        real s = w->row[r].gamma;
+        for (int i = lo; i <= hi; i++) s -= J_(w, r, i) * SOLVE_(w, i, f);
+        w->row[r].b = s;
+        for (int c = 0; c < m; c++) {
+            real q = 0.0;
+            for (int i = lo; i <= hi; i++) q += J_(w, r, i) * SOLVE_(w, i, f + 1 + c);
+            SCHUR_(w, r, c) = q;
+        }
+    }
+    return closure_accelerations(status, w);
 }
 
 /* Joint accelerations (zdd) and closure multipliers (lambda) at one state.
@@ -566,6 +680,9 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) jj += J_(w, r, i) * J_(w, r, i);
     real a = trace / (RE(jj) > 1e-300 ? jj : 1e-300);
+    /* every row over all its columns up to GRB_JACOBI_ROWS rows (the presets' sums, term for term); beyond, each
+     * row over its span only (the terms left out are exact zeros: wide_closure_products) */
+    if (m > GRB_JACOBI_ROWS) return wide_closure_products(md, a, w);
     for (int r = 0; r < m; r++)
         for (int i = 0; i < n; i++) {
             SOLVE_(w, i, f) += a * J_(w, r, i) * w->row[r].gamma;
@@ -584,14 +701,7 @@ grb_status GRB(accelerations)(const grb_model *md, int method, const real *z, co
             SCHUR_(w, r, c) = q;
         }
     }
-    if (status == GRB_OK) closure_multipliers(w);
-    for (int i = 0; i < n; i++) {
-        real s = SOLVE_(w, i, f);
-        for (int c = 0; c < m; c++) s += SOLVE_(w, i, f + 1 + c) * w->row[c].lambda;
-        w->zdd[i] = status == GRB_OK ? s : NAN;
-    }
-    grb_ws_filled(w, GRB_FILLED_DYNAMICS);
-    return status;
+    return closure_accelerations(status, w);
 }
 
 grb_status GRB(rhs)(const grb_model *md, int method, const real *y, real tau_drive, real tau_load, real *work,
@@ -643,7 +753,7 @@ void GRB(reactions)(const grb_model *md, grb_ws *w, real *out) {
     /* then the actuators' forces on the links they join: +F u on the second
      * point's link, -F u on the first's (the ground takes its own) */
     for (int a = 0; a < md->n_actuators; a++) {
-        real u[2], ends[4], jl[GRB_MAX_LINKS];
+        real u[2], ends[4], *jl = w->line_jl;
         real force = w->actuator_force[a];
         actuator_line(md, w, a, u, ends, jl);
         for (int end = 0; end < 2; end++) {
@@ -788,7 +898,7 @@ grb_status GRB(observe_rows)(const grb_model *md, int method, int rows, const re
 }
 
 void GRB(work_layout)(int n, int n_closures, long *layout) {
-    size_t off[7], dyn[4];
+    size_t off[9], dyn[4];
     int m = 2 * n_closures;
     ws_offsets(n, m, off);
     dynamics_offsets(n, m, off, dyn);
@@ -827,7 +937,7 @@ grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, do
         const double *yi = y + (size_t)i * 2 * n;
         grb_chain(md, yi, yi + n, &w);
         for (int a = 0; a < na; a++) {
-            double u[2], ends[4], jl[GRB_MAX_LINKS], rate = 0.0;
+            double u[2], ends[4], *jl = w.line_jl, rate = 0.0;
             double *o = out + ((size_t)i * na + a) * 2;
             o[0] = actuator_line(md, &w, a, u, ends, jl);
             for (int j = 0; j < n; j++) rate += jl[j] * yi[n + j];

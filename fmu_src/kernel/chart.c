@@ -32,7 +32,7 @@
 #define PINCH_AVOID 1e-5       /* conditioning (relative) below which no continuation step ends */
 #define PI 3.14159265358979323846
 
-size_t grb_chart_size(int n_links) { return (size_t)(5 * CHART_NODES + 10) * (size_t)n_links; }
+size_t grb_chart_size(int n_links) { return (size_t)(5 * CHART_NODES + 11) * (size_t)n_links; }
 
 void grb_chart_init(grb_chart *ch, int n_links, double *buffer) {
     memset(ch, 0, sizeof *ch);
@@ -88,14 +88,13 @@ static void chebyshev_derivative(const double *c, int n, double half, double *d)
  * closure over sigma, too coarse to continue from.  The new point's
  * conditioning goes to *kappa. */
 static int continue_to(const grb_model *md, double scale, int held, double dx, double kappa_floor, double *z,
-                       double *t, double *trial, double *t_new, double *kappa, grb_ws *w) {
+                       double *t, double *trial, double *t_new, double *predicted, double *kappa, grb_ws *w) {
     int n = w->n;
     double move = 0.0, corr = 0.0;
     for (int i = 0; i < n; i++) {
         trial[i] = z[i] + dx * t[i];
         move = fmax(move, fabs(dx * t[i]));
     }
-    double predicted[64];
     memcpy(predicted, trial, sizeof(double) * n);
     if (!isfinite(grb_branch_point(md, held, scale, trial, t_new, w))) return 0;
     for (int i = 0; i < n; i++) corr = fmax(corr, fabs(trial[i] - predicted[i]));
@@ -114,7 +113,7 @@ static int continue_to(const grb_model *md, double scale, int held, double dx, d
 static int march(const grb_model *md, double scale, int held, double d, double target, double kappa_ref,
                  double near, double *z, double *t, grb_chart *ch, grb_ws *w, int track) {
     int n = w->n;
-    double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n;
+    double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n, *predicted = ch->scratch + 10 * n;
     double unit = grb_links(md)[held].revolute > 0.5 ? 1.0 : scale, dx = MARCH_FIRST * unit;
     double last = grb_closure_conditioning(md, z, w) / kappa_ref;
     for (int k = 0; k < MARCH_STEPS; k++) {
@@ -128,7 +127,7 @@ static int march(const grb_model *md, double scale, int held, double d, double t
             }
         }
         double kappa;
-        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, &kappa, w);
+        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, predicted, &kappa, w);
         if (status == 2) {
             dx *= 2.5; /* over the pinch rather than onto it */
             continue;
@@ -281,8 +280,9 @@ static int build_on(const grb_model *md, double scale, const double *y, double k
 
 int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
                     grb_chart *ch, grb_ws *w) {
-    int n = w->n, m = w->m, tried[64] = {0};
-    if (m < n - 1 || n > 64 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    int n = w->n, m = w->m, *tried = w->index + WS_INDEX_CHART(n);
+    if (m < n - 1 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
+    for (int i = 0; i < n; i++) tried[i] = 0;
     /* held: the drive first, then the joints by how fast they move (a joint
      * at a limit of its travel is no coordinate along the branch there) */
     for (int attempt = 0; attempt < n; attempt++) {

@@ -88,7 +88,6 @@ grb_status grb_freedom(const grb_model *md, const double *z, double *work, int *
     grb_ws w;
     grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
     if (status != GRB_OK) return status;
-    if (w.m > 64) return GRB_BAD_ARGUMENT;
     *freedom = grb_closure_freedom(md, z, &w);
     return GRB_OK;
 }
@@ -119,12 +118,11 @@ grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z
      * dependent set (Businger and Golub); hold the rest, in chain order */
     scratch s = scratch_of(&w);
     rows_at(md, z, &w);
-    int k = 0, others[64 + 1];
-    if (n > 64) return GRB_BAD_ARGUMENT;
+    int k = 0, *others = w.index + WS_INDEX_FIRST(n), *chosen = w.index + WS_INDEX_SECOND(n);
     for (int i = 0; i < n; i++)
         if (i != md->drive || count == 0) others[k++] = i;
     double *A = s.Jd; /* m x k */
-    int chosen[64] = {0};
+    for (int c = 0; c < k; c++) chosen[c] = 0;
     for (int r = 0; r < m; r++)
         for (int c = 0; c < k; c++) A[r * k + c] = J_(&w, r, others[c]);
     int steps = m < k ? m : k;
@@ -185,9 +183,10 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
     if (status != GRB_OK) return status;
     int m = w.m;
     if (m == 0) return GRB_OK;
-    if (n > 64 || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
+    if (n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
     scratch s = scratch_of(&w);
-    int dep[64], nd = 0, is_held[64] = {0};
+    int *dep = w.index + WS_INDEX_FIRST(n), nd = 0, *is_held = w.index + WS_INDEX_SECOND(n);
+    for (int i = 0; i < n; i++) is_held[i] = 0;
     for (int i = 0; i < n_held; i++) {
         if (held[i] < 0 || held[i] >= n) return GRB_BAD_ARGUMENT;
         is_held[held[i]] = 1;
@@ -237,7 +236,19 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
 /* The Gram matrix J J^T of the closure Jacobian in w (rows_at) into schur,
  * where grb_sym_eig finds its eigenvectors and eigenvalues. */
 static void gram(grb_ws *w) {
-    int n = w->n, m = w->m;
+    int n = w->n, m = w->m, *span = w->span;
+    if (m > GRB_JACOBI_ROWS) { /* over the columns where both rows are not zero (chain.c's row_spans) */
+        grb_row_spans(w, m, span);
+        for (int r = 0; r < m; r++)
+            for (int c = 0; c < m; c++) {
+                int lo = span[2 * r] > span[2 * c] ? span[2 * r] : span[2 * c];
+                int hi = span[2 * r + 1] < span[2 * c + 1] ? span[2 * r + 1] : span[2 * c + 1];
+                double g = 0.0;
+                for (int i = lo; i <= hi; i++) g += J_(w, r, i) * J_(w, c, i);
+                SCHUR_(w, r, c) = g;
+            }
+        return;
+    }
     for (int r = 0; r < m; r++)
         for (int c = 0; c < m; c++) {
             double g = 0.0;
@@ -259,7 +270,10 @@ static void squared_singular_values(grb_ws *w, double *e) {
         e[1] = det / (e[0] > 0.0 ? e[0] : 1.0); /* the small root without cancellation */
         return;
     }
-    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    if (m > GRB_JACOBI_ROWS)
+        grb_sym_eigenvalues(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    else
+        grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
     for (int i = 0; i < m; i++) e[i] = w->eigval[i];
     for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
         for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
@@ -277,9 +291,8 @@ static void squared_singular_values(grb_ws *w, double *e) {
  * which is where the passage logic of integrate.c takes over. */
 static double conditioning_of_rows(grb_ws *w) {
     int n = w->n, m = w->m;
-    double e[64];
+    double *e = w->singular;
     if (m == 0) return 1.0;
-    if (m > 64) return 0.0;
     squared_singular_values(w, e);
     int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
     if (k < 0) k = 0;
@@ -298,9 +311,8 @@ double grb_closure_conditioning(const grb_model *md, const double *z, grb_ws *w)
  * this is more than N - M. */
 int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
     int n = w->n, m = w->m, rank = 0;
-    double e[64];
+    double *e = w->singular;
     if (m == 0) return n;
-    if (m > 64) return -1;
     rows_at(md, z, w);
     squared_singular_values(w, e);
     for (int i = 0; i < m; i++)
@@ -312,8 +324,9 @@ int grb_closure_freedom(const grb_model *md, const double *z, grb_ws *w) {
  * length M, the Gram matrix's leading eigenvectors) into basis, for
  * grb_branch_orientation when redundant rows make J taller than N - 1. */
 int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, double *basis) {
-    int n = w->n, m = w->m, used[64] = {0};
-    if (m < n - 1 || m > 64 || n < 2) return GRB_BAD_ARGUMENT;
+    int n = w->n, m = w->m, *used = w->index + WS_INDEX_FIRST(n);
+    if (m < n - 1 || n < 2) return GRB_BAD_ARGUMENT;
+    for (int i = 0; i < m; i++) used[i] = 0;
     rows_at(md, z, w);
     gram(w);
     grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
@@ -396,8 +409,8 @@ void grb_closure_watch(const grb_model *md, const double *y, const double *basis
  * tangent (when not NULL).  Returns the violation left (inf when Newton did
  * not converge to the scale's closure tolerance). */
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w) {
-    int n = w->n, m = w->m, dep[64], nd = 0;
-    if (n > 64 || held < 0 || held >= n) return INFINITY;
+    int n = w->n, m = w->m, *dep = w->index + WS_INDEX_FIRST(n), nd = 0;
+    if (held < 0 || held >= n) return INFINITY;
     scratch s = scratch_of(w);
     for (int i = 0; i < n; i++)
         if (i != held) dep[nd++] = i;

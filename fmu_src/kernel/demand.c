@@ -70,8 +70,11 @@ static grb_status demand_sample(const grb_model *md, double scale, double accele
                                 double *zd, double *zdd, double *torque, double *closing_force, double *closest,
                                 double *work) {
     grb_ws w;
-    int n = md->n_links, d = md->drive, held[GRB_MAX_LINKS], n_held = 0, n_hold = 0;
-    grb_status status = grb_hold_count(md, z, work, &n_hold);
+    int n = md->n_links, d = md->drive, *held, n_held = 0, n_hold = 0;
+    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
+    if (status != GRB_OK) return status;
+    held = w.index + WS_INDEX_DEMAND(n); /* the workspace's, apart from what the calls below use of it */
+    status = grb_hold_count(md, z, work, &n_hold);
     if (status == GRB_OK) status = grb_held_coordinates(md, n_hold, z, held, &n_held, work);
     if (status == GRB_OK) status = grb_assemble(md, n_held, held, scale, z, zd, closest, work);
     if (status != GRB_OK) return status;

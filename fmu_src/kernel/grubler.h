@@ -161,9 +161,11 @@ enum { GRB_FO_LENGTH, GRB_FO_RATE, GRB_FO_FORCE, GRB_FO_ENERGY, GRB_FO_POWER, GR
 enum grb_method { GRB_EXACT = 0, GRB_PENALTY = 1 };
 enum grb_tableau { GRB_DOP853 = 0, GRB_RK45 = 1, GRB_RK4 = 2 };
 
-/* The most moving links a chain may have (the kinematic pass keeps each link's
- * path from the ground as one bit per link). */
-#define GRB_MAX_LINKS 64
+/* The most moving links a chain may have.  Every table a chain needs is in the
+ * caller's workspace (grb_work_size grows as N^2, a step's cost as N^3), so the
+ * bound is a sanity limit, not a layout: 1024 links with 512 closures need a
+ * workspace of some 100 MB and seconds per step. */
+#define GRB_MAX_LINKS 1024
 
 /* The model: never changes during a run. */
 typedef struct grb_model {

@@ -33,7 +33,7 @@ static int is_independent(int i, int n_ind, const int *ind) {
  * so the complex build's derivatives stay exact.  0 when singular. */
 static grb_status solve_dependent(const grb_ws *w, int n_ind, const int *ind, const real *b) {
     int n = w->n, m = w->m, nd = n - n_ind;
-    int dep[GRB_MAX_LINKS], c = 0;
+    int *dep = w->index + WS_INDEX_FIRST(n), c = 0;
     for (int i = 0; i < n; i++)
         if (!is_independent(i, n_ind, ind)) dep[c++] = i;
     if (m == nd) {
@@ -68,7 +68,7 @@ static void scatter_dependent(const grb_ws *w, int n_ind, const int *ind, real *
 grb_status GRB(minimal_state)(const grb_model *md, int n_ind, const int *ind, double scale, real *y, real *work) {
     grb_ws ws, *w = &ws;
     int n = md->n_links, m = 2 * md->n_closures;
-    if (n_ind < 0 || n_ind + m < n || n_ind > n || (n_ind > 0 && !ind) || n > GRB_MAX_LINKS) return GRB_BAD_ARGUMENT;
+    if (n_ind < 0 || n_ind + m < n || n_ind > n || (n_ind > 0 && !ind)) return GRB_BAD_ARGUMENT;
     for (int k = 0; k < n_ind; k++)
         if (ind[k] < 0 || ind[k] >= n || is_independent(ind[k], k, ind)) return GRB_BAD_ARGUMENT;
     if (m == 0) return GRB_OK; /* an open chain: every coordinate is independent */

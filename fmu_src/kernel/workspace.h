@@ -17,9 +17,16 @@
  *      J J^T), the eigen-solver's scratch, its eigenvectors, then the M
  *      eigenvalues
  *   S  scratch for assembly (several N- and M x N-sized blocks)
+ *   X  what a pass needs in proportion to N, kept here rather than on the
+ *      stack so that no call's stack grows with the chain (the native FMU runs
+ *      in a host's thread): the links' paths from the ground (N rows of W
+ *      64-bit words), a line's Jacobians (5N), M singular values, index
+ *      lists (4N + M + 2 ints) and each closure row's span (2M ints)
  * with N moving links and M = 2C closure rows. */
 #ifndef GRUBLER_WORKSPACE_H
 #define GRUBLER_WORKSPACE_H
+
+#include <stdint.h>
 
 #include "grubler.h"
 #include "real.h"
@@ -83,11 +90,29 @@ typedef struct grb_ws {
     real *S;
     real *header;     /* the buffer's header (WORK_*) */
     real *actuator_force; /* the actuators' forces, in the header (A) */
-    /* bit j of path[k]: link j's joint moves link k (j is k or on its way to
-     * the ground), set by the kinematic pass: the inner loops over a link's
-     * path test a bit instead of walking parents */
-    unsigned long long path[GRB_MAX_LINKS];
+    /* bit j of row k (path + k * words, bit j % 64 of word j / 64): link j's
+     * joint moves link k (j is k or on its way to the ground), set from the
+     * model by ws_init: the inner loops over a link's path test a bit instead
+     * of walking parents */
+    uint64_t *path;
+    int words;        /* 64-bit words per row of path: (N + 63) / 64 */
+    /* a line's scratch (line_between and the force elements): its length's
+     * Jacobian (N), its two points' Jacobians (2N each) */
+    real *line_jl, *line_j0, *line_j1;
+    double *singular;  /* M: the closure Jacobian's squared singular values (closure.c) */
+    int *index;       /* 4N + M + 2 ints of index lists (the callers of closure.c, chart.c, minimal.c, demand.c
+                         each own a part: see WS_INDEX_*) */
+    int *span;        /* 2M ints: the first and last column of each closure row of J that is not zero (row_spans) */
 } grb_ws;
+/* The parts of w->index (offsets in ints, N links, M closure rows): the held
+ * coordinates a drive demand hands to assembly, the coordinates a chart build
+ * has tried, and two lists (N + 1 and N) of closure.c's and minimal.c's own
+ * (chart.c's build calls closure.c, demand.c calls closure.c: their parts
+ * are apart). */
+#define WS_INDEX_DEMAND(n) 0
+#define WS_INDEX_CHART(n) (n)
+#define WS_INDEX_FIRST(n) (2 * (n))
+#define WS_INDEX_SECOND(n) (3 * (n) + 1)
 
 /* Point w into buffer for model md: GRB_BAD_ARGUMENT when the buffer was laid
  * out for other sizes, or holds less than `needs` (GRB_FILLED_NOTHING: any
@@ -106,7 +131,11 @@ static inline const grb_actuator *grb_actuators(const grb_model *m) { return (co
 static inline const grb_force *grb_forces(const grb_model *m) { return (const grb_force *)m->forces; }
 
 /* 1 when link j is link k or one of its predecessors (j's joint moves k). */
-static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->path[k] >> j) & 1u); }
+/* Link k's row of the path table (bit j % 64 of word j / 64: link j's joint moves k). */
+static inline const uint64_t *grb_path_row(const grb_ws *w, int k) { return w->path + (size_t)k * w->words; }
+static inline int grb_on_path(const grb_ws *w, int j, int k) {
+    return (int)((w->path[(size_t)k * w->words + (j >> 6)] >> (j & 63)) & 1u);
+}
 #define MASS_(w, i, j) ((w)->mass[(i) * (w)->n + (j)])
 #define SOLVE_(w, i, c) ((w)->solve[(i) * (w)->sc + (c)])
 #define SCHUR_(w, r, c) ((w)->schur[(r) * (w)->m + (c)])
@@ -117,9 +146,28 @@ static inline int grb_on_path(const grb_ws *w, int j, int k) { return (int)((w->
 /* dense linear algebra on small matrices (linalg.c); row-major with a stride;
  * the least-squares solver exists in the plain (double) build only */
 grb_status GRB(lu_solve)(real *T, int stride, int n, int a0, int x0, int ncols);
+grb_status GRB(lu_solve_banded)(real *T, int stride, int n, int a0, int x0, int ncols);
 void GRB(sym_eig)(const real *S, real *B, real *V, real *values, int m);
+/* Up to this many closure rows the symmetric eigenproblems and the minimum-norm
+ * solves are the Jacobi methods' (the presets' numbers were made with them, and
+ * at these sizes they take a handful of sweeps); above it, where a sweep costs
+ * some 4 M^3 and a change-point passage of a chain of many loops (IFToMM A02)
+ * thousands of them, the eigenvalues alone come from a tridiagonal QL and a
+ * well-conditioned system from a Cholesky factor, the Jacobi method remaining
+ * the answer wherever the factor finds the matrix near singular. */
+#define GRB_JACOBI_ROWS 8
+int GRB(cholesky)(real *A, int stride, int n, double cutoff);
+void GRB(cholesky_solve)(const real *L, int stride, int n, real *b, int bstride);
+void grb_sym_eigenvalues(const double *S, double *B, double *v, double *values, int m);
 int grb_lstsq_min_norm(const double *J, int jstride, int m, int n, const double *b, int bstride, double rcond,
                        double *x, double *U, double *V);
+
+/* Where each of the first `rows` rows of J is not zero: span[2r] .. span[2r + 1]
+ * (an empty row: first > last).  A closure row reaches only the joints on its
+ * two links' paths, a few of many in a chain of many loops: the products over
+ * many rows (the Gram matrix, the Schur complement) skip the columns outside
+ * both rows' spans, whose terms are exact zeros (chain.c). */
+void GRB(row_spans)(const grb_ws *w, int rows, int *span);
 
 /* the kinematic and dynamic passes (chain.c) */
 void GRB(chain)(const grb_model *md, const real *z, const real *zd, grb_ws *w);
@@ -151,7 +199,7 @@ typedef struct grb_chart {
     double *c;                  /* 3 x CHART_NODES x n coefficients */
     double *values;             /* 2 x CHART_NODES x n: z and dz/dx at the nodes (while built; then the
                                    chart's scalars between advances: grb_chart_save) */
-    double *scratch;            /* 10 n */
+    double *scratch;            /* 11 n */
 } grb_chart;
 size_t grb_chart_size(int n_links);
 void grb_chart_init(grb_chart *ch, int n_links, double *buffer);

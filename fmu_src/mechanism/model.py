@@ -32,7 +32,7 @@ G_STANDARD = 9.81
 
 REVOLUTE = "R"
 PRISMATIC = "P"
-MAX_LINKS = 64  # moving links a chain may have: the kernel's GRB_MAX_LINKS
+MAX_LINKS = 1024  # moving links a chain may have: the kernel's GRB_MAX_LINKS (grubler.h)
 
 
 
