@@ -596,6 +596,7 @@ def test_a_cylinder_preset_is_drawn_dragged_held_and_sized(app, browser, shots):
     page.wait_for_selector('#servo-error:has-text("no PID.fmu, Trajectory.fmu, HydraulicCylinder.fmu in")')
     assert "DCMotor" not in page.inner_text("#servo-error")
     pick_preset(page, "luffing-boom")
+    page.select_option("#unit-angle", "rad")  # the move typed in the CLI's radians
     for key, v in {"distance": "0.1", "v_max": "0.05", "a_max": "0.2", "dwell": "0.5"}.items():
         page.fill(f'#servo-form [data-key="{key}"]', v)
     page.click("#sizing-run")

@@ -139,8 +139,7 @@ def test_undo_and_redo_step_over_drags_form_edits_presets_and_opened_files(page,
     page.screenshot(path=str(shots / "20-undone.png"))
     # the history is bounded: it keeps the last HISTORY_LIMIT scenes
     limit = page.evaluate("() => HISTORY_LIMIT")
-    page.evaluate("""(n) => { for (let k = 0; k < n + 20; k++) noteScene({ ...state.scene, description: 'v' + k }); }""",
-                  limit)
+    page.evaluate("(n) => { for (let k = 0; k < n + 20; k++) noteScene({ ...state.scene, note: k }); }", limit)
     assert page.evaluate("() => sceneHistory.past.length") == limit
 
 
@@ -195,6 +194,12 @@ def test_units_chosen_once_read_in_the_form_graphs_facts_and_arrows(page, shots)
     assert ticks and max(ticks) < 3  # about 1.05 (a flat line's axis spans one unit either way)
     page.click("#edit-mode")
     page.uncheck('#analysis-layer input[data-kind="v"]')
+    # the server's messages read their lengths in the page's unit too
+    page.select_option("#unit-length", "mm")
+    page.fill('[data-key="mechanism.ground"]', "5000")
+    page.press('[data-key="mechanism.ground"]', "Enter")
+    page.wait_for_selector("#problem:not([hidden])")
+    assert "the longest link (5000 mm)" in page.inner_text("#problem")
 
 
 def test_the_grid_snaps_a_dropped_joint_and_the_links_carry_their_names_and_lengths(page, shots):
@@ -244,11 +249,11 @@ def test_the_servo_run_plays_on_the_drawing_scrubbed_and_played(servo_app, brows
         return [Math.atan2(y2 - y1, x2 - x1), c.si[search(v.t, v.frame_t[i])]]; }""")
     assert math.remainder(crank - response, 2 * math.pi) == pytest.approx(0, abs=1e-3)
     start = page.evaluate("() => state.servo.frames[0].bars[0]")
-    assert page.evaluate("() => JSON.stringify(state.servo.frames[search(state.servo.frame_t, state.servoT)].bars[0])") \
-        != json.dumps(start)  # it moved
+    now = page.evaluate("() => state.servo.frames[search(state.servo.frame_t, state.servoT)].bars[0]")
+    assert now != pytest.approx(start, abs=1e-3)  # it moved
     cursor = page.get_attribute("#servo-plots svg >> nth=0 >> line.cursor", "x1")
     page.locator("#servo").screenshot(path=str(shots / "24-servo-scrubbed.png"))
-    page.screenshot(path=str(shots / "25-servo-on-drawing.png"))
+    page.locator("#stage").screenshot(path=str(shots / "25-servo-on-drawing.png"))
     # played: the time runs on to the end, the cursor with it
     page.click("#servo-play")
     page.wait_for_function("(end) => state.servoT >= end", arg=end, timeout=20_000)

@@ -119,7 +119,8 @@ def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None, b
     current, volts = res["motor.current"], res["motor.terminal_voltage"]
     limits = {"current_limit": design.current_limit, "supply_voltage": design.supply_voltage,
               "nominal_current": getattr(motor, "nominal_current", None)}
-    return {"t": res.t.tolist(), "wall_time": res.wall_time, **drive_frames(data, res.t, res["mechanism.drive_angle"], trace),
+    return {"t": res.t.tolist(), "wall_time": res.wall_time,
+            **drive_frames(data, res.t, res["mechanism.drive_angle"], trace),
             # angles in SI, as every column the page gets: it shows them in the units chosen (static/units.js)
             "columns": [_column("error", "tracking error, setpoint - response", "rad", error),
                         _column("setpoint", "crank angle, setpoint", "rad", res["trajectory.position"]),

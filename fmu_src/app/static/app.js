@@ -105,13 +105,13 @@ function show(out, opts = {}) {
   showFacts(out);
   const problem = $("problem");
   problem.hidden = !out.problem;
-  problem.textContent = out.problem ? `${out.problem.field}: ${out.problem.reason}` : "";
+  problem.textContent = out.problem ? `${out.problem.field}: ${sayMessage(out.problem.reason)}` : "";
   if (!opts.keepFields) renderFields(out.fields);
   document.querySelectorAll("#fields .err").forEach((e) => { e.textContent = ""; });
   const target = out.error && document.querySelector(`[data-err="${CSS.escape(out.error.field)}"]`);
-  if (target) target.textContent = out.error.reason;
+  if (target) target.textContent = sayMessage(out.error.reason);
   const error = $("error");
-  error.textContent = out.error && !target ? `${out.error.field}: ${out.error.reason}` : "";
+  error.textContent = out.error && !target ? `${out.error.field}: ${sayMessage(out.error.reason)}` : "";
   error.hidden = !error.textContent;
   if (out.trace && !$("trace").value) $("trace").value = out.trace;
   if (out.frame) {
@@ -903,8 +903,11 @@ async function exportPng() {
 // -- the servo drive and the sizing study -------------------------------------------------------------------
 function servoSettings() {
   const out = {};
-  // a length or an angle (data-unit, its SI unit) as typed in the page's units: sent in SI
-  document.querySelectorAll("#servo-form [data-key]").forEach((e) => { out[e.dataset.key] = fieldSI(e.value, e.dataset.unit); });
+  // a length or an angle (data-unit, its SI unit) as typed in the page's units: sent in SI; one left as it was
+  // filled, as the number it was filled from (a default of 20 rad/s^2 shown in deg/s^2 is not read back rounded)
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    out[e.dataset.key] = e.dataset.unit && e.value === e.dataset.shown ? e.dataset.si : fieldSI(e.value, e.dataset.unit);
+  });
   return out;
 }
 
@@ -1117,7 +1120,9 @@ async function showDrives(data) {
 function fillServo(d) {
   document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
     const v = d[e.dataset.key];
-    if (v !== undefined && v !== null) e.value = String(v === "" ? v : fieldShown(v, e.dataset.unit));
+    if (v === undefined || v === null) return;
+    e.value = String(v === "" ? v : fieldShown(v, e.dataset.unit));
+    if (e.dataset.unit) Object.assign(e.dataset, { si: String(v), shown: e.value });
   });
 }
 

@@ -76,7 +76,9 @@ function unitsChanged(choose) {
     renderFields(state.analysis.fields);
     const err = state.analysis.error;  // a field's refusal stays next to it
     const at = err && document.querySelector(`[data-err="${CSS.escape(err.field)}"]`);
-    if (at) at.textContent = err.reason;
+    if (at) at.textContent = sayMessage(err.reason);
+    const p = state.analysis.problem;
+    document.getElementById("problem").textContent = p ? `${p.field}: ${sayMessage(p.reason)}` : "";
   }
   if (state.run) {
     state.run.columns.forEach((c) => columnShown(c));

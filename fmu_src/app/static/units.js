@@ -113,3 +113,11 @@ function setupUnits(onChange) {
   }
   showUnitWords();
 }
+
+// a message of the server's (a refusal, a loop that does not close) with its lengths in the page's unit: the
+// server writes them in m ("the longest link (2.1 m)"); its angles it writes in deg and rad both
+function sayMessage(text) {
+  if (units.length === "m" || !text) return text;
+  return String(text).replace(/(^|[^\w.])([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?) m(\/s\^?2?|\/s)?(?![\w^²/])/g,
+    (all, before, num, rate) => before + say(Number(num), "m" + (rate || "")));
+}
