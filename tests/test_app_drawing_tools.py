@@ -158,6 +158,7 @@ def test_units_chosen_once_read_in_the_form_graphs_facts_and_arrows(page, shots)
     assert page.inner_text('label[for="f-mechanism_crank_angle"] .unit') == "(rad)"
     # the facts and the arrows' values
     assert "s + l = 1300 mm" in page.inner_text("#grashof")
+    assert "theta3 0.6" in page.inner_text("#branch") and "deg" not in page.inner_text("#branch")  # 37.6 deg
     assert page.text_content(".analysis .alabel.vel >> nth=0").endswith(" mm/s")
     assert "rad" in page.text_content(".analysis .alabel.mu")
     # a value typed in mm reaches the scene in m, an angle in rad as rad

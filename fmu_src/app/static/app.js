@@ -134,7 +134,7 @@ function showFacts(out) {
   $("grashof").title = c && c.grashof ? c.grashof.detail : "";
   $("mobility").textContent = c ? String(c.mobility) : "–";
   $("branch").textContent = out.branch
-    ? `${out.branch.angles.length ? out.branch.angles.join(", ") : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
+    ? `${out.branch.angles.length ? sayMessage(out.branch.angles.join(", ")) : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
     : (out.closed === false ? "the loop does not close" : "–");
 }
 
@@ -627,7 +627,7 @@ async function simulate() {
     play();
   } catch (e) {
     const at = e.field === "t_end" ? $("field-t_end") : $("run-status");
-    at.textContent = `${e.field}: ${e.message}`;
+    at.textContent = `${e.field}: ${sayMessage(e.message)}`;
     if (at !== $("run-status")) $("run-status").textContent = "";
   } finally {
     $("simulate").disabled = false;
@@ -943,7 +943,7 @@ async function runServo() {
     drawServo();
     servoRunShown(out);  // its animation on the drawing (servoplay.js)
     record("servo", t0, timing);
-    $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
+    $("servo-status").textContent = sayMessage(out.summary) + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
     $("servo-status").textContent = "";

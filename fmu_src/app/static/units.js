@@ -117,7 +117,17 @@ function setupUnits(onChange) {
 // a message of the server's (a refusal, a loop that does not close) with its lengths in the page's unit: the
 // server writes them in m ("the longest link (2.1 m)"); its angles it writes in deg and rad both
 function sayMessage(text) {
-  if (units.length === "m" || !text) return text;
-  return String(text).replace(/(^|[^\w.])([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?) m(\/s\^?2?|\/s)?(?![\w^²/])/g,
-    (all, before, num, rate) => before + say(Number(num), "m" + (rate || "")));
+  if (!text) return text;
+  let out = String(text);
+  const num = "([-+]?(?:\\d+\\.?\\d*|\\.\\d+)(?:e[-+]?\\d+)?)";
+  if (units.length !== "m") {
+    out = out.replace(new RegExp(`(^|[^\\w.])${num} m(/s\\^2|/s)?(?![\\w^²/])`, "g"),
+      (all, before, v, rate) => before + say(Number(v), "m" + (rate || "")));
+  }
+  if (units.angle === "rad") {  // "30 deg (0.523599 rad)" says it already; "32.49 deg" alone is converted
+    out = out.replace(new RegExp(`${num} deg \\(${num} rad\\)`, "g"), (all, d, r) => `${r} rad`)
+      .replace(new RegExp(`(^|[^\\w.])${num} deg(/s\\^2|/s)?(?![\\w^²/])`, "g"),
+        (all, before, v, rate) => before + say((Number(v) * Math.PI) / 180, "rad" + (rate || "")));
+  }
+  return out;
 }
