@@ -174,6 +174,7 @@ def test_units_chosen_once_read_in_the_form_graphs_facts_and_arrows(page, shots)
     settled(page, "state.scene.mechanism.crank_angle === '45 deg'")
     page.select_option("#unit-angle", "rad")
     # the graphs: the drive angle in rad, a length in mm, their axes saying so and their ticks reading so
+    assert page.evaluate("() => state.scene.mechanism.ground") == 1.05
     page.fill("#t_end", "0.5")
     page.click("#simulate")
     page.wait_for_selector("#panels svg path")
@@ -181,6 +182,7 @@ def test_units_chosen_once_read_in_the_form_graphs_facts_and_arrows(page, shots)
     page.click("#add-axes")
     page.select_option(".panel >> nth=2 >> select", "tip_x")
     page.wait_for_selector("#panels svg >> nth=2 >> text.ylabel")
+    assert page.evaluate("() => state.runScene.mechanism.ground") == 1.05
     assert page.text_content("#panels svg >> nth=2 >> text.ylabel") == "tip_x, mm"
     ticks = [float(t) for t in page.eval_on_selector_all("#panels svg >> nth=2 >> .ytick",
                                                          "(gs) => gs.map((g) => g.textContent)")]
