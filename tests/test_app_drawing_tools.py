@@ -80,8 +80,8 @@ def scene(page) -> dict:
 
 
 def settled(page, test: str) -> None:
-    """Wait until ``test`` (a JS expression) holds and no history step or request is under way."""
-    page.wait_for_function(f"""async () => {{ await sceneHistory.busy; return !state.inflight && ({test}); }}""")
+    """Wait until ``test`` (a JS expression) holds and no history step, edit or drag is under way."""
+    page.wait_for_function(f"() => !sceneHistory.pending && !state.pendingEdits && !state.inflight && ({test})")
 
 
 def undo(page, keys: bool = True) -> None:
@@ -141,6 +141,27 @@ def test_undo_and_redo_step_over_drags_form_edits_presets_and_opened_files(page,
     limit = page.evaluate("() => HISTORY_LIMIT")
     page.evaluate("(n) => { for (let k = 0; k < n + 20; k++) noteScene({ ...state.scene, note: k }); }", limit)
     assert page.evaluate("() => sceneHistory.past.length") == limit
+
+
+def test_two_fields_edited_before_the_first_answer_both_hold(page):
+    """An edit goes on the scene the one before it answered with: the page used to send the second field on
+    the scene without the first, and the first's answer, coming later, undid the second (or the other way)."""
+    pick_preset(page, "fourbar-crank-rocker")
+    # the first edit's answer held back half a second, as a loaded server may
+    page.evaluate("""() => { const f = window.fetch; let first = true; window.realFetch = f;
+        window.fetch = async (...a) => { const r = await f(...a);
+            if (first && String(a[0]).endsWith('/api/edit')) { first = false; await new Promise((ok) => setTimeout(ok, 500)); }
+            return r; }; }""")
+    try:
+        page.fill('[data-key="mechanism.ground"]', "1.05")
+        page.press('[data-key="mechanism.ground"]', "Enter")
+        page.fill('[data-key="mechanism.coupler"]', "0.95")
+        page.press('[data-key="mechanism.coupler"]', "Enter")
+        settled(page, "state.scene.mechanism.coupler === 0.95")
+        assert scene(page)["mechanism"]["ground"] == 1.05
+        assert page.input_value('[data-key="mechanism.ground"]') == "1.05"
+    finally:
+        page.evaluate("() => { window.fetch = window.realFetch; }")
 
 
 def test_units_chosen_once_read_in_the_form_graphs_facts_and_arrows(page, shots):

@@ -199,10 +199,17 @@ function renderFields(fields) {
   }
 }
 
-async function edit(key, value) {
-  try {
-    await analyse({ action: "edit", scene: state.scene, key, value });
-  } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+// one edit at a time, each on the scene the one before it answered with: a field changed while another's
+// answer is on its way would otherwise be sent on the scene without that one, and its answer undo it
+function edit(key, value) {
+  state.pendingEdits = (state.pendingEdits || 0) + 1;
+  state.edits = (state.edits || Promise.resolve()).then(async () => {
+    try {
+      await analyse({ action: "edit", scene: state.scene, key, value });
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+    finally { state.pendingEdits -= 1; }
+  });
+  return state.edits;
 }
 
 // -- the URL holds the scene, so a link can be shared ---------------------------------------------------

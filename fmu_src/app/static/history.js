@@ -5,7 +5,7 @@
 "use strict";
 
 const HISTORY_LIMIT = 100;  // scenes kept to step back to: a scene is a few kB of JSON
-const sceneHistory = { past: [], future: [], now: null, restoring: false, busy: Promise.resolve() };
+const sceneHistory = { past: [], future: [], now: null, restoring: false, busy: Promise.resolve(), pending: 0 };
 
 // app.js calls this whenever a scene is on the page for good (an edit's answer, a drag's end)
 function noteScene(scene) {
@@ -30,6 +30,7 @@ function showHistoryButtons() {
 
 // one step back (-1) or forward (+1); steps queue behind each other, never while a drag is under way
 function stepHistory(direction) {
+  sceneHistory.pending += 1;  // steps asked for and not yet on the page
   sceneHistory.busy = sceneHistory.busy.then(async () => {
     if (state.dragging || state.settling) return;
     const from = direction < 0 ? sceneHistory.past : sceneHistory.future;
@@ -46,7 +47,7 @@ function stepHistory(direction) {
     } finally {
       sceneHistory.restoring = false;
     }
-  });
+  }).finally(() => { sceneHistory.pending -= 1; });
   return sceneHistory.busy;
 }
 
