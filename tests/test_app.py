@@ -945,3 +945,41 @@ def test_every_preset_takes_each_new_element_relaxed_at_its_start():
             assert np.all(np.isfinite(values)), (name, kind)
             if kind == "spring":  # at its free length: no force but what its damper gives the start's rate
                 assert abs(values[0]) < 1e-6 * element.stiffness, (name, values[0])  # a micrometre off
+# -- the drawing tools' server side (issue 33 item 4) ------------------------------------------------------
+def test_a_run_s_columns_reach_the_page_in_si_with_their_words():
+    """The page converts to the units its user chose (static/units.js): the server sends SI and the words."""
+    _, view = actions.run_simulation(actions.preset_data("fourbar-crank-rocker"), 0.1, None, None)
+    theta2 = next(c for c in view["columns"] if c["name"] == "theta2")
+    assert theta2["unit"] == "rad" and theta2["words"] == "angle of link 2 (theta2)"
+    values = np.frombuffer(__import__("base64").b64decode(theta2["f32"]), dtype="<f4")
+    assert values[0] == pytest.approx(math.radians(30), abs=1e-6)
+
+
+def test_a_servo_run_s_frames_are_the_mechanism_at_its_recorded_drive_angles():
+    """runs.drive_frames: each frame the sketch assembled with its drive where the run had it, on the sketch's
+    branch (the coupler-rocker pin as the kinematics place it), and the frames stop where the loop opens."""
+    from grubler.app.runs import drive_frames
+    from grubler.mechanism.assembly import assemble
+    from grubler.mechanism.kinematics import link_points
+
+    data = actions.preset_data("fourbar-crank-rocker")
+    m = scene_from_dict(data).mechanism
+    t = np.linspace(0, 1, 11)
+    drive = math.radians(30) + np.linspace(0, 2, 11)  # past a turn's third: the crank turns fully
+    out = drive_frames(data, t, drive)
+    assert out["frame_t"] == pytest.approx(t.tolist()) and len(out["frames"]) == 11
+    for row, frame in zip(drive, out["frames"]):
+        crank = frame["bars"][0]  # O2 to A
+        angle = math.atan2(crank[3] - crank[1], crank[2] - crank[0])
+        assert angle == pytest.approx(math.remainder(row, 2 * math.pi), abs=1e-5)  # a frame's points: to a micrometre
+    # the last frame's coupler-rocker pin where the kernel places it on the sketch's branch, assembled afresh
+    z = assemble(m, m.z_from_q(m.q_ref))[0]
+    for row in drive:  # small steps from the sketch, as the run went
+        z[m.free_index(m.drive)] = row
+        z = assemble(m, z)[0]
+    b = link_points(m, z[None, :], [1], [(m.links[1].a, 0.0)])[0, 0]
+    assert out["frames"][-1]["bars"][1][2:] == pytest.approx(b.tolist(), abs=2e-6)
+    # a Grashof triple-rocker's drive cannot turn fully: its frames stop where the loop opens
+    rocker = {**data, "mechanism": {**data["mechanism"], "ground": 1.4}}
+    out = drive_frames(rocker, t, math.radians(30) + np.linspace(0, math.pi, 11))
+    assert 0 < len(out["frames"]) < 11 and len(out["frame_t"]) == len(out["frames"]) == len(out["path"])

@@ -596,6 +596,7 @@ def test_a_cylinder_preset_is_drawn_dragged_held_and_sized(app, browser, shots):
     page.wait_for_selector('#servo-error:has-text("no PID.fmu, Trajectory.fmu, HydraulicCylinder.fmu in")')
     assert "DCMotor" not in page.inner_text("#servo-error")
     pick_preset(page, "luffing-boom")
+    page.select_option("#unit-angle", "rad")  # the move typed in the CLI's radians
     for key, v in {"distance": "0.1", "v_max": "0.05", "a_max": "0.2", "dwell": "0.5"}.items():
         page.fill(f'#servo-form [data-key="{key}"]', v)
     page.click("#sizing-run")
@@ -637,6 +638,11 @@ def test_run_servo_of_a_cylinder_preset_is_its_cylinder_under_position_control(s
     assert page.locator("#servo-plots svg").count() == 4
     assert page.text_content("#servo-plots svg >> nth=2 >> text.ylabel") == "bar"
     page.locator("#servo").screenshot(path=str(shots / "15-luffing-boom-servo.png"))
+    # the run played on the drawing: the boom lifted by its cylinder, scrubbed to the end
+    page.wait_for_selector("#servo-player:not([hidden])")
+    page.evaluate("""() => { const s = document.querySelector('#servo-scrub'); s.value = s.max;
+        s.dispatchEvent(new Event('input')); }""")
+    page.locator("#stage").screenshot(path=str(shots / "16-luffing-boom-servo-drawn.png"))
     # a softer gain re-runs at once (the mechanism FMU kept) and follows worse
     page.fill('#servo-form [data-key="K"]', "10")
     page.press('#servo-form [data-key="K"]', "Enter")

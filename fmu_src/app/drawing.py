@@ -94,7 +94,10 @@ def analyse(data: dict, trace: str | None = None, live: bool = False, kinematics
         out["closed"] = True
     except AssemblyError as exc:
         z, out["closed"], out["problem"] = z0, False, {"field": exc.field, "reason": exc.reason}
-    out["frame"] = _frame(sketch.geometry(sketch.positions(z[None, :])[0]))
+    pos = sketch.positions(z[None, :])[0]
+    geo = sketch.geometry(pos)
+    out["frame"] = _frame(geo)
+    out["dims"] = dimensions(m, sketch, pos, geo.fixed)
     out["handles"] = handles(data, m, z)
     zs = None
     if out["closed"] and m.closures and m.drive:
@@ -109,6 +112,25 @@ def analyse(data: dict, trace: str | None = None, live: bool = False, kinematics
         out["branch"] = {"count": len(found), "drive": m.drive, "angles": angles}
     if kinematics and out["closed"]:
         out["analysis"] = analysis_view(m, z, point, zs)
+    return out
+
+
+def dimensions(model, sketch, pos, fixed=()) -> list[dict]:
+    """Each link's name and length (its link vector's, m) with its ends where the sketch draws them, the ground's
+    first: what the page writes along the links.  The ground is link 1's vector where it has one, else the
+    line from each ground pivot to the next (``fixed``, the sketch's pivots: a four-bar's O2 to O4)."""
+    r = lambda p: [round(float(p[0]), 6), round(float(p[1]), 6)]  # noqa: E731
+    out = []
+    if model.a1 > 0:
+        out.append({"name": "ground", "length": model.a1, "from": [0.0, 0.0], "to": r(pos[sketch.ground_end])})
+    else:
+        for a, b in zip(fixed, fixed[1:]):
+            if math.dist(a, b) > 1e-9:
+                out.append({"name": "ground", "length": round(math.dist(a, b), 9), "from": r(a), "to": r(b)})
+    for k, link in enumerate(model.links):
+        if link.a > 0:
+            out.append({"name": f"link{k + 2}", "length": link.a, "from": r(pos[sketch.origin[k]]),
+                        "to": r(pos[sketch.end[k]])})
     return out
 
 

@@ -17,7 +17,7 @@ from grubler.errors import GrublerError, InputError, SceneError
 from grubler.limits import brief, did_you_mean
 from grubler.mechanism.assembly import assemble
 from grubler.mechanism.scene import scene_from_dict
-from grubler.app.runs import _f32
+from grubler.app.runs import _f32, drive_frames
 from grubler.app.scene_form import scene_toml
 
 SERVO_SIGNALS = ["trajectory.position", "mechanism.drive_angle", "motor.current", "motor.voltage",
@@ -75,6 +75,12 @@ def _servo_design(data: dict, settings: dict):
                        trajectory=trajectory, pid=pid, t_end=get("t_end", **pos), step=get("step", **pos))
 
 
+def _column(name: str, words: str, unit: str, values) -> dict:
+    """A servo graph's column: its words and unit (a length or an angle in SI, which the page shows in the
+    units chosen; a pressure in bar, a force in kN, as a cylinder's datasheet gives them)."""
+    return {"name": name, "words": words, "unit": unit, "label": f"{words} ({unit})", "f32": _f32(values)}
+
+
 def check_fmu_folder(d, names=("Mechanism", "DCMotor", "PID", "Encoder", "Trajectory")) -> None:
     """The FMUs the servo runs are in ``d`` (the app's ``dist/``, where ``python3 build_fmu.py`` puts them)."""
     from pathlib import Path
@@ -86,20 +92,22 @@ def check_fmu_folder(d, names=("Mechanism", "DCMotor", "PID", "Encoder", "Trajec
                                   "(python3 build_fmu.py, in the folder the app was started in)")
 
 
-def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None, build_dir=None) -> dict:
+def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None, build_dir=None,
+              trace: str | None = None) -> dict:
     """Co-simulate the servo drive of the scene (``grubler cosim`` of :func:`grubler.system.servo.servo_system`).
 
     Returns the tracking error, the current and the voltages over time (every
     10th step), and the drive's and the motor's limits to hold them against.
     A scene driven by a cylinder gets the cylinder's servo instead
-    (:func:`run_cylinder_servo`; its mechanism FMU is built in ``build_dir``).
+    (:func:`run_cylinder_servo`; its mechanism FMU is built in ``build_dir``).  Either comes with its
+    frames (:func:`grubler.app.runs.drive_frames`, ``trace`` the traced point) to play on the drawing.
     """
     from grubler.motors import load_motor
     from grubler.system import cosim
     from grubler.system.servo import servo_system
 
     if scene_from_dict(data).mechanism.actuators:
-        return run_cylinder_servo(data, settings, fmu_dir, build_dir, cancel, unpacked)
+        return run_cylinder_servo(data, settings, fmu_dir, build_dir, cancel, unpacked, trace)
     design = _servo_design(data, settings)
     check_fmu_folder(fmu_dir)
     system = servo_system(design, fmu_dir, name="app-servo")
@@ -112,18 +120,14 @@ def run_servo(data: dict, settings: dict, fmu_dir, cancel=None, unpacked=None, b
     limits = {"current_limit": design.current_limit, "supply_voltage": design.supply_voltage,
               "nominal_current": getattr(motor, "nominal_current", None)}
     return {"t": res.t.tolist(), "wall_time": res.wall_time,
-            # angles in degrees, as the scene's form writes them (the servo form's move is in radians, as
-            # the Trajectory FMU takes it)
-            "columns": [{"name": "error", "label": "tracking error, setpoint - response (deg)", "unit": "deg",
-                         "f32": _f32(np.degrees(error))},
-                        {"name": "setpoint", "label": "crank angle, setpoint (deg)", "unit": "deg",
-                         "f32": _f32(np.degrees(res["trajectory.position"]))},
-                        {"name": "response", "label": "crank angle, response (deg)", "unit": "deg",
-                         "f32": _f32(np.degrees(res["mechanism.drive_angle"]))},
-                        {"name": "current", "label": "motor current (A)", "unit": "A", "f32": _f32(current)},
-                        {"name": "voltage", "label": "motor voltage, applied (V)", "unit": "V", "f32": _f32(volts)},
-                        {"name": "command", "label": "motor voltage, commanded (V)", "unit": "V",
-                         "f32": _f32(res["motor.voltage"])}],
+            **drive_frames(data, res.t, res["mechanism.drive_angle"], trace),
+            # angles in SI, as every column the page gets: it shows them in the units chosen (static/units.js)
+            "columns": [_column("error", "tracking error, setpoint - response", "rad", error),
+                        _column("setpoint", "crank angle, setpoint", "rad", res["trajectory.position"]),
+                        _column("response", "crank angle, response", "rad", res["mechanism.drive_angle"]),
+                        _column("current", "motor current", "A", current),
+                        _column("voltage", "motor voltage, applied", "V", volts),
+                        _column("command", "motor voltage, commanded", "V", res["motor.voltage"])],
             "limits": {k: v for k, v in limits.items() if v is not None and math.isfinite(v)},
             "summary": f"{design.t_end:g} s at {design.step:g} s steps in {res.wall_time:.2f} s: tracking error "
                        f"up to {np.degrees(np.max(np.abs(error))):.3g} deg, current up to {np.max(np.abs(current)):.3g} A "
@@ -262,7 +266,8 @@ def _cylinder_design(data: dict, settings: dict):
                                delay=get("delay", low=0.0), pid=pid, t_end=get("t_end", **pos), step=get("step", **pos))
 
 
-def run_cylinder_servo(data: dict, settings: dict, fmu_dir, build_dir, cancel=None, unpacked=None) -> dict:
+def run_cylinder_servo(data: dict, settings: dict, fmu_dir, build_dir, cancel=None, unpacked=None,
+                       trace: str | None = None) -> dict:
     """Co-simulate the scene's cylinder under position control (``grubler cosim`` of
     :func:`grubler.system.cylinder_servo.cylinder_servo_system`): the actuator's length against its setpoint,
     the chambers' pressures against the supply, the force.
@@ -286,7 +291,7 @@ def run_cylinder_servo(data: dict, settings: dict, fmu_dir, build_dir, cancel=No
     act = design.actuator
     hydraulic = design.cylinder == "hydraulic"
     signals = ["trajectory.position", f"mechanism.{act}_length", "controller.u", "cylinder.pressure_a",
-               "cylinder.pressure_b", "cylinder.force"]
+               "cylinder.pressure_b", "cylinder.force", "mechanism.drive_angle"]
     every = max(1, round(design.t_end / design.step / 2000))  # some 2000 rows: a graph's worth
     res = cosim.run(system, t_end=design.t_end, step=design.step, record=signals, record_every=every,
                     cancel=cancel, unpacked=unpacked)
@@ -298,17 +303,14 @@ def run_cylinder_servo(data: dict, settings: dict, fmu_dir, build_dir, cancel=No
                                                                 math.nan))
     mm, bar = 1e3, 1e-5
     return {"t": res.t.tolist(), "wall_time": res.wall_time, "kind": "cylinder",
-            "columns": [{"name": "error", "label": "tracking error, setpoint - response (mm)", "unit": "mm",
-                         "f32": _f32(error * mm)},
-                        {"name": "setpoint", "label": f"{act} length, setpoint (mm)", "unit": "mm",
-                         "f32": _f32(setpoint * mm)},
-                        {"name": "response", "label": f"{act} length, response (mm)", "unit": "mm",
-                         "f32": _f32(length * mm)},
-                        {"name": "pressure_a", "label": "cap side A pressure (bar)", "unit": "bar", "f32": _f32(pa * bar)},
-                        {"name": "pressure_b", "label": "rod side B pressure (bar)", "unit": "bar", "f32": _f32(pb * bar)},
-                        {"name": "force", "label": "cylinder force, pushing apart (kN)", "unit": "kN",
-                         "f32": _f32(force * 1e-3)},
-                        {"name": "command", "label": "valve command (1)", "unit": "1", "f32": _f32(res["controller.u"])}],
+            **drive_frames(data, res.t, res["mechanism.drive_angle"], trace),
+            "columns": [_column("error", "tracking error, setpoint - response", "m", error),
+                        _column("setpoint", f"{act} length, setpoint", "m", setpoint),
+                        _column("response", f"{act} length, response", "m", length),
+                        _column("pressure_a", "cap side A pressure", "bar", pa * bar),
+                        _column("pressure_b", "rod side B pressure", "bar", pb * bar),
+                        _column("force", "cylinder force, pushing apart", "kN", force * 1e-3),
+                        _column("command", "valve command", "1", res["controller.u"])],
             "limits": {"supply_pressure": supply * bar} if math.isfinite(supply) else {},
             "summary": f"{design.t_end:g} s at {design.step:g} s steps in {res.wall_time:.2f} s: a "
                        f"{design.constants['bore'] * mm:g}/{design.constants['rod'] * mm:g} mm {design.cylinder} "

@@ -22,9 +22,6 @@ from grubler.app.drawing import _frame, default_trace
 MAX_FRAMES = 400  # frames sent to the page: 40 per second of a 10 s run (the graphs get every output row)
 
 
-DEGREES = {"rad": "deg", "rad/s": "deg/s", "rad/s^2": "deg/s^2"}
-
-
 def describe(column: str, actuators=(), forces=(), unit: str | None = None) -> str:
     """A run column in words with its unit: 'theta3_d' -> 'angular rate of link 3 (theta3_d), rad/s'.
 
@@ -36,13 +33,13 @@ def describe(column: str, actuators=(), forces=(), unit: str | None = None) -> s
 
 
 def plotted(column: str, values, actuators=(), forces=(), unit: str | None = None) -> dict:
-    """A column as the graphs get it: an angle (or its rates) in degrees, its label and unit saying so.
+    """A column as the graphs get it: its SI values and unit, and its words; the page shows it in the units
+    its user chose (static/units.js: an angle in deg or rad, a length in m or mm), the label saying so.
 
     ``unit``: the column's unit where the scene decides it (:func:`joint_units`), else the column's own."""
-    u, values = unit or unit_of(column), np.asarray(values, dtype=float)
-    if u in DEGREES:
-        u, values = DEGREES[u], np.degrees(values)
-    return {"name": column, "label": describe(column, actuators, forces, unit=u), "unit": u, "f32": _f32(values)}
+    u = unit or unit_of(column)
+    return {"name": column, "words": describe(column, actuators, forces, unit=""),
+            "label": describe(column, actuators, forces, unit=u), "unit": u, "f32": _f32(values)}
 
 
 def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque: float | None, cancel=None,
@@ -121,7 +118,44 @@ def balance_column(res, columns) -> dict:
 
     values = energy_balance({c: res[c] for c in columns}, res.model)
     return {"name": BALANCE, "unit": "J", "f32": _f32(values),
+            "words": f"{residue_name(False)}: E - E(0) - work in + dissipated ({BALANCE})",
             "label": f"{residue_name(False)}: E - E(0) - work in + dissipated ({BALANCE}), J"}
+
+
+def drive_frames(data: dict, t, drive, trace: str | None = None) -> dict:
+    """The frames of a run known by its drive joint's coordinate alone (a servo's co-simulation records it),
+    for the page to play as it plays a simulation: at most :data:`MAX_FRAMES` rows, evenly spread, each the
+    mechanism assembled with its drive joint there, from the row before (so it stays on the sketch's branch),
+    and the traced point's path.  Where the loop stops closing the frames stop; none for a scene without a
+    drive joint or of more than one degree of freedom."""
+    from grubler.errors import AssemblyError
+    from grubler.mechanism.assembly import assemble
+
+    scene = scene_from_dict(data)
+    m = scene.mechanism
+    t, drive = np.asarray(t, dtype=float), np.asarray(drive, dtype=float)
+    if m.drive is None or len(m.free_names) - len(m.closures) * 2 > 1 or not len(t):
+        return {"frame_t": [], "frames": [], "path": []}
+    point = trace_point(trace or default_trace(m), m)
+    i = m.free_index(m.drive)
+    rows = np.unique(np.linspace(0, len(t) - 1, min(len(t), MAX_FRAMES)).round().astype(int))
+    z = assemble(m, m.z_from_q(m.q_ref), scene.initial_rates)[0]
+    zs = []
+    for r in rows:
+        guess = z.copy()
+        guess[i] = drive[r]
+        try:
+            z = assemble(m, guess)[0]
+        except AssemblyError:
+            break
+        zs.append(z)
+    if not zs:
+        return {"frame_t": [], "frames": [], "path": []}
+    zs = np.array(zs)
+    sketch = Sketch(m, point)
+    k, local = point
+    return {"frame_t": t[rows[:len(zs)]].tolist(), "frames": [_frame(sketch.geometry(p)) for p in sketch.positions(zs)],
+            "path": np.round(link_points(m, zs, [k], [local])[:, 0, :], 6).tolist()}
 
 
 def _check_cancel(cancel, t: float) -> None:

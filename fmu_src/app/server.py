@@ -600,7 +600,7 @@ def a_servo(server, session, body, gone=None):
         session.cancel = threading.Event()
         return actions.run_servo(_data(body), body.get("servo"), server.inside("dist", "servo"),
                                  cancel=AnyOf(session.cancel, gone), unpacked=server.unpacked,
-                                 build_dir=server.builds)
+                                 build_dir=server.builds, trace=body.get("trace"))
 
 
 def a_sizing(server, session, body):

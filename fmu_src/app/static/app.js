@@ -102,25 +102,16 @@ function show(out, opts = {}) {
   }
   state.analysis = out;
   if (out.frame) state.drawn = out.sketch_of || out.scene;  // the scene the drawing is of
-  const c = out.class;
-  $("kind").textContent = c ? c.name + (c.inversion ? " — " + c.inversion : "") : "–";
-  $("grashof").textContent = c && c.grashof
-    ? `${c.grashof.kind}: s + l = ${fmt(c.grashof.s_plus_l)} m, p + q = ${fmt(c.grashof.p_plus_q)} m`
-    : (c ? "not a four-bar of pins" : "–");
-  $("grashof").title = c && c.grashof ? c.grashof.detail : "";
-  $("mobility").textContent = c ? String(c.mobility) : "–";
-  $("branch").textContent = out.branch
-    ? `${out.branch.angles.length ? out.branch.angles.join(", ") : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
-    : (out.closed === false ? "the loop does not close" : "–");
+  showFacts(out);
   const problem = $("problem");
   problem.hidden = !out.problem;
-  problem.textContent = out.problem ? `${out.problem.field}: ${out.problem.reason}` : "";
+  problem.textContent = out.problem ? `${out.problem.field}: ${sayMessage(out.problem.reason)}` : "";
   if (!opts.keepFields) renderFields(out.fields);
   document.querySelectorAll("#fields .err").forEach((e) => { e.textContent = ""; });
   const target = out.error && document.querySelector(`[data-err="${CSS.escape(out.error.field)}"]`);
-  if (target) target.textContent = out.error.reason;
+  if (target) target.textContent = sayMessage(out.error.reason);
   const error = $("error");
-  error.textContent = out.error && !target ? `${out.error.field}: ${out.error.reason}` : "";
+  error.textContent = out.error && !target ? `${out.error.field}: ${sayMessage(out.error.reason)}` : "";
   error.hidden = !error.textContent;
   if (out.trace && !$("trace").value) $("trace").value = out.trace;
   if (out.frame) {
@@ -130,7 +121,21 @@ function show(out, opts = {}) {
     $("edit-mode").disabled = true;
     drawScene(out);
   }
-  if (!opts.dragging) remember();
+  if (!opts.dragging) { remember(); noteScene(state.scene); }  // the history (history.js) keeps it
+}
+
+// the facts panel, its lengths in the page's units (units.js)
+function showFacts(out) {
+  const c = out.class;
+  $("kind").textContent = c ? c.name + (c.inversion ? " — " + c.inversion : "") : "–";
+  $("grashof").textContent = c && c.grashof
+    ? `${c.grashof.kind}: s + l = ${say(c.grashof.s_plus_l, "m")}, p + q = ${say(c.grashof.p_plus_q, "m")}`
+    : (c ? "not a four-bar of pins" : "–");
+  $("grashof").title = c && c.grashof ? c.grashof.detail : "";
+  $("mobility").textContent = c ? String(c.mobility) : "–";
+  $("branch").textContent = out.branch
+    ? `${out.branch.angles.length ? sayMessage(out.branch.angles.join(", ")) : "the sketch's"}: one of ${out.branch.count} found with ${out.branch.drive} held`
+    : (out.closed === false ? "the loop does not close" : "–");
 }
 
 // four significant digits, the zeros after a decimal point dropped (8000 stays 8000; 1.500e+6 is 1.5e6)
@@ -162,13 +167,15 @@ function renderFields(fields) {
     const leaf = f.key.slice(head === "scene" ? 0 : head.length + 1);
     label.innerHTML = "";
     label.append(leaf, " ");
-    if (f.unit) {
+    const si = f.text ? "" : f.unit;  // a number's unit as the page shows it (units.js); the value follows
+    const unit = shownUnit(si).unit;
+    if (unit) {
       const u = document.createElement("span");
       u.className = "unit";
-      u.textContent = "(" + f.unit + ")";
+      u.textContent = "(" + unit + ")";
       label.append(u);
     }
-    label.title = f.key + (f.unit ? " in " + f.unit : "");
+    label.title = f.key + (unit ? " in " + unit : "");
     const input = document.createElement(f.choices ? "select" : "input");
     input.id = id;
     input.dataset.key = f.key;
@@ -177,8 +184,9 @@ function renderFields(fields) {
       o.textContent = c;
       input.appendChild(o);
     }
-    input.value = Array.isArray(f.value) ? "[" + f.value.join(", ") + "]" : String(f.value);
-    input.addEventListener("change", () => edit(f.key, input.value));
+    const value = fieldShown(f.value, si);
+    input.value = Array.isArray(value) ? "[" + value.join(", ") + "]" : String(value);
+    input.addEventListener("change", () => edit(f.key, fieldSI(input.value, si)));
     const err = document.createElement("div");
     err.className = "err";
     err.dataset.err = f.key;
@@ -192,10 +200,17 @@ function renderFields(fields) {
   }
 }
 
-async function edit(key, value) {
-  try {
-    await analyse({ action: "edit", scene: state.scene, key, value });
-  } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+// one edit at a time, each on the scene the one before it answered with: a field changed while another's
+// answer is on its way would otherwise be sent on the scene without that one, and its answer undo it
+function edit(key, value) {
+  state.pendingEdits = (state.pendingEdits || 0) + 1;
+  state.edits = (state.edits || Promise.resolve()).then(async () => {
+    try {
+      await analyse({ action: "edit", scene: state.scene, key, value });
+    } catch (e) { notice(`${e.field}: ${e.message}`, true); }
+    finally { state.pendingEdits -= 1; }
+  });
+  return state.edits;
 }
 
 // -- the URL holds the scene, so a link can be shared ---------------------------------------------------
@@ -312,7 +327,9 @@ function setupAnalysis() {
   }));
 }
 
-function fmtDeg(rad) { return fmt(((rad * 180) / Math.PI % 360 + 360) % 360) + "°"; }
+// an angle modulo a turn, and a signed one, in the page's angle unit (units.js)
+function fmtDeg(rad) { return say(((rad % (2 * Math.PI)) + 2 * Math.PI) % (2 * Math.PI), "rad"); }
+function fmtAngle(deg) { return say((deg * Math.PI) / 180, "rad"); }
 
 function arrowMarkup(at, vec, scale, cls, text) {
   const s = state.box.span, L = Math.hypot(vec[0], vec[1]) * scale;
@@ -342,19 +359,19 @@ function analysisMarkup(a, shift) {
   }
   if (show.has("v")) {
     const k = (0.2 * s) / largest(a.points, "v");
-    for (const p of a.points) html += arrowMarkup(p.at, p.v, k, "vel", `${fmt(Math.hypot(...p.v))} m/s`);
+    for (const p of a.points) html += arrowMarkup(p.at, p.v, k, "vel", say(Math.hypot(...p.v), "m/s"));
   }
   if (show.has("a")) {
     const k = (0.2 * s) / largest(a.points, "a");
-    for (const p of a.points) html += arrowMarkup(p.at, p.a, k, "acc", `${fmt(Math.hypot(...p.a))} m/s²`);
+    for (const p of a.points) html += arrowMarkup(p.at, p.a, k, "acc", say(Math.hypot(...p.a), "m/s^2"));
   }
   if (show.has("ic")) html += centresMarkup(a.centres, shift);
   for (const t of a.transmission) {
-    html += labelMarkup([t.at[0] + 0.02 * s, t.at[1] - 0.045 * s], `μ${t.label.slice(2)} ${fmt(t.deg)}°`, "mu");
+    html += labelMarkup([t.at[0] + 0.02 * s, t.at[1] - 0.045 * s], `μ${t.label.slice(2)} ${fmtAngle(t.deg)}`, "mu");
     if (t.least_at) {
       html += `<circle class="mark least" cx="${t.least_at[0]}" cy="${t.least_at[1]}" r="${0.012 * s}"/>`;
       html += labelMarkup([t.least_at[0] + 0.015 * s, t.least_at[1] + 0.015 * s],
-        `μ${t.label.slice(2)} least ${fmt(t.least_deg)}°`, "mu");
+        `μ${t.label.slice(2)} least ${fmtAngle(t.least_deg)}`, "mu");
     }
   }
   for (const t of a.toggles) {
@@ -402,12 +419,12 @@ function showAnalysisFacts(a) {
       : fmt(a.advantage.value) + (a.advantage.unit ? " " + a.advantage.unit : "")}`);
   }
   for (const t of a.transmission) {
-    parts.push(`transmission angle μ${t.label.slice(2)} ${fmt(t.deg)}°` +
-      (t.least_deg !== undefined ? ` (least ${fmt(t.least_deg)}° at ${a.drive} ${fmtDeg(t.least_drive)})` : ""));
+    parts.push(`transmission angle μ${t.label.slice(2)} ${fmtAngle(t.deg)}` +
+      (t.least_deg !== undefined ? ` (least ${fmtAngle(t.least_deg)} at ${a.drive} ${fmtDeg(t.least_drive)})` : ""));
   }
   if (a.toggles.length) parts.push(`toggles at ${a.drive} ${a.toggles.map((t) => fmtDeg(t.drive)).join(", ")}`);
   if ((a.limits || []).length) {
-    const deg = (rad) => fmt((rad * 180) / Math.PI) + "°";  // signed: the range runs up from the first
+    const deg = (rad) => say(rad, "rad");  // signed: the range runs up from the first
     parts.push(`${a.drive} turns only from ${deg(a.limits[0].drive)} to ${deg(a.limits[1].drive)} (its limits)`);
   }
   if (!a.forces) parts.push(`no forces: ${a.forces_reason}`);
@@ -449,13 +466,14 @@ function drawScene(out) {
   const s = state.box.span;
   // a six-bar's origin being dragged: its answer is measured from the moved origin, drawn where the drag began
   const [sx, sy] = out.shift || [0, 0];
-  let html = `<g transform="scale(1,-1)"><g transform="translate(${sx},${sy})">`;
+  let html = `<g transform="scale(1,-1)">${gridMarkup()}<g transform="translate(${sx},${sy})">`;
   // the curve over the links' plates, which would hide it where it crosses them
   html += frameMarkup(out.frame, out.closed === false ? "open" : "");
   html += polyline(out.curve, "curve");
   for (const h of out.handles || []) {
     html += `<circle class="handle${state.dragging && state.dragging.id === h.id ? " active" : ""}" data-handle="${h.id}" cx="${h.xy[0]}" cy="${h.xy[1]}" r="${0.028 * s}"><title>drag: sets ${h.sets}</title></circle>`;
   }
+  html += dimsMarkup(out.dims);
   html += analysisMarkup(out.analysis, [sx, sy]);
   showAnalysisFacts(out.analysis);
   $("drawing").innerHTML = html + "</g></g>";
@@ -509,7 +527,7 @@ function setupDrag() {
   });
   svg.addEventListener("pointermove", (evt) => {
     if (!state.dragging) return;
-    const [x, y] = toWorld(evt);
+    const [x, y] = snapToGrid(toWorld(evt));  // on the grid when it is on (drawtools.js)
     state.queued = { x, y, at: performance.now(), drag: state.dragging };
     pump();
   });
@@ -553,6 +571,7 @@ function setupDrag() {
         drawScene(a);
       }
       state.settling = false;
+      noteScene(state.scene);  // the drag is one edit in the history (history.js)
     };
     const wait = () => (state.inflight || state.queued ? setTimeout(wait, 20) : settle());
     wait();
@@ -618,7 +637,7 @@ async function simulate() {
     play();
   } catch (e) {
     const at = e.field === "t_end" ? $("field-t_end") : $("run-status");
-    at.textContent = `${e.field}: ${e.message}`;
+    at.textContent = `${e.field}: ${sayMessage(e.message)}`;
     if (at !== $("run-status")) $("run-status").textContent = "";
   } finally {
     $("simulate").disabled = false;
@@ -626,10 +645,11 @@ async function simulate() {
   }
 }
 
-function decodeColumns(columns) {  // float32 columns, base64: decoded once
+function decodeColumns(columns, paren) {  // float32 columns, base64: decoded once, shown in the page's units
   for (const c of columns) {
     const bytes = Uint8Array.from(atob(c.f32), (ch) => ch.charCodeAt(0));
     c.values = new Float32Array(bytes.buffer);
+    columnShown(c, paren);
   }
 }
 
@@ -894,7 +914,11 @@ async function exportPng() {
 // -- the servo drive and the sizing study -------------------------------------------------------------------
 function servoSettings() {
   const out = {};
-  document.querySelectorAll("#servo-form [data-key]").forEach((e) => { out[e.dataset.key] = e.value; });
+  // a length or an angle (data-unit, its SI unit) as typed in the page's units: sent in SI; one left as it was
+  // filled, as the number it was filled from (a default of 20 rad/s^2 shown in deg/s^2 is not read back rounded)
+  document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
+    out[e.dataset.key] = e.dataset.unit && e.value === e.dataset.shown ? e.dataset.si : fieldSI(e.value, e.dataset.unit);
+  });
   return out;
 }
 
@@ -924,37 +948,45 @@ async function runServo() {
   $("servo-status").textContent = "co-simulating…";
   try {
     const timing = {};
-    const out = await api("servo", { scene: state.scene, servo: servoSettings() }, timing);
-    decodeColumns(out.columns);
+    const out = await api("servo", { scene: state.scene, servo: servoSettings(), trace: state.trace }, timing);
+    decodeColumns(out.columns, true);
     state.servo = out;
-    const col = (n) => out.columns.find((c) => c.name === n);
-    const lim = out.limits;
-    const host = $("servo-plots");
-    host.textContent = "";
-    const supply = lim.supply_pressure ? [{ value: lim.supply_pressure, label: "supply (rated)" }] : [];
-    const panels = out.kind === "cylinder" ? [
-      [[col("error")], []], [[col("setpoint"), col("response")], []],
-      [[col("pressure_a"), col("pressure_b")], supply], [[col("force")], []],
-    ] : [
-      [[col("error")], []],
-      [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
-        { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
-        ? [{ value: lim.nominal_current, label: "motor's nominal (continuous) current" }] : [])],
-      [[col("voltage"), col("command")], [{ value: lim.supply_voltage, label: "supply" }, { value: -lim.supply_voltage, label: "" }]],
-    ];
-    for (const [cols, limits] of panels) {
-      const svg = document.createElementNS(SVG, "svg");
-      host.appendChild(svg);
-      plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits });
-    }
+    drawServo();
+    servoRunShown(out);  // its animation on the drawing (servoplay.js)
     record("servo", t0, timing);
-    $("servo-status").textContent = out.summary + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
+    $("servo-status").textContent = sayMessage(out.summary) + `; on screen ${((performance.now() - t0) / 1000).toFixed(2)} s after the click`;
   } catch (e) {
     $("servo-error").textContent = `${e.field}: ${e.message}`;
     $("servo-status").textContent = "";
   } finally {
     $("servo-run").disabled = false;
     $("cancel").disabled = true;
+  }
+}
+
+// the servo run's graphs, each with a cursor at the instant its animation shows
+function drawServo() {
+  const out = state.servo;
+  if (!out) return;
+  const col = (n) => out.columns.find((c) => c.name === n);
+  const lim = out.limits;
+  const host = $("servo-plots");
+  host.textContent = "";
+  const supply = lim.supply_pressure ? [{ value: lim.supply_pressure, label: "supply (rated)" }] : [];
+  const panels = out.kind === "cylinder" ? [
+    [[col("error")], []], [[col("setpoint"), col("response")], []],
+    [[col("pressure_a"), col("pressure_b")], supply], [[col("force")], []],
+  ] : [
+    [[col("error")], []],
+    [[col("current")], [{ value: lim.current_limit, label: "drive's current limit" },
+      { value: -lim.current_limit, label: "" }].concat(lim.nominal_current
+      ? [{ value: lim.nominal_current, label: "motor's nominal (continuous) current" }] : [])],
+    [[col("voltage"), col("command")], [{ value: lim.supply_voltage, label: "supply" }, { value: -lim.supply_voltage, label: "" }]],
+  ];
+  for (const [cols, limits] of panels) {
+    const svg = document.createElementNS(SVG, "svg");
+    host.appendChild(svg);
+    plot(svg, out.t, cols, out.t[0], out.t[out.t.length - 1], { height: 180, limits, cursor: state.servoT || 0 });
   }
 }
 
@@ -1098,7 +1130,10 @@ async function showDrives(data) {
 
 function fillServo(d) {
   document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
-    if (d[e.dataset.key] !== undefined && d[e.dataset.key] !== null) e.value = String(d[e.dataset.key]);
+    const v = d[e.dataset.key];
+    if (v === undefined || v === null) return;
+    e.value = String(v === "" ? v : fieldShown(v, e.dataset.unit));
+    if (e.dataset.unit) Object.assign(e.dataset, { si: String(v), shown: e.value });
   });
 }
 
