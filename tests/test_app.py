@@ -917,9 +917,10 @@ def test_a_run_s_graphs_have_the_elements_forces_energies_and_the_balance_that_h
                  "payload_power"):
         assert name in cols, name
     assert cols["strut_force"]["unit"] == "N" and cols["strut_energy"]["unit"] == "J"
-    # a revolute's torsion spring reads in N m, its angle in degrees as the page's every angle
+    # a revolute's torsion spring reads in N m (its joint decides: not 'N m or N'), its angle in SI radians
+    # as every column the server sends (the page shows it in the angle unit its user chose: static/units.js)
     assert cols["hinge_effort"]["unit"] == "N m" and cols["hinge_effort"]["label"].endswith("(hinge_effort), N m")
-    assert cols["hinge_position"]["unit"] == "deg" and cols["hinge_speed"]["unit"] == "deg/s"
+    assert cols["hinge_position"]["unit"] == "rad" and cols["hinge_speed"]["unit"] == "rad/s"
     # the library's own numbers, as the CLI writes them
     res = simulate(scene_from_dict(data), t_end=3)
     res.compute(["energy"])
