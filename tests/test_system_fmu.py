@@ -29,10 +29,11 @@ ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(ROOT))
 
-from c_host import compile_host  # noqa: E402
+import builds  # noqa: E402
 
 SERVO = ["Trajectory", "Encoder", "PID", "DCMotor", "Mechanism"]
 STEP = 1e-3
+TOL_SETTINGS = {"master": "extrapolate", "tol": 1e-6}  # ServoFourbar3.fmu's start values
 
 
 def grubler(*args, cwd=None) -> subprocess.CompletedProcess:
@@ -42,22 +43,16 @@ def grubler(*args, cwd=None) -> subprocess.CompletedProcess:
 
 @pytest.fixture(scope="module")
 def servo(tmp_path_factory):
-    """The servo four-bar's FMUs built into a dist/ beside examples/servo_fourbar.ssd, and the system exported
-    as FMI 2 (ServoFourbar.fmu) and FMI 3 (ServoFourbar3.fmu)."""
-    import build_fmu
-
+    """The servo four-bar's FMUs in a dist/ beside examples/servo_fourbar.ssd, and the system exported as
+    FMI 2 (ServoFourbar.fmu, the default coupling: Gauss-Seidel, no tol) and FMI 3 (ServoFourbar3.fmu,
+    exported with master extrapolate and tol 1e-6), each built once (tests/builds.py)."""
     root = tmp_path_factory.mktemp("servo")
-    build_fmu.build(root / "dist", SERVO, "linux64")
+    builds.dist(root / "dist", SERVO)
     (root / "examples").mkdir()
     ssd = root / "examples" / "servo_fourbar.ssd"
     shutil.copy(ROOT / "examples" / "servo_fourbar.ssd", ssd)
-    out = {"root": root, "ssd": ssd}
-    for fmi, name in ((2, "ServoFourbar.fmu"), (3, "ServoFourbar3.fmu")):
-        r = grubler("export", ssd, "-o", root / name, "--fmi", fmi, "--platforms", "linux64")
-        assert r.returncode == 0, r.stderr
-        assert "one native FMU" in r.stdout
-        out[fmi] = root / name
-    return out
+    return {"root": root, "ssd": ssd, 2: builds.system_fmu(ssd, SERVO, root / "ServoFourbar.fmu"),
+            3: builds.system_fmu(ssd, SERVO, root / "ServoFourbar3.fmu", fmi=3, **TOL_SETTINGS)}
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +79,8 @@ def run_fmu(path: Path, names: list[str], t_end: float, h: float, fmi: int = 2, 
             f.instantiate()
             f.setupExperiment(startTime=0.0)
             for k, v in (parameters or {}).items():
-                f.setReal([vr[k]], [v])
+                (f.setString if isinstance(v, str) else f.setInteger if isinstance(v, int) else f.setReal)([vr[k]],
+                                                                                                           [v])
             f.enterInitializationMode()
             f.exitInitializationMode()
             get = f.getReal
@@ -93,7 +89,8 @@ def run_fmu(path: Path, names: list[str], t_end: float, h: float, fmi: int = 2, 
                           instanceName="system")
             f.instantiate()
             for k, v in (parameters or {}).items():
-                f.setFloat64([vr[k]], [v])
+                (f.setString if isinstance(v, str) else f.setInt32 if isinstance(v, int) else f.setFloat64)([vr[k]],
+                                                                                                            [v])
             f.enterInitializationMode(startTime=0.0)
             f.exitInitializationMode()
             get = f.getFloat64
@@ -134,10 +131,144 @@ def test_an_importers_long_step_is_made_of_communication_steps(servo, reference)
 
 
 def test_fmi3_build_of_the_same_models_gives_the_same_run(servo):
+    # (the FMI 3 build's start values are the settings the FMI 2 run is given)
     names = ["mechanism.theta2", "motor.current", "controller.u", "encoder.measured_position"]
-    two = run_fmu(servo[2], names, 0.5, STEP)
+    two = run_fmu(servo[2], names, 0.5, STEP, parameters=TOL_SETTINGS)
     three = run_fmu(servo[3], names, 0.5, STEP, fmi=3)
     np.testing.assert_array_equal(two, three)
+
+
+# -- the coupling: grubler cosim's --master and --tol as the FMU's parameters master and tol -----------
+
+def _outputs(fmu: Path) -> set[str]:
+    from fmpy import read_model_description
+
+    return {v.name for v in read_model_description(str(fmu)).modelVariables if v.causality == "output"}
+
+
+def test_master_and_tol_are_fixed_parameters_in_cosims_words_with_the_exports_start_values(servo):
+    from fmpy import read_model_description
+
+    two, three = ({v.name: v for v in read_model_description(str(servo[k])).modelVariables} for k in (2, 3))
+    master, tol = two["master"], two["tol"]
+    assert master.type == "String" and master.causality == "parameter" and master.variability == "fixed"
+    assert all(m in master.description for m in ("gauss-seidel", "jacobi", "extrapolate"))
+    assert tol.type == "Real" and tol.causality == "parameter" and tol.variability == "fixed" and tol.unit == "1"
+    assert "grubler cosim --tol" in tol.description and two["communication_step"].unit == "s"
+    # the default export: grubler cosim's default coupling; --master extrapolate --tol 1e-6: those starts
+    assert (master.start, float(tol.start)) == ("gauss-seidel", 0.0)
+    assert (three["master"].start, float(three["tol"].start)) == ("extrapolate", 1e-6)
+
+
+@pytest.mark.parametrize("settings", [{"master": "jacobi"}, {"master": "extrapolate"},
+                                      {"master": "extrapolate", "tol": 1e-8}], ids=["jacobi", "extrapolate", "tol"])
+def test_each_master_and_tol_set_on_the_fmu_match_grubler_cosim_with_the_same_settings(servo, settings):
+    from grubler.system import cosim
+
+    want = cosim.run(servo["ssd"], t_end=0.5, step=STEP, **settings)
+    names = [c for c in want.columns if c in _outputs(servo[2])]
+    got = run_fmu(servo[2], names, 0.5, STEP, parameters=settings)
+    worst = np.max(np.abs(got - np.column_stack([want[c] for c in names])) / np.maximum(1.0, np.abs(got)))
+    assert worst <= 1e-12, worst
+    if "tol" in settings:
+        assert want.coupling["substeps"] > 500  # sub-steps were made (and matched)
+    # an importer's doStep of 10 ms is ten communication steps that carry the history and the sub-step clock
+    coarse = run_fmu(servo[2], ["mechanism.theta2"], 0.5, 10 * STEP, parameters=settings)[:, 0]
+    assert np.max(np.abs(coarse - np.asarray(want["mechanism.theta2"])[::10])) < 1e-9
+
+
+def test_with_tol_1e_6_it_matches_cosim_tol_1e_6_and_is_closer_to_one_monolithic_simulation(servo):
+    # ServoFourbar3.fmu, exported with --master extrapolate --tol 1e-6, runs as grubler cosim --tol 1e-6
+    import dataclasses
+
+    from grubler.system import cosim
+    from servo_reference import monolithic
+
+    sys.path.insert(0, str(ROOT / "examples"))
+    import servo_fourbar
+
+    want = cosim.run(servo["ssd"], t_end=0.5, step=STEP, tol=1e-6)
+    names = [c for c in want.columns if c in _outputs(servo[3])]
+    got = run_fmu(servo[3], names, 0.5, STEP, fmi=3)
+    worst = np.max(np.abs(got - np.column_stack([want[c] for c in names])) / np.maximum(1.0, np.abs(got)))
+    assert worst <= 1e-12, worst
+    # with the encoder's quantisation off, against the servo as one ODE (tests/servo_reference.py): the crank
+    # at every sample instant, the FMU with its tol and with tol 0 (its Gauss-Seidel default)
+    quiet = {"encoder.counts_per_rev": 0}
+    ref = monolithic(dataclasses.replace(servo_fourbar.DESIGN, encoder={"counts_per_rev": 0, "Ts": STEP}), 0.2)
+    tight = run_fmu(servo[3], ["mechanism.drive_angle"], 0.2, STEP, fmi=3, parameters=quiet)[:, 0]
+    plain = run_fmu(servo[2], ["mechanism.drive_angle"], 0.2, STEP, parameters=quiet)[:, 0]
+    err_tight, err_plain = (np.max(np.abs(x - ref["drive_angle"])) for x in (tight, plain))
+    assert err_tight < 1e-6 and err_tight < err_plain / 100, (err_tight, err_plain)
+
+
+@pytest.mark.parametrize("script, named", [
+    ("setr {tol} -1", "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got -1"),
+    ("setr {tol} nan", "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got nan"),
+    ("setr {tol} 1e-6", 'tol: error control is the extrapolating master\'s (master = "extrapolate"), but master is '
+                        '"gauss-seidel"'),
+    ("sets {master} jacobi\nsetr {tol} 1e-6", 'but master is "jacobi"'),
+], ids=["negative", "nan", "gauss-seidel", "jacobi"])
+def test_a_bad_tol_is_an_error_naming_it(host, servo, tmp_path, script, named):
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    out = host_run(host, servo, "new 0 s\nsetup 0\n" + script.format(**vr) + "\nenter\nexit\nstep 0 0.001\nfree\n",
+                   tmp_path)
+    assert next(line for line in out if line.startswith("exit")).split()[1] == "3", out  # Error
+    assert any(line.startswith("log") and named in line for line in out), out
+
+
+def test_a_master_it_does_not_run_is_refused_naming_it_and_its_choices(host, servo, tmp_path):
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    out = host_run(host, servo, f"new 0 s\nsetup 0\nsets {vr['master']} newton\nfree\n", tmp_path)
+    assert next(line for line in out if line.startswith("sets")).split()[1] == "3", out
+    assert any("master cannot be 'newton'" in line and "gauss-seidel" in line for line in out), out
+
+
+def test_an_adaptive_run_replays_bit_for_bit_from_a_saved_state(host, servo, tmp_path):
+    # the extrapolating master's history and the sub-step clock are in the state: a run restored mid-way
+    # goes on as the run that was never interrupted (memory and bytes alike)
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    theta = vr["mechanism.theta2"]
+    script = (f"new 0 s\nsetup 0\nsets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7\nenter\nexit\n"
+              f"run 0 0.001 150\nsave 0\nser 0 state.bin\nrun 0.15 0.001 100 {theta}\nload 0\n"
+              f"run 0.15 0.001 100 {theta}\ndeser 1 state.bin\nload 1\nrun 0.15 0.001 100 {theta}\nfree\n")
+    out = rows(host_run(host, servo, script, tmp_path))
+    first, again, from_bytes = out[150:250], out[250:350], out[350:450]
+    assert len(from_bytes) == 100 and first == again == from_bytes
+    # the extrapolated run is another run than Gauss-Seidel's
+    plain = run_fmu(servo[2], ["mechanism.theta2"], 0.25, STEP)[151:, 0]
+    assert np.max(np.abs(np.array([r[1] for r in first]) - plain)) > 1e-6
+
+
+def test_the_export_takes_cosims_master_and_tol_and_refuses_what_cosim_refuses(servo, tmp_path, monkeypatch,
+                                                                             capsys):
+    from grubler import cli
+    from grubler.system import native
+
+    asked = {}
+
+    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None):
+        asked.update(master=master, tol=tol)
+        return Path(dest)
+
+    monkeypatch.setattr(native, "export_native_system", export)
+    assert cli.main(["export", str(servo["ssd"]), "-o", str(tmp_path / "S.fmu"), "--tol", "1e-7",
+                     "--platforms", "linux64"]) == 0
+    assert asked == {"master": "extrapolate", "tol": 1e-7}
+    assert "master extrapolate, tol 1e-07" in capsys.readouterr().out
+    for args, words in ((["--master", "jacobi", "--tol", "1e-7"], "tol: the adaptive step is the extrapolating "
+                                                                   "master's (master 'extrapolate'), got master "
+                                                                   "'jacobi'"),
+                        (["--tol", "0"], "--tol"), (["--tol", "1"], "--tol"), (["--master", "newton"], "--master")):
+        r = grubler("export", servo["ssd"], "-o", tmp_path / "S.fmu", *args)
+        assert r.returncode == 2 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "S.fmu").exists()
 
 
 def test_a_parameter_of_a_component_is_the_systems_and_reaches_it(servo):
@@ -180,7 +311,7 @@ def test_one_binary_no_nested_fmu_units_and_its_own_identifier(servo):
 
 @pytest.fixture(scope="module")
 def host(servo):
-    return compile_host(servo["root"] / "fmi_host")
+    return builds.host()
 
 
 def host_run(host, servo, script: str, cwd: Path) -> list[str]:
@@ -388,15 +519,25 @@ def test_random_call_sequences_under_asan_and_ubsan(servo, tmp_path):
     # serialised, restored, mutated blobs, calls in any state) on the system rebuilt from its sources with
     # AddressSanitizer and UBSan: no report, no crash, never Fatal
     from fmpy import read_model_description
-    from test_native_fmu import SANITIZE, random_calls_hold, sanitized_binary
+    from test_native_fmu import SANITIZE, SANITIZER_ENV, random_calls_hold, sanitized_binary
 
-    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(tmp_path / "probe")],
-                           input="int main(void){return 0;}", capture_output=True, text=True)
-    if probe.returncode != 0:
-        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
+    if builds.sanitizer_problem():
+        pytest.skip(f"cc cannot build with sanitizers here: {builds.sanitizer_problem()}")
     zipfile.ZipFile(servo[2]).extractall(tmp_path / "u")
     md = read_model_description(str(servo[2]))
-    sanitized = {"host": compile_host(tmp_path / "fmi_host", flags=SANITIZE),
+    sanitized = {"host": builds.host(flags=tuple(SANITIZE)),
                  "ServoFourbar": sanitized_binary(tmp_path / "u", md, tmp_path / "ServoFourbar.so")}
     for seed in (1, 2):
         random_calls_hold(sanitized, "ServoFourbar", md, seed, tmp_path)
+    # the extrapolating master with error control (sub-steps rolled back through the components' blocks),
+    # with steps of 1 to 7 ms, a state saved, restored and serialised in between
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    script = (f"new 0 s\nsetup 0\nsets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7\nenter\nexit\n"
+              f"run 0 0.001 20\nsave 0\nrun 0.02 0.007 10\nload 0\nser 0 s.bin\ndeser 1 s.bin\nload 1\n"
+              f"run 0.02 0.003 10 {vr['mechanism.theta2']}\nfree\n")
+    proc = subprocess.run([str(sanitized["host"]), str(sanitized["ServoFourbar"]), md.guid], input=script,
+                          capture_output=True, text=True, timeout=600, env=SANITIZER_ENV, cwd=tmp_path)
+    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+        proc.stderr[-3000:]
+    assert [line.split()[1] for line in proc.stdout.splitlines() if line.split()[0] in ("run", "load", "deser")] \
+        == ["0"] * 6, proc.stdout[-2000:]

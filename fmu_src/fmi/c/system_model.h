@@ -58,6 +58,9 @@ typedef struct grb_component {
     const unsigned int *out_vr;
     int out_base;
     const int *out_level;              /* and the system's output level of each (1 + the component's own level) */
+    int sampled;                       /* reads its inputs at sample instants (grubler.system.coupling) */
+    const int *in_mode;                /* the extrapolating master's mode of each connected input (grb_input_mode), */
+    const int *in_mode_adaptive;       /* and with a tolerance, in the adaptive stepping order */
 } grb_component;
 
 #endif
