@@ -614,3 +614,50 @@ def test_the_aarch64_linux_binary_under_qemu_runs_as_linux64s(cross, tmp_path):
     from test_platforms import host_build, qemu_wrapper
 
     _agrees_with_linux64(cross, "aarch64-linux", qemu_wrapper(), host_build(tmp_path, "aarch64-linux-gnu.2.17"), {})
+
+
+# -- fmusim, the FMI Reference FMUs' importer (GRUBLER_FMUSIM or PATH, as tests/test_container.py finds it) ---
+
+def run_fmusim(fmu: Path, out: Path, names: list[str], t_end: float, *extra: str) -> np.ndarray:
+    """fmusim's run of ``fmu`` at 1 ms in an empty environment: the outputs ``names``, a row a step."""
+    from test_container import fmusim
+
+    if fmusim() is None:
+        pytest.skip("no fmusim (the FMI reference importer): set GRUBLER_FMUSIM to one, or put it on PATH "
+                    "(docs/fmi.md says how to build it)")
+    picks = [a for n in names for a in ("--output-variable", n)]
+    proc = subprocess.run([fmusim(), "--interface-type", "cs", "--stop-time", str(t_end), "--output-interval",
+                           str(STEP), *extra, *picks, "--output-file", str(out), str(fmu)], env={},
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    return np.column_stack([data[n.replace(".", "")] for n in names])  # (genfromtxt drops the dots)
+
+
+def test_it_runs_in_fmusim_in_an_empty_environment_as_in_the_c_host_fmi_2_and_3(host, servo, tmp_path):
+    # FMI 2 with its defaults; FMI 2 given FMI 3's start values with --start-value, and the FMI 3 build
+    # (exported with them): each as the C host runs it (fmpy here: the C host's test holds fmpy's to 1e-12)
+    # (to 1e-12 of max(1, |value|): fmusim adds up its own time, one rounding from t = k h)
+    def close(a, b):
+        return np.max(np.abs(a - b) / np.maximum(1.0, np.abs(b))) <= 1e-12
+
+    names = ["mechanism.theta2", "motor.current", "controller.u"]
+    plain = run_fmusim(servo[2], tmp_path / "2.csv", names, 0.5)
+    assert close(plain, run_fmu(servo[2], names, 0.5, STEP))
+    starts = [a for k, v in TOL_SETTINGS.items() for a in ("--start-value", k, str(v))]
+    two = run_fmusim(servo[2], tmp_path / "2tol.csv", names, 0.5, *starts)
+    three = run_fmusim(servo[3], tmp_path / "3.csv", names, 0.5)
+    np.testing.assert_array_equal(two, three)
+    assert close(three, run_fmu(servo[3], names, 0.5, STEP, fmi=3))
+    assert np.max(np.abs(three - plain)) > 1e-6  # another coupling: another run
+
+
+def test_fmusim_reports_a_bad_tol_and_exits_with_an_error(servo, tmp_path):
+    from test_container import fmusim
+
+    if fmusim() is None:
+        pytest.skip("no fmusim: set GRUBLER_FMUSIM to one, or put it on PATH")
+    proc = subprocess.run([fmusim(), "--interface-type", "cs", "--stop-time", "0.01", "--start-value", "tol", "-1",
+                           str(servo[2])], env={}, capture_output=True, text=True, timeout=600)
+    assert proc.returncode != 0
+    assert "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got -1" in proc.stdout + proc.stderr
