@@ -661,3 +661,51 @@ def test_fmusim_reports_a_bad_tol_and_exits_with_an_error(servo, tmp_path):
                            str(servo[2])], env={}, capture_output=True, text=True, timeout=600)
     assert proc.returncode != 0
     assert "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got -1" in proc.stdout + proc.stderr
+
+
+# -- directional derivatives: the outputs along the system's inputs ----------------------------------------
+
+@pytest.fixture(scope="module")
+def pushed(servo):
+    """A four-bar whose crank a PID drives by its torque (no motor), the trajectory's velocity its
+    feedforward, so that the system's one input is the mechanism's load torque: every unconnected input is
+    the mechanism's, which gives directional derivatives (the servo's controller.feedforward is a PID's,
+    which gives none)."""
+    from grubler.system.ssp import System
+
+    s = System("pushed", base=servo["root"] / "dist", step=STEP)
+    s.add("profile", "Trajectory.fmu", kind="sine", amplitude=0.5, frequency=1.0)
+    s.add("controller", "PID.fmu", K=20.0, Ts=STEP)
+    s.add("mechanism", "Mechanism.fmu", load_joint="theta4")  # (the rocker carries the load)
+    s.connect("profile.position", "controller.setpoint")
+    s.connect("mechanism.drive_angle", "controller.measurement")
+    s.connect("profile.velocity", "controller.feedforward")
+    s.connect("controller.u", "mechanism.motor_torque")
+    ssd = s.write(servo["root"] / "examples" / "pushed.ssd")
+    return builds.system_fmu(ssd, ["Trajectory", "PID", "Mechanism"], servo["root"] / "Pushed.fmu")
+
+
+def test_its_outputs_derivatives_along_its_inputs_are_its_components_own(host, servo, pushed, tmp_path):
+    from fmpy import read_model_description
+
+    md = read_model_description(str(pushed))
+    assert md.coSimulation.providesDirectionalDerivative
+    assert not read_model_description(str(servo[2])).coSimulation.providesDirectionalDerivative
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.name for v in md.modelVariables if v.causality == "output"]
+    load, refs = vr["mechanism.load_torque"], " ".join(str(vr[n]) for n in outs)
+    e = 1e-3
+    zipfile.ZipFile(pushed).extractall(tmp_path / "u")
+    script = (f"new 0 s\nsetup 0\nenter\nexit\nrun 0 0.001 200\nsetr {load} 0.5\nddr {load} {refs}\n"
+              f"setr {load} {0.5 + e!r}\ngetr {refs}\nsetr {load} {0.5 - e!r}\ngetr {refs}\nfree\n")
+    r = subprocess.run(["env", "-i", str(host), str(tmp_path / "u" / "binaries" / "linux64" / "Pushed.so"), md.guid],
+                       input=script, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = [line.split() for line in r.stdout.splitlines() if line.startswith(("ddr", "getr"))]
+    assert [line[1] for line in lines] == ["0", "0", "0"], r.stdout[-2000:]
+    dd, up, down = (np.array(line[2:], float) for line in lines)
+    fd = (up - down) / (2 * e)  # the accelerations and forces are affine in the load: exact to rounding
+    assert np.max(np.abs(dd - fd) / np.maximum(1.0, np.abs(fd))) < 1e-6, np.column_stack([dd, fd])
+    moved = {n for n, d in zip(outs, dd) if d != 0.0}
+    assert {"mechanism.theta2_dd", "mechanism.theta4_dd"} <= moved, moved
+    assert not any(n.startswith(("profile.", "controller.")) for n in moved), moved

@@ -129,6 +129,12 @@ class ComponentModel:
     def row(self, name: str) -> TableRow:
         return next(r for r in self.table if r.name == name)
 
+    @property
+    def directional(self) -> bool:
+        """Its model gives its outputs' derivatives along its inputs (providesDirectionalDerivative)."""
+        return re.search(r"^#define MODEL_DIRECTIONAL_DERIVATIVE 1$", (self.sources / "config.h").read_text(),
+                         re.M) is not None
+
 
 def _includes(folder: Path) -> dict[str, set[str]]:
     return {f.name: set(INCLUDE.findall(f.read_text(encoding="utf-8", errors="replace")))
@@ -325,6 +331,11 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
              "adaptive_position": adaptive_seq.index(name)}
         n_in, n_conn, n_free = n_in + len(w["in"]), n_conn + len(w["conn"]), max(n_free, len(w["free"]))
         wiring.append(w)
+    # directional derivatives of the outputs along the system's inputs: an input moves only its own
+    # component's outputs at an instant (the connections carry the values of the last communication point),
+    # so the system gives them when every component with an unconnected input gives its own
+    owners = [models[interfaces[w["name"]].path] for w in wiring if w["free"]]
+    directional = {"MODEL_DIRECTIONAL_DERIVATIVE": 1} if owners and all(m.directional for m in owners) else {}
     parts = hashlib.sha256(repr([(m.identifier, m.guid) for m in models.values()]).encode()).hexdigest()
     spec = ModelSpec(identifier, system.description or f"the system {system.name} as one FMU", tuple(variables),
                      "system_model.c",
@@ -333,7 +344,7 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                               "SYSTEM_N_OUT_MAX": max([len(w["out"]) for w in wiring] + [0]),
                               "SYSTEM_SLOT_STEP": 0, "SYSTEM_SLOT_MASTER": 1, "SYSTEM_SLOT_TOL": 2,
                               # the component models' GUIDs: the system's GUID changes with any of them
-                              "SYSTEM_MODELS": int(parts[:12], 16)},
+                              "SYSTEM_MODELS": int(parts[:12], 16), **directional},
                      n_outputs=n_out, enums=tuple(enums.values()),
                      kernel_sources=((MASTER_DIR, ("master.c",)), (C_DIR, ("system_model.h",))),
                      state=(("started", 1), ("t", 1), ("values", len(connected_slot)),
@@ -406,10 +417,15 @@ static int glue_do_step(void *ci, double t, double h, int no_set_fmu_state_prior
     (void)no_set_fmu_state_prior;
     return (int)grb_do_step((grb_instance *)ci, "doStep", t, h);
 }
+static int glue_directional(void *ci, const unsigned int *unknown, size_t n_unknown, const unsigned int *known,
+                            size_t n_known, const double *seed, double *sensitivity) {
+    return (int)grb_directional_derivative((grb_instance *)ci, "getDirectionalDerivative", unknown, n_unknown, known,
+                                           n_known, seed, sensitivity);
+}
 
 const grb_component_calls PREFIXcalls = {
     model_persistent_size, model_scratch_bytes, glue_fresh, glue_block_ok, glue_prepare, grb_exit_initialization,
-    glue_set_real, glue_get_real, glue_do_step
+    glue_set_real, glue_get_real, glue_do_step, glue_directional
 };
 """
 

@@ -62,6 +62,11 @@ typedef struct system_scratch {
     unsigned int ask_vr[SYSTEM_N_OUT_MAX + 1];  /* one component's outputs asked for, */
     double ask_value[SYSTEM_N_OUT_MAX + 1];     /* their values */
     double *backup;  /* the block before the step under way */
+#if MODEL_DIRECTIONAL_DERIVATIVE
+    unsigned int dd_vr[MODEL_N_OUTPUTS + 1];  /* one component's outputs asked for, */
+    size_t dd_at[MODEL_N_OUTPUTS + 1];        /* where each goes among the importer's, */
+    double dd_value[MODEL_N_OUTPUTS + 1];     /* their derivatives */
+#endif
 } system_scratch;
 
 #define BAD(...) do { grb_log(inst, GRB_FMI_ERROR, __VA_ARGS__); return GRB_FMI_ERROR; } while (0)
@@ -442,3 +447,51 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     inst->level = 0;
     return GRB_FMI_OK;
 }
+
+#if MODEL_DIRECTIONAL_DERIVATIVE
+/* The system's outputs' derivatives along its inputs: an input of the system is one component's
+ * unconnected input, and at an instant it moves only that component's outputs (the others read the
+ * connections' values of the last communication point, as model_compute reads them), so each known's
+ * column is its component's own directional derivative, and zero for every other component's outputs.
+ * (grubler.system.native declares it only when every component with an unconnected input gives its own.) */
+grb_fmi_status model_directional_derivative(grb_instance *inst, const grb_value_reference unknown[],
+                                            size_t n_unknown, const grb_value_reference known[], size_t n_known,
+                                            const double dv_known[], double dv_unknown[]) {
+    system_scratch *s = (system_scratch *)inst->model;
+    size_t i, j, n, m;
+    int k, at;
+    if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    for (i = 0; i < n_unknown; i++) dv_unknown[i] = 0.0;
+    for (j = 0; j < n_known; j++) {
+        const grb_component *c = NULL;
+        unsigned int vr = 0;
+        int slot = model_variables[known[j] - 1].slot;
+        for (k = 0; k < SYSTEM_N_COMPONENTS && c == NULL; k++)
+            for (m = 0; m < system_components[k].n_free; m++)
+                if (system_components[k].free_slot[m] == slot) {
+                    c = &system_components[k];
+                    vr = c->free_vr[m];
+                    break;
+                }
+        if (c == NULL)
+            BAD("getDirectionalDerivative: %s is not an input of a component", model_variables[known[j] - 1].name);
+        if (dv_known[j] == 0.0) continue;
+        /* this component's outputs among the unknowns, a buffer's worth at a time */
+        for (i = 0; i < n_unknown;) {
+            for (n = 0; i < n_unknown && n < MODEL_N_OUTPUTS; i++) {
+                at = model_variables[unknown[i] - 1].slot - c->out_base;
+                if (at >= 0 && (size_t)at < c->n_out) {
+                    s->dd_vr[n] = c->out_vr[at];
+                    s->dd_at[n++] = i;
+                }
+            }
+            if (n == 0) continue;
+            if (c->calls->directional(&s->comp[c - system_components], s->dd_vr, n, &vr, 1, &dv_known[j],
+                                      s->dd_value) > GRB_FMI_WARNING)
+                BAD("%s: its directional derivatives failed (see its reason above)", c->name);
+            for (m = 0; m < n; m++) dv_unknown[s->dd_at[m]] += s->dd_value[m];
+        }
+    }
+    return GRB_FMI_OK;
+}
+#endif

@@ -29,6 +29,10 @@ typedef struct grb_component_calls {
     int (*set_real)(void *ci, const unsigned int *vr, size_t n, const double *value);
     int (*get_real)(void *ci, const unsigned int *vr, size_t n, double *value);
     int (*do_step)(void *ci, double t, double h, int no_set_fmu_state_prior);
+    /* its outputs' derivatives along its inputs at the present state (its FMU's getDirectionalDerivative;
+     * an Error where its model provides none) */
+    int (*directional)(void *ci, const unsigned int *unknown, size_t n_unknown, const unsigned int *known,
+                       size_t n_known, const double *seed, double *sensitivity);
 } grb_component_calls;
 
 /* A value the system's block gives a component's: one of its parameters or unconnected inputs. */
