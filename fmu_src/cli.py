@@ -360,20 +360,25 @@ def cmd_app(args) -> int:
 def cmd_export(args) -> int:
     if args.scene.lower().endswith((".ssd", ".ssp")):  # a system: one FMU of its FMUs
         from grubler.system.container import execution_tools, export_system
-        from grubler.system.native import export_native_system, why_not_native
+        from grubler.system.native import coupling_settings, export_native_system, why_not_native
         from grubler.system.ssp import read
         from grubler.fmi.build import platforms_note, select_targets
 
         system = read(args.scene)
         why = "--container asks for it" if args.container else why_not_native(system)
         if why is None:  # every FMU native: their models and the master compiled into one binary
+            master, tol = coupling_settings(args.master, args.tol)
             platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
-            path = export_native_system(system, args.out, platforms, fmi=args.fmi, field="--out")
-            print(f"wrote {path} (one native FMU: its components' models and grubler cosim's Gauss-Seidel master "
-                  "in one binary)")
+            path = export_native_system(system, args.out, platforms, fmi=args.fmi, field="--out", master=master,
+                                        tol=args.tol)
+            print(f"wrote {path} (one native FMU: its components' models and grubler cosim's master in one binary; "
+                  f"master {master}" + (f", tol {tol:g}" if tol else "") + ": its parameters master and tol)")
             if args.platforms is None and platforms_note():
                 print(platforms_note())
             return 0
+        if (args.master or args.tol) and (args.master != "jacobi" or args.tol):
+            raise GrublerError(f"--{'tol' if args.tol else 'master'}: fmpy's container steps its FMUs "
+                               f"as --master jacobi, without error control ({why})")
         if not args.container:
             print(f"note: {why}, so the system cannot be one native FMU: its FMUs go nested in fmpy's container "
                   "(Jacobi coupling, no FMU state; docs/cosim.md)", file=sys.stderr)
@@ -870,6 +875,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "grubler FMU, which makes one native FMU by default")
     e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
                                        "(default: every one this machine can build)")
+    e.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate"],
+                   help="a system's one native FMU: the start value of its parameter master, the coupling as "
+                        "`grubler cosim --master` makes it (default gauss-seidel, extrapolate with --tol)")
+    e.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),
+                   help="a system's one native FMU: the start value of its parameter tol, error-controlled "
+                        "sub-steps as `grubler cosim --tol` makes them (default 0: none)")
     e.set_defaults(func=cmd_export)
     el = sub.add_parser("export-law", help="a native FMU of a control law written as one C function (grubler_law.h)")
     el.add_argument("source", help="the C file: GRUBLER_* declarations and law_step")

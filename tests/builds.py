@@ -14,8 +14,10 @@ into it:
   flags, the platforms built, the FMI version, the versions of fmpy (and its FMI
   headers' bytes), pythonfmu and Python, and the FMU's name;
 * a controller FMU (pythonfmu, ``controller_fmu``): that, plus the law's own module file;
+* a system's one native FMU (``system_fmu``): the package's key, the SSD's bytes and the export's
+  arguments;
 * the C host and a compile of an FMU's sources (``host``, ``shared_library``,
-  ``sanitized_binary``): the exact files compiled (every file in the FMU's
+  ``sanitized_binary``, and ``compile_check``'s pass of a warning check): the exact files compiled (every file in the FMU's
   ``sources/``, or ``tests/fmi_host.c``, ``c_host.py`` and the FMI headers), the
   compiler's identity and the flags.
 
@@ -222,6 +224,31 @@ def spatial(preset: str, dest: Path, platforms=None, fmi: int = 2) -> Path:
                           lambda d: export_spatial(mechanism, d / dest.name, platforms=platforms, fmi=fmi)), dest)
 
 
+def system_fmu(ssd: Path, names, dest: Path, platforms: str = "linux64", fmi: int = 2, master: str | None = None,
+               tol: float | None = None) -> Path:
+    """``export_native_system`` of the system ``ssd`` (its FMUs build_fmu.py's ``names``, in a ``dist/`` beside
+    the SSD's folder, as examples/*.ssd name them), from the cache: a copy at ``dest``.
+
+    (The key is the package's, the SSD's bytes and the export's arguments: the component FMUs are
+    build_fmu.py's of the same package, so they add nothing to it.)
+    """
+    from grubler.system.native import export_native_system
+
+    ssd, dest = Path(ssd), Path(dest)
+    key = digest(package_key(), ssd, *names, dest.name, platforms, fmi, master or "", repr(tol))
+
+    def make(d: Path) -> Path:
+        dist(d / "dist", list(names))
+        (d / "examples").mkdir()
+        shutil.copy(ssd, d / "examples" / ssd.name)
+        made = export_native_system(d / "examples" / ssd.name, d / dest.name, platforms, fmi=fmi, master=master,
+                                    tol=tol)
+        shutil.rmtree(d / "dist")  # (only the system FMU is kept)
+        return made
+
+    return copy_to(cached(f"system-{dest.stem}-fmi{fmi}", key, make), dest)
+
+
 def controller_fmu(law: type, dest: Path) -> Path:
     """``build_controller_fmu(law, dest)`` from the cache: a copy at ``dest`` (a folder or a ``.fmu``)."""
     import inspect
@@ -275,6 +302,25 @@ def sanitized_binary(unzipped_dir: Path, desc, out: Path) -> Path:
     files = list(desc.buildConfigurations[0].sourceFileSets[0].sourceFiles)
     kind = f"asan-{desc.coSimulation.modelIdentifier}-fmi{desc.fmiVersion[0]}"
     return shared_library(kind, unzipped_dir / "sources", files, SANITIZE, out)
+
+
+def compile_check(label: str, src: Path, flags) -> None:
+    """Every C file in ``src`` (the sources/ of the FMU ``label``) compiled alone with ``flags`` (a warning made an error:
+    ``-Wstack-usage=8192 -Werror``), once per sources, flags and compiler: a pass is kept, a failure raised
+    (AssertionError naming the file and the compiler's words) and not kept."""
+    cc = flags[0]
+    key = digest(compiler_identity(cc), *flags, folder_digest(src))
+
+    def make(d: Path) -> Path:
+        for c in sorted(src.glob("*.c")):
+            proc = subprocess.run([*flags, "-c", str(c), "-o", str(d / "x.o"), "-I", str(src)], capture_output=True,
+                                  text=True)
+            assert proc.returncode == 0, f"{src.parent.name}/{c.name}:\n{proc.stderr[-2000:]}"
+        (d / "x.o").unlink(missing_ok=True)
+        (d / "passed").write_text(" ".join(map(str, flags)))
+        return d / "passed"
+
+    cached(f"check-{label}", key, make)
 
 
 @functools.lru_cache(maxsize=None)

@@ -231,9 +231,15 @@ def library(cross_built, name: str, folder: str) -> Path:
 @pytest.mark.parametrize("folder", FOLDERS)
 @pytest.mark.parametrize("name", NATIVE)
 def test_each_binary_needs_only_the_c_library_and_exports_only_fmi2(cross_built, name, folder):
+    needs_only_the_c_library(library(cross_built, name, folder), folder)
+
+
+def needs_only_the_c_library(binary: Path, folder: str) -> None:
+    """``binary`` (of the FMI 2.0 platform ``folder``) imports only the C library (glibc 2.17's versions
+    or older, KERNEL32 and the C runtime, libSystem) and exports only fmi2 functions."""
     from binaries import read
 
-    slices = read(library(cross_built, name, folder).read_bytes())
+    slices = read(binary.read_bytes())
     archs = sorted(arch for arch, _ in slices)
     assert archs == sorted(t.name.split("-")[0] for t in TARGETS if t.fmi2 == folder)  # darwin64: both
     for arch, link in slices:
@@ -286,10 +292,16 @@ def agree_with_linux64(cross_built, name, folder, wrapper, exe, env, tmp_path):
         np.testing.assert_allclose(b, a, rtol=RELATIVE, atol=MATCH * np.abs(a).max())
 
 
+def wine_program() -> str | None:
+    """wine, or wine64 (Debian's wine64 package alone leaves it out of PATH, in /usr/lib/wine)."""
+    return shutil.which("wine") or shutil.which("wine64") or next(
+        (str(p) for p in (Path("/usr/lib/wine/wine64"),) if p.is_file()), None)
+
+
 @pytest.fixture(scope="module")
 def wine_prefix(tmp_path_factory):
     """One wine prefix for the module's runs (making one takes seconds)."""
-    wine = shutil.which("wine") or shutil.which("wine64")
+    wine = wine_program()
     if wine is None:
         pytest.skip("running win64 binaries here needs wine (Debian: apt-get install wine64)")
     d = tmp_path_factory.mktemp("wine")
@@ -306,14 +318,19 @@ def test_win64_binary_under_wine_agrees(cross_built, wine_prefix, name, tmp_path
 SYSROOT = Path("/usr/aarch64-linux-gnu")
 
 
-@needs_zig
-@pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
-def test_aarch64_linux_binary_under_qemu_agrees(cross_built, name, tmp_path):
+def qemu_wrapper() -> list[str]:
+    """The command that runs an aarch64-linux program here (qemu-user on the aarch64 C library), else a skip."""
     qemu = shutil.which("qemu-aarch64") or shutil.which("qemu-aarch64-static")
     if qemu is None or not (SYSROOT / "lib" / "ld-linux-aarch64.so.1").is_file():
         pytest.skip("running aarch64 binaries here needs qemu-user and an aarch64 C library "
                     "(Debian: apt-get install qemu-user libc6-arm64-cross)")
-    agree_with_linux64(cross_built, name, "aarch64-linux", [qemu, "-L", str(SYSROOT)],
+    return [qemu, "-L", str(SYSROOT)]
+
+
+@needs_zig
+@pytest.mark.parametrize("name", ["Mechanism", "DCMotor"])
+def test_aarch64_linux_binary_under_qemu_agrees(cross_built, name, tmp_path):
+    agree_with_linux64(cross_built, name, "aarch64-linux", qemu_wrapper(),
                        host_build(tmp_path, "aarch64-linux-gnu.2.17"), {}, tmp_path)
 
 

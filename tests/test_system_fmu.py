@@ -29,10 +29,11 @@ ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(ROOT))
 
-from c_host import compile_host  # noqa: E402
+import builds  # noqa: E402
 
 SERVO = ["Trajectory", "Encoder", "PID", "DCMotor", "Mechanism"]
 STEP = 1e-3
+TOL_SETTINGS = {"master": "extrapolate", "tol": 1e-6}  # ServoFourbar3.fmu's start values
 
 
 def grubler(*args, cwd=None) -> subprocess.CompletedProcess:
@@ -42,22 +43,16 @@ def grubler(*args, cwd=None) -> subprocess.CompletedProcess:
 
 @pytest.fixture(scope="module")
 def servo(tmp_path_factory):
-    """The servo four-bar's FMUs built into a dist/ beside examples/servo_fourbar.ssd, and the system exported
-    as FMI 2 (ServoFourbar.fmu) and FMI 3 (ServoFourbar3.fmu)."""
-    import build_fmu
-
+    """The servo four-bar's FMUs in a dist/ beside examples/servo_fourbar.ssd, and the system exported as
+    FMI 2 (ServoFourbar.fmu, the default coupling: Gauss-Seidel, no tol) and FMI 3 (ServoFourbar3.fmu,
+    exported with master extrapolate and tol 1e-6), each built once (tests/builds.py)."""
     root = tmp_path_factory.mktemp("servo")
-    build_fmu.build(root / "dist", SERVO, "linux64")
+    builds.dist(root / "dist", SERVO)
     (root / "examples").mkdir()
     ssd = root / "examples" / "servo_fourbar.ssd"
     shutil.copy(ROOT / "examples" / "servo_fourbar.ssd", ssd)
-    out = {"root": root, "ssd": ssd}
-    for fmi, name in ((2, "ServoFourbar.fmu"), (3, "ServoFourbar3.fmu")):
-        r = grubler("export", ssd, "-o", root / name, "--fmi", fmi, "--platforms", "linux64")
-        assert r.returncode == 0, r.stderr
-        assert "one native FMU" in r.stdout
-        out[fmi] = root / name
-    return out
+    return {"root": root, "ssd": ssd, 2: builds.system_fmu(ssd, SERVO, root / "ServoFourbar.fmu"),
+            3: builds.system_fmu(ssd, SERVO, root / "ServoFourbar3.fmu", fmi=3, **TOL_SETTINGS)}
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +79,8 @@ def run_fmu(path: Path, names: list[str], t_end: float, h: float, fmi: int = 2, 
             f.instantiate()
             f.setupExperiment(startTime=0.0)
             for k, v in (parameters or {}).items():
-                f.setReal([vr[k]], [v])
+                (f.setString if isinstance(v, str) else f.setInteger if isinstance(v, int) else f.setReal)([vr[k]],
+                                                                                                           [v])
             f.enterInitializationMode()
             f.exitInitializationMode()
             get = f.getReal
@@ -93,7 +89,8 @@ def run_fmu(path: Path, names: list[str], t_end: float, h: float, fmi: int = 2, 
                           instanceName="system")
             f.instantiate()
             for k, v in (parameters or {}).items():
-                f.setFloat64([vr[k]], [v])
+                (f.setString if isinstance(v, str) else f.setInt32 if isinstance(v, int) else f.setFloat64)([vr[k]],
+                                                                                                            [v])
             f.enterInitializationMode(startTime=0.0)
             f.exitInitializationMode()
             get = f.getFloat64
@@ -134,10 +131,144 @@ def test_an_importers_long_step_is_made_of_communication_steps(servo, reference)
 
 
 def test_fmi3_build_of_the_same_models_gives_the_same_run(servo):
+    # (the FMI 3 build's start values are the settings the FMI 2 run is given)
     names = ["mechanism.theta2", "motor.current", "controller.u", "encoder.measured_position"]
-    two = run_fmu(servo[2], names, 0.5, STEP)
+    two = run_fmu(servo[2], names, 0.5, STEP, parameters=TOL_SETTINGS)
     three = run_fmu(servo[3], names, 0.5, STEP, fmi=3)
     np.testing.assert_array_equal(two, three)
+
+
+# -- the coupling: grubler cosim's --master and --tol as the FMU's parameters master and tol -----------
+
+def _outputs(fmu: Path) -> set[str]:
+    from fmpy import read_model_description
+
+    return {v.name for v in read_model_description(str(fmu)).modelVariables if v.causality == "output"}
+
+
+def test_master_and_tol_are_fixed_parameters_in_cosims_words_with_the_exports_start_values(servo):
+    from fmpy import read_model_description
+
+    two, three = ({v.name: v for v in read_model_description(str(servo[k])).modelVariables} for k in (2, 3))
+    master, tol = two["master"], two["tol"]
+    assert master.type == "String" and master.causality == "parameter" and master.variability == "fixed"
+    assert all(m in master.description for m in ("gauss-seidel", "jacobi", "extrapolate"))
+    assert tol.type == "Real" and tol.causality == "parameter" and tol.variability == "fixed" and tol.unit == "1"
+    assert "grubler cosim --tol" in tol.description and two["communication_step"].unit == "s"
+    # the default export: grubler cosim's default coupling; --master extrapolate --tol 1e-6: those starts
+    assert (master.start, float(tol.start)) == ("gauss-seidel", 0.0)
+    assert (three["master"].start, float(three["tol"].start)) == ("extrapolate", 1e-6)
+
+
+@pytest.mark.parametrize("settings", [{"master": "jacobi"}, {"master": "extrapolate"},
+                                      {"master": "extrapolate", "tol": 1e-8}], ids=["jacobi", "extrapolate", "tol"])
+def test_each_master_and_tol_set_on_the_fmu_match_grubler_cosim_with_the_same_settings(servo, settings):
+    from grubler.system import cosim
+
+    want = cosim.run(servo["ssd"], t_end=0.5, step=STEP, **settings)
+    names = [c for c in want.columns if c in _outputs(servo[2])]
+    got = run_fmu(servo[2], names, 0.5, STEP, parameters=settings)
+    worst = np.max(np.abs(got - np.column_stack([want[c] for c in names])) / np.maximum(1.0, np.abs(got)))
+    assert worst <= 1e-12, worst
+    if "tol" in settings:
+        assert want.coupling["substeps"] > 500  # sub-steps were made (and matched)
+    # an importer's doStep of 10 ms is ten communication steps that carry the history and the sub-step clock
+    coarse = run_fmu(servo[2], ["mechanism.theta2"], 0.5, 10 * STEP, parameters=settings)[:, 0]
+    assert np.max(np.abs(coarse - np.asarray(want["mechanism.theta2"])[::10])) < 1e-9
+
+
+def test_with_tol_1e_6_it_matches_cosim_tol_1e_6_and_is_closer_to_one_monolithic_simulation(servo):
+    # ServoFourbar3.fmu, exported with --master extrapolate --tol 1e-6, runs as grubler cosim --tol 1e-6
+    import dataclasses
+
+    from grubler.system import cosim
+    from servo_reference import monolithic
+
+    sys.path.insert(0, str(ROOT / "examples"))
+    import servo_fourbar
+
+    want = cosim.run(servo["ssd"], t_end=0.5, step=STEP, tol=1e-6)
+    names = [c for c in want.columns if c in _outputs(servo[3])]
+    got = run_fmu(servo[3], names, 0.5, STEP, fmi=3)
+    worst = np.max(np.abs(got - np.column_stack([want[c] for c in names])) / np.maximum(1.0, np.abs(got)))
+    assert worst <= 1e-12, worst
+    # with the encoder's quantisation off, against the servo as one ODE (tests/servo_reference.py): the crank
+    # at every sample instant, the FMU with its tol and with tol 0 (its Gauss-Seidel default)
+    quiet = {"encoder.counts_per_rev": 0}
+    ref = monolithic(dataclasses.replace(servo_fourbar.DESIGN, encoder={"counts_per_rev": 0, "Ts": STEP}), 0.2)
+    tight = run_fmu(servo[3], ["mechanism.drive_angle"], 0.2, STEP, fmi=3, parameters=quiet)[:, 0]
+    plain = run_fmu(servo[2], ["mechanism.drive_angle"], 0.2, STEP, parameters=quiet)[:, 0]
+    err_tight, err_plain = (np.max(np.abs(x - ref["drive_angle"])) for x in (tight, plain))
+    assert err_tight < 1e-6 and err_tight < err_plain / 100, (err_tight, err_plain)
+
+
+@pytest.mark.parametrize("script, named", [
+    ("setr {tol} -1", "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got -1"),
+    ("setr {tol} nan", "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got nan"),
+    ("setr {tol} 1e-6", 'tol: error control is the extrapolating master\'s (master = "extrapolate"), but master is '
+                        '"gauss-seidel"'),
+    ("sets {master} jacobi\nsetr {tol} 1e-6", 'but master is "jacobi"'),
+], ids=["negative", "nan", "gauss-seidel", "jacobi"])
+def test_a_bad_tol_is_an_error_naming_it(host, servo, tmp_path, script, named):
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    out = host_run(host, servo, "new 0 s\nsetup 0\n" + script.format(**vr) + "\nenter\nexit\nstep 0 0.001\nfree\n",
+                   tmp_path)
+    assert next(line for line in out if line.startswith("exit")).split()[1] == "3", out  # Error
+    assert any(line.startswith("log") and named in line for line in out), out
+
+
+def test_a_master_it_does_not_run_is_refused_naming_it_and_its_choices(host, servo, tmp_path):
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    out = host_run(host, servo, f"new 0 s\nsetup 0\nsets {vr['master']} newton\nfree\n", tmp_path)
+    assert next(line for line in out if line.startswith("sets")).split()[1] == "3", out
+    assert any("master cannot be 'newton'" in line and "gauss-seidel" in line for line in out), out
+
+
+def test_an_adaptive_run_replays_bit_for_bit_from_a_saved_state(host, servo, tmp_path):
+    # the extrapolating master's history and the sub-step clock are in the state: a run restored mid-way
+    # goes on as the run that was never interrupted (memory and bytes alike)
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    theta = vr["mechanism.theta2"]
+    script = (f"new 0 s\nsetup 0\nsets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7\nenter\nexit\n"
+              f"run 0 0.001 150\nsave 0\nser 0 state.bin\nrun 0.15 0.001 100 {theta}\nload 0\n"
+              f"run 0.15 0.001 100 {theta}\ndeser 1 state.bin\nload 1\nrun 0.15 0.001 100 {theta}\nfree\n")
+    out = rows(host_run(host, servo, script, tmp_path))
+    first, again, from_bytes = out[150:250], out[250:350], out[350:450]
+    assert len(from_bytes) == 100 and first == again == from_bytes
+    # the extrapolated run is another run than Gauss-Seidel's
+    plain = run_fmu(servo[2], ["mechanism.theta2"], 0.25, STEP)[151:, 0]
+    assert np.max(np.abs(np.array([r[1] for r in first]) - plain)) > 1e-6
+
+
+def test_the_export_takes_cosims_master_and_tol_and_refuses_what_cosim_refuses(servo, tmp_path, monkeypatch,
+                                                                             capsys):
+    from grubler import cli
+    from grubler.system import native
+
+    asked = {}
+
+    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None):
+        asked.update(master=master, tol=tol)
+        return Path(dest)
+
+    monkeypatch.setattr(native, "export_native_system", export)
+    assert cli.main(["export", str(servo["ssd"]), "-o", str(tmp_path / "S.fmu"), "--tol", "1e-7",
+                     "--platforms", "linux64"]) == 0
+    assert asked == {"master": "extrapolate", "tol": 1e-7}
+    assert "master extrapolate, tol 1e-07" in capsys.readouterr().out
+    for args, words in ((["--master", "jacobi", "--tol", "1e-7"], "tol: the adaptive step is the extrapolating "
+                                                                   "master's (master 'extrapolate'), got master "
+                                                                   "'jacobi'"),
+                        (["--tol", "0"], "--tol"), (["--tol", "1"], "--tol"), (["--master", "newton"], "--master")):
+        r = grubler("export", servo["ssd"], "-o", tmp_path / "S.fmu", *args)
+        assert r.returncode == 2 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "S.fmu").exists()
 
 
 def test_a_parameter_of_a_component_is_the_systems_and_reaches_it(servo):
@@ -180,7 +311,7 @@ def test_one_binary_no_nested_fmu_units_and_its_own_identifier(servo):
 
 @pytest.fixture(scope="module")
 def host(servo):
-    return compile_host(servo["root"] / "fmi_host")
+    return builds.host()
 
 
 def host_run(host, servo, script: str, cwd: Path) -> list[str]:
@@ -388,15 +519,193 @@ def test_random_call_sequences_under_asan_and_ubsan(servo, tmp_path):
     # serialised, restored, mutated blobs, calls in any state) on the system rebuilt from its sources with
     # AddressSanitizer and UBSan: no report, no crash, never Fatal
     from fmpy import read_model_description
-    from test_native_fmu import SANITIZE, random_calls_hold, sanitized_binary
+    from test_native_fmu import SANITIZE, SANITIZER_ENV, random_calls_hold, sanitized_binary
 
-    probe = subprocess.run(["cc", *SANITIZE, "-x", "c", "-", "-o", str(tmp_path / "probe")],
-                           input="int main(void){return 0;}", capture_output=True, text=True)
-    if probe.returncode != 0:
-        pytest.skip(f"cc cannot build with sanitizers here: {probe.stderr[-300:]}")
+    if builds.sanitizer_problem():
+        pytest.skip(f"cc cannot build with sanitizers here: {builds.sanitizer_problem()}")
     zipfile.ZipFile(servo[2]).extractall(tmp_path / "u")
     md = read_model_description(str(servo[2]))
-    sanitized = {"host": compile_host(tmp_path / "fmi_host", flags=SANITIZE),
+    sanitized = {"host": builds.host(flags=tuple(SANITIZE)),
                  "ServoFourbar": sanitized_binary(tmp_path / "u", md, tmp_path / "ServoFourbar.so")}
     for seed in (1, 2):
         random_calls_hold(sanitized, "ServoFourbar", md, seed, tmp_path)
+    # the extrapolating master with error control (sub-steps rolled back through the components' blocks),
+    # with steps of 1 to 7 ms, a state saved, restored and serialised in between
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    script = (f"new 0 s\nsetup 0\nsets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7\nenter\nexit\n"
+              f"run 0 0.001 20\nsave 0\nrun 0.02 0.007 10\nload 0\nser 0 s.bin\ndeser 1 s.bin\nload 1\n"
+              f"run 0.02 0.003 10 {vr['mechanism.theta2']}\nfree\n")
+    proc = subprocess.run([str(sanitized["host"]), str(sanitized["ServoFourbar"]), md.guid], input=script,
+                          capture_output=True, text=True, timeout=600, env=SANITIZER_ENV, cwd=tmp_path)
+    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+        proc.stderr[-3000:]
+    assert [line.split()[1] for line in proc.stdout.splitlines() if line.split()[0] in ("run", "load", "deser")] \
+        == ["0"] * 6, proc.stdout[-2000:]
+
+
+# -- every platform: the system FMU's binaries with the cross extra (zig), run under wine and qemu -----------
+CROSS = "linux64,win64,darwin64,aarch64-linux"
+
+
+@pytest.fixture(scope="module")
+def cross(servo):
+    """The servo system as one FMU with a binary for every platform, unzipped, and its description."""
+    from fmpy import read_model_description
+
+    from grubler.fmi.build import zig_compiler
+
+    if zig_compiler() is None:
+        pytest.skip("cross-building needs the cross extra: pip install 'grubler[cross]' (zig)")
+    fmu = builds.system_fmu(servo["ssd"], SERVO, servo["root"] / "ServoFourbarX.fmu", platforms=CROSS)
+    zipfile.ZipFile(fmu).extractall(servo["root"] / "cross")
+    return servo["root"] / "cross", read_model_description(str(fmu))
+
+
+def _binary(cross, folder: str) -> Path:
+    from grubler.fmi.build import TARGETS
+
+    return cross[0] / "binaries" / folder / f"ServoFourbarX{next(t.suffix for t in TARGETS if t.fmi2 == folder)}"
+
+
+@pytest.mark.parametrize("folder", CROSS.split(","))
+def test_every_platforms_binary_needs_only_the_c_library_and_exports_only_fmi2(cross, folder):
+    from test_platforms import needs_only_the_c_library
+
+    needs_only_the_c_library(_binary(cross, folder), folder)  # (linux64 and aarch64: glibc 2.17's symbols)
+
+
+def _agrees_with_linux64(cross, folder: str, wrapper: list[str], exe: Path, env: dict) -> None:
+    """300 steps of Gauss-Seidel and 300 of the extrapolating master with tol 1e-6, every output read after
+    each, in the C host on ``folder``'s binary and on linux64's: the same to rounding (the encoder's
+    quantisation off, so that a last bit cannot flip a count), relative to max(1, |value|): Gauss-Seidel's
+    to 1e-12 (measured: 3.7e-13 win64, 5.2e-13 aarch64); the adaptive run's sub-steps follow its error
+    estimate, a difference of two runs that agree to 1e-6, so the maths library's last bit moves a sub-step
+    by 1e-10 of itself and the outputs by less (measured: 7.3e-12, 6.0e-12), hence 1e-10 there."""
+    from test_native_fmu import Host
+    from test_platforms import RELATIVE
+
+    d, md = cross
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.name for v in md.modelVariables if v.causality == "output"]
+    quiet = {"encoder.counts_per_rev": 0}
+    native = Host(builds.host(), _binary(cross, "linux64"), md.guid, vr)
+    script = (native.start(quiet, md=md) + [native.run_steps(0.0, STEP, 300, *outs), "free"]
+              + native.start({**quiet, **TOL_SETTINGS}, md=md) + [native.run_steps(0.0, STEP, 300, *outs), "free"])
+    ours = native.run(script)
+    theirs = Host(exe, _binary(cross, folder), md.guid, vr, wrapper=wrapper).run(script, env=env)
+    assert ours.rows().shape == (600, 1 + len(outs)) and ours.statuses("run") == [0, 0]
+    off = np.abs(theirs.rows() - ours.rows()) / np.maximum(np.abs(ours.rows()), 1.0)
+    assert off[:300].max() <= RELATIVE and off[300:].max() <= 1e-10, (off[:300].max(), off[300:].max())
+    assert np.ptp(ours.rows()[:, 1 + outs.index("mechanism.theta2")]) > 0.1  # (a run that moves)
+
+
+def test_the_win64_binary_under_wine_runs_as_linux64s(cross, tmp_path_factory):
+    from test_platforms import host_build, wine_program
+
+    wine = wine_program()
+    if wine is None:
+        pytest.skip("running win64 binaries here needs wine (Debian: apt-get install wine64)")
+    d = tmp_path_factory.mktemp("wine")
+    env = {"WINEDEBUG": "-all", "WINEPREFIX": str(d / "prefix"), "HOME": str(d), "PATH": "/usr/bin:/bin"}
+    _agrees_with_linux64(cross, "win64", [wine], host_build(d, "x86_64-windows-gnu"), env)
+
+
+def test_the_aarch64_linux_binary_under_qemu_runs_as_linux64s(cross, tmp_path):
+    from test_platforms import host_build, qemu_wrapper
+
+    _agrees_with_linux64(cross, "aarch64-linux", qemu_wrapper(), host_build(tmp_path, "aarch64-linux-gnu.2.17"), {})
+
+
+# -- fmusim, the FMI Reference FMUs' importer (GRUBLER_FMUSIM or PATH, as tests/test_container.py finds it) ---
+
+def run_fmusim(fmu: Path, out: Path, names: list[str], t_end: float, *extra: str) -> np.ndarray:
+    """fmusim's run of ``fmu`` at 1 ms in an empty environment: the outputs ``names``, a row a step."""
+    from test_container import fmusim
+
+    if fmusim() is None:
+        pytest.skip("no fmusim (the FMI reference importer): set GRUBLER_FMUSIM to one, or put it on PATH "
+                    "(docs/fmi.md says how to build it)")
+    picks = [a for n in names for a in ("--output-variable", n)]
+    proc = subprocess.run([fmusim(), "--interface-type", "cs", "--stop-time", str(t_end), "--output-interval",
+                           str(STEP), *extra, *picks, "--output-file", str(out), str(fmu)], env={},
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    return np.column_stack([data[n.replace(".", "")] for n in names])  # (genfromtxt drops the dots)
+
+
+def test_it_runs_in_fmusim_in_an_empty_environment_as_in_the_c_host_fmi_2_and_3(host, servo, tmp_path):
+    # FMI 2 with its defaults; FMI 2 given FMI 3's start values with --start-value, and the FMI 3 build
+    # (exported with them): each as the C host runs it (fmpy here: the C host's test holds fmpy's to 1e-12)
+    # (to 1e-12 of max(1, |value|): fmusim adds up its own time, one rounding from t = k h)
+    def close(a, b):
+        return np.max(np.abs(a - b) / np.maximum(1.0, np.abs(b))) <= 1e-12
+
+    names = ["mechanism.theta2", "motor.current", "controller.u"]
+    plain = run_fmusim(servo[2], tmp_path / "2.csv", names, 0.5)
+    assert close(plain, run_fmu(servo[2], names, 0.5, STEP))
+    starts = [a for k, v in TOL_SETTINGS.items() for a in ("--start-value", k, str(v))]
+    two = run_fmusim(servo[2], tmp_path / "2tol.csv", names, 0.5, *starts)
+    three = run_fmusim(servo[3], tmp_path / "3.csv", names, 0.5)
+    np.testing.assert_array_equal(two, three)
+    assert close(three, run_fmu(servo[3], names, 0.5, STEP, fmi=3))
+    assert np.max(np.abs(three - plain)) > 1e-6  # another coupling: another run
+
+
+def test_fmusim_reports_a_bad_tol_and_exits_with_an_error(servo, tmp_path):
+    from test_container import fmusim
+
+    if fmusim() is None:
+        pytest.skip("no fmusim: set GRUBLER_FMUSIM to one, or put it on PATH")
+    proc = subprocess.run([fmusim(), "--interface-type", "cs", "--stop-time", "0.01", "--start-value", "tol", "-1",
+                           str(servo[2])], env={}, capture_output=True, text=True, timeout=600)
+    assert proc.returncode != 0
+    assert "tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got -1" in proc.stdout + proc.stderr
+
+
+# -- directional derivatives: the outputs along the system's inputs ----------------------------------------
+
+@pytest.fixture(scope="module")
+def pushed(servo):
+    """A four-bar whose crank a PID drives by its torque (no motor), the trajectory's velocity its
+    feedforward, so that the system's one input is the mechanism's load torque: every unconnected input is
+    the mechanism's, which gives directional derivatives (the servo's controller.feedforward is a PID's,
+    which gives none)."""
+    from grubler.system.ssp import System
+
+    s = System("pushed", base=servo["root"] / "dist", step=STEP)
+    s.add("profile", "Trajectory.fmu", kind="sine", amplitude=0.5, frequency=1.0)
+    s.add("controller", "PID.fmu", K=20.0, Ts=STEP)
+    s.add("mechanism", "Mechanism.fmu", load_joint="theta4")  # (the rocker carries the load)
+    s.connect("profile.position", "controller.setpoint")
+    s.connect("mechanism.drive_angle", "controller.measurement")
+    s.connect("profile.velocity", "controller.feedforward")
+    s.connect("controller.u", "mechanism.motor_torque")
+    ssd = s.write(servo["root"] / "examples" / "pushed.ssd")
+    return builds.system_fmu(ssd, ["Trajectory", "PID", "Mechanism"], servo["root"] / "Pushed.fmu")
+
+
+def test_its_outputs_derivatives_along_its_inputs_are_its_components_own(host, servo, pushed, tmp_path):
+    from fmpy import read_model_description
+
+    md = read_model_description(str(pushed))
+    assert md.coSimulation.providesDirectionalDerivative
+    assert not read_model_description(str(servo[2])).coSimulation.providesDirectionalDerivative
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.name for v in md.modelVariables if v.causality == "output"]
+    load, refs = vr["mechanism.load_torque"], " ".join(str(vr[n]) for n in outs)
+    e = 1e-3
+    zipfile.ZipFile(pushed).extractall(tmp_path / "u")
+    script = (f"new 0 s\nsetup 0\nenter\nexit\nrun 0 0.001 200\nsetr {load} 0.5\nddr {load} {refs}\n"
+              f"setr {load} {0.5 + e!r}\ngetr {refs}\nsetr {load} {0.5 - e!r}\ngetr {refs}\nfree\n")
+    r = subprocess.run(["env", "-i", str(host), str(tmp_path / "u" / "binaries" / "linux64" / "Pushed.so"), md.guid],
+                       input=script, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = [line.split() for line in r.stdout.splitlines() if line.startswith(("ddr", "getr"))]
+    assert [line[1] for line in lines] == ["0", "0", "0"], r.stdout[-2000:]
+    dd, up, down = (np.array(line[2:], float) for line in lines)
+    fd = (up - down) / (2 * e)  # the accelerations and forces are affine in the load: exact to rounding
+    assert np.max(np.abs(dd - fd) / np.maximum(1.0, np.abs(fd))) < 1e-6, np.column_stack([dd, fd])
+    moved = {n for n, d in zip(outs, dd) if d != 0.0}
+    assert {"mechanism.theta2_dd", "mechanism.theta4_dd"} <= moved, moved
+    assert not any(n.startswith(("profile.", "controller.")) for n in moved), moved

@@ -18,12 +18,16 @@ How the models share one binary
 What it runs
     ``fmi/c/system_model.c``: the components in ``grubler cosim``'s stepping
     order, initialised as cosim initialises them, stepped by master.c's
-    Gauss-Seidel loop; it matches ``grubler cosim`` with the same step (to
-    rounding: tests/test_system_fmu.py).
+    loop with the master and tolerance its parameters name (Gauss-Seidel,
+    Jacobi, extrapolating, with error-controlled sub-steps); it matches
+    ``grubler cosim`` with the same step and settings (to rounding:
+    tests/test_system_fmu.py).
 
 Its variables
     ``communication_step`` [s] (a doStep of the importer's is made of equal
-    steps no longer), then every component's parameters, unconnected inputs
+    steps no longer), ``master`` and ``tol``, the coupling ``grubler cosim``'s
+    ``--master`` and ``--tol`` choose (fixed parameters: the scheme decides the
+    stepping order and what the FMU state carries), then every component's parameters, unconnected inputs
     and outputs as ``component.name``, with their types, units, bounds and
     enumerations; the system's values are their defaults.  Its model
     identifier is the FMU's file name; its FMU state is the components' states
@@ -48,6 +52,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 import shutil
 from dataclasses import dataclass
@@ -61,6 +66,7 @@ from grubler.fmi.variables import (BOOLEAN, ENUMERATION, INPUT, INTEGER, OUTPUT,
 from grubler.limits import brief
 from grubler.system import cosim
 from grubler.system.container import exposed_variables
+from grubler.system.coupling import adaptive_plan, input_modes, sampled_components
 from grubler.system.ssp import System, read
 
 MASTER_DIR = Path(__file__).resolve().parent / "c"
@@ -71,7 +77,37 @@ INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"', re.M)
 # a definition or declaration with external linkage at the start of a line (the model layer's style)
 EXTERNAL = re.compile(r"^(?!static\b|typedef\b|extern\b|struct\b|enum\b|union\b|return\b)[A-Za-z_][\w \t*]*?"
                       r"\b([A-Za-z_]\w*)\s*[(\[]", re.M)
-SYSTEM_PARAMETERS = 1  # communication_step: slot 0, before the components' variables
+# the system's own parameters, slots 0, 1, 2 before the components' variables
+SYSTEM_PARAMETERS = ("communication_step", "master", "tol")
+# the masters system/c/master.c's loop runs, in the order of its grb_scheme (cosim._SCHEME)
+SYSTEM_MASTERS = tuple(sorted(cosim._SCHEME, key=cosim._SCHEME.get))
+TOL_RANGE = (1e-14, 0.5)  # grubler cosim --tol's
+
+
+def coupling_settings(master: str | None, tol: float | None) -> tuple[str, float]:
+    """The system FMU's ``master`` and ``tol`` (0: no error control) as ``grubler cosim`` reads ``--master`` and
+    ``--tol``: extrapolate by default with a tolerance, Gauss-Seidel without; a tolerance only with extrapolate.
+
+    Examples
+    --------
+    >>> coupling_settings(None, 1e-6)
+    ('extrapolate', 1e-06)
+    >>> coupling_settings("jacobi", 1e-6)
+    Traceback (most recent call last):
+    ...
+    grubler.errors.SystemDescriptionError: tol: the adaptive step is the extrapolating master's (master 'extrapolate'), got master 'jacobi'
+    """
+    if tol is not None and not (isinstance(tol, (int, float)) and math.isfinite(tol)
+                                and TOL_RANGE[0] <= tol <= TOL_RANGE[1]):
+        raise SystemDescriptionError(f"tol: must be a number from {TOL_RANGE[0]:g} to {TOL_RANGE[1]:g}, "
+                                     f"got {brief(tol)}")
+    master = master if master is not None else (cosim.EXTRAPOLATE if tol is not None else cosim.GAUSS_SEIDEL)
+    if master not in SYSTEM_MASTERS:
+        raise SystemDescriptionError(f"master: a system FMU runs {', '.join(SYSTEM_MASTERS)}, got {brief(master)}")
+    if tol is not None and master != cosim.EXTRAPOLATE:
+        raise SystemDescriptionError(f"tol: the adaptive step is the extrapolating master's (master "
+                                     f"'{cosim.EXTRAPOLATE}'), got master {brief(master)}")
+    return master, float(tol or 0.0)
 
 
 @dataclass
@@ -92,6 +128,12 @@ class ComponentModel:
 
     def row(self, name: str) -> TableRow:
         return next(r for r in self.table if r.name == name)
+
+    @property
+    def directional(self) -> bool:
+        """Its model gives its outputs' derivatives along its inputs (providesDirectionalDerivative)."""
+        return re.search(r"^#define MODEL_DIRECTIONAL_DERIVATIVE 1$", (self.sources / "config.h").read_text(),
+                         re.M) is not None
 
 
 def _includes(folder: Path) -> dict[str, set[str]]:
@@ -222,11 +264,22 @@ def _enum(var, enums: dict[str, EnumType], owner: str) -> EnumType:
 
 
 def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], seq: list[str],
-                identifier: str, step: float) -> tuple[ModelSpec, list[dict]]:
+                identifier: str, step: float, master: str = cosim.GAUSS_SEIDEL,
+                tol: float = 0.0) -> tuple[ModelSpec, list[dict]]:
     """The system FMU's ModelSpec and each component's wiring (in stepping order) for system_components.c."""
     variables = [Variable("communication_step", REAL, PARAMETER,
-                          "the longest coupling step: an importer's doStep is made of equal Gauss-Seidel steps no "
-                          "longer, as grubler cosim --step makes them", start=float(step), unit="s", min=0.0)]
+                          "the longest coupling step: an importer's doStep is made of equal communication steps no "
+                          "longer, as grubler cosim --step makes them", start=float(step), unit="s", min=0.0),
+                 Variable("master", STRING, PARAMETER,
+                          "the coupling, as grubler cosim --master: gauss-seidel (each component steps on the "
+                          "outputs of those before it), jacobi (all on the last step's values), extrapolate "
+                          "(continuous inputs at the step's midpoint, second order; with tol, error-controlled "
+                          "sub-steps)", start=master, choices=SYSTEM_MASTERS),
+                 Variable("tol", REAL, PARAMETER,
+                          "error control, as grubler cosim --tol: the continuous components sub-step, each "
+                          "sub-step's coupling error estimate (step doubling) within tol relative to max(1, |value|); "
+                          f"0: none (else {TOL_RANGE[0]:g} to {TOL_RANGE[1]:g}, with master extrapolate)",
+                          start=float(tol), unit="1", min=0.0, max=TOL_RANGE[1])]
     enums: dict[str, EnumType] = {}
     n_out = 0
     for e in exposed_variables(system, interfaces):
@@ -256,6 +309,11 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                                   enum=_enum(md_var, enums, comp) if e.type == ENUMERATION else None,
                                   **bounds, **common))
     connected_slot = cosim._slots(system)
+    # the extrapolating master's input modes in the stepping order, and with tol in the adaptive order
+    # (the sampled components first) that grubler cosim --tol steps in
+    adaptive_seq = adaptive_plan(system, interfaces, seq, step, TOL_RANGE[1])[0]
+    sampled = sampled_components(system, interfaces)
+    modes, adaptive_modes = input_modes(system, interfaces, seq), input_modes(system, interfaces, adaptive_seq)
     wiring, n_in, n_conn, n_free = [], 0, 0, 0
     for name in seq:
         itf, model, given = interfaces[name], models[interfaces[name].path], system.components[name].parameters
@@ -268,21 +326,33 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
              "in": [(itf.ports[c.end_connector].vr, connected_slot[c.start]) for c in system.connections
                     if c.end_element == name],
              "conn": [(itf.ports[o].vr, connected_slot[f"{name}.{o}"]) for o in conn_out],
-             "out": [(itf.ports[v.name[len(name) + 1:]].vr, v.name) for v in mine if v.causality == OUTPUT]}
+             "out": [(itf.ports[v.name[len(name) + 1:]].vr, v.name) for v in mine if v.causality == OUTPUT],
+             "sampled": name in sampled, "mode": modes[name], "adaptive_mode": adaptive_modes[name],
+             "adaptive_position": adaptive_seq.index(name)}
         n_in, n_conn, n_free = n_in + len(w["in"]), n_conn + len(w["conn"]), max(n_free, len(w["free"]))
         wiring.append(w)
+    # directional derivatives of the outputs along the system's inputs: an input moves only its own
+    # component's outputs at an instant (the connections carry the values of the last communication point),
+    # so the system gives them when every component with an unconnected input gives its own
+    owners = [models[interfaces[w["name"]].path] for w in wiring if w["free"]]
+    directional = {"MODEL_DIRECTIONAL_DERIVATIVE": 1} if owners and all(m.directional for m in owners) else {}
     parts = hashlib.sha256(repr([(m.identifier, m.guid) for m in models.values()]).encode()).hexdigest()
     spec = ModelSpec(identifier, system.description or f"the system {system.name} as one FMU", tuple(variables),
                      "system_model.c",
                      defines={"SYSTEM_N_COMPONENTS": len(seq), "SYSTEM_N_VALUES": len(connected_slot),
                               "SYSTEM_N_IN": n_in, "SYSTEM_N_CONN": n_conn, "SYSTEM_N_FREE": n_free,
                               "SYSTEM_N_OUT_MAX": max([len(w["out"]) for w in wiring] + [0]),
-                              "SYSTEM_SLOT_STEP": 0,
+                              "SYSTEM_SLOT_STEP": 0, "SYSTEM_SLOT_MASTER": 1, "SYSTEM_SLOT_TOL": 2,
                               # the component models' GUIDs: the system's GUID changes with any of them
-                              "SYSTEM_MODELS": int(parts[:12], 16)},
+                              "SYSTEM_MODELS": int(parts[:12], 16), **directional},
                      n_outputs=n_out, enums=tuple(enums.values()),
                      kernel_sources=((MASTER_DIR, ("master.c",)), (C_DIR, ("system_model.h",))),
-                     state=(("started", 1), ("t", 1), ("values", len(connected_slot)), ("components", 0)))
+                     state=(("started", 1), ("t", 1), ("values", len(connected_slot)),
+                            # the extrapolating master's history: the values at the last step's start and the
+                            # point before, that step's length (0: no past point), the adaptive sub-step clock
+                            ("start", len(connected_slot)), ("prev", len(connected_slot)), ("h_last", 1),
+                            ("substep", 1), ("substep_prev", 1), ("components", 0)))
+    assert [spec.slot(n) for n in SYSTEM_PARAMETERS] == [0, 1, 2]
     return spec, wiring
 
 
@@ -294,11 +364,16 @@ def _c_array(ctype: str, name: str, items: list) -> tuple[str, str]:
     return f"static const {ctype} {name}[] = {{{', '.join(str(x) for x in items)}}};", name
 
 
-def components_source(spec: ModelSpec, wiring: list[dict], n_models: int) -> str:
-    """Text of ``system_components.c``: the component table system_model.c steps."""
+def components_source(spec: ModelSpec, wiring: list[dict], n_models: int, value_names: list[str]) -> str:
+    """Text of ``system_components.c``: the component table system_model.c steps, the adaptive stepping order,
+    and each connection value's name (its source output, for messages)."""
     lines = [f"/* {spec.identifier}: generated by grubler.system.native; do not edit. */", '#include "system_model.h"',
              ""]
     lines += [f"extern const grb_component_calls grb_m{m}_calls;" for m in range(n_models)]
+    adaptive = sorted(range(len(wiring)), key=lambda k: wiring[k]["adaptive_position"])
+    lines += ["", f"const int system_adaptive_order[SYSTEM_N_COMPONENTS] = {{{', '.join(map(str, adaptive))}}};",
+              f"const char *const system_value_names[SYSTEM_N_VALUES + 1] = "
+              f"{{{', '.join(json.dumps(n) for n in value_names + [''])}}};"]
     rows = []
     for k, w in enumerate(wiring):
         bound = [f"{{{spec.slot(n)}, {slot}, {int(given)}}}" for n, slot, given in w["bound"]]
@@ -310,14 +385,17 @@ def components_source(spec: ModelSpec, wiring: list[dict], n_models: int) -> str
                   _c_array("unsigned int", f"conn_vr_{k}", [f"{vr}u" for vr, _ in w["conn"]]),
                   _c_array("int", f"out_slot_{k}", [s for _, s in w["conn"]]),
                   _c_array("unsigned int", f"out_vr_{k}", [f"{vr}u" for vr, _ in w["out"]]),
-                  _c_array("int", f"out_level_{k}", [spec.variables[spec.vr(n) - 1].level for _, n in w["out"]])]
+                  _c_array("int", f"out_level_{k}", [spec.variables[spec.vr(n) - 1].level for _, n in w["out"]]),
+                  _c_array("int", f"in_mode_{k}", w["mode"]),
+                  _c_array("int", f"in_mode_adaptive_{k}", w["adaptive_mode"])]
         lines += [d for d, _ in arrays if d]
         names = [n for _, n in arrays]
         base = spec.slot(w["out"][0][1]) if w["out"] else 0
         rows.append(f"    {{{json.dumps(w['name'])}, &grb_m{w['model']}_calls, {w['n_stored']}, "
                     f"{len(w['bound'])}, {names[0]}, {len(w['free'])}, {names[1]}, {names[2]}, "
                     f"{len(w['in'])}, {names[3]}, {names[4]}, {len(w['conn'])}, {names[5]}, {names[6]}, "
-                    f"{len(w['out'])}, {names[7]}, {base}, {names[8]}}},")
+                    f"{len(w['out'])}, {names[7]}, {base}, {names[8]}, {int(w['sampled'])}, {names[9]}, "
+                    f"{names[10]}}},")
     lines += ["", "const grb_component system_components[SYSTEM_N_COMPONENTS] = {", *rows, "};", ""]
     return "\n".join(lines)
 
@@ -339,21 +417,26 @@ static int glue_do_step(void *ci, double t, double h, int no_set_fmu_state_prior
     (void)no_set_fmu_state_prior;
     return (int)grb_do_step((grb_instance *)ci, "doStep", t, h);
 }
+static int glue_directional(void *ci, const unsigned int *unknown, size_t n_unknown, const unsigned int *known,
+                            size_t n_known, const double *seed, double *sensitivity) {
+    return (int)grb_directional_derivative((grb_instance *)ci, "getDirectionalDerivative", unknown, n_unknown, known,
+                                           n_known, seed, sensitivity);
+}
 
 const grb_component_calls PREFIXcalls = {
     model_persistent_size, model_scratch_bytes, glue_fresh, glue_block_ok, glue_prepare, grb_exit_initialization,
-    glue_set_real, glue_get_real, glue_do_step
+    glue_set_real, glue_get_real, glue_do_step, glue_directional
 };
 """
 
 
-def stage_system(models: list[ComponentModel], wiring: list[dict]):
+def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: list[str]):
     """The ``stage`` of :func:`grubler.fmi.build.build_fmu` for a system: the system model's own sources,
     each component model in a folder of its own under its prefix, the kernels once."""
 
     def stage(spec: ModelSpec, sources: Path, fmi: int) -> list[str]:
         files = [f for f in stage_sources(spec, sources, fmi) if f != "master.c"]  # (system_model.c includes it)
-        (sources / "system_components.c").write_text(components_source(spec, wiring, len(models)))
+        (sources / "system_components.c").write_text(components_source(spec, wiring, len(models), value_names))
         files.append("system_components.c")
         for m in models:
             for f in m.kernel:
@@ -384,7 +467,7 @@ def stage_system(models: list[ComponentModel], wiring: list[dict]):
 
 
 def export_native_system(system: System | str | Path, dest: str | Path | None = None, platforms=None, fmi: int = 2,
-                         field: str = "output") -> Path:
+                         field: str = "output", master: str | None = None, tol: float | None = None) -> Path:
     """Export an SSP system of native grubler FMUs as one native FMU (its models and master.c compiled together).
 
     Parameters
@@ -397,6 +480,9 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
     platforms : str or list of str, optional
         The binaries to ship (:func:`grubler.fmi.build.build_fmu`).
     fmi : {2, 3}
+    master, tol : optional
+        The start values of the FMU's ``master`` and ``tol`` parameters, as
+        ``grubler cosim``'s ``master`` and ``tol`` (:func:`coupling_settings`).
 
     Raises
     ------
@@ -425,6 +511,7 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
         raise SystemDescriptionError(f"system {brief(system.name)}: has no components")
     dest = Path(dest) if dest is not None else Path(f"{system.name or 'system'}.fmu")
     check_destination(dest, field)
+    master, tol = coupling_settings(master, tol)
     step = system.step if system.step is not None else 1e-3
     with cosim.UnpackedFMUs() as unpacked:
         interfaces = cosim.interfaces_of(system, unpacked)
@@ -437,8 +524,10 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
             path = interfaces[name].path
             if path not in models:
                 models[path] = component_model(path, unpacked[path])
-        spec, wiring = system_spec(system, interfaces, models, seq, identifier_for(dest), step)
-        return build_fmu(spec, dest, platforms, fmi, stage=stage_system(list(models.values()), wiring))
+        spec, wiring = system_spec(system, interfaces, models, seq, identifier_for(dest), step, master, tol)
+        slot = cosim._slots(system)
+        return build_fmu(spec, dest, platforms, fmi,
+                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get)))
 
 
-__all__ = ["export_native_system", "why_not_native"]
+__all__ = ["export_native_system", "why_not_native", "coupling_settings"]

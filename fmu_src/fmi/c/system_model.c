@@ -4,20 +4,28 @@
  * The components are the models their FMUs were built from, each compiled
  * under its own prefix (system_model.h), and the communication steps are
  * made by the master's own loop, system/c/master.c, included here: the same C
- * that steps the FMUs in grubler cosim, Gauss-Seidel in the same order, so the
- * system FMU matches grubler cosim run with the same step.  Initialisation is
- * cosim's too: the coupled inputs settled in the stepping order while the
+ * that steps the FMUs in grubler cosim, with the master its parameter "master"
+ * names (Gauss-Seidel, Jacobi, extrapolating) and, with "tol", the same
+ * error-controlled sub-steps, in the same order (with a tolerance, the sampled
+ * components first, as cosim's adaptive_plan orders them), so the system FMU
+ * matches grubler cosim run with the same step and settings.  Initialisation
+ * is cosim's too: the coupled inputs settled in the stepping order while the
  * components are in initialisation mode, then every component started.
  *
  * The system's variables (config.h, model_variables.c, generated): its
  * communication step (slot SYSTEM_SLOT_STEP: a doStep of the importer's is
- * made of equal steps no longer than it), then every component's parameters,
- * unconnected inputs and outputs as "component.name".  Its persistent block:
- * those parameters and inputs, then
+ * made of equal steps no longer than it), its master and tol (fixed
+ * parameters), then every component's parameters, unconnected inputs and
+ * outputs as "component.name".  Its persistent block: those parameters and
+ * inputs, then
  *   P_STARTED     1: the block holds a started run
  *   P_T           the run's time
  *   P_VALUES      the connections' values (one per connected output), as the
  *                 master's loop leaves them after a step
+ *   P_START, P_PREV, P_H_LAST  the extrapolating master's history: the values
+ *                 at the last step's start and the point before it, and that
+ *                 step's length (0: no past point yet)
+ *   P_SUBSTEP, P_SUBSTEP_PREV  the adaptive master's sub-step clock (grb_adapt)
  *   P_COMPONENTS  each component's own persistent block, in stepping order
  * so the FMU state (a copy of the block) is the components' states together,
  * and a restored one is checked by each component's own checks.
@@ -37,10 +45,16 @@
 #include "system_model.h"
 
 extern const grb_component system_components[SYSTEM_N_COMPONENTS];
+extern const int system_adaptive_order[SYSTEM_N_COMPONENTS];  /* the sampled components first */
+extern const char *const system_value_names[SYSTEM_N_VALUES + 1];
 
 typedef struct system_scratch {
-    grb_instance comp[SYSTEM_N_COMPONENTS];
-    grb_fmu fmus[SYSTEM_N_COMPONENTS];
+    grb_instance comp[SYSTEM_N_COMPONENTS];  /* in the system's stepping order */
+    grb_fmu fmus[SYSTEM_N_COMPONENTS];       /* the master's view, in the run's order (wire) */
+    int order[SYSTEM_N_COMPONENTS];          /* the component at each place of the run's order */
+    double *saved[SYSTEM_N_COMPONENTS];      /* each component's block at a sub-step's start (rollback) */
+    double work[4 * SYSTEM_N_VALUES + 1];    /* the adaptive master's */
+    grb_adapt adapt;
     double in_buf[SYSTEM_N_IN + 1];
     double read_buf[SYSTEM_N_CONN + 1];
     double free_buf[SYSTEM_N_FREE + 1];
@@ -48,6 +62,11 @@ typedef struct system_scratch {
     unsigned int ask_vr[SYSTEM_N_OUT_MAX + 1];  /* one component's outputs asked for, */
     double ask_value[SYSTEM_N_OUT_MAX + 1];     /* their values */
     double *backup;  /* the block before the step under way */
+#if MODEL_DIRECTIONAL_DERIVATIVE
+    unsigned int dd_vr[MODEL_N_OUTPUTS + 1];  /* one component's outputs asked for, */
+    size_t dd_at[MODEL_N_OUTPUTS + 1];        /* where each goes among the importer's, */
+    double dd_value[MODEL_N_OUTPUTS + 1];     /* their derivatives */
+#endif
 } system_scratch;
 
 #define BAD(...) do { grb_log(inst, GRB_FMI_ERROR, __VA_ARGS__); return GRB_FMI_ERROR; } while (0)
@@ -66,7 +85,9 @@ size_t model_persistent_size(void) { return (size_t)P_COMPONENTS + components_si
 size_t model_scratch_bytes(void) {
     size_t n = aligned(sizeof(system_scratch)) + aligned(model_persistent_size() * sizeof(double));
     int k;
-    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) n += aligned(system_components[k].calls->scratch_bytes());
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++)
+        n += aligned(system_components[k].calls->scratch_bytes())
+             + aligned(system_components[k].calls->persistent_size() * sizeof(double));
     return n;
 }
 
@@ -80,18 +101,77 @@ static void component_log(const grb_instance *ci, grb_fmi_status status, const c
     grb_log((grb_instance *)(size_t)ci->host, status, "%s: %s", ci->name, message);
 }
 
+/* The adaptive master's FMU state calls on a component: its block copied to and from its saved one
+ * (as its FMU's fmi2GetFMUstate and fmi2SetFMUstate copy it, which grubler cosim calls). */
+static int save_part(void *instance, void **state) {
+    grb_instance *ci = (grb_instance *)instance;
+    system_scratch *s = (system_scratch *)((grb_instance *)(size_t)ci->host)->model;
+    memcpy(*state, ci->p, system_components[ci - s->comp].calls->persistent_size() * sizeof(double));
+    return 0;
+}
+
+static int restore_part(void *instance, void *state) {
+    grb_instance *ci = (grb_instance *)instance;
+    system_scratch *s = (system_scratch *)((grb_instance *)(size_t)ci->host)->model;
+    memcpy(ci->p, state, system_components[ci - s->comp].calls->persistent_size() * sizeof(double));
+    ci->state = GRB_STEP_COMPLETE;
+    ci->dirty = 1;
+    ci->level = 0;
+    return 0;
+}
+
+static int adaptive(const double *p) {
+    return (int)p[SYSTEM_SLOT_MASTER] == GRB_EXTRAPOLATE && p[SYSTEM_SLOT_TOL] > 0.0;
+}
+
+/* The master's view of the components, in the order the run steps them (with a tolerance the sampled
+ * ones first: cosim's adaptive_plan), each with its input modes under the extrapolating master; cosim's
+ * wiring (instance.py), nothing else read. */
+static void wire(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    int scheme = (int)inst->p[SYSTEM_SLOT_MASTER], adapt = adaptive(inst->p), j;
+    double *in = s->in_buf, *read = s->read_buf;
+    for (j = 0; j < SYSTEM_N_COMPONENTS; j++) {
+        int k = adapt ? system_adaptive_order[j] : j;
+        const grb_component *c = &system_components[k];
+        grb_fmu *f = &s->fmus[j];
+        s->order[j] = k;
+        memset(f, 0, sizeof *f);
+        f->instance = &s->comp[k];
+        f->set_real = c->calls->set_real;
+        f->get_real = c->calls->get_real;
+        f->do_step = c->calls->do_step;
+        f->n_in = c->n_in;
+        f->in_vr = c->in_vr;
+        f->in_slot = c->in_slot;
+        f->in_buf = in;
+        f->n_conn = f->n_read = c->n_conn;
+        f->read_vr = c->conn_vr;
+        f->read_buf = read;
+        f->out_slot = c->out_slot;
+        f->in_mode = scheme != GRB_EXTRAPOLATE ? NULL : adapt ? c->in_mode_adaptive : c->in_mode;
+        f->sampled = c->sampled;
+        if (adapt && !c->sampled) {
+            f->get_state = save_part;
+            f->set_state = restore_part;
+            f->state = s->saved[k];
+        }
+        in += c->n_in;
+        read += c->n_conn;
+    }
+}
+
 /* The components' instances laid out in the scratch, their blocks in this block; each block fresh. */
 void model_reset(grb_instance *inst) {
     system_scratch *s = (system_scratch *)inst->model;
     unsigned char *next = (unsigned char *)inst->model + aligned(sizeof *s);
-    double *block = inst->p + P_COMPONENTS, *in = s->in_buf, *read = s->read_buf;
+    double *block = inst->p + P_COMPONENTS;
     int k;
     s->backup = (double *)(void *)next;
     next += aligned(model_persistent_size() * sizeof(double));
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
         const grb_component *c = &system_components[k];
         grb_instance *ci = &s->comp[k];
-        grb_fmu *f = &s->fmus[k];
         memset(ci, 0, sizeof *ci);
         ci->fmi = inst->fmi;
         ci->allocate = inst->allocate;
@@ -105,26 +185,13 @@ void model_reset(grb_instance *inst) {
         ci->model = next;
         block += c->calls->persistent_size();
         next += aligned(c->calls->scratch_bytes());
+        s->saved[k] = (double *)(void *)next;
+        next += aligned(c->calls->persistent_size() * sizeof(double));
         c->calls->fresh(ci);
-        /* the master's view: cosim's wiring (instance.py), nothing else read */
-        memset(f, 0, sizeof *f);
-        f->instance = ci;
-        f->set_real = c->calls->set_real;
-        f->get_real = c->calls->get_real;
-        f->do_step = c->calls->do_step;
-        f->n_in = c->n_in;
-        f->in_vr = c->in_vr;
-        f->in_slot = c->in_slot;
-        f->in_buf = in;
-        f->n_conn = f->n_read = c->n_conn;
-        f->read_vr = c->conn_vr;
-        f->read_buf = read;
-        f->out_slot = c->out_slot;
-        in += c->n_in;
-        read += c->n_conn;
     }
     inst->p[P_STARTED] = 0.0;
     inst->p[P_T] = 0.0;
+    wire(inst);
 }
 
 /* The system's own values, then (a block to restore) each component's by its own checks. */
@@ -132,14 +199,28 @@ grb_fmi_status model_check(grb_instance *inst, const double *p) {
     system_scratch *s = (system_scratch *)inst->model;
     const double *block = p + P_COMPONENTS;
     int k;
+    double tol = p[SYSTEM_SLOT_TOL];
+    int master = (int)p[SYSTEM_SLOT_MASTER];  /* (an index of its choices: the wrapper checked it) */
     if (!(p[SYSTEM_SLOT_STEP] > 0.0 && isfinite(p[SYSTEM_SLOT_STEP])))
         BAD("communication_step: must be positive and finite, got %.17g", p[SYSTEM_SLOT_STEP]);
+    /* grubler cosim --tol's range (grubler.system.native.TOL_RANGE), or 0: no error control */
+    if (!(tol == 0.0 || (tol >= 1e-14 && tol <= 0.5)))
+        BAD("tol: must be 0 (no error control) or a number from 1e-14 to 0.5, got %.17g", tol);
+    if (tol > 0.0 && master != GRB_EXTRAPOLATE)
+        BAD("tol: error control is the extrapolating master's (master = \"%s\"), but master is \"%s\": set "
+            "master to \"%s\" or tol to 0", model_variables[SYSTEM_SLOT_MASTER].choices[GRB_EXTRAPOLATE],
+            model_variables[SYSTEM_SLOT_MASTER].choices[master], model_variables[SYSTEM_SLOT_MASTER].choices[GRB_EXTRAPOLATE]);
     if (p[P_STARTED] != 0.0 && p[P_STARTED] != 1.0) BAD("state.started: must be 0 or 1, got %g", p[P_STARTED]);
     if (p[P_STARTED] == 1.0) {
         if (!isfinite(p[P_T])) BAD("state.t: the time must be finite, got %g", p[P_T]);
         for (k = 0; k < SYSTEM_N_VALUES; k++)
-            if (!isfinite(p[P_VALUES + k])) BAD("state.values: a connection's value must be finite, got %g",
-                                                p[P_VALUES + k]);
+            if (!isfinite(p[P_VALUES + k]) || !isfinite(p[P_START + k]) || !isfinite(p[P_PREV + k]))
+                BAD("state.values: a connection's value must be finite, got %g (history %g, %g)", p[P_VALUES + k],
+                    p[P_START + k], p[P_PREV + k]);
+        if (!(p[P_H_LAST] >= 0.0 && isfinite(p[P_H_LAST])) || !(p[P_SUBSTEP] > 0.0 && isfinite(p[P_SUBSTEP])) ||
+            !(p[P_SUBSTEP_PREV] >= 0.0 && isfinite(p[P_SUBSTEP_PREV])))
+            BAD("state.substep: the master's step lengths must be finite and positive, got %g, %g, %g",
+                p[P_H_LAST], p[P_SUBSTEP], p[P_SUBSTEP_PREV]);
     }
     if (p == inst->p) return GRB_FMI_OK;  /* the components check theirs as they prepare */
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
@@ -158,6 +239,7 @@ grb_fmi_status model_prepare(grb_instance *inst) {
     int started = inst->p[P_STARTED] == 1.0, k;
     size_t j;
     if (model_check(inst, inst->p) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    wire(inst);  /* the master and tol as set */
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
         const grb_component *c = &system_components[k];
         grb_instance *ci = &s->comp[k];
@@ -200,13 +282,16 @@ grb_fmi_status model_start(grb_instance *inst) {
     int k, sweep, st;
     size_t i;
     if (inst->p[P_STARTED] == 1.0) return GRB_FMI_OK;  /* a restored run: each component resumes from its block */
-    for (k = 0; k < SYSTEM_N_VALUES; k++) values[k] = 0.0;
+    for (k = 0; k < SYSTEM_N_VALUES; k++) values[k] = inst->p[P_START + k] = inst->p[P_PREV + k] = 0.0;
+    inst->p[P_H_LAST] = 0.0;  /* no past point yet */
+    inst->p[P_SUBSTEP] = inst->p[SYSTEM_SLOT_STEP];  /* the adaptive master's first try: the whole step */
+    inst->p[P_SUBSTEP_PREV] = 0.0;
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].state = GRB_INITIALIZATION;
     for (sweep = 0; sweep < SYSTEM_N_COMPONENTS + 2; sweep++) {
         double change = 0.0;
         for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
-            grb_fmu *f = &s->fmus[k];
-            const char *name = system_components[k].name;
+            grb_fmu *f = &s->fmus[k];  /* in the run's order, as cosim initialises */
+            const char *name = system_components[s->order[k]].name;
             if (f->n_in) {
                 for (i = 0; i < f->n_in; i++) f->in_buf[i] = values[f->in_slot[i]];
                 if (f->set_real(f->instance, f->in_vr, f->n_in, f->in_buf) > GRB_FMI_WARNING)
@@ -229,15 +314,15 @@ grb_fmi_status model_start(grb_instance *inst) {
         BAD("initial values of the coupled inputs did not settle after %d sweeps: an algebraic loop the components "
             "do not declare?", SYSTEM_N_COMPONENTS + 2);
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++)
-        if (system_components[k].calls->exit_initialization(&s->comp[k]) > GRB_FMI_WARNING)
-            BAD("%s: could not start (see its reason above)", system_components[k].name);
+        if (system_components[s->order[k]].calls->exit_initialization(&s->comp[s->order[k]]) > GRB_FMI_WARNING)
+            BAD("%s: could not start (see its reason above)", system_components[s->order[k]].name);
     /* the first communication point's values, read after every component started (as cosim's first row) */
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
         grb_fmu *f = &s->fmus[k];
         if (f->n_conn == 0) continue;
         st = f->get_real(f->instance, f->read_vr, f->n_conn, f->read_buf);
         if (st > GRB_FMI_WARNING) BAD("%s: reading its coupled outputs failed (see its reason above)",
-                                      system_components[k].name);
+                                      system_components[s->order[k]].name);
         for (i = 0; i < f->n_conn; i++) values[f->out_slot[i]] = f->read_buf[i];
     }
     inst->p[P_STARTED] = 1.0;
@@ -280,35 +365,70 @@ static void roll_back(grb_instance *inst) {
     }
 }
 
-/* One doStep of h from t: ceil(h / communication_step) equal Gauss-Seidel steps of master.c's loop. */
+/* One doStep of h from t: ceil(h / communication_step) equal communication steps of master.c's loop,
+ * under the master and tol the parameters name.  The extrapolating master's history and the adaptive
+ * master's sub-step clock live in the block (the FMU state carries them), so a run of doSteps is one run of
+ * cosim's: the loop is told it is past its first step (first = 1, its clock moved back a step) when a past
+ * point exists, and a past point a step of another length back is moved to this step's length (the same
+ * slope: the loop extrapolates over equal steps). */
 grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
-    static const char *const calls[] = {"setReal", "doStep", "getReal"};
+    static const char *const calls[] = {"setReal", "doStep", "getReal", "FMU state"};
     system_scratch *s = (system_scratch *)inst->model;
-    double steps = ceil(h / inst->p[SYSTEM_SLOT_STEP] - 1e-9), tn = t, when = t;
-    long n, row = 0;
-    int k;
+    double *p = inst->p, *values = p + P_VALUES;
+    double steps = ceil(h / p[SYSTEM_SLOT_STEP] - 1e-9), tn = t, when = t;
+    long n, row = 0, first = 0;
+    int k, adapt = adaptive(p);
     grb_run run;
     grb_failure fail;
     if (steps < 1.0) steps = 1.0;
     if (steps > 1e9) {
         grb_log(inst, GRB_FMI_DISCARD, "a step of %g s is %.3g communication steps of at most %g s; at most 1e9 "
-                "per doStep (raise communication_step)", h, steps, inst->p[SYSTEM_SLOT_STEP]);
+                "per doStep (raise communication_step)", h, steps, p[SYSTEM_SLOT_STEP]);
         return GRB_FMI_DISCARD;
     }
     n = (long)steps;
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].logging = inst->logging;  /* fmi2SetDebugLogging since */
-    memcpy(s->backup, inst->p, model_persistent_size() * sizeof(double));
+    memcpy(s->backup, p, model_persistent_size() * sizeof(double));
     if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
     memset(&run, 0, sizeof run);
-    run.scheme = GRB_GAUSS_SEIDEL;  /* the default master of grubler cosim */
-    run.t0 = t;
+    run.scheme = (int)p[SYSTEM_SLOT_MASTER];
     run.step = h / (double)n;
+    if (run.scheme == GRB_EXTRAPOLATE) {
+        run.n_slots = SYSTEM_N_VALUES;
+        run.start = p + P_START;
+        run.prev = p + P_PREV;
+        if (adapt) {
+            memset(&s->adapt, 0, sizeof s->adapt);
+            s->adapt.h = p[P_SUBSTEP];
+            s->adapt.h_prev = p[P_SUBSTEP_PREV];
+            s->adapt.worst_slot = -1;
+            run.tol = p[SYSTEM_SLOT_TOL];
+            run.work = s->work;
+            run.adapt = &s->adapt;
+        } else if (p[P_H_LAST] > 0.0) {
+            first = 1;
+            if (run.step != p[P_H_LAST])
+                for (k = 0; k < SYSTEM_N_VALUES; k++)
+                    run.start[k] = values[k] - (values[k] - run.start[k]) * (run.step / p[P_H_LAST]);
+        }
+    }
+    run.t0 = first ? t - run.step : t;
     run.t_end = t + h;
-    run.n_steps = n + 1;          /* never the run's last step: each of the n is h / n long */
+    run.n_steps = first + n + 1;  /* never the run's last step: each of the n is h / n long */
     run.record_every = LONG_MAX;  /* nothing recorded: the importer reads the outputs */
     run.times = &when;
-    if (grb_master_steps(s->fmus, SYSTEM_N_COMPONENTS, inst->p + P_VALUES, &run, 0, n, &tn, &row, &fail)) {
-        const char *name = system_components[fail.fmu].name;
+    if (grb_master_steps(s->fmus, SYSTEM_N_COMPONENTS, values, &run, first, n, &tn, &row, &fail)) {
+        const char *name = system_components[s->order[fail.fmu]].name;
+        if (fail.call == CALL_TOL) {
+            long w = s->adapt.worst_slot;
+            double hs = s->adapt.h;
+            roll_back(inst);
+            grb_log(inst, GRB_FMI_DISCARD, "tol %g: the coupling's error estimate stays above the tolerance down to "
+                    "a sub-step of %.3g s at t = %.17g s, largest at %s (the components' own accuracy may be the "
+                    "floor): give a larger tol; the system is back at t = %.17g s", run.tol, hs, fail.t,
+                    w >= 0 && w < SYSTEM_N_VALUES ? system_value_names[w] : "?", t);
+            return GRB_FMI_DISCARD;
+        }
         if (fail.status == GRB_FMI_DISCARD) {
             roll_back(inst);
             grb_log(inst, GRB_FMI_DISCARD, "%s: %s refused in the step from t = %.17g s (see its reason above); the "
@@ -318,7 +438,60 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
         BAD("%s: %s failed in the step from t = %.17g s (status %d, see its reason above)", name, calls[fail.call],
             fail.t, fail.status);
     }
-    inst->p[P_T] = t + h;
+    if (run.scheme == GRB_EXTRAPOLATE && !adapt) p[P_H_LAST] = run.step;
+    if (adapt) {
+        p[P_SUBSTEP] = s->adapt.h;
+        p[P_SUBSTEP_PREV] = s->adapt.h_prev;
+    }
+    p[P_T] = t + h;
     inst->level = 0;
     return GRB_FMI_OK;
 }
+
+#if MODEL_DIRECTIONAL_DERIVATIVE
+/* The system's outputs' derivatives along its inputs: an input of the system is one component's
+ * unconnected input, and at an instant it moves only that component's outputs (the others read the
+ * connections' values of the last communication point, as model_compute reads them), so each known's
+ * column is its component's own directional derivative, and zero for every other component's outputs.
+ * (grubler.system.native declares it only when every component with an unconnected input gives its own.) */
+grb_fmi_status model_directional_derivative(grb_instance *inst, const grb_value_reference unknown[],
+                                            size_t n_unknown, const grb_value_reference known[], size_t n_known,
+                                            const double dv_known[], double dv_unknown[]) {
+    system_scratch *s = (system_scratch *)inst->model;
+    size_t i, j, n, m;
+    int k, at;
+    if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
+    for (i = 0; i < n_unknown; i++) dv_unknown[i] = 0.0;
+    for (j = 0; j < n_known; j++) {
+        const grb_component *c = NULL;
+        unsigned int vr = 0;
+        int slot = model_variables[known[j] - 1].slot;
+        for (k = 0; k < SYSTEM_N_COMPONENTS && c == NULL; k++)
+            for (m = 0; m < system_components[k].n_free; m++)
+                if (system_components[k].free_slot[m] == slot) {
+                    c = &system_components[k];
+                    vr = c->free_vr[m];
+                    break;
+                }
+        if (c == NULL)
+            BAD("getDirectionalDerivative: %s is not an input of a component", model_variables[known[j] - 1].name);
+        if (dv_known[j] == 0.0) continue;
+        /* this component's outputs among the unknowns, a buffer's worth at a time */
+        for (i = 0; i < n_unknown;) {
+            for (n = 0; i < n_unknown && n < MODEL_N_OUTPUTS; i++) {
+                at = model_variables[unknown[i] - 1].slot - c->out_base;
+                if (at >= 0 && (size_t)at < c->n_out) {
+                    s->dd_vr[n] = c->out_vr[at];
+                    s->dd_at[n++] = i;
+                }
+            }
+            if (n == 0) continue;
+            if (c->calls->directional(&s->comp[c - system_components], s->dd_vr, n, &vr, 1, &dv_known[j],
+                                      s->dd_value) > GRB_FMI_WARNING)
+                BAD("%s: its directional derivatives failed (see its reason above)", c->name);
+            for (m = 0; m < n; m++) dv_unknown[s->dd_at[m]] += s->dd_value[m];
+        }
+    }
+    return GRB_FMI_OK;
+}
+#endif

@@ -29,6 +29,10 @@ typedef struct grb_component_calls {
     int (*set_real)(void *ci, const unsigned int *vr, size_t n, const double *value);
     int (*get_real)(void *ci, const unsigned int *vr, size_t n, double *value);
     int (*do_step)(void *ci, double t, double h, int no_set_fmu_state_prior);
+    /* its outputs' derivatives along its inputs at the present state (its FMU's getDirectionalDerivative;
+     * an Error where its model provides none) */
+    int (*directional)(void *ci, const unsigned int *unknown, size_t n_unknown, const unsigned int *known,
+                       size_t n_known, const double *seed, double *sensitivity);
 } grb_component_calls;
 
 /* A value the system's block gives a component's: one of its parameters or unconnected inputs. */
@@ -58,6 +62,9 @@ typedef struct grb_component {
     const unsigned int *out_vr;
     int out_base;
     const int *out_level;              /* and the system's output level of each (1 + the component's own level) */
+    int sampled;                       /* reads its inputs at sample instants (grubler.system.coupling) */
+    const int *in_mode;                /* the extrapolating master's mode of each connected input (grb_input_mode), */
+    const int *in_mode_adaptive;       /* and with a tolerance, in the adaptive stepping order */
 } grb_component;
 
 #endif
