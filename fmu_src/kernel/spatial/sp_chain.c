@@ -407,7 +407,7 @@ static void world_inertia(const grs_link *l, const grs_frame *F, double *Iw) {
 }
 
 /* M and Q - h of the open tree at the frames of the last kinematic pass. */
-static void mass_and_force(const grs_model *md, const double *zd, const double *tau, grs_ws *w) {
+void grs_mass_and_force(const grs_model *md, const double *zd, const double *tau, grs_ws *w) {
     int n = w->n;
     grs_vec *c = w->vec, *rot = w->vec + 1; /* rot: the angular Jacobian in rot->J */
     memset(w->mass, 0, sizeof(double) * (size_t)n * n);
@@ -478,7 +478,7 @@ static void closure_multipliers(grs_ws *w) {
 grb_status grs_accelerations(const grs_model *md, const double *z, const double *zd, const double *tau, grs_ws *w) {
     int n = w->n, m = w->m, f = n;
     grs_kinematics(md, z, zd, w);
-    mass_and_force(md, zd, tau, w);
+    grs_mass_and_force(md, zd, tau, w);
     grs_closure_rows(md, w);
     for (int i = 0; i < n; i++) {
         for (int j = 0; j < n; j++) SP_SOLVE(w, i, j) = SP_MASS(w, i, j);

@@ -200,3 +200,88 @@ grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, d
     for (int r = 0; r < m; r++) indeterminate[r] = sqrt(indeterminate[r]);
     return GRB_OK;
 }
+
+/* -- change points (sp_chart.c, sp_integrate.c) ------------------------------ */
+
+/* Squared singular values of the closure Jacobian at the last grs_rows_at,
+ * largest first (m of them): the eigenvalues of the Gram matrix J J^T. */
+static void squared_singular_values(grs_ws *w, double *e) {
+    int n = w->n, m = w->m;
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += SP_J(w, r, i) * SP_J(w, c, i);
+            SP_SCHUR(w, r, c) = g;
+        }
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    for (int i = 0; i < m; i++) e[i] = w->eigval[i];
+    for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
+        for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
+            double tmp = e[k];
+            e[k] = e[k - 1];
+            e[k - 1] = tmp;
+        }
+}
+
+/* Conditioning of the closure at z for a mechanism of mobility one, as the
+ * planar kernel measures it (closure.c): the Jacobian's (N - 1)-th singular
+ * value over its largest.  Dependent rows (a planar loop seen as spatial, a
+ * Bennett or Bricard loop) add singular values that are zero everywhere; the
+ * (N - 1)-th is the one that falls to zero where two assembly branches meet. */
+double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w) {
+    int n = w->n, m = w->m;
+    double e[GRS_MAX_ROWS];
+    if (m == 0) return 1.0;
+    grs_rows_at(md, z, w);
+    squared_singular_values(w, e);
+    int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
+    if (k < 0) k = 0;
+    if (!(e[0] > 0.0)) return 0.0;
+    return sqrt(fmax(e[k], 0.0) / e[0]);
+}
+
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest). */
+int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w) {
+    int n = w->n, m = w->m, rank = 0;
+    double e[GRS_MAX_ROWS];
+    if (m == 0) return n;
+    grs_rows_at(md, z, w);
+    squared_singular_values(w, e);
+    for (int i = 0; i < m; i++)
+        if (e[i] > 1e-16 * e[0]) rank++;
+    return n - rank;
+}
+
+/* The branch point where coordinate held keeps its value in z: the others
+ * solved onto the closures by Gauss-Newton from z (in place), and the branch's
+ * tangent dz/dx there (tangent[held] = 1; NULL: not wanted).  Returns the
+ * closure violation reached, or infinity where it does not close to rounding
+ * (closure.c's grb_branch_point over the spatial rows). */
+double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w) {
+    int n = w->n, m = w->m, dep[GRS_MAX_COORDS], nd = 0;
+    if (held < 0 || held >= n) return INFINITY;
+    scratch s = scratch_of(w);
+    for (int i = 0; i < n; i++)
+        if (i != held) dep[nd++] = i;
+    double previous = INFINITY, err = INFINITY;
+    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
+        grs_rows_at(md, z, w);
+        err = worst_violation(w);
+        if (!(err < 0.5 * previous) || err == 0.0) break;
+        previous = err;
+        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
+        solve_dependent(w, &s, dep, nd, s.phi, s.step);
+        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
+    }
+    grs_rows_at(md, z, w);
+    err = worst_violation(w);
+    if (!(err <= POSITION_TOL * scale)) return INFINITY;
+    if (tangent) {
+        for (int r = 0; r < m; r++) s.b[r] = -SP_J(w, r, held);
+        solve_dependent(w, &s, dep, nd, s.b, s.x);
+        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
+        tangent[held] = 1.0;
+    }
+    return err;
+}
