@@ -204,23 +204,30 @@ grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, d
 /* -- change points (sp_chart.c, sp_integrate.c) ------------------------------ */
 
 /* Squared singular values of the closure Jacobian at the last grs_rows_at,
- * largest first (m of them): the eigenvalues of the Gram matrix J J^T. */
-static void squared_singular_values(grs_ws *w, double *e) {
-    int n = w->n, m = w->m;
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < m; c++) {
+ * largest first, into e; returns how many (min(N, M)): the eigenvalues of the
+ * smaller Gram matrix, J^T J or J J^T (the watch runs on every step, and an
+ * overconstrained loop has more rows than coordinates).  Both fit the M x M
+ * eigen buffers when N <= M. */
+static int squared_singular_values(grs_ws *w, double *e) {
+    int n = w->n, m = w->m, by_rows = m <= n, k = by_rows ? m : n;
+    for (int r = 0; r < k; r++)
+        for (int c = r; c < k; c++) {
             double g = 0.0;
-            for (int i = 0; i < n; i++) g += SP_J(w, r, i) * SP_J(w, c, i);
-            SP_SCHUR(w, r, c) = g;
+            if (by_rows)
+                for (int i = 0; i < n; i++) g += SP_J(w, r, i) * SP_J(w, c, i);
+            else
+                for (int i = 0; i < m; i++) g += SP_J(w, i, r) * SP_J(w, i, c);
+            w->schur[r * k + c] = w->schur[c * k + r] = g;
         }
-    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
-    for (int i = 0; i < m; i++) e[i] = w->eigval[i];
-    for (int i = 1; i < m; i++) /* insertion sort, descending: m is small */
-        for (int k = i; k > 0 && e[k] > e[k - 1]; k--) {
-            double tmp = e[k];
-            e[k] = e[k - 1];
-            e[k - 1] = tmp;
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, k);
+    for (int i = 0; i < k; i++) e[i] = w->eigval[i];
+    for (int i = 1; i < k; i++) /* insertion sort, descending: k is small */
+        for (int j = i; j > 0 && e[j] > e[j - 1]; j--) {
+            double tmp = e[j];
+            e[j] = e[j - 1];
+            e[j - 1] = tmp;
         }
+    return k;
 }
 
 /* Conditioning of the closure at z for a mechanism of mobility one, as the
@@ -233,8 +240,8 @@ double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w)
     double e[GRS_MAX_ROWS];
     if (m == 0) return 1.0;
     grs_rows_at(md, z, w);
-    squared_singular_values(w, e);
-    int k = n - 2 < m - 1 ? n - 2 : m - 1; /* the (N - 1)-th, or the last there is */
+    int count = squared_singular_values(w, e);
+    int k = n - 2 < count - 1 ? n - 2 : count - 1; /* the (N - 1)-th, or the last there is */
     if (k < 0) k = 0;
     if (!(e[0] > 0.0)) return 0.0;
     return sqrt(fmax(e[k], 0.0) / e[0]);
@@ -247,8 +254,8 @@ int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w) {
     double e[GRS_MAX_ROWS];
     if (m == 0) return n;
     grs_rows_at(md, z, w);
-    squared_singular_values(w, e);
-    for (int i = 0; i < m; i++)
+    int count = squared_singular_values(w, e);
+    for (int i = 0; i < count; i++)
         if (e[i] > 1e-16 * e[0]) rank++;
     return n - rank;
 }
