@@ -192,8 +192,7 @@ def test_a_spatial_fmu_step_through_a_change_point_passes_it(tmp_path, fmi):
     names = ["link2.theta", "link3.theta", "KE", "PE", "closure_error"]
     rows = []
     for i in range(300):
-        status = s.doStep(i * H, H)
-        assert status in (None, 0), f"step {i} at t = {i * H} s answered {status}"
+        s.doStep(i * H, H)  # fmpy raises on Discard (what the step through the aligned position answered)
         rows.append(get_([vr[x] for x in names]))
     s.terminate()
     s.freeInstance()
