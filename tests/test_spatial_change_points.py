@@ -157,49 +157,101 @@ def test_the_equilateral_bennett_linkage_swings_through_its_branch_point_on_its_
 
 # -- the native FMU ------------------------------------------------------------------------------------------------
 H = 2.0 ** -7
+# the planar-fourbar-3d FMU's parameters set to a parallelogram (crank and rocker 0.2 m, coupler and ground 1 m),
+# released crank up at 3 rad/s: its crank comes along the ground (theta = pi) within a second
+PARALLELOGRAM = {"link4.dh.a": 1.0, "closure.point_x": 0.2, "closure.to_point_x": 1.0, "link4.com_x": 0.1,
+                 "initial.link2.theta": math.pi / 2, "initial.link3.theta": -math.pi / 2,
+                 "initial.link4.theta": -math.pi / 2, "initial.link2.theta_d": 3.0, "max_step": 0.1}
+OUTPUTS = ["link2.theta", "link3.theta", "link4.theta", "link2.theta_d", "KE", "PE", "closure_error"]
+
+
+@pytest.fixture(scope="module")
+def planar_fourbar_fmus(tmp_path_factory):
+    import builds
+    from fmpy import read_model_description
+
+    out = {}
+    for fmi in (2, 3):
+        path = builds.spatial("planar-fourbar-3d", tmp_path_factory.mktemp(f"pf{fmi}") / "PlanarFourbar3d.fmu",
+                              "linux64", fmi)
+        out[fmi] = (path, read_model_description(str(path)))
+    return out
+
+
+class Slave:
+    """An fmpy slave of the build with the parallelogram's parameters, initialised."""
+
+    def __init__(self, fmus, fmi):
+        from fmpy import extract
+        from fmpy.fmi2 import FMU2Slave
+        from fmpy.fmi3 import FMU3Slave
+
+        path, md = fmus[fmi]
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.s = (FMU2Slave if fmi == 2 else FMU3Slave)(guid=md.guid, unzipDirectory=extract(str(path)),
+                                                        modelIdentifier=md.coSimulation.modelIdentifier,
+                                                        instanceName="s")
+        self.fmi = fmi
+        self.set_, self.get_ = (self.s.setReal, self.s.getReal) if fmi == 2 else (self.s.setFloat64, self.s.getFloat64)
+        self.s.instantiate()
+        if fmi == 2:
+            self.s.setupExperiment(startTime=0.0)
+            self.s.enterInitializationMode()
+        else:
+            self.s.enterInitializationMode(startTime=0.0)
+        for name, value in PARALLELOGRAM.items():
+            self.set_([self.vr[name]], [value])
+        self.s.exitInitializationMode()
+
+    def steps(self, first, n):
+        rows = []
+        for i in range(first, first + n):
+            self.s.doStep(i * H, H)  # fmpy raises on Discard (what the step through the aligned position answered)
+            rows.append(self.get_([self.vr[x] for x in OUTPUTS]))
+        return np.array(rows)
+
+    def free(self):
+        self.s.terminate()
+        self.s.freeInstance()
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("fmi", [2, 3])
-def test_a_spatial_fmu_step_through_a_change_point_passes_it(tmp_path, fmi):
-    # the planar-fourbar-3d FMU with its parameters set to a parallelogram (crank and rocker 0.2 m, coupler and
-    # ground 1 m), released crank up at 3 rad/s: its crank comes along the ground (theta = pi) within the
-    # steps, where a step used to answer Discard
-    import builds
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-    from fmpy.fmi3 import FMU3Slave
-
-    path = builds.spatial("planar-fourbar-3d", tmp_path / "PlanarFourbar3d.fmu", "linux64", fmi)
-    md = read_model_description(str(path))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    s = (FMU2Slave if fmi == 2 else FMU3Slave)(guid=md.guid, unzipDirectory=extract(str(path)),
-                                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName="s")
-    set_ = s.setReal if fmi == 2 else s.setFloat64
-    get_ = s.getReal if fmi == 2 else s.getFloat64
-    s.instantiate()
-    if fmi == 2:
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-    else:
-        s.enterInitializationMode(startTime=0.0)
-    params = {"link4.dh.a": 1.0, "closure.point_x": 0.2, "closure.to_point_x": 1.0, "link4.com_x": 0.1,
-              "initial.link2.theta": math.pi / 2, "initial.link3.theta": -math.pi / 2,
-              "initial.link4.theta": -math.pi / 2, "initial.link2.theta_d": 3.0, "max_step": 0.1}
-    for name, value in params.items():
-        set_([vr[name]], [value])
-    s.exitInitializationMode()
-    names = ["link2.theta", "link3.theta", "KE", "PE", "closure_error"]
-    rows = []
-    for i in range(300):
-        s.doStep(i * H, H)  # fmpy raises on Discard (what the step through the aligned position answered)
-        rows.append(get_([vr[x] for x in names]))
-    s.terminate()
-    s.freeInstance()
-    rows = np.array(rows)
+def test_a_spatial_fmu_step_through_a_change_point_passes_it(planar_fourbar_fmus, fmi):
+    slave = Slave(planar_fourbar_fmus, fmi)
+    rows = slave.steps(0, 300)
+    slave.free()
     crank, coupler = rows[:, 0], rows[:, 0] + rows[:, 1]
-    assert crank.max() > math.pi + 0.5  # past the aligned position
-    assert np.ptp(coupler) < 1e-8  # on the parallelogram's branch
-    assert rows[:, 4].max() < 1e-11
-    energy = rows[:, 2] + rows[:, 3]
-    assert np.ptp(energy) < 1e-8 * rows[:, 2].max()
+    assert crank.max() > 4 * math.pi  # through four aligned positions (measured: to 14.09 rad)
+    assert np.ptp(coupler) < 1e-8  # on the parallelogram's branch (measured 9.3e-13)
+    assert rows[:, 6].max() < 1e-11  # measured 5.6e-13
+    energy = rows[:, 4] + rows[:, 5]
+    assert np.ptp(energy) < 1e-8 * rows[:, 4].max()  # measured 8.5e-10 J of 18 J
+
+
+@pytest.mark.slow
+def test_a_spatial_fmu_state_saved_on_a_chart_steps_on_to_the_same_bits(planar_fourbar_fmus):
+    # saved while the motion follows a chart, restored in the instance after it ran on and in a fresh one:
+    # the chart and the watch's reference travel in the state (they used to be scratch: a fresh instance
+    # started its watch afresh and took the passage without a chart)
+    slave = Slave(planar_fourbar_fmus, 2)
+    rows = slave.steps(0, 300)
+    # the first step whose crank lies within 0.05 rad before the aligned position: on the chart
+    k = int(np.argmax((rows[:, 0] > math.pi - 0.05) & (rows[:, 0] < math.pi)))
+    assert 0 < k < 250 and rows[k, 0] < math.pi
+    slave.free()
+    slave = Slave(planar_fourbar_fmus, 2)
+    slave.steps(0, k + 1)
+    state = slave.s.serializeFMUstate(slave.s.getFMUstate())
+    after = slave.steps(k + 1, 40)
+    assert np.array_equal(after, rows[k + 1:k + 41])
+    slave.s.setFMUstate(slave.s.deSerializeFMUstate(state))
+    again = slave.steps(k + 1, 40)
+    slave.free()
+    fresh = Slave(planar_fourbar_fmus, 2)
+    fresh.s.setFMUstate(fresh.s.deSerializeFMUstate(state))
+    restored = fresh.steps(k + 1, 40)
+    fresh.free()
+    assert np.array_equal(again, after)
+    assert np.array_equal(restored, after)
+    assert np.ptp(restored[:, 0] + restored[:, 1]) < 1e-8 and restored[:, 0].max() > math.pi  # and it passed
