@@ -4,11 +4,13 @@ branches meet, on a chart of the branch it came along (kernel/spatial/sp_chart.c
 
 References share no code with the spatial kernel: the planar kernel on the same four-bars (its own chart,
 chain and closure code); the driven parallelogram's one-degree-of-freedom equation solved by scipy; the
-equilateral Bennett linkage's two branches in closed form; energy balances from the outputs.  Before the
+equilateral Bennett linkage's two branches and the spherical four-bar's input-output relation in closed
+form; energy balances from the outputs.  Before the
 chart every run here stopped at its first change point (IntegrationError, "... a change point"; the FMU
 answered Discard).
 """
 
+import dataclasses
 import math
 import sys
 import zipfile
@@ -20,6 +22,8 @@ import scipy.integrate
 
 import grubler
 from grubler.mechanism import spatial as sp
+
+from test_spatial import spherical_equation
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
@@ -153,6 +157,31 @@ def test_the_equilateral_bennett_linkage_swings_through_its_branch_point_on_its_
     assert np.abs(res.z[:, 2] + theta1).max() < 1e-10  # theta3 = -theta1 on it (measured 9.3e-15)
     assert res.closure_error().max() < 1e-12  # measured 8.1e-15
     assert energy_drift(res) < 1e-9 * np.max(res.energy()[:, 0])  # measured 6.0e-14 J of 0.12 J
+
+
+def test_a_change_point_spherical_four_bar_passes_every_turn_onto_the_other_circuit():
+    # the spherical analogue of s + l = p + q in angular lengths (25 + 70 = 60 + 35 deg): once a turn all four
+    # axes lie in one plane and the two circuits of A cos psi + B sin psi = C meet.  The motion's analytic
+    # branch goes on to the other circuit there (as the planar change-point four-bar's does, which the planar
+    # kernel confirms above), with the rates continuous: the energy balance shows no jump
+    g = dataclasses.replace(sp.spherical_fourbar_geometry(), rocker=math.radians(35))
+    m = sp.spherical_fourbar(gravity=(0, 0, 0), geometry=g)
+    tau = np.array([0.01, 0.0, 0.0])
+    res = m.simulate(m.assemble(np.array([0.5, 1.0, 1.0]), np.zeros(3)), t_end=4.0, dt_out=1e-3, tau=tau, **TIGHT)
+    phi, psi = res.z[:, 0], res.z[:, 2]
+    turns = int((phi[-1] - phi[0]) // (2 * math.pi))
+    assert turns >= 10  # measured 12.05
+    A, B, C = spherical_equation(g, phi)
+    assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-12  # measured 1.4e-14
+    # the closed form's two roots are psi = atan2(B, A) +- acos(C / hypot(A, B)): the motion changes root
+    # once a turn, where the crank lies at pi (the change point), and nowhere else
+    side = np.sign(np.sin(psi - np.arctan2(B, A)))
+    flips = np.nonzero(np.diff(side))[0]
+    passed = np.sum(np.diff(np.floor((phi - math.pi) / (2 * math.pi))) != 0)
+    assert len(flips) == passed >= turns
+    assert np.abs(np.remainder(phi[flips], 2 * math.pi) - math.pi).max() < 0.1  # measured 0.053
+    assert res.closure_error().max() < 1e-12  # measured 1.9e-13
+    assert energy_drift(res, tau) < 1e-10 * np.max(res.energy()[:, 0])  # measured 1.9e-12 J of 0.76 J
 
 
 # -- the native FMU ------------------------------------------------------------------------------------------------

@@ -18,6 +18,7 @@
 #define PROJECTION_ITERATIONS 4
 #define ASSEMBLY_ITERATIONS 100
 #define ASSEMBLY_CLOSED 1e-9    /* relative to the scale: what counts as closed at all */
+#define BRANCH_ROUNDING 1e-14   /* a branch point's rows closed to rounding, whatever the scale */
 
 typedef struct scratch {
     double *U, *V, *Jd, *x, *trial, *step, *phi, *b;
@@ -283,7 +284,10 @@ double grs_branch_point(const grs_model *md, int held, double scale, double *z, 
     }
     grs_rows_at(md, z, w);
     err = worst_violation(w);
-    if (!(err <= POSITION_TOL * scale)) return INFINITY;
+    /* closed to rounding: the direction rows (u.n1, u.n2) are pure numbers whose rounding does not shrink
+     * with the length scale (a spherical loop, every joint at one point, has the 1 mm floor of the scale,
+     * and asked 1e-15 of them its charts failed one passage in two) */
+    if (!(err <= fmax(POSITION_TOL * scale, BRANCH_ROUNDING))) return INFINITY;
     if (tangent) {
         for (int r = 0; r < m; r++) s.b[r] = -SP_J(w, r, held);
         solve_dependent(w, &s, dep, nd, s.b, s.x);
