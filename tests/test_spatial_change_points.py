@@ -65,7 +65,9 @@ def test_a_driven_parallelogram_keeps_its_branch_through_twenty_turns():
     y0 = m.assemble(np.array([theta0, math.pi / 3, 2 * math.pi / 3]), np.zeros(3))
     res = m.simulate(y0, t_end=5.0, dt_out=0.01, tau=tau, **TIGHT)
     crank, coupler = res.z[:, 0], res.z[:, 0] + res.z[:, 1]
-    assert (crank[-1] - theta0) / (2 * math.pi) > 20  # measured 22.7 turns: 45 aligned positions
+    assert (crank[-1] - theta0) / (2 * math.pi) > 20  # measured 22.7 turns
+    aligned = int(np.floor(crank[-1] / math.pi) - np.floor(theta0 / math.pi))  # crank at k pi, passed forwards
+    assert res.passages == aligned == 46  # 0, pi, .., 45 pi: a chart at each
     assert np.ptp(coupler) < 1e-9  # measured 7.8e-12
     ref = scipy.integrate.solve_ivp(lambda t, y: [y[1], tau[0] / 3 - G * math.cos(y[0])], (0, 5.0), [theta0, 0.0],
                                     method="DOP853", rtol=1e-13, atol=1e-13, t_eval=res.t)
@@ -89,6 +91,7 @@ def test_random_change_point_four_bars_as_spatial_finish_with_the_planar_kernel(
     planar = grubler.simulate(scene, t_end=4.0, dt_out=0.01, method="exact", torque=2.0)
     m, tau = spatial_from_planar(scene.mechanism), np.array([2.0, 0.0, 0.0])
     res = m.simulate(np.concatenate([planar.z[0], planar.zd[0]]), t_end=4.0, dt_out=0.01, tau=tau)
+    assert res.passages == len(planar.stats["passages"])  # 0 (three seeds) to 72
     absolute = np.cumsum(res.z, axis=1)
     for k, name in enumerate(("theta2", "theta3", "theta4")):
         assert np.abs(absolute[:, k] - planar[name]).max() < 1e-5, name  # measured 1.8e-6 at most
@@ -108,7 +111,7 @@ def change_point_four_bar():
 
 def test_the_change_point_four_bar_as_spatial_follows_the_planar_kernel_through_each_passage(change_point_four_bar):
     planar, m, res, tau = change_point_four_bar
-    assert len(planar.stats["passages"]) >= 8  # the planar kernel's chart passed 9 (and so did this one)
+    assert res.passages == len(planar.stats["passages"]) == 9  # each passed on a chart, as the planar kernel's
     absolute, rates = np.cumsum(res.z, axis=1), np.cumsum(res.zd, axis=1)
     for k, name in enumerate(("theta2", "theta3", "theta4")):
         assert np.abs(absolute[:, k] - planar[name]).max() < 1e-8, name  # measured 7.4e-10 rad
@@ -143,6 +146,7 @@ def test_a_free_parallelogram_swings_through_its_aligned_positions_with_its_ener
     res = m.simulate(y0, t_end=3.0, dt_out=0.01, rtol=1e-10, atol=1e-10)
     crank = res.z[:, 0]
     assert crank.max() - crank.min() > 2 * math.pi  # it goes round: every aligned position on the way
+    assert res.passages == int(np.floor(crank[-1] / math.pi) - np.floor(crank[0] / math.pi)) >= 2
     assert np.ptp(res.z[:, 0] + res.z[:, 1]) < 1e-8  # the coupler stays level
     assert res.closure_error().max() < 1e-11
     assert energy_drift(res) < 1e-8 * np.max(res.energy()[:, 0])
@@ -175,6 +179,7 @@ def test_the_equilateral_bennett_linkage_swings_through_its_branch_point_on_its_
     theta1 = res.z[:, 0]
     crossings = np.sum(np.diff(np.sign(theta1 + math.pi)) != 0)
     assert crossings >= 4  # measured 5 passages in 4 s
+    assert res.passages == crossings
     assert np.abs(res.z[:, 1] - math.pi).max() < 1e-10  # its own branch (measured 1.5e-14)
     assert np.abs(res.z[:, 2] + theta1).max() < 1e-10  # theta3 = -theta1 on it (measured 9.3e-15)
     assert res.closure_error().max() < 1e-12  # measured 8.1e-15
@@ -200,7 +205,7 @@ def test_a_change_point_spherical_four_bar_passes_every_turn_onto_the_other_circ
     side = np.sign(np.sin(psi - np.arctan2(B, A)))
     flips = np.nonzero(np.diff(side))[0]
     passed = np.sum(np.diff(np.floor((phi - math.pi) / (2 * math.pi))) != 0)
-    assert len(flips) == passed >= turns
+    assert len(flips) == passed == res.passages >= turns
     assert np.abs(np.remainder(phi[flips], 2 * math.pi) - math.pi).max() < 0.1  # measured 0.053
     assert res.closure_error().max() < 1e-12  # measured 1.9e-13
     assert energy_drift(res, tau) < 1e-10 * np.max(res.energy()[:, 0])  # measured 1.9e-12 J of 0.76 J

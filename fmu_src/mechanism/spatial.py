@@ -219,6 +219,7 @@ class SpatialResult:
     y: np.ndarray
     tau: np.ndarray | None = None
     steps: int = 0
+    passages: int = 0  # change points passed (the motion crossing where two assembly branches meet)
 
     @property
     def z(self) -> np.ndarray:
@@ -511,7 +512,9 @@ class SpatialMechanism:
                                        ctypes.byref(where))
         if status != binding.OK:
             raise IntegrationError(f"spatial run stopped at t = {where.value:.6g} s: {binding.status_message(status)}")
-        return SpatialResult(self, np.concatenate([[0.0], times]), np.vstack([y0, out]), tau, int(steps.value))
+        passages = int(self._lib.grs_passages(binding.address(stepper), code, self.n_coords))
+        return SpatialResult(self, np.concatenate([[0.0], times]), np.vstack([y0, out]), tau, int(steps.value),
+                             passages)
 
     def start(self, **coordinates) -> np.ndarray:
         """A sketch z with the named coordinates (``crank=0.3`` for ``crank.theta``) set, the rest 0."""

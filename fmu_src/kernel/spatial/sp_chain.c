@@ -142,6 +142,7 @@ static void offsets(int L, int n, int m, size_t *off) {
     off[8] = off[7] + N;                                 /* four tracked vectors' Jacobians */
     off[9] = off[8] + 4 * 3 * N;                         /* S */
     off[10] = off[9] + grs_scratch_size(n, m) + 12 * (size_t)L; /* and the reactions' two 6 L tables */
+    off[11] = off[10] + 2 * (size_t)(n > 1 ? n - 1 : 0) * M;      /* the change-point watch's two bases */
 }
 
 size_t grs_work_size(const grs_model *md) {
@@ -150,12 +151,12 @@ size_t grs_work_size(const grs_model *md) {
 }
 
 size_t grs_work_size_for(int n_links, int n_coords, int n_rows) {
-    size_t off[11];
+    size_t off[12];
     if (n_links < 1 || n_links > GRS_MAX_LINKS || n_coords < 1 || n_coords > GRS_MAX_COORDS || n_rows < 0 ||
         n_rows > GRS_MAX_ROWS)
         return 0;
     offsets(n_links, n_coords, n_rows, off);
-    return off[10];
+    return off[11];
 }
 
 grb_status grs_work_init(const grs_model *md, double *buffer, size_t length) {
@@ -177,7 +178,7 @@ grb_status grs_ws_init(grs_ws *w, const grs_model *md, double *buffer) {
         buffer[GRS_WORK_ROWS] = m;
     } else if (buffer[GRS_WORK_LINKS] != L || buffer[GRS_WORK_COORDS] != n || buffer[GRS_WORK_ROWS] != m)
         return GRB_BAD_ARGUMENT;
-    size_t off[11];
+    size_t off[12];
     offsets(L, n, m, off);
     w->L = L;
     w->n = n;
@@ -196,6 +197,7 @@ grb_status grs_ws_init(grs_ws *w, const grs_model *md, double *buffer) {
     w->zdd = buffer + off[7];
     for (int i = 0; i < 4; i++) w->vec[i].J = buffer + off[8] + (size_t)i * 3 * n;
     w->S = buffer + off[9];
+    w->basis = buffer + off[10];
     int c = 0;
     for (int k = 0; k < L; k++) {
         const grs_link *l = grs_links(md) + k;

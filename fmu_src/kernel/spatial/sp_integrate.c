@@ -10,11 +10,13 @@
  * then velocity: grs_project_ws) after every accepted step.
  *
  * Change points, as integrate.c passes them: for a loop of mobility one the
- * closure's conditioning (grs_closure_conditioning, relative to the best the
- * run has seen) is watched at the end of every accepted step; a step that ends
- * deep in a change point's zone is shortened to end at its edge, and from
- * there the motion follows its branch's chart (sp_chart.c) until it leaves the
- * chart's range on the far side.  A step that the projection finds has jumped
+ * closure's conditioning (relative to the best the run has seen) and its
+ * branch orientation (grs_closure_watch) are watched at the end of every
+ * accepted step; a step that ends deep in a change point's zone, or steps over
+ * one (the orientation flips while the motion goes on the same way), is
+ * shortened to end at the zone's edge, and from there the motion follows its
+ * branch's chart (sp_chart.c) until it leaves the chart's range on the far
+ * side; crossing the chart's pinch counts a passage (grs_passages).  A step that the projection finds has jumped
  * to another branch (it takes a good part of the speed away) is retried
  * shorter, so that the watch meets the zone; where no chart can be made, or
  * the mobility is not one, such a jump stops the run (GRB_BRANCH_JUMP). */
@@ -33,10 +35,14 @@
 /* closure conditioning (relative to the best seen) below which the motion
  * follows its branch's chart (integrate.c's CONDITIONING_NEAR) */
 #define CONDITIONING_NEAR 1e-1
-/* stepper slots after the chart: a tag and the best conditioning seen, kept
- * from one advance to the next (a co-simulation step is one advance) */
+/* closure conditioning (relative) below which the chart's worst point counts
+ * as a change point passed (integrate.c's CONDITIONING_PINCH) */
+#define CONDITIONING_PINCH 1e-2
+/* stepper slots after the chart, kept from one advance to the next (a
+ * co-simulation step is one advance): a tag, the best conditioning seen, and
+ * the change points passed */
 #define SEEN_TAG 5.1173e-219
-#define SEEN_SLOTS 2
+enum { SEEN_TAG_AT, SEEN_BEST, SEEN_PASSAGES, SEEN_SLOTS };
 
 /* stepper rows (2N doubles each): s + 1 stage derivatives, then the stage
  * state, the proposed state, the current state; then the change-point chart
@@ -45,6 +51,18 @@ size_t grs_stepper_size(int tableau, int n_coords) {
     const grb_tableau_data *tab = grb_tableau(tableau);
     if (!tab || !tab->adaptive || n_coords <= 0) return 0;
     return (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grs_chart_size(n_coords) + SEEN_SLOTS;
+}
+
+/* the slots after the stages and the chart */
+static double *seen_of(double *stepper, const grb_tableau_data *tab, int n_coords) {
+    return stepper + (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grs_chart_size(n_coords);
+}
+
+double grs_passages(const double *stepper, int tableau, int n_coords) {
+    const grb_tableau_data *tab = grb_tableau(tableau);
+    if (!stepper || !tab || !tab->adaptive || n_coords <= 0) return 0.0;
+    const double *seen = seen_of((double *)stepper, tab, n_coords);
+    return seen[SEEN_TAG_AT] == SEEN_TAG ? seen[SEEN_PASSAGES] : 0.0;
 }
 
 typedef struct stepper {
@@ -148,19 +166,29 @@ static grb_status stop(double *where, double t, grb_status status) {
     return status;
 }
 
-/* The closure's conditioning at y relative to the best seen (which it updates). */
-static double watch(const grs_model *md, const double *y, double *seen, grs_ws *w) {
-    double k = grs_closure_conditioning(md, y, w);
+/* The change-point watch at y (grs_closure_watch): the closure's conditioning
+ * relative to the best seen (which it updates), y's row directions into
+ * basis_out, the branch orientation against basis (the step's start) and
+ * against its own. */
+static double watch(const grs_model *md, const double *y, double *seen, const double *basis, double *basis_out,
+                    double *orientation, double *own_orientation, grs_ws *w) {
+    double k;
+    grs_closure_watch(md, y, basis, basis_out, &k, orientation, own_orientation, w);
     if (k > *seen) *seen = k;
     return *seen > 0.0 ? k / *seen : 1.0;
 }
 
-/* The fraction of a step to try instead of one whose end (conditioning
- * k_nw) lies deep in a change point's zone: aim at the zone's edge, the
- * conditioning falling about linearly towards the change point
- * (integrate.c's change_point_ahead). */
-static double towards_edge(double k_cur, double k_nw) {
-    double frac = k_cur > k_nw ? (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw) : 0.5;
+/* The fraction of a step to try instead of one that ends deep in a change
+ * point's zone (conditioning k_nw), or steps over one (over: the branch
+ * orientation flipped while the motion went on the same way): aim at the
+ * zone's edge, the conditioning falling about linearly towards the change
+ * point (integrate.c's change_point_ahead). */
+static double towards_edge(double k_cur, double k_nw, int over) {
+    double frac = 0.5;
+    if (!over && k_cur > k_nw)
+        frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur - k_nw);
+    else if (over) /* down to the pinch and up again */
+        frac = (k_cur - 0.75 * CONDITIONING_NEAR) / (k_cur + k_nw);
     return fmin(0.9, fmax(0.05, frac));
 }
 
@@ -184,16 +212,20 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
     memcpy(st.cur, y, sizeof(double) * (size_t)st.N);
     /* change points are passed on a chart where the closures leave one degree of freedom */
     grs_chart chart;
-    double *seen = ROW(&st, S + 4) + grs_chart_size(n);
+    double *seen = seen_of(stepper_buf, tab, n);
     int passing = w.m > 0 && grs_closure_freedom(md, st.cur, &w) == 1, uncharted = 0;
-    double k_cur = 1.0;
+    double k_cur = 1.0, o_cur = 0.0, o_nw = 0.0, o_nw_own = 0.0, unused;
+    /* the row directions at the current state and at the proposed one's end (the orientation's basis) */
+    double *b_cur = w.basis, *b_nw = w.basis + (size_t)(n > 1 ? n - 1 : 0) * w.m;
     if (passing) {
         grs_chart_init(&chart, n, ROW(&st, S + 4));
         grs_chart_resume(&chart, st.cur, s->scale);
         st.chart = &chart;
-        if (seen[0] != SEEN_TAG || !(seen[1] > 0.0)) seen[1] = 0.0;
-        seen[0] = SEEN_TAG;
-        if (!chart.active) k_cur = watch(md, st.cur, &seen[1], &w);
+        if (seen[SEEN_TAG_AT] != SEEN_TAG) seen[SEEN_PASSAGES] = 0.0;
+        if (seen[SEEN_TAG_AT] != SEEN_TAG || !(seen[SEEN_BEST] > 0.0)) seen[SEEN_BEST] = 0.0;
+        if (!(seen[SEEN_PASSAGES] >= 0.0)) seen[SEEN_PASSAGES] = 0.0;
+        seen[SEEN_TAG_AT] = SEEN_TAG;
+        if (!chart.active) k_cur = watch(md, st.cur, &seen[SEEN_BEST], NULL, b_cur, &unused, &o_cur, &w);
     }
     if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, *t, GRB_NONFINITE_DERIVATIVE);
     double time = *t, step = *h > 0.0 ? fmin(*h, s->h_max) : initial_step(&st);
@@ -204,7 +236,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
         while (time < t_out[o]) {
             /* near a change point: onto the branch's chart (where one can be made) */
             if (passing && !chart.active && !uncharted && k_cur < CONDITIONING_NEAR) {
-                if (grs_chart_build(md, s->scale, st.cur, seen[1], CONDITIONING_NEAR, &chart, &w) == GRB_OK) {
+                if (grs_chart_build(md, s->scale, st.cur, seen[SEEN_BEST], CONDITIONING_NEAR, &chart, &w) == GRB_OK) {
                     grs_chart_put(&chart, st.cur);
                     if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, time, GRB_NONFINITE_DERIVATIVE);
                 } else
@@ -222,21 +254,29 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
             if (err <= 1.0) {
                 double k_nw = 1.0;
                 if (passing && !chart.active) {
-                    /* a step that ends deep in a change point's zone ends at its edge instead */
-                    double seen_before = seen[1];
-                    k_nw = watch(md, st.nw, &seen[1], &w);
-                    if (!uncharted && k_nw < 0.5 * CONDITIONING_NEAR) {
-                        seen[1] = seen_before;
-                        step = hh * towards_edge(k_cur, k_nw);
+                    /* a step that ends deep in a change point's zone, or steps over one, ends at its edge
+                     * instead */
+                    double seen_before = seen[SEEN_BEST], same_way = 0.0;
+                    k_nw = watch(md, st.nw, &seen[SEEN_BEST], b_cur, b_nw, &o_nw, &o_nw_own, &w);
+                    for (int i = n; i < st.N; i++) same_way += st.cur[i] * st.nw[i];
+                    int over = same_way > 0.0 && o_cur * o_nw < 0.0;
+                    if (!uncharted && (over || k_nw < 0.5 * CONDITIONING_NEAR)) {
+                        seen[SEEN_BEST] = seen_before;
+                        step = hh * towards_edge(k_cur, k_nw, over);
                         continue;
                     }
                 }
                 int charted = 0;
                 if (passing && chart.active) { /* on the chart: put there exactly, let go past its range */
                     double *p = st.nw;
+                    int held = chart.held;
+                    /* a passage: the motion crossing the chart's pinch, where the branches meet */
+                    int crossed = chart.pinch_kappa < CONDITIONING_PINCH &&
+                                  (st.cur[held] - chart.pinch) * (p[held] - chart.pinch) < 0.0;
                     charted = grs_chart_put(&chart, p);
+                    if (charted && crossed) seen[SEEN_PASSAGES] += 1.0;
                     if (!charted || p[chart.held] < chart.lo || p[chart.held] > chart.hi) chart.active = 0;
-                    if (!chart.active) k_nw = watch(md, p, &seen[1], &w);
+                    if (!chart.active) k_nw = watch(md, p, &seen[SEEN_BEST], NULL, b_nw, &unused, &o_nw_own, &w);
                 }
                 if (w.m > 0 && !charted) {
                     /* the projection moves the state by the order of the tolerance; one that takes a good
@@ -261,7 +301,13 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
                 time = last ? t_out[o] : time + hh;
                 memcpy(st.cur, st.nw, sizeof(double) * (size_t)st.N);
                 k_cur = k_nw;
-                if (passing && !chart.active && k_cur >= CONDITIONING_NEAR) uncharted = 0;
+                if (passing && !chart.active) { /* the end's row directions become the next step's basis */
+                    double *b = b_cur;
+                    b_cur = b_nw;
+                    b_nw = b;
+                    o_cur = o_nw_own;
+                    if (k_cur >= CONDITIONING_NEAR) uncharted = 0;
+                }
                 if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, time, GRB_NONFINITE_DERIVATIVE);
                 /* a step cut short to land on an output says nothing against the step before it */
                 step = last && hh < step ? fmax(step, hh * fac) : hh * fac;

@@ -10,6 +10,7 @@
  *   schur, eig_work, eigvec (M x M each), eigval (M), zdd (N)
  *   vec (4 tracked vectors)        scratch for one closure row's two factors
  *   S                              scratch for least squares and assembly
+ *   basis (2 x (N - 1) x M)        the change-point watch's row directions (sp_integrate.c)
  * with L links, N coordinates and M closure rows. */
 #ifndef GRUBLER_SP_WORKSPACE_H
 #define GRUBLER_SP_WORKSPACE_H
@@ -59,6 +60,7 @@ typedef struct grs_ws {
     double *solve, *schur, *eig_work, *eigvec, *eigval, *zdd;
     grs_vec vec[4];
     double *S; /* scratch: see sp_closure.c */
+    double *basis; /* two (N - 1) x M tables of closure row directions (grs_closure_watch) */
 } grs_ws;
 
 static inline const grs_link *grs_links(const grs_model *m) { return (const grs_link *)m->links; }
@@ -85,6 +87,8 @@ void grs_rows_at(const grs_model *md, const double *z, grs_ws *w);
 void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w);
 double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w);
 int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w);
+void grs_closure_watch(const grs_model *md, const double *y, const double *basis, double *basis_out, double *kappa,
+                       double *orientation, double *own_orientation, grs_ws *w);
 double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w);
 
 /* sp_chart.c: an assembly branch near a change point as a curve z(x) in one
