@@ -474,6 +474,7 @@ _SPATIAL_SIGNATURES = {
     "grs_project": (c_int, [_SM, c_double, _P, _P]),
     "grs_assemble": (c_int, [_SM, c_int, _P, c_double, _P, _P, POINTER(c_double), _P]),
     "grs_stepper_size": (c_size_t, [c_int, c_int]),
+    "grs_passages": (c_double, [_P, c_int, c_int]),
     "grs_advance": (c_int, [_SM, POINTER(SpatialSettings), POINTER(c_double), POINTER(c_double), POINTER(c_long),
                             _P, _P, c_int, _P, _P, _P, POINTER(c_double)]),
 }

@@ -70,10 +70,12 @@ LEVEL_STATE, LEVEL_DYNAMICS, LEVEL_REACTIONS = 1, 2, 3
 DEFAULT_RTOL = DEFAULT_ATOL = 1e-10  # SpatialMechanism.simulate's
 
 
-def run_state() -> tuple[tuple[str, int], ...]:
-    """The model's own part of the persistent block: the run's flag, time, next step, step count, and
-    y = (z, zd) (sized by the C model from N_COORDS: the last field's length 0 means "the rest")."""
-    return (("started", 1), ("t", 1), ("h", 1), ("steps", 1), ("y", 0))
+def run_state(n_coords: int) -> tuple[tuple[str, int], ...]:
+    """The model's own part of the persistent block: the run's flag, time, next step, step count,
+    y = (z, zd), then the integrator's stepper (sized by the kernel: the last field's length 0 means "the
+    rest"), which carries the change-point chart being followed and the best closure conditioning seen from
+    one step to the next (as the planar mechanism FMU's state carries its stepper and kappa_seen)."""
+    return (("started", 1), ("t", 1), ("h", 1), ("steps", 1), ("y", 2 * n_coords), ("stepper", 0))
 
 
 def _unit(slide: bool, rad: str, m: str) -> str:
@@ -239,7 +241,7 @@ def spatial_spec(mechanism: SpatialMechanism, identifier: str = "Spatial", y0=No
             f"(Denavit-Hartenberg links, {n} coordinates, {nc} closure{'s' if nc != 1 else ''}); every number of "
             "the model is a parameter")
     return ModelSpec(identifier, text, tuple(v), "spatial_model.c", defines, out, tuple(slot_order), (),
-                     ("spatial", "spatial_base"), run_state())
+                     ("spatial", "spatial_base"), run_state(m.n_coords))
 
 
 # the public names (the API reference's): the rest is the package's inside

@@ -219,6 +219,7 @@ class SpatialResult:
     y: np.ndarray
     tau: np.ndarray | None = None
     steps: int = 0
+    passages: int = 0  # change points passed (the motion crossing where two assembly branches meet)
 
     @property
     def z(self) -> np.ndarray:
@@ -511,7 +512,9 @@ class SpatialMechanism:
                                        ctypes.byref(where))
         if status != binding.OK:
             raise IntegrationError(f"spatial run stopped at t = {where.value:.6g} s: {binding.status_message(status)}")
-        return SpatialResult(self, np.concatenate([[0.0], times]), np.vstack([y0, out]), tau, int(steps.value))
+        passages = int(self._lib.grs_passages(binding.address(stepper), code, self.n_coords))
+        return SpatialResult(self, np.concatenate([[0.0], times]), np.vstack([y0, out]), tau, int(steps.value),
+                             passages)
 
     def start(self, **coordinates) -> np.ndarray:
         """A sketch z with the named coordinates (``crank=0.3`` for ``crank.theta``) set, the rest 0."""
@@ -725,7 +728,7 @@ def spherical_fourbar_geometry() -> _Spherical4:
     return _Spherical4()
 
 
-def spherical_fourbar(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
+def spherical_fourbar(gravity=(0.0, 0.0, -GRAVITY), geometry: _Spherical4 | None = None) -> SpatialMechanism:
     """A spherical crank-rocker: four revolutes whose axes meet at the origin.
 
     The input turns about the world z axis; its far axis is at ``crank`` from
@@ -735,7 +738,9 @@ def spherical_fourbar(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     the coupler's own z and at ``rocker`` from the output's.  The closure's
     three force rows vanish identically (every joint is at the origin), so the
     loop is overconstrained as a spatial one: the motion is exact and those
-    reactions are indeterminate.
+    reactions are indeterminate.  ``geometry``: other angular lengths
+    (``dataclasses.replace(spherical_fourbar_geometry(), rocker=...)``; the
+    preset's by default).
 
     Examples
     --------
@@ -743,7 +748,7 @@ def spherical_fourbar(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     >>> m.n_rows, m.determinacy(m.assembled_start()[:m.n_coords])[1]    # 5 rows of rank 2
     (5, 2)
     """
-    g = spherical_fourbar_geometry()
+    g = geometry or spherical_fourbar_geometry()
     R = g.radius
 
     def arc_body(mass, angle):  # a link drawn as the arc from its z axis to Rx(angle) e_z, radius R

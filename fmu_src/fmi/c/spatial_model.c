@@ -14,11 +14,13 @@
  * (accelerations, energies), then every reaction (grs_reactions).
  *
  * Memory: the persistent block holds the run (a flag, t, the next step, the
- * step count, y); the kernel's workspace and the integrator's stages are
- * scratch, written before they are read (grs_advance recomputes the derivative
- * at the state it starts from), so a saved state is small and a restored one
- * steps on exactly as the run it came from.  Nothing is on the stack beyond a
- * few scalars: the tables live in the instance's scratch. */
+ * step count, y) and the integrator's stepper, whose stages grs_advance
+ * rewrites (it recomputes the derivative at the state it starts from) but
+ * which carries the change-point chart and the watch's reference conditioning
+ * from one step to the next; the kernel's workspace is scratch, written before
+ * it is read.  So a restored state steps on exactly as the run it came from.
+ * Nothing is on the stack beyond a few scalars: the tables live in the
+ * instance's scratch. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -43,7 +45,11 @@
  *   P_T        time of the state
  *   P_H        the integrator's next step (0: it picks one)
  *   P_STEPS    accepted internal steps so far
- *   P_Y        y = (z, zd), 2 N */
+ *   P_Y        y = (z, zd), 2 N
+ *   P_STEPPER  the integrator's stepper (grs_stepper_size): its stages are rewritten by every advance, but
+ *              it carries the change-point chart being followed and the best closure conditioning seen
+ *              (the watch's reference) from one step to the next, so a restored state steps on as the run
+ *              it came from did, through a change point too */
 
 enum { LEVEL_STATE = 1, LEVEL_DYNAMICS = 2, LEVEL_REACTIONS = 3 };
 
@@ -77,16 +83,14 @@ typedef struct spatial {
     int drive; /* the drive joint's coordinate */
 } spatial;
 
-/* the kernel's workspace (grs_work_size_for) and the integrator's (grs_stepper_size) after the struct */
+/* the kernel's workspace (grs_work_size_for) after the struct; the integrator's stepper is persistent */
 static size_t struct_bytes(void) { return (sizeof(spatial) + 15) & ~(size_t)15; }
 static size_t work_doubles(void) { return grs_work_size_for(NL, N, NR); }
 static double *work_of(const grb_instance *inst) { return (double *)((char *)inst->model + struct_bytes()); }
-static double *stepper_of(const grb_instance *inst) { return work_of(inst) + work_doubles(); }
+static double *stepper_of(const grb_instance *inst) { return inst->p + P_STEPPER; }
 
-size_t model_persistent_size(void) { return (size_t)P_Y + NS; }
-size_t model_scratch_bytes(void) {
-    return struct_bytes() + (work_doubles() + grs_stepper_size(GRB_DOP853, N)) * sizeof(double);
-}
+size_t model_persistent_size(void) { return (size_t)P_STEPPER + grs_stepper_size(GRB_DOP853, N); }
+size_t model_scratch_bytes(void) { return struct_bytes() + work_doubles() * sizeof(double); }
 int model_input_free_level(void) { return LEVEL_STATE; }
 const double *model_outputs(const grb_instance *inst) { return ((const spatial *)inst->model)->out; }
 double model_time(const grb_instance *inst) { return inst->p[P_T]; }
@@ -293,6 +297,8 @@ fmi2Status model_prepare(grb_instance *inst) {
     p[P_T] = inst->start_time;
     p[P_H] = 0.0;
     p[P_STEPS] = 0.0;
+    /* a new run follows no chart and has seen no conditioning yet */
+    memset(stepper_of(inst), 0, grs_stepper_size(GRB_DOP853, N) * sizeof(double));
     return fmi2OK;
 }
 

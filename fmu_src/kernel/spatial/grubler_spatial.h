@@ -185,8 +185,13 @@ typedef struct grs_settings {
     const double *tau;  /* generalised efforts (N), constant over the advance; NULL none */
 } grs_settings;
 
-/* Doubles of stepper workspace for N coordinates. */
+/* Doubles of stepper workspace for N coordinates.  Zeroed by the caller for a
+ * new run: between advances it keeps the change-point chart being followed,
+ * the best closure conditioning seen and the change points passed. */
 GRB_API size_t grs_stepper_size(int tableau, int n_coords);
+/* Change points the advances on this stepper have passed (the motion crossing
+ * a chart's pinch) since it was zeroed. */
+GRB_API double grs_passages(const double *stepper, int tableau, int n_coords);
 
 /* Step from *t through the increasing times t_out (n_out), each one reached by
  * a step that ends on it, projecting onto the closures after every accepted

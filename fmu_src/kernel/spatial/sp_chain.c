@@ -142,6 +142,7 @@ static void offsets(int L, int n, int m, size_t *off) {
     off[8] = off[7] + N;                                 /* four tracked vectors' Jacobians */
     off[9] = off[8] + 4 * 3 * N;                         /* S */
     off[10] = off[9] + grs_scratch_size(n, m) + 12 * (size_t)L; /* and the reactions' two 6 L tables */
+    off[11] = off[10] + 2 * (size_t)(n > 1 ? n - 1 : 0) * M;      /* the change-point watch's two bases */
 }
 
 size_t grs_work_size(const grs_model *md) {
@@ -150,12 +151,12 @@ size_t grs_work_size(const grs_model *md) {
 }
 
 size_t grs_work_size_for(int n_links, int n_coords, int n_rows) {
-    size_t off[11];
+    size_t off[12];
     if (n_links < 1 || n_links > GRS_MAX_LINKS || n_coords < 1 || n_coords > GRS_MAX_COORDS || n_rows < 0 ||
         n_rows > GRS_MAX_ROWS)
         return 0;
     offsets(n_links, n_coords, n_rows, off);
-    return off[10];
+    return off[11];
 }
 
 grb_status grs_work_init(const grs_model *md, double *buffer, size_t length) {
@@ -177,7 +178,7 @@ grb_status grs_ws_init(grs_ws *w, const grs_model *md, double *buffer) {
         buffer[GRS_WORK_ROWS] = m;
     } else if (buffer[GRS_WORK_LINKS] != L || buffer[GRS_WORK_COORDS] != n || buffer[GRS_WORK_ROWS] != m)
         return GRB_BAD_ARGUMENT;
-    size_t off[11];
+    size_t off[12];
     offsets(L, n, m, off);
     w->L = L;
     w->n = n;
@@ -196,6 +197,7 @@ grb_status grs_ws_init(grs_ws *w, const grs_model *md, double *buffer) {
     w->zdd = buffer + off[7];
     for (int i = 0; i < 4; i++) w->vec[i].J = buffer + off[8] + (size_t)i * 3 * n;
     w->S = buffer + off[9];
+    w->basis = buffer + off[10];
     int c = 0;
     for (int k = 0; k < L; k++) {
         const grs_link *l = grs_links(md) + k;
@@ -407,7 +409,7 @@ static void world_inertia(const grs_link *l, const grs_frame *F, double *Iw) {
 }
 
 /* M and Q - h of the open tree at the frames of the last kinematic pass. */
-static void mass_and_force(const grs_model *md, const double *zd, const double *tau, grs_ws *w) {
+void grs_mass_and_force(const grs_model *md, const double *zd, const double *tau, grs_ws *w) {
     int n = w->n;
     grs_vec *c = w->vec, *rot = w->vec + 1; /* rot: the angular Jacobian in rot->J */
     memset(w->mass, 0, sizeof(double) * (size_t)n * n);
@@ -478,7 +480,7 @@ static void closure_multipliers(grs_ws *w) {
 grb_status grs_accelerations(const grs_model *md, const double *z, const double *zd, const double *tau, grs_ws *w) {
     int n = w->n, m = w->m, f = n;
     grs_kinematics(md, z, zd, w);
-    mass_and_force(md, zd, tau, w);
+    grs_mass_and_force(md, zd, tau, w);
     grs_closure_rows(md, w);
     for (int i = 0; i < n; i++) {
         for (int j = 0; j < n; j++) SP_SOLVE(w, i, j) = SP_MASS(w, i, j);

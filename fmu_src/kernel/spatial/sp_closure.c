@@ -18,6 +18,7 @@
 #define PROJECTION_ITERATIONS 4
 #define ASSEMBLY_ITERATIONS 100
 #define ASSEMBLY_CLOSED 1e-9    /* relative to the scale: what counts as closed at all */
+#define BRANCH_ROUNDING 1e-14   /* a branch point's rows closed to rounding, whatever the scale */
 
 typedef struct scratch {
     double *U, *V, *Jd, *x, *trial, *step, *phi, *b;
@@ -199,4 +200,177 @@ grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, d
     }
     for (int r = 0; r < m; r++) indeterminate[r] = sqrt(indeterminate[r]);
     return GRB_OK;
+}
+
+/* -- change points (sp_chart.c, sp_integrate.c) ------------------------------ */
+
+/* The eigen-decomposition of the smaller Gram matrix of the closure Jacobian
+ * at the last grs_rows_at, J J^T (M x M, its eigenvectors the left singular
+ * vectors) or J^T J (N x N, the right ones): the watch runs on every step, and
+ * an overconstrained loop has more rows than coordinates.  Eigenvalues (the
+ * squared singular values) in w->eigval, eigenvectors in w->eigvec's columns
+ * (stride k), order[] their indices largest first; returns k = min(N, M).
+ * Both fit the M x M eigen buffers when N <= M. */
+static int gram_eig(grs_ws *w, int *order) {
+    int n = w->n, m = w->m, by_rows = m <= n, k = by_rows ? m : n;
+    for (int r = 0; r < k; r++)
+        for (int c = r; c < k; c++) {
+            double g = 0.0;
+            if (by_rows)
+                for (int i = 0; i < n; i++) g += SP_J(w, r, i) * SP_J(w, c, i);
+            else
+                for (int i = 0; i < m; i++) g += SP_J(w, i, r) * SP_J(w, i, c);
+            w->schur[r * k + c] = w->schur[c * k + r] = g;
+        }
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, k);
+    for (int i = 0; i < k; i++) order[i] = i;
+    for (int i = 1; i < k; i++) /* insertion sort, descending: k is small */
+        for (int j = i; j > 0 && w->eigval[order[j]] > w->eigval[order[j - 1]]; j--) {
+            int tmp = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = tmp;
+        }
+    return k;
+}
+
+/* The (N - 1)-th singular value over the largest, from gram_eig's answer. */
+static double conditioning_of(const grs_ws *w, const int *order, int count) {
+    int k = w->n - 2 < count - 1 ? w->n - 2 : count - 1; /* the (N - 1)-th, or the last there is */
+    if (k < 0) k = 0;
+    double top = w->eigval[order[0]];
+    if (!(top > 0.0)) return 0.0;
+    return sqrt(fmax(w->eigval[order[k]], 0.0) / top);
+}
+
+/* Conditioning of the closure at z for a mechanism of mobility one, as the
+ * planar kernel measures it (closure.c): the Jacobian's (N - 1)-th singular
+ * value over its largest.  Dependent rows (a planar loop seen as spatial, a
+ * Bennett or Bricard loop) add singular values that are zero everywhere; the
+ * (N - 1)-th is the one that falls to zero where two assembly branches meet. */
+double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w) {
+    int order[GRS_MAX_ROWS];
+    if (w->m == 0) return 1.0;
+    grs_rows_at(md, z, w);
+    return conditioning_of(w, order, gram_eig(w, order));
+}
+
+/* Degrees of freedom the closures leave at z: N minus the rank of their
+ * Jacobian (singular values above 1e-8 of the largest). */
+int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w) {
+    int n = w->n, rank = 0, order[GRS_MAX_ROWS];
+    if (w->m == 0) return n;
+    grs_rows_at(md, z, w);
+    int count = gram_eig(w, order);
+    for (int i = 0; i < count; i++)
+        if (w->eigval[order[i]] > 1e-16 * w->eigval[order[0]]) rank++;
+    return n - rank;
+}
+
+/* det [B J; zd / |zd|] (N x N) at the last grs_rows_at, B (N - 1) x M: the
+ * branch orientation of the planar kernel (closure.c), whose sign flips where
+ * the motion crosses a change point and goes on the same way.  0 at rest. */
+static double orientation_of(grs_ws *w, const double *zd, const double *B) {
+    int n = w->n, m = w->m;
+    double speed = 0.0;
+    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
+    if (!(speed > 0.0)) return 0.0;
+    speed = sqrt(speed);
+    double *A = w->schur; /* n x n over the eigen buffers (3 M^2 + M >= (M + 1)^2 >= N^2 at mobility one) */
+    for (int r = 0; r < n - 1; r++)
+        for (int i = 0; i < n; i++) {
+            double v = 0.0;
+            for (int k = 0; k < m; k++) v += B[r * m + k] * SP_J(w, k, i);
+            A[r * n + i] = v;
+        }
+    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
+    double det = 1.0;
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
+        if (A[p * n + c] == 0.0) return 0.0;
+        if (p != c) {
+            for (int j = 0; j < n; j++) {
+                double t = A[c * n + j];
+                A[c * n + j] = A[p * n + j];
+                A[p * n + j] = t;
+            }
+            det = -det;
+        }
+        det *= A[c * n + c];
+        for (int r = c + 1; r < n; r++) {
+            double f = A[r * n + c] / A[c * n + c];
+            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
+        }
+    }
+    return det;
+}
+
+/* The change-point watch at y = (z, zd), from one evaluation of the closure
+ * rows: the conditioning (grs_closure_conditioning's); into basis_out the
+ * N - 1 dominant row directions at z ((N - 1) x M: the leading left singular
+ * vectors of J); the orientation against the directions basis (those of the
+ * state the step started from: NULL, 0) and against its own. */
+void grs_closure_watch(const grs_model *md, const double *y, const double *basis, double *basis_out, double *kappa,
+                       double *orientation, double *own_orientation, grs_ws *w) {
+    int n = w->n, m = w->m, order[GRS_MAX_ROWS];
+    grs_rows_at(md, y, w);
+    int count = gram_eig(w, order);
+    *kappa = conditioning_of(w, order, count);
+    for (int r = 0; r < n - 1; r++) {
+        double *u = basis_out + (size_t)r * m;
+        if (r >= count) {
+            for (int i = 0; i < m; i++) u[i] = 0.0;
+            continue;
+        }
+        int j = order[r];
+        if (m <= n) /* J J^T: its eigenvectors are the left singular vectors */
+            for (int i = 0; i < m; i++) u[i] = w->eigvec[i * count + j];
+        else { /* J^T J: u = J v / sigma */
+            double sigma = sqrt(fmax(w->eigval[j], 0.0));
+            for (int i = 0; i < m; i++) {
+                double v = 0.0;
+                for (int c = 0; c < n; c++) v += SP_J(w, i, c) * w->eigvec[c * count + j];
+                u[i] = sigma > 0.0 ? v / sigma : 0.0;
+            }
+        }
+    }
+    *orientation = basis ? orientation_of(w, y + n, basis) : 0.0;
+    *own_orientation = orientation_of(w, y + n, basis_out);
+}
+
+/* The branch point where coordinate held keeps its value in z: the others
+ * solved onto the closures by Gauss-Newton from z (in place), and the branch's
+ * tangent dz/dx there (tangent[held] = 1; NULL: not wanted).  Returns the
+ * closure violation reached, or infinity where it does not close to rounding
+ * (closure.c's grb_branch_point over the spatial rows). */
+double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w) {
+    int n = w->n, m = w->m, dep[GRS_MAX_COORDS], nd = 0;
+    if (held < 0 || held >= n) return INFINITY;
+    scratch s = scratch_of(w);
+    for (int i = 0; i < n; i++)
+        if (i != held) dep[nd++] = i;
+    double previous = INFINITY, err = INFINITY;
+    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
+        grs_rows_at(md, z, w);
+        err = worst_violation(w);
+        if (!(err < 0.5 * previous) || err == 0.0) break;
+        previous = err;
+        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
+        solve_dependent(w, &s, dep, nd, s.phi, s.step);
+        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
+    }
+    grs_rows_at(md, z, w);
+    err = worst_violation(w);
+    /* closed to rounding: the direction rows (u.n1, u.n2) are pure numbers whose rounding does not shrink
+     * with the length scale (a spherical loop, every joint at one point, has the 1 mm floor of the scale,
+     * and asked 1e-15 of them its charts failed one passage in two) */
+    if (!(err <= fmax(POSITION_TOL * scale, BRANCH_ROUNDING))) return INFINITY;
+    if (tangent) {
+        for (int r = 0; r < m; r++) s.b[r] = -SP_J(w, r, held);
+        solve_dependent(w, &s, dep, nd, s.b, s.x);
+        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
+        tangent[held] = 1.0;
+    }
+    return err;
 }

@@ -10,6 +10,7 @@
  *   schur, eig_work, eigvec (M x M each), eigval (M), zdd (N)
  *   vec (4 tracked vectors)        scratch for one closure row's two factors
  *   S                              scratch for least squares and assembly
+ *   basis (2 x (N - 1) x M)        the change-point watch's row directions (sp_integrate.c)
  * with L links, N coordinates and M closure rows. */
 #ifndef GRUBLER_SP_WORKSPACE_H
 #define GRUBLER_SP_WORKSPACE_H
@@ -59,6 +60,7 @@ typedef struct grs_ws {
     double *solve, *schur, *eig_work, *eigvec, *eigval, *zdd;
     grs_vec vec[4];
     double *S; /* scratch: see sp_closure.c */
+    double *basis; /* two (N - 1) x M tables of closure row directions (grs_closure_watch) */
 } grs_ws;
 
 static inline const grs_link *grs_links(const grs_model *m) { return (const grs_link *)m->links; }
@@ -78,9 +80,41 @@ void grs_kinematics(const grs_model *md, const double *z, const double *zd, grs_
 void grs_point(const grs_ws *w, int k, const double *local, grs_vec *out);
 void grs_direction(const grs_ws *w, int k, const double *local, grs_vec *out);
 void grs_closure_rows(const grs_model *md, grs_ws *w);
+void grs_mass_and_force(const grs_model *md, const double *zd, const double *tau, grs_ws *w);
 grb_status grs_accelerations(const grs_model *md, const double *z, const double *zd, const double *tau, grs_ws *w);
 /* sp_closure.c */
 void grs_rows_at(const grs_model *md, const double *z, grs_ws *w);
 void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w);
+double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w);
+int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w);
+void grs_closure_watch(const grs_model *md, const double *y, const double *basis, double *basis_out, double *kappa,
+                       double *orientation, double *own_orientation, grs_ws *w);
+double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w);
+
+/* sp_chart.c: an assembly branch near a change point as a curve z(x) in one
+ * held coordinate x, the planar kernel's chart (chart.c) over the spatial
+ * chain: Chebyshev coefficients of z, dz/dx and d2z/dx2 over x in [lo, hi],
+ * and where in it the closure is worst conditioned. */
+#define GRS_CHART_NODES 16
+typedef struct grs_chart {
+    int n, active, held;
+    double lo, hi, mid, half;
+    double pinch, pinch_kappa; /* x at the worst conditioning met, and that conditioning (relative) */
+    double pinch_step;         /* how far from pinch the worst lies (while the chart is built) */
+    double *c;                 /* 3 x GRS_CHART_NODES x n coefficients */
+    double *values;            /* 2 x GRS_CHART_NODES x n: z and dz/dx at the nodes (while built; then the
+                                  chart's scalars between advances: grs_chart_save) */
+    double *scratch;           /* 10 n */
+} grs_chart;
+size_t grs_chart_size(int n_coords);
+void grs_chart_init(grs_chart *ch, int n_coords, double *buffer);
+int grs_chart_build(const grs_model *md, double scale, const double *y, double kappa_ref, double near,
+                    grs_chart *ch, grs_ws *w);
+int grs_chart_eval(const grs_chart *ch, double x, double *z, double *dz, double *ddz);
+int grs_chart_put(const grs_chart *ch, double *y);
+void grs_chart_save(const grs_chart *ch);
+int grs_chart_resume(grs_chart *ch, const double *y, double scale);
+int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
+                  double *out);
 
 #endif
