@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
@@ -409,9 +408,9 @@ def is_spatial(source) -> bool:
     found = _source(source)
     if found is None:
         return False
-    try:
-        return tomllib.loads(found[0]).get("dimension") == 3
-    except tomllib.TOMLDecodeError:
+    try:  # bounded as every scene's TOML is (limits.parse_toml: nesting depth, huge integers)
+        return parse_toml(found[0], "scene").get("dimension") == 3
+    except InputError:
         return False
 
 
