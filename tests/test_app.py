@@ -984,3 +984,20 @@ def test_a_servo_run_s_frames_are_the_mechanism_at_its_recorded_drive_angles():
     rocker = {**data, "mechanism": {**data["mechanism"], "ground": 1.4}}
     out = drive_frames(rocker, t, math.radians(30) + np.linspace(0, math.pi, 11))
     assert 0 < len(out["frames"]) < 11 and len(out["frame_t"]) == len(out["frames"]) == len(out["path"])
+
+
+def test_a_force_element_s_links_and_joint_are_menus_of_the_mechanism_s_own(app):
+    """The form offers a spring's ends the ground and the moving links, a load the moving links, a torsion
+    spring the real joints; a link the mechanism lacks (as a file may say) stays in its menu, refused next to it."""
+    data = actions.preset_data("stephenson-i")
+    for kind in ("spring", "joint_spring", "point_load"):
+        data = actions.add_element(data, kind)
+    data["point_load"][0]["link"] = 9
+    out, _ = post(app, "analyse", {"scene": data})
+    form = {f["key"]: f for f in out["fields"]}
+    links = ["link2", "link3", "link4", "link5", "link6"]
+    assert form["spring[0].from_link"]["choices"] == ["ground"] + links
+    assert form["joint_spring[0].joint"]["choices"] == ["theta2", "theta3", "theta4", "theta5", "theta6"]
+    assert form["point_load[0].link"]["choices"] == links + ["link9"]
+    assert form["point_load[0].link"]["value"] == "link9" and out["scene"]["point_load"][0]["link"] == 9
+    assert out["error"]["field"] == "point_load[0].link"

@@ -151,6 +151,61 @@ def add_element(data: dict, kind, sketch) -> dict:
     return out
 
 
+# the fields of each kind that name a link, and whether the ground is one a designer would pick there (a load
+# on the ground does nothing; the reader takes it, so a file that says so is shown as it is)
+LINK_FIELDS = {"spring": {"from_link": True, "to_link": True}, "point_load": {"link": False}}
+
+
+def link_word(value):
+    """A link as the scene's menus name it: 1 or "ground" -> 'ground', 3 or "link3" -> 'link3' (else as given)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return "ground" if value == 1 else f"link{value}"
+    return value.strip() if isinstance(value, str) else value
+
+
+def element_menus(data: dict) -> dict[str, list[str]]:
+    """The form's menus of a scene's force elements: each field that names a link (its mechanism's links, the
+    ground where a designer would pick it) or a joint (its real joints' coordinates), by the field's key.
+
+    A value the scene holds that the menu has not (a link this mechanism lacks, as a file may say) is kept in
+    its menu, so that the form shows what the scene says and the reader's refusal next to it.  A mechanism that
+    does not build has no menus (its fields stay text, as typed).
+
+    >>> from grubler.app.scene_form import preset_data
+    >>> menus = element_menus(preset_data("gas-spring-boom"))
+    >>> menus["spring[0].to_link"], menus["point_load[0].link"], menus["joint_spring[0].joint"]
+    (['ground', 'link2', 'link3', 'link4'], ['link2', 'link3', 'link4'], ['theta2', 'theta3', 'theta4'])
+    """
+    from grubler.errors import GrublerError
+    from grubler.mechanism.scene import scene_from_dict
+
+    tables = {kind: data.get(kind) for kind in KINDS}
+    tables = {kind: [t] if isinstance(t, dict) else t for kind, t in tables.items() if t}
+    if not tables:
+        return {}
+    try:  # the mechanism alone: an element's own bad field must not take its menus away
+        model = scene_from_dict({k: v for k, v in data.items() if k not in KINDS}).mechanism
+    except GrublerError:
+        return {}
+    moving = [f"link{k}" for k in range(2, model.n_links + 2)]
+    out = {}
+    for kind, rows in tables.items():
+        if not isinstance(rows, list):
+            continue
+        for j, table in enumerate(rows):
+            if not isinstance(table, dict):
+                continue
+            wanted = {leaf: (["ground"] if ground else []) + moving for leaf, ground in LINK_FIELDS.get(kind, {}).items()}
+            if kind == "joint_spring":
+                wanted["joint"] = list(model.free_names)
+            for leaf, menu in wanted.items():
+                held = link_word(table.get(leaf)) if leaf != "joint" else table.get(leaf)
+                if isinstance(held, str) and held and held not in menu:
+                    menu = menu + [held]
+                out[f"{kind}[{j}].{leaf}"] = menu
+    return out
+
+
 def remove_element(data: dict, key) -> dict:
     """Scene data without the force element ``key`` names (``spring[1]``)."""
     found = re.fullmatch(r"(spring|joint_spring|point_load)\[(\d+)\]", key) if isinstance(key, str) else None
@@ -168,4 +223,5 @@ def remove_element(data: dict, key) -> dict:
     return out
 
 
-__all__ = ["KINDS", "element_key", "element_unit", "completed", "add_element", "remove_element"]
+__all__ = ["KINDS", "LINK_FIELDS", "element_key", "element_unit", "completed", "add_element", "element_menus",
+           "link_word", "remove_element"]

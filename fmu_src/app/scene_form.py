@@ -24,7 +24,7 @@ import tomllib
 from functools import lru_cache
 
 
-from grubler.app.elements import completed, element_unit
+from grubler.app.elements import LINK_FIELDS, completed, element_menus, element_unit, link_word
 from grubler.errors import GrublerError, InputError, SceneError
 from grubler.limits import brief, parse_toml
 from grubler.mechanism.analysis import classify
@@ -148,6 +148,7 @@ def unit(key: str) -> str:
 def fields(data: dict) -> list[dict]:
     """The form: one entry per editable value, its dotted key (the name errors use), value and unit."""
     out = []
+    menus = element_menus(data)  # a force element's links and joint: menus of the scene's own
 
     def add(prefix, table):
         for k, v in table.items():
@@ -166,6 +167,10 @@ def fields(data: dict) -> list[dict]:
                          "text": k in _TEXT or isinstance(v, bool)}
                 if choices(key):
                     entry["choices"] = choices(key)
+                if key in menus:
+                    entry["choices"] = menus[key]
+                    if k in {leaf for leafs in LINK_FIELDS.values() for leaf in leafs}:
+                        entry["value"] = link_word(v)  # 3 shown as 'link3', its menu's word; the scene keeps 3
                 out.append(entry)
     add("", data)
     return out
