@@ -195,7 +195,8 @@ def element_menus(data: dict) -> dict[str, list[str]]:
         for j, table in enumerate(rows):
             if not isinstance(table, dict):
                 continue
-            wanted = {leaf: (["ground"] if ground else []) + moving for leaf, ground in LINK_FIELDS.get(kind, {}).items()}
+            wanted = {leaf: (["ground"] if ground else []) + moving
+                      for leaf, ground in LINK_FIELDS.get(kind, {}).items()}
             if kind == "joint_spring":
                 wanted["joint"] = list(model.free_names)
             for leaf, menu in wanted.items():
