@@ -1001,3 +1001,26 @@ def test_a_force_element_s_links_and_joint_are_menus_of_the_mechanism_s_own(app)
     assert form["point_load[0].link"]["choices"] == links + ["link9"]
     assert form["point_load[0].link"]["value"] == "link9" and out["scene"]["point_load"][0]["link"] == 9
     assert out["error"]["field"] == "point_load[0].link"
+
+
+def test_the_analysis_carries_the_force_elements_forces_and_a_load_s_magnitude(app):
+    """A spring's force (the run's <name>_force at that state) at both its ends along its line, a load's force at
+    its point, and each drawn load's magnitude in its frame row."""
+    data = actions.preset_data("gas-spring-boom")
+    out, _ = post(app, "analyse", {"scene": data, "kinematics": True})
+    assert out["frame"]["loads"][0][4] == pytest.approx(1962.0)
+    strut = [f for f in out["analysis"]["element_forces"] if f["label"] == "strut"]
+    payload = [f for f in out["analysis"]["element_forces"] if f["label"] == "payload"]
+    assert payload[0]["f"] == [0.0, -1962.0] and payload[0]["at"] == pytest.approx(out["frame"]["loads"][0][:2])
+    # at a run's instant, moving (its damper working): the run's own strut_force there
+    res = simulate(scene_from_dict(data), t_end=0.5)
+    res.compute(["forces"])
+    at = actions.run_instant(data, res, 0.25)["analysis"]
+    row = int(np.argmin(abs(res.t - at["t"])))
+    assert abs(res["strut_rate"][row]) > 0.01
+    strut = [f for f in at["element_forces"] if f["label"] == "strut"]
+    assert math.hypot(*strut[0]["f"]) == pytest.approx(abs(res["strut_force"][row]), rel=1e-9)
+    assert strut[0]["f"] == pytest.approx([-v for v in strut[1]["f"]])
+    # pushing apart (a gas strut's force is positive): the to-end's arrow points away from the from-end
+    a, b = np.array(strut[1]["at"]), np.array(strut[0]["at"])
+    assert res["strut_force"][row] > 0 and np.dot(strut[0]["f"], b - a) > 0

@@ -45,3 +45,37 @@ def test_a_force_element_s_links_and_joint_are_menus_of_the_scene_s_and_a_choice
     settled(page, "state.scene.joint_spring[0].joint === 'theta2' && state.analysis.scene === state.scene")
     assert page.evaluate("() => state.analysis.frame.coils[0]")[:2] != pytest.approx(coil[:2], abs=1e-3)
     page.screenshot(path=str(shots / "30-element-menus.png"))
+
+
+def test_a_load_s_arrow_reads_its_magnitude_and_the_elements_forces_join_the_joint_force_arrows(page, shots):
+    pick_preset(page, "gas-spring-boom")
+    # the payload: 1962 N downwards (the scene's force [0, -1962]), written on its arrow
+    assert page.text_content("#drawing g.load text.alabel") == "1962 N"
+    page.fill('[data-key="point_load[0].force"]', "[300, -400]")
+    page.press('[data-key="point_load[0].force"]', "Enter")
+    settled(page, "state.scene.point_load[0].force[0] === 300 && state.analysis.scene === state.scene")
+    assert page.text_content("#drawing g.load text.alabel") == "500 N"
+    # the joint-force view: the four pins' reactions, the strut's force at both its ends, the payload's
+    page.check('#analysis-layer input[data-kind="f"]')
+    page.wait_for_selector(".analysis .arrow.force.element")
+    assert page.locator(".analysis .arrow.force:not(.element)").count() == 4
+    labels = page.eval_on_selector_all(".analysis .arrow.force.element text", "(ts) => ts.map((t) => t.textContent)")
+    assert len(labels) == 3 and labels[0] == labels[1] and labels[0].startswith("strut ")
+    assert labels[2] == "payload 500 N"
+    a = page.evaluate("() => state.analysis.analysis")
+    strut = [f for f in a["element_forces"] if f["label"] == "strut"]
+    spring = page.evaluate("() => state.analysis.frame.springs[0]")
+    # at the spring's two ends, equal and opposite, along its line
+    assert strut[0]["at"] == pytest.approx(spring[-1], abs=1e-5)
+    assert strut[1]["at"] == pytest.approx(spring[0], abs=1e-5)
+    assert strut[0]["f"] == pytest.approx([-v for v in strut[1]["f"]])
+    line = [spring[-1][0] - spring[0][0], spring[-1][1] - spring[0][1]]
+    assert strut[0]["f"][0] * line[1] - strut[0]["f"][1] * line[0] == pytest.approx(0, abs=1e-6 * 1e4)
+    # scaled with the joints' arrows: the longest of all is a fifth of the view
+    lengths = page.eval_on_selector_all(".analysis .arrow.force polygon", """(ps) => ps.map((p) => {
+        const g = p.parentNode.querySelector('line'); const [x, y] = p.getAttribute('points').split(' ')[0].split(',');
+        return Math.hypot(x - g.getAttribute('x1'), y - g.getAttribute('y1')); })""")
+    span = page.evaluate("() => state.box.span")
+    assert max(lengths) == pytest.approx(0.2 * span, rel=1e-6)
+    page.screenshot(path=str(shots / "31-load-label-and-element-forces.png"))
+    page.uncheck('#analysis-layer input[data-kind="f"]')

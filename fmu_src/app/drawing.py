@@ -35,7 +35,9 @@ SWEEP_STEPS = 180  # positions of the drive over a turn for a coupler curve (2 d
 LIVE_STEPS = 90  # ... while a pivot is being dragged (4 degrees apart: the curve keeps up with the mouse)
 
 
-def _frame(geo) -> dict:
+def _frame(geo, sketch=None) -> dict:
+    """A sketch's geometry as the page draws it; with its ``sketch``, each load's row carries its magnitude (N),
+    which the page writes on its arrow (the geometry has the direction only)."""
     r = lambda p: [round(float(p[0]), 6), round(float(p[1]), 6)]  # noqa: E731 (a micrometre is plenty)
     return {"bars": [r(a) + r(b) for a, b in geo.bars], "joints": [r(p) for p in geo.joints],
             "fixed": [r(p) for p in geo.fixed], "blocks": [r(c) + [round(a, 6)] for c, a in geo.blocks],
@@ -48,7 +50,16 @@ def _frame(geo) -> dict:
             # its joint (centre and its link's angle: the page draws the catalog's coil there), a load's direction
             "springs": [[r(p) for p in zigzag(a, b)] for a, b in geo.springs],
             "coils": [r(c) + [round(float(a), 6)] for c, a in geo.coils],
-            "loads": [r(p) + [round(float(u[0]), 6), round(float(u[1]), 6)] for p, u in geo.loads]}
+            "loads": [r(p) + [round(float(u[0]), 6), round(float(u[1]), 6)] + magnitude
+                      for (p, u), magnitude in zip(geo.loads, _load_magnitudes(sketch, len(geo.loads)))]}
+
+
+def _load_magnitudes(sketch, count: int) -> list:
+    """Each drawn load's force magnitude (N) as a one-item list to append to its row (none without the sketch):
+    the sketch draws the loads of nonzero force, in the scene's order."""
+    if sketch is None:
+        return [[] for _ in range(count)]
+    return [[round(float(np.hypot(*e.force)), 9)] for e in sketch.loads]
 
 
 def coil_shape() -> list:
@@ -96,7 +107,7 @@ def analyse(data: dict, trace: str | None = None, live: bool = False, kinematics
         z, out["closed"], out["problem"] = z0, False, {"field": exc.field, "reason": exc.reason}
     pos = sketch.positions(z[None, :])[0]
     geo = sketch.geometry(pos)
-    out["frame"] = _frame(geo)
+    out["frame"] = _frame(geo, sketch)
     out["dims"] = dimensions(m, sketch, pos, geo.fixed)
     out["handles"] = handles(data, m, z)
     zs = None
@@ -449,7 +460,31 @@ def analysis_view(model, z, point, zs=None, zd=None, inputs=None, method: str = 
             "forces": None if res.forces is None else [
                 {"label": f.label, "at": _xy(f.at), "f": _xy(f.force), "moment": round(f.moment, 9)}
                 for f in res.forces],
-            "forces_reason": res.forces_reason}
+            "forces_reason": res.forces_reason,
+            "element_forces": element_forces(model, mo, res.z, res.zd) if res.forces is not None else []}
+
+
+def element_forces(model, mo, z, zd) -> list:
+    """The force elements' forces as the analysis layer draws them beside the joints': a spring's (spring,
+    damper and gas, the kernel's ``<name>_force``, positive pushing its points apart) at both its ends along its
+    line, a load's at its point.  A joint spring's effort is a moment at its joint: not an arrow (its graph has it).
+    """
+    from grubler.mechanism.simulate import force_outputs
+
+    if not model.forces:
+        return []
+    along = force_outputs(model, np.concatenate([z, zd])[None, :])
+    out = []
+    for e in model.forces:
+        if e.table == "spring":
+            a, b = mo.world(e.from_link, e.from_point), mo.world(e.to_link, e.to_point)
+            d = float(np.hypot(*(b - a)))
+            if d > 0:
+                f = float(along[f"{e.name}_force"][0]) * (b - a) / d
+                out += [{"label": e.name, "at": _xy(b), "f": _xy(f)}, {"label": e.name, "at": _xy(a), "f": _xy(-f)}]
+        elif e.table == "point_load" and np.hypot(*e.force) > 0:
+            out.append({"label": e.name, "at": _xy(mo.world(e.link, e.point)), "f": _xy(e.force)})
+    return out
 
 
 def run_instant(data: dict, result, t, trace: str | None = None) -> dict:
@@ -473,4 +508,5 @@ def run_instant(data: dict, result, t, trace: str | None = None) -> dict:
     return {"analysis": out}
 
 
-__all__ = ["analyse", "pick_trace", "drive_sweep", "coupler_curve", "handles", "drag", "analyse_drag", "analysis_view", "run_instant", "default_trace"]
+__all__ = ["analyse", "pick_trace", "drive_sweep", "coupler_curve", "handles", "drag", "analyse_drag", "analysis_view",
+           "run_instant", "default_trace", "element_forces"]

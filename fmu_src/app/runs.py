@@ -76,7 +76,7 @@ def run_simulation(data: dict, t_end: float | None, dt_out: float | None, torque
     rows = np.unique(np.linspace(0, len(res.t) - 1, min(len(res.t), MAX_FRAMES)).round().astype(int))
     sketch = Sketch(scene.mechanism, point)
     pos = sketch.positions(res.z[rows])
-    frames = [_frame(sketch.geometry(p)) for p in pos]
+    frames = [_frame(sketch.geometry(p), sketch) for p in pos]
     k, local = point
     path = link_points(scene.mechanism, res.z, [k], [local])[:, 0, :]
     columns = res.columns
@@ -154,7 +154,8 @@ def drive_frames(data: dict, t, drive, trace: str | None = None) -> dict:
     zs = np.array(zs)
     sketch = Sketch(m, point)
     k, local = point
-    return {"frame_t": t[rows[:len(zs)]].tolist(), "frames": [_frame(sketch.geometry(p)) for p in sketch.positions(zs)],
+    return {"frame_t": t[rows[:len(zs)]].tolist(),
+            "frames": [_frame(sketch.geometry(p), sketch) for p in sketch.positions(zs)],
             "path": np.round(link_points(m, zs, [k], [local])[:, 0, :], 6).tolist()}
 
 

@@ -354,8 +354,7 @@ function analysisMarkup(a, shift) {
   const s = state.box.span, show = state.layer;
   let html = `<g class="analysis">`;
   if (show.has("f") && a.forces) {
-    const k = (0.2 * s) / largest(a.forces, "f");
-    for (const f of a.forces) html += arrowMarkup(f.at, f.f, k, "force", `${fmt(Math.hypot(...f.f))} N`);
+    html += forceArrows(a, s);  // the joints' and the force elements' (forces.js)
   }
   if (show.has("v")) {
     const k = (0.2 * s) / largest(a.points, "v");

@@ -23,8 +23,11 @@ function forcesMarkup(f, s) {
   for (const l of f.loads || []) {  // an arrow of a fixed size ending at its point, as the GIFs draw it
     const L = 0.1 * s, head = 0.025 * s, w = 0.45 * head;
     const [x, y, ux, uy] = l, bx = x - ux * head, by = y - uy * head;
+    // its magnitude (the frame's fifth number, N) written at its tail
+    const tail = [x - ux * L * 1.08 + 0.01 * s, y - uy * L * 1.08];
+    const label = l.length > 4 ? labelMarkup(tail, say(l[4], "N"), "load") : "";
     out += `<g class="load"><line x1="${x - ux * L}" y1="${y - uy * L}" x2="${bx}" y2="${by}"/>` +
-      `<polygon points="${x},${y} ${bx - uy * w},${by + ux * w} ${bx + uy * w},${by - ux * w}"/></g>`;
+      `<polygon points="${x},${y} ${bx - uy * w},${by + ux * w} ${bx + uy * w},${by - ux * w}"/>${label}</g>`;
   }
   return out;
 }
@@ -76,6 +79,15 @@ function elementPanels(run) {
   // the springs' forces (N) and the joint springs' efforts (N m or N) on axes of their own
   return [of("spring", "_force"), of("joint_spring", "_effort"), energy, ["energy_balance"].filter(has)]
     .filter((p) => p.length);
+}
+
+// the analysis layer's joint forces and the force elements' (a spring's at both its ends, a load's at its
+// point), scaled together: the largest of them all is a fifth of the view
+function forceArrows(a, s) {
+  const all = a.forces.concat(a.element_forces || []);
+  const k = (0.2 * s) / largest(all, "f");
+  return all.map((f, i) => arrowMarkup(f.at, f.f, k, i < a.forces.length ? "force" : "force element",
+    `${i < a.forces.length ? "" : f.label + " "}${say(Math.hypot(...f.f), "N")}`)).join("");
 }
 
 setupElements();
