@@ -627,6 +627,7 @@ def test_run_servo_of_a_cylinder_preset_is_its_cylinder_under_position_control(s
     page.wait_for_selector("#servo-plots svg path", timeout=300_000)
     status = page.inner_text("#servo-status")
     assert "a 50/28 mm hydraulic cylinder moves lift 100 mm" in status and "DC" not in status
+    assert "bore/rod in mm whatever the page's unit" in status  # why a page in m reads them in mm
 
     def read(text, before, after):
         return float(text.split(before)[1].split(after)[0])

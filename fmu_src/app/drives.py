@@ -318,7 +318,9 @@ def run_cylinder_servo(data: dict, settings: dict, fmu_dir, build_dir, cancel=No
                        f"{np.max(np.abs(error)) * mm:.3g} mm ({abs(error[-1]) * mm:.3g} mm at the end), pressure up "
                        f"to {max(np.max(pa), np.max(pb)) * bar:.4g} bar"
                        + (f" (supply {supply * bar:.4g} bar)" if math.isfinite(supply) else "")
-                       + f", force {np.min(force) * 1e-3:.4g} to {np.max(force) * 1e-3:.4g} kN"}
+                       + f", force {np.min(force) * 1e-3:.4g} to {np.max(force) * 1e-3:.4g} kN"
+                       # why a page in m still reads mm here: a cylinder is chosen by its bore in mm
+                       + "; bore/rod in mm whatever the page's unit, as cylinder catalogs (ISO 3320) list them"}
 
 
 def run_sizing(data: dict, settings: dict) -> dict:

@@ -184,9 +184,9 @@ function renderFields(fields) {
       o.textContent = c;
       input.appendChild(o);
     }
-    const value = fieldShown(f.value, si);
-    input.value = Array.isArray(value) ? "[" + value.join(", ") + "]" : String(value);
-    input.addEventListener("change", () => edit(f.key, fieldSI(input.value, si)));
+    const shown = fieldText(fieldShown(f.value, si));  // six digits; the scene's value kept (units.js)
+    input.value = shown;
+    input.addEventListener("change", () => edit(f.key, fieldSent(input.value, shown, f.value, si)));
     const err = document.createElement("div");
     err.className = "err";
     err.dataset.err = f.key;
@@ -415,7 +415,7 @@ function showAnalysisFacts(a) {
   const parts = [a.state === "run" ? `the run at t = ${fmt(a.t)} s` : a.state];
   if (a.advantage) {
     parts.push(`mechanical advantage (${a.advantage.output} on ${a.drive}) ${a.advantage.value === null ? "∞: a toggle"
-      : fmt(a.advantage.value) + (a.advantage.unit ? " " + a.advantage.unit : "")}`);
+      : say(a.advantage.value, a.advantage.unit)}`);
   }
   for (const t of a.transmission) {
     parts.push(`transmission angle μ${t.label.slice(2)} ${fmtAngle(t.deg)}` +
@@ -1131,7 +1131,7 @@ function fillServo(d) {
   document.querySelectorAll("#servo-form [data-key]").forEach((e) => {
     const v = d[e.dataset.key];
     if (v === undefined || v === null) return;
-    e.value = String(v === "" ? v : fieldShown(v, e.dataset.unit));
+    e.value = String(v === "" ? v : e.dataset.unit ? fieldText(fieldShown(v, e.dataset.unit)) : v);
     if (e.dataset.unit) Object.assign(e.dataset, { si: String(v), shown: e.value });
   });
 }

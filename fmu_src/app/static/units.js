@@ -26,8 +26,30 @@ function shownUnit(si) {
     for (const rate of UNIT_RATES) {
       if (base === t.si + rate) return { unit: units[kind] + rate, factor: t.shown[units[kind]], kind };
     }
+    // per one of them (a mechanical advantage's 1/m: newtons per newton metre): the factor inverted
+    if (base === "1/" + t.si) return { unit: "1/" + units[kind], factor: 1 / t.shown[units[kind]], kind };
   }
   return { unit: si || "", factor: 1, kind: null };
+}
+
+// a form's number is shown to six significant digits (0.785398 rad, not 0.785398163397); what the scene holds
+// is what is sent back unless that number is edited (a list's each part): see fieldText and fieldSent
+const SHOWN_DIGITS = 6;
+function shortText(v) {
+  return typeof v === "number" && Number.isFinite(v) ? String(Number(v.toPrecision(SHOWN_DIGITS))) : String(v);
+}
+// a field's value (as fieldShown gives it) as its input shows it
+function fieldText(shown) { return Array.isArray(shown) ? "[" + shown.map(shortText).join(", ") + "]" : shortText(shown); }
+// the text an edited field sends, in SI (fieldSI): ``value`` is what the scene holds, ``shown`` the text the field
+// was given; a part typed as it was shown is sent as the scene holds it, not as its six digits
+function fieldSent(typed, shown, value, si) {
+  const t = String(typed).trim();
+  if (t === shown) return Array.isArray(value) ? "[" + value.join(", ") + "]" : String(value);
+  const parts = (x) => x.slice(1, -1).split(",").map((p) => p.trim());
+  if (!Array.isArray(value) || !(t.startsWith("[") && t.endsWith("]"))) return fieldSI(t, si);
+  const typedParts = parts(t), shownParts = parts(shown);
+  if (typedParts.length !== value.length || shownParts.length !== value.length) return fieldSI(t, si);
+  return "[" + typedParts.map((p, i) => (p === shownParts[i] ? String(value[i]) : fieldSI(p, si))).join(", ") + "]";
 }
 
 // twelve significant digits: 0.3 m reads 300 mm, not 299.99999999999994

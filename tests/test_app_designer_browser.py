@@ -1,6 +1,7 @@
-"""The force elements on the page as a designer edits them (issue 33 items 2 and 4): their links and joints
-picked from menus of the scene's own, a load's arrow labelled with its magnitude, and their forces among the
-analysis layer's joint-force arrows.  In headless Chromium (Playwright), on the drawing-tools module's page.
+"""The page as a designer edits it (issue 33 items 2 and 4): a force element's links and joint picked from menus
+of the scene's own, a load's arrow labelled with its magnitude, the force elements' forces among the analysis
+layer's joint-force arrows, the form's numbers to six digits with the scene's own kept, and compound units
+following the unit choice.  In headless Chromium (Playwright), on the drawing-tools module's page.
 
 Screenshots land in ``$GRUBLER_APP_SCREENSHOTS`` when set (else the test's temporary folder).
 """
@@ -79,3 +80,43 @@ def test_a_load_s_arrow_reads_its_magnitude_and_the_elements_forces_join_the_joi
     assert max(lengths) == pytest.approx(0.2 * span, rel=1e-6)
     page.screenshot(path=str(shots / "31-load-label-and-element-forces.png"))
     page.uncheck('#analysis-layer input[data-kind="f"]')
+
+
+def test_the_form_shows_six_digits_and_sends_the_scene_s_own_value_of_what_was_not_edited(page, shots):
+    pick_preset(page, "gas-spring-boom")
+    # 0.01 rad/s is 0.572957795131 deg/s: shown to six digits
+    assert page.input_value('[data-key="joint_spring[0].friction_speed"]') == "0.572958"
+    page.select_option("#unit-angle", "rad")
+    assert page.input_value('[data-key="joint_spring[0].free"]') == "-1.00531"  # -57.6 deg
+    # a list: one part edited, the other sent as the scene holds it, not as its six digits
+    page.fill('[data-key="spring[0].from_point"]', "[0.123456789, -0.3]")
+    page.press('[data-key="spring[0].from_point"]', "Enter")
+    settled(page, "state.scene.spring[0].from_point[0] === 0.123456789")
+    assert page.input_value('[data-key="spring[0].from_point"]') == "[0.123457, -0.3]"
+    page.fill('[data-key="spring[0].from_point"]', "[0.123457, -0.25]")
+    page.press('[data-key="spring[0].from_point"]', "Enter")
+    settled(page, "state.scene.spring[0].from_point[1] === -0.25")
+    assert scene(page)["spring"][0]["from_point"] == [0.123456789, -0.25]
+    # a number edited: what was typed, to the digit
+    page.fill('[data-key="joint_spring[0].free"]', "-1.0053")
+    page.press('[data-key="joint_spring[0].free"]', "Enter")
+    settled(page, "state.scene.joint_spring[0].free === -1.0053")
+    page.fill('[data-key="joint_spring[0].free"]', "-1.00531")
+    page.press('[data-key="joint_spring[0].free"]', "Enter")
+    settled(page, "state.scene.joint_spring[0].free === -1.00531")
+    # the form's other numbers untouched by these edits: the scene still says what it said
+    assert scene(page)["joint_spring"][0]["friction_speed"] == 0.01
+
+
+def test_the_mechanical_advantage_s_unit_follows_the_length_unit(page):
+    pick_preset(page, "slider-crank")
+    page.check('#analysis-layer input[data-kind="v"]')
+    page.wait_for_selector(".analysis .arrow.vel")
+    facts = page.inner_text("#analysis-facts")
+    value = page.evaluate("() => state.analysis.analysis.advantage.value")
+    assert page.evaluate("() => state.analysis.analysis.advantage.unit") == "1/m"
+    assert f"{float(f'{value:.4g}'):g} 1/m" in facts
+    page.select_option("#unit-length", "mm")
+    facts = page.inner_text("#analysis-facts")
+    assert f"{float(f'{value / 1000:.4g}'):g} 1/mm" in facts, facts
+    page.uncheck('#analysis-layer input[data-kind="v"]')
