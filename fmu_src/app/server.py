@@ -139,6 +139,7 @@ class AppServer(ThreadingHTTPServer):
         super().__init__((host, port), Handler)
         self.root = Path(root).resolve()
         self.start_scene = scene
+        self.start_spatial = None  # a spatial scene's TOML the app was started with: the 3D view opens it
         self.sessions: OrderedDict[str, Session] = OrderedDict()  # least recently used first
         self.max_sessions = MAX_SESSIONS
         self.evicted: OrderedDict[str, None] = OrderedDict()  # tokens forgotten for room, to tell their page
@@ -544,8 +545,20 @@ def a_toml(server, session, body):
     return {"toml": actions.scene_toml(_data(body))}
 
 
+def _opened(text: str, name: str = "") -> dict:
+    """A file's TOML opened on the planar page: a planar scene's form, or a spatial scene (``dimension = 3``),
+    checked as the CLI reads it, to open in the 3D view."""
+    from grubler.app.spatial_view import spatial_text
+    from grubler.mechanism.spatial_scene import is_spatial
+
+    if isinstance(text, str) and is_spatial(text if "\n" in text else text + "\n"):
+        scene, text = spatial_text(text)
+        return {"spatial": {"toml": text, "name": scene.name or name}}
+    return _form(actions.parse_scene_text(text))
+
+
 def a_parse(server, session, body):
-    return _form(actions.parse_scene_text(body.get("toml")))
+    return _opened(body.get("toml"))
 
 
 def a_files(server, session, body):
@@ -555,7 +568,7 @@ def a_files(server, session, body):
 def a_open(server, session, body):
     path = server.inside(body.get("file"), "file")
     text = limits.read_text(path, "file")
-    return _form(actions.parse_scene_text(text))
+    return _opened(text, path.stem)
 
 
 def a_save(server, session, body):
@@ -618,7 +631,7 @@ RUNS = {a_simulate, a_servo}  # the actions whose run stops when their client le
 def a_spatial_catalog(server, session, body):
     from grubler.app.spatial_view import spatial_catalog
 
-    return spatial_catalog()
+    return {**spatial_catalog(), "start": server.start_spatial}
 
 
 def a_spatial(server, session, body):
@@ -638,30 +651,40 @@ def serve(scene: str | None = None, host: str = "127.0.0.1", port: int = 0, open
     Parameters
     ----------
     scene : str, optional
-        Preset name or TOML file to open with (checked before the server starts).
+        Preset name or TOML file to open with (checked before the server starts); a spatial one (a spatial
+        preset, or a file that says ``dimension = 3``) opens in the 3D view, whose URL is printed.
     host, port : str, int
         Where to listen: 127.0.0.1 unless told otherwise; port 0 picks a free one.
     ready : callable, optional
         Called with the server once it listens (tests use it).
     """
-    start = None
+    from grubler.app.spatial_view import spatial_text
+    from grubler.mechanism.spatial_scene import is_spatial, load_spatial_scene
+
+    start, spatial = None, None
     if scene:
         if scene in actions.preset_names():
             start = actions.preset_data(scene)
+        elif is_spatial(scene):  # a spatial preset or a file that says dimension = 3: the 3D view opens it
+            text = limits.read_text(Path(scene), "scene") if Path(scene).is_file() else None
+            loaded = spatial_text(text)[0] if text is not None else load_spatial_scene(scene)
+            spatial = {"toml": text, "name": loaded.name or Path(scene).stem} if text else {"name": scene}
         else:
             path = Path(scene)
             start = actions.parse_scene_text(limits.read_text(path, "scene"))
     server = AppServer(host, port, root, start)
+    server.start_spatial = spatial
+    url = server.url + "static/view3d.html" if spatial else server.url
     # the CLI lets SIGPIPE end `grubler ... | head` quietly; here it would end the app when a client
     # leaves before its answer: ignored, such a write raises BrokenPipeError in that request's thread
     piped = hasattr(signal, "SIGPIPE") and threading.current_thread() is threading.main_thread()
     before = signal.signal(signal.SIGPIPE, signal.SIG_IGN) if piped else None
     try:
-        print(f"grubler app: {server.url}  (Ctrl-C stops it)", flush=True)
+        print(f"grubler app: {url}  (Ctrl-C stops it)", flush=True)
         if ready:
             ready(server)
         if open_browser:
-            threading.Thread(target=webbrowser.open, args=(server.url,), daemon=True).start()
+            threading.Thread(target=webbrowser.open, args=(url,), daemon=True).start()
         server.serve_forever(poll_interval=0.2)
     finally:
         server.server_close()

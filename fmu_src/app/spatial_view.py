@@ -1,4 +1,4 @@
-"""The app's 3D view of a spatial preset: what the page's ``view3d.js`` draws, as plain JSON.
+"""The app's 3D view of a spatial preset or a spatial scene's TOML: what the page's ``view3d.js`` draws, as JSON.
 
 The server runs the preset (its scene's drive and length) and sends the sketch
 (:class:`grubler.views.perspective.SpatialSketch`: which points make which tubes,
@@ -21,13 +21,13 @@ import math
 
 import numpy as np
 
-from grubler.errors import InputError
-from grubler.limits import brief, number
-from grubler.mechanism.spatial_scene import load_spatial_scene, spatial_preset_names
+from grubler.errors import InputError, SceneError
+from grubler.limits import MAX_TEXT_BYTES, brief, number
+from grubler.mechanism.spatial_scene import is_spatial, load_spatial_scene, spatial_preset_names
 from grubler.views.perspective import AZIMUTH, ELEVATION, FIELD_OF_VIEW, TITLE_PX, SpatialSketch, fit_camera, \
     ground_grid, up_direction
 
-__all__ = ["spatial_catalog", "spatial_view", "MAX_FRAMES"]
+__all__ = ["spatial_catalog", "spatial_view", "spatial_text", "MAX_FRAMES"]
 
 MAX_FRAMES = 2001  # frames a view sends: 20 s at 100 a second
 FRAME_DT = 0.02  # s between the frames the page plays
@@ -44,12 +44,31 @@ def _rounded(a) -> list:
     return np.round(np.asarray(a, dtype=float), 7).tolist()
 
 
+def spatial_text(text) -> tuple:
+    """A spatial scene's TOML (a file opened, ``grubler app my_spatial.toml``) checked as the CLI reads it:
+    ``(scene, text)``.  A planar scene's TOML is refused (``dimension``), a bad spatial one naming its field."""
+    if not isinstance(text, str):
+        raise InputError("toml", f"must be a spatial scene's TOML text, got {type(text).__name__}")
+    if len(text) > MAX_TEXT_BYTES:
+        raise InputError("toml", f"is {len(text)} characters: a scene's TOML has at most {MAX_TEXT_BYTES}")
+    text = text if "\n" in text else text + "\n"  # TOML text, not a preset's name or a path
+    if not is_spatial(text):
+        raise SceneError("dimension", "this is no spatial scene (a spatial scene says dimension = 3): the "
+                                      "planar app opens it")
+    return load_spatial_scene(text), text
+
+
 def spatial_view(body: dict) -> dict:
-    """A spatial preset's run as the 3D view draws it: ``{"name": preset, "t_end": s (optional)}``."""
+    """A spatial scene's run as the 3D view draws it: ``{"name": preset}`` or ``{"toml": a spatial scene's TOML}``,
+    and ``"t_end"``: s (optional, the scene's)."""
     name = body.get("name")
-    if name not in spatial_preset_names():
+    if "toml" in body:
+        scene = spatial_text(body["toml"])[0]
+        name = scene.name or "opened scene"
+    elif name not in spatial_preset_names():
         raise InputError("name", f"{brief(name)} is not a spatial preset: one of {', '.join(spatial_preset_names())}")
-    scene = load_spatial_scene(name)
+    else:
+        scene = load_spatial_scene(name)
     t_end = number(body.get("t_end", scene.t_end), "t_end", low=0.0, low_open=True, high=(MAX_FRAMES - 1) * FRAME_DT,
                    unit="s")
     dt = min(FRAME_DT, t_end)

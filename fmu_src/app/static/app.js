@@ -80,6 +80,12 @@ async function saveAnswer(r, name) {
   notice("exported " + a.download);
 }
 
+// a spatial scene opened on this page: the 3D view shows it (handed over in this tab's session storage)
+function openSpatial(spatial) {
+  sessionStorage.setItem("grubler.spatial", JSON.stringify(spatial));
+  location.href = "/static/view3d.html";
+}
+
 function notice(text, bad) {
   const n = $("notice");
   n.textContent = text;
@@ -1176,7 +1182,8 @@ async function start() {
   $("files").addEventListener("change", async () => {
     if (!$("files").value) return;
     try {
-      const { scene } = await api("open", { file: $("files").value });
+      const { scene, spatial } = await api("open", { file: $("files").value });
+      if (spatial) { openSpatial(spatial); return; }
       await loadData(scene, "opened " + $("files").value);
     } catch (e) { notice(`${e.field}: ${e.message}`, true); }
   });
@@ -1184,7 +1191,8 @@ async function start() {
     const file = $("upload").files[0];
     if (!file) return;
     try {
-      const { scene } = await api("parse", { toml: await file.text() });
+      const { scene, spatial } = await api("parse", { toml: await file.text() });
+      if (spatial) { openSpatial(spatial); return; }  // dimension = 3: the 3D view shows it
       await loadData(scene, "opened " + file.name);
     } catch (e) { notice(`${file.name}: ${e.field}: ${e.message}`, true); }
     $("upload").value = "";

@@ -134,12 +134,15 @@ function setPlaying(on) {
   if (on) { view.last = performance.now(); requestAnimationFrame(tick); }
 }
 
+// what is shown: a preset chosen ({name}) or a spatial scene's TOML opened ({toml}: a file, the planar page's
+// Open TOML… of a dimension = 3 file, or `grubler app my_spatial.toml`)
 async function run() {
   const name = $("preset3d").value;
-  if (!name) { notice("choose a spatial preset", true); return; }
+  if (name) view.source = { name };
+  if (!view.source) { notice("choose a spatial preset", true); return; }
   notice("running…");
   try {
-    const d = await api("spatial", { name, t_end: Number($("t-end3d").value) });
+    const d = await api("spatial", { ...view.source, t_end: Number($("t-end3d").value) });
     view.data = d; view.frame = 0; view.cam = { ...d.camera };
     for (const id of ["play3d", "time3d", "reset3d"]) $(id).disabled = false;
     $("time3d").max = d.t.length - 1;
@@ -148,6 +151,11 @@ async function run() {
   } catch (e) {
     notice(`${e.field ? e.field + ": " : ""}${e.message}`, true);
   }
+}
+
+function openSource(source) {  // a TOML's scene, or a preset by name
+  if (source.toml) { view.source = { toml: source.toml }; $("preset3d").value = ""; } else $("preset3d").value = source.name;
+  return run();
 }
 
 // -- turning, moving and zooming the camera ----------------------------------------------------------------------
@@ -188,6 +196,11 @@ async function start() {
   pointer();
   $("run3d").addEventListener("click", run);
   $("preset3d").addEventListener("change", run);
+  $("upload3d").addEventListener("change", async () => {
+    const file = $("upload3d").files[0];
+    if (file) await openSource({ toml: await file.text() });
+    $("upload3d").value = "";
+  });
   $("play3d").addEventListener("click", () => setPlaying(!view.playing));
   $("reset3d").addEventListener("click", () => { view.cam = { ...view.data.camera }; draw(); });
   $("time3d").addEventListener("input", () => { setPlaying(false); view.frame = Number($("time3d").value); draw(); });
@@ -198,6 +211,11 @@ async function start() {
       o.value = p.name; o.textContent = `${p.name}: ${p.description}`;
       $("preset3d").appendChild(o);
     }
+    // what the app was started with, or what the planar page was given to open (its Open TOML…)
+    let opened = null;
+    try { opened = JSON.parse(sessionStorage.getItem("grubler.spatial") || "null"); } catch (e) { /* none */ }
+    sessionStorage.removeItem("grubler.spatial");
+    if (opened || cat.start) await openSource(opened || cat.start);
   } catch (e) { notice(e.message, true); }
 }
 
