@@ -839,7 +839,7 @@ def test_the_force_elements_are_drawn_from_the_animation_s_own_geometry():
     # the hinge is theta3's: at pin A, turned as link 3 (the head) is
     a = next(h["xy"] for h in out["handles"] if h["id"] == "A")
     assert [cx, cy] == pytest.approx(a, abs=1e-6) and angle == pytest.approx(float(z[0] + z[1]), abs=1e-6)
-    np.testing.assert_allclose(out["frame"]["loads"][0], [*geo.loads[0][0], 0.0, -1.0], atol=1e-6)
+    np.testing.assert_allclose(out["frame"]["loads"][0], [*geo.loads[0][0], 0.0, -1.0, 1962.0], atol=1e-6)
     # the payload hangs past the head's tip: a bar carries it there, in the GIFs as on the page
     assert any(b[2:] == pytest.approx(out["frame"]["loads"][0][:2], abs=1e-6) for b in out["frame"]["bars"])
     np.testing.assert_allclose(actions.coil_shape(), coil((0, 0), 1.0, 0.0), atol=1e-4)
