@@ -832,3 +832,25 @@ def test_a_crafted_newton_state_is_refused_naming_the_field(host, cylinder, tmp_
     out = cylinder_host_run(host, cylinder, "new 0 s\nsetup 0\nenter\nexit\ndeser 0 bad.bin\nfree\n", tmp_path)
     assert next(line for line in out if line.startswith("deser")).split()[1] == "3", out  # Error
     assert any(named in line for line in out), out
+
+
+def test_a_newton_step_kept_unconverged_is_a_warning_naming_the_value_as_cosim_warns(host, cylinder, tmp_path):
+    # at 50 ms one step of cosim's ends its 8 evaluations above the tolerance, and cosim says so; the FMU's
+    # doStep that holds it returns Warning with the same words (the run before it: OK)
+    from fmpy import read_model_description
+
+    from grubler.system import cosim
+
+    want = cosim.run(cylinder["ssd"], t_end=1.0, step=0.05, master="newton", record=["cylinder.force"])
+    assert want.coupling["unconverged"] == 1, want.coupling
+    said = next(w for w in want.warnings if w.startswith("master newton:"))
+    vr = {v.name: v.valueReference for v in read_model_description(str(cylinder["fmu"])).modelVariables}
+    out = cylinder_host_run(host, cylinder, f"new 0 s\nsetup 0\nsetr {vr['communication_step']} 0.05\nenter\nexit\n"
+                                            f"run 0 0.05 20 {vr['cylinder.force']}\nfree\n", tmp_path)
+    assert next(line for line in out if line.startswith("run")).split()[1] == "1", out  # Warning
+    warned = [line for line in out if line.startswith("log 1") and "master newton: 1 of 1 steps from t = " in line]
+    assert len(warned) == 1 and "kept after 8 evaluations with a coupling residual above 1e-05" in warned[0], out
+    assert said.split("(largest ")[1].split(")")[0] in warned[0], (said, warned)  # its size and its value
+    # the rows up to the step that warned are cosim's (the step that warned is not printed by the host)
+    got = np.array(rows(out))[:, 1]
+    np.testing.assert_array_equal(got, np.asarray(want["cylinder.force"])[1:len(got) + 1])

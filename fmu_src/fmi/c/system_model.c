@@ -504,6 +504,15 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     }
     p[P_T] = t + h;
     inst->level = 0;
+    if (run.scheme == GRB_NEWTON && s->newton.unconverged > 0) {  /* what grubler cosim warns of, said here */
+        long w = s->newton.worst_slot;
+        grb_log(inst, GRB_FMI_WARNING, "master newton: %ld of %ld steps from t = %.17g s kept after %ld evaluations "
+                "with a coupling residual above %g (largest %.3g, relative, at %s): the components' own accuracy may "
+                "be the floor, or the coupling too nonlinear at the step (a shorter communication_step)",
+                s->newton.unconverged, s->newton.steps, t, s->newton.max_iter, system_newton_tol,
+                s->newton.worst * system_newton_tol, w >= 0 && w < SYSTEM_N_VALUES ? system_value_names[w] : "?");
+        return GRB_FMI_WARNING;
+    }
     return GRB_FMI_OK;
 }
 
