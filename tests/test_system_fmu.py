@@ -854,3 +854,19 @@ def test_a_newton_step_kept_unconverged_is_a_warning_naming_the_value_as_cosim_w
     # the rows up to the step that warned are cosim's (the step that warned is not printed by the host)
     got = np.array(rows(out))[:, 1]
     np.testing.assert_array_equal(got, np.asarray(want["cylinder.force"])[1:len(got) + 1])
+
+
+def test_the_fmi3_build_runs_newton_as_the_fmi2_build(cylinder):
+    # (one model's files behind both wrappers: the same iteration, the same bits)
+    from grubler.system.native import export_native_system
+
+    def make(d: Path) -> Path:
+        return export_native_system(cylinder["ssd"], d / "CylinderSliderCrank.fmu", "linux64", fmi=3, master="newton")
+
+    three = builds.copy_to(builds.cached("system-CylinderSliderCrank-newton-fmi3",
+                                         builds.digest(builds.package_key(), cylinder["ssd"], "newton", 3), make),
+                           cylinder["root"] / "three" / "CylinderSliderCrank.fmu")
+    names = ["mechanism.cylinder_length", "cylinder.force", "controller.u"]
+    settings = {"communication_step": COARSE}
+    np.testing.assert_array_equal(run_fmu(three, names, 0.5, COARSE, fmi=3, parameters=settings),
+                                  run_fmu(cylinder["fmu"], names, 0.5, COARSE, parameters=settings))
