@@ -66,7 +66,8 @@ from grubler.fmi.variables import (BOOLEAN, ENUMERATION, INPUT, INTEGER, OUTPUT,
 from grubler.limits import brief
 from grubler.system import cosim
 from grubler.system.container import exposed_variables
-from grubler.system.coupling import NEWTON_MAX_ITER, NEWTON_TOL, adaptive_plan, input_modes, newton_plan, sampled_components
+from grubler.system.coupling import (NEWTON_MAX_ITER, NEWTON_TOL, adaptive_plan, input_modes, newton_plan,
+                                     sampled_components)
 from grubler.system.ssp import System, read
 
 MASTER_DIR = Path(__file__).resolve().parent / "c"
@@ -276,7 +277,8 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                           "outputs of those before it), jacobi (all on the last step's values), extrapolate "
                           "(continuous inputs at the step's midpoint, second order; with tol, error-controlled "
                           "sub-steps), newton (each step iterated to its fixed point, rolled back through the "
-                          "components' states, a Newton update of the coupled values)", start=master, choices=SYSTEM_MASTERS),
+                          "components' states, a Newton update of the coupled values)", start=master,
+                          choices=SYSTEM_MASTERS),
                  Variable("tol", REAL, PARAMETER,
                           "error control, as grubler cosim --tol: the continuous components sub-step, each "
                           "sub-step's coupling error estimate (step doubling) within tol relative to max(1, |value|); "
@@ -454,7 +456,8 @@ def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: 
 
     def stage(spec: ModelSpec, sources: Path, fmi: int) -> list[str]:
         files = [f for f in stage_sources(spec, sources, fmi) if f != "master.c"]  # (system_model.c includes it)
-        (sources / "system_components.c").write_text(components_source(spec, wiring, len(models), value_names, unknowns))
+        (sources / "system_components.c").write_text(
+            components_source(spec, wiring, len(models), value_names, unknowns))
         files.append("system_components.c")
         for m in models:
             for f in m.kernel:

@@ -245,7 +245,8 @@ grb_fmi_status model_check(grb_instance *inst, const double *p) {
                 double pv = p[P_PIVOT + k];
                 int j;
                 if (!(pv >= (double)k && pv < (double)SYSTEM_N_UNKNOWN && pv == floor(pv)))
-                    BAD("state.pivot: row %d's pivot must be a row from %d to %d, got %g", k, k, SYSTEM_N_UNKNOWN - 1, pv);
+                    BAD("state.pivot: row %d's pivot must be a row from %d to %d, got %g", k, k,
+                        SYSTEM_N_UNKNOWN - 1, pv);
                 if (!(p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + k] != 0.0))
                     BAD("state.jacobian: its factored diagonal must be non-zero, got %g at row %d",
                         p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + k], k);
