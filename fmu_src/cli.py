@@ -875,7 +875,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "grubler FMU, which makes one native FMU by default")
     e.add_argument("--platforms", help="binaries to ship, comma-separated: linux64, win64, darwin64, aarch64-linux "
                                        "(default: every one this machine can build)")
-    e.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate"],
+    e.add_argument("--master", choices=["gauss-seidel", "jacobi", "extrapolate", "newton"],
                    help="a system's one native FMU: the start value of its parameter master, the coupling as "
                         "`grubler cosim --master` makes it (default gauss-seidel, extrapolate with --tol)")
     e.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),

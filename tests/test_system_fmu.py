@@ -161,7 +161,8 @@ def test_master_and_tol_are_fixed_parameters_in_cosims_words_with_the_exports_st
 
 
 @pytest.mark.parametrize("settings", [{"master": "jacobi"}, {"master": "extrapolate"},
-                                      {"master": "extrapolate", "tol": 1e-8}], ids=["jacobi", "extrapolate", "tol"])
+                                      {"master": "extrapolate", "tol": 1e-8}, {"master": "newton"}],
+                         ids=["jacobi", "extrapolate", "tol", "newton"])
 def test_each_master_and_tol_set_on_the_fmu_match_grubler_cosim_with_the_same_settings(servo, settings):
     from grubler.system import cosim
 
@@ -172,6 +173,8 @@ def test_each_master_and_tol_set_on_the_fmu_match_grubler_cosim_with_the_same_se
     assert worst <= 1e-12, worst
     if "tol" in settings:
         assert want.coupling["substeps"] > 500  # sub-steps were made (and matched)
+    if settings["master"] == "newton":
+        assert want.coupling["evaluations"] > want.coupling["steps"] > 400  # steps were iterated (and matched)
     # an importer's doStep of 10 ms is ten communication steps that carry the history and the sub-step clock
     coarse = run_fmu(servo[2], ["mechanism.theta2"], 0.5, 10 * STEP, parameters=settings)[:, 0]
     assert np.max(np.abs(coarse - np.asarray(want["mechanism.theta2"])[::10])) < 1e-9
@@ -223,9 +226,10 @@ def test_a_master_it_does_not_run_is_refused_naming_it_and_its_choices(host, ser
     from fmpy import read_model_description
 
     vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
-    out = host_run(host, servo, f"new 0 s\nsetup 0\nsets {vr['master']} newton\nfree\n", tmp_path)
+    out = host_run(host, servo, f"new 0 s\nsetup 0\nsets {vr['master']} newtn\nfree\n", tmp_path)
     assert next(line for line in out if line.startswith("sets")).split()[1] == "3", out
-    assert any("master cannot be 'newton'" in line and "gauss-seidel" in line for line in out), out
+    assert any("master cannot be 'newtn'" in line and "gauss-seidel" in line and "'newton'" in line
+               for line in out), out
 
 
 def test_an_adaptive_run_replays_bit_for_bit_from_a_saved_state(host, servo, tmp_path):
@@ -265,7 +269,7 @@ def test_the_export_takes_cosims_master_and_tol_and_refuses_what_cosim_refuses(s
     for args, words in ((["--master", "jacobi", "--tol", "1e-7"], "tol: the adaptive step is the extrapolating "
                                                                    "master's (master 'extrapolate'), got master "
                                                                    "'jacobi'"),
-                        (["--tol", "0"], "--tol"), (["--tol", "1"], "--tol"), (["--master", "newton"], "--master")):
+                        (["--tol", "0"], "--tol"), (["--tol", "1"], "--tol"), (["--master", "newtn"], "--master")):
         r = grubler("export", servo["ssd"], "-o", tmp_path / "S.fmu", *args)
         assert r.returncode == 2 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not (tmp_path / "S.fmu").exists()
@@ -529,18 +533,20 @@ def test_random_call_sequences_under_asan_and_ubsan(servo, tmp_path):
                  "ServoFourbar": sanitized_binary(tmp_path / "u", md, tmp_path / "ServoFourbar.so")}
     for seed in (1, 2):
         random_calls_hold(sanitized, "ServoFourbar", md, seed, tmp_path)
-    # the extrapolating master with error control (sub-steps rolled back through the components' blocks),
-    # with steps of 1 to 7 ms, a state saved, restored and serialised in between
+    # the extrapolating master with error control (sub-steps rolled back through the components' blocks), and
+    # the Newton master (iterations rolled back, its Jacobian kept in the block), with steps of 1 to 7 ms, a
+    # state saved, restored and serialised in between
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    script = (f"new 0 s\nsetup 0\nsets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7\nenter\nexit\n"
-              f"run 0 0.001 20\nsave 0\nrun 0.02 0.007 10\nload 0\nser 0 s.bin\ndeser 1 s.bin\nload 1\n"
-              f"run 0.02 0.003 10 {vr['mechanism.theta2']}\nfree\n")
-    proc = subprocess.run([str(sanitized["host"]), str(sanitized["ServoFourbar"]), md.guid], input=script,
-                          capture_output=True, text=True, timeout=600, env=SANITIZER_ENV, cwd=tmp_path)
-    assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
-        proc.stderr[-3000:]
-    assert [line.split()[1] for line in proc.stdout.splitlines() if line.split()[0] in ("run", "load", "deser")] \
-        == ["0"] * 6, proc.stdout[-2000:]
+    for settings in (f"sets {vr['master']} extrapolate\nsetr {vr['tol']} 1e-7", f"sets {vr['master']} newton"):
+        script = (f"new 0 s\nsetup 0\n{settings}\nenter\nexit\n"
+                  f"run 0 0.001 20\nsave 0\nrun 0.02 0.007 10\nload 0\nser 0 s.bin\ndeser 1 s.bin\nload 1\n"
+                  f"run 0.02 0.003 10 {vr['mechanism.theta2']}\nfree\n")
+        proc = subprocess.run([str(sanitized["host"]), str(sanitized["ServoFourbar"]), md.guid], input=script,
+                              capture_output=True, text=True, timeout=600, env=SANITIZER_ENV, cwd=tmp_path)
+        assert proc.returncode == 0 and "Sanitizer" not in proc.stderr and "runtime error" not in proc.stderr, \
+            proc.stderr[-3000:]
+        assert [line.split()[1] for line in proc.stdout.splitlines()
+                if line.split()[0] in ("run", "load", "deser")] == ["0"] * 6, proc.stdout[-2000:]
 
 
 # -- every platform: the system FMU's binaries with the cross extra (zig), run under wine and qemu -----------
@@ -709,3 +715,158 @@ def test_its_outputs_derivatives_along_its_inputs_are_its_components_own(host, s
     moved = {n for n, d in zip(outs, dd) if d != 0.0}
     assert {"mechanism.theta2_dd", "mechanism.theta4_dd"} <= moved, moved
     assert not any(n.startswith(("profile.", "controller.")) for n in moved), moved
+
+
+# -- the Newton master: the cylinder slider-crank, a hydraulic coupling stiff at a 10 ms step ----------------
+
+CYLINDER = "cylinder_slider_crank"
+COARSE = 1e-2  # the step at which Gauss-Seidel diverges on it (tests/test_cosim_newton.py)
+
+
+@pytest.fixture(scope="module")
+def cylinder(tmp_path_factory):
+    """examples/cylinder_slider_crank.ssd beside a dist/ of its FMUs (its mechanism's built by
+    examples/cylinder_systems.py's design), exported with --master newton (CylinderSliderCrank.fmu, cached)."""
+    sys.path.insert(0, str(ROOT / "examples"))
+    import cylinder_systems
+
+    from grubler.system.cylinder_servo import cylinder_servo_system
+    from grubler.system.native import export_native_system
+
+    root = tmp_path_factory.mktemp("cylinder")
+    builds.dist(root / "dist", ["HydraulicCylinder", "PID", "Trajectory"])
+    cylinder_servo_system(cylinder_systems.DESIGNS[CYLINDER], root / "dist", name=CYLINDER)
+    (root / "examples").mkdir()
+    ssd = root / "examples" / f"{CYLINDER}.ssd"
+    shutil.copy(ROOT / "examples" / ssd.name, ssd)
+
+    def make(d: Path) -> Path:
+        return export_native_system(ssd, d / "CylinderSliderCrank.fmu", "linux64", master="newton")
+
+    fmu = builds.cached("system-CylinderSliderCrank-newton", builds.digest(builds.package_key(), ssd, "newton"), make)
+    return {"root": root, "ssd": ssd, "fmu": builds.copy_to(fmu, root / "CylinderSliderCrank.fmu")}
+
+
+def test_newton_holds_the_cylinder_slider_crank_at_10_ms_as_grubler_cosim_newton_where_gauss_seidel_diverges(
+        cylinder):
+    from fmpy import read_model_description
+    from fmpy.fmi1 import FMICallException
+
+    from grubler.system import cosim
+
+    fmu = cylinder["fmu"]
+    assert read_model_description(str(fmu)).modelVariables[1].start == "newton"  # the export's --master
+    want = cosim.run(cylinder["ssd"], t_end=1.0, step=COARSE, master="newton")
+    names = [c for c in want.columns if c in _outputs(fmu)]
+    got = run_fmu(fmu, names, 1.0, COARSE, parameters={"communication_step": COARSE})
+    expected = np.column_stack([want[c] for c in names])
+    assert got.shape == expected.shape and len(names) > 20
+    worst = np.max(np.abs(got - expected) / np.maximum(1.0, np.abs(expected)))
+    assert worst <= 1e-12, worst  # (measured: 0, the same bits)
+    assert want.coupling["jacobians"] < want.coupling["steps"]  # the Jacobian kept from step to step, as here
+    force = got[:, names.index("cylinder.force")]
+    assert 100.0 < np.max(np.abs(force)) < 200.0  # the 120 to 143 N Gauss-Seidel gives at 1 ms
+    # the same FMU under Gauss-Seidel at 10 ms: the mechanism cannot take the step the coupling gives it
+    with pytest.raises(FMICallException, match="discard"):
+        run_fmu(fmu, ["cylinder.force"], 1.0, COARSE, parameters={"communication_step": COARSE,
+                                                                   "master": "gauss-seidel"})
+
+
+def cylinder_host_run(host, cylinder, script: str, cwd: Path) -> list[str]:
+    from fmpy import read_model_description
+
+    root = cwd / "unzipped"
+    if not root.exists():
+        zipfile.ZipFile(cylinder["fmu"]).extractall(root)
+    guid = read_model_description(str(cylinder["fmu"])).guid
+    r = subprocess.run(["env", "-i", str(host), str(root / "binaries" / "linux64" / "CylinderSliderCrank.so"), guid],
+                       input=script, capture_output=True, text=True, cwd=cwd, timeout=120)
+    assert r.returncode == 0, r.stderr
+    return r.stdout.splitlines()
+
+
+def test_a_newton_run_replays_bit_for_bit_from_a_saved_state_its_jacobian_in_it(host, cylinder, tmp_path):
+    # the history the guess extrapolates from and the factored Jacobian, kept from step to step, are in the
+    # state: a run restored mid-way goes on as the run never interrupted (memory and bytes alike)
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(cylinder["fmu"])).modelVariables}
+    seen = f"{vr['mechanism.cylinder_length']} {vr['cylinder.force']}"
+    script = (f"new 0 s\nsetup 0\nsetr {vr['communication_step']} 0.01\nenter\nexit\nrun 0 0.01 30\nsave 0\n"
+              f"ser 0 state.bin\nrun 0.3 0.01 30 {seen}\nload 0\nrun 0.3 0.01 30 {seen}\n"
+              f"deser 1 state.bin\nload 1\nrun 0.3 0.01 30 {seen}\nfree\n")
+    out = rows(cylinder_host_run(host, cylinder, script, tmp_path))
+    first, again, from_bytes = out[30:60], out[60:90], out[90:120]
+    assert len(from_bytes) == 30 and first == again == from_bytes
+    # the state holds a usable Jacobian (made at a step before 0.3 s and kept)
+    blob = (tmp_path / "state.bin").read_bytes()
+    n = struct.unpack_from("<II", blob, 12)[1]
+    block = struct.unpack_from(f"<{n}d", blob, 48)
+    src = tmp_path / "unzipped" / "sources"
+    assert block[_define(src / "config.h", "P_HAVE_JACOBIAN")] == 1.0
+    assert _define(src / "config.h", "SYSTEM_N_UNKNOWN") == 3  # cylinder.force, the length and its rate
+
+
+@pytest.mark.parametrize("where, value, named", [
+    ("P_HAVE_JACOBIAN", 0.5, "state.have_jacobian: must be 0 or 1, got 0.5"),
+    ("P_PIVOT", 7.0, "state.pivot: row 0's pivot must be a row from 0 to 2, got 7"),
+    ("P_JACOBIAN", 0.0, "state.jacobian: its factored diagonal must be non-zero, got 0 at row 0"),
+    ("P_JACOBIAN + 1", math.inf, "state.jacobian: must be finite, got inf"),
+], ids=["flag", "pivot", "singular", "infinite"])
+def test_a_crafted_newton_state_is_refused_naming_the_field(host, cylinder, tmp_path, where, value, named):
+    # lu_solve indexes the unknowns by the pivots it reads: a crafted one never reaches it
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(cylinder["fmu"])).modelVariables}
+    cylinder_host_run(host, cylinder, f"new 0 s\nsetup 0\nsetr {vr['communication_step']} 0.01\nenter\nexit\n"
+                                      "run 0 0.01 30\nsave 0\nser 0 good.bin\nfree\n", tmp_path)
+    blob = bytearray((tmp_path / "good.bin").read_bytes())
+    n_stored, n = struct.unpack_from("<II", blob, 12)
+    block = list(struct.unpack_from(f"<{n}d", blob, 48))
+    field, _, plus = where.partition(" + ")
+    block[_define(tmp_path / "unzipped" / "sources" / "config.h", field) + int(plus or 0)] = value
+    struct.pack_into(f"<{n}d", blob, 48, *block)
+    struct.pack_into("<Q", blob, 32, _fnv(bytes(blob[48:48 + 8 * n_stored])))
+    struct.pack_into("<Q", blob, 40, _fnv(bytes(blob[48:])))
+    (tmp_path / "bad.bin").write_bytes(blob)
+    out = cylinder_host_run(host, cylinder, "new 0 s\nsetup 0\nenter\nexit\ndeser 0 bad.bin\nfree\n", tmp_path)
+    assert next(line for line in out if line.startswith("deser")).split()[1] == "3", out  # Error
+    assert any(named in line for line in out), out
+
+
+def test_a_newton_step_kept_unconverged_is_a_warning_naming_the_value_as_cosim_warns(host, cylinder, tmp_path):
+    # at 50 ms one step of cosim's ends its 8 evaluations above the tolerance, and cosim says so; the FMU's
+    # doStep that holds it returns Warning with the same words (the run before it: OK)
+    from fmpy import read_model_description
+
+    from grubler.system import cosim
+
+    want = cosim.run(cylinder["ssd"], t_end=1.0, step=0.05, master="newton", record=["cylinder.force"])
+    assert want.coupling["unconverged"] == 1, want.coupling
+    said = next(w for w in want.warnings if w.startswith("master newton:"))
+    vr = {v.name: v.valueReference for v in read_model_description(str(cylinder["fmu"])).modelVariables}
+    out = cylinder_host_run(host, cylinder, f"new 0 s\nsetup 0\nsetr {vr['communication_step']} 0.05\nenter\nexit\n"
+                                            f"run 0 0.05 20 {vr['cylinder.force']}\nfree\n", tmp_path)
+    assert next(line for line in out if line.startswith("run")).split()[1] == "1", out  # Warning
+    warned = [line for line in out if line.startswith("log 1") and "master newton: 1 of 1 steps from t = " in line]
+    assert len(warned) == 1 and "kept after 8 evaluations with a coupling residual above 1e-05" in warned[0], out
+    assert said.split("(largest ")[1].split(")")[0] in warned[0], (said, warned)  # its size and its value
+    # the rows up to the step that warned are cosim's (the step that warned is not printed by the host)
+    got = np.array(rows(out))[:, 1]
+    np.testing.assert_array_equal(got, np.asarray(want["cylinder.force"])[1:len(got) + 1])
+
+
+def test_the_fmi3_build_runs_newton_as_the_fmi2_build(cylinder):
+    # (one model's files behind both wrappers: the same iteration, the same bits)
+    from grubler.system.native import export_native_system
+
+    def make(d: Path) -> Path:
+        return export_native_system(cylinder["ssd"], d / "CylinderSliderCrank.fmu", "linux64", fmi=3, master="newton")
+
+    three = builds.copy_to(builds.cached("system-CylinderSliderCrank-newton-fmi3",
+                                         builds.digest(builds.package_key(), cylinder["ssd"], "newton", 3), make),
+                           cylinder["root"] / "three" / "CylinderSliderCrank.fmu")
+    names = ["mechanism.cylinder_length", "cylinder.force", "controller.u"]
+    settings = {"communication_step": COARSE}
+    np.testing.assert_array_equal(run_fmu(three, names, 0.5, COARSE, fmi=3, parameters=settings),
+                                  run_fmu(cylinder["fmu"], names, 0.5, COARSE, parameters=settings))

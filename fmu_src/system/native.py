@@ -19,7 +19,7 @@ What it runs
     ``fmi/c/system_model.c``: the components in ``grubler cosim``'s stepping
     order, initialised as cosim initialises them, stepped by master.c's
     loop with the master and tolerance its parameters name (Gauss-Seidel,
-    Jacobi, extrapolating, with error-controlled sub-steps); it matches
+    Jacobi, extrapolating, with error-controlled sub-steps, Newton); it matches
     ``grubler cosim`` with the same step and settings (to rounding:
     tests/test_system_fmu.py).
 
@@ -66,7 +66,8 @@ from grubler.fmi.variables import (BOOLEAN, ENUMERATION, INPUT, INTEGER, OUTPUT,
 from grubler.limits import brief
 from grubler.system import cosim
 from grubler.system.container import exposed_variables
-from grubler.system.coupling import adaptive_plan, input_modes, sampled_components
+from grubler.system.coupling import (NEWTON_MAX_ITER, NEWTON_TOL, adaptive_plan, input_modes, newton_plan,
+                                     sampled_components)
 from grubler.system.ssp import System, read
 
 MASTER_DIR = Path(__file__).resolve().parent / "c"
@@ -79,10 +80,8 @@ EXTERNAL = re.compile(r"^(?!static\b|typedef\b|extern\b|struct\b|enum\b|union\b|
                       r"\b([A-Za-z_]\w*)\s*[(\[]", re.M)
 # the system's own parameters, slots 0, 1, 2 before the components' variables
 SYSTEM_PARAMETERS = ("communication_step", "master", "tol")
-# the masters a system FMU runs, in the order of master.c's grb_scheme (cosim._SCHEME): all but Newton,
-# whose iteration (its unknowns, the step Jacobian's work, each component's state calls) the Python master
-# sets up and system_model.c does not yet; Newton is last, so the others keep their numbers
-SYSTEM_MASTERS = tuple(m for m in sorted(cosim._SCHEME, key=cosim._SCHEME.get) if m != cosim.NEWTON)
+# the masters a system FMU runs: grubler cosim's, in the order of master.c's grb_scheme (cosim._SCHEME)
+SYSTEM_MASTERS = tuple(sorted(cosim._SCHEME, key=cosim._SCHEME.get))
 assert [cosim._SCHEME[m] for m in SYSTEM_MASTERS] == list(range(len(SYSTEM_MASTERS)))
 TOL_RANGE = (1e-14, 0.5)  # grubler cosim --tol's
 
@@ -277,7 +276,9 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                           "the coupling, as grubler cosim --master: gauss-seidel (each component steps on the "
                           "outputs of those before it), jacobi (all on the last step's values), extrapolate "
                           "(continuous inputs at the step's midpoint, second order; with tol, error-controlled "
-                          "sub-steps)", start=master, choices=SYSTEM_MASTERS),
+                          "sub-steps), newton (each step iterated to its fixed point, rolled back through the "
+                          "components' states, a Newton update of the coupled values)", start=master,
+                          choices=SYSTEM_MASTERS),
                  Variable("tol", REAL, PARAMETER,
                           "error control, as grubler cosim --tol: the continuous components sub-step, each "
                           "sub-step's coupling error estimate (step doubling) within tol relative to max(1, |value|); "
@@ -317,6 +318,11 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
     adaptive_seq = adaptive_plan(system, interfaces, seq, step, TOL_RANGE[1])[0]
     sampled = sampled_components(system, interfaces)
     modes, adaptive_modes = input_modes(system, interfaces, seq), input_modes(system, interfaces, adaptive_seq)
+    # the Newton master's plan (cosim's): its order and input modes are the adaptive ones (the sampled components
+    # first), its unknowns the slots of the outputs its iterated components' moving inputs read, in cosim's order
+    plan = newton_plan(system, interfaces, seq)[0]
+    assert plan is not None and plan.order == adaptive_seq and plan.modes == adaptive_modes
+    unknowns = [connected_slot[u] for u in plan.unknowns]
     wiring, n_in, n_conn, n_free = [], 0, 0, 0
     for name in seq:
         itf, model, given = interfaces[name], models[interfaces[name].path], system.components[name].parameters
@@ -345,6 +351,7 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                      defines={"SYSTEM_N_COMPONENTS": len(seq), "SYSTEM_N_VALUES": len(connected_slot),
                               "SYSTEM_N_IN": n_in, "SYSTEM_N_CONN": n_conn, "SYSTEM_N_FREE": n_free,
                               "SYSTEM_N_OUT_MAX": max([len(w["out"]) for w in wiring] + [0]),
+                              "SYSTEM_N_UNKNOWN": len(unknowns), "SYSTEM_NEWTON_MAX_ITER": NEWTON_MAX_ITER,
                               "SYSTEM_SLOT_STEP": 0, "SYSTEM_SLOT_MASTER": 1, "SYSTEM_SLOT_TOL": 2,
                               # the component models' GUIDs: the system's GUID changes with any of them
                               "SYSTEM_MODELS": int(parts[:12], 16), **directional},
@@ -354,9 +361,13 @@ def system_spec(system: System, interfaces, models: dict[Path, ComponentModel], 
                             # the extrapolating master's history: the values at the last step's start and the
                             # point before, that step's length (0: no past point), the adaptive sub-step clock
                             ("start", len(connected_slot)), ("prev", len(connected_slot)), ("h_last", 1),
-                            ("substep", 1), ("substep_prev", 1), ("components", 0)))
+                            ("substep", 1), ("substep_prev", 1),
+                            # the Newton master's Jacobian, kept from step to step as cosim keeps it: factored
+                            # (LU), its row pivots, and whether it is usable (0: made again at the next step)
+                            ("jacobian", len(unknowns) ** 2), ("pivot", len(unknowns)), ("have_jacobian", 1),
+                            ("components", 0)))
     assert [spec.slot(n) for n in SYSTEM_PARAMETERS] == [0, 1, 2]
-    return spec, wiring
+    return spec, wiring, unknowns
 
 
 # -- sources/ ----------------------------------------------------------------------------
@@ -367,16 +378,22 @@ def _c_array(ctype: str, name: str, items: list) -> tuple[str, str]:
     return f"static const {ctype} {name}[] = {{{', '.join(str(x) for x in items)}}};", name
 
 
-def components_source(spec: ModelSpec, wiring: list[dict], n_models: int, value_names: list[str]) -> str:
+def components_source(spec: ModelSpec, wiring: list[dict], n_models: int, value_names: list[str],
+                      unknowns: list[int]) -> str:
     """Text of ``system_components.c``: the component table system_model.c steps, the adaptive stepping order,
-    and each connection value's name (its source output, for messages)."""
+    each connection value's name (its source output, for messages), and the Newton master's unknowns (their
+    slots, each slot's unknown or -1) and its tolerance (cosim's NEWTON_TOL, written exactly)."""
     lines = [f"/* {spec.identifier}: generated by grubler.system.native; do not edit. */", '#include "system_model.h"',
              ""]
     lines += [f"extern const grb_component_calls grb_m{m}_calls;" for m in range(n_models)]
     adaptive = sorted(range(len(wiring)), key=lambda k: wiring[k]["adaptive_position"])
     lines += ["", f"const int system_adaptive_order[SYSTEM_N_COMPONENTS] = {{{', '.join(map(str, adaptive))}}};",
               f"const char *const system_value_names[SYSTEM_N_VALUES + 1] = "
-              f"{{{', '.join(json.dumps(n) for n in value_names + [''])}}};"]
+              f"{{{', '.join(json.dumps(n) for n in value_names + [''])}}};",
+              f"const int system_newton_unknowns[SYSTEM_N_UNKNOWN + 1] = {{{', '.join(map(str, unknowns + [0]))}}};",
+              f"const int system_newton_index[SYSTEM_N_VALUES + 1] = "
+              f"{{{', '.join(str(unknowns.index(j) if j in unknowns else -1) for j in range(len(value_names) + 1))}}};",
+              f"const double system_newton_tol = {NEWTON_TOL!r};"]
     rows = []
     for k, w in enumerate(wiring):
         bound = [f"{{{spec.slot(n)}, {slot}, {int(given)}}}" for n, slot, given in w["bound"]]
@@ -433,13 +450,14 @@ const grb_component_calls PREFIXcalls = {
 """
 
 
-def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: list[str]):
+def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: list[str], unknowns: list[int]):
     """The ``stage`` of :func:`grubler.fmi.build.build_fmu` for a system: the system model's own sources,
     each component model in a folder of its own under its prefix, the kernels once."""
 
     def stage(spec: ModelSpec, sources: Path, fmi: int) -> list[str]:
         files = [f for f in stage_sources(spec, sources, fmi) if f != "master.c"]  # (system_model.c includes it)
-        (sources / "system_components.c").write_text(components_source(spec, wiring, len(models), value_names))
+        (sources / "system_components.c").write_text(
+            components_source(spec, wiring, len(models), value_names, unknowns))
         files.append("system_components.c")
         for m in models:
             for f in m.kernel:
@@ -527,10 +545,10 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
             path = interfaces[name].path
             if path not in models:
                 models[path] = component_model(path, unpacked[path])
-        spec, wiring = system_spec(system, interfaces, models, seq, identifier_for(dest), step, master, tol)
+        spec, wiring, unknowns = system_spec(system, interfaces, models, seq, identifier_for(dest), step, master, tol)
         slot = cosim._slots(system)
         return build_fmu(spec, dest, platforms, fmi,
-                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get)))
+                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get), unknowns))
 
 
 __all__ = ["export_native_system", "why_not_native", "coupling_settings"]

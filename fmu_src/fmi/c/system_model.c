@@ -47,6 +47,13 @@
 extern const grb_component system_components[SYSTEM_N_COMPONENTS];
 extern const int system_adaptive_order[SYSTEM_N_COMPONENTS];  /* the sampled components first */
 extern const char *const system_value_names[SYSTEM_N_VALUES + 1];
+extern const int system_newton_unknowns[SYSTEM_N_UNKNOWN + 1];  /* the Newton master's unknowns' slots, */
+extern const int system_newton_index[SYSTEM_N_VALUES + 1];      /* each slot's unknown or -1, */
+extern const double system_newton_tol;                          /* and its tolerance (cosim's NEWTON_TOL) */
+
+/* the Newton master's work (master.c's grb_newton.work): guess, base, y (a value each), r and two spare (an
+   unknown each), then the factored Jacobian */
+#define SYSTEM_NEWTON_WORK (3 * SYSTEM_N_VALUES + 3 * SYSTEM_N_UNKNOWN + SYSTEM_N_UNKNOWN * SYSTEM_N_UNKNOWN)
 
 typedef struct system_scratch {
     grb_instance comp[SYSTEM_N_COMPONENTS];  /* in the system's stepping order */
@@ -55,6 +62,9 @@ typedef struct system_scratch {
     double *saved[SYSTEM_N_COMPONENTS];      /* each component's block at a sub-step's start (rollback) */
     double work[4 * SYSTEM_N_VALUES + 1];    /* the adaptive master's */
     grb_adapt adapt;
+    grb_newton newton;                       /* the Newton master's, its Jacobian loaded from the block */
+    double newton_work[SYSTEM_NEWTON_WORK + 1];
+    int newton_pivot[SYSTEM_N_UNKNOWN + 1];
     double in_buf[SYSTEM_N_IN + 1];
     double read_buf[SYSTEM_N_CONN + 1];
     double free_buf[SYSTEM_N_FREE + 1];
@@ -124,15 +134,18 @@ static int adaptive(const double *p) {
     return (int)p[SYSTEM_SLOT_MASTER] == GRB_EXTRAPOLATE && p[SYSTEM_SLOT_TOL] > 0.0;
 }
 
+/* The run's order is the sampled components first (cosim's adaptive_plan and newton_plan order them so). */
+static int sampled_first(const double *p) { return adaptive(p) || (int)p[SYSTEM_SLOT_MASTER] == GRB_NEWTON; }
+
 /* The master's view of the components, in the order the run steps them (with a tolerance the sampled
  * ones first: cosim's adaptive_plan), each with its input modes under the extrapolating master; cosim's
  * wiring (instance.py), nothing else read. */
 static void wire(grb_instance *inst) {
     system_scratch *s = (system_scratch *)inst->model;
-    int scheme = (int)inst->p[SYSTEM_SLOT_MASTER], adapt = adaptive(inst->p), j;
+    int scheme = (int)inst->p[SYSTEM_SLOT_MASTER], adapt = adaptive(inst->p), first = sampled_first(inst->p), j;
     double *in = s->in_buf, *read = s->read_buf;
     for (j = 0; j < SYSTEM_N_COMPONENTS; j++) {
-        int k = adapt ? system_adaptive_order[j] : j;
+        int k = first ? system_adaptive_order[j] : j;
         const grb_component *c = &system_components[k];
         grb_fmu *f = &s->fmus[j];
         s->order[j] = k;
@@ -149,9 +162,11 @@ static void wire(grb_instance *inst) {
         f->read_vr = c->conn_vr;
         f->read_buf = read;
         f->out_slot = c->out_slot;
-        f->in_mode = scheme != GRB_EXTRAPOLATE ? NULL : adapt ? c->in_mode_adaptive : c->in_mode;
+        f->in_mode = scheme == GRB_NEWTON ? c->in_mode_adaptive
+                     : scheme != GRB_EXTRAPOLATE ? NULL : adapt ? c->in_mode_adaptive : c->in_mode;
         f->sampled = c->sampled;
-        if (adapt && !c->sampled) {
+        /* rolled back: the adaptive master's sub-stepped components, the Newton master's iterated ones */
+        if (adapt ? !c->sampled : scheme == GRB_NEWTON && iterated(f)) {
             f->get_state = save_part;
             f->set_state = restore_part;
             f->state = s->saved[k];
@@ -221,6 +236,24 @@ grb_fmi_status model_check(grb_instance *inst, const double *p) {
             !(p[P_SUBSTEP_PREV] >= 0.0 && isfinite(p[P_SUBSTEP_PREV])))
             BAD("state.substep: the master's step lengths must be finite and positive, got %g, %g, %g",
                 p[P_H_LAST], p[P_SUBSTEP], p[P_SUBSTEP_PREV]);
+        /* the Newton master's kept Jacobian: lu_solve reads it as factored, so a usable one must be (finite, a
+         * non-zero pivot on the diagonal, each row swap within the rows below its own) */
+        if (p[P_HAVE_JACOBIAN] != 0.0 && p[P_HAVE_JACOBIAN] != 1.0)
+            BAD("state.have_jacobian: must be 0 or 1, got %g", p[P_HAVE_JACOBIAN]);
+        if (p[P_HAVE_JACOBIAN] == 1.0)
+            for (k = 0; k < SYSTEM_N_UNKNOWN; k++) {
+                double pv = p[P_PIVOT + k];
+                int j;
+                if (!(pv >= (double)k && pv < (double)SYSTEM_N_UNKNOWN && pv == floor(pv)))
+                    BAD("state.pivot: row %d's pivot must be a row from %d to %d, got %g", k, k,
+                        SYSTEM_N_UNKNOWN - 1, pv);
+                if (!(p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + k] != 0.0))
+                    BAD("state.jacobian: its factored diagonal must be non-zero, got %g at row %d",
+                        p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + k], k);
+                for (j = 0; j < SYSTEM_N_UNKNOWN; j++)
+                    if (!isfinite(p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + j]))
+                        BAD("state.jacobian: must be finite, got %g", p[P_JACOBIAN + k * SYSTEM_N_UNKNOWN + j]);
+            }
     }
     if (p == inst->p) return GRB_FMI_OK;  /* the components check theirs as they prepare */
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
@@ -286,6 +319,9 @@ grb_fmi_status model_start(grb_instance *inst) {
     inst->p[P_H_LAST] = 0.0;  /* no past point yet */
     inst->p[P_SUBSTEP] = inst->p[SYSTEM_SLOT_STEP];  /* the adaptive master's first try: the whole step */
     inst->p[P_SUBSTEP_PREV] = 0.0;
+    for (k = 0; k < SYSTEM_N_UNKNOWN * SYSTEM_N_UNKNOWN; k++) inst->p[P_JACOBIAN + k] = 0.0;
+    for (k = 0; k < SYSTEM_N_UNKNOWN; k++) inst->p[P_PIVOT + k] = (double)k;
+    inst->p[P_HAVE_JACOBIAN] = 0.0;  /* made at the first step that needs it, as cosim's */
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].state = GRB_INITIALIZATION;
     for (sweep = 0; sweep < SYSTEM_N_COMPONENTS + 2; sweep++) {
         double change = 0.0;
@@ -393,7 +429,7 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     memset(&run, 0, sizeof run);
     run.scheme = (int)p[SYSTEM_SLOT_MASTER];
     run.step = h / (double)n;
-    if (run.scheme == GRB_EXTRAPOLATE) {
+    if (run.scheme == GRB_EXTRAPOLATE || run.scheme == GRB_NEWTON) {
         run.n_slots = SYSTEM_N_VALUES;
         run.start = p + P_START;
         run.prev = p + P_PREV;
@@ -405,12 +441,30 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
             run.tol = p[SYSTEM_SLOT_TOL];
             run.work = s->work;
             run.adapt = &s->adapt;
-        } else if (p[P_H_LAST] > 0.0) {
+        } else if (p[P_H_LAST] > 0.0) {  /* (the Newton master's guess extrapolates as this master does) */
             first = 1;
             if (run.step != p[P_H_LAST])
                 for (k = 0; k < SYSTEM_N_VALUES; k++)
                     run.start[k] = values[k] - (values[k] - run.start[k]) * (run.step / p[P_H_LAST]);
         }
+    }
+    if (run.scheme == GRB_NEWTON) {  /* its settings, and the Jacobian kept in the block */
+        grb_newton *nw = &s->newton;
+        double *jac = s->newton_work + 3 * SYSTEM_N_VALUES + 3 * SYSTEM_N_UNKNOWN;
+        memset(nw, 0, sizeof *nw);
+        nw->tol = system_newton_tol;
+        nw->max_iter = SYSTEM_NEWTON_MAX_ITER;
+        nw->n_unknown = SYSTEM_N_UNKNOWN;
+        nw->unknown_slot = system_newton_unknowns;
+        nw->index = system_newton_index;
+        nw->work = s->newton_work;
+        nw->pivot = s->newton_pivot;
+        nw->worst_slot = -1;
+        nw->have_jacobian = p[P_HAVE_JACOBIAN] == 1.0;
+        for (k = 0; k < SYSTEM_N_UNKNOWN * SYSTEM_N_UNKNOWN; k++) jac[k] = p[P_JACOBIAN + k];
+        for (k = 0; k < SYSTEM_N_UNKNOWN; k++)  /* (checked when usable: model_check; else never read) */
+            s->newton_pivot[k] = nw->have_jacobian ? (int)p[P_PIVOT + k] : k;
+        run.newton = nw;
     }
     run.t0 = first ? t - run.step : t;
     run.t_end = t + h;
@@ -438,13 +492,28 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
         BAD("%s: %s failed in the step from t = %.17g s (status %d, see its reason above)", name, calls[fail.call],
             fail.t, fail.status);
     }
-    if (run.scheme == GRB_EXTRAPOLATE && !adapt) p[P_H_LAST] = run.step;
+    if ((run.scheme == GRB_EXTRAPOLATE && !adapt) || run.scheme == GRB_NEWTON) p[P_H_LAST] = run.step;
+    if (run.scheme == GRB_NEWTON) {
+        const double *jac = s->newton_work + 3 * SYSTEM_N_VALUES + 3 * SYSTEM_N_UNKNOWN;
+        for (k = 0; k < SYSTEM_N_UNKNOWN * SYSTEM_N_UNKNOWN; k++) p[P_JACOBIAN + k] = jac[k];
+        for (k = 0; k < SYSTEM_N_UNKNOWN; k++) p[P_PIVOT + k] = (double)s->newton_pivot[k];
+        p[P_HAVE_JACOBIAN] = s->newton.have_jacobian ? 1.0 : 0.0;
+    }
     if (adapt) {
         p[P_SUBSTEP] = s->adapt.h;
         p[P_SUBSTEP_PREV] = s->adapt.h_prev;
     }
     p[P_T] = t + h;
     inst->level = 0;
+    if (run.scheme == GRB_NEWTON && s->newton.unconverged > 0) {  /* what grubler cosim warns of, said here */
+        long w = s->newton.worst_slot;
+        grb_log(inst, GRB_FMI_WARNING, "master newton: %ld of %ld steps from t = %.17g s kept after %ld evaluations "
+                "with a coupling residual above %g (largest %.3g, relative, at %s): the components' own accuracy may "
+                "be the floor, or the coupling too nonlinear at the step (a shorter communication_step)",
+                s->newton.unconverged, s->newton.steps, t, s->newton.max_iter, system_newton_tol,
+                s->newton.worst * system_newton_tol, w >= 0 && w < SYSTEM_N_VALUES ? system_value_names[w] : "?");
+        return GRB_FMI_WARNING;
+    }
     return GRB_FMI_OK;
 }
 
