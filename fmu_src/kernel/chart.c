@@ -36,10 +36,6 @@ static int branch_slides(const void *md, const void *w, int i) {
     return !(grb_links(md)[i].revolute > 0.5);
 }
 
-size_t grb_chart_size(int n_links) { return chart_buffer_size(n_links); }
-
-void grb_chart_init(grb_chart *ch, int n_links, double *buffer) { chart_layout(ch, n_links, buffer); }
-
 int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
                     grb_chart *ch, grb_ws *w) {
     int n = w->n, m = w->m;
@@ -47,16 +43,6 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
     grb_branch br = {branch_point, branch_conditioning, branch_slides, md, w, scale, n};
     return chart_build(&br, y, kappa_ref, near, md->drive, w->index + WS_INDEX_CHART(n), ch);
 }
-
-void grb_chart_save(const grb_chart *ch) { chart_save(ch); }
-
-int grb_chart_resume(grb_chart *ch, const double *y, double scale) { return chart_resume(ch, y, scale); }
-
-int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
-    return chart_eval(ch, x, z, dz, ddz);
-}
-
-int grb_chart_put(const grb_chart *ch, double *y) { return chart_put(ch, y); }
 
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out) {

@@ -44,9 +44,13 @@ typedef struct grb_branch {
     int n;
 } grb_branch;
 
-static inline size_t chart_buffer_size(int n) { return (size_t)(5 * CHART_NODES + 11) * (size_t)n; }
+/* doubles of the chart's buffer per coordinate */
+#define CHART_PER_COORD (5 * CHART_NODES + 11)
 
-static inline void chart_layout(grb_chart *ch, int n, double *buffer) {
+static inline size_t grb_chart_size(int n) { return (size_t)CHART_PER_COORD * (size_t)n; }
+
+/* the chart over the caller's buffer of grb_chart_size(n) doubles, inactive */
+static inline void grb_chart_init(grb_chart *ch, int n, double *buffer) {
     memset(ch, 0, sizeof *ch);
     ch->n = n;
     ch->c = buffer;
@@ -94,7 +98,7 @@ static inline void chart_derivative(const double *c, int n, double half, double 
 
 /* z, dz/dx and d2z/dx2 (each optional) of the chart at x; 0 when x is too far
  * outside the chart's range to read it. */
-static inline int chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
+static inline int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz) {
     int n = ch->n;
     double u = (x - ch->mid) / ch->half, T[CHART_NODES];
     if (!(fabs(u) <= 1.0 + CHART_REACH)) return 0;
@@ -304,7 +308,7 @@ static inline int chart_build_on(const grb_branch *br, const double *y, double k
     for (int j = 1; j < CHART_NODES; j++) {
         double x = mid + half * cos(CHART_PI * j / CHART_NODES);
         if (fabs(x - ch->pinch) < 0.02 * (hi - lo)) continue;
-        chart_eval(ch, x, check, dz, NULL);
+        grb_chart_eval(ch, x, check, dz, NULL);
         check[held] = x;
         memcpy(z, check, sizeof(double) * n);
         if (!isfinite(br->point(br->model, held, scale, z, t, br->ws))) return GRB_BRANCH_JUMP;
@@ -347,7 +351,9 @@ static inline int chart_build(const grb_branch *br, const double *y, double kapp
 enum { SAVED_TAG, SAVED_HELD, SAVED_LO, SAVED_HI, SAVED_MID, SAVED_HALF, SAVED_PINCH, SAVED_PINCH_KAPPA,
        SAVED_COUNT };
 
-static inline void chart_save(const grb_chart *ch) {
+/* keep an active chart in its buffer for the next advance, and take it up
+ * there when the state y lies on it (1) */
+static inline void grb_chart_save(const grb_chart *ch) {
     double *saved = ch->values;
     if (!ch->active) {
         saved[SAVED_TAG] = 0.0;
@@ -363,7 +369,7 @@ static inline void chart_save(const grb_chart *ch) {
     saved[SAVED_PINCH_KAPPA] = ch->pinch_kappa;
 }
 
-static inline int chart_resume(grb_chart *ch, const double *y, double scale) {
+static inline int grb_chart_resume(grb_chart *ch, const double *y, double scale) {
     double *saved = ch->values, *z = ch->scratch;
     int n = ch->n, held = (int)saved[SAVED_HELD];
     ch->active = 0;
@@ -378,7 +384,7 @@ static inline int chart_resume(grb_chart *ch, const double *y, double scale) {
     ch->pinch_kappa = saved[SAVED_PINCH_KAPPA];
     /* the state must lie on it (the last advance put it there; a state set
      * from outside, or restored from before the chart, need not) */
-    if (!(y[held] >= ch->lo && y[held] <= ch->hi) || !chart_eval(ch, y[held], z, NULL, NULL)) return 0;
+    if (!(y[held] >= ch->lo && y[held] <= ch->hi) || !grb_chart_eval(ch, y[held], z, NULL, NULL)) return 0;
     for (int i = 0; i < n; i++)
         if (i != held && !(fabs(z[i] - y[i]) <= CHART_CHECK * scale)) return 0;
     ch->active = 1;
@@ -386,10 +392,10 @@ static inline int chart_resume(grb_chart *ch, const double *y, double scale) {
 }
 
 /* The state y = (z, zd) put on the chart at its held coordinate and rate. */
-static inline int chart_put(const grb_chart *ch, double *y) {
+static inline int grb_chart_put(const grb_chart *ch, double *y) {
     int n = ch->n;
     double x = y[ch->held], xd = y[n + ch->held];
-    if (!chart_eval(ch, x, y, y + n, NULL)) return 0;
+    if (!grb_chart_eval(ch, x, y, y + n, NULL)) return 0;
     for (int i = 0; i < n; i++) y[n + i] *= xd;
     y[ch->held] = x;
     y[n + ch->held] = xd;
@@ -404,7 +410,7 @@ static inline int chart_point(const grb_chart *ch, const double *y, double *out)
     int n = ch->n, held = ch->held;
     double *z = ch->scratch, *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
     double x = y[held], xd = y[n + held];
-    if (!chart_eval(ch, x, z, t, tx)) {
+    if (!grb_chart_eval(ch, x, z, t, tx)) {
         for (int i = 0; i < 2 * n; i++) out[i] = NAN;
         return 0;
     }

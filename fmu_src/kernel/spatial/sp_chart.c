@@ -37,10 +37,6 @@ static int branch_slides(const void *md, const void *w, int i) {
     return ((const grs_ws *)w)->coord_slide[i];
 }
 
-size_t grs_chart_size(int n_coords) { return chart_buffer_size(n_coords); }
-
-void grs_chart_init(grs_chart *ch, int n_coords, double *buffer) { chart_layout(ch, n_coords, buffer); }
-
 int grs_chart_build(const grs_model *md, double scale, const double *y, double kappa_ref, double near,
                     grs_chart *ch, grs_ws *w) {
     int n = w->n, m = w->m, tried[GRS_MAX_COORDS];
@@ -49,16 +45,6 @@ int grs_chart_build(const grs_model *md, double scale, const double *y, double k
     /* the spatial model names no drive: the fastest-moving joint first */
     return chart_build(&br, y, kappa_ref, near, -1, tried, ch);
 }
-
-void grs_chart_save(const grs_chart *ch) { chart_save(ch); }
-
-int grs_chart_resume(grs_chart *ch, const double *y, double scale) { return chart_resume(ch, y, scale); }
-
-int grs_chart_eval(const grs_chart *ch, double x, double *z, double *dz, double *ddz) {
-    return chart_eval(ch, x, z, dz, ddz);
-}
-
-int grs_chart_put(const grs_chart *ch, double *y) { return chart_put(ch, y); }
 
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out) {

@@ -94,16 +94,11 @@ double grs_branch_point(const grs_model *md, int held, double scale, double *z, 
 /* sp_chart.c: an assembly branch near a change point as a curve z(x) in one
  * held coordinate x, the planar kernel's chart (the method is chart.h's, one
  * text for both kernels; the chart is workspace.h's grb_chart) over the
- * spatial chain. */
+ * spatial chain; its size, layout, evaluation, save and resume are chart.h's
+ * grb_chart_*. */
 typedef grb_chart grs_chart;
-size_t grs_chart_size(int n_coords);
-void grs_chart_init(grs_chart *ch, int n_coords, double *buffer);
 int grs_chart_build(const grs_model *md, double scale, const double *y, double kappa_ref, double near,
                     grs_chart *ch, grs_ws *w);
-int grs_chart_eval(const grs_chart *ch, double x, double *z, double *dz, double *ddz);
-int grs_chart_put(const grs_chart *ch, double *y);
-void grs_chart_save(const grs_chart *ch);
-int grs_chart_resume(grs_chart *ch, const double *y, double scale);
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out);
 
