@@ -46,7 +46,9 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
 
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out) {
+    int n = ch->n;
+    double *z = ch->scratch, *t = z + n, *tx = z + 2 * n, xd = y[n + ch->held];
     if (!chart_point(ch, y, out)) return 0;
-    GRB(mass_and_force)(md, ch->scratch, out, tau_drive, tau_load, w);
-    return chart_motion(ch, y, w->mass, w->force, out);
+    GRB(mass_and_force)(md, z, out, tau_drive, tau_load, w);
+    return chart_motion(n, t, tx, xd, w->mass, w->force, out);
 }

@@ -423,13 +423,13 @@ static inline int chart_point(const grb_chart *ch, const double *y, double *out)
 
 /* The one degree of freedom's Lagrange equation on the chart,
  *     (t' M t) x'' = t' (Q - h) - x'^2 t' M t_x,
- * from M (n x n, row-major) and Q - h (force) at chart_point's point: the
- * accelerations out[n..2n) = t x'' + t_x x'^2. */
-static inline int chart_motion(const grb_chart *ch, const double *y, const double *mass, const double *force,
-                               double *out) {
-    int n = ch->n;
-    const double *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
-    double xd = y[n + ch->held], m_tt = 0.0, f_t = 0.0, bias = 0.0;
+ * from M (n x n, row-major) and Q - h (force) at chart_point's point, its
+ * tangent t and curvature tx (scratch 1, 2) and the held rate xd: the
+ * accelerations out[n..2n) = t x'' + t_x x'^2.  (The kernel takes n, t, tx
+ * and xd before its mass and force call, as registers across it.) */
+static inline int chart_motion(int n, const double *t, const double *tx, double xd, const double *mass,
+                               const double *force, double *out) {
+    double m_tt = 0.0, f_t = 0.0, bias = 0.0;
     for (int i = 0; i < n; i++) {
         double mt = 0.0, mtx = 0.0;
         for (int j = 0; j < n; j++) {

@@ -48,8 +48,10 @@ int grs_chart_build(const grs_model *md, double scale, const double *y, double k
 
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out) {
+    int n = ch->n;
+    double *z = ch->scratch, *t = z + n, *tx = z + 2 * n, xd = y[n + ch->held];
     if (!chart_point(ch, y, out)) return 0;
-    grs_kinematics(md, ch->scratch, out, w);
+    grs_kinematics(md, z, out, w);
     grs_mass_and_force(md, out, tau, w);
-    return chart_motion(ch, y, w->mass, w->force, out);
+    return chart_motion(n, t, tx, xd, w->mass, w->force, out);
 }
