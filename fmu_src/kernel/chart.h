@@ -341,6 +341,52 @@ static inline int chart_build(const grb_branch *br, const double *y, double kapp
     return GRB_BRANCH_JUMP;
 }
 
+/* The branch orientation, for the change-point watch of either kernel: det
+ * [R; zd / |zd|] (n x n), R the closure rows J (m x n, row-major) along the
+ * basis's n - 1 row directions (basis (n - 1) x m), or J's own rows when basis
+ * is NULL (then m = n - 1).  Along a branch it keeps its sign; it passes
+ * through zero where the branch crosses another, so a step whose ends
+ * disagree in sign stepped across a change point.  0 at rest.  A (n x n) is
+ * scratch; the elimination pivots on the largest entry of each column. */
+static inline double grb_orientation_det(int n, int m, const double *J, const double *basis, const double *zd,
+                                         double *A) {
+    double speed = 0.0;
+    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
+    if (!(speed > 0.0)) return 0.0;
+    speed = sqrt(speed);
+    for (int r = 0; r < n - 1; r++)
+        for (int i = 0; i < n; i++) {
+            double v = 0.0;
+            if (basis)
+                for (int k = 0; k < m; k++) v += basis[r * m + k] * J[k * n + i];
+            else
+                v = J[r * n + i];
+            A[r * n + i] = v;
+        }
+    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
+    double det = 1.0;
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
+        if (A[p * n + c] == 0.0) return 0.0;
+        if (p != c) {
+            for (int j = 0; j < n; j++) {
+                double t = A[c * n + j];
+                A[c * n + j] = A[p * n + j];
+                A[p * n + j] = t;
+            }
+            det = -det;
+        }
+        det *= A[c * n + c];
+        for (int r = c + 1; r < n; r++) {
+            double f = A[r * n + c] / A[c * n + c];
+            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
+        }
+    }
+    return det;
+}
+
 /* Between advances (a co-simulation step of 1 ms is one advance, and a change
  * point's zone is tens of them) the chart is kept, not rebuilt: its
  * coefficients stay in the caller's stepper buffer, and its scalars go into the
