@@ -90,7 +90,7 @@ def _kernel_dirs() -> dict[str, tuple[Path, tuple[str, ...]]]:
     laws = drives.parent.parent / "controllers" / "kernel"
     kernel = HERE.parent / "kernel"
     # the spatial chain, and the planar kernel's files it stands on (its status words, small solvers, tableaus)
-    spatial_base = ("grubler.h", "workspace.h", "real.h", "status.c", "linalg.c", "tableaus*", "project.h")
+    spatial_base = ("grubler.h", "workspace.h", "real.h", "status.c", "linalg.c", "tableaus*", "project.h", "chart.h")
     return {"kernel": (kernel, ("*",)), "spatial": (kernel / "spatial", ("*",)),
             "spatial_base": (kernel, spatial_base), "motor": (drives, ("dc_motor.*",)),
             "controllers": (laws, ("ctl_*",)), "law": (C_DIR, ("law_model.c", "law.h", "law_struct.h")),

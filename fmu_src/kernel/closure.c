@@ -10,6 +10,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "chart.h" /* grb_orientation_det */
 #include "project.h"
 #include "workspace.h"
 
@@ -350,42 +351,8 @@ int grb_closure_row_basis(const grb_model *md, const double *z, grb_ws *w, doubl
 static double orientation_of_rows(grb_ws *w, const double *zd, const double *basis) {
     int n = w->n, m = w->m;
     if (m == 0 || (basis ? m < n - 1 : n != m + 1)) return 0.0;
-    double speed = 0.0;
-    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
-    if (!(speed > 0.0)) return 0.0;
-    speed = sqrt(speed);
-    double *A = w->schur; /* n x n scratch over the closures' matrices: n^2 <= (m + 1)^2 <= m (3m + 1) */
-    for (int r = 0; r < n - 1; r++)
-        for (int i = 0; i < n; i++) {
-            double v = 0.0;
-            if (basis)
-                for (int k = 0; k < m; k++) v += basis[r * m + k] * J_(w, k, i);
-            else
-                v = J_(w, r, i);
-            A[r * n + i] = v;
-        }
-    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
-    double det = 1.0;
-    for (int c = 0; c < n; c++) {
-        int p = c;
-        for (int r = c + 1; r < n; r++)
-            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
-        if (A[p * n + c] == 0.0) return 0.0;
-        if (p != c) {
-            for (int j = 0; j < n; j++) {
-                double t = A[c * n + j];
-                A[c * n + j] = A[p * n + j];
-                A[p * n + j] = t;
-            }
-            det = -det;
-        }
-        det *= A[c * n + c];
-        for (int r = c + 1; r < n; r++) {
-            double f = A[r * n + c] / A[c * n + c];
-            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
-        }
-    }
-    return det;
+    /* (A: n x n scratch over the closures' matrices: n^2 <= (m + 1)^2 <= m (3m + 1)) */
+    return grb_orientation_det(n, m, w->J, basis, zd, w->schur);
 }
 
 double grb_branch_orientation(const grb_model *md, const double *y, const double *basis, grb_ws *w) {

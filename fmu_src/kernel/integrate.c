@@ -11,6 +11,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "chart.h"
 #include "tableaus.h"
 #include "workspace.h"
 
@@ -28,7 +29,7 @@
 #define CONDITIONING_NEAR 1e-1
 #define CONDITIONING_PINCH 1e-2
 /* the chart's rows in the stepper table (2n doubles each) */
-#define CHART_ROWS ((5 * CHART_NODES + 11 + 1) / 2)
+#define CHART_ROWS ((CHART_PER_COORD + 1) / 2)
 
 /* rows of the stepper table after the s + 1 stage derivatives and the dense
  * stages: stage state, proposed state, projected state, current state, current

@@ -201,16 +201,10 @@ typedef struct grb_chart {
                                    chart's scalars between advances: grb_chart_save) */
     double *scratch;            /* 11 n */
 } grb_chart;
-size_t grb_chart_size(int n_links);
-void grb_chart_init(grb_chart *ch, int n_links, double *buffer);
+/* (its size, layout, evaluation, save and resume: chart.h, shared with the
+ * spatial kernel) */
 int grb_chart_build(const grb_model *md, double scale, const double *y, double kappa_ref, double near,
                     grb_chart *ch, grb_ws *w);
-int grb_chart_eval(const grb_chart *ch, double x, double *z, double *dz, double *ddz);
-int grb_chart_put(const grb_chart *ch, double *y);
-/* keep an active chart in its buffer for the next advance, and take it up
- * there when the state y lies on it (1) */
-void grb_chart_save(const grb_chart *ch);
-int grb_chart_resume(grb_chart *ch, const double *y, double scale);
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,
                   grb_ws *w, double *out);
 

@@ -17,392 +17,41 @@
  * with t = dz/dx, t_x = d2z/dx2, M and Q - h the open tree's
  * (grs_mass_and_force): no division by the vanishing singular value.
  *
- * The code is chart.c's, the planar model's calls replaced by the spatial
- * ones (grs_branch_point, grs_closure_conditioning; a slide is held in metres
- * per the scale, a rotation in radians): the spatial FMU compiles the spatial
- * folder over a few planar files that do not include chart.c and the planar
- * closure it stands on. */
-#include <math.h>
-#include <string.h>
-
+ *
+ * The method is chart.h's, one text with the planar kernel's chart.c; here is
+ * the spatial branch (grs_branch_point, grs_closure_conditioning; a slide is
+ * held in metres per the scale, a rotation in radians) and the open tree's
+ * mass matrix and force. */
+#include "chart.h"
 #include "sp_workspace.h"
 
-#define MARCH_STEPS 2000       /* continuation steps at most, each way */
-#define MARCH_FIRST 1e-3       /* first continuation step, rad (or m per the scale) */
-#define MARCH_SMALLEST 1e-10   /* below it the continuation gives up */
-#define CHART_CHECK 1e-9       /* chart against a fresh branch point, relative to the scale */
-#define CHART_REACH 0.05       /* how far past its range (in half widths) the chart may be read */
-#define MARCH_LONGEST 0.1      /* longest continuation step, rad (or m per the scale) */
-#define PINCH_AVOID 1e-5       /* conditioning (relative) below which no continuation step ends */
-#define PI 3.14159265358979323846
-
-size_t grs_chart_size(int n_coords) { return (size_t)(5 * GRS_CHART_NODES + 10) * (size_t)n_coords; }
-
-void grs_chart_init(grs_chart *ch, int n_coords, double *buffer) {
-    memset(ch, 0, sizeof *ch);
-    ch->n = n_coords;
-    ch->c = buffer;
-    ch->values = buffer + 3 * GRS_CHART_NODES * n_coords;
-    ch->scratch = buffer + 5 * GRS_CHART_NODES * n_coords;
+/* the spatial branch, for chart.h */
+static double branch_point(const void *md, int held, double scale, double *z, double *t, void *w) {
+    return grs_branch_point(md, held, scale, z, t, w);
 }
-
-/* Chebyshev polynomials T_0 .. T_{N-1} at u */
-static void chebyshev(double u, double *T) {
-    T[0] = 1.0;
-    T[1] = u;
-    for (int k = 2; k < GRS_CHART_NODES; k++) T[k] = 2.0 * u * T[k - 1] - T[k - 2];
+static double branch_conditioning(const void *md, const double *z, void *w) {
+    return grs_closure_conditioning(md, z, w);
 }
-
-/* Coefficients c (GRS_CHART_NODES x n) of sum_k c_k T_k(u) through the values
- * (GRS_CHART_NODES x n) at the Chebyshev nodes u_j = cos(pi (j + 1/2) / N). */
-static void chebyshev_fit(const double *values, int n, double *c) {
-    double T[GRS_CHART_NODES];
-    for (int i = 0; i < GRS_CHART_NODES * n; i++) c[i] = 0.0;
-    for (int j = 0; j < GRS_CHART_NODES; j++) {
-        chebyshev(cos(PI * (j + 0.5) / GRS_CHART_NODES), T);
-        for (int k = 0; k < GRS_CHART_NODES; k++) {
-            double wk = (k == 0 ? 1.0 : 2.0) / GRS_CHART_NODES;
-            for (int i = 0; i < n; i++) c[k * n + i] += wk * T[k] * values[j * n + i];
-        }
-    }
-}
-
-/* The derivative's coefficients d of the series c, for x = mid + half u. */
-static void chebyshev_derivative(const double *c, int n, double half, double *d) {
-    for (int i = 0; i < n; i++) {
-        /* d_{k-1} = d_{k+1} + 2 k c_k, with d_0 halved for the plain sum */
-        double d_next = 0.0, d_here = 0.0;
-        d[(GRS_CHART_NODES - 1) * n + i] = 0.0;
-        for (int k = GRS_CHART_NODES - 1; k >= 1; k--) {
-            double d_prev = d_next + 2.0 * k * c[k * n + i];
-            d_next = d_here;
-            d_here = d_prev;
-            d[(k - 1) * n + i] = d_prev;
-        }
-        d[i] *= 0.5;
-        for (int k = 0; k < GRS_CHART_NODES; k++) d[k * n + i] /= half;
-    }
-}
-
-/* One continuation step: from the branch point z (tangent t) at x to the one
- * at x + dx, predicted along the tangent.  The correction must be small
- * against the move, or the step is refused (0: it may have left the branch).
- * A point whose closure conditioning is below kappa_floor is refused too (2):
- * right at the pinch a branch point is known only to the rounding of the
- * closure over sigma, too coarse to continue from.  The new point's
- * conditioning goes to *kappa. */
-static int continue_to(const grs_model *md, double scale, int held, double dx, double kappa_floor, double *z,
-                       double *t, double *trial, double *t_new, double *kappa, grs_ws *w) {
-    int n = w->n;
-    double move = 0.0, corr = 0.0;
-    for (int i = 0; i < n; i++) {
-        trial[i] = z[i] + dx * t[i];
-        move = fmax(move, fabs(dx * t[i]));
-    }
-    double predicted[GRS_MAX_COORDS];
-    memcpy(predicted, trial, sizeof(double) * n);
-    if (!isfinite(grs_branch_point(md, held, scale, trial, t_new, w))) return 0;
-    for (int i = 0; i < n; i++) corr = fmax(corr, fabs(trial[i] - predicted[i]));
-    if (!(corr <= 1e-2 * move + 1e-13 * scale)) return 0;
-    *kappa = grs_closure_conditioning(md, trial, w);
-    if (*kappa < kappa_floor) return 2;
-    memcpy(z, trial, sizeof(double) * n);
-    memcpy(t, t_new, sizeof(double) * n);
-    return 1;
-}
-
-/* Continue along the branch from (z, t) at x towards direction d (+1/-1)
- * until the closure is conditioned at least `near` (relative to kappa_ref) and
- * getting better, or up to x = target when target is finite.  Tracks the
- * pinch (the worst conditioning met).  z, t end at the last point. */
-static int march(const grs_model *md, double scale, int held, double d, double target, double kappa_ref,
-                 double near, double *z, double *t, grs_chart *ch, grs_ws *w, int track) {
-    int n = w->n;
-    double *trial = ch->scratch + 6 * n, *t_new = ch->scratch + 7 * n;
-    double unit = w->coord_slide[held] ? scale : 1.0, dx = MARCH_FIRST * unit;
-    double last = grs_closure_conditioning(md, z, w) / kappa_ref;
-    for (int k = 0; k < MARCH_STEPS; k++) {
-        double floor = PINCH_AVOID * kappa_ref;
-        if (isfinite(target)) {
-            double left = d * (target - z[held]);
-            if (left <= 1e-14 * fmax(1.0, fabs(target))) return 1;
-            if (dx >= left) {
-                dx = left;
-                floor = 0.0; /* the target itself: wherever it is */
-            }
-        }
-        double kappa;
-        int status = continue_to(md, scale, held, d * dx, floor, z, t, trial, t_new, &kappa, w);
-        if (status == 2) {
-            dx *= 2.5; /* over the pinch rather than onto it */
-            continue;
-        }
-        if (!status) {
-            dx *= 0.25;
-            if (dx < MARCH_SMALLEST) return 0;
-            k--;
-            continue;
-        }
-        kappa /= kappa_ref;
-        if (track && kappa < ch->pinch_kappa) {
-            /* the worst point so far, its step and its branch point: the
-             * pinch lies within a step of it */
-            ch->pinch_kappa = kappa;
-            ch->pinch = z[held];
-            ch->pinch_step = 1.5 * dx;
-            memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
-            memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
-        }
-        if (!isfinite(target) && kappa >= near && kappa > last) return 1;
-        last = kappa;
-        dx = fmin(1.5 * dx, MARCH_LONGEST * unit);
-    }
-    return !isfinite(target) ? 0 : 1;
-}
-
-/* The conditioning at the branch point where the held coordinate is x, by
- * continuation from the worst point the continuation met (zp, tp). */
-static int kappa_at(const grs_model *md, double scale, int held, double kappa_ref, grs_chart *ch, grs_ws *w,
-                    double x, double *kappa) {
-    int n = w->n;
-    double *z = ch->scratch + 4 * n, *t = ch->scratch + 5 * n, x0 = ch->pinch;
-    memcpy(z, ch->scratch + 8 * n, sizeof(double) * n);
-    memcpy(t, ch->scratch + 9 * n, sizeof(double) * n);
-    if (!march(md, scale, held, x > x0 ? 1.0 : -1.0, x, kappa_ref, 1.0, z, t, ch, w, 0)) return 0;
-    *kappa = grs_closure_conditioning(md, z, w);
-    return 1;
-}
-
-/* The pinch to rounding: the worst conditioning along the branch, by golden
- * section (one new probe per narrowing) over branch points within a
- * continuation step of the worst one the continuation met (its steps only
- * bracket it).  To 1e-7 of that step: closer in, branch points are
- * ill-conditioned; where one cannot be had the bracket reached stands. */
-static void refine_pinch(const grs_model *md, double scale, int held, double kappa_ref, grs_chart *ch, grs_ws *w) {
-    double g = 0.5 * (sqrt(5.0) - 1.0), step = ch->pinch_step, k1, k2;
-    double a = ch->pinch - step, b = ch->pinch + step, x1 = b - g * (b - a), x2 = a + g * (b - a);
-    if (!kappa_at(md, scale, held, kappa_ref, ch, w, x1, &k1) || !kappa_at(md, scale, held, kappa_ref, ch, w, x2, &k2))
-        return;
-    for (int it = 0; it < 100 && b - a > 1e-7 * step; it++) {
-        if (k1 < k2) { /* the minimum lies in [a, x2]: x1 becomes the upper probe */
-            b = x2;
-            x2 = x1;
-            k2 = k1;
-            x1 = b - g * (b - a);
-            if (!kappa_at(md, scale, held, kappa_ref, ch, w, x1, &k1)) break;
-        } else {
-            a = x1;
-            x1 = x2;
-            k1 = k2;
-            x2 = a + g * (b - a);
-            if (!kappa_at(md, scale, held, kappa_ref, ch, w, x2, &k2)) break;
-        }
-    }
-    ch->pinch = 0.5 * (a + b);
-    ch->pinch_kappa = fmin(ch->pinch_kappa, fmin(k1, k2) / kappa_ref);
-}
-
-/* The chart in one held coordinate (GRB_BRANCH_JUMP when the branch is not a
- * curve in it here: it folds back in that coordinate, or the chart fails its
- * check). */
-static int build_on(const grs_model *md, double scale, const double *y, double kappa_ref, double near, int held,
-                    grs_chart *ch, grs_ws *w) {
-    int n = w->n;
-    double *z = ch->scratch, *t = ch->scratch + n, *z_lo = ch->scratch + 2 * n, *t_lo = ch->scratch + 3 * n;
-    double *z_hi = ch->scratch + 4 * n, *t_hi = ch->scratch + 5 * n;
-    ch->active = 0;
-    ch->held = held;
-    ch->pinch = y[held];
-    ch->pinch_kappa = grs_closure_conditioning(md, y, w) / kappa_ref;
-    memcpy(z, y, sizeof(double) * n);
-    if (!isfinite(grs_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
-    /* (the pinch may lie within the first continuation step either way) */
-    ch->pinch_step = 1.5 * MARCH_FIRST * (w->coord_slide[held] ? scale : 1.0);
-    memcpy(ch->scratch + 8 * n, z, sizeof(double) * n);
-    memcpy(ch->scratch + 9 * n, t, sizeof(double) * n);
-    /* both ways from here to where the closure is well conditioned again */
-    memcpy(z_lo, z, sizeof(double) * n);
-    memcpy(t_lo, t, sizeof(double) * n);
-    memcpy(z_hi, z, sizeof(double) * n);
-    memcpy(t_hi, t, sizeof(double) * n);
-    if (!march(md, scale, held, -1.0, INFINITY, kappa_ref, near, z_lo, t_lo, ch, w, 1) ||
-        !march(md, scale, held, +1.0, INFINITY, kappa_ref, near, z_hi, t_hi, ch, w, 1))
-        return GRB_BRANCH_JUMP;
-    double lo = z_lo[held], hi = z_hi[held];
-    refine_pinch(md, scale, held, kappa_ref, ch, w);
-    /* no node near the pinch, where a branch point's tangent is least accurate */
-    double width = hi - lo, mid = 0.5 * (lo + hi), half = 0.5 * width;
-    for (int j = 0, moves = 0; j < GRS_CHART_NODES && moves < 100; j++) {
-        double node = mid + half * cos(PI * (j + 0.5) / GRS_CHART_NODES);
-        if (fabs(node - ch->pinch) < 0.01 * width) {
-            moves++;
-            hi += 3e-3 * width;
-            mid = 0.5 * (lo + hi);
-            half = 0.5 * (hi - lo);
-            j = -1;
-        }
-    }
-    /* branch points and tangents at the nodes, in increasing x from the low
-     * end (the last node first: cos decreases with j) */
-    double *values = ch->values, *tangents = ch->values + GRS_CHART_NODES * n;
-    memcpy(z, z_lo, sizeof(double) * n);
-    memcpy(t, t_lo, sizeof(double) * n);
-    for (int j = GRS_CHART_NODES - 1; j >= 0; j--) {
-        double node = mid + half * cos(PI * (j + 0.5) / GRS_CHART_NODES);
-        if (!march(md, scale, held, +1.0, node, kappa_ref, near, z, t, ch, w, 0)) return GRB_BRANCH_JUMP;
-        z[held] = node;
-        memcpy(values + j * n, z, sizeof(double) * n);
-        memcpy(tangents + j * n, t, sizeof(double) * n);
-    }
-    /* z(x) and its tangent dz/dx each through its own node values, the
-     * curvature as the tangent's derivative: differentiating z's interpolant
-     * twice would amplify the values' rounding by N^4 / half^2 */
-    chebyshev_fit(values, n, ch->c);
-    chebyshev_fit(tangents, n, ch->c + GRS_CHART_NODES * n);
-    chebyshev_derivative(ch->c + GRS_CHART_NODES * n, n, half, ch->c + 2 * GRS_CHART_NODES * n);
-    ch->lo = lo;
-    ch->hi = hi;
-    ch->mid = mid;
-    ch->half = half;
-    /* the chart against fresh branch points and tangents halfway between
-     * nodes (away from the pinch, where a fresh one would be the less exact) */
-    double *check = ch->scratch + 4 * n, *dz = ch->scratch + 5 * n, t_max = 0.0;
-    for (int j = 0; j < GRS_CHART_NODES * n; j++) t_max = fmax(t_max, fabs(ch->values[GRS_CHART_NODES * n + j]));
-    for (int j = 1; j < GRS_CHART_NODES; j++) {
-        double x = mid + half * cos(PI * j / GRS_CHART_NODES);
-        if (fabs(x - ch->pinch) < 0.02 * (hi - lo)) continue;
-        grs_chart_eval(ch, x, check, dz, NULL);
-        check[held] = x;
-        memcpy(z, check, sizeof(double) * n);
-        if (!isfinite(grs_branch_point(md, held, scale, z, t, w))) return GRB_BRANCH_JUMP;
-        for (int i = 0; i < n; i++)
-            if (!(fabs(z[i] - check[i]) <= CHART_CHECK * scale) || !(fabs(t[i] - dz[i]) <= 1e-7 * t_max))
-                return GRB_BRANCH_JUMP;
-    }
-    ch->active = 1;
-    return GRB_OK;
+static int branch_slides(const void *md, const void *w, int i) {
+    (void)md;
+    return ((const grs_ws *)w)->coord_slide[i];
 }
 
 int grs_chart_build(const grs_model *md, double scale, const double *y, double kappa_ref, double near,
                     grs_chart *ch, grs_ws *w) {
-    int n = w->n, m = w->m, tried[GRS_MAX_COORDS] = {0};
+    int n = w->n, m = w->m, tried[GRS_MAX_COORDS];
     if (m < n - 1 || n > GRS_MAX_COORDS || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
-    /* held: the joints by how fast they move (a joint at a limit of its
-     * travel is no coordinate along the branch there; the spatial model names
-     * no drive) */
-    for (int attempt = 0; attempt < n; attempt++) {
-        int held = -1;
-        for (int i = 0; i < n; i++)
-            if (!tried[i] && (held < 0 || fabs(y[n + i]) > fabs(y[n + held]))) held = i;
-        tried[held] = 1;
-        if (build_on(md, scale, y, kappa_ref, near, held, ch, w) == GRB_OK) return GRB_OK;
-    }
-    return GRB_BRANCH_JUMP;
-}
-
-/* Between advances (a co-simulation step of 1 ms is one advance, and a change
- * point's zone is tens of them) the chart is kept, not rebuilt: its
- * coefficients stay in the caller's stepper buffer, and its scalars go into the
- * node-value block, which is dead once the chart is built.  A tag marks them
- * valid; resuming clears it, so a failed advance (which may have built another
- * chart over these coefficients) leaves nothing to resume. */
-#define CHART_TAG 7.0397e-217 /* an unlikely value for a coordinate */
-enum { SAVED_TAG, SAVED_HELD, SAVED_LO, SAVED_HI, SAVED_MID, SAVED_HALF, SAVED_PINCH, SAVED_PINCH_KAPPA,
-       SAVED_COUNT };
-
-void grs_chart_save(const grs_chart *ch) {
-    double *saved = ch->values;
-    if (!ch->active) {
-        saved[SAVED_TAG] = 0.0;
-        return;
-    }
-    saved[SAVED_TAG] = CHART_TAG;
-    saved[SAVED_HELD] = ch->held;
-    saved[SAVED_LO] = ch->lo;
-    saved[SAVED_HI] = ch->hi;
-    saved[SAVED_MID] = ch->mid;
-    saved[SAVED_HALF] = ch->half;
-    saved[SAVED_PINCH] = ch->pinch;
-    saved[SAVED_PINCH_KAPPA] = ch->pinch_kappa;
-}
-
-int grs_chart_resume(grs_chart *ch, const double *y, double scale) {
-    double *saved = ch->values, *z = ch->scratch;
-    int n = ch->n, held = (int)saved[SAVED_HELD];
-    ch->active = 0;
-    if (saved[SAVED_TAG] != CHART_TAG || held < 0 || held >= n || !(saved[SAVED_HALF] > 0.0)) return 0;
-    saved[SAVED_TAG] = 0.0;
-    ch->held = held;
-    ch->lo = saved[SAVED_LO];
-    ch->hi = saved[SAVED_HI];
-    ch->mid = saved[SAVED_MID];
-    ch->half = saved[SAVED_HALF];
-    ch->pinch = saved[SAVED_PINCH];
-    ch->pinch_kappa = saved[SAVED_PINCH_KAPPA];
-    /* the state must lie on it (the last advance put it there; a state set
-     * from outside, or restored from before the chart, need not) */
-    if (!(y[held] >= ch->lo && y[held] <= ch->hi) || !grs_chart_eval(ch, y[held], z, NULL, NULL)) return 0;
-    for (int i = 0; i < n; i++)
-        if (i != held && !(fabs(z[i] - y[i]) <= CHART_CHECK * scale)) return 0;
-    ch->active = 1;
-    return 1;
-}
-
-int grs_chart_eval(const grs_chart *ch, double x, double *z, double *dz, double *ddz) {
-    int n = ch->n;
-    double u = (x - ch->mid) / ch->half, T[GRS_CHART_NODES];
-    if (!(fabs(u) <= 1.0 + CHART_REACH)) return 0;
-    chebyshev(u, T);
-    double *out[3] = {z, dz, ddz};
-    for (int level = 0; level < 3; level++) {
-        if (!out[level]) continue;
-        const double *c = ch->c + level * GRS_CHART_NODES * n;
-        for (int i = 0; i < n; i++) {
-            double v = 0.0;
-            for (int k = GRS_CHART_NODES - 1; k >= 0; k--) v += c[k * n + i] * T[k];
-            out[level][i] = v;
-        }
-    }
-    return 1;
-}
-
-int grs_chart_put(const grs_chart *ch, double *y) {
-    int n = ch->n;
-    double x = y[ch->held], xd = y[n + ch->held];
-    if (!grs_chart_eval(ch, x, y, y + n, NULL)) return 0;
-    for (int i = 0; i < n; i++) y[n + i] *= xd;
-    y[ch->held] = x;
-    y[n + ch->held] = xd;
-    return 1;
+    grb_branch br = {branch_point, branch_conditioning, branch_slides, md, w, scale, n};
+    /* the spatial model names no drive: the fastest-moving joint first */
+    return chart_build(&br, y, kappa_ref, near, -1, tried, ch);
 }
 
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out) {
-    int n = ch->n, held = ch->held;
-    double *z = ch->scratch, *t = ch->scratch + n, *tx = ch->scratch + 2 * n;
-    double x = y[held], xd = y[n + held];
-    if (!grs_chart_eval(ch, x, z, t, tx)) {
-        for (int i = 0; i < 2 * n; i++) out[i] = NAN;
-        return 0;
-    }
-    z[held] = x;
-    t[held] = 1.0;
-    tx[held] = 0.0;
-    for (int i = 0; i < n; i++) out[i] = t[i] * xd;
+    int n = ch->n;
+    double *z = ch->scratch, *t = z + n, *tx = z + 2 * n, xd = y[n + ch->held];
+    if (!chart_point(ch, y, out)) return 0;
     grs_kinematics(md, z, out, w);
     grs_mass_and_force(md, out, tau, w);
-    double mass = 0.0, force = 0.0, bias = 0.0;
-    for (int i = 0; i < n; i++) {
-        double mt = 0.0, mtx = 0.0;
-        for (int j = 0; j < n; j++) {
-            mt += SP_MASS(w, i, j) * t[j];
-            mtx += SP_MASS(w, i, j) * tx[j];
-        }
-        mass += t[i] * mt;
-        bias += t[i] * mtx;
-        force += t[i] * w->force[i];
-    }
-    double xdd = (force - xd * xd * bias) / mass;
-    for (int i = 0; i < n; i++) out[n + i] = t[i] * xdd + tx[i] * xd * xd;
-    return isfinite(xdd);
+    return chart_motion(n, t, tx, xd, w->mass, w->force, out);
 }

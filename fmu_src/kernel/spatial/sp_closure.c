@@ -10,6 +10,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "chart.h" /* grb_orientation_det */
 #include "project.h"
 #include "sp_workspace.h"
 
@@ -270,40 +271,8 @@ int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w) {
  * branch orientation of the planar kernel (closure.c), whose sign flips where
  * the motion crosses a change point and goes on the same way.  0 at rest. */
 static double orientation_of(grs_ws *w, const double *zd, const double *B) {
-    int n = w->n, m = w->m;
-    double speed = 0.0;
-    for (int i = 0; i < n; i++) speed += zd[i] * zd[i];
-    if (!(speed > 0.0)) return 0.0;
-    speed = sqrt(speed);
-    double *A = w->schur; /* n x n over the eigen buffers (3 M^2 + M >= (M + 1)^2 >= N^2 at mobility one) */
-    for (int r = 0; r < n - 1; r++)
-        for (int i = 0; i < n; i++) {
-            double v = 0.0;
-            for (int k = 0; k < m; k++) v += B[r * m + k] * SP_J(w, k, i);
-            A[r * n + i] = v;
-        }
-    for (int i = 0; i < n; i++) A[(n - 1) * n + i] = zd[i] / speed;
-    double det = 1.0;
-    for (int c = 0; c < n; c++) {
-        int p = c;
-        for (int r = c + 1; r < n; r++)
-            if (fabs(A[r * n + c]) > fabs(A[p * n + c])) p = r;
-        if (A[p * n + c] == 0.0) return 0.0;
-        if (p != c) {
-            for (int j = 0; j < n; j++) {
-                double t = A[c * n + j];
-                A[c * n + j] = A[p * n + j];
-                A[p * n + j] = t;
-            }
-            det = -det;
-        }
-        det *= A[c * n + c];
-        for (int r = c + 1; r < n; r++) {
-            double f = A[r * n + c] / A[c * n + c];
-            for (int j = c; j < n; j++) A[r * n + j] -= f * A[c * n + j];
-        }
-    }
-    return det;
+    /* (A: n x n over the eigen buffers: 3 M^2 + M >= (M + 1)^2 >= N^2 at mobility one) */
+    return grb_orientation_det(w->n, w->m, w->J, B, zd, w->schur);
 }
 
 /* The change-point watch at y = (z, zd), from one evaluation of the closure

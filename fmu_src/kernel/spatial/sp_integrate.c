@@ -23,6 +23,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "chart.h"
 #include "sp_workspace.h"
 #include "tableaus.h"
 
@@ -46,16 +47,16 @@ enum { SEEN_TAG_AT, SEEN_BEST, SEEN_PASSAGES, SEEN_SLOTS };
 
 /* stepper rows (2N doubles each): s + 1 stage derivatives, then the stage
  * state, the proposed state, the current state; then the change-point chart
- * (grs_chart_size) and the best conditioning seen */
+ * (grb_chart_size) and the best conditioning seen */
 size_t grs_stepper_size(int tableau, int n_coords) {
     const grb_tableau_data *tab = grb_tableau(tableau);
     if (!tab || !tab->adaptive || n_coords <= 0) return 0;
-    return (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grs_chart_size(n_coords) + SEEN_SLOTS;
+    return (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grb_chart_size(n_coords) + SEEN_SLOTS;
 }
 
 /* the slots after the stages and the chart */
 static double *seen_of(double *stepper, const grb_tableau_data *tab, int n_coords) {
-    return stepper + (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grs_chart_size(n_coords);
+    return stepper + (size_t)(tab->stages + 4) * 2 * (size_t)n_coords + grb_chart_size(n_coords);
 }
 
 double grs_passages(const double *stepper, int tableau, int n_coords) {
@@ -218,8 +219,8 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
     /* the row directions at the current state and at the proposed one's end (the orientation's basis) */
     double *b_cur = w.basis, *b_nw = w.basis + (size_t)(n > 1 ? n - 1 : 0) * w.m;
     if (passing) {
-        grs_chart_init(&chart, n, ROW(&st, S + 4));
-        grs_chart_resume(&chart, st.cur, s->scale);
+        grb_chart_init(&chart, n, ROW(&st, S + 4));
+        grb_chart_resume(&chart, st.cur, s->scale);
         st.chart = &chart;
         if (seen[SEEN_TAG_AT] != SEEN_TAG) seen[SEEN_PASSAGES] = 0.0;
         if (seen[SEEN_TAG_AT] != SEEN_TAG || !(seen[SEEN_BEST] > 0.0)) seen[SEEN_BEST] = 0.0;
@@ -237,7 +238,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
             /* near a change point: onto the branch's chart (where one can be made) */
             if (passing && !chart.active && !uncharted && k_cur < CONDITIONING_NEAR) {
                 if (grs_chart_build(md, s->scale, st.cur, seen[SEEN_BEST], CONDITIONING_NEAR, &chart, &w) == GRB_OK) {
-                    grs_chart_put(&chart, st.cur);
+                    grb_chart_put(&chart, st.cur);
                     if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, time, GRB_NONFINITE_DERIVATIVE);
                 } else
                     uncharted = 1;
@@ -273,7 +274,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
                     /* a passage: the motion crossing the chart's pinch, where the branches meet */
                     int crossed = chart.pinch_kappa < CONDITIONING_PINCH &&
                                   (st.cur[held] - chart.pinch) * (p[held] - chart.pinch) < 0.0;
-                    charted = grs_chart_put(&chart, p);
+                    charted = grb_chart_put(&chart, p);
                     if (charted && crossed) seen[SEEN_PASSAGES] += 1.0;
                     if (!charted || p[chart.held] < chart.lo || p[chart.held] > chart.hi) chart.active = 0;
                     if (!chart.active) k_nw = watch(md, p, &seen[SEEN_BEST], NULL, b_nw, &unused, &o_nw_own, &w);
@@ -321,7 +322,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
         }
         memcpy(out + (size_t)o * st.N, st.cur, sizeof(double) * (size_t)st.N);
     }
-    if (passing) grs_chart_save(&chart);
+    if (passing) grb_chart_save(&chart);
     memcpy(y, st.cur, sizeof(double) * (size_t)st.N);
     *t = time;
     *h = step;

@@ -92,28 +92,13 @@ void grs_closure_watch(const grs_model *md, const double *y, const double *basis
 double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w);
 
 /* sp_chart.c: an assembly branch near a change point as a curve z(x) in one
- * held coordinate x, the planar kernel's chart (chart.c) over the spatial
- * chain: Chebyshev coefficients of z, dz/dx and d2z/dx2 over x in [lo, hi],
- * and where in it the closure is worst conditioned. */
-#define GRS_CHART_NODES 16
-typedef struct grs_chart {
-    int n, active, held;
-    double lo, hi, mid, half;
-    double pinch, pinch_kappa; /* x at the worst conditioning met, and that conditioning (relative) */
-    double pinch_step;         /* how far from pinch the worst lies (while the chart is built) */
-    double *c;                 /* 3 x GRS_CHART_NODES x n coefficients */
-    double *values;            /* 2 x GRS_CHART_NODES x n: z and dz/dx at the nodes (while built; then the
-                                  chart's scalars between advances: grs_chart_save) */
-    double *scratch;           /* 10 n */
-} grs_chart;
-size_t grs_chart_size(int n_coords);
-void grs_chart_init(grs_chart *ch, int n_coords, double *buffer);
+ * held coordinate x, the planar kernel's chart (the method is chart.h's, one
+ * text for both kernels; the chart is workspace.h's grb_chart) over the
+ * spatial chain; its size, layout, evaluation, save and resume are chart.h's
+ * grb_chart_*. */
+typedef grb_chart grs_chart;
 int grs_chart_build(const grs_model *md, double scale, const double *y, double kappa_ref, double near,
                     grs_chart *ch, grs_ws *w);
-int grs_chart_eval(const grs_chart *ch, double x, double *z, double *dz, double *ddz);
-int grs_chart_put(const grs_chart *ch, double *y);
-void grs_chart_save(const grs_chart *ch);
-int grs_chart_resume(grs_chart *ch, const double *y, double scale);
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out);
 
