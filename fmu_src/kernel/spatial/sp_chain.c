@@ -736,21 +736,11 @@ grb_status grs_joint_determinacy(const grs_model *md, const double *z, double rc
     grb_status status = grs_ws_init(&w, md, work);
     if (status != GRB_OK) return status;
     if (!(rcond > 0.0 && rcond < 1.0)) return GRB_BAD_ARGUMENT;
-    int n = w.n, m = w.m, L = w.L;
+    int m = w.m, L = w.L;
     for (int i = 0; i < 6 * L; i++) indeterminate[i] = 0.0;
     *rank = 0;
     if (m == 0) return GRB_OK;
-    grs_rows_at(md, z, &w);
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < m; c++) {
-            double g = 0.0;
-            for (int i = 0; i < n; i++) g += SP_J(&w, r, i) * SP_J(&w, c, i);
-            SP_SCHUR(&w, r, c) = g;
-        }
-    grb_sym_eig(w.schur, w.eig_work, w.eigvec, w.eigval, m);
-    double top = 0.0;
-    for (int i = 0; i < m; i++)
-        if (w.eigval[i] > top) top = w.eigval[i];
+    double top = grs_row_space_at(md, z, &w);
     double *ext = w.S, *load = w.S + 6 * (size_t)L;
     for (int i = 0; i < m; i++) {
         if (w.eigval[i] > rcond * rcond * top) {

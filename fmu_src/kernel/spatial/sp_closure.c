@@ -164,6 +164,26 @@ grb_status grs_assemble(const grs_model *md, int n_held, const int *held, double
     return GRB_OK;
 }
 
+/* The closure rows at z and the eigen-decomposition of their Gram matrix
+ * J J^T (M x M: eigenvalues in w->eigval, eigenvectors in w->eigvec's columns);
+ * returns the largest eigenvalue.  What the determinacy of the multipliers and
+ * of the joint reactions both read the row space from. */
+double grs_row_space_at(const grs_model *md, const double *z, grs_ws *w) {
+    int n = w->n, m = w->m;
+    grs_rows_at(md, z, w);
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < m; c++) {
+            double g = 0.0;
+            for (int i = 0; i < n; i++) g += SP_J(w, r, i) * SP_J(w, c, i);
+            SP_SCHUR(w, r, c) = g;
+        }
+    grb_sym_eig(w->schur, w->eig_work, w->eigvec, w->eigval, m);
+    double top = 0.0;
+    for (int i = 0; i < m; i++)
+        if (w->eigval[i] > top) top = w->eigval[i];
+    return top;
+}
+
 /* A multiplier lambda_r is fixed by the motion exactly when e_r lies in the
  * range of J (J^T lambda is all the dynamics sees): the part of e_r in the
  * null space of J^T is free.  The range is spanned by the eigenvectors of the
@@ -174,20 +194,10 @@ grb_status grs_determinacy(const grs_model *md, const double *z, double rcond, d
     grb_status status = grs_ws_init(&w, md, work);
     if (status != GRB_OK) return status;
     if (!(rcond > 0.0 && rcond < 1.0)) return GRB_BAD_ARGUMENT;
-    int n = w.n, m = w.m;
+    int m = w.m;
     *rank = 0;
     if (m == 0) return GRB_OK;
-    grs_rows_at(md, z, &w);
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < m; c++) {
-            double g = 0.0;
-            for (int i = 0; i < n; i++) g += SP_J(&w, r, i) * SP_J(&w, c, i);
-            SP_SCHUR(&w, r, c) = g;
-        }
-    grb_sym_eig(w.schur, w.eig_work, w.eigvec, w.eigval, m);
-    double top = 0.0;
-    for (int i = 0; i < m; i++)
-        if (w.eigval[i] > top) top = w.eigval[i];
+    double top = grs_row_space_at(md, z, &w);
     /* summed over the null space's own eigenvectors (not 1 less the range's:
      * that difference would leave rounding's square root, 1e-8, on a
      * determinate row) */

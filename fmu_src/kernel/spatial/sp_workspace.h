@@ -84,6 +84,7 @@ void grs_mass_and_force(const grs_model *md, const double *zd, const double *tau
 grb_status grs_accelerations(const grs_model *md, const double *z, const double *zd, const double *tau, grs_ws *w);
 /* sp_closure.c */
 void grs_rows_at(const grs_model *md, const double *z, grs_ws *w);
+double grs_row_space_at(const grs_model *md, const double *z, grs_ws *w);
 void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w);
 double grs_closure_conditioning(const grs_model *md, const double *z, grs_ws *w);
 int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w);
