@@ -201,3 +201,34 @@ def test_the_architecture_page_says_who_calls_c():
         for c in callers:
             assert f"`{c}`" in page, (family, c)
     assert "only caller of C" not in page
+
+
+# fmpy keeps one process-wide logging proxy (fmpy/logging's static s_logger): simulate_fmu(logger=...) and
+# instantiate_fmu(logger=...) point it at the run's own ctypes callback, which is freed when the run ends, so
+# the next FMU that logs through fmpy's default callbacks calls freed memory, in whatever test comes later (a
+# segmentation fault in CI's run of test_system_fmu, after test_change_points had done it). A logger goes to
+# FMU2Slave.instantiate in its own callbacks (tests/fmi_child.recording_callbacks, grubler.system.instance).
+PROXY_TAKERS = {"simulate_fmu", "instantiate_fmu"}
+
+
+def proxy_hijacks(source: str, where: str) -> list[str]:
+    """The calls in ``source`` that hand fmpy's process-wide logging proxy a callback of their own."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Call):
+            continue
+        name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+        if name == "addLoggerProxy" or (name in PROXY_TAKERS and any(k.arg == "logger" for k in node.keywords)):
+            found.append(f"{where}:{node.lineno} {name}")
+    return found
+
+
+def test_nothing_hands_fmpys_process_wide_logging_proxy_a_callback_that_dies():
+    assert proxy_hijacks("import fmpy\nfmpy.simulate_fmu('a.fmu', logger=print)\n", "x") == ["x:2 simulate_fmu"]
+    assert proxy_hijacks("from fmpy.logging import addLoggerProxy\naddLoggerProxy(c)\n", "x") == ["x:2 addLoggerProxy"]
+    assert proxy_hijacks("fmpy.simulate_fmu('a.fmu', fmi_call_logger=print)\n", "x") == []
+    bad = []
+    for folder in ("fmu_src", "tests", "benchmarks", "examples", "motors", "controllers"):
+        for f in sorted((ROOT / folder).rglob("*.py")):
+            bad += proxy_hijacks(f.read_text(), str(f.relative_to(ROOT)))
+    assert bad == []
