@@ -20,26 +20,10 @@
 #define ASSEMBLY_ITERATIONS 100
 #define ASSEMBLY_CLOSED 1e-9   /* relative to the scale: what counts as closed at all */
 
-/* scratch blocks in S (see grb_work_size): U (N x M), V (M x M), a compact
- * Jacobian (M x N), and N- and M-vectors */
-typedef struct scratch {
-    double *U, *V, *Jd, *x, *trial, *step, *phi, *b, *best;
-} scratch;
+/* scratch blocks in S (see grb_work_size): project.h's layout */
+typedef grb_closure_scratch scratch;
 
-static scratch scratch_of(grb_ws *w) {
-    scratch s;
-    int n = w->n, m = w->m;
-    s.U = w->S;
-    s.V = s.U + n * m;
-    s.Jd = s.V + m * m;
-    s.x = s.Jd + m * n;
-    s.trial = s.x + n;
-    s.step = s.trial + n;
-    s.phi = s.step + n;
-    s.b = s.phi + m;
-    s.best = s.b + m;
-    return s;
-}
+static scratch scratch_of(grb_ws *w) { return grb_closure_scratch_in(w->S, w->n, w->m); }
 
 /* Closure rows at z with zero rates (the rates enter neither phi nor J). */
 static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
@@ -51,6 +35,12 @@ static void rows_at(const grb_model *md, const double *z, grb_ws *w) {
 
 static void rows_of(const void *md, const double *z, void *w) { rows_at(md, z, w); }
 
+/* The closure rows as project.h's solves see them. */
+static grb_rows closure_rows(const grb_model *md, grb_ws *w) {
+    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, R_COLUMNS, w->n, w->m};
+    return rows;
+}
+
 static double worst_violation(const grb_ws *w) { return grb_worst_row(&w->row[0].phi, R_COLUMNS, w->m); }
 
 /* Minimum-norm projection of y = (z, zd) onto the closures, in place:
@@ -58,7 +48,7 @@ static double worst_violation(const grb_ws *w) { return grb_worst_row(&w->row[0]
  * (project.h, which the spatial kernel shares). */
 void grb_project_ws(const grb_model *md, double scale, double *y, grb_ws *w) {
     scratch s = scratch_of(w);
-    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, R_COLUMNS, w->n, w->m};
+    grb_rows rows = closure_rows(md, w);
     grb_project_rows(&rows, POSITION_TOL * scale, LSTSQ_RCOND, PROJECTION_ITERATIONS, y, s.x, s.U, s.V);
 }
 
@@ -165,14 +155,12 @@ grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z
     return GRB_OK;
 }
 
+/* numpy.linalg.lstsq's default cut-off: machine epsilon times the larger size */
+static double dependent_rcond(int m, int nd) { return DBL_EPSILON * (m > nd ? m : nd); }
+
 /* lstsq of the columns dep of the closure Jacobian (at the state rows_at left) */
 static void solve_dependent(const grb_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
-    int m = w->m;
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < nd; c++) s->Jd[r * nd + c] = J_(w, r, dep[c]);
-    /* numpy.linalg.lstsq's default cut-off: machine epsilon times the larger size */
-    double rcond = DBL_EPSILON * (m > nd ? m : nd);
-    grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
+    grb_solve_columns(w->J, w->n, w->m, dep, nd, rhs, dependent_rcond(w->m, nd), x, s);
 }
 
 grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
@@ -369,36 +357,14 @@ void grb_closure_watch(const grb_model *md, const double *y, const double *basis
     *kappa = conditioning_of_rows(w);
 }
 
-/* The point of an assembly branch where coordinate `held` has the value z[held]:
- * Newton on the other coordinates from the guess in z, for as long as the
- * violation still halves (to rounding: near a change point what is left of it
- * would be amplified), and the branch's tangent there, dz/dz[held], into
- * tangent (when not NULL).  Returns the violation left (inf when Newton did
- * not converge to the scale's closure tolerance). */
+/* The point of an assembly branch where coordinate `held` has the value z[held],
+ * and the branch's tangent there (project.h's grb_branch_point_rows): closed
+ * to the scale's closure tolerance, each step's lstsq cut at numpy's default. */
 double grb_branch_point(const grb_model *md, int held, double scale, double *z, double *tangent, grb_ws *w) {
-    int n = w->n, m = w->m, *dep = w->index + WS_INDEX_FIRST(n), nd = 0;
-    if (held < 0 || held >= n) return INFINITY;
+    int n = w->n, *dep = w->index + WS_INDEX_FIRST(n);
     scratch s = scratch_of(w);
-    for (int i = 0; i < n; i++)
-        if (i != held) dep[nd++] = i;
-    double previous = INFINITY, err = INFINITY;
-    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
-        rows_at(md, z, w);
-        err = worst_violation(w);
-        if (!(err < 0.5 * previous) || err == 0.0) break;
-        previous = err;
-        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
-        solve_dependent(w, &s, dep, nd, s.phi, s.step);
-        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
-    }
-    rows_at(md, z, w);
-    err = worst_violation(w);
-    if (!(err <= POSITION_TOL * scale)) return INFINITY;
-    if (tangent) {
-        for (int r = 0; r < m; r++) s.b[r] = -J_(w, r, held);
-        solve_dependent(w, &s, dep, nd, s.b, s.x);
-        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
-        tangent[held] = 1.0;
-    }
-    return err;
+    grb_rows rows = closure_rows(md, w);
+    double rcond = dependent_rcond(w->m, n - 1);
+    return grb_branch_point_rows(&rows, held, POSITION_TOL * scale, rcond, 3 * PROJECTION_ITERATIONS, z, tangent, dep,
+                                 &s);
 }

@@ -1,6 +1,8 @@
-/* The minimum-norm projection onto closure rows, one routine for the planar
- * kernel (closure.c) and the spatial one (spatial/sp_closure.c): each gives
- * its own evaluation of the rows and where it leaves them.  Defined here,
+/* The Gauss-Newton solves on closure rows, one text for the planar kernel
+ * (closure.c) and the spatial one (spatial/sp_closure.c): the minimum-norm
+ * projection, and the branch point of the change-point chart (chart.h).  Each
+ * kernel gives its own evaluation of the rows and where it leaves them, its
+ * own tolerances and its own scratch.  Defined here,
  * static inline, so that each kernel's compiler sees its own row evaluation
  * through the pointer and the planar kernel's projection compiles to what it
  * was before it was shared (benchmarks/bit_identity.py, compare_versions.py). */
@@ -55,6 +57,73 @@ static inline void grb_project_rows(const grb_rows *rows, double tol, double rco
     }
     grb_lstsq_min_norm(rows->J, n, m, n, rows->b, stride, rcond, x, U, V);
     for (int i = 0; i < n; i++) zd[i] -= x[i];
+}
+
+/* The blocks of a kernel's assembly scratch S (both kernels lay it out alike):
+ * U (n x m) and V (m x m) for the least-squares solver, a compact Jacobian
+ * Jd (m x n), the n-vectors x, trial and step, the m-vectors phi and b. */
+typedef struct grb_closure_scratch {
+    double *U, *V, *Jd, *x, *trial, *step, *phi, *b;
+} grb_closure_scratch;
+
+static inline grb_closure_scratch grb_closure_scratch_in(double *S, int n, int m) {
+    grb_closure_scratch s;
+    s.U = S;
+    s.V = s.U + n * m;
+    s.Jd = s.V + m * m;
+    s.x = s.Jd + m * n;
+    s.trial = s.x + n;
+    s.step = s.trial + n;
+    s.phi = s.step + n;
+    s.b = s.phi + m;
+    return s;
+}
+
+/* x (nc) = the minimum-norm least-squares solution of J[:, cols] x = rhs, J
+ * the m x n Jacobian (row-major): the columns cols gathered into s->Jd, whose
+ * singular values below rcond of the largest are dropped (s->U, s->V). */
+static inline void grb_solve_columns(const double *J, int n, int m, const int *cols, int nc, const double *rhs,
+                                     double rcond, double *x, grb_closure_scratch *s) {
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < nc; c++) s->Jd[r * nc + c] = J[r * n + cols[c]];
+    grb_lstsq_min_norm(s->Jd, nc, m, nc, rhs, 1, rcond, x, s->U, s->V);
+}
+
+/* The point of an assembly branch where coordinate `held` keeps its value in
+ * z: Newton on the other coordinates (dep, n - 1 of them: the caller's room)
+ * from the guess in z, in place, for at most `iterations` steps and for as
+ * long as the worst row still halves (to rounding: near a change point what
+ * is left of it would be amplified); then the branch's tangent there,
+ * dz/dz[held], into tangent (when not NULL; tangent[held] = 1).  Each step
+ * solves over the columns dep with rcond (grb_solve_columns).  Returns the
+ * violation left, or infinity where it is not within tol (the caller's idea
+ * of closed) or held is not a coordinate. */
+static inline double grb_branch_point_rows(const grb_rows *rows, int held, double tol, double rcond, int iterations,
+                                           double *z, double *tangent, int *dep, grb_closure_scratch *s) {
+    int n = rows->n, m = rows->m, stride = rows->stride, nd = 0;
+    if (held < 0 || held >= n) return INFINITY;
+    for (int i = 0; i < n; i++)
+        if (i != held) dep[nd++] = i;
+    double previous = INFINITY, err = INFINITY;
+    for (int it = 0; it < iterations; it++) {
+        rows->at(rows->model, z, rows->ws);
+        err = grb_worst_row(rows->phi, stride, m);
+        if (!(err < 0.5 * previous) || err == 0.0) break;
+        previous = err;
+        for (int r = 0; r < m; r++) s->phi[r] = -rows->phi[r * stride];
+        grb_solve_columns(rows->J, n, m, dep, nd, s->phi, rcond, s->step, s);
+        for (int c = 0; c < nd; c++) z[dep[c]] += s->step[c];
+    }
+    rows->at(rows->model, z, rows->ws);
+    err = grb_worst_row(rows->phi, stride, m);
+    if (!(err <= tol)) return INFINITY;
+    if (tangent) {
+        for (int r = 0; r < m; r++) s->b[r] = -rows->J[r * n + held];
+        grb_solve_columns(rows->J, n, m, dep, nd, s->b, rcond, s->x, s);
+        for (int c = 0; c < nd; c++) tangent[dep[c]] = s->x[c];
+        tangent[held] = 1.0;
+    }
+    return err;
 }
 
 #endif

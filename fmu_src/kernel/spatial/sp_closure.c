@@ -20,24 +20,12 @@
 #define ASSEMBLY_ITERATIONS 100
 #define ASSEMBLY_CLOSED 1e-9    /* relative to the scale: what counts as closed at all */
 #define BRANCH_ROUNDING 1e-14   /* a branch point's rows closed to rounding, whatever the scale */
+#define DEPENDENT_RCOND 1e-10   /* dependent rows of an overconstrained loop leave singular values at rounding */
 
-typedef struct scratch {
-    double *U, *V, *Jd, *x, *trial, *step, *phi, *b;
-} scratch;
+/* scratch blocks in S: project.h's layout */
+typedef grb_closure_scratch scratch;
 
-static scratch scratch_of(grs_ws *w) {
-    scratch s;
-    int n = w->n, m = w->m;
-    s.U = w->S;
-    s.V = s.U + n * m;
-    s.Jd = s.V + m * m;
-    s.x = s.Jd + m * n;
-    s.trial = s.x + n;
-    s.step = s.trial + n;
-    s.phi = s.step + n;
-    s.b = s.phi + m;
-    return s;
-}
+static scratch scratch_of(grs_ws *w) { return grb_closure_scratch_in(w->S, w->n, w->m); }
 
 /* Closure rows at z with zero rates (the rates enter neither phi nor J). */
 void grs_rows_at(const grs_model *md, const double *z, grs_ws *w) {
@@ -48,13 +36,19 @@ void grs_rows_at(const grs_model *md, const double *z, grs_ws *w) {
 
 static void rows_of(const void *md, const double *z, void *w) { grs_rows_at(md, z, w); }
 
+/* The closure rows as project.h's solves see them. */
+static grb_rows closure_rows(const grs_model *md, grs_ws *w) {
+    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, GRS_ROW_COLUMNS, w->n, w->m};
+    return rows;
+}
+
 static double worst_violation(const grs_ws *w) { return grb_worst_row(&w->row[0].phi, GRS_ROW_COLUMNS, w->m); }
 
 /* Minimum-norm projection of y = (z, zd) onto the closures, in place: the
  * planar kernel's routine (project.h) over the spatial rows. */
 void grs_project_ws(const grs_model *md, double scale, double *y, grs_ws *w) {
     scratch s = scratch_of(w);
-    grb_rows rows = {rows_of, md, w, w->J, &w->row[0].phi, &w->row[0].b, GRS_ROW_COLUMNS, w->n, w->m};
+    grb_rows rows = closure_rows(md, w);
     grb_project_rows(&rows, POSITION_TOL * scale, LSTSQ_RCOND, PROJECTION_ITERATIONS, y, s.x, s.U, s.V);
 }
 
@@ -84,11 +78,7 @@ grb_status grs_constraint(const grs_model *md, const double *z, double *phi, dou
 
 /* lstsq over the columns dep of the closure Jacobian (at the state grs_rows_at left) */
 static void solve_dependent(const grs_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
-    int m = w->m;
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < nd; c++) s->Jd[r * nd + c] = SP_J(w, r, dep[c]);
-    double rcond = 1e-10; /* dependent rows of an overconstrained loop leave singular values at rounding */
-    grb_lstsq_min_norm(s->Jd, nd, m, nd, rhs, 1, rcond, x, s->U, s->V);
+    grb_solve_columns(w->J, w->n, w->m, dep, nd, rhs, DEPENDENT_RCOND, x, s);
 }
 
 /* The closing link's axis and the target's point the same way in every
@@ -318,38 +308,17 @@ void grs_closure_watch(const grs_model *md, const double *y, const double *basis
     *own_orientation = orientation_of(w, y + n, basis_out);
 }
 
-/* The branch point where coordinate held keeps its value in z: the others
- * solved onto the closures by Gauss-Newton from z (in place), and the branch's
- * tangent dz/dx there (tangent[held] = 1; NULL: not wanted).  Returns the
- * closure violation reached, or infinity where it does not close to rounding
- * (closure.c's grb_branch_point over the spatial rows). */
+/* The branch point where coordinate held keeps its value in z, and the
+ * branch's tangent there: closure.c's grb_branch_point over the spatial rows
+ * (project.h's grb_branch_point_rows), closed to rounding rather than to the
+ * scale's tolerance alone: the direction rows (u.n1, u.n2) are pure numbers
+ * whose rounding does not shrink with the length scale (a spherical loop,
+ * every joint at one point, has the 1 mm floor of the scale, and asked 1e-15
+ * of them its charts failed one passage in two). */
 double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w) {
-    int n = w->n, m = w->m, dep[GRS_MAX_COORDS], nd = 0;
-    if (held < 0 || held >= n) return INFINITY;
+    int dep[GRS_MAX_COORDS];
     scratch s = scratch_of(w);
-    for (int i = 0; i < n; i++)
-        if (i != held) dep[nd++] = i;
-    double previous = INFINITY, err = INFINITY;
-    for (int it = 0; it < 3 * PROJECTION_ITERATIONS; it++) {
-        grs_rows_at(md, z, w);
-        err = worst_violation(w);
-        if (!(err < 0.5 * previous) || err == 0.0) break;
-        previous = err;
-        for (int r = 0; r < m; r++) s.phi[r] = -w->row[r].phi;
-        solve_dependent(w, &s, dep, nd, s.phi, s.step);
-        for (int c = 0; c < nd; c++) z[dep[c]] += s.step[c];
-    }
-    grs_rows_at(md, z, w);
-    err = worst_violation(w);
-    /* closed to rounding: the direction rows (u.n1, u.n2) are pure numbers whose rounding does not shrink
-     * with the length scale (a spherical loop, every joint at one point, has the 1 mm floor of the scale,
-     * and asked 1e-15 of them its charts failed one passage in two) */
-    if (!(err <= fmax(POSITION_TOL * scale, BRANCH_ROUNDING))) return INFINITY;
-    if (tangent) {
-        for (int r = 0; r < m; r++) s.b[r] = -SP_J(w, r, held);
-        solve_dependent(w, &s, dep, nd, s.b, s.x);
-        for (int c = 0; c < nd; c++) tangent[dep[c]] = s.x[c];
-        tangent[held] = 1.0;
-    }
-    return err;
+    grb_rows rows = closure_rows(md, w);
+    double tol = fmax(POSITION_TOL * scale, BRANCH_ROUNDING);
+    return grb_branch_point_rows(&rows, held, tol, DEPENDENT_RCOND, 3 * PROJECTION_ITERATIONS, z, tangent, dep, &s);
 }
