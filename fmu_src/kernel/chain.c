@@ -927,43 +927,51 @@ grb_status GRB(set_actuator_forces)(const grb_model *md, real *work, const real 
 }
 
 #ifndef GRB_COMPLEX_STEP
-grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, double *work, double *out) {
+/* A batch call's loop over states: for each of `rows` states y_i = (z, zd)
+ * (2N each, in y), the kinematic pass at y_i and then fill's `width` values
+ * for it into out + i width. */
+static grb_status each_state(const grb_model *md, int rows, const double *y, double *work, double *out, int width,
+                             void (*fill)(const grb_model *, grb_ws *, const double *, double *)) {
     grb_ws w;
-    int n = md->n_links, na = md->n_actuators;
+    int n = md->n_links;
     grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
     if (status != GRB_OK) return status;
     if (rows < 0) return GRB_BAD_ARGUMENT;
     for (int i = 0; i < rows; i++) {
         const double *yi = y + (size_t)i * 2 * n;
         grb_chain(md, yi, yi + n, &w);
-        for (int a = 0; a < na; a++) {
-            double u[2], ends[4], *jl = w.line_jl, rate = 0.0;
-            double *o = out + ((size_t)i * na + a) * 2;
-            o[0] = actuator_line(md, &w, a, u, ends, jl);
-            for (int j = 0; j < n; j++) rate += jl[j] * yi[n + j];
-            o[1] = rate;
-        }
+        fill(md, &w, yi, out + (size_t)i * width);
     }
     return GRB_OK;
 }
-#endif
 
-#ifndef GRB_COMPLEX_STEP
-grb_status grb_force_rows(const grb_model *md, int rows, const double *y, double *work, double *out) {
-    grb_ws w;
-    int n = md->n_links, nf = md->n_forces;
-    grb_status status = grb_ws_init(&w, md, work, GRB_FILLED_NOTHING);
-    if (status != GRB_OK) return status;
-    if (rows < 0) return GRB_BAD_ARGUMENT;
-    for (int i = 0; i < rows; i++) {
-        const double *yi = y + (size_t)i * 2 * n;
-        grb_chain(md, yi, yi + n, &w);
-        for (int e = 0; e < nf; e++) {
-            double ends[4], u[2];
-            force_element(md, &w, e, out + ((size_t)i * nf + e) * GRB_FO_COUNT, NULL, ends, u);
-        }
+/* Each actuator's length and rate (2 values) at the state y of the last pass. */
+static void actuator_lines_at(const grb_model *md, grb_ws *w, const double *y, double *out) {
+    int n = md->n_links;
+    for (int a = 0; a < md->n_actuators; a++) {
+        double u[2], ends[4], *jl = w->line_jl, rate = 0.0;
+        double *o = out + (size_t)a * 2;
+        o[0] = actuator_line(md, w, a, u, ends, jl);
+        for (int j = 0; j < n; j++) rate += jl[j] * y[n + j];
+        o[1] = rate;
     }
-    return GRB_OK;
+}
+
+grb_status grb_actuator_lines(const grb_model *md, int rows, const double *y, double *work, double *out) {
+    return each_state(md, rows, y, work, out, 2 * md->n_actuators, actuator_lines_at);
+}
+
+/* Each force element's GRB_FO_COUNT outputs at the last pass. */
+static void force_rows_at(const grb_model *md, grb_ws *w, const double *y, double *out) {
+    (void)y; /* the pass holds all a force element reads */
+    for (int e = 0; e < md->n_forces; e++) {
+        double ends[4], u[2];
+        force_element(md, w, e, out + (size_t)e * GRB_FO_COUNT, NULL, ends, u);
+    }
+}
+
+grb_status grb_force_rows(const grb_model *md, int rows, const double *y, double *work, double *out) {
+    return each_state(md, rows, y, work, out, md->n_forces * GRB_FO_COUNT, force_rows_at);
 }
 #endif
 
