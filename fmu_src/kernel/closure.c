@@ -158,11 +158,6 @@ grb_status grb_held_coordinates(const grb_model *md, int n_hold, const double *z
 /* numpy.linalg.lstsq's default cut-off: machine epsilon times the larger size */
 static double dependent_rcond(int m, int nd) { return DBL_EPSILON * (m > nd ? m : nd); }
 
-/* lstsq of the columns dep of the closure Jacobian (at the state rows_at left) */
-static void solve_dependent(const grb_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
-    grb_solve_columns(w->J, w->n, w->m, dep, nd, rhs, dependent_rcond(w->m, nd), x, s);
-}
-
 grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double scale, double *z, double *zd,
                  double *closest, double *work) {
     grb_ws w;
@@ -174,50 +169,18 @@ grb_status grb_assemble(const grb_model *md, int n_held, const int *held, double
     if (m == 0) return GRB_OK;
     if (n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
     scratch s = scratch_of(&w);
-    int *dep = w.index + WS_INDEX_FIRST(n), nd = 0, *is_held = w.index + WS_INDEX_SECOND(n);
-    for (int i = 0; i < n; i++) is_held[i] = 0;
-    for (int i = 0; i < n_held; i++) {
-        if (held[i] < 0 || held[i] >= n) return GRB_BAD_ARGUMENT;
-        is_held[held[i]] = 1;
-    }
-    for (int i = 0; i < n; i++)
-        if (!is_held[i]) dep[nd++] = i;
-    double best = INFINITY;
-    for (int it = 0; it < ASSEMBLY_ITERATIONS; it++) {
-        rows_at(md, z, &w);
-        double err = worst_violation(&w);
-        if (err < best) best = err;
-        if (err < POSITION_TOL * scale) break;
-        for (int r = 0; r < m; r++) s.phi[r] = -w.row[r].phi;
-        solve_dependent(&w, &s, dep, nd, s.phi, s.step);
-        /* damped Newton: the largest fraction that reduces the violation */
-        int moved = 0;
-        for (double frac = 1.0; frac >= 0.0625; frac *= 0.5) {
-            for (int i = 0; i < n; i++) s.trial[i] = z[i];
-            for (int c = 0; c < nd; c++) s.trial[dep[c]] += frac * s.step[c];
-            rows_at(md, s.trial, &w);
-            if (worst_violation(&w) < err) {
-                for (int i = 0; i < n; i++) z[i] = s.trial[i];
-                moved = 1;
-                break;
-            }
-        }
-        if (!moved) break;
-    }
-    rows_at(md, z, &w);
+    int *dep = w.index + WS_INDEX_FIRST(n), *is_held = w.index + WS_INDEX_SECOND(n);
+    int nd = grb_free_columns(n, held, n_held, is_held, dep);
+    if (nd < 0) return GRB_BAD_ARGUMENT;
+    grb_rows rows = closure_rows(md, &w);
+    double rcond = dependent_rcond(m, nd);
+    double best = grb_assemble_rows(&rows, dep, nd, POSITION_TOL * scale, rcond, ASSEMBLY_ITERATIONS, z, &s);
     double err = worst_violation(&w);
     if (!(err <= ASSEMBLY_CLOSED * scale)) {
         *closest = best;
         return GRB_NOT_CLOSED;
     }
-    /* rates: keep the held ones, solve the velocity constraint for the rest */
-    for (int r = 0; r < m; r++) {
-        double v = 0.0;
-        for (int i = 0; i < n_held; i++) v -= J_(&w, r, held[i]) * zd[held[i]];
-        s.b[r] = v;
-    }
-    solve_dependent(&w, &s, dep, nd, s.b, s.x);
-    for (int c = 0; c < nd; c++) zd[dep[c]] = s.x[c];
+    grb_held_rates_rows(&rows, held, n_held, dep, nd, rcond, zd, &s);
     *closest = err;
     return GRB_OK;
 }

@@ -1,6 +1,7 @@
 /* The Gauss-Newton solves on closure rows, one text for the planar kernel
  * (closure.c) and the spatial one (spatial/sp_closure.c): the minimum-norm
- * projection, and the branch point of the change-point chart (chart.h).  Each
+ * projection, assembly, and the branch point of the change-point chart
+ * (chart.h).  Each
  * kernel gives its own evaluation of the rows and where it leaves them, its
  * own tolerances and its own scratch.  Defined here,
  * static inline, so that each kernel's compiler sees its own row evaluation
@@ -87,6 +88,71 @@ static inline void grb_solve_columns(const double *J, int n, int m, const int *c
     for (int r = 0; r < m; r++)
         for (int c = 0; c < nc; c++) s->Jd[r * nc + c] = J[r * n + cols[c]];
     grb_lstsq_min_norm(s->Jd, nc, m, nc, rhs, 1, rcond, x, s->U, s->V);
+}
+
+/* The coordinates that are not held (held: n_held indices), in order, into
+ * dep (room for n); is_held (n) is scratch.  Returns how many, or -1 where a
+ * held index is not one of the n coordinates. */
+static inline int grb_free_columns(int n, const int *held, int n_held, int *is_held, int *dep) {
+    int nd = 0;
+    for (int i = 0; i < n; i++) is_held[i] = 0;
+    for (int i = 0; i < n_held; i++) {
+        if (held[i] < 0 || held[i] >= n) return -1;
+        is_held[held[i]] = 1;
+    }
+    for (int i = 0; i < n; i++)
+        if (!is_held[i]) dep[nd++] = i;
+    return nd;
+}
+
+/* Assembly's damped Newton: the coordinates dep (nd of them) of z moved from
+ * the user's sketch in z, in place, so that the branch the user drew is the
+ * branch found.  Each of at most `iterations` steps solves over the columns
+ * dep with rcond (grb_solve_columns) and takes the largest of 1, 1/2, ..,
+ * 1/16 of it that lowers the worst row; it stops within tol, or where no
+ * fraction helps.  The rows are left evaluated at the z returned; returns the
+ * least worst row seen on the way (what was closest, when it did not close). */
+static inline double grb_assemble_rows(const grb_rows *rows, const int *dep, int nd, double tol, double rcond,
+                                       int iterations, double *z, grb_closure_scratch *s) {
+    int n = rows->n, m = rows->m, stride = rows->stride;
+    double best = INFINITY;
+    for (int it = 0; it < iterations; it++) {
+        rows->at(rows->model, z, rows->ws);
+        double err = grb_worst_row(rows->phi, stride, m);
+        if (err < best) best = err;
+        if (err < tol) break;
+        for (int r = 0; r < m; r++) s->phi[r] = -rows->phi[r * stride];
+        grb_solve_columns(rows->J, n, m, dep, nd, s->phi, rcond, s->step, s);
+        int moved = 0;
+        for (double frac = 1.0; frac >= 0.0625; frac *= 0.5) {
+            for (int i = 0; i < n; i++) s->trial[i] = z[i];
+            for (int c = 0; c < nd; c++) s->trial[dep[c]] += frac * s->step[c];
+            rows->at(rows->model, s->trial, rows->ws);
+            if (grb_worst_row(rows->phi, stride, m) < err) {
+                for (int i = 0; i < n; i++) z[i] = s->trial[i];
+                moved = 1;
+                break;
+            }
+        }
+        if (!moved) break;
+    }
+    rows->at(rows->model, z, rows->ws);
+    return best;
+}
+
+/* The rates of an assembled state (the rows evaluated at its z): the held
+ * ones (n_held of them) kept in zd, the columns dep solved from the velocity
+ * constraint J zd = 0 (grb_solve_columns with rcond). */
+static inline void grb_held_rates_rows(const grb_rows *rows, const int *held, int n_held, const int *dep, int nd,
+                                       double rcond, double *zd, grb_closure_scratch *s) {
+    int n = rows->n, m = rows->m;
+    for (int r = 0; r < m; r++) {
+        double v = 0.0;
+        for (int i = 0; i < n_held; i++) v -= rows->J[r * n + held[i]] * zd[held[i]];
+        s->b[r] = v;
+    }
+    grb_solve_columns(rows->J, n, m, dep, nd, s->b, rcond, s->x, s);
+    for (int c = 0; c < nd; c++) zd[dep[c]] = s->x[c];
 }
 
 /* The point of an assembly branch where coordinate `held` keeps its value in

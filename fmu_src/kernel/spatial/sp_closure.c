@@ -76,11 +76,6 @@ grb_status grs_constraint(const grs_model *md, const double *z, double *phi, dou
     return GRB_OK;
 }
 
-/* lstsq over the columns dep of the closure Jacobian (at the state grs_rows_at left) */
-static void solve_dependent(const grs_ws *w, scratch *s, const int *dep, int nd, const double *rhs, double *x) {
-    grb_solve_columns(w->J, w->n, w->m, dep, nd, rhs, DEPENDENT_RCOND, x, s);
-}
-
 /* The closing link's axis and the target's point the same way in every
  * revolute and cylindrical closure at the last kinematic pass.  Their rows
  * (u square to n1 and n2) hold as well with u reversed, a different joint: an
@@ -108,48 +103,17 @@ grb_status grs_assemble(const grs_model *md, int n_held, const int *held, double
     if (!(scale > 0.0) || !isfinite(scale) || n_held < 0 || n_held > n) return GRB_BAD_ARGUMENT;
     if (m == 0) return GRB_OK;
     scratch s = scratch_of(&w);
-    int dep[GRS_MAX_COORDS], nd = 0, is_held[GRS_MAX_COORDS];
-    memset(is_held, 0, sizeof is_held);
-    for (int i = 0; i < n_held; i++) {
-        if (held[i] < 0 || held[i] >= n) return GRB_BAD_ARGUMENT;
-        is_held[held[i]] = 1;
-    }
-    for (int i = 0; i < n; i++)
-        if (!is_held[i]) dep[nd++] = i;
-    double best = INFINITY;
-    for (int it = 0; it < ASSEMBLY_ITERATIONS; it++) {
-        grs_rows_at(md, z, &w);
-        double err = worst_violation(&w);
-        if (err < best) best = err;
-        if (err < POSITION_TOL * scale) break;
-        for (int r = 0; r < m; r++) s.phi[r] = -w.row[r].phi;
-        solve_dependent(&w, &s, dep, nd, s.phi, s.step);
-        int moved = 0; /* damped Newton: the largest fraction that reduces the violation */
-        for (double frac = 1.0; frac >= 0.0625; frac *= 0.5) {
-            for (int i = 0; i < n; i++) s.trial[i] = z[i];
-            for (int c = 0; c < nd; c++) s.trial[dep[c]] += frac * s.step[c];
-            grs_rows_at(md, s.trial, &w);
-            if (worst_violation(&w) < err) {
-                for (int i = 0; i < n; i++) z[i] = s.trial[i];
-                moved = 1;
-                break;
-            }
-        }
-        if (!moved) break;
-    }
-    grs_rows_at(md, z, &w);
+    int dep[GRS_MAX_COORDS], is_held[GRS_MAX_COORDS];
+    int nd = grb_free_columns(n, held, n_held, is_held, dep);
+    if (nd < 0) return GRB_BAD_ARGUMENT;
+    grb_rows rows = closure_rows(md, &w);
+    double best = grb_assemble_rows(&rows, dep, nd, POSITION_TOL * scale, DEPENDENT_RCOND, ASSEMBLY_ITERATIONS, z, &s);
     double err = worst_violation(&w);
     if (!(err <= ASSEMBLY_CLOSED * scale) || !axes_agree(md, &w)) {
         *closest = err <= ASSEMBLY_CLOSED * scale ? 2.0 : best; /* 2: the axes came out reversed */
         return GRB_NOT_CLOSED;
     }
-    for (int r = 0; r < m; r++) { /* rates: keep the held ones, solve the velocity constraint for the rest */
-        double v = 0.0;
-        for (int i = 0; i < n_held; i++) v -= SP_J(&w, r, held[i]) * zd[held[i]];
-        s.b[r] = v;
-    }
-    solve_dependent(&w, &s, dep, nd, s.b, s.x);
-    for (int c = 0; c < nd; c++) zd[dep[c]] = s.x[c];
+    grb_held_rates_rows(&rows, held, n_held, dep, nd, DEPENDENT_RCOND, zd, &s);
     *closest = err;
     return GRB_OK;
 }
