@@ -274,6 +274,25 @@ def test_a_change_point_rssp_passes_every_turn_on_its_closed_form():
     assert energy_drift(res, tau) < 1e-9 * np.max(res.energy()[:, 0])  # measured 5.9e-10 J of 12 J
 
 
+def test_a_change_point_four_bar_with_a_pendulum_hung_on_its_coupler_passes_its_change_points():
+    # a link no closure reaches (a 0.2 kg pendulum on a revolute at the coupler's far end) is idle too: its column
+    # is zero at every position.  Driven at 0.5 N m with the pendulum swinging round, the loop passes its change
+    # points (before: mobility two, no chart, stopped at 0.59 s with "... a change point")
+    scene = grubler.load_scene("fourbar-change-point")
+    planar = grubler.simulate(scene, t_end=0.01, dt_out=0.01, method="exact", torque=0.5, **TIGHT)
+    base = spatial_from_planar(scene.mechanism)
+    inertia = ((1e-4, 0, 0), (0, 1e-4, 0), (0, 0, 1e-4))
+    bob = sp.SpatialLink("bob", a=base.links[2].a, parent=1, mass=0.2, com=(0.1, 0, 0), inertia=inertia)
+    m = sp.SpatialMechanism([*base.links, bob], list(base.closures), gravity=base.gravity)
+    y0 = m.assemble(np.append(planar.z[0], 0.3), np.append(planar.zd[0], 2.0), held=(0, 3))
+    tau = np.array([0.5, 0.0, 0.0, 0.0])
+    res = m.simulate(y0, t_end=4.0, dt_out=0.01, tau=tau, **TIGHT)
+    assert res.passages >= 5  # measured 8
+    assert np.ptp(res.z[:, 3]) > 2 * math.pi  # the pendulum goes round (80.8 rad)
+    assert res.closure_error().max() < 1e-11  # measured 8.9e-13
+    assert energy_drift(res, tau) < 1e-9 * np.max(res.energy()[:, 0])  # measured 1.1e-9 J of 34.5 J
+
+
 # -- the native FMU ------------------------------------------------------------------------------------------------
 H = 2.0 ** -7
 # the planar-fourbar-3d FMU's parameters set to a parallelogram (crank and rocker 0.2 m, coupler and ground 1 m),
