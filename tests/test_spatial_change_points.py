@@ -23,7 +23,7 @@ import scipy.integrate
 import grubler
 from grubler.mechanism import spatial as sp
 
-from test_spatial import spherical_equation
+from test_spatial import rssp_slide, rssr_equation, spherical_equation
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
@@ -209,6 +209,88 @@ def test_a_change_point_spherical_four_bar_passes_every_turn_onto_the_other_circ
     assert np.abs(np.remainder(phi[flips], 2 * math.pi) - math.pi).max() < 0.1  # measured 0.053
     assert res.closure_error().max() < 1e-12  # measured 1.9e-13
     assert energy_drift(res, tau) < 1e-10 * np.max(res.energy()[:, 0])  # measured 1.9e-12 J of 0.76 J
+
+
+# -- loops with an idle freedom: the coupler's spin about its own S-S axis -----------------------------------------
+# The RSSR and RSSP carry a freedom no closure row sees (the coupler turning about the line through its two balls:
+# its Jacobian column is zero everywhere), so their mobility is two; the chart follows the branch in the other
+# coordinates and leaves the spin to its own equation.  Before, each run here stopped at its first change point
+# (IntegrationError, "... a change point").
+def test_a_change_point_rssr_spinning_its_coupler_passes_every_turn_on_its_closed_form():
+    # offset 0.26 m, the rocker's plane through the crank shaft's foot (rocker_d = 0): at crank angle 0 the crank
+    # pin, the rocker shaft and the rocker pin lie on one line square to the crank's motion (|P - centre| = 0.2 m =
+    # the rocker, C = hypot(A, B) = 0.08 exactly), the two circuits of A cos psi + B sin psi = C touch and the
+    # closure Jacobian loses a rank.  Driven from rest at -2 rad with the coupler spinning at 5 rad/s
+    g = dataclasses.replace(sp.rssr_geometry(), offset=0.26, rocker_d=0.0)
+    m = sp.rssr(geometry=g)
+    rates = np.zeros(m.n_coords)
+    rates[3] = 5.0  # coupler.theta: the spin
+    y0 = m.assemble(sp._rssr_sketch(g, -2.0), rates, held=(0, 3))
+    assert np.linalg.svd(m.constraint(m.assemble(sp._rssr_sketch(g, 0.0))[:5])[1], compute_uv=False)[2] < 1e-12
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.2
+    res = m.simulate(y0, t_end=3.0, dt_out=1e-3, tau=tau, **TIGHT)
+    phi, psi = res.z[:, 0], res.z[:, 4]
+    passed = np.sum(np.diff(np.floor(phi / (2 * math.pi))) != 0)
+    assert passed >= 10  # measured 16 in 3 s
+    assert res.passages == passed
+    A, B, C = rssr_equation(g, phi)
+    assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-10  # measured 5.9e-14
+    # the closed form's roots psi = atan2(B, A) +- acos(C / hypot(A, B)): the motion changes root at each
+    # passage (the analytic branch goes on to the other circuit, as the planar change-point four-bar's does)
+    roots = np.arctan2(B, A)[:, None] + np.array([1, -1]) * np.arccos(np.clip(C / np.hypot(A, B), -1, 1))[:, None]
+    side = np.argmin(np.abs(np.angle(np.exp(1j * (roots - psi[:, None])))), axis=1)
+    assert np.sum(np.diff(side) != 0) == passed
+    assert res.closure_error().max() < 1e-10  # measured 8.9e-13
+    assert energy_drift(res, tau) < 1e-9 * np.max(res.energy()[:, 0])  # measured 2.4e-10 J of 22 J
+    # the coupler is a rod symmetric about its axis, and the balls (on the axis) and gravity (at its mass centre,
+    # on the axis) give no moment about it: Euler's equation keeps its spin, the angular velocity along the axis,
+    # at 5 rad/s, on the chart as off it (the coordinate's own rate is not the spin: the ball's angles share it)
+    _, frames = zip(*(m.frames(z) for z in res.z))
+    spin = [sum(R[k][:, 2] * y[5 + k] for k in range(4)) @ R[3][:, 2] for R, y in zip(frames, res.y)]
+    assert np.abs(np.array(spin) - 5.0).max() < 1e-9  # measured 2.4e-11 rad/s
+    assert np.ptp(res.z[:, 3]) > 1.0  # and the idle coordinate moved (13 rad)
+
+
+def test_a_change_point_rssp_passes_every_turn_on_its_closed_form():
+    # offset 0.06 m, coupler 0.2 m: at crank angle pi the coupler lies square to both the slide and the crank's
+    # motion (the root of rssp_slide's square root is double there) and the two slide circuits touch
+    g = dataclasses.replace(sp.rssp_geometry(), offset=0.06, coupler=0.2)
+    m = sp.rssp(geometry=g)
+    rates = np.zeros(m.n_coords)
+    rates[3] = -3.0
+    y0 = m.assemble(m.sketch, rates, held=(0, 3))
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.2
+    res = m.simulate(y0, t_end=3.0, dt_out=1e-3, tau=tau, **TIGHT)
+    phi, s = res.z[:, 0], res.z[:, 4]
+    passed = np.sum(np.diff(np.floor((phi - math.pi) / (2 * math.pi))) != 0)
+    assert passed >= 6  # measured 10 in 3 s
+    assert res.passages == passed
+    upper, lower = np.abs(s - rssp_slide(g, phi, 1)), np.abs(s - rssp_slide(g, phi, -1))
+    assert np.minimum(upper, lower).max() < 1e-10  # measured 5.4e-13
+    assert np.sum(np.diff(upper < lower) != 0) == passed  # onto the other root at each passage
+    assert res.closure_error().max() < 1e-10  # measured 1.6e-13
+    assert energy_drift(res, tau) < 1e-9 * np.max(res.energy()[:, 0])  # measured 5.9e-10 J of 12 J
+
+
+def test_a_change_point_four_bar_with_a_pendulum_hung_on_its_coupler_passes_its_change_points():
+    # a link no closure reaches (a 0.2 kg pendulum on a revolute at the coupler's far end) is idle too: its column
+    # is zero at every position.  Driven at 0.5 N m with the pendulum swinging round, the loop passes its change
+    # points (before: mobility two, no chart, stopped at 0.59 s with "... a change point")
+    scene = grubler.load_scene("fourbar-change-point")
+    planar = grubler.simulate(scene, t_end=0.01, dt_out=0.01, method="exact", torque=0.5, **TIGHT)
+    base = spatial_from_planar(scene.mechanism)
+    inertia = ((1e-4, 0, 0), (0, 1e-4, 0), (0, 0, 1e-4))
+    bob = sp.SpatialLink("bob", a=base.links[2].a, parent=1, mass=0.2, com=(0.1, 0, 0), inertia=inertia)
+    m = sp.SpatialMechanism([*base.links, bob], list(base.closures), gravity=base.gravity)
+    y0 = m.assemble(np.append(planar.z[0], 0.3), np.append(planar.zd[0], 2.0), held=(0, 3))
+    tau = np.array([0.5, 0.0, 0.0, 0.0])
+    res = m.simulate(y0, t_end=4.0, dt_out=0.01, tau=tau, **TIGHT)
+    assert res.passages >= 5  # measured 8
+    assert np.ptp(res.z[:, 3]) > 2 * math.pi  # the pendulum goes round (80.8 rad)
+    assert res.closure_error().max() < 1e-11  # measured 8.9e-13
+    assert energy_drift(res, tau) < 1e-9 * np.max(res.energy()[:, 0])  # measured 1.1e-9 J of 34.5 J
 
 
 # -- the native FMU ------------------------------------------------------------------------------------------------

@@ -179,6 +179,46 @@ def test_a_tuned_parameter_is_the_model_the_library_builds_with_it(built):
     assert np.abs(end - ref.y[-1]).max() <= 1e-12
 
 
+def test_the_rssr_fmu_set_to_a_change_point_geometry_passes_its_change_points(built):
+    # the RSSR FMU's rocker shaft moved to offset 0.26 m and its plane through the shaft's foot (rocker.dh.a,
+    # rocker.dh.d): at crank angle 0 the loop has a change point (test_spatial_change_points' change-point RSSR),
+    # which the crank passes once a turn; with the coupler's spin an idle freedom the FMU's advance passes it
+    # on a chart (before: Discard at the first, "... a change point")
+    import dataclasses
+
+    from grubler.mechanism import spatial
+
+    from test_spatial import rssr_equation
+
+    g = dataclasses.replace(spatial.rssr_geometry(), offset=0.26, rocker_d=0.0)
+    m = spatial.rssr(geometry=g)
+    y0 = m.assemble(spatial._rssr_sketch(g, -2.0))
+    n_steps = 256  # 2 s
+    p = {"rocker.dh.a": 0.26, "rocker.dh.d": 0.0, "max_step": 0.1,
+         **{f"initial.{x}": float(v) for x, v in zip(m.coordinate_names, y0)}}
+    s, vr = slave(built, "rssr", 2, p)
+    start = get(s, 2, state_refs(m, vr))
+    s.setReal([vr["motor_torque"]], [0.2])
+    rows = []
+    for i in range(n_steps):
+        s.doStep(i * H, H)  # fmpy raises on Discard
+        rows.append(get(s, 2, state_refs(m, vr) + [vr["KE"], vr["PE"], vr["closure_error"]]))
+    s.terminate()
+    s.freeInstance()
+    rows = np.array(rows)
+    phi, psi = rows[:, 0], rows[:, 4]
+    assert np.sum(np.diff(np.floor(np.append(start[0], phi) / (2 * np.pi))) != 0) >= 5  # measured 8 in 2 s
+    A, B, C = rssr_equation(g, phi)
+    assert np.abs(A * np.cos(psi) + B * np.sin(psi) - C).max() < 1e-10  # measured 3.4e-13
+    assert rows[:, 12].max() < 1e-10  # measured 4.0e-13
+    tau = np.zeros(m.n_coords)
+    tau[0] = 0.2
+    balance = rows[:, 10] + rows[:, 11] - 0.2 * (phi - start[0])
+    assert np.ptp(balance) < 1e-8 * rows[:, 10].max()  # measured 3.1e-9 J of 12.4 J
+    ref = m.simulate(start, t_end=n_steps * H, dt_out=H, tau=tau, rtol=1e-10, atol=1e-10)
+    assert np.abs(rows[:, :10] - ref.y[1:]).max() <= 1e-12  # the library's advance, its chart kept between steps: measured 0
+
+
 def test_the_planar_fourbar_as_spatial_runs_as_the_planar_mechanism_fmu(tmp_path):
     # two native FMUs over two kernels that share no equations: the thesis four-bar in Mechanism.fmu and
     # written as spatial (relative angles, gravity along -y) in its spatial FMU, both at 1e-12, 3 N m

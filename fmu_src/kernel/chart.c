@@ -41,7 +41,7 @@ int grb_chart_build(const grb_model *md, double scale, const double *y, double k
     int n = w->n, m = w->m;
     if (m < n - 1 || !(kappa_ref > 0.0)) return GRB_BAD_ARGUMENT;
     grb_branch br = {branch_point, branch_conditioning, branch_slides, md, w, scale, n};
-    return chart_build(&br, y, kappa_ref, near, md->drive, w->index + WS_INDEX_CHART(n), ch);
+    return chart_build(&br, y, kappa_ref, near, md->drive, NULL, w->index + WS_INDEX_CHART(n), ch);
 }
 
 int grb_chart_rhs(const grb_model *md, const grb_chart *ch, const double *y, double tau_drive, double tau_load,

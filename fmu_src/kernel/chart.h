@@ -323,11 +323,12 @@ static inline int chart_build_on(const grb_branch *br, const double *y, double k
 /* The chart of the branch through y, held in the first coordinate it is a
  * curve in: `first` (the drive; -1: none), then the coordinates by how fast
  * they move (one at a limit of its travel is no coordinate along the branch
- * there).  tried: n ints of the caller's. */
+ * there).  tried: n ints of the caller's; skip (NULL: none): 1 for a
+ * coordinate never to hold (an idle one, which the branch does not move). */
 static inline int chart_build(const grb_branch *br, const double *y, double kappa_ref, double near, int first,
-                              int *tried, grb_chart *ch) {
+                              const int *skip, int *tried, grb_chart *ch) {
     int n = br->n;
-    for (int i = 0; i < n; i++) tried[i] = 0;
+    for (int i = 0; i < n; i++) tried[i] = skip ? skip[i] : 0;
     for (int attempt = 0; attempt < n; attempt++) {
         int held = -1;
         if (attempt == 0 && first >= 0)
@@ -335,6 +336,7 @@ static inline int chart_build(const grb_branch *br, const double *y, double kapp
         else
             for (int i = 0; i < n; i++)
                 if (!tried[i] && (held < 0 || fabs(y[n + i]) > fabs(y[n + held]))) held = i;
+        if (held < 0) break;
         tried[held] = 1;
         if (chart_build_on(br, y, kappa_ref, near, held, ch) == GRB_OK) return GRB_OK;
     }

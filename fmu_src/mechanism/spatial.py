@@ -596,7 +596,7 @@ def rssr_geometry() -> _RSSR:
     return _RSSR()
 
 
-def rssr(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
+def rssr(gravity=(0.0, 0.0, -GRAVITY), geometry: _RSSR | None = None) -> SpatialMechanism:
     """A crank-rocker between skew shafts: revolute crank, spherical, coupler, spherical, revolute rocker.
 
     Tree: the crank on the world z axis (its plane at ``height``), a spherical
@@ -606,6 +606,7 @@ def rssr(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     closes with a spherical pin between the coupler's far end and the
     rocker's.  Coordinates: crank, the ball's three angles, rocker: two
     degrees of freedom, the crank's and the coupler's spin about its own axis.
+    ``geometry``: other dimensions (``dataclasses.replace(rssr_geometry(), ...)``).
 
     Examples
     --------
@@ -615,7 +616,7 @@ def rssr(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     >>> m.determinacy(m.assembled_start()[:m.n_coords])[1]    # rank 3 of 3 rows: not overconstrained
     3
     """
-    g = rssr_geometry()
+    g = rssr_geometry() if geometry is None else geometry
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
                          inertia=tuple(map(tuple, _rod_inertia(0.5, g.crank, 0))))]
     links += spherical_joint("coupler", 0, 1, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),
@@ -675,13 +676,14 @@ def rssp_geometry() -> _RSSP:
     return _RSSP()
 
 
-def rssp(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
+def rssp(gravity=(0.0, 0.0, -GRAVITY), geometry: _RSSP | None = None) -> SpatialMechanism:
     """A spatial slider-crank: revolute crank, spherical, coupler, spherical, a slider on a line skew to the
     crank shaft.
 
     The crank and the ball at its pin are the RSSR's; the slider is a second branch from the ground, a
     prismatic joint whose axis is the slide's line, its ball at the slider frame's origin.
     Coordinates: crank, the ball's three angles, the slide.
+    ``geometry``: other dimensions (``dataclasses.replace(rssp_geometry(), ...)``).
 
     Examples
     --------
@@ -689,7 +691,7 @@ def rssp(gravity=(0.0, 0.0, -GRAVITY)) -> SpatialMechanism:
     >>> m.coordinate_names[-1], m.n_rows
     ('slider.d', 3)
     """
-    g = rssp_geometry()
+    g = rssp_geometry() if geometry is None else geometry
     links = [SpatialLink("crank", d=g.height, mass=0.5, com=(g.crank / 2, 0, 0),
                          inertia=tuple(map(tuple, _rod_inertia(0.5, g.crank, 0))))]
     links += spherical_joint("coupler", 0, 1, a=g.crank, mass=1.0, com=(0, 0, g.coupler / 2),

@@ -198,6 +198,7 @@ grb_status grs_ws_init(grs_ws *w, const grs_model *md, double *buffer) {
     for (int i = 0; i < 4; i++) w->vec[i].J = buffer + off[8] + (size_t)i * 3 * n;
     w->S = buffer + off[9];
     w->basis = buffer + off[10];
+    w->n_idle = 0;
     int c = 0;
     for (int k = 0; k < L; k++) {
         const grs_link *l = grs_links(md) + k;

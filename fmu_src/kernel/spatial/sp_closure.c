@@ -198,9 +198,11 @@ static int gram_eig(grs_ws *w, int *order) {
     return k;
 }
 
-/* The (N - 1)-th singular value over the largest, from gram_eig's answer. */
+/* The (N - 1)-th singular value over the largest, from gram_eig's answer
+ * (N counting the coordinates the rows see: idle ones add no singular value). */
 static double conditioning_of(const grs_ws *w, const int *order, int count) {
-    int k = w->n - 2 < count - 1 ? w->n - 2 : count - 1; /* the (N - 1)-th, or the last there is */
+    int active = w->n - w->n_idle;
+    int k = active - 2 < count - 1 ? active - 2 : count - 1; /* the (N - 1)-th, or the last there is */
     if (k < 0) k = 0;
     double top = w->eigval[order[0]];
     if (!(top > 0.0)) return 0.0;
@@ -236,7 +238,21 @@ int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w) {
  * the motion crosses a change point and goes on the same way.  0 at rest. */
 static double orientation_of(grs_ws *w, const double *zd, const double *B) {
     /* (A: n x n over the eigen buffers: 3 M^2 + M >= (M + 1)^2 >= N^2 at mobility one) */
-    return grb_orientation_det(w->n, w->m, w->J, B, zd, w->schur);
+    if (w->n_idle == 0) return grb_orientation_det(w->n, w->m, w->J, B, zd, w->schur);
+    /* over the coordinates the rows see: an idle one's column is zero, and its rate no part of the branch */
+    int n = w->n, m = w->m, active = 0;
+    double along = 0.0, all = 0.0;
+    scratch s = scratch_of(w);
+    for (int i = 0; i < n; i++) {
+        all += zd[i] * zd[i];
+        if (grs_is_idle(w, i)) continue;
+        for (int r = 0; r < m; r++) s.Jd[r * (n - w->n_idle) + active] = SP_J(w, r, i);
+        along += zd[i] * zd[i];
+        s.x[active++] = zd[i];
+    }
+    /* at rest along the branch, only spinning: rates left by the velocity solve's rounding point nowhere */
+    if (!(along > 1e-24 * all)) return 0.0;
+    return grb_orientation_det(active, m, s.Jd, B, s.x, w->schur);
 }
 
 /* The change-point watch at y = (z, zd), from one evaluation of the closure
@@ -250,7 +266,7 @@ void grs_closure_watch(const grs_model *md, const double *y, const double *basis
     grs_rows_at(md, y, w);
     int count = gram_eig(w, order);
     *kappa = conditioning_of(w, order, count);
-    for (int r = 0; r < n - 1; r++) {
+    for (int r = 0; r < n - w->n_idle - 1; r++) {
         double *u = basis_out + (size_t)r * m;
         if (r >= count) {
             for (int i = 0; i < m; i++) u[i] = 0.0;
@@ -270,6 +286,38 @@ void grs_closure_watch(const grs_model *md, const double *y, const double *basis
     }
     *orientation = basis ? orientation_of(w, y + n, basis) : 0.0;
     *own_orientation = orientation_of(w, y + n, basis_out);
+}
+
+/* The idle coordinates at z (w->coord_idle, w->n_idle; returns n_idle): a
+ * rotation whose closure Jacobian column is zero at z, and stays zero at every
+ * position because each closure whose point or axis it moves is fixed to its
+ * own link (its turn then moves that point along its own axis: not at all, as
+ * the RSSR coupler's spin moves the ball on that spin's axis).  A column that
+ * is zero at z by chance, with joints between it and a closure, is not idle. */
+int grs_idle_coords(const grs_model *md, const double *z, grs_ws *w) {
+    int n = w->n, m = w->m;
+    w->n_idle = 0;
+    for (int i = 0; i < n; i++) w->coord_idle[i] = 0;
+    if (m == 0) return 0;
+    grs_rows_at(md, z, w);
+    double top = 0.0;
+    for (int j = 0; j < m * n; j++) top = fmax(top, fabs(w->J[j]));
+    for (int i = 0; i < n; i++) {
+        int k = w->coord_link[i], fixed = !w->coord_slide[i];
+        for (int c = 0; c < md->n_closures && fixed; c++) {
+            const grs_closure *cl = grs_closures(md) + c;
+            int ends[2] = {(int)cl->link, (int)cl->to};
+            for (int e = 0; e < 2; e++)
+                if (ends[e] >= 0 && ends[e] != k && ((w->path[ends[e]] >> k) & 1u)) fixed = 0;
+        }
+        double column = 0.0;
+        for (int r = 0; r < m; r++) column = fmax(column, fabs(SP_J(w, r, i)));
+        if (fixed && column <= 1e-12 * top) {
+            w->coord_idle[i] = 1;
+            w->n_idle++;
+        }
+    }
+    return w->n_idle;
 }
 
 /* The branch point where coordinate held keeps its value in z, and the

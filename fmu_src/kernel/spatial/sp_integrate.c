@@ -211,16 +211,18 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
     st.nw = ROW(&st, S + 2);
     st.cur = ROW(&st, S + 3);
     memcpy(st.cur, y, sizeof(double) * (size_t)st.N);
-    /* change points are passed on a chart where the closures leave one degree of freedom */
+    /* change points are passed on a chart where the closures leave one degree of freedom besides the idle
+     * ones (grs_idle_coords: the RSSR coupler's spin, which the chart leaves to its own equation) */
     grs_chart chart;
     double *seen = seen_of(stepper_buf, tab, n);
-    int passing = w.m > 0 && grs_closure_freedom(md, st.cur, &w) == 1, uncharted = 0;
+    int idle = w.m > 0 ? grs_idle_coords(md, st.cur, &w) : 0;
+    int passing = w.m > 0 && grs_closure_freedom(md, st.cur, &w) - idle == 1, uncharted = 0;
     double k_cur = 1.0, o_cur = 0.0, o_nw = 0.0, o_nw_own = 0.0, unused;
     /* the row directions at the current state and at the proposed one's end (the orientation's basis) */
     double *b_cur = w.basis, *b_nw = w.basis + (size_t)(n > 1 ? n - 1 : 0) * w.m;
     if (passing) {
         grb_chart_init(&chart, n, ROW(&st, S + 4));
-        grb_chart_resume(&chart, st.cur, s->scale);
+        grs_chart_resume(&chart, st.cur, s->scale, &w);
         st.chart = &chart;
         if (seen[SEEN_TAG_AT] != SEEN_TAG) seen[SEEN_PASSAGES] = 0.0;
         if (seen[SEEN_TAG_AT] != SEEN_TAG || !(seen[SEEN_BEST] > 0.0)) seen[SEEN_BEST] = 0.0;
@@ -238,7 +240,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
             /* near a change point: onto the branch's chart (where one can be made) */
             if (passing && !chart.active && !uncharted && k_cur < CONDITIONING_NEAR) {
                 if (grs_chart_build(md, s->scale, st.cur, seen[SEEN_BEST], CONDITIONING_NEAR, &chart, &w) == GRB_OK) {
-                    grb_chart_put(&chart, st.cur);
+                    grs_chart_put(&chart, st.cur, &w);
                     if (!rhs(&st, st.cur, ROW(&st, 0))) return stop(where, time, GRB_NONFINITE_DERIVATIVE);
                 } else
                     uncharted = 1;
@@ -259,7 +261,8 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
                      * instead */
                     double seen_before = seen[SEEN_BEST], same_way = 0.0;
                     k_nw = watch(md, st.nw, &seen[SEEN_BEST], b_cur, b_nw, &o_nw, &o_nw_own, &w);
-                    for (int i = n; i < st.N; i++) same_way += st.cur[i] * st.nw[i];
+                    for (int i = n; i < st.N; i++) /* along the branch: an idle spin may go on either way */
+                        if (!grs_is_idle(&w, i - n)) same_way += st.cur[i] * st.nw[i];
                     int over = same_way > 0.0 && o_cur * o_nw < 0.0;
                     if (!uncharted && (over || k_nw < 0.5 * CONDITIONING_NEAR)) {
                         seen[SEEN_BEST] = seen_before;
@@ -274,7 +277,7 @@ grb_status grs_advance(const grs_model *md, const grs_settings *s, double *t, do
                     /* a passage: the motion crossing the chart's pinch, where the branches meet */
                     int crossed = chart.pinch_kappa < CONDITIONING_PINCH &&
                                   (st.cur[held] - chart.pinch) * (p[held] - chart.pinch) < 0.0;
-                    charted = grb_chart_put(&chart, p);
+                    charted = grs_chart_put(&chart, p, &w);
                     if (charted && crossed) seen[SEEN_PASSAGES] += 1.0;
                     if (!charted || p[chart.held] < chart.lo || p[chart.held] > chart.hi) chart.active = 0;
                     if (!chart.active) k_nw = watch(md, p, &seen[SEEN_BEST], NULL, b_nw, &unused, &o_nw_own, &w);

@@ -61,7 +61,14 @@ typedef struct grs_ws {
     grs_vec vec[4];
     double *S; /* scratch: see sp_closure.c */
     double *basis; /* two (N - 1) x M tables of closure row directions (grs_closure_watch) */
+    /* idle coordinates (grs_idle_coords, set by the advance; 0 elsewhere): ones no closure row sees at any
+     * position, as the RSSR coupler's spin about the line through its two balls.  coord_idle is read only
+     * when n_idle > 0 (grs_is_idle). */
+    int n_idle;
+    int coord_idle[GRS_MAX_COORDS];
 } grs_ws;
+
+static inline int grs_is_idle(const grs_ws *w, int i) { return w->n_idle > 0 && w->coord_idle[i]; }
 
 static inline const grs_link *grs_links(const grs_model *m) { return (const grs_link *)m->links; }
 static inline const grs_closure *grs_closures(const grs_model *m) { return (const grs_closure *)m->closures; }
@@ -91,6 +98,7 @@ int grs_closure_freedom(const grs_model *md, const double *z, grs_ws *w);
 void grs_closure_watch(const grs_model *md, const double *y, const double *basis, double *basis_out, double *kappa,
                        double *orientation, double *own_orientation, grs_ws *w);
 double grs_branch_point(const grs_model *md, int held, double scale, double *z, double *tangent, grs_ws *w);
+int grs_idle_coords(const grs_model *md, const double *z, grs_ws *w);
 
 /* sp_chart.c: an assembly branch near a change point as a curve z(x) in one
  * held coordinate x, the planar kernel's chart (the method is chart.h's, one
@@ -102,5 +110,7 @@ int grs_chart_build(const grs_model *md, double scale, const double *y, double k
                     grs_chart *ch, grs_ws *w);
 int grs_chart_rhs(const grs_model *md, const grs_chart *ch, const double *y, const double *tau, grs_ws *w,
                   double *out);
+int grs_chart_put(const grs_chart *ch, double *y, const grs_ws *w);
+int grs_chart_resume(grs_chart *ch, double *y, double scale, const grs_ws *w);
 
 #endif
