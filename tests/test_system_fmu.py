@@ -423,6 +423,28 @@ def test_a_components_discard_puts_the_whole_system_back(host, servo, tmp_path):
     np.testing.assert_allclose([r[1] for r in after], plain, rtol=0, atol=1e-12)
 
 
+def test_a_discard_puts_back_every_bit_of_the_state_the_encoders_delay_line_too(host, servo, tmp_path):
+    # Before each step the system copies only each component's live part: of the encoder's delay line (10 000
+    # readings) the delay + 1 a run uses (law_state_used).  With a delay of 3 the ring's four slots take the
+    # discarded steps' readings in turn; each Discard must leave the whole state as it was, byte for byte.
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    load, delay = vr["mechanism.load_torque"], vr["encoder.delay"]
+    script = f"new 0 s\nsetup 0\nseti {delay} 3\nenter\nexit\nsetr {load} 0\nrun 0 0.001 100\n"  # (load set: its flag too)
+    for k in range(4):
+        t = 0.1 + 0.001 * k
+        script += (f"save 0\nser 0 before{k}.bin\nsetr {load} nan\nstep {t!r} 0.001\nsetr {load} 0\nsave 1\n"
+                   f"ser 1 after{k}.bin\nstep {t!r} 0.001\n")
+    out = host_run(host, servo, script + "free\n", tmp_path)
+    assert [line.split()[1] for line in out if line.startswith("step")] == ["2", "0"] * 4, out
+    for k in range(4):
+        before, after = (tmp_path / f"before{k}.bin").read_bytes(), (tmp_path / f"after{k}.bin").read_bytes()
+        assert len(before) > 8 * 10_000 and before == after, k
+    # the delay line moved between the rounds (each round's state is another)
+    assert len({(tmp_path / f"before{k}.bin").read_bytes() for k in range(4)}) == 4
+
+
 def test_a_bad_component_parameter_is_refused_with_the_components_name(host, servo, tmp_path):
     from fmpy import read_model_description
 
