@@ -361,6 +361,49 @@ def test_a_saved_state_replays_bit_for_bit_in_memory_and_serialised(host, servo,
     assert (tmp_path / "state.bin").stat().st_size > 48 + 8 * 300
 
 
+def test_outputs_read_in_any_order_or_subset_are_those_read_all_at_once(host, servo, tmp_path):
+    # The mechanism's coordinates and rates come from the state alone, its accelerations and forces from one
+    # evaluation: whichever is read first, alone or with others, each output has the bits reading all gives.
+    from fmpy import read_model_description
+
+    real = [v for v in read_model_description(str(servo[2])).modelVariables
+            if v.causality == "output" and v.type == "Real"]
+    vr = {v.name: v.valueReference for v in real}
+    names = list(vr)
+    state = [n for n in names if n.startswith("mechanism.") and n.split(".")[1].rstrip("_d")[-1].isdigit()
+             and not n.endswith("_dd")]
+    rest = [n for n in names if n not in state]
+    assert "mechanism.theta2" in state and "mechanism.theta2_d" in state and "mechanism.theta2_dd" in rest
+    orders = [[state], [state[::-1], rest], [rest[::-1], state], [["mechanism.theta2"], names[::-1]],
+              [[n] for n in state]]
+    start = "new 0 s\nsetup 0\nenter\nexit\n"
+    subsets, whole, asked = start, start, []
+    for i in range(15):
+        step = f"step {i * STEP!r} {STEP!r}\n"
+        whole += step + "getr " + " ".join(str(vr[n]) for n in names) + "\n"
+        subsets += step
+        for group in orders[i % len(orders)]:
+            subsets += "getr " + " ".join(str(vr[n]) for n in group) + "\n"
+            asked.append((i, group))
+    got = [line.split() for line in host_run(host, servo, subsets + "free\n", tmp_path) if line.startswith("getr")]
+    every = [dict(zip(names, line.split()[2:]))
+             for line in host_run(host, servo, whole + "free\n", tmp_path) if line.startswith("getr")]
+    assert len(got) == len(asked) and len(every) == 15 and {g[1] for g in got} == {"0"}
+    for (i, group), line in zip(asked, got):
+        assert line[2:] == [every[i][n] for n in group], (i, group)
+
+
+def test_the_mechanisms_coordinates_are_read_at_the_level_that_needs_no_evaluation(servo, tmp_path):
+    # A system output's level is 1 + its component's: the crank angle and rate are at the motor current's (the
+    # state alone), below the accelerations' (one forward-dynamics evaluation of the mechanism)
+    from grubler.fmi.header import read_variables_source
+
+    with zipfile.ZipFile(servo[2]) as z:
+        rows = {r.name: r for r in read_variables_source(z.read("sources/model_variables.c").decode())}
+    assert rows["mechanism.theta2"].level == rows["mechanism.theta2_d"].level == rows["motor.current"].level
+    assert rows["mechanism.theta2"].level < rows["mechanism.theta2_dd"].level
+
+
 def _fnv(data: bytes) -> int:
     h = 14695981039346656037
     for b in data:

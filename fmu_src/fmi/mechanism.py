@@ -245,11 +245,14 @@ def _observations(d: _Declared, obs: list[str]) -> None:
               *(f"{x}_dd" for x in names), "Fx", "Fy", "Mz", "KE", "PE"]
              + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
     assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
+    state = {*names, *(f"{x}_d" for x in names)}
     for name in order:
         reaction = name.startswith("R") and name[1].isdigit()
         # the efforts reach the accelerations and the constraint forces at once
         feed = reaction or name in ("Fx", "Fy", "Mz") or name.endswith("_dd")
-        d.output(name, LEVEL_REACTIONS if reaction else LEVEL_OBSERVE, feed, index[name])
+        # the coordinates and rates come from the state's kinematic pass alone, with the drive's
+        level = LEVEL_REACTIONS if reaction else LEVEL_DRIVE if name in state else LEVEL_OBSERVE
+        d.output(name, level, feed, index[name])
     d.output("drive_angle", LEVEL_DRIVE, False, len(obs))
     d.output("drive_speed", LEVEL_DRIVE, False, len(obs) + 1)
     # the first closure's force is Fx, Fy, Mz; a chain of several loops (a

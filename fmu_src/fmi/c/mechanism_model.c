@@ -4,9 +4,11 @@
  * (grb_scene_tables), initialisation assembles the loop (grb_held_coordinates,
  * grb_assemble) as the library's Simulator does, a communication step is one
  * grb_advance (internal sub-steps to the tolerance), and the outputs are
- * grb_observe's, computed when read, by level: the drive joint's coordinate and
- * rate straight from the state, then one forward-dynamics evaluation for every
- * coordinate, rate, acceleration, force and energy, then the joint reactions.
+ * grb_observe's, computed when read, by level: what the state alone decides (the
+ * drive joint's coordinate and rate, every coordinate and rate from the kernel's
+ * kinematic pass, the actuators' lines, the force elements), then one
+ * forward-dynamics evaluation for the accelerations, forces and energies, then
+ * the joint reactions.
  *
  * The parameters are validated here, with the library's messages naming the
  * field, because the library's checks are Python (grubler.mechanism.model) and the FMU
@@ -21,6 +23,7 @@
 #include "grubler.h"
 #include "complex_step.h"
 #include "scene_slots.h"
+#include "workspace.h"  /* the kinematic pass (grb_chain) and its frame table, as grb_observe reads them */
 #if MODEL_DIRECTIONAL_DERIVATIVE && GRB_HAVE_COMPLEX
 #include <complex.h>
 
@@ -435,6 +438,22 @@ fmi2Status model_compute(grb_instance *inst, int level) {
     const double *p = inst->p, *y = p + P_Y;
     int d = mm->m.drive, st;
     if (inst->level < LEVEL_DRIVE) {
+        /* the coordinates and rates, in grb_observe's places, from the same kinematic pass it runs
+         * first (so the same numbers): reading them costs no evaluation of the dynamics */
+        grb_ws ws;
+        int k;
+        st = grb_ws_init(&ws, &mm->m, mm->work, GRB_FILLED_NOTHING);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Warning, "coordinates at t = %.12g s: %s", p[P_T], status_text(st));
+            return fmi2Warning;
+        }
+        grb_chain(&mm->m, y, y + N, &ws);
+        for (k = 0; k < N; k++) {
+            mm->out[2 * k] = ws.frame[k].slide;
+            mm->out[2 * k + 1] = ws.frame[k].theta;
+            mm->out[2 * N + 2 * k] = ws.frame[k].rate;
+            mm->out[2 * N + 2 * k + 1] = ws.frame[k].omega;
+        }
         mm->out[N_OBSERVED] = d >= 0 ? y[d] : 0.0;
         mm->out[N_OBSERVED + 1] = d >= 0 ? y[N + d] : 0.0;
 #if N_ACTUATORS > 0
