@@ -313,6 +313,34 @@ def test_one_binary_no_nested_fmu_units_and_its_own_identifier(servo):
     assert symbols and all(s.startswith("fmi2") for s in symbols), symbols
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_binary_only_export_leaves_sources_out_and_runs_the_same_bits(servo, fmi, tmp_path):
+    # For deployment: no sources/ (FMI allows it; a FMI 2 description then lists no SourceFiles), so nothing to
+    # unpack but the binary and the description, and the same run
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    out = servo["root"] / f"Deployed{fmi}.fmu"
+    r = grubler("export", servo["ssd"], "-o", out, "--fmi", fmi, "--platforms", "linux64", "--binary-only",
+                *(("--master", "extrapolate", "--tol", "1e-6") if fmi == 3 else ()))
+    assert r.returncode == 0, r.stderr
+    names = zipfile.ZipFile(out).namelist()
+    assert sorted(names) == sorted(["modelDescription.xml", f"binaries/{'linux64' if fmi == 2 else 'x86_64-linux'}/"
+                                                            f"Deployed{fmi}.so"])
+    assert b"SourceFiles" not in zipfile.ZipFile(out).read("modelDescription.xml")
+    assert validate_fmu(str(out)) == []
+    assert read_model_description(str(out)).coSimulation.modelIdentifier == f"Deployed{fmi}"
+    probe = ["mechanism.theta2", "motor.current", "mechanism.Fx"]
+    np.testing.assert_array_equal(run_fmu(out, probe, 0.05, STEP, fmi=fmi), run_fmu(servo[fmi], probe, 0.05, STEP,
+                                                                                      fmi=fmi))
+
+
+def test_binary_only_is_refused_for_what_is_not_a_systems_native_fmu(tmp_path):
+    r = grubler("export", "thesis-fourbar", "-o", tmp_path / "M.fmu", "--binary-only")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0, r.stderr
+    assert r.stderr.startswith("grubler: error: --binary-only:") and not (tmp_path / "M.fmu").exists()
+
+
 @pytest.fixture(scope="module")
 def host(servo):
     return builds.host()

@@ -508,7 +508,8 @@ def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: 
 
 
 def export_native_system(system: System | str | Path, dest: str | Path | None = None, platforms=None, fmi: int = 2,
-                         field: str = "output", master: str | None = None, tol: float | None = None) -> Path:
+                         field: str = "output", master: str | None = None, tol: float | None = None,
+                         sources: bool = True) -> Path:
     """Export an SSP system of native grubler FMUs as one native FMU (its models and master.c compiled together).
 
     Parameters
@@ -524,6 +525,10 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
     master, tol : optional
         The start values of the FMU's ``master`` and ``tol`` parameters, as
         ``grubler cosim``'s ``master`` and ``tol`` (:func:`coupling_settings`).
+    sources : bool
+        Ship ``sources/`` (default); without, a binary-only FMU for deployment
+        (:func:`grubler.fmi.build.build_fmu`): it starts faster, runs only where
+        its binaries do, and cannot be compiled into another system FMU.
 
     Raises
     ------
@@ -568,7 +573,8 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
         spec, wiring, unknowns = system_spec(system, interfaces, models, seq, identifier_for(dest), step, master, tol)
         slot = cosim._slots(system)
         return build_fmu(spec, dest, platforms, fmi,
-                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get), unknowns))
+                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get), unknowns),
+                         sources=sources)
 
 
 __all__ = ["export_native_system", "why_not_native", "coupling_settings"]
