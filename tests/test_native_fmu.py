@@ -369,9 +369,9 @@ def test_outputs_read_in_any_order_or_subset_are_those_read_all_at_once(native, 
 
 
 def test_the_coordinates_and_rates_are_read_without_evaluating_the_dynamics(built, md):
-    """Each coordinate and rate is at the level the state alone decides (the drive's angle's), not the level of
-    the forward-dynamics evaluation (the accelerations'): an importer that reads the crank angle after each step
-    does not pay for an evaluation."""
+    """Each coordinate and rate is at the kinematic pass's level, below the forward-dynamics evaluation's (the
+    accelerations'), above the drive angle's (a copy of the state, what a coupling reads each step): an importer
+    that reads the crank angle after each step does not pay for an evaluation."""
     from grubler.fmi.header import read_variables_source
 
     rows = {r.name: r for r in read_variables_source((built["Mechanism"][1] / "sources" / "model_variables.c")
@@ -379,9 +379,9 @@ def test_the_coordinates_and_rates_are_read_without_evaluating_the_dynamics(buil
     names = [v.name for v in md.modelVariables if v.causality == "output" and v.name.startswith(("theta", "B"))]
     assert "theta2" in names and "theta2_d" in names and "theta2_dd" in names
     for n in names:
-        expected = rows["theta2_dd"].level if n.endswith("_dd") else rows["drive_angle"].level
+        expected = rows["theta2_dd"].level if n.endswith("_dd") else rows["theta2"].level
         assert rows[n].level == expected, n
-    assert rows["drive_angle"].level < rows["theta2_dd"].level
+    assert rows["drive_angle"].level < rows["theta2"].level < rows["theta2_dd"].level
 
 
 def test_serialised_state_round_trips_bit_exactly(native, md, tmp_path):

@@ -257,14 +257,14 @@ def test_the_export_takes_cosims_master_and_tol_and_refuses_what_cosim_refuses(s
 
     asked = {}
 
-    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None):
-        asked.update(master=master, tol=tol)
+    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None, sources=True):
+        asked.update(master=master, tol=tol, sources=sources)
         return Path(dest)
 
     monkeypatch.setattr(native, "export_native_system", export)
     assert cli.main(["export", str(servo["ssd"]), "-o", str(tmp_path / "S.fmu"), "--tol", "1e-7",
                      "--platforms", "linux64"]) == 0
-    assert asked == {"master": "extrapolate", "tol": 1e-7}
+    assert asked == {"master": "extrapolate", "tol": 1e-7, "sources": True}
     assert "master extrapolate, tol 1e-07" in capsys.readouterr().out
     for args, words in ((["--master", "jacobi", "--tol", "1e-7"], "tol: the adaptive step is the extrapolating "
                                                                    "master's (master 'extrapolate'), got master "
@@ -422,14 +422,13 @@ def test_outputs_read_in_any_order_or_subset_are_those_read_all_at_once(host, se
 
 
 def test_the_mechanisms_coordinates_are_read_at_the_level_that_needs_no_evaluation(servo, tmp_path):
-    # A system output's level is 1 + its component's: the crank angle and rate are at the motor current's (the
-    # state alone), below the accelerations' (one forward-dynamics evaluation of the mechanism)
+    # A system output's level is 1 + its component's: the crank angle and rate are at the mechanism's kinematic
+    # pass's, below the accelerations' (one forward-dynamics evaluation of the mechanism)
     from grubler.fmi.header import read_variables_source
 
     with zipfile.ZipFile(servo[2]) as z:
         rows = {r.name: r for r in read_variables_source(z.read("sources/model_variables.c").decode())}
-    assert rows["mechanism.theta2"].level == rows["mechanism.theta2_d"].level == rows["motor.current"].level
-    assert rows["mechanism.theta2"].level < rows["mechanism.theta2_dd"].level
+    assert rows["mechanism.theta2"].level == rows["mechanism.theta2_d"].level < rows["mechanism.theta2_dd"].level
 
 
 def _fnv(data: bytes) -> int:
