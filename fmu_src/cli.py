@@ -370,12 +370,15 @@ def cmd_export(args) -> int:
             master, tol = coupling_settings(args.master, args.tol)
             platforms = [t.name for t in select_targets(args.platforms, "--platforms")]
             path = export_native_system(system, args.out, platforms, fmi=args.fmi, field="--out", master=master,
-                                        tol=args.tol)
+                                        tol=args.tol, sources=not args.binary_only)
             print(f"wrote {path} (one native FMU: its components' models and grubler cosim's master in one binary; "
                   f"master {master}" + (f", tol {tol:g}" if tol else "") + ": its parameters master and tol)")
             if args.platforms is None and platforms_note():
                 print(platforms_note())
             return 0
+        if args.binary_only:
+            raise GrublerError(f"--binary-only: the system cannot be one native FMU ({why}); fmpy's container "
+                               "carries its FMUs whole")
         if (args.master or args.tol) and (args.master != "jacobi" or args.tol):
             raise GrublerError(f"--{'tol' if args.tol else 'master'}: fmpy's container steps its FMUs "
                                f"as --master jacobi, without error control ({why})")
@@ -389,6 +392,8 @@ def cmd_export(args) -> int:
             _warn([f"{path.name} needs an execution tool where it runs, as {', '.join(tools)} do (pythonfmu FMUs: "
                    "a Python with their packages installed); fmusim or a C host cannot run it"])
         return 0
+    if args.binary_only:
+        raise GrublerError("--binary-only: only a system's one native FMU (.ssd, .ssp) is exported without sources/")
     from grubler.fmi.build import export, export_spatial, platforms_note, select_targets
     from grubler.fmi.spatial import fmu_name
     from grubler.mechanism.spatial_scene import is_spatial, load_spatial_scene
@@ -881,6 +886,9 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--tol", type=_number("--tol", low=1e-14, high=0.5),
                    help="a system's one native FMU: the start value of its parameter tol, error-controlled "
                         "sub-steps as `grubler cosim --tol` makes them (default 0: none)")
+    e.add_argument("--binary-only", action="store_true",
+                   help="a system's one native FMU without sources/ (for deployment: it starts faster; it runs only "
+                        "on the platforms it has binaries for, and cannot be compiled into another system FMU)")
     e.set_defaults(func=cmd_export)
     el = sub.add_parser("export-law", help="a native FMU of a control law written as one C function (grubler_law.h)")
     el.add_argument("source", help="the C file: GRUBLER_* declarations and law_step")

@@ -330,6 +330,60 @@ def test_the_loop_that_cannot_close_is_an_error_with_its_reason(native, md):
 
 # -- state ---------------------------------------------------------------------
 
+def _reads_in_orders(fmu, md, start: list[str], h: float, steps: int, state: list[str]):
+    """After each step, the outputs read in one of several orders and subsets, and, in a second run along the
+    same steps, all of them at once: (subset read, what reading everything gave at that step) pairs."""
+    outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    rest = [n for n in outputs if n not in state]
+    reactions = [n for n in outputs if n.startswith("R") and n[1].isdigit()]
+    orders = [[state], [state[::-1], rest], [reactions, state], [outputs[::-1]], [[n] for n in state[:4]],
+              [[state[1]], rest[:3], state], [rest, state]]
+    subset_script, whole_script, asked = list(start), list(start), []
+    for i in range(steps):
+        step = f"step {i * h!r} {h!r}"
+        subset_script.append(step)
+        whole_script += [step, fmu.getr(*outputs)]
+        for names in orders[i % len(orders)]:
+            subset_script.append(fmu.getr(*names))
+            asked.append((i, names))
+    subsets, whole = fmu.run(subset_script), fmu.run(whole_script)
+    assert set(subsets.statuses("step")) == set(whole.statuses("step")) == {OK}
+    assert set(subsets.statuses("getr")) == set(whole.statuses("getr")) == {OK}
+    every = [dict(zip(outputs, r[2:])) for r in whole.results if r[0] == "getr"]
+    read = [r[2:] for r in subsets.results if r[0] == "getr"]
+    return [(got, [every[i][n] for n in names]) for (i, names), got in zip(asked, read)]
+
+
+@pytest.mark.parametrize("preset", ["thesis-fourbar", "thesis-slider-crank"])
+def test_outputs_read_in_any_order_or_subset_are_those_read_all_at_once(native, md, preset):
+    """The coordinates and rates come from the state's kinematic pass, the rest from one evaluation: read alone,
+    first, last or between the others, each output has the bits it has when everything is read at once."""
+    scene = grubler.load_scene(preset)
+    names = scene.mechanism.coordinate_names
+    state = [*names, *(f"{x}_d" for x in names), "drive_angle", "drive_speed"]
+    start = native.start(fmu_parameters(scene), md=md) + [f"setr {native.vr['motor_torque']} 0.5"]
+    pairs = _reads_in_orders(native, md, start, 0.01, 21, state)
+    assert len(pairs) > 21
+    for got, expected in pairs:
+        assert got == expected
+
+
+def test_the_coordinates_and_rates_are_read_without_evaluating_the_dynamics(built, md):
+    """Each coordinate and rate is at the kinematic pass's level, below the forward-dynamics evaluation's (the
+    accelerations'), above the drive angle's (a copy of the state, what a coupling reads each step): an importer
+    that reads the crank angle after each step does not pay for an evaluation."""
+    from grubler.fmi.header import read_variables_source
+
+    rows = {r.name: r for r in read_variables_source((built["Mechanism"][1] / "sources" / "model_variables.c")
+                                                     .read_text())}
+    names = [v.name for v in md.modelVariables if v.causality == "output" and v.name.startswith(("theta", "B"))]
+    assert "theta2" in names and "theta2_d" in names and "theta2_dd" in names
+    for n in names:
+        expected = rows["theta2_dd"].level if n.endswith("_dd") else rows["theta2"].level
+        assert rows[n].level == expected, n
+    assert rows["drive_angle"].level < rows["theta2"].level < rows["theta2_dd"].level
+
+
 def test_serialised_state_round_trips_bit_exactly(native, md, tmp_path):
     blob, again = tmp_path / "s.bin", tmp_path / "again.bin"
     names = ("theta2", "Fx", "KE")

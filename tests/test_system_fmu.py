@@ -257,14 +257,14 @@ def test_the_export_takes_cosims_master_and_tol_and_refuses_what_cosim_refuses(s
 
     asked = {}
 
-    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None):
-        asked.update(master=master, tol=tol)
+    def export(system, dest, platforms, fmi=2, field="output", master=None, tol=None, sources=True):
+        asked.update(master=master, tol=tol, sources=sources)
         return Path(dest)
 
     monkeypatch.setattr(native, "export_native_system", export)
     assert cli.main(["export", str(servo["ssd"]), "-o", str(tmp_path / "S.fmu"), "--tol", "1e-7",
                      "--platforms", "linux64"]) == 0
-    assert asked == {"master": "extrapolate", "tol": 1e-7}
+    assert asked == {"master": "extrapolate", "tol": 1e-7, "sources": True}
     assert "master extrapolate, tol 1e-07" in capsys.readouterr().out
     for args, words in ((["--master", "jacobi", "--tol", "1e-7"], "tol: the adaptive step is the extrapolating "
                                                                    "master's (master 'extrapolate'), got master "
@@ -313,6 +313,34 @@ def test_one_binary_no_nested_fmu_units_and_its_own_identifier(servo):
     assert symbols and all(s.startswith("fmi2") for s in symbols), symbols
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_binary_only_export_leaves_sources_out_and_runs_the_same_bits(servo, fmi, tmp_path):
+    # For deployment: no sources/ (FMI allows it; a FMI 2 description then lists no SourceFiles), so nothing to
+    # unpack but the binary and the description, and the same run
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    out = servo["root"] / f"Deployed{fmi}.fmu"
+    r = grubler("export", servo["ssd"], "-o", out, "--fmi", fmi, "--platforms", "linux64", "--binary-only",
+                *(("--master", "extrapolate", "--tol", "1e-6") if fmi == 3 else ()))
+    assert r.returncode == 0, r.stderr
+    names = zipfile.ZipFile(out).namelist()
+    assert sorted(names) == sorted(["modelDescription.xml", f"binaries/{'linux64' if fmi == 2 else 'x86_64-linux'}/"
+                                                            f"Deployed{fmi}.so"])
+    assert b"SourceFiles" not in zipfile.ZipFile(out).read("modelDescription.xml")
+    assert validate_fmu(str(out)) == []
+    assert read_model_description(str(out)).coSimulation.modelIdentifier == f"Deployed{fmi}"
+    probe = ["mechanism.theta2", "motor.current", "mechanism.Fx"]
+    np.testing.assert_array_equal(run_fmu(out, probe, 0.05, STEP, fmi=fmi), run_fmu(servo[fmi], probe, 0.05, STEP,
+                                                                                      fmi=fmi))
+
+
+def test_binary_only_is_refused_for_what_is_not_a_systems_native_fmu(tmp_path):
+    r = grubler("export", "thesis-fourbar", "-o", tmp_path / "M.fmu", "--binary-only")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0, r.stderr
+    assert r.stderr.startswith("grubler: error: --binary-only:") and not (tmp_path / "M.fmu").exists()
+
+
 @pytest.fixture(scope="module")
 def host(servo):
     return builds.host()
@@ -359,6 +387,48 @@ def test_a_saved_state_replays_bit_for_bit_in_memory_and_serialised(host, servo,
     assert len(from_bytes) == 200 and first == again == from_bytes
     # the state is every component's block after the system's own: more than any one component holds
     assert (tmp_path / "state.bin").stat().st_size > 48 + 8 * 300
+
+
+def test_outputs_read_in_any_order_or_subset_are_those_read_all_at_once(host, servo, tmp_path):
+    # The mechanism's coordinates and rates come from the state alone, its accelerations and forces from one
+    # evaluation: whichever is read first, alone or with others, each output has the bits reading all gives.
+    from fmpy import read_model_description
+
+    real = [v for v in read_model_description(str(servo[2])).modelVariables
+            if v.causality == "output" and v.type == "Real"]
+    vr = {v.name: v.valueReference for v in real}
+    names = list(vr)
+    state = [n for n in names if n.startswith("mechanism.") and n.split(".")[1].rstrip("_d")[-1].isdigit()
+             and not n.endswith("_dd")]
+    rest = [n for n in names if n not in state]
+    assert "mechanism.theta2" in state and "mechanism.theta2_d" in state and "mechanism.theta2_dd" in rest
+    orders = [[state], [state[::-1], rest], [rest[::-1], state], [["mechanism.theta2"], names[::-1]],
+              [[n] for n in state]]
+    start = "new 0 s\nsetup 0\nenter\nexit\n"
+    subsets, whole, asked = start, start, []
+    for i in range(15):
+        step = f"step {i * STEP!r} {STEP!r}\n"
+        whole += step + "getr " + " ".join(str(vr[n]) for n in names) + "\n"
+        subsets += step
+        for group in orders[i % len(orders)]:
+            subsets += "getr " + " ".join(str(vr[n]) for n in group) + "\n"
+            asked.append((i, group))
+    got = [line.split() for line in host_run(host, servo, subsets + "free\n", tmp_path) if line.startswith("getr")]
+    every = [dict(zip(names, line.split()[2:]))
+             for line in host_run(host, servo, whole + "free\n", tmp_path) if line.startswith("getr")]
+    assert len(got) == len(asked) and len(every) == 15 and {g[1] for g in got} == {"0"}
+    for (i, group), line in zip(asked, got):
+        assert line[2:] == [every[i][n] for n in group], (i, group)
+
+
+def test_the_mechanisms_coordinates_are_read_at_the_level_that_needs_no_evaluation(servo, tmp_path):
+    # A system output's level is 1 + its component's: the crank angle and rate are at the mechanism's kinematic
+    # pass's, below the accelerations' (one forward-dynamics evaluation of the mechanism)
+    from grubler.fmi.header import read_variables_source
+
+    with zipfile.ZipFile(servo[2]) as z:
+        rows = {r.name: r for r in read_variables_source(z.read("sources/model_variables.c").decode())}
+    assert rows["mechanism.theta2"].level == rows["mechanism.theta2_d"].level < rows["mechanism.theta2_dd"].level
 
 
 def _fnv(data: bytes) -> int:
@@ -421,6 +491,28 @@ def test_a_components_discard_puts_the_whole_system_back(host, servo, tmp_path):
     after = rows(out)[-100:]
     plain = run_fmu(servo[2], ["mechanism.theta2"], 0.2, STEP)[101:, 0]
     np.testing.assert_allclose([r[1] for r in after], plain, rtol=0, atol=1e-12)
+
+
+def test_a_discard_puts_back_every_bit_of_the_state_the_encoders_delay_line_too(host, servo, tmp_path):
+    # Before each step the system copies only each component's live part: of the encoder's delay line (10 000
+    # readings) the delay + 1 a run uses (law_state_used).  With a delay of 3 the ring's four slots take the
+    # discarded steps' readings in turn; each Discard must leave the whole state as it was, byte for byte.
+    from fmpy import read_model_description
+
+    vr = {v.name: v.valueReference for v in read_model_description(str(servo[2])).modelVariables}
+    load, delay = vr["mechanism.load_torque"], vr["encoder.delay"]
+    script = f"new 0 s\nsetup 0\nseti {delay} 3\nenter\nexit\nsetr {load} 0\nrun 0 0.001 100\n"  # (load set: its flag too)
+    for k in range(4):
+        t = 0.1 + 0.001 * k
+        script += (f"save 0\nser 0 before{k}.bin\nsetr {load} nan\nstep {t!r} 0.001\nsetr {load} 0\nsave 1\n"
+                   f"ser 1 after{k}.bin\nstep {t!r} 0.001\n")
+    out = host_run(host, servo, script + "free\n", tmp_path)
+    assert [line.split()[1] for line in out if line.startswith("step")] == ["2", "0"] * 4, out
+    for k in range(4):
+        before, after = (tmp_path / f"before{k}.bin").read_bytes(), (tmp_path / f"after{k}.bin").read_bytes()
+        assert len(before) > 8 * 10_000 and before == after, k
+    # the delay line moved between the rounds (each round's state is another)
+    assert len({(tmp_path / f"before{k}.bin").read_bytes() for k in range(4)}) == 4
 
 
 def test_a_bad_component_parameter_is_refused_with_the_components_name(host, servo, tmp_path):

@@ -363,7 +363,7 @@ def universal_binary(slices: list[bytes]) -> bytes:
     return head + b"\0" * (offset - len(head)) + body
 
 
-def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=None) -> Path:
+def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=None, sources: bool = True) -> Path:
     """Build a native FMU of ``spec`` at ``dest`` (a ``.fmu`` path).
 
     Parameters
@@ -385,6 +385,10 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=N
         ``stage(spec, sources, fmi)`` writes ``sources/`` and returns the C
         files to compile (default :func:`stage_sources`; a system FMU adds its
         components' models, grubler.system.native).
+    sources : bool
+        Ship ``sources/`` (default).  Without it the FMU is binary-only (FMI
+        allows it): smaller and unpacked faster, but runnable only on the
+        platforms whose binaries it carries, and never rebuilt by an importer.
 
     Returns
     -------
@@ -417,8 +421,8 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=N
         if fmi == 3:
             (root / "modelDescription.xml").write_bytes(fmi3_model_description(spec))
             (root / "sources" / "buildDescription.xml").write_bytes(fmi3_build_description(spec, files))
-        else:
-            (root / "modelDescription.xml").write_bytes(model_description(spec, files))
+        else:  # (a binary-only FMU lists no source files)
+            (root / "modelDescription.xml").write_bytes(model_description(spec, files if sources else []))
         name, src = spec.identifier, root / "sources"
         native_windows = [t for t in targets if compiler_for(t) is None]  # Windows' own, without zig or gcc
         if native_windows:  # Visual Studio, through fmpy's CMake project
@@ -430,6 +434,8 @@ def build_fmu(spec: ModelSpec, dest: Path, platforms=None, fmi: int = 2, stage=N
             build_platform_binary(root)
         compile_binaries(src, files, [t for t in targets if t not in native_windows], root / "binaries", name,
                          (lambda t: t.fmi2) if fmi == 2 else (lambda t: t.name))
+        if not sources:
+            shutil.rmtree(src)
         pack_fmu(root, dest)
     return dest
 

@@ -66,10 +66,11 @@ def model_description(spec: ModelSpec, sources: list[str]) -> bytes:
         "false", "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
         "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true" if spec.defines.get("MODEL_DIRECTIONAL_DERIVATIVE") else "false",
     })
-    files = ET.SubElement(cs, "SourceFiles")
-    for s in sources:
-        if s.endswith(".c"):
-            ET.SubElement(files, "File", {"name": s})
+    if sources:  # (a binary-only FMU has none, and FMI 2's SourceFiles holds at least one File)
+        files = ET.SubElement(cs, "SourceFiles")
+        for s in sources:
+            if s.endswith(".c"):
+                ET.SubElement(files, "File", {"name": s})
 
     _units(root, spec)
 

@@ -41,7 +41,7 @@ METHODS = ("exact", "penalty")
 INTEGRATORS = ("auto", "dop853", "rk45", "rk4")
 
 # output levels of the C model (mechanism_model.c): what computing one costs
-LEVEL_DRIVE, LEVEL_OBSERVE, LEVEL_REACTIONS = 1, 2, 3
+LEVEL_DRIVE, LEVEL_STATE, LEVEL_OBSERVE, LEVEL_REACTIONS = 1, 2, 3, 4
 # outputs of the observation vector that the FMU does not publish (derived or the input itself)
 _UNPUBLISHED = {"E", "tau_drive", "P_drive"}
 
@@ -245,11 +245,14 @@ def _observations(d: _Declared, obs: list[str]) -> None:
               *(f"{x}_dd" for x in names), "Fx", "Fy", "Mz", "KE", "PE"]
              + [f"R{k}_{c}" for k in range(1, n + 1) for c in ("Fx", "Fy", "Mz")])
     assert not set(order) & _UNPUBLISHED and set(order) <= set(index)
+    state = {*names, *(f"{x}_d" for x in names)}
     for name in order:
         reaction = name.startswith("R") and name[1].isdigit()
         # the efforts reach the accelerations and the constraint forces at once
         feed = reaction or name in ("Fx", "Fy", "Mz") or name.endswith("_dd")
-        d.output(name, LEVEL_REACTIONS if reaction else LEVEL_OBSERVE, feed, index[name])
+        # the coordinates and rates come from the state's kinematic pass alone (no evaluation)
+        level = LEVEL_REACTIONS if reaction else LEVEL_STATE if name in state else LEVEL_OBSERVE
+        d.output(name, level, feed, index[name])
     d.output("drive_angle", LEVEL_DRIVE, False, len(obs))
     d.output("drive_speed", LEVEL_DRIVE, False, len(obs) + 1)
     # the first closure's force is Fx, Fy, Mz; a chain of several loops (a

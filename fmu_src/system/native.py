@@ -137,6 +137,13 @@ class ComponentModel:
         return re.search(r"^#define MODEL_DIRECTIONAL_DERIVATIVE 1$", (self.sources / "config.h").read_text(),
                          re.M) is not None
 
+    @property
+    def law_state_used(self) -> bool:
+        """Its law says how much of its state a run uses (defines law.h's law_state_used): a system backs up
+        only that part before each step."""
+        return any(re.search(r"^long law_state_used\([^;{]*\{", (self.sources / f).read_text(encoding="utf-8"), re.M)
+                   for f in self.layer if f.endswith(".c"))
+
 
 def _includes(folder: Path) -> dict[str, set[str]]:
     return {f.name: set(INCLUDE.findall(f.read_text(encoding="utf-8", errors="replace")))
@@ -443,10 +450,22 @@ static int glue_directional(void *ci, const unsigned int *unknown, size_t n_unkn
                                            n_known, seed, sensitivity);
 }
 
+LIVE
 const grb_component_calls PREFIXcalls = {
     model_persistent_size, model_scratch_bytes, glue_fresh, glue_block_ok, glue_prepare, grb_exit_initialization,
-    glue_set_real, glue_get_real, glue_do_step, glue_directional
+    glue_set_real, glue_get_real, glue_do_step, glue_directional, glue_live_size
 };
+"""
+
+# The glue's live_size: a law model's block ends in the law's state (law_model.c: P_LAW to P_END), of which a
+# law that defines law_state_used (law.h) uses only a part; any other model, the whole block.
+LIVE_WHOLE = """static size_t glue_live_size(const double *block) { (void)block; return model_persistent_size(); }
+"""
+LIVE_LAW = """long law_state_used(const double *param);
+static size_t glue_live_size(const double *block) {
+    long used = law_state_used(block);  /* (the law's parameters are the block's first slots) */
+    return used >= 0 && used < LAW_N_STATE ? (size_t)P_LAW + (size_t)used : model_persistent_size();
+}
 """
 
 
@@ -479,7 +498,8 @@ def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: 
                 unit = f"unit_{f}"
                 text = f'/* {f} of {m.identifier} under its prefix */\n#include "symbols.h"\n#include "{f}"\n'
                 if f == "fmi_common.c":
-                    text += GLUE.replace("PREFIX", prefix)
+                    live = LIVE_LAW if m.law_state_used else LIVE_WHOLE
+                    text += GLUE.replace("PREFIX", prefix).replace("LIVE", live)
                 (sources / folder / unit).write_text(text)
                 files.append(f"{folder}/{unit}")
         return sorted(files)
@@ -488,7 +508,8 @@ def stage_system(models: list[ComponentModel], wiring: list[dict], value_names: 
 
 
 def export_native_system(system: System | str | Path, dest: str | Path | None = None, platforms=None, fmi: int = 2,
-                         field: str = "output", master: str | None = None, tol: float | None = None) -> Path:
+                         field: str = "output", master: str | None = None, tol: float | None = None,
+                         sources: bool = True) -> Path:
     """Export an SSP system of native grubler FMUs as one native FMU (its models and master.c compiled together).
 
     Parameters
@@ -504,6 +525,10 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
     master, tol : optional
         The start values of the FMU's ``master`` and ``tol`` parameters, as
         ``grubler cosim``'s ``master`` and ``tol`` (:func:`coupling_settings`).
+    sources : bool
+        Ship ``sources/`` (default); without, a binary-only FMU for deployment
+        (:func:`grubler.fmi.build.build_fmu`): it starts faster, runs only where
+        its binaries do, and cannot be compiled into another system FMU.
 
     Raises
     ------
@@ -548,7 +573,8 @@ def export_native_system(system: System | str | Path, dest: str | Path | None = 
         spec, wiring, unknowns = system_spec(system, interfaces, models, seq, identifier_for(dest), step, master, tol)
         slot = cosim._slots(system)
         return build_fmu(spec, dest, platforms, fmi,
-                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get), unknowns))
+                         stage=stage_system(list(models.values()), wiring, sorted(slot, key=slot.get), unknowns),
+                         sources=sources)
 
 
 __all__ = ["export_native_system", "why_not_native", "coupling_settings"]

@@ -42,6 +42,15 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
     return CTL_OK;
 }
 
+/* The delay line's part a run reads or writes: delay + 1 readings (ctl_encoder_sample's ring) of
+ * ENCODER_CAPACITY.  (Parameters law_check refuses: the whole state.) */
+long law_state_used(const double *param) {
+    ctl_encoder_params p;
+    memcpy(&p, param, sizeof p);
+    if (!(p.delay >= 0.0 && p.delay + 1.0 <= (double)ENCODER_CAPACITY)) return LAW_N_STATE;
+    return (long)HEAD_DOUBLES + (long)p.delay + 1;
+}
+
 int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out) {
     ctl_encoder_params p;
     ctl_encoder_state s;

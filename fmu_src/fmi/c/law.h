@@ -55,5 +55,12 @@ int law_start(const double *param, const double *scratch, double t0, double *sta
 /* One sample at time t: state advanced, out the new outputs.  All or nothing:
  * on any status but CTL_OK, state and out are as they were. */
 int law_sample(const double *param, double *scratch, double *state, double t, const double *in, double *out);
+/* Optional, for a law whose state ends in a store sized for its largest
+ * parameters (the encoder's delay line: LAW_N_STATE holds the longest delay):
+ * how many leading doubles of the state a run under param reads or writes
+ * (at most LAW_N_STATE); the rest stays as law_start left it.  A system FMU
+ * (grubler.system.native) backs up only these before each step; a law
+ * without it has its whole state backed up. */
+long law_state_used(const double *param);
 
 #endif

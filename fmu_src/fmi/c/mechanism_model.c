@@ -5,8 +5,10 @@
  * grb_assemble) as the library's Simulator does, a communication step is one
  * grb_advance (internal sub-steps to the tolerance), and the outputs are
  * grb_observe's, computed when read, by level: the drive joint's coordinate and
- * rate straight from the state, then one forward-dynamics evaluation for every
- * coordinate, rate, acceleration, force and energy, then the joint reactions.
+ * rate straight from the state (with the actuators' lines and the force
+ * elements'), then every coordinate and rate from the kernel's kinematic pass,
+ * then one forward-dynamics evaluation for the accelerations, forces and
+ * energies, then the joint reactions.
  *
  * The parameters are validated here, with the library's messages naming the
  * field, because the library's checks are Python (grubler.mechanism.model) and the FMU
@@ -21,6 +23,7 @@
 #include "grubler.h"
 #include "complex_step.h"
 #include "scene_slots.h"
+#include "workspace.h"  /* the kinematic pass (grb_chain) and its frame table, as grb_observe reads them */
 #if MODEL_DIRECTIONAL_DERIVATIVE && GRB_HAVE_COMPLEX
 #include <complex.h>
 
@@ -57,7 +60,10 @@
  *   P_ACTUATOR_FORCES_USED  the actuators' forces f was computed with (NA; only with actuators)
  *   P_STEPPER     the integrator's own workspace (written before it is read) */
 
-enum { LEVEL_DRIVE = 1, LEVEL_OBSERVE = 2, LEVEL_REACTIONS = 3 };
+/* what an output read costs: the drive's coordinate and rate (what a coupling reads each step) copied from the
+ * state, with the actuators' lines and the force elements' outputs; every coordinate and rate, one kinematic
+ * pass; the rest, one forward-dynamics evaluation; the reactions, that and the reaction pass */
+enum { LEVEL_DRIVE = 1, LEVEL_STATE = 2, LEVEL_OBSERVE = 3, LEVEL_REACTIONS = 4 };
 
 typedef struct mech {
     grb_model m;
@@ -96,7 +102,7 @@ size_t model_scratch_bytes(void) {
     return complex_offset() + (MODEL_DIRECTIONAL_DERIVATIVE ? 2 * sizeof(double) * (grb_work_size(N, NC) + NS +
                                                                                      MODEL_N_OUTPUTS) : 0);
 }
-int model_input_free_level(void) { return LEVEL_DRIVE; }
+int model_input_free_level(void) { return LEVEL_STATE; }
 const double *model_outputs(const grb_instance *inst) { return ((const mech *)inst->model)->out; }
 double model_time(const grb_instance *inst) { return inst->p[P_T]; }
 
@@ -457,6 +463,24 @@ fmi2Status model_compute(grb_instance *inst, int level) {
             for (i = 0; i < N_FORCE_OUTPUTS; i++) mm->out[OUT_FORCES + i] = mm->force_out[force_output_index[i]];
         }
 #endif
+    }
+    if (level == LEVEL_STATE && inst->level < LEVEL_STATE) {
+        /* the coordinates and rates, in grb_observe's places, from the same kinematic pass it runs first (so
+         * the same numbers; a level above has grb_observe write them) without evaluating the dynamics */
+        grb_ws ws;
+        int k;
+        st = grb_ws_init(&ws, &mm->m, mm->work, GRB_FILLED_NOTHING);
+        if (st != GRB_OK) {
+            grb_log(inst, fmi2Warning, "coordinates at t = %.12g s: %s", p[P_T], status_text(st));
+            return fmi2Warning;
+        }
+        grb_chain(&mm->m, y, y + N, &ws);
+        for (k = 0; k < N; k++) {
+            mm->out[2 * k] = ws.frame[k].slide;
+            mm->out[2 * k + 1] = ws.frame[k].theta;
+            mm->out[2 * N + 2 * k] = ws.frame[k].rate;
+            mm->out[2 * N + 2 * k + 1] = ws.frame[k].omega;
+        }
     }
     if (level >= LEVEL_OBSERVE && inst->level < level) {
 #if N_ACTUATORS > 0

@@ -33,7 +33,10 @@
  * The scratch holds the component instances (the wrapper's grb_instance, their
  * blocks inside this one's), the master's view of them, its buffers, a copy of
  * the block taken before each step (a component's Discard puts the whole
- * system back), and each component's scratch.
+ * system back), and each component's scratch.  The copy holds the system's own
+ * part and each component's live part (its calls' live_size): the encoder's
+ * delay line is sized for the longest delay, 10 000 readings, of which a run
+ * uses delay + 1, and copying all of it was most of the copy (87 kB a step).
  */
 #define GRB_MASTER_NO_CLOCK
 #include "master.c"
@@ -71,7 +74,8 @@ typedef struct system_scratch {
     double out[MODEL_N_OUTPUTS + 1];
     unsigned int ask_vr[SYSTEM_N_OUT_MAX + 1];  /* one component's outputs asked for, */
     double ask_value[SYSTEM_N_OUT_MAX + 1];     /* their values */
-    double *backup;  /* the block before the step under way */
+    double *backup;  /* the block before the step under way, at the block's offsets: */
+    size_t live[SYSTEM_N_COMPONENTS];  /* each component's leading doubles in it (the rest untouched by a step) */
 #if MODEL_DIRECTIONAL_DERIVATIVE
     unsigned int dd_vr[MODEL_N_OUTPUTS + 1];  /* one component's outputs asked for, */
     size_t dd_at[MODEL_N_OUTPUTS + 1];        /* where each goes among the importer's, */
@@ -389,12 +393,28 @@ grb_fmi_status model_compute(grb_instance *inst, int level) {
     return worst;
 }
 
+/* The block before a step, for roll_back: the system's own part, and each component's part that a run under its
+ * parameters reads or writes (they do not change within a step). */
+static void back_up(grb_instance *inst) {
+    system_scratch *s = (system_scratch *)inst->model;
+    int k;
+    memcpy(s->backup, inst->p, (size_t)P_COMPONENTS * sizeof(double));
+    for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        const grb_component_calls *c = system_components[k].calls;
+        size_t at = (size_t)(s->comp[k].p - inst->p), n = c->live_size(s->comp[k].p);
+        s->live[k] = n < c->persistent_size() ? n : c->persistent_size();
+        memcpy(s->backup + at, s->comp[k].p, s->live[k] * sizeof(double));
+    }
+}
+
 /* The system back where the step began (a component refused it); each component prepares from its block again. */
 static void roll_back(grb_instance *inst) {
     system_scratch *s = (system_scratch *)inst->model;
     int k;
-    memcpy(inst->p, s->backup, model_persistent_size() * sizeof(double));
+    memcpy(inst->p, s->backup, (size_t)P_COMPONENTS * sizeof(double));
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) {
+        size_t at = (size_t)(s->comp[k].p - inst->p);
+        memcpy(s->comp[k].p, s->backup + at, s->live[k] * sizeof(double));
         s->comp[k].state = GRB_STEP_COMPLETE;
         s->comp[k].dirty = 1;
         s->comp[k].level = 0;
@@ -424,7 +444,7 @@ grb_fmi_status model_do_step(grb_instance *inst, double t, double h) {
     }
     n = (long)steps;
     for (k = 0; k < SYSTEM_N_COMPONENTS; k++) s->comp[k].logging = inst->logging;  /* fmi2SetDebugLogging since */
-    memcpy(s->backup, p, model_persistent_size() * sizeof(double));
+    back_up(inst);
     if (push_free_inputs(inst) != GRB_FMI_OK) return GRB_FMI_ERROR;
     memset(&run, 0, sizeof run);
     run.scheme = (int)p[SYSTEM_SLOT_MASTER];

@@ -33,6 +33,9 @@ typedef struct grb_component_calls {
      * an Error where its model provides none) */
     int (*directional)(void *ci, const unsigned int *unknown, size_t n_unknown, const unsigned int *known,
                        size_t n_known, const double *seed, double *sensitivity);
+    /* the leading doubles of a block a run under the block's parameters reads or writes (a law's store sized
+     * for its largest parameters is not all of it: law.h's law_state_used), what a rollback restores */
+    size_t (*live_size)(const double *block);
 } grb_component_calls;
 
 /* A value the system's block gives a component's: one of its parameters or unconnected inputs. */
