@@ -540,7 +540,8 @@ def run_fmusim(fmu: Path, out: Path, name: str, *extra: str) -> np.ndarray:
                            *starts, *extra, "--output-file", str(out), str(fmu)],
                           capture_output=True, text=True, env={}, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    return np.genfromtxt(out, delimiter=",", names=True)
+    # (deletechars="": numpy would strip the dots of the spatial FMU's names, closure.Mx read as closureMx)
+    return np.genfromtxt(out, delimiter=",", names=True, deletechars="")
 
 
 @EVERY
