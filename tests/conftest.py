@@ -14,11 +14,15 @@ collect_ignore = sorted(p.name for p in HERE.glob("*.py") if not p.name.startswi
 
 
 def pytest_configure(config):
-    """builds.py keeps its builds in pytest's cache folder (pytest --cache-clear empties it)."""
+    """builds.py keeps its builds in pytest's cache folder (pytest --cache-clear empties it); fmpy's logging proxy is
+    watched (tests/process_state.py)."""
     import builds
 
     if getattr(config, "cache", None) is not None:
         builds.CACHE = config.cache.mkdir("grubler-fmus")
+    import process_state
+
+    process_state.watch_fmpy_logging_proxy()
 
 
 @pytest.fixture

@@ -36,6 +36,42 @@ _HELPERS = ("multiprocessing.resource_tracker", "multiprocessing.forkserver")
 GRACE = 2.0  # seconds a new thread or child process is given to finish before it counts as left running
 
 
+# fmpy's logging library keeps ONE process-wide pointer (its static s_logger) to the Python logger that its
+# native proxy calls: fmpy.fmi1/fmi2 point it at their default callbacks' logger, which lives as long as the
+# process; simulate_fmu(logger=...) and instantiate_fmu(logger=...) point it at the run's own callback, freed after
+# the run, and the next FMU that logs through the default callbacks calls freed memory (CI's segmentation fault
+# after test_change_points). Every other caller is recorded here, with where it was called from, and refused: its
+# callbacks keep their own logger (the proxy only formats the message's variadic arguments).
+PROXY_TAKERS: list[str] = []
+
+
+def watch_fmpy_logging_proxy() -> None:
+    """Route fmpy's addLoggerProxy through a check that lets only fmpy's own default callbacks take the proxy."""
+    import ctypes
+    import traceback
+
+    try:
+        import fmpy.logging as fmpy_logging
+    except Exception:  # noqa: BLE001 - no fmpy (or no logging library for this platform): nothing to watch
+        return
+    real = fmpy_logging.addLoggerProxy
+    if getattr(real, "watched", False):
+        return
+
+    def add_logger_proxy(callbacks):
+        # (sys.modules, not an import: fmpy.fmi1 calls this while it is being imported)
+        forever = {ctypes.addressof(m.defaultCallbacks) for m in map(sys.modules.get, ("fmpy.fmi1", "fmpy.fmi2"))
+                   if m is not None and hasattr(m, "defaultCallbacks")}
+        if ctypes.addressof(getattr(callbacks, "_obj", callbacks)) in forever:
+            return real(callbacks)
+        caller = [f for f in traceback.extract_stack()[:-1] if "/fmpy/" not in f.filename]
+        PROXY_TAKERS.append(f"{caller[-1].filename}:{caller[-1].lineno}" if caller else "?")
+        return None
+
+    add_logger_proxy.watched = True
+    fmpy_logging.addLoggerProxy = add_logger_proxy
+
+
 def children() -> dict[int, str]:
     """This process's child processes still running (not zombies), with their command lines."""
     pids: set[int] = set()
@@ -83,6 +119,7 @@ def snapshot() -> dict:
 
         state["fmpy default logger"] = ctypes.cast(sys.modules["fmpy.fmi2"].defaultCallbacks.logger,
                                                    ctypes.c_void_p).value
+    state["fmpy logging proxy"] = len(PROXY_TAKERS)
     state["threads"] = {t.ident for t in threading.enumerate()}
     state["children"] = set(children())
     return state
@@ -94,7 +131,11 @@ def left_behind(before: dict) -> list[str]:
     found = []
     for key, was in before.items():
         now = after[key]
-        if key == "threads":
+        if key == "fmpy logging proxy":
+            found += [f"fmpy's process-wide logging proxy handed a callback that dies with its run, at {w} "
+                      "(simulate_fmu/instantiate_fmu(logger=...)): give the logger in callbacks of the "
+                      "instance's own (tests/fmi_child.recording_callbacks)" for w in PROXY_TAKERS[was:]]
+        elif key == "threads":
             new = [t for t in threading.enumerate() if t.ident not in was and not t.daemon]
             for t in new:
                 t.join(GRACE)
