@@ -136,7 +136,10 @@ def left_behind(before: dict) -> list[str]:
                       "(simulate_fmu/instantiate_fmu(logger=...)): give the logger in callbacks of the "
                       "instance's own (tests/fmi_child.recording_callbacks)" for w in PROXY_TAKERS[was:]]
         elif key == "threads":
-            new = [t for t in threading.enumerate() if t.ident not in was and not t.daemon]
+            # (asyncio's default executor's workers belong to an event loop, Playwright's in the browser tests'
+            # module fixtures, and end when it closes)
+            new = [t for t in threading.enumerate() if t.ident not in was and not t.daemon
+                   and not t.name.startswith("asyncio_")]
             for t in new:
                 t.join(GRACE)
             found += [f"thread {t.name!r} still running" for t in new if t.is_alive()]
