@@ -14,11 +14,15 @@ collect_ignore = sorted(p.name for p in HERE.glob("*.py") if not p.name.startswi
 
 
 def pytest_configure(config):
-    """builds.py keeps its builds in pytest's cache folder (pytest --cache-clear empties it)."""
+    """builds.py keeps its builds in pytest's cache folder (pytest --cache-clear empties it); fmpy's logging proxy is
+    watched (tests/process_state.py)."""
     import builds
 
     if getattr(config, "cache", None) is not None:
         builds.CACHE = config.cache.mkdir("grubler-fmus")
+    import process_state
+
+    process_state.watch_fmpy_logging_proxy()
 
 
 @pytest.fixture
@@ -34,3 +38,18 @@ def app(tmp_path):
     yield server
     server.shutdown()
     server.server_close()
+
+
+@pytest.fixture(autouse=True)
+def _leaves_the_process_as_it_found_it():
+    """Every test runs in the suite's one process: what it leaves behind (an environment variable, the working
+    folder, a signal handler, fmpy's default logger, a thread or child process still running) is what the next
+    test starts from, so it fails here, named, instead of there (tests/process_state.py)."""
+    import process_state
+
+    before = process_state.snapshot()
+    yield
+    left = process_state.left_behind(before)
+    if left:
+        process_state.restore(before)
+        pytest.fail("the test left process-wide state behind:\n  " + "\n  ".join(left), pytrace=False)

@@ -120,6 +120,18 @@ def test_animate_cli_from_a_scene_and_from_a_csv(tmp_path, capsys):
 
 
 @pytest.mark.skipif(shutil.which("ffmpeg") is not None, reason="ffmpeg present: MP4 works")
+def test_a_record_coarser_than_the_film_is_animated_with_a_warning_not_a_crash(tmp_path, capsys):
+    # (the run CSV test_fuzz_animate_csv drew: two rows 1 s apart, filmed at 4 frames a second, so the frames
+    # repeat rows and their times advance by 0 s: the frame warning divided by that)
+    csv = tmp_path / "r.csv"
+    csv.write_text("t,B1,theta2,B2,theta3,B3,theta4,closure_error\n0,0.0,0.0,0.0,0.0,0.0,0.0,0.0\n"
+                   "1.0,0.0,0.0,0.0,0.0,0.0,1.0,1.0\n")
+    assert main(["animate", str(csv), "--scene", "thesis-fourbar", "--out", str(tmp_path / "a.gif"),
+                 "--fps", "4"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: --dt-out: theta4 turns 0.16 turn per sample (1 s)" in err and "Traceback" not in err
+
+
 def test_mp4_without_ffmpeg_says_so(tmp_path, capsys):
     assert main(["animate", "thesis-fourbar", "--t-end", "0.2", "--out", str(tmp_path / "a.mp4")]) == 2
     assert "ffmpeg" in capsys.readouterr().err

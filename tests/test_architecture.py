@@ -230,5 +230,6 @@ def test_nothing_hands_fmpys_process_wide_logging_proxy_a_callback_that_dies():
     bad = []
     for folder in ("fmu_src", "tests", "benchmarks", "examples", "motors", "controllers"):
         for f in sorted((ROOT / folder).rglob("*.py")):
-            bad += proxy_hijacks(f.read_text(), str(f.relative_to(ROOT)))
+            if f.name != "test_process_state.py":  # (it hands the proxy a run's callback to see it refused)
+                bad += proxy_hijacks(f.read_text(), str(f.relative_to(ROOT)))
     assert bad == []

@@ -319,3 +319,32 @@ def test_an_fmi3_component_is_refused_by_name_not_at_its_binary(mechanism_fmu, t
     with pytest.raises(ssp.SystemDescriptionError, match=r"component nested: 'Inner3.fmu' is an FMI 3.0 FMU; this "
                                                          r"master runs FMI 2.0 co-simulation FMUs"):
         cosim.run(s)
+
+
+def test_an_fmu_that_refuses_its_start_time_is_named_and_freed(mechanism_fmu, monkeypatch):
+    # (a foreign FMU may refuse fmi2SetupExperiment) the run is refused naming the component, and the instance,
+    # which the run never got to hold, is freed at once: not left instantiated, pointing at callbacks that go
+    # with the half-made instance, its library loaded
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    plain_setup, plain_free = FMU2Slave.setupExperiment, FMU2Slave.freeInstance
+    freed = []
+
+    def setup(self, *args, **kw):
+        if self.instanceName == "late":
+            raise FMICallException("fmi2SetupExperiment", 3)
+        return plain_setup(self, *args, **kw)
+
+    def free(self):
+        freed.append(self.instanceName)
+        return plain_free(self)
+
+    monkeypatch.setattr(FMU2Slave, "setupExperiment", setup)
+    monkeypatch.setattr(FMU2Slave, "freeInstance", free)
+    s = ssp.System("refused start", stop_time=0.1, step=0.01)
+    s.add("early", mechanism_fmu)
+    s.add("late", mechanism_fmu)
+    with pytest.raises(cosim.CosimError, match=r"^late: setupExperiment at t = 0 s failed"):
+        cosim.run(s)
+    assert sorted(freed) == ["early", "late"]

@@ -7,6 +7,7 @@ temporary folder).  ``GRUBLER_FUZZ_PROFILE=long`` (benchmarks/fuzz_long.py)
 runs 25 times as many, at random.
 """
 
+import sys
 import tomllib
 
 import pytest
@@ -16,7 +17,7 @@ pytest.importorskip("hypothesis", reason="hypothesis is not installed (pip insta
 from hypothesis import given  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from fuzzing import (NASTY_TEXT, check_cli, examples, nasty_value, number_text, run_csv,  # noqa: E402
+from fuzzing import (NASTY_TEXT, PROFILE, check_cli, examples, nasty_value, number_text, run_csv,  # noqa: E402
                      ssd_text, ssp_archive, toml_text)
 from grubler.mechanism.scene import preset_text  # noqa: E402
 
@@ -183,3 +184,20 @@ def test_fuzz_report_csv(data, with_scene):
 def test_fuzz_animate_csv(data):
     check_cli("run CSV: animate", ["animate", "r.csv", "--scene", "thesis-fourbar", "--out", "a.gif", "--fps", "4"],
               {"r.csv": data}, ("a.gif",))
+
+
+@pytest.mark.skipif(PROFILE != "ci", reason="the long profile draws the loaded modules' constants too, on purpose")
+def test_what_is_drawn_does_not_depend_on_the_modules_earlier_tests_loaded(tmp_path):
+    # Hypothesis takes into its pool the constants of every local module loaded in the process: a module with
+    # constants of its own, loaded as if by an earlier test, must add none to what the CI profile draws from
+    from hypothesis.internal.conjecture import providers
+
+    (tmp_path / "loaded_by_an_earlier_test.py").write_text("A = 987654.3125\nB = -0.015625\nC = 31337\n")
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import loaded_by_an_earlier_test  # noqa: F401
+
+        assert len(providers._get_local_constants()) == 0
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("loaded_by_an_earlier_test", None)

@@ -10,6 +10,8 @@ import pytest
 from grubler import GrublerError
 from grubler.studies.sweep import grid, parse_axis, run_sweep, scene_point
 
+import process_state
+
 CALLS = []
 
 
@@ -36,8 +38,10 @@ def test_local_processes_and_a_dask_cluster_give_the_same_table(tmp_path):
     func = functools.partial(scene_point, "thesis-fourbar", t_end=0.3)
     serial = run_sweep(func, scene_points(), workers=1, progress=False)
     local = run_sweep(func, scene_points(), out=tmp_path / "local.csv", workers=2, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    # LocalCluster writes its workers' settings (OMP_NUM_THREADS=1, PYTHONHASHSEED, ...) into this process's
+    # os.environ and leaves them there, for every child process of every later test to inherit
+    with process_state.environ_kept(), distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                                                dashboard_address=None) as cluster:
         dask = run_sweep(func, scene_points(), out=tmp_path / "dask.csv", scheduler=cluster.scheduler_address,
                          progress=False)
     assert "2 workers" in dask.workers and local.workers == "2 processes"

@@ -73,7 +73,13 @@ class _Instance:
             self.fmu.instantiate(loggingOn=True, callbacks=self._callbacks)
         except Exception:  # noqa: BLE001 - fmpy says only "Failed to instantiate model"
             raise CosimError(f"{name}: {itf.path.name} could not be instantiated" + _last_message(self)) from None
-        self.fmu.setupExperiment(startTime=start_time)
+        try:
+            self.fmu.setupExperiment(startTime=start_time)
+        except Exception:  # noqa: BLE001 - fmpy raises FMICallException carrying the status
+            # freed here: the caller never holds this instance, and the FMU keeps pointers to its callbacks,
+            # which go with it (an FMU wrapped by pythonfmu's, controllers/status_wrapper.c, keeps the struct's)
+            self.free()
+            raise CosimError(f"{name}: setupExperiment at t = {start_time:g} s failed" + _last_message(self)) from None
         self.bind_calls()
 
     def set_parameters(self, params: dict):

@@ -118,6 +118,8 @@ def coarse_sampling(t, angles, option: str, per: str = "sample", speed: float = 
     '--dt-out: theta2 turns 0.3 turn per sample (0.01 s): the cur'
     >>> coarse_sampling(t, {"theta2": np.sin(t)}, "--dt-out") is None
     True
+    >>> coarse_sampling([0.0, 0.0, 0.0, 1.0], {"theta2": [0.0, 0.0, 0.0, 1.0]}, "--fps", "frame")[:46]
+    '--fps: theta2 turns 0.16 turn per frame (1 s):'
     """
     t = np.asarray(t, dtype=float)
     if len(t) < 2:
@@ -130,7 +132,12 @@ def coarse_sampling(t, angles, option: str, per: str = "sample", speed: float = 
             fastest, step = name, float(d.max())
     if step <= MAX_TURN_PER_SAMPLE:
         return None
-    dt = float(np.median(np.diff(t)))
+    # frames of a record coarser than the film repeat its rows: only the times that advance are intervals
+    intervals = np.diff(t)
+    intervals = intervals[intervals > 0]
+    if not intervals.size:
+        return None
+    dt = float(np.median(intervals))
     what = "the film" if option == "--fps" else "the curve"
     factor = step / MAX_TURN_PER_SAMPLE
     fps = factor * speed / dt
