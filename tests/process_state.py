@@ -33,7 +33,7 @@ _LIMITS = [getattr(resource, n) for n in ("RLIMIT_AS", "RLIMIT_DATA", "RLIMIT_ST
 # multiprocessing's helper processes, one per process for the rest of its life (started by the first pool or
 # semaphore that needs one): a singleton, not a leak
 _HELPERS = ("multiprocessing.resource_tracker", "multiprocessing.forkserver")
-GRACE = 2.0  # seconds a new thread or child process is given to finish before it counts as left running
+GRACE = 10.0  # seconds a new thread or child process is given to finish before it counts as left running
 
 
 # fmpy's logging library keeps ONE process-wide pointer (its static s_logger) to the Python logger that its
