@@ -163,17 +163,19 @@ def environ_kept():
     try:
         yield
     finally:
-        for k in [k for k in os.environ if k not in env]:
-            del os.environ[k]
-        os.environ.update(env)
+        put_back_environ(env)
+
+
+def put_back_environ(env: dict) -> None:
+    """os.environ made ``env`` again (pytest's own variables left as pytest has them)."""
+    for k in [k for k in os.environ if k not in env and k not in _OWN_VARIABLES]:
+        del os.environ[k]
+    os.environ.update(env)
 
 
 def restore(before: dict) -> None:
     """Put back what can be put back, so that the next test starts clean (the leak is still reported)."""
-    env = before["os.environ"]
-    for k in [k for k in os.environ if k not in env and k not in _OWN_VARIABLES]:
-        del os.environ[k]
-    os.environ.update(env)
+    put_back_environ(before["os.environ"])
     os.chdir(before["working folder"])
     for s in _SIGNALS:
         handler = before["signal handlers"][signal.Signals(s).name]
