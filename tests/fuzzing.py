@@ -56,13 +56,14 @@ settings.load_profile(PROFILE)
 # modules earlier tests had happened to import: test_fuzz_animate_csv drew a crashing CSV after eight other test
 # files, never alone, and a fuzz verdict could flip on a change to any module. The CI profile draws from
 # Hypothesis's own constants only: the same examples alone, in any selection and in any order. (A Hypothesis that
-# renames this fails here, at import, rather than fuzzing order-dependently; the long profile keeps them.)
+# renames this fails test_fuzz's test_what_is_drawn_does_not_depend_on_the_modules_earlier_tests_loaded, one named
+# test, rather than every fuzz test at import; the long profile keeps them.)
 if PROFILE == "ci":
     from hypothesis.internal.conjecture import providers as _providers
 
-    _NO_LOCAL_CONSTANTS = _providers.Constants()
-    assert callable(_providers._get_local_constants)
-    _providers._get_local_constants = lambda: _NO_LOCAL_CONSTANTS
+    if callable(getattr(_providers, "_get_local_constants", None)):
+        _NO_LOCAL_CONSTANTS = _providers.Constants()
+        _providers._get_local_constants = lambda: _NO_LOCAL_CONSTANTS
 
 
 def examples(n: int) -> settings:
